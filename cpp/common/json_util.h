@@ -1,0 +1,41 @@
+// Validated access to versioned JSON documents (nlohmann::json).
+//
+// Every accessor takes the field's path as the user would write it ("sites[3].reward") and
+// throws InputError with that path in the message, so each bad input is reported as one
+// line that names the field.
+#pragma once
+
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+
+namespace mound {
+
+// Parses `text` read from `file`. A syntax error becomes an InputError that names the file,
+// line and column and, where it can be found, the key being parsed; e.g. a Python-written
+// `NaN` gives "sites.json:7:18: sites value of \"reward\": NaN is not valid JSON ...".
+nlohmann::json ParseJson(const std::string& text, const std::string& file);
+
+// Checks "schema" == `schema` and "version" <= `max_version` (integer compare).
+// Returns the version found.
+int CheckSchema(const nlohmann::json& doc, const std::string& schema, int max_version,
+                const std::string& file);
+
+// Field accessors: `obj` must be an object; `path` is the object's own path ("" for root).
+const nlohmann::json& RequireField(const nlohmann::json& obj, const std::string& key,
+                                   const std::string& path);
+double RequireFinite(const nlohmann::json& obj, const std::string& key, const std::string& path);
+double RequireNonNegative(const nlohmann::json& obj, const std::string& key,
+                          const std::string& path);
+std::optional<double> OptionalNonNegative(const nlohmann::json& obj, const std::string& key,
+                                          const std::string& path);
+std::string RequireString(const nlohmann::json& obj, const std::string& key,
+                          const std::string& path);
+
+// "a.b" or "b" when `path` is empty.
+std::string JoinPath(const std::string& path, const std::string& key);
+
+// Formats a number for messages without trailing noise ("1.5", "-3", "nan").
+std::string FormatNumber(double v);
+
+}  // namespace mound

@@ -1,0 +1,70 @@
+// Lower bound and candidate sets (Helsgaun 2000, sections 4.1-4.3).
+//
+// 1-tree: a minimum spanning tree plus one edge from a leaf, chosen as in LKH: the leaf
+// whose cheapest non-tree edge is longest. With penalties pi the transformed costs are
+// d(i,j) = P*D(i,j) + pi_i + pi_j (P = precision); the 1-tree cost minus 2*sum(pi) is a
+// lower bound on P times the optimal tour length (Held & Karp 1970).
+//
+// Ascent: subgradient optimisation of pi with Helsgaun's step rule (pi += t*(0.7 v + 0.3
+// v_prev), v = degree - 2; doubling t in the initial phase, halving period and step).
+// The first 1-tree is computed on the complete graph; the rest of the ascent works on a
+// sparse graph of the `ascent_candidates` alpha-nearest neighbours (LKH's
+// ASCENT_CANDIDATES), which contains the minimum spanning tree.
+//
+// Alpha-nearness: alpha(i,j) = d(i,j) - beta(i,j), beta the largest edge on the tree path
+// between i and j, computed for all pairs in O(n^2) time and O(n) space with the
+// topological order of the tree.
+#pragma once
+
+#include <vector>
+
+#include "tsp/problem.h"
+
+namespace mound::tsp {
+
+struct Candidate {
+  int node;
+  Cost cost;   // transformed cost d(from, node)
+  Cost alpha;
+};
+using CandidateSet = std::vector<std::vector<Candidate>>;
+
+struct AscentOptions {
+  int precision = 100;
+  int ascent_candidates = 50;
+  int initial_period = -1;      // <= 0: max(n/2, 100) as in LKH
+  int max_iterations = 1 << 30;
+  bool subgradient = true;      // false: pi = 0 (plain alpha of the minimum 1-tree)
+};
+
+struct AscentResult {
+  std::vector<Cost> pi;
+  double lower_bound = 0;       // in units of D
+  int iterations = 0;
+  bool tour_found = false;      // the best 1-tree was a tour (lower bound is optimal)
+};
+
+// Distances with a dense cache for small n, so that the search pays no recomputation.
+class CostCache {
+ public:
+  explicit CostCache(const Problem& p, int dense_limit = 3000);
+  int Size() const { return n_; }
+  Cost D(int i, int j) const {
+    return dense_.empty() ? p_.Dist(i, j) : dense_[static_cast<size_t>(i) * n_ + j];
+  }
+
+ private:
+  const Problem& p_;
+  int n_;
+  std::vector<Cost> dense_;
+};
+
+AscentResult Ascent(const CostCache& d, const AscentOptions& opt);
+
+// The `max_candidates` alpha-nearest neighbours of each node under penalties `pi`,
+// sorted by (alpha, cost). Fixed-edge partners are always included.
+CandidateSet AlphaCandidates(const CostCache& d, const std::vector<Cost>& pi, int precision,
+                             int max_candidates,
+                             const std::vector<std::pair<int, int>>& fixed_edges);
+
+}  // namespace mound::tsp

@@ -1,0 +1,59 @@
+#include "tsp/candidates.h"
+
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "tsp/problem.h"
+
+namespace mound::tsp {
+namespace {
+
+CoordProblem RandomProblem(int n, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(0, 1000);
+  std::vector<double> x(n), y(n);
+  for (int i = 0; i < n; ++i) {
+    x[i] = u(rng);
+    y[i] = u(rng);
+  }
+  return CoordProblem(Metric::kEuc2D, x, y);
+}
+
+TEST(CandidatesTest, AscentRaisesTheBoundAndStaysBelowAKnownTour) {
+  const CoordProblem p = RandomProblem(120, 1);
+  CostCache d(p);
+  AscentOptions plain;
+  plain.subgradient = false;
+  const AscentResult r0 = Ascent(d, plain);
+  const AscentResult r1 = Ascent(d, AscentOptions{});
+  EXPECT_GT(r1.lower_bound, r0.lower_bound);
+  // Any tour is an upper bound; the identity tour is a (bad) one.
+  std::vector<int> ident(120);
+  for (int i = 0; i < 120; ++i) ident[i] = i;
+  EXPECT_LT(r1.lower_bound, static_cast<double>(TourLength(p, ident)));
+  EXPECT_GT(r1.iterations, 10);
+}
+
+TEST(CandidatesTest, FiveAlphaNearestSortedWithZeroAlphaTreeEdges) {
+  const CoordProblem p = RandomProblem(80, 2);
+  CostCache d(p);
+  const AscentResult r = Ascent(d, AscentOptions{});
+  const CandidateSet c = AlphaCandidates(d, r.pi, 100, 5, {});
+  ASSERT_EQ(c.size(), 80u);
+  int zero_alpha = 0;
+  for (int v = 0; v < 80; ++v) {
+    ASSERT_EQ(c[v].size(), 5u);
+    for (size_t i = 0; i + 1 < c[v].size(); ++i) EXPECT_LE(c[v][i].alpha, c[v][i + 1].alpha);
+    for (const Candidate& x : c[v]) {
+      EXPECT_NE(x.node, v);
+      EXPECT_GE(x.alpha, 0);
+      zero_alpha += x.alpha == 0;
+    }
+  }
+  // Every 1-tree edge has alpha 0 and appears from both ends: n edges, 2n entries.
+  EXPECT_GE(zero_alpha, 2 * 80 - 2);
+}
+
+}  // namespace
+}  // namespace mound::tsp
