@@ -1,0 +1,245 @@
+#include "plan/newalg.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <random>
+
+#include "plan/route_ops.h"
+
+namespace mound::plan {
+namespace {
+
+constexpr double kTinyCost = 1e-12;
+
+struct Tree {
+  std::vector<int> parent;              // -1: not in the tree
+  std::vector<std::vector<int>> children;
+  std::vector<char> in;
+  double cost = 0;
+};
+
+// Depth-first route over the tree from home. For a path, the child whose subtree holds
+// the end node is visited last and the end node after its own children, so the walk
+// finishes at the end node.
+std::vector<int> DfsRoute(const OpInstance& inst, const Tree& t, const std::vector<char>& toward_end) {
+  std::vector<int> route;
+  std::vector<std::pair<int, bool>> stack{{OpInstance::kHome, false}};
+  while (!stack.empty()) {
+    auto [v, done] = stack.back();
+    stack.pop_back();
+    const bool is_end = !inst.Closed() && v == inst.end;
+    if (done) {
+      route.push_back(v);  // the end node, after its subtree
+      continue;
+    }
+    if (!is_end) route.push_back(v);
+    else stack.emplace_back(v, true);
+    // Push children in reverse so that the first-added child is visited first; the child
+    // toward the end goes to the bottom (visited last).
+    const auto& ch = t.children[v];
+    int last = -1;
+    for (int c : ch)
+      if (toward_end[c]) last = c;
+    if (last >= 0) stack.emplace_back(last, false);
+    for (auto it = ch.rbegin(); it != ch.rend(); ++it)
+      if (*it != last) stack.emplace_back(*it, false);
+  }
+  if (inst.Closed()) route.push_back(OpInstance::kHome);
+  return route;
+}
+
+// Step 1: the two rounds of tree growth. Returns the depth-first route of the tree.
+std::vector<int> GrowTree(const OpInstance& inst, nlohmann::json* stats) {
+  const int n = inst.Size();
+  const double inf = std::numeric_limits<double>::infinity();
+  Tree t;
+  t.parent.assign(n, -1);
+  t.children.assign(n, {});
+  t.in.assign(n, 0);
+  std::vector<double> conn(n, inf);
+  std::vector<int> conn_to(n, -1);
+  std::vector<char> toward_end(n, 0);  // on the tree path home..end (paths only)
+  auto add = [&](int v, int parent, double c) {
+    t.in[v] = 1;
+    if (parent >= 0) {
+      t.parent[v] = parent;
+      t.children[parent].push_back(v);
+      t.cost += c;
+    }
+    for (int u = inst.FirstSite(); u < n; ++u) {
+      if (t.in[u]) continue;
+      const double cu = inst.Cost(v, u);
+      if (cu < conn[u]) {
+        conn[u] = cu;
+        conn_to[u] = v;
+      }
+    }
+  };
+  add(OpInstance::kHome, -1, 0);
+  double limit1 = inst.budget_m / 2;
+  if (!inst.Closed()) {
+    const double he = inst.Cost(OpInstance::kHome, inst.end);
+    add(inst.end, OpInstance::kHome, he);
+    toward_end[inst.end] = 1;
+    limit1 = (inst.budget_m + he) / 2;
+  }
+  auto best_by_ratio = [&](auto&& admissible) {
+    int best = -1;
+    double best_ratio = -1;
+    for (int v = inst.FirstSite(); v < n; ++v) {
+      if (t.in[v] || inst.nodes[v].reward <= 0 || !admissible(v)) continue;
+      const double ratio = inst.nodes[v].reward / std::max(conn[v], kTinyCost);
+      if (ratio > best_ratio) {
+        best_ratio = ratio;
+        best = v;
+      }
+    }
+    return best;
+  };
+  // Round 1: tree cost <= B/2.
+  int round1 = 0;
+  for (;;) {
+    const int v = best_by_ratio([&](int u) { return t.cost + conn[u] <= limit1; });
+    if (v < 0) break;
+    add(v, conn_to[v], conn[v]);
+    ++round1;
+  }
+  // Round 2: the depth-first route must stay within B. A site that does not fit is not
+  // tried again.
+  const double limit2 = inst.budget_m + BudgetSlack(inst.budget_m);
+  std::vector<char> rejected(n, 0);
+  std::vector<int> route = DfsRoute(inst, t, toward_end);
+  int round2 = 0;
+  for (;;) {
+    const int v = best_by_ratio([&](int u) { return !rejected[u]; });
+    if (v < 0) break;
+    const int parent = conn_to[v];
+    t.in[v] = 1;
+    t.parent[v] = parent;
+    t.children[parent].push_back(v);
+    std::vector<int> trial = DfsRoute(inst, t, toward_end);
+    if (inst.RouteCost(trial) <= limit2) {
+      t.children[parent].pop_back();
+      t.in[v] = 0;
+      add(v, parent, conn[v]);
+      route = std::move(trial);
+      ++round2;
+    } else {
+      t.children[parent].pop_back();
+      t.in[v] = 0;
+      t.parent[v] = -1;
+      rejected[v] = 1;
+    }
+  }
+  (*stats)["tree_round1"] = round1;
+  (*stats)["tree_round2"] = round2;
+  (*stats)["tree_cost_m"] = t.cost;
+  return route;
+}
+
+// Steps 2-3 repeated until no site is inserted.
+void ImproveLoop(const OpInstance& inst, std::vector<int>* route, std::vector<char>* in_route,
+                 uint64_t seed, int max_rounds, RouteOpsStats* ops, int* rounds) {
+  for (int r = 0; r < max_rounds; ++r) {
+    ++*rounds;
+    ReorderWithLkh(inst, route, seed + static_cast<uint64_t>(r), ops);
+    if (InsertByRatio(inst, route, in_route, ops) == 0) break;
+  }
+}
+
+std::vector<char> Membership(const OpInstance& inst, const std::vector<int>& route) {
+  std::vector<char> in(inst.Size(), 0);
+  for (int v : route) in[v] = 1;
+  return in;
+}
+
+void Finish(const OpInstance& inst, PlanResult* res, const RouteOpsStats& ops, int rounds) {
+  res->reward = inst.RouteReward(res->route);
+  res->cost = inst.RouteCost(res->route);
+  res->stats["rounds"] = rounds;
+  res->stats["lkh_calls"] = ops.lkh_calls;
+  res->stats["lkh_max_nodes"] = ops.lkh_max_nodes;
+  res->stats["inserted"] = ops.inserted;
+}
+
+bool Better(const OpInstance& inst, const std::vector<int>& a, const std::vector<int>& b) {
+  const double ra = inst.RouteReward(a), rb = inst.RouteReward(b);
+  const double eps = 1e-12 * (1.0 + std::abs(rb));
+  if (ra > rb + eps) return true;
+  return ra >= rb - eps && inst.RouteCost(a) < inst.RouteCost(b) - 1e-9;
+}
+
+}  // namespace
+
+PlanResult SolveNewAlg(const OpInstance& inst, const NewAlgOptions& opt) {
+  PlanResult res;
+  res.stats = nlohmann::json::object();
+  res.stats["name"] = "newalg";
+  res.route = GrowTree(inst, &res.stats);
+  std::vector<char> in_route = Membership(inst, res.route);
+  RouteOpsStats ops;
+  int rounds = 0;
+  ImproveLoop(inst, &res.route, &in_route, opt.seed, opt.max_rounds, &ops, &rounds);
+  Finish(inst, &res, ops, rounds);
+  return res;
+}
+
+PlanResult SolveNewAlgLs(const OpInstance& inst, const NewAlgOptions& opt) {
+  const auto start = std::chrono::steady_clock::now();
+  PlanResult res = SolveNewAlg(inst, opt);
+  const double newalg_reward = res.reward;
+  res.stats["name"] = "newalg-ls";
+  std::mt19937_64 rng(opt.seed ^ 0xA5A5A5A5ULL);
+  RouteOpsStats ops;
+  int rounds = 0, accepted = 0, iterations = 0;
+  for (int it = 0; it < opt.ls_iterations; ++it) {
+    if (opt.ls_time_limit_s > 0 &&
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() >
+            opt.ls_time_limit_s) {
+      break;
+    }
+    ++iterations;
+    std::vector<int> route = res.route;
+    const std::vector<int> before = route;
+    const int sites = static_cast<int>(route.size()) - 2;
+    if (sites > 0) {
+      const int k = 1 + static_cast<int>(rng() % std::max(1, std::min(4, (sites + 2) / 3)));
+      if (rng() % 2 == 0) {
+        // A run of k consecutive sites.
+        const int first = 1 + static_cast<int>(rng() % sites);
+        const int last = std::min(first + k, static_cast<int>(route.size()) - 1);
+        route.erase(route.begin() + first, route.begin() + last);
+      } else {
+        for (int j = 0; j < k && route.size() > 2; ++j) {
+          const int pos = 1 + static_cast<int>(rng() % (route.size() - 2));
+          route.erase(route.begin() + pos);
+        }
+      }
+    }
+    // Repair: first without the removed sites (otherwise the greedy puts them straight
+    // back), then with everything.
+    std::vector<char> in_route = Membership(inst, route);
+    std::vector<char> removed(inst.Size(), 0);
+    for (int v : before)
+      if (!in_route[v]) removed[v] = 1;
+    ReorderWithLkh(inst, &route, opt.seed + 1000 + static_cast<uint64_t>(it), &ops);
+    InsertByRatio(inst, &route, &in_route, &ops, &removed);
+    ImproveLoop(inst, &route, &in_route, opt.seed + 2000 + static_cast<uint64_t>(it),
+                opt.max_rounds, &ops, &rounds);
+    if (Better(inst, route, res.route)) {
+      res.route = std::move(route);
+      ++accepted;
+    }
+  }
+  res.stats["ls_iterations"] = iterations;
+  res.stats["ls_accepted"] = accepted;
+  res.stats["newalg_reward"] = newalg_reward;
+  const int base_calls = res.stats["lkh_calls"].get<int>();
+  Finish(inst, &res, ops, rounds);
+  res.stats["lkh_calls"] = base_calls + ops.lkh_calls;
+  return res;
+}
+
+}  // namespace mound::plan

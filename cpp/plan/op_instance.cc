@@ -1,0 +1,40 @@
+#include "plan/op_instance.h"
+
+#include <cmath>
+#include <vector>
+
+namespace mound::plan {
+
+double OpInstance::Dist(int i, int j) const {
+  return std::hypot(nodes[i].x_m - nodes[j].x_m, nodes[i].y_m - nodes[j].y_m);
+}
+
+double OpInstance::RouteCost(const std::vector<int>& route) const {
+  double c = 0;
+  for (size_t i = 0; i + 1 < route.size(); ++i) c += Cost(route[i], route[i + 1]);
+  return c;
+}
+
+double OpInstance::RouteReward(const std::vector<int>& route) const {
+  double r = 0;
+  for (int v : route)
+    if (IsSite(v)) r += nodes[v].reward;
+  return r;
+}
+
+std::string OpInstance::CheckRoute(const std::vector<int>& route) const {
+  if (route.size() < 2) return "route has fewer than two nodes";
+  if (route.front() != kHome) return "route does not start at home";
+  if (route.back() != end) return "route does not finish at the end node";
+  std::vector<char> seen(nodes.size(), 0);
+  for (size_t i = 1; i + 1 < route.size(); ++i) {
+    const int v = route[i];
+    if (v < 0 || v >= Size() || !IsSite(v)) return "route holds a non-site inside";
+    if (seen[v]) return "site " + nodes[v].id + " visited twice";
+    seen[v] = 1;
+  }
+  if (RouteCost(route) > budget_m + BudgetSlack(budget_m)) return "route exceeds the budget";
+  return "";
+}
+
+}  // namespace mound::plan

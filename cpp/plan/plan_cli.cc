@@ -1,0 +1,191 @@
+#include "plan/plan_cli.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <map>
+#include <optional>
+
+#include "common/atomic_file.h"
+#include "common/error.h"
+#include "plan/exact_small.h"
+#include "plan/newalg.h"
+#include "plan/sites_io.h"
+#include "tsp/solver.h"
+#include "tsp/tsplib.h"
+
+namespace mound::plan {
+namespace {
+
+constexpr const char* kVersion = "mound_plan 0.1.0";
+
+constexpr const char* kUsage =
+    "usage: mound_plan SITES.json [BUDGET] [--algo NAME] [--seed N] [--out PLAN.json]\n"
+    "       mound_plan tsp FILE.tsp [--seed N] [--runs N] [--trials N] [--time-limit S]\n"
+    "                  [--out FILE.json]\n"
+    "\n"
+    "Plans a UAV tour over candidate sites (orienteering): from the home node back home (or\n"
+    "to the end node) collecting the most reward within the budget (metres).\n"
+    "  BUDGET             overrides budget_m of SITES.json\n"
+    "  --algo NAME        newalg (default, the paper's algorithm), newalg-ls (NewAlg plus an\n"
+    "                     iterated local search), exact (<= 16 sites, dynamic programme)\n"
+    "  --seed N           random seed (default 1); equal seeds give equal plans\n"
+    "  --iterations N     newalg-ls iterations (default 300)\n"
+    "  --out FILE         write the plan there (atomically) instead of stdout\n"
+    "The tsp command solves a TSPLIB instance with the built-in Lin-Kernighan-Helsgaun\n"
+    "engine and prints {\"length\", \"tour\" (1-based ids), ...}.\n"
+    "Exit codes: 0 ok, 2 bad input or usage, 1 internal error.\n";
+
+// Parses "--key value" options after the positional arguments.
+struct Args {
+  std::vector<std::string> positional;
+  std::map<std::string, std::string> options;
+};
+
+Args ParseArgs(const std::vector<std::string>& args, size_t begin,
+               const std::vector<std::string>& known) {
+  Args a;
+  for (size_t i = begin; i < args.size(); ++i) {
+    const std::string& s = args[i];
+    if (s.rfind("--", 0) == 0) {
+      if (std::find(known.begin(), known.end(), s) == known.end()) {
+        throw InputError(s + ": unknown option (see --help)");
+      }
+      if (i + 1 >= args.size()) throw InputError(s + ": missing value");
+      a.options[s] = args[++i];
+    } else {
+      a.positional.push_back(s);
+    }
+  }
+  return a;
+}
+
+double ParseNumber(const std::string& s, const std::string& what) {
+  char* end = nullptr;
+  const double v = std::strtod(s.c_str(), &end);
+  if (s.empty() || end != s.c_str() + s.size() || !std::isfinite(v)) {
+    throw InputError(what + ": expected a finite number, got '" + s + "'");
+  }
+  return v;
+}
+
+long long ParseInt(const std::string& s, const std::string& what, long long lo, long long hi) {
+  char* end = nullptr;
+  const long long v = std::strtoll(s.c_str(), &end, 10);
+  if (s.empty() || end != s.c_str() + s.size() || v < lo || v > hi) {
+    throw InputError(what + ": expected an integer in [" + std::to_string(lo) + ", " +
+                     std::to_string(hi) + "], got '" + s + "'");
+  }
+  return v;
+}
+
+void Emit(const nlohmann::json& j, const std::map<std::string, std::string>& options,
+          std::ostream& out) {
+  const std::string text = j.dump(2) + "\n";
+  auto it = options.find("--out");
+  if (it != options.end()) {
+    WriteFileAtomic(it->second, text);
+  } else {
+    out << text;
+  }
+}
+
+int RunTsp(const std::vector<std::string>& args, std::ostream& out) {
+  const Args a = ParseArgs(args, 1, {"--seed", "--runs", "--trials", "--time-limit", "--out",
+                                     "--optimum"});
+  if (a.positional.size() != 1) throw InputError("tsp: expected exactly one FILE.tsp");
+  const std::string& path = a.positional[0];
+  tsp::SolverOptions opt;
+  if (a.options.count("--seed")) opt.seed = ParseInt(a.options.at("--seed"), "--seed", 0, 1LL << 62);
+  if (a.options.count("--runs")) opt.runs = ParseInt(a.options.at("--runs"), "--runs", 1, 1000000);
+  if (a.options.count("--trials"))
+    opt.max_trials = ParseInt(a.options.at("--trials"), "--trials", 1, 1LL << 30);
+  if (a.options.count("--time-limit"))
+    opt.time_limit_s = ParseNumber(a.options.at("--time-limit"), "--time-limit");
+  if (a.options.count("--optimum"))
+    opt.optimum = ParseInt(a.options.at("--optimum"), "--optimum", 0, 1LL << 62);
+  const auto t0 = std::chrono::steady_clock::now();
+  const tsp::TsplibInstance inst = tsp::ReadTsplib(path);
+  if (inst.dimension < 1) throw InputError(path + ": DIMENSION must be >= 1");
+  const tsp::TspResult r = tsp::SolveTsp(*inst.problem, opt);
+  const double elapsed =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  nlohmann::json tour = nlohmann::json::array();
+  for (int v : r.tour) tour.push_back(v + 1);
+  nlohmann::json j = {
+      {"schema", "mound.tsp_result"}, {"version", 1}, {"name", inst.name},
+      {"n", inst.dimension}, {"length", r.length}, {"tour", tour}, {"elapsed_s", elapsed},
+      {"lower_bound", r.stats.lower_bound}, {"seed", opt.seed},
+      {"stats",
+       {{"ascent_iterations", r.stats.ascent_iterations}, {"ascent_s", r.stats.ascent_s},
+        {"candidates_s", r.stats.candidates_s}, {"search_s", r.stats.search_s},
+        {"runs", r.stats.runs}, {"trials", r.stats.trials},
+        {"improving_trials", r.stats.improving_trials}, {"lk_moves", r.stats.lk_moves},
+        {"exact", r.stats.exact}}}};
+  Emit(j, a.options, out);
+  return kExitOk;
+}
+
+int RunPlan(const std::vector<std::string>& args, std::ostream& out) {
+  const Args a = ParseArgs(args, 0, {"--algo", "--seed", "--out", "--iterations", "--time-limit"});
+  if (a.positional.empty() || a.positional.size() > 2) {
+    throw InputError("usage: mound_plan SITES.json [BUDGET] [options] (see --help)");
+  }
+  std::optional<double> budget;
+  if (a.positional.size() == 2) budget = ParseNumber(a.positional[1], "BUDGET");
+  const std::string algo = a.options.count("--algo") ? a.options.at("--algo") : "newalg";
+  if (algo != "newalg" && algo != "newalg-ls" && algo != "exact") {
+    throw InputError("--algo: unknown algorithm '" + algo + "' (newalg, newalg-ls, exact)");
+  }
+  NewAlgOptions opt;
+  if (a.options.count("--seed")) opt.seed = ParseInt(a.options.at("--seed"), "--seed", 0, 1LL << 62);
+  if (a.options.count("--iterations"))
+    opt.ls_iterations = ParseInt(a.options.at("--iterations"), "--iterations", 0, 1 << 30);
+  if (a.options.count("--time-limit"))
+    opt.ls_time_limit_s = ParseNumber(a.options.at("--time-limit"), "--time-limit");
+
+  const SitesFile sites = ReadSites(a.positional[0], budget);
+  const OpInstance& inst = sites.instance;
+  if (algo == "exact" && inst.Size() - inst.FirstSite() > kMaxExactSites) {
+    throw InputError("--algo exact: at most " + std::to_string(kMaxExactSites) + " sites, got " +
+                     std::to_string(inst.Size() - inst.FirstSite()));
+  }
+  const auto t0 = std::chrono::steady_clock::now();
+  PlanResult r = algo == "newalg"      ? SolveNewAlg(inst, opt)
+                 : algo == "newalg-ls" ? SolveNewAlgLs(inst, opt)
+                                       : SolveExactSmall(inst);
+  const double elapsed =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const std::string defect = inst.CheckRoute(r.route);
+  if (!defect.empty()) throw std::logic_error("planner produced an invalid route: " + defect);
+  PlanSummary summary{algo, r.route, elapsed, opt.seed, r.stats};
+  Emit(PlanToJson(sites, summary), a.options, out);
+  return kExitOk;
+}
+
+}  // namespace
+
+int RunMoundPlan(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
+  try {
+    if (args.empty()) throw InputError("missing SITES.json (see --help)");
+    if (args[0] == "--help" || args[0] == "-h") {
+      out << kUsage;
+      return kExitOk;
+    }
+    if (args[0] == "--version") {
+      out << kVersion << "\n";
+      return kExitOk;
+    }
+    if (args[0] == "tsp") return RunTsp(args, out);
+    return RunPlan(args, out);
+  } catch (const InputError& e) {
+    err << "mound_plan: " << e.what() << "\n";
+    return kExitBadInput;
+  } catch (const std::exception& e) {
+    err << "mound_plan: internal error (a bug, please report): " << e.what() << "\n";
+    return kExitInternal;
+  }
+}
+
+}  // namespace mound::plan

@@ -1,0 +1,161 @@
+#include "plan/plan_cli.h"
+
+#include <gtest/gtest.h>
+#include <sys/stat.h>
+
+#include <algorithm>
+#include <fstream>
+#include <functional>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "common/atomic_file.h"
+
+namespace mound::plan {
+namespace {
+
+struct CliRun {
+  int code;
+  std::string out, err;
+};
+
+CliRun Call(const std::vector<std::string>& args) {
+  std::ostringstream out, err;
+  const int code = RunMoundPlan(args, out, err);
+  return {code, out.str(), err.str()};
+}
+
+std::string TempPath(const std::string& name) { return ::testing::TempDir() + "/" + name; }
+
+bool Exists(const std::string& p) {
+  struct stat st;
+  return ::stat(p.c_str(), &st) == 0;
+}
+
+std::string WriteTemp(const std::string& name, const std::string& text) {
+  const std::string p = TempPath(name);
+  std::ofstream(p) << text;
+  return p;
+}
+
+nlohmann::json GoodSites() {
+  return nlohmann::json::parse(R"({
+    "schema": "mound.sites", "version": 1,
+    "origin": {"lat": 38.5705, "lon": 27.9862, "alt_m": 95.0},
+    "home": {"id": "home", "x_m": 0, "y_m": 0},
+    "budget_m": 30,
+    "sites": [
+      {"id": "a", "x_m": 3, "y_m": 4, "reward": 1.0, "scan_cost_m": 1},
+      {"id": "b", "x_m": 6, "y_m": 8, "reward": 0.5},
+      {"id": "c", "x_m": -3, "y_m": 4, "reward": 0.9, "scan_cost_m": 0.5},
+      {"id": "d", "x_m": 20, "y_m": 20, "reward": 1.0}
+    ]})");
+}
+
+TEST(PlanCliTest, WritesAValidPlanAtomically) {
+  const std::string in = WriteTemp("good.json", GoodSites().dump());
+  const std::string out = TempPath("plan.json");
+  std::remove(out.c_str());
+  const CliRun r = Call({in, "25", "--out", out, "--seed", "2"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto plan = nlohmann::json::parse(ReadFile(out));
+  EXPECT_EQ(plan["schema"], "mound.plan");
+  EXPECT_EQ(plan["version"], 1);
+  EXPECT_EQ(plan["status"], "ok");
+  EXPECT_EQ(plan["budget_m"], 25.0);  // the command line overrides the file
+  EXPECT_EQ(plan["tour"].front(), "home");
+  EXPECT_EQ(plan["tour"].back(), "home");
+  EXPECT_LE(plan["cost_m"].get<double>(), 25.0);
+  EXPECT_NEAR(plan["budget_left_m"].get<double>(), 25.0 - plan["cost_m"].get<double>(), 1e-9);
+  // By hand: home-c-a-home costs 5.25 + 6.75 + 5.5 = 17.5 (reward 1.9); adding b needs
+  // 27.5 and b alone with a gives 1.5; d is out of reach.
+  EXPECT_NEAR(plan["reward"].get<double>(), 1.9, 1e-9);
+  EXPECT_EQ(plan["origin"]["lat"], 38.5705);
+}
+
+TEST(PlanCliTest, EndNodeGivesAPath) {
+  auto j = GoodSites();
+  j["end"] = {{"id", "landing"}, {"x_m", 10}, {"y_m", 0}};
+  const std::string in = WriteTemp("path.json", j.dump());
+  const CliRun r = Call({in, "--algo", "exact"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto plan = nlohmann::json::parse(r.out);
+  EXPECT_EQ(plan["tour"].front(), "home");
+  EXPECT_EQ(plan["tour"].back(), "landing");
+  EXPECT_FALSE(plan["closed"].get<bool>());
+}
+
+struct BadCase {
+  const char* name;
+  std::function<std::string()> text;  // file contents
+  std::vector<std::string> extra;     // extra arguments
+  const char* must_name;              // substring of the message
+};
+
+TEST(PlanCliTest, BadInputExitsTwoWithOneLineNamingTheFieldAndWritesNothing) {
+  auto with = [](auto edit) {
+    return [edit]() {
+      auto j = GoodSites();
+      edit(j);
+      return j.dump();
+    };
+  };
+  const std::vector<BadCase> cases = {
+      {"missing home", with([](auto& j) { j.erase("home"); }), {}, "home"},
+      {"missing x", with([](auto& j) { j["sites"][1].erase("x_m"); }), {}, "sites[1].x_m"},
+      {"missing reward", with([](auto& j) { j["sites"][2].erase("reward"); }), {}, "sites[2].reward"},
+      {"NaN literal", [] { return std::string(R"({"schema": "mound.sites", "version": 1,
+         "home": {"id": "h", "x_m": 0, "y_m": 0}, "budget_m": 9,
+         "sites": [{"id": "a", "x_m": 1, "y_m": 1, "reward": NaN}]})"); }, {}, "reward"},
+      {"negative reward", with([](auto& j) { j["sites"][0]["reward"] = -1; }), {}, "sites[0].reward"},
+      {"negative scan", with([](auto& j) { j["sites"][3]["scan_cost_m"] = -2; }), {}, "sites[3].scan_cost_m"},
+      {"negative budget", with([](auto& j) { j["budget_m"] = -5; }), {}, "budget_m"},
+      {"string coord", with([](auto& j) { j["sites"][0]["y_m"] = "4"; }), {}, "sites[0].y_m"},
+      {"duplicate id", with([](auto& j) { j["sites"][2]["id"] = "a"; }), {}, "sites[2].id"},
+      {"site named like home", with([](auto& j) { j["sites"][1]["id"] = "home"; }), {}, "sites[1].id"},
+      {"unknown version", with([](auto& j) { j["version"] = 7; }), {}, "version"},
+      {"wrong schema", with([](auto& j) { j["schema"] = "mound.plan"; }), {}, "schema"},
+      {"empty sites", with([](auto& j) { j["sites"] = nlohmann::json::array(); }), {}, "sites"},
+      {"sites not array", with([](auto& j) { j["sites"] = 3; }), {}, "sites"},
+      {"budget too small", with([](auto& j) { j["budget_m"] = 2; }), {}, "budget_m"},
+      {"path budget too small",
+       with([](auto& j) { j["end"] = {{"id", "e"}, {"x_m", 100}, {"y_m", 0}}; }), {}, "budget_m"},
+      {"end without coordinates", with([](auto& j) { j["end"] = {{"id", "e"}}; }), {}, "end.x_m"},
+      {"no budget anywhere", with([](auto& j) { j.erase("budget_m"); }), {}, "budget_m"},
+      {"bad budget argument", with([](auto&) {}), {"12abc"}, "BUDGET"},
+      {"not JSON", [] { return std::string("{\"schema\": \"mound.sites\", "); }, {}, "bad.json"},
+      {"unknown algo", with([](auto&) {}), {"--algo", "magic"}, "--algo"},
+      {"unknown option", with([](auto&) {}), {"--fast"}, "--fast"},
+  };
+  for (const BadCase& c : cases) {
+    const std::string in = WriteTemp("bad.json", c.text());
+    const std::string out = TempPath("never.json");
+    std::remove(out.c_str());
+    std::vector<std::string> args{in};
+    args.insert(args.end(), c.extra.begin(), c.extra.end());
+    args.insert(args.end(), {"--out", out});
+    const CliRun r = Call(args);
+    EXPECT_EQ(r.code, 2) << c.name << ": " << r.err;
+    EXPECT_NE(r.err.find(c.must_name), std::string::npos) << c.name << ": " << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << c.name << ": " << r.err;
+    EXPECT_FALSE(Exists(out)) << c.name;
+    EXPECT_TRUE(r.out.empty()) << c.name;
+  }
+  EXPECT_EQ(Call({TempPath("does-not-exist.json")}).code, 2);
+  EXPECT_EQ(Call({}).code, 2);
+}
+
+TEST(PlanCliTest, TspCommandPrintsLengthAndOneBasedTour) {
+  const CliRun r = Call({"tsp", std::string(MOUND_SHARED_DATA) + "/tsplib/eil51.tsp", "--seed", "3"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["length"], 426);
+  ASSERT_EQ(j["tour"].size(), 51u);
+  std::vector<int> ids = j["tour"].get<std::vector<int>>();
+  std::sort(ids.begin(), ids.end());
+  for (int i = 0; i < 51; ++i) EXPECT_EQ(ids[i], i + 1);
+  EXPECT_EQ(Call({"tsp", "/nonexistent.tsp"}).code, 2);
+}
+
+}  // namespace
+}  // namespace mound::plan

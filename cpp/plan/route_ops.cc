@@ -1,0 +1,129 @@
+#include "plan/route_ops.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "tsp/problem.h"
+
+namespace mound::plan {
+
+bool ReorderWithLkh(const OpInstance& inst, std::vector<int>* route, uint64_t seed,
+                    RouteOpsStats* stats) {
+  // The TSP nodes: the route without the repeated home of a closed tour.
+  std::vector<int> nodes(route->begin(), route->end() - (inst.Closed() ? 1 : 0));
+  const int m = static_cast<int>(nodes.size());
+  if (m <= 3) return false;
+  double max_cost = 0;
+  for (int a = 0; a < m; ++a)
+    for (int b = a + 1; b < m; ++b) max_cost = std::max(max_cost, inst.Cost(nodes[a], nodes[b]));
+  const double scale = max_cost > 0 ? 1e6 / max_cost : 1.0;
+  std::vector<tsp::Cost> d(static_cast<size_t>(m) * m, 0);
+  for (int a = 0; a < m; ++a)
+    for (int b = 0; b < m; ++b)
+      if (a != b) d[static_cast<size_t>(a) * m + b] = std::llround(inst.Cost(nodes[a], nodes[b]) * scale);
+  int end_pos = -1;
+  if (!inst.Closed()) {
+    end_pos = static_cast<int>(std::find(nodes.begin(), nodes.end(), inst.end) - nodes.begin());
+    // The path home..end is a tour with the end->home edge fixed at cost 0.
+    d[static_cast<size_t>(end_pos) * m] = d[end_pos] = 0;
+  }
+  tsp::MatrixProblem p(m, std::move(d));
+  if (end_pos > 0) p.AddFixedEdge(0, end_pos);
+  tsp::SolverOptions opt;
+  opt.seed = seed;
+  opt.max_trials = m;
+  const tsp::TspResult r = tsp::SolveTsp(p, opt);
+  ++stats->lkh_calls;
+  stats->lkh_max_nodes = std::max(stats->lkh_max_nodes, m);
+
+  // Rotate to start at home (position 0); orient a path so it ends at the end node.
+  std::vector<int> order = r.tour;
+  std::rotate(order.begin(), std::find(order.begin(), order.end(), 0), order.end());
+  if (end_pos > 0 && order[1] == end_pos) std::reverse(order.begin() + 1, order.end());
+  std::vector<int> candidate;
+  candidate.reserve(route->size());
+  for (int i : order) candidate.push_back(nodes[i]);
+  if (inst.Closed()) candidate.push_back(OpInstance::kHome);  // a path already ends at end
+  if (inst.RouteCost(candidate) < inst.RouteCost(*route) - 1e-12) {
+    *route = std::move(candidate);
+    return true;
+  }
+  return false;
+}
+
+int InsertByRatio(const OpInstance& inst, std::vector<int>* route, std::vector<char>* in_route,
+                  RouteOpsStats* stats, const std::vector<char>* blocked) {
+  const int n = inst.Size();
+  const double inf = std::numeric_limits<double>::infinity();
+  // The route as a linked list: next[v] follows v; the last node has next -1.
+  std::vector<int> next(n, -1);
+  for (size_t i = 0; i + 1 < route->size(); ++i) next[(*route)[i]] = (*route)[i + 1];
+  // For a closed tour the route is home..home: the final edge returns to home, which we
+  // represent by the last site pointing to home (home is the list head as well).
+  double cost = inst.RouteCost(*route);
+  const double limit = inst.budget_m + BudgetSlack(inst.budget_m);
+
+  std::vector<int> candidates;
+  for (int v = inst.FirstSite(); v < n; ++v)
+    if (!(*in_route)[v] && inst.nodes[v].reward > 0 && !(blocked && (*blocked)[v]))
+      candidates.push_back(v);
+  std::vector<double> delta(n, inf);
+  std::vector<int> after(n, -1);
+  auto full_scan = [&](int v) {
+    delta[v] = inf;
+    after[v] = -1;
+    int a = OpInstance::kHome;
+    // Walk edges (a, next[a]) of the route; for a closed tour the last edge ends at home.
+    for (size_t k = 0; k + 1 < route->size(); ++k) {
+      const int b = next[a];
+      const double dlt = inst.Cost(a, v) + inst.Cost(v, b) - inst.Cost(a, b);
+      if (dlt < delta[v]) {
+        delta[v] = dlt;
+        after[v] = a;
+      }
+      a = b;
+    }
+  };
+  for (int v : candidates) full_scan(v);
+
+  int inserted = 0;
+  for (;;) {
+    int best = -1;
+    double best_ratio = -1;
+    for (int v : candidates) {
+      if ((*in_route)[v] || cost + delta[v] > limit) continue;
+      const double ratio = inst.nodes[v].reward / std::max(delta[v], 1e-12);
+      if (ratio > best_ratio) {
+        best_ratio = ratio;
+        best = v;
+      }
+    }
+    if (best < 0) break;
+    const int a = after[best], b = next[a];
+    next[a] = best;
+    next[best] = b;
+    (*in_route)[best] = 1;
+    cost += delta[best];
+    ++inserted;
+    route->insert(std::find(route->begin(), route->end() - 1, a) + 1, best);
+    for (int v : candidates) {
+      if ((*in_route)[v]) continue;
+      if (after[v] == a) {
+        full_scan(v);
+        continue;
+      }
+      for (const auto& [x, y] : {std::pair{a, best}, std::pair{best, b}}) {
+        const double dlt = inst.Cost(x, v) + inst.Cost(v, y) - inst.Cost(x, y);
+        if (dlt < delta[v]) {
+          delta[v] = dlt;
+          after[v] = x;
+        }
+      }
+    }
+  }
+  stats->inserted += inserted;
+  return inserted;
+}
+
+}  // namespace mound::plan

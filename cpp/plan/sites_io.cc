@@ -1,0 +1,152 @@
+#include "plan/sites_io.h"
+
+#include <cmath>
+#include <limits>
+#include <unordered_map>
+
+#include "common/atomic_file.h"
+#include "common/error.h"
+#include "common/json_util.h"
+
+namespace mound::plan {
+
+SitesFile ParseSites(const std::string& text, const std::string& path,
+                     std::optional<double> budget_override) {
+  const nlohmann::json doc = ParseJson(text, path);
+  CheckSchema(doc, "mound.sites", 1, path);
+  SitesFile out;
+  out.path = path;
+  OpInstance& inst = out.instance;
+  if (doc.contains("origin") && !doc["origin"].is_null()) {
+    const auto& o = doc["origin"];
+    RequireFinite(o, "lat", "origin");
+    RequireFinite(o, "lon", "origin");
+    out.origin = o;
+  }
+  const nlohmann::json& home = RequireField(doc, "home", "");
+  OpNode h;
+  h.id = RequireString(home, "id", "home");
+  h.x_m = RequireFinite(home, "x_m", "home");
+  h.y_m = RequireFinite(home, "y_m", "home");
+  inst.nodes.push_back(h);
+
+  if (doc.contains("end") && !doc["end"].is_null()) {
+    const nlohmann::json& end = doc["end"];
+    const std::string id = RequireString(end, "id", "end");
+    if (id != h.id) {
+      OpNode e;
+      e.id = id;
+      e.x_m = RequireFinite(end, "x_m", "end");
+      e.y_m = RequireFinite(end, "y_m", "end");
+      inst.nodes.push_back(e);
+      inst.end = 1;
+    }
+  }
+
+  const nlohmann::json& sites = RequireField(doc, "sites", "");
+  if (!sites.is_array()) throw InputError("sites: must be an array");
+  if (sites.empty()) throw InputError("sites: must not be empty");
+  std::unordered_map<std::string, size_t> seen;
+  for (const OpNode& n : inst.nodes) seen[n.id] = std::numeric_limits<size_t>::max();
+  for (size_t i = 0; i < sites.size(); ++i) {
+    const std::string p = "sites[" + std::to_string(i) + "]";
+    const nlohmann::json& s = sites[i];
+    if (!s.is_object()) throw InputError(p + ": must be an object");
+    OpNode n;
+    n.id = RequireString(s, "id", p);
+    auto [it, inserted] = seen.emplace(n.id, i);
+    if (!inserted) {
+      const std::string other = it->second == std::numeric_limits<size_t>::max()
+                                    ? "the home/end node"
+                                    : "sites[" + std::to_string(it->second) + "]";
+      throw InputError(p + ".id: duplicate id \"" + n.id + "\" (also " + other + ")");
+    }
+    n.x_m = RequireFinite(s, "x_m", p);
+    n.y_m = RequireFinite(s, "y_m", p);
+    n.reward = RequireNonNegative(s, "reward", p);
+    n.scan_cost_m = OptionalNonNegative(s, "scan_cost_m", p).value_or(0.0);
+    inst.nodes.push_back(n);
+  }
+
+  if (budget_override) {
+    if (!std::isfinite(*budget_override) || *budget_override < 0) {
+      throw InputError("BUDGET: must be a finite number >= 0");
+    }
+    inst.budget_m = *budget_override;
+    out.budget_in_file = doc.contains("budget_m");
+    if (out.budget_in_file) RequireNonNegative(doc, "budget_m", "");
+  } else {
+    if (!doc.contains("budget_m")) {
+      throw InputError("budget_m: missing (give it in " + path + " or as BUDGET on the command line)");
+    }
+    inst.budget_m = RequireNonNegative(doc, "budget_m", "");
+    out.budget_in_file = true;
+  }
+
+  // A budget that cannot even leave home is an input error, not an empty plan.
+  const double slack = BudgetSlack(inst.budget_m);
+  if (!inst.Closed()) {
+    const double direct = inst.Cost(OpInstance::kHome, inst.end);
+    if (direct > inst.budget_m + slack) {
+      throw InputError("budget_m: " + FormatNumber(inst.budget_m) +
+                       " m is less than the direct home->end trip of " + FormatNumber(direct) + " m");
+    }
+  } else {
+    double cheapest = std::numeric_limits<double>::infinity();
+    for (int v = inst.FirstSite(); v < inst.Size(); ++v) {
+      cheapest = std::min(cheapest, 2 * inst.Cost(OpInstance::kHome, v));
+    }
+    if (cheapest > inst.budget_m + slack) {
+      throw InputError("budget_m: " + FormatNumber(inst.budget_m) +
+                       " m is too small to leave home (the cheapest round trip to a site costs " +
+                       FormatNumber(cheapest) + " m)");
+    }
+  }
+  return out;
+}
+
+SitesFile ReadSites(const std::string& path, std::optional<double> budget_override) {
+  return ParseSites(ReadFile(path), path, budget_override);
+}
+
+nlohmann::json PlanToJson(const SitesFile& sites, const PlanSummary& plan) {
+  const OpInstance& inst = sites.instance;
+  const double cost = inst.RouteCost(plan.route);
+  nlohmann::json j;
+  j["schema"] = "mound.plan";
+  j["version"] = 1;
+  j["status"] = "ok";
+  j["algo"] = plan.algo;
+  j["sites_file"] = sites.path;
+  j["closed"] = inst.Closed();
+  nlohmann::json tour = nlohmann::json::array();
+  nlohmann::json wps = nlohmann::json::array();
+  double cum = 0;
+  int visited = 0;
+  for (size_t i = 0; i < plan.route.size(); ++i) {
+    const OpNode& n = inst.nodes[plan.route[i]];
+    if (i > 0) cum += inst.Cost(plan.route[i - 1], plan.route[i]);
+    tour.push_back(n.id);
+    const bool site = inst.IsSite(plan.route[i]);
+    visited += site;
+    wps.push_back({{"id", n.id}, {"x_m", n.x_m}, {"y_m", n.y_m},
+                   {"kind", site ? "site" : (i == 0 ? "home" : "end")},
+                   {"reward", site ? n.reward : 0.0},
+                   {"scan_cost_m", site ? n.scan_cost_m : 0.0}, {"cum_cost_m", cum}});
+  }
+  j["tour"] = tour;
+  j["reward"] = inst.RouteReward(plan.route);
+  j["cost_m"] = cost;
+  j["budget_m"] = inst.budget_m;
+  j["budget_left_m"] = inst.budget_m - cost;
+  j["elapsed_s"] = plan.elapsed_s;
+  j["n_sites"] = inst.Size() - inst.FirstSite();
+  j["n_visited"] = visited;
+  j["seed"] = plan.seed;
+  j["waypoints"] = wps;
+  j["solver"] = plan.solver;
+  if (!sites.origin.is_null()) j["origin"] = sites.origin;
+  return j;
+}
+
+}  // namespace mound::plan

@@ -1,0 +1,38 @@
+// sites.json -> OpInstance, and a plan -> plan.json (contract: ../shared/INTERFACES.md).
+#pragma once
+
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "plan/op_instance.h"
+
+namespace mound::plan {
+
+struct SitesFile {
+  OpInstance instance;
+  std::string path;
+  nlohmann::json origin;  // null when absent
+  bool budget_in_file = false;
+};
+
+// Reads and validates a mound.sites v1 document. `budget_override` (the command-line
+// BUDGET) replaces budget_m. Throws InputError naming the field for every defect:
+// missing fields, non-finite or negative values, duplicate ids, unknown version, empty
+// site list, a budget that cannot even leave home.
+SitesFile ReadSites(const std::string& path, std::optional<double> budget_override);
+SitesFile ParseSites(const std::string& text, const std::string& path,
+                     std::optional<double> budget_override);
+
+struct PlanSummary {
+  std::string algo;
+  std::vector<int> route;
+  double elapsed_s = 0;
+  uint64_t seed = 0;
+  nlohmann::json solver;  // algorithm statistics
+};
+
+nlohmann::json PlanToJson(const SitesFile& sites, const PlanSummary& plan);
+
+}  // namespace mound::plan
