@@ -171,29 +171,34 @@ bool Better(const OpInstance& inst, const std::vector<int>& a, const std::vector
   return ra >= rb - eps && inst.RouteCost(a) < inst.RouteCost(b) - 1e-9;
 }
 
-}  // namespace
-
-PlanResult SolveNewAlg(const OpInstance& inst, const NewAlgOptions& opt) {
+// NewAlg with the caller's statistics (and LKH warm-start penalties).
+PlanResult RunNewAlg(const OpInstance& inst, const NewAlgOptions& opt, RouteOpsStats* ops) {
   PlanResult res;
   res.stats = nlohmann::json::object();
   res.stats["name"] = "newalg";
   res.route = GrowTree(inst, &res.stats);
   std::vector<char> in_route = Membership(inst, res.route);
-  RouteOpsStats ops;
   int rounds = 0;
-  ImproveLoop(inst, &res.route, &in_route, opt.seed, opt.max_rounds, &ops, &rounds);
-  Finish(inst, &res, ops, rounds);
+  ImproveLoop(inst, &res.route, &in_route, opt.seed, opt.max_rounds, ops, &rounds);
+  Finish(inst, &res, *ops, rounds);
   return res;
+}
+
+}  // namespace
+
+PlanResult SolveNewAlg(const OpInstance& inst, const NewAlgOptions& opt) {
+  RouteOpsStats ops;
+  return RunNewAlg(inst, opt, &ops);
 }
 
 PlanResult SolveNewAlgLs(const OpInstance& inst, const NewAlgOptions& opt) {
   const auto start = std::chrono::steady_clock::now();
-  PlanResult res = SolveNewAlg(inst, opt);
+  RouteOpsStats ops;
+  PlanResult res = RunNewAlg(inst, opt, &ops);
   const double newalg_reward = res.reward;
   res.stats["name"] = "newalg-ls";
   std::mt19937_64 rng(opt.seed ^ 0xA5A5A5A5ULL);
-  RouteOpsStats ops;
-  int rounds = 0, accepted = 0, iterations = 0;
+  int rounds = res.stats["rounds"].get<int>(), accepted = 0, iterations = 0;
   for (int it = 0; it < opt.ls_iterations; ++it) {
     if (opt.ls_time_limit_s > 0 &&
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() >
@@ -236,9 +241,7 @@ PlanResult SolveNewAlgLs(const OpInstance& inst, const NewAlgOptions& opt) {
   res.stats["ls_iterations"] = iterations;
   res.stats["ls_accepted"] = accepted;
   res.stats["newalg_reward"] = newalg_reward;
-  const int base_calls = res.stats["lkh_calls"].get<int>();
   Finish(inst, &res, ops, rounds);
-  res.stats["lkh_calls"] = base_calls + ops.lkh_calls;
   return res;
 }
 

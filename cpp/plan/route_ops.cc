@@ -9,7 +9,7 @@
 namespace mound::plan {
 
 bool ReorderWithLkh(const OpInstance& inst, std::vector<int>* route, uint64_t seed,
-                    RouteOpsStats* stats) {
+                    RouteOpsStats* stats, const ReorderOptions& options) {
   // The TSP nodes: the route without the repeated home of a closed tour.
   std::vector<int> nodes(route->begin(), route->end() - (inst.Closed() ? 1 : 0));
   const int m = static_cast<int>(nodes.size());
@@ -32,9 +32,16 @@ bool ReorderWithLkh(const OpInstance& inst, std::vector<int>* route, uint64_t se
   if (end_pos > 0) p.AddFixedEdge(0, end_pos);
   tsp::SolverOptions opt;
   opt.seed = seed;
-  opt.max_trials = m;
+  opt.max_trials = std::max(options.min_trials, m / std::max(1, options.trials_divisor));
+  opt.ascent.initial_period = std::max(10, m / std::max(1, options.initial_period_divisor));
+  opt.ascent.max_iterations = options.max_ascent_iterations;
+  if (stats->pi.empty()) stats->pi.assign(inst.Size(), 0);
+  opt.ascent.initial_pi.resize(m);
+  for (int i = 0; i < m; ++i) opt.ascent.initial_pi[i] = stats->pi[nodes[i]];
   const tsp::TspResult r = tsp::SolveTsp(p, opt);
   ++stats->lkh_calls;
+  if (static_cast<int>(r.pi.size()) == m)  // empty when solved exactly (m <= 8)
+    for (int i = 0; i < m; ++i) stats->pi[nodes[i]] = r.pi[i];
   stats->lkh_max_nodes = std::max(stats->lkh_max_nodes, m);
 
   // Rotate to start at home (position 0); orient a path so it ends at the end node.

@@ -9,10 +9,22 @@
 
 namespace mound::plan {
 
+// LKH settings for the many small tours the planner re-orders: a shorter ascent and
+// fewer kicks than LKH's defaults for one-off TSP solving (see the benchmark figures).
+struct ReorderOptions {
+  int trials_divisor = 8;          // trials = max(min_trials, m / trials_divisor)
+  int min_trials = 5;
+  int initial_period_divisor = 2;  // ascent INITIAL_PERIOD = max(10, m / divisor)
+  int max_ascent_iterations = 30;  // per call; the penalties carry over between calls
+};
+
 struct RouteOpsStats {
   int lkh_calls = 0;
   int lkh_max_nodes = 0;
   int inserted = 0;
+  // Ascent penalties by instance node, carried from one LKH call to the next (warm start:
+  // the planner re-orders many nearly equal node sets). Empty until the first call.
+  std::vector<int64_t> pi;
 };
 
 // Step 2 of NewAlg: re-orders the nodes of `route` with the LKH engine (a closed tour, or
@@ -20,7 +32,7 @@ struct RouteOpsStats {
 // 1e-6 of the longest edge. Keeps the old order unless the new one is shorter.
 // Returns true if the route got shorter.
 bool ReorderWithLkh(const OpInstance& inst, std::vector<int>* route, uint64_t seed,
-                    RouteOpsStats* stats);
+                    RouteOpsStats* stats, const ReorderOptions& options = {});
 
 // Step 3 of NewAlg: repeatedly inserts the unvisited site with the best ratio of reward to
 // cheapest-insertion cost that still fits the budget. `in_route` marks visited nodes and

@@ -246,6 +246,7 @@ AscentResult Ascent(const CostCache& d, const AscentOptions& opt) {
   const int n = d.Size();
   AscentResult res;
   res.pi.assign(n, 0);
+  if (static_cast<int>(opt.initial_pi.size()) == n) res.pi = opt.initial_pi;
   if (n < 3) return res;
   OneTreeBuilder builder(d, opt.precision);
   OneTree tree;

@@ -34,7 +34,9 @@ struct AscentOptions {
   int ascent_candidates = 50;
   int initial_period = -1;      // <= 0: max(n/2, 100) as in LKH
   int max_iterations = 1 << 30;
-  bool subgradient = true;      // false: pi = 0 (plain alpha of the minimum 1-tree)
+  bool subgradient = true;      // false: pi = initial_pi (plain alpha of that 1-tree)
+  // Warm start (LKH's PI_FILE): penalties from an earlier, similar instance. Empty: zeros.
+  std::vector<Cost> initial_pi;
 };
 
 struct AscentResult {

@@ -111,6 +111,7 @@ TspResult SolveTsp(const Problem& problem, const SolverOptions& opt) {
   CostCache d(problem);
   const AscentResult ascent = Ascent(d, opt.ascent);
   res.stats.ascent_s = Seconds(t_start);
+  res.pi = ascent.pi;
   res.stats.lower_bound = ascent.lower_bound;
   res.stats.ascent_iterations = ascent.iterations;
   const auto t_cand = Clock::now();

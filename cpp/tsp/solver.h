@@ -45,6 +45,7 @@ struct SolverStats {
 struct TspResult {
   std::vector<int> tour;      // a permutation of 0..n-1
   Cost length = 0;
+  std::vector<Cost> pi;       // the ascent's penalties (a warm start for similar instances)
   SolverStats stats;
 };
 
