@@ -1,0 +1,45 @@
+# mound-survey: `make` builds into build/, `make test` runs every test, `make demo` runs
+# the main job on the example data. Each target sets the machine up first (idempotent).
+BUILD  ?= build
+VENV   ?= .venv
+PY     := $(VENV)/bin/python
+JOBS   ?= 2
+
+.PHONY: all build setup test test-cpp test-python lint demo bench clean
+
+all: build
+
+$(VENV)/.setup-done: tools/setup.sh python/requirements.txt
+	bash tools/setup.sh
+	touch $@
+
+setup: $(VENV)/.setup-done
+
+build: setup
+	cmake -S . -B $(BUILD) -G Ninja -DCMAKE_BUILD_TYPE=Release
+	cmake --build $(BUILD) -j $(JOBS)
+
+test: build test-cpp test-python lint
+
+test-cpp: build
+	cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
+
+test-python: build
+	$(PY) -m pytest -q
+
+lint: setup
+	$(VENV)/bin/ruff check python tests tools
+
+# The main job. For now: plan a tour over the example field with NewAlg and newalg-ls.
+demo: build
+	@mkdir -p runs/demo
+	./$(BUILD)/mound_plan data/sites.json 120 --algo newalg --out runs/demo/plan_newalg.json
+	./$(BUILD)/mound_plan data/sites.json 120 --algo newalg-ls --out runs/demo/plan_newalg_ls.json
+	$(PY) tools/plan_summary.py runs/demo/plan_newalg.json runs/demo/plan_newalg_ls.json
+
+bench: build
+	./$(BUILD)/tools/bench/mound_bench_plan
+	$(PY) tools/bench/bench_tsp.py
+
+clean:
+	rm -rf $(BUILD)

@@ -1,0 +1,29 @@
+"""Shared fixtures: the built tools and the shared data (../shared/data)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from mound.paths import REPO_ROOT, build_dir, shared_data_dir
+
+
+@pytest.fixture(scope="session")
+def mound_plan() -> Path:
+    path = build_dir() / "mound_plan"
+    if not path.exists():
+        pytest.fail(f"{path} missing: run `make` first (the tests use the real binary)")
+    return path
+
+
+@pytest.fixture(scope="session")
+def shared_data() -> Path:
+    path = shared_data_dir()
+    if not path.is_dir():
+        pytest.fail(f"shared data not found at {path} (set MOUND_SHARED_DATA)")
+    return path
+
+
+@pytest.fixture(scope="session")
+def example_sites() -> Path:
+    return REPO_ROOT / "data" / "sites.json"
