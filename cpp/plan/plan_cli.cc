@@ -93,7 +93,7 @@ void Emit(const nlohmann::json& j, const std::map<std::string, std::string>& opt
 
 int RunTsp(const std::vector<std::string>& args, std::ostream& out) {
   const Args a = ParseArgs(args, 1, {"--seed", "--runs", "--trials", "--time-limit", "--out",
-                                     "--optimum"});
+                                     "--optimum", "--kick-segment"});
   if (a.positional.size() != 1) throw InputError("tsp: expected exactly one FILE.tsp");
   const std::string& path = a.positional[0];
   tsp::SolverOptions opt;
@@ -103,6 +103,8 @@ int RunTsp(const std::vector<std::string>& args, std::ostream& out) {
     opt.max_trials = ParseInt(a.options.at("--trials"), "--trials", 1, 1LL << 30);
   if (a.options.count("--time-limit"))
     opt.time_limit_s = ParseNumber(a.options.at("--time-limit"), "--time-limit");
+  if (a.options.count("--kick-segment"))
+    opt.kick_segment = ParseInt(a.options.at("--kick-segment"), "--kick-segment", 1, 1 << 30);
   if (a.options.count("--optimum"))
     opt.optimum = ParseInt(a.options.at("--optimum"), "--optimum", 0, 1LL << 62);
   const auto t0 = std::chrono::steady_clock::now();

@@ -142,7 +142,9 @@ TspResult SolveTsp(const Problem& problem, const SolverOptions& opt) {
     cur -= lk.Optimize(tour, order);
     tour.ClearJournal();
     ++res.stats.trials;
-    const int kick_len = std::max(1, std::min(opt.kick_segment, (n - 2) / 3));
+    // Long kicks matter on clustered instances (fl1577: 6% gap with 50, 0.1% with n/4).
+    const int kick_max = opt.kick_segment > 0 ? opt.kick_segment : std::max(50, n / 4);
+    const int kick_len = std::max(1, std::min(kick_max, (n - 2) / 3));
     for (int trial = 1; trial < max_trials; ++trial) {
       if (length_of(cur) <= target || out_of_time()) break;
       // Segment double bridge: a1 | B | C | D | e1  ->  a1 D C B e1.

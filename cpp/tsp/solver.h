@@ -25,7 +25,7 @@ struct SolverOptions {
   uint64_t seed = 1;
   int max_candidates = 5;     // alpha-nearest candidates per node
   int move_k = 5;             // basis move: sequential k-opt, 2..5
-  int kick_segment = 50;      // longest segment of a double-bridge kick
+  int kick_segment = 0;       // longest segment of a double-bridge kick; <= 0: max(50, n/4)
   double time_limit_s = 0;    // <= 0: none
   Cost optimum = -1;          // stop when a tour this short is found (benchmarks)
   AscentOptions ascent;
