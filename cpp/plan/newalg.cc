@@ -61,13 +61,20 @@ std::vector<int> GrowTree(const OpInstance& inst, nlohmann::json* stats) {
   std::vector<double> conn(n, inf);
   std::vector<int> conn_to(n, -1);
   std::vector<char> toward_end(n, 0);  // on the tree path home..end (paths only)
-  auto add = [&](int v, int parent, double c) {
+  auto attach = [&](int v, int parent, double c) {
     t.in[v] = 1;
-    if (parent >= 0) {
-      t.parent[v] = parent;
-      t.children[parent].push_back(v);
-      t.cost += c;
-    }
+    t.parent[v] = parent;
+    t.children[parent].push_back(v);
+    t.cost += c;
+  };
+  auto detach = [&](int v, double c) {
+    t.children[t.parent[v]].pop_back();
+    t.in[v] = 0;
+    t.parent[v] = -1;
+    t.cost -= c;
+  };
+  // Connection costs of the sites outside the tree after `v` joined it.
+  auto update_conn = [&](int v) {
     for (int u = inst.FirstSite(); u < n; ++u) {
       if (t.in[u]) continue;
       const double cu = inst.Cost(v, u);
@@ -76,6 +83,11 @@ std::vector<int> GrowTree(const OpInstance& inst, nlohmann::json* stats) {
         conn_to[u] = v;
       }
     }
+  };
+  auto add = [&](int v, int parent, double c) {
+    if (parent >= 0) attach(v, parent, c);
+    t.in[v] = 1;
+    update_conn(v);
   };
   add(OpInstance::kHome, -1, 0);
   double limit1 = inst.budget_m / 2;
@@ -115,21 +127,15 @@ std::vector<int> GrowTree(const OpInstance& inst, nlohmann::json* stats) {
   for (;;) {
     const int v = best_by_ratio([&](int u) { return !rejected[u]; });
     if (v < 0) break;
-    const int parent = conn_to[v];
-    t.in[v] = 1;
-    t.parent[v] = parent;
-    t.children[parent].push_back(v);
+    const double c = conn[v];
+    attach(v, conn_to[v], c);
     std::vector<int> trial = DfsRoute(inst, t, toward_end);
     if (inst.RouteCost(trial) <= limit2) {
-      t.children[parent].pop_back();
-      t.in[v] = 0;
-      add(v, parent, conn[v]);
+      update_conn(v);
       route = std::move(trial);
       ++round2;
     } else {
-      t.children[parent].pop_back();
-      t.in[v] = 0;
-      t.parent[v] = -1;
+      detach(v, c);
       rejected[v] = 1;
     }
   }

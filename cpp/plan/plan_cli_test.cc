@@ -63,6 +63,7 @@ TEST(PlanCliTest, WritesAValidPlanAtomically) {
   EXPECT_EQ(plan["version"], 1);
   EXPECT_EQ(plan["status"], "ok");
   EXPECT_EQ(plan["budget_m"], 25.0);  // the command line overrides the file
+  EXPECT_EQ(plan["budget_source"], "command line");
   EXPECT_EQ(plan["tour"].front(), "home");
   EXPECT_EQ(plan["tour"].back(), "home");
   EXPECT_LE(plan["cost_m"].get<double>(), 25.0);

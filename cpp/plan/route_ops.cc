@@ -113,7 +113,6 @@ int InsertByRatio(const OpInstance& inst, std::vector<int>* route, std::vector<c
     (*in_route)[best] = 1;
     cost += delta[best];
     ++inserted;
-    route->insert(std::find(route->begin(), route->end() - 1, a) + 1, best);
     for (int v : candidates) {
       if ((*in_route)[v]) continue;
       if (after[v] == a) {
@@ -128,6 +127,12 @@ int InsertByRatio(const OpInstance& inst, std::vector<int>* route, std::vector<c
         }
       }
     }
+  }
+  if (inserted > 0) {
+    // Read the route back from the linked list: home, then next[] up to the end node.
+    const size_t length = route->size() + inserted;
+    route->assign(1, OpInstance::kHome);
+    for (int v = next[OpInstance::kHome]; route->size() < length; v = next[v]) route->push_back(v);
   }
   stats->inserted += inserted;
   return inserted;

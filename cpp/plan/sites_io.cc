@@ -73,8 +73,7 @@ SitesFile ParseSites(const std::string& text, const std::string& path,
       throw InputError("BUDGET: must be a finite number >= 0");
     }
     inst.budget_m = *budget_override;
-    out.budget_in_file = doc.contains("budget_m");
-    if (out.budget_in_file) RequireNonNegative(doc, "budget_m", "");
+    if (doc.contains("budget_m")) RequireNonNegative(doc, "budget_m", "");  // still validated
   } else {
     if (!doc.contains("budget_m")) {
       throw InputError("budget_m: missing (give it in " + path + " or as BUDGET on the command line)");
@@ -138,6 +137,7 @@ nlohmann::json PlanToJson(const SitesFile& sites, const PlanSummary& plan) {
   j["reward"] = inst.RouteReward(plan.route);
   j["cost_m"] = cost;
   j["budget_m"] = inst.budget_m;
+  j["budget_source"] = sites.budget_in_file ? "file" : "command line";
   j["budget_left_m"] = inst.budget_m - cost;
   j["elapsed_s"] = plan.elapsed_s;
   j["n_sites"] = inst.Size() - inst.FirstSite();

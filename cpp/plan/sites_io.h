@@ -14,7 +14,7 @@ struct SitesFile {
   OpInstance instance;
   std::string path;
   nlohmann::json origin;  // null when absent
-  bool budget_in_file = false;
+  bool budget_in_file = false;  // false: BUDGET came from the command line
 };
 
 // Reads and validates a mound.sites v1 document. `budget_override` (the command-line

@@ -37,7 +37,6 @@ class LinKernighan {
   // 2*sum(pi), so gains in either are the same up to the factor P.
   Cost C(int i, int j) const { return p_ * d_.D(i, j) + pi_[i] + pi_[j]; }
   bool IsFixed(int a, int b) const { return fixed_partner_[a] == b; }
-  int FixedPartner(int a) const { return fixed_partner_[a]; }
 
   // Improves `tour` from the nodes in `active` (and the nodes each improvement touches)
   // until no improving move is found. Returns the total gain in transformed units.
