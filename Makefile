@@ -9,7 +9,7 @@ JOBS   ?= 2
 
 all: build
 
-$(VENV)/.setup-done: tools/setup.sh python/requirements.txt
+$(VENV)/.setup-done: tools/setup.sh python/requirements.txt python/pyproject.toml
 	bash tools/setup.sh
 	touch $@
 
@@ -30,11 +30,16 @@ test-python: build
 lint: setup
 	$(VENV)/bin/ruff check python tests tools
 
-# The main job. For now: plan a tour over the example field with NewAlg and newalg-ls.
+# The main job, as far as it exists: fetch the satellite data into the cache, train the
+# coarse-search classifier, make standard field 0 and plan a tour over it.
 demo: build
 	@mkdir -p runs/demo
-	./$(BUILD)/mound_plan data/sites.json 120 --algo newalg --out runs/demo/plan_newalg.json
-	./$(BUILD)/mound_plan data/sites.json 120 --algo newalg-ls --out runs/demo/plan_newalg_ls.json
+	$(VENV)/bin/mound data fetch
+	$(VENV)/bin/mound classify train --out runs/demo/model.json
+	$(VENV)/bin/mound classify eval runs/demo/model.json
+	$(VENV)/bin/mound field make --seed 0 --model runs/demo/model.json --out runs/demo/sites.json
+	./$(BUILD)/mound_plan runs/demo/sites.json 120 --algo newalg --out runs/demo/plan_newalg.json
+	./$(BUILD)/mound_plan runs/demo/sites.json 120 --algo newalg-ls --out runs/demo/plan_newalg_ls.json
 	$(PY) tools/plan_summary.py runs/demo/plan_newalg.json runs/demo/plan_newalg_ls.json
 
 bench: build

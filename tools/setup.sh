@@ -35,12 +35,13 @@ if [ ! -x .venv/bin/python ]; then
   echo "setup: creating .venv with $($PYTHON --version)"
   "$PYTHON" -m venv .venv
 fi
-want=$(sha256sum python/requirements.txt | cut -d' ' -f1)
+want=$(cat python/requirements.txt python/pyproject.toml | sha256sum | cut -d' ' -f1)
 have=$(cat .venv/.requirements.sha256 2>/dev/null || true)
 if [ "$want" != "$have" ]; then
   echo "setup: installing Python packages into .venv"
   .venv/bin/python -m pip install -q --upgrade pip
   .venv/bin/python -m pip install -q -r python/requirements.txt
+  .venv/bin/python -m pip install -q --no-deps -e python/
   echo "$want" > .venv/.requirements.sha256
 else
   echo "setup: Python packages present"

@@ -24,6 +24,13 @@ def shared_data() -> Path:
     return path
 
 
+@pytest.fixture(autouse=True)
+def data_cache(shared_data: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    """Every test reads the public data sets from ../shared/data (byte-identical copies)."""
+    monkeypatch.setenv("MOUND_DATA", str(shared_data))
+    return shared_data
+
+
 @pytest.fixture(scope="session")
 def example_sites() -> Path:
     return REPO_ROOT / "data" / "sites.json"

@@ -1,0 +1,5 @@
+import sys
+
+from mound.cli import main
+
+sys.exit(main())

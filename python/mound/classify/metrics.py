@@ -1,0 +1,60 @@
+"""Evaluation of probabilistic binary predictions (labels y in {-1, +1})."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.stats import rankdata
+
+
+def accuracy(p: np.ndarray, y: np.ndarray) -> float:
+    return float(np.mean(np.where(p >= 0.5, 1.0, -1.0) == y))
+
+
+def majority_accuracy(y: np.ndarray) -> float:
+    pos = float(np.mean(y > 0))
+    return max(pos, 1.0 - pos)
+
+
+def roc_auc(p: np.ndarray, y: np.ndarray) -> float:
+    """Area under the ROC curve by the Mann-Whitney rank statistic (ties count half)."""
+    pos = y > 0
+    n_pos, n_neg = int(pos.sum()), int((~pos).sum())
+    if n_pos == 0 or n_neg == 0:
+        raise ValueError("ROC AUC needs both classes")
+    ranks = rankdata(p)
+    return float((ranks[pos].sum() - n_pos * (n_pos + 1) / 2) / (n_pos * n_neg))
+
+
+def log_loss(p: np.ndarray, y: np.ndarray, eps: float = 1e-15) -> float:
+    q = np.clip(p, eps, 1 - eps)
+    return float(-np.mean(np.where(y > 0, np.log(q), np.log(1 - q))))
+
+
+def reliability(p: np.ndarray, y: np.ndarray, bins: int = 10) -> list[dict[str, float]]:
+    """Calibration table: per equal-width bin of p, the count, mean p and observed rate."""
+    edges = np.linspace(0.0, 1.0, bins + 1)
+    idx = np.clip(np.digitize(p, edges[1:-1]), 0, bins - 1)
+    table = []
+    for b in range(bins):
+        m = idx == b
+        n = int(m.sum())
+        table.append({
+            "lo": float(edges[b]), "hi": float(edges[b + 1]), "count": n,
+            "mean_p": float(p[m].mean()) if n else float("nan"),
+            "observed": float(np.mean(y[m] > 0)) if n else float("nan"),
+        })
+    return table
+
+
+def expected_calibration_error(p: np.ndarray, y: np.ndarray, bins: int = 10) -> float:
+    n = len(p)
+    return float(sum(r["count"] / n * abs(r["mean_p"] - r["observed"])
+                     for r in reliability(p, y, bins) if r["count"]))
+
+
+def summary(p: np.ndarray, y: np.ndarray) -> dict[str, float]:
+    return {
+        "accuracy": accuracy(p, y), "majority_accuracy": majority_accuracy(y),
+        "auc": roc_auc(p, y), "log_loss": log_loss(p, y),
+        "ece": expected_calibration_error(p, y),
+    }

@@ -1,0 +1,185 @@
+"""The `mound` command line: one entry point, subcommands per stage.
+
+    mound data fetch [--url URL]
+    mound classify bands
+    mound classify train [--band B | --all] [--solver gd|lbfgs] [--l2 X] --out MODEL.json
+    mound classify eval MODEL.json [--json OUT.json]
+    mound field make --seed S [--model MODEL.json] [--scan-cost M] [--budget M] --out SITES.json
+    mound field standard [--model MODEL.json] --out-dir DIR
+
+Exit codes: 0 ok, 2 bad input or usage (one line on stderr), 1 internal error.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from mound import coarse, datasets, statlog
+from mound.field import STANDARD_SEEDS, make_field, sites_document
+from mound.jsonio import InputError, read_json, write_json
+from mound.model import SCHEMA as MODEL_SCHEMA
+from mound.model import VERSION as MODEL_VERSION
+from mound.model import Model
+
+
+class UsageError(InputError):
+    pass
+
+
+class Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> None:  # argparse exits 2 already; keep one line
+        raise UsageError(f"{self.prog}: {message}")
+
+
+def load_model(path: str | None) -> Model:
+    if path is None:
+        return coarse.train(statlog.load("sat.trn"), coarse.DEFAULT_BAND)
+    return Model.from_doc(read_json(path, MODEL_SCHEMA, MODEL_VERSION), path)
+
+
+def cmd_fetch(args: argparse.Namespace) -> int:
+    where = datasets.fetch(datasets.STATLOG, url=args.url)
+    print(f"statlog: {', '.join(datasets.STATLOG.files)} in {where} (sha256 checked)")
+    return 0
+
+
+def cmd_bands(args: argparse.Namespace) -> int:
+    rows = coarse.select_band(statlog.load("sat.trn"), seed=args.seed)
+    print("held-out evaluation on sat.trn (75/25 stratified split, L-BFGS):")
+    print(f"{'features':<18} {'AUC':>7} {'accuracy':>9} {'log-loss':>9}")
+    for r in rows:
+        label = r["name"] if r["band"] is None else f"band {r['band']} {r['name']}"
+        print(f"{label:<18} {r['auc']:>7.4f} {r['accuracy']:>9.4f} {r['log_loss']:>9.4f}")
+    best = max((r for r in rows if r["band"] is not None), key=lambda r: r["auc"])
+    print(f"best single band: {best['band']} ({best['name']})")
+    return 0
+
+
+def cmd_train(args: argparse.Namespace) -> int:
+    band = None if args.all else args.band
+    model = coarse.train(statlog.load("sat.trn"), band, solver=args.solver, l2=args.l2)
+    write_json(args.out, model.to_doc())
+    i = model.info
+    print(f"trained {'all 36 features' if band is None else f'band {band}'} with {args.solver}: "
+          f"{i['iterations']} iterations, {i['train_seconds']:.3f} s, loss {i['loss']:.5f}, "
+          f"|grad| {i['grad_norm']:.2e} -> {args.out}")
+    return 0
+
+
+def print_eval(s: dict[str, Any]) -> None:
+    print(f"sat.tst ({s['rows']} rows): accuracy {s['accuracy']:.4f} "
+          f"(majority baseline {s['majority_accuracy']:.4f}), AUC {s['auc']:.4f}, "
+          f"log-loss {s['log_loss']:.4f}, ECE {s['ece']:.4f}")
+    print("reliability:   p range   count  mean p  observed")
+    for r in s["reliability"]:
+        if r["count"]:
+            print(f"             {r['lo']:.1f}-{r['hi']:.1f} {r['count']:>7} "
+                  f"{r['mean_p']:>7.3f} {r['observed']:>9.3f}")
+
+
+def cmd_eval(args: argparse.Namespace) -> int:
+    s = coarse.evaluate(load_model(args.model), statlog.load("sat.tst"))
+    print_eval(s)
+    if args.json:
+        write_json(args.json, {"schema": "mound.classifier_eval", "version": 1, **{
+            k: v for k, v in s.items() if k != "reliability"},
+            "reliability": [r for r in s["reliability"] if r["count"]]})
+    return 0
+
+
+def cmd_field_make(args: argparse.Namespace) -> int:
+    test = statlog.load("sat.tst")
+    model = load_model(args.model)
+    doc = sites_document(make_field(test, args.seed), test, model, args.scan_cost, args.budget)
+    write_json(args.out, doc)
+    prov = doc["provenance"]
+    print(f"field seed {args.seed}: 100 sites, {prov['positives']} positives, "
+          f"total reward {prov['total_reward']:.2f} bits -> {args.out}")
+    return 0
+
+
+def cmd_field_standard(args: argparse.Namespace) -> int:
+    test = statlog.load("sat.tst")
+    model = load_model(args.model)
+    out = Path(args.out_dir)
+    totals = []
+    for seed in STANDARD_SEEDS:
+        doc = sites_document(make_field(test, seed), test, model, args.scan_cost, args.budget)
+        write_json(out / f"field_{seed}.json", doc)
+        totals.append(doc["provenance"]["total_reward"])
+        print(f"field {seed}: {doc['provenance']['positives']} positives, "
+              f"total reward {totals[-1]:.2f}")
+    print(f"average total reward of the ten standard fields: {np.mean(totals):.2f} "
+          f"(paper: 61.37)")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = Parser(prog="mound", description="mound-survey command line")
+    sub = p.add_subparsers(dest="group", required=True, parser_class=Parser)
+
+    data = sub.add_parser("data", help="public data sets").add_subparsers(
+        dest="cmd", required=True, parser_class=Parser)
+    f = data.add_parser("fetch", help="download Statlog into the cache ($MOUND_DATA)")
+    f.add_argument("--url", help="archive URL (default: UCI)")
+    f.set_defaults(func=cmd_fetch)
+
+    cls = sub.add_parser("classify", help="coarse-search classifier").add_subparsers(
+        dest="cmd", required=True, parser_class=Parser)
+    b = cls.add_parser("bands", help="held-out comparison of the bands on sat.trn")
+    b.add_argument("--seed", type=int, default=0)
+    b.set_defaults(func=cmd_bands)
+    t = cls.add_parser("train", help="train on sat.trn")
+    g = t.add_mutually_exclusive_group()
+    g.add_argument("--band", type=int, choices=range(4), default=coarse.DEFAULT_BAND)
+    g.add_argument("--all", action="store_true", help="all 36 features")
+    t.add_argument("--solver", choices=("gd", "lbfgs"), default="gd")
+    t.add_argument("--l2", type=float, default=coarse.DEFAULT_L2)
+    t.add_argument("--out", required=True)
+    t.set_defaults(func=cmd_train)
+    e = cls.add_parser("eval", help="evaluate on sat.tst")
+    e.add_argument("model")
+    e.add_argument("--json", help="also write the figures as JSON")
+    e.set_defaults(func=cmd_eval)
+
+    fld = sub.add_parser("field", help="fields of candidate sites").add_subparsers(
+        dest="cmd", required=True, parser_class=Parser)
+    for name, func in (("make", cmd_field_make), ("standard", cmd_field_standard)):
+        m = fld.add_parser(name, help="one field" if name == "make" else "seeds 0-9")
+        if name == "make":
+            m.add_argument("--seed", type=int, required=True)
+            m.add_argument("--out", required=True)
+        else:
+            m.add_argument("--out-dir", required=True)
+        m.add_argument("--model", help="classifier JSON (default: train the default band)")
+        m.add_argument("--scan-cost", type=float, default=1.0, help="node cost per site, m")
+        m.add_argument("--budget", type=float, default=120.0, help="budget_m written, m")
+        m.set_defaults(func=func)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    try:
+        args = build_parser().parse_args(argv)
+        if getattr(args, "scan_cost", 0.0) < 0 or getattr(args, "budget", 0.0) < 0:
+            raise UsageError("--scan-cost and --budget must be >= 0")
+        start = time.perf_counter()
+        code: int = args.func(args)
+        print(f"({time.perf_counter() - start:.2f} s)", file=sys.stderr)
+        return code
+    except InputError as e:
+        print(f"mound: {e}", file=sys.stderr)
+        return 2
+    except Exception as e:
+        print(f"mound: internal error (a bug, please report): {e!r}", file=sys.stderr)
+        return 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,59 @@
+"""Training, band selection and evaluation of the coarse-search classifier."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from mound.classify import logistic, metrics
+from mound.classify.features import BAND_NAMES, Standardizer, band_columns
+from mound.model import Model
+from mound.statlog import Split
+
+DEFAULT_L2 = 1e-4
+DEFAULT_BAND = 1  # red: best held-out AUC on sat.trn (`mound classify bands`, README)
+
+
+def train(data: Split, band: int | None, solver: str = "gd", l2: float = DEFAULT_L2,
+          tol: float = 1e-6, max_iter: int = 200_000) -> Model:
+    """Fits on `data`; `max_iter` < convergence gives an early-stopped (less confident) model."""
+    x = data.x[:, band_columns(band)]
+    scaler = Standardizer.fit(x)
+    fit = logistic.fit(scaler.design(x), data.y, solver=solver, l2=l2, tol=tol,
+                       max_iter=max_iter)
+    info = {"iterations": fit.iterations, "converged": fit.converged, "loss": fit.loss,
+            "grad_norm": fit.grad_norm, "train_seconds": fit.seconds, "rows": len(data.y)}
+    return Model(band=band, scaler=scaler, w=fit.w, l2=l2, solver=solver, info=info)
+
+
+def evaluate(model: Model, data: Split) -> dict[str, Any]:
+    p = model.predict(data.x)
+    out: dict[str, Any] = metrics.summary(p, data.y)
+    out["reliability"] = metrics.reliability(p, data.y)
+    out["rows"] = len(data.y)
+    return out
+
+
+def holdout_split(data: Split, fraction: float, seed: int) -> tuple[Split, Split]:
+    """Stratified random split of `data` (per class) into (train, held-out)."""
+    rng = np.random.default_rng(seed)
+    held = np.zeros(len(data.cls), dtype=bool)
+    for c in np.unique(data.cls):
+        idx = np.flatnonzero(data.cls == c)
+        rng.shuffle(idx)
+        held[idx[: round(fraction * len(idx))]] = True
+    return (Split(data.x[~held], data.cls[~held]), Split(data.x[held], data.cls[held]))
+
+
+def select_band(train_data: Split, fraction: float = 0.25, seed: int = 0,
+                l2: float = DEFAULT_L2) -> list[dict[str, Any]]:
+    """Held-out evaluation of each band (and all 36 features) on sat.trn only."""
+    fit_part, held = holdout_split(train_data, fraction, seed)
+    rows = []
+    for band in (0, 1, 2, 3, None):
+        m = train(fit_part, band, solver="lbfgs", l2=l2)
+        s = evaluate(m, held)
+        rows.append({"band": band, "name": "all 36" if band is None else BAND_NAMES[band],
+                     "auc": s["auc"], "accuracy": s["accuracy"], "log_loss": s["log_loss"]})
+    return rows

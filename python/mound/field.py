@@ -1,0 +1,73 @@
+"""Fields of candidate sites, as in the paper's experiment.
+
+A 10 x 10 grid of sites at x, y = 1..10 m (east, north); every site holds a negative
+test example of sat.tst (not cotton), then 3 to 5 positions are replaced by positive
+examples (cotton, standing in for a mound). The classifier gives each site p_mound; its
+binary entropy is the reward. A seed makes each realisation repeatable; seeds 0..9 are
+the standard set. The truth travels in each site's "truth" field, which the planner
+ignores.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from mound.model import Model
+from mound.reward import binary_entropy_bits
+from mound.statlog import COTTON, Split
+
+GRID = 10
+STANDARD_SEEDS = tuple(range(10))
+ORIGIN = {"lat": 38.5705, "lon": 27.9862, "alt_m": 95.0}  # Bin Tepe, for flying
+
+
+@dataclass
+class Field:
+    seed: int
+    rows: np.ndarray      # (100,) sat.tst row of each site, grid order (x fastest)
+    positive: np.ndarray  # (100,) bool: the site holds a positive example
+
+
+def make_field(test: Split, seed: int, positives: tuple[int, int] = (3, 5)) -> Field:
+    rng = np.random.default_rng(seed)
+    neg = np.flatnonzero(test.cls != COTTON)
+    pos = np.flatnonzero(test.cls == COTTON)
+    n = GRID * GRID
+    rows = rng.choice(neg, size=n, replace=False)
+    k = int(rng.integers(positives[0], positives[1] + 1))
+    where = rng.choice(n, size=k, replace=False)
+    rows[where] = rng.choice(pos, size=k, replace=False)
+    positive = np.zeros(n, dtype=bool)
+    positive[where] = True
+    return Field(seed=seed, rows=rows, positive=positive)
+
+
+def sites_document(field: Field, test: Split, model: Model, scan_cost_m: float,
+                   budget_m: float, home_xy: tuple[float, float] = (0.0, 0.0)
+                   ) -> dict[str, Any]:
+    """The field as a mound.sites v1 document for mound_plan."""
+    p = model.predict(test.x[field.rows])
+    rewards = binary_entropy_bits(p)
+    sites = []
+    for k in range(GRID * GRID):
+        i, j = k % GRID, k // GRID
+        sites.append({
+            "id": f"s{k + 1:03d}", "x_m": float(i + 1), "y_m": float(j + 1),
+            "reward": float(rewards[k]), "scan_cost_m": scan_cost_m, "p_mound": float(p[k]),
+            "truth": {"mound": bool(field.positive[k]), "statlog_row": int(field.rows[k]),
+                      "class": int(test.cls[field.rows[k]])},
+        })
+    return {
+        "schema": "mound.sites", "version": 1, "origin": ORIGIN,
+        "home": {"id": "home", "x_m": home_xy[0], "y_m": home_xy[1]},
+        "end": {"id": "home"},
+        "budget_m": budget_m,
+        "sites": sites,
+        "provenance": {"tool": "mound field make", "seed": field.seed,
+                       "classifier": {"band": model.band, "solver": model.solver, "l2": model.l2},
+                       "total_reward": float(rewards.sum()),
+                       "positives": int(field.positive.sum())},
+    }

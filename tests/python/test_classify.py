@@ -1,0 +1,95 @@
+"""The coarse-search classifier on the real Statlog data."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from mound import coarse, statlog
+from mound.classify import logistic, metrics
+from mound.classify.features import Standardizer, band_columns
+from mound.jsonio import InputError
+from mound.model import Model
+
+
+@pytest.fixture(scope="module")
+def trn(shared_data) -> statlog.Split:
+    return statlog.load_file(shared_data / "statlog" / "sat.trn")
+
+
+@pytest.fixture(scope="module")
+def tst(shared_data) -> statlog.Split:
+    return statlog.load_file(shared_data / "statlog" / "sat.tst")
+
+
+@pytest.mark.parametrize("l2", [0.0, 0.1])
+def test_gradient_matches_finite_differences(l2: float) -> None:
+    rng = np.random.default_rng(0)
+    x = np.hstack([rng.normal(size=(50, 4)), np.ones((50, 1))])
+    y = np.where(rng.random(50) < 0.4, 1.0, -1.0)
+    w = rng.normal(size=5)
+    _, grad = logistic.loss_and_grad(w, x, y, l2)
+    h = 1e-6
+    fd = np.array([
+        (logistic.loss_and_grad(w + h * e, x, y, l2)[0]
+         - logistic.loss_and_grad(w - h * e, x, y, l2)[0]) / (2 * h)
+        for e in np.eye(5)
+    ])
+    np.testing.assert_allclose(grad, fd, rtol=1e-6, atol=1e-9)
+
+
+def test_gradient_descent_and_lbfgs_reach_the_same_weights(trn: statlog.Split) -> None:
+    x = trn.x[:, band_columns(coarse.DEFAULT_BAND)]
+    design = Standardizer.fit(x).design(x)
+    gd = logistic.fit_gd(design, trn.y, l2=coarse.DEFAULT_L2, tol=1e-6)
+    lb = logistic.fit_lbfgs(design, trn.y, l2=coarse.DEFAULT_L2, tol=1e-6)
+    # Both stop near |grad| = 1e-6 (L-BFGS's line search gives up just above it).
+    assert gd.converged and lb.grad_norm < 2e-6
+    # Stated tolerance: weights (of order 1) agree to 3e-3, the loss to 1e-8.
+    assert np.abs(gd.w).max() > 0.5
+    np.testing.assert_allclose(gd.w, lb.w, atol=3e-3)
+    assert gd.loss == pytest.approx(lb.loss, abs=1e-8)
+    # Every gradient step decreases the loss (step 1/L): the GD loss is at the optimum.
+    assert gd.loss <= logistic.loss_and_grad(np.zeros_like(gd.w), design, trn.y,
+                                             coarse.DEFAULT_L2)[0]
+
+
+@pytest.mark.parametrize("band", [0, 1, 2, 3, None])
+def test_classifier_beats_majority_baseline_on_test_set(
+    trn: statlog.Split, tst: statlog.Split, band: int | None
+) -> None:
+    model = coarse.train(trn, band, solver="lbfgs")
+    s = coarse.evaluate(model, tst)
+    assert s["majority_accuracy"] == pytest.approx(1 - 224 / 2000)
+    assert s["accuracy"] > s["majority_accuracy"]
+    assert s["auc"] > 0.75
+    assert sum(r["count"] for r in s["reliability"]) == 2000
+
+
+def test_band_selection_uses_only_the_training_file(trn: statlog.Split) -> None:
+    rows = coarse.select_band(trn)
+    assert [r["band"] for r in rows] == [0, 1, 2, 3, None]
+    best = max((r for r in rows if r["band"] is not None), key=lambda r: r["auc"])
+    assert best["band"] == coarse.DEFAULT_BAND  # the documented choice is what the data say
+
+
+def test_auc_and_log_loss_against_hand_computed_values() -> None:
+    p = np.array([0.1, 0.4, 0.35, 0.8])
+    y = np.array([-1.0, -1.0, 1.0, 1.0])
+    assert metrics.roc_auc(p, y) == pytest.approx(0.75)  # 3 of 4 pairs ordered
+    assert metrics.log_loss(np.array([0.5, 0.5]), np.array([1.0, -1.0])) == pytest.approx(
+        np.log(2))
+    assert metrics.accuracy(p, y) == pytest.approx(0.75)
+
+
+def test_model_json_round_trip_and_validation(trn: statlog.Split, tst: statlog.Split) -> None:
+    model = coarse.train(trn, 1, solver="lbfgs")
+    back = Model.from_doc(model.to_doc(), "m.json")
+    np.testing.assert_array_equal(back.predict(tst.x), model.predict(tst.x))
+    doc = model.to_doc()
+    doc["weights"] = doc["weights"][:-1]
+    with pytest.raises(InputError, match="weights"):
+        Model.from_doc(doc, "m.json")
+    doc = model.to_doc()
+    del doc["mean"]
+    with pytest.raises(InputError, match="mean"):
+        Model.from_doc(doc, "m.json")
