@@ -4,6 +4,13 @@ BUILD  ?= build
 VENV   ?= .venv
 PY     := $(VENV)/bin/python
 JOBS   ?= 2
+# Data cache: developers and CI have byte-identical copies of the public data sets in
+# ../shared/data; elsewhere `mound data fetch` downloads them into ~/.cache/mound-survey.
+ifeq ($(origin MOUND_DATA),undefined)
+  ifneq ($(wildcard ../shared/data/statlog/sat.trn),)
+    export MOUND_DATA := $(abspath ../shared/data)
+  endif
+endif
 
 .PHONY: all build setup test test-cpp test-python lint demo bench clean
 
