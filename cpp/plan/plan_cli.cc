@@ -9,6 +9,7 @@
 
 #include "common/atomic_file.h"
 #include "common/error.h"
+#include "plan/baselines.h"
 #include "plan/exact_small.h"
 #include "plan/newalg.h"
 #include "plan/sites_io.h"
@@ -29,7 +30,9 @@ constexpr const char* kUsage =
     "to the end node) collecting the most reward within the budget (metres).\n"
     "  BUDGET             overrides budget_m of SITES.json\n"
     "  --algo NAME        newalg (default, the paper's algorithm), newalg-ls (NewAlg plus an\n"
-    "                     iterated local search), exact (<= 16 sites, dynamic programme)\n"
+    "                     iterated local search), greedy (BenAlg), tsiligirides (1984),\n"
+    "                     glv (Golden-Levy-Vohra 1987), exact (<= 16 sites, dynamic programme)\n"
+    "  --routes N         tsiligirides: routes built (default 3000, as in the original)\n"
     "  --seed N           random seed (default 1); equal seeds give equal plans\n"
     "  --iterations N     newalg-ls iterations (default 300)\n"
     "  --out FILE         write the plan there (atomically) instead of stdout\n"
@@ -130,15 +133,19 @@ int RunTsp(const std::vector<std::string>& args, std::ostream& out) {
 }
 
 int RunPlan(const std::vector<std::string>& args, std::ostream& out) {
-  const Args a = ParseArgs(args, 0, {"--algo", "--seed", "--out", "--iterations", "--time-limit"});
+  const Args a = ParseArgs(args, 0, {"--algo", "--seed", "--out", "--iterations", "--time-limit",
+                                     "--routes"});
   if (a.positional.empty() || a.positional.size() > 2) {
     throw InputError("usage: mound_plan SITES.json [BUDGET] [options] (see --help)");
   }
   std::optional<double> budget;
   if (a.positional.size() == 2) budget = ParseNumber(a.positional[1], "BUDGET");
   const std::string algo = a.options.count("--algo") ? a.options.at("--algo") : "newalg";
-  if (algo != "newalg" && algo != "newalg-ls" && algo != "exact") {
-    throw InputError("--algo: unknown algorithm '" + algo + "' (newalg, newalg-ls, exact)");
+  const std::vector<std::string> algos = {"newalg", "newalg-ls", "greedy", "tsiligirides",
+                                          "glv", "exact"};
+  if (std::find(algos.begin(), algos.end(), algo) == algos.end()) {
+    throw InputError("--algo: unknown algorithm '" + algo +
+                     "' (newalg, newalg-ls, greedy, tsiligirides, glv, exact)");
   }
   NewAlgOptions opt;
   if (a.options.count("--seed")) opt.seed = ParseInt(a.options.at("--seed"), "--seed", 0, 1LL << 62);
@@ -146,6 +153,10 @@ int RunPlan(const std::vector<std::string>& args, std::ostream& out) {
     opt.ls_iterations = ParseInt(a.options.at("--iterations"), "--iterations", 0, 1 << 30);
   if (a.options.count("--time-limit"))
     opt.ls_time_limit_s = ParseNumber(a.options.at("--time-limit"), "--time-limit");
+  BaselineOptions bopt;
+  bopt.seed = opt.seed;
+  if (a.options.count("--routes"))
+    bopt.tsiligirides_routes = ParseInt(a.options.at("--routes"), "--routes", 1, 1 << 30);
 
   const SitesFile sites = ReadSites(a.positional[0], budget);
   const OpInstance& inst = sites.instance;
@@ -154,9 +165,12 @@ int RunPlan(const std::vector<std::string>& args, std::ostream& out) {
                      std::to_string(inst.Size() - inst.FirstSite()));
   }
   const auto t0 = std::chrono::steady_clock::now();
-  PlanResult r = algo == "newalg"      ? SolveNewAlg(inst, opt)
-                 : algo == "newalg-ls" ? SolveNewAlgLs(inst, opt)
-                                       : SolveExactSmall(inst);
+  PlanResult r = algo == "newalg"         ? SolveNewAlg(inst, opt)
+                 : algo == "newalg-ls"    ? SolveNewAlgLs(inst, opt)
+                 : algo == "greedy"       ? SolveGreedy(inst)
+                 : algo == "tsiligirides" ? SolveTsiligirides(inst, bopt)
+                 : algo == "glv"          ? SolveGlv(inst, bopt)
+                                          : SolveExactSmall(inst);
   const double elapsed =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const std::string defect = inst.CheckRoute(r.route);
