@@ -205,7 +205,13 @@ PlanResult SolveNewAlgLs(const OpInstance& inst, const NewAlgOptions& opt) {
   res.stats["name"] = "newalg-ls";
   std::mt19937_64 rng(opt.seed ^ 0xA5A5A5A5ULL);
   int rounds = res.stats["rounds"].get<int>(), accepted = 0, iterations = 0;
+  int rewarded = 0;
+  for (int v = inst.FirstSite(); v < inst.Size(); ++v) rewarded += inst.nodes[v].reward > 0;
   for (int it = 0; it < opt.ls_iterations; ++it) {
+    // Nothing left to gain once every site with a reward is on the route.
+    int on_route = 0;
+    for (int v : res.route) on_route += inst.IsSite(v) && inst.nodes[v].reward > 0;
+    if (on_route == rewarded) break;
     if (opt.ls_time_limit_s > 0 &&
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() >
             opt.ls_time_limit_s) {

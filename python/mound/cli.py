@@ -120,6 +120,27 @@ def cmd_field_standard(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_table1(args: argparse.Namespace) -> int:
+    from mound import table1
+
+    out = Path(args.out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    all_rows = []
+    for c in args.scan_cost:
+        rows, meta = table1.run(scan_cost=c, exact_time_limit_s=args.exact_time_limit,
+                                workdir=out / "fields")
+        all_rows += rows
+        print(f"node (scan) cost {c:g} m; total reward per field "
+              f"{meta['total_reward_per_field']:.2f} "
+              f"(paper {table1.PAPER['total_reward_per_field']})")
+        print(table1.format_table(rows))
+        if c == args.scan_cost[0]:
+            table1.plot(rows, meta, out)
+    table1.write_csv(all_rows, out / "table1.csv")
+    print(f"-> {out / 'table1.csv'}, {out / 'reward_vs_budget.png'}, {out / 'field0_tours.png'}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = Parser(prog="mound", description="mound-survey command line")
     sub = p.add_subparsers(dest="group", required=True, parser_class=Parser)
@@ -161,13 +182,23 @@ def build_parser() -> argparse.ArgumentParser:
         m.add_argument("--scan-cost", type=float, default=1.0, help="node cost per site, m")
         m.add_argument("--budget", type=float, default=120.0, help="budget_m written, m")
         m.set_defaults(func=func)
+    bench = sub.add_parser("bench", help="benchmarks and reproductions").add_subparsers(
+        dest="cmd", required=True, parser_class=Parser)
+    t1 = bench.add_parser("table1", help="the paper's Table I on the ten standard fields")
+    t1.add_argument("--scan-cost", type=float, nargs="+", default=[1.0],
+                    help="node cost(s) per site in m; the first is plotted")
+    t1.add_argument("--exact-time-limit", type=float, default=0.0,
+                    help="seconds per field for the exact optimum (0: skip)")
+    t1.add_argument("--out-dir", default="runs/table1")
+    t1.set_defaults(func=cmd_table1)
     return p
 
 
 def main(argv: list[str] | None = None) -> int:
     try:
         args = build_parser().parse_args(argv)
-        if getattr(args, "scan_cost", 0.0) < 0 or getattr(args, "budget", 0.0) < 0:
+        scan = getattr(args, "scan_cost", 0.0)
+        if min(scan if isinstance(scan, list) else [scan]) < 0 or getattr(args, "budget", 0) < 0:
             raise UsageError("--scan-cost and --budget must be >= 0")
         start = time.perf_counter()
         code: int = args.func(args)

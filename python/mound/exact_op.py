@@ -1,0 +1,251 @@
+"""Exact orienteering by integer programming (HiGHS), subtour cuts added lazily.
+
+Undirected model on nodes 0..n-1 (0 = home, 1 = end of a path):
+  max  sum_i r_i y_i
+  s.t. sum_{e in delta(i)} x_e = 2 y_i   for every site i; 2 at home of a closed tour
+       (a path: degree 1 at home and at the end node)
+       sum_e c_e x_e <= B
+       x(delta(S)) >= 2 y_k   for every S with home not in S and k in S  (GSEC; for a path
+                         whose end node is in S the right side is 2 y_k - 1)
+  x_e in {0, 1} (edges at home of a closed tour in {0, 1, 2}: a tour to one site), y binary.
+The GSECs are added lazily. First the LP relaxation is cut until no GSEC is violated:
+components of the support graph, then for every visited site k a maximum flow from home to
+k (scipy) whose minimum cut S gives x(delta(S)) >= 2 y_k when violated. Then the integer
+programme is solved (warm-started from a heuristic route if one is given), the connected
+components of its solution give further cuts, and it is solved again until the solution is
+one route. HiGHS's dual bound of every relaxed problem is a valid upper bound; on a time
+limit the best bound and the best feasible route seen are returned instead of a proof.
+"""
+
+from __future__ import annotations
+
+import itertools
+import time
+from dataclasses import dataclass, field
+
+import highspy
+import numpy as np
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import breadth_first_order, maximum_flow
+
+from mound.sites import OpProblem
+
+
+@dataclass
+class ExactResult:
+    status: str              # "optimal" or "time_limit"
+    reward: float            # of the route returned (feasible)
+    bound: float             # upper bound on the optimum
+    route: list[int]
+    cost: float
+    cuts: int
+    rounds: int
+    seconds: float
+    gap: float = field(default=0.0)
+
+
+def _components(n: int, edges: list[tuple[int, int]]) -> list[list[int]]:
+    parent = list(range(n))
+
+    def find(a: int) -> int:
+        while parent[a] != a:
+            parent[a] = parent[parent[a]]
+            a = parent[a]
+        return a
+
+    for a, b in edges:
+        parent[find(a)] = find(b)
+    groups: dict[int, list[int]] = {}
+    for v in {v for e in edges for v in e}:
+        groups.setdefault(find(v), []).append(v)
+    return list(groups.values())
+
+
+def _route_of(n: int, edges: list[tuple[int, int]], closed: bool, end: int) -> list[int]:
+    """Walks the used edges from home (to the end node of a path)."""
+    adj: dict[int, list[int]] = {}
+    for a, b in edges:
+        adj.setdefault(a, []).append(b)
+        adj.setdefault(b, []).append(a)
+    if not adj.get(0):
+        return [0, end]
+    route, prev, cur = [0], -1, 0
+    while True:
+        nxt = [v for v in adj[cur] if v != prev]
+        if not nxt or (closed and nxt[0] == 0):
+            break
+        prev, cur = cur, nxt[0]
+        route.append(cur)
+        if cur == end and not closed:
+            break
+        if len(route) > n + 1:
+            break
+    if closed:
+        route.append(0)
+    return route
+
+
+def _min_cut_sets(n: int, edges: list[tuple[int, int]], x: np.ndarray, y: np.ndarray,
+                  closed: bool, tol: float = 1e-6) -> list[tuple[frozenset[int], int]]:
+    """Violated GSECs of a fractional point: (S, k) with x(delta(S)) < 2 y_k - tol.
+
+    A path is a cycle with a virtual end->home edge of value 1; it is in the flow graph.
+    """
+    scale = 1_000_000
+    rows, cols, caps = ([0, 1], [1, 0], [scale, scale]) if not closed else ([], [], [])
+    for k, (a, b) in enumerate(edges):
+        cap = round(x[k] * scale)
+        if cap > 0:
+            rows += [a, b]
+            cols += [b, a]
+            caps += [cap, cap]
+    graph = csr_matrix((np.array(caps, dtype=np.int32), (rows, cols)), shape=(n, n))
+    found: list[tuple[frozenset[int], int]] = []
+    for k in range(1, n):
+        if y[k] <= tol:
+            continue
+        flow = maximum_flow(graph, 0, k)
+        if flow.flow_value >= 2 * y[k] * scale - tol * scale:
+            continue
+        residual = (graph - flow.flow).tocsr()
+        residual.data = np.where(residual.data > 0, residual.data, 0)
+        residual.eliminate_zeros()
+        source_side = set(breadth_first_order(residual, 0, directed=True,
+                                              return_predecessors=False).tolist())
+        found.append((frozenset(set(range(n)) - source_side), k))
+    return found
+
+
+def solve(p: OpProblem, time_limit_s: float = 60.0, mip_gap: float = 1e-9,
+          start_route: list[int] | None = None) -> ExactResult:
+    start = time.perf_counter()
+    n = len(p.ids)
+    c = p.cost_matrix()
+    edges = list(itertools.combinations(range(n), 2))
+    ne = len(edges)
+    h = highspy.Highs()
+    h.setOptionValue("output_flag", False)
+    h.setOptionValue("mip_rel_gap", mip_gap)
+    inf = highspy.kHighsInf
+    # Columns: x_e (ne), then y_i (n). Maximise reward.
+    lower = np.zeros(ne + n)
+    upper = np.ones(ne + n)
+    if p.closed:
+        for k, (a, _b) in enumerate(edges):
+            if a == 0:
+                upper[k] = 2.0
+    fixed = [0] if p.closed else [0, 1]
+    for v in fixed:
+        lower[ne + v] = 1.0
+    obj = np.concatenate([np.zeros(ne), p.reward])
+    h.addVars(ne + n, lower, upper)
+    h.changeColsCost(ne + n, np.arange(ne + n, dtype=np.int32), obj)
+    h.changeColsIntegrality(ne + n, np.arange(ne + n, dtype=np.int32),
+                            np.array([highspy.HighsVarType.kInteger] * (ne + n)))
+    h.changeObjectiveSense(highspy.ObjSense.kMaximize)
+    incident: list[list[int]] = [[] for _ in range(n)]
+    for k, (a, b) in enumerate(edges):
+        incident[a].append(k)
+        incident[b].append(k)
+
+    def add_row(lo: float, hi: float, idx: list[int], val: list[float]) -> None:
+        h.addRow(lo, hi, len(idx), np.array(idx, dtype=np.int32), np.array(val, dtype=float))
+
+    for i in range(n):
+        if i in fixed:
+            deg = 2.0 if p.closed else 1.0
+            add_row(deg, deg, incident[i], [1.0] * len(incident[i]))
+        else:
+            add_row(0.0, 0.0, [*incident[i], ne + i], [1.0] * len(incident[i]) + [-2.0])
+    add_row(-inf, p.budget + 1e-9 * (1 + p.budget), list(range(ne)),
+            [float(c[a, b]) for a, b in edges])
+
+    cuts = rounds = 0
+    all_cols = np.arange(ne + n, dtype=np.int32)
+
+    def add_gsec(s: frozenset[int], v: int) -> None:
+        # x(delta(S)) >= 2 y_v; for a path whose end node is in S the virtual end->home
+        # edge crosses the cut, so the real edges need only 2 y_v - 1.
+        delta = [k for k, (a, b) in enumerate(edges) if (a in s) != (b in s)]
+        lo = -1.0 if (not p.closed and 1 in s) else 0.0
+        add_row(lo, inf, [*delta, ne + v], [1.0] * len(delta) + [-2.0])
+
+    # LP phase: cut the relaxation until no GSEC is violated.
+    h.changeColsIntegrality(ne + n, all_cols,
+                            np.array([highspy.HighsVarType.kContinuous] * (ne + n)))
+    seen_cuts: set[tuple[frozenset[int], int]] = set()
+    while time.perf_counter() - start < time_limit_s / 2:
+        h.setOptionValue("time_limit", max(1e-3, time_limit_s / 2))
+        h.run()
+        sol = np.asarray(h.getSolution().col_value)
+        if sol.size == 0:
+            break
+        new = [cut for cut in _min_cut_sets(n, edges, sol[:ne], sol[ne:], p.closed)
+               if cut not in seen_cuts]
+        if not new:
+            break
+        for s_set, v in new:
+            add_gsec(s_set, v)
+            seen_cuts.add((s_set, v))
+            cuts += 1
+    h.changeColsIntegrality(ne + n, all_cols,
+                            np.array([highspy.HighsVarType.kInteger] * (ne + n)))
+
+    best_route: list[int] = [0, p.end]
+    if start_route is not None and p.route_cost(start_route) <= p.budget + 1e-9:
+        best_route = list(start_route)
+        warm = np.zeros(ne + n)
+        index = {e: k for k, e in enumerate(edges)}
+        for a, b in itertools.pairwise(start_route):
+            warm[index[(min(a, b), max(a, b))]] += 1
+        for v in set(start_route):
+            warm[ne + v] = 1
+        hs = highspy.HighsSolution()
+        hs.col_value = warm.tolist()
+        h.setSolution(hs)
+
+    bound = float("inf")
+    route: list[int] = [0, p.end]
+    status = "optimal"
+    while True:
+        rounds += 1
+        remaining = time_limit_s - (time.perf_counter() - start)
+        if remaining <= 0:
+            status = "time_limit"
+            break
+        h.setOptionValue("time_limit", remaining)
+        h.run()
+        info = h.getInfo()
+        model_status = h.getModelStatus()
+        bound = min(bound, float(info.mip_dual_bound))
+        if model_status != highspy.HighsModelStatus.kOptimal:
+            status = "time_limit"
+        x = np.asarray(h.getSolution().col_value)
+        if x.size == 0:
+            break
+        used = [edges[k] for k in range(ne) for _ in range(round(x[k]))]
+        comps = _components(n, used)
+        home_comp = next((comp for comp in comps if 0 in comp), [0])
+        route = _route_of(n, [e for e in used if e[0] in home_comp], p.closed, p.end)
+        if status != "optimal":
+            break
+        outside = [comp for comp in comps if 0 not in comp]
+        if not outside:
+            break
+        for comp in outside:
+            s_set = frozenset(comp)
+            for v in comp:
+                add_gsec(s_set, v)
+                cuts += 1
+    def reward_of(r: list[int]) -> float:
+        return float(sum(p.reward[v] for v in set(r)))
+
+    if status != "optimal" and reward_of(best_route) > reward_of(route):
+        route = best_route  # the warm start beats the home component of the last solution
+    reward = reward_of(route)
+    if status == "optimal":
+        bound = reward
+    return ExactResult(status=status, reward=reward, bound=bound, route=route,
+                       cost=p.route_cost(route), cuts=cuts, rounds=rounds,
+                       seconds=time.perf_counter() - start,
+                       gap=(bound - reward) / bound if bound > 0 else 0.0)

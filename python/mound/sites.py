@@ -1,0 +1,58 @@
+"""mound.sites documents as arrays: node 0 is home, node 1 the end node of a path."""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from mound.jsonio import read_json
+
+
+@dataclass
+class OpProblem:
+    ids: list[str]
+    xy: np.ndarray         # (n, 2) metres
+    reward: np.ndarray     # (n,), 0 at home and end
+    scan: np.ndarray       # (n,), 0 at home and end
+    budget: float
+    closed: bool           # closed tour (end == home) or path home -> node 1
+
+    @property
+    def end(self) -> int:
+        return 0 if self.closed else 1
+
+    def cost_matrix(self) -> np.ndarray:
+        """Expanded costs c_ij = d_ij + (s_i + s_j) / 2 (INTERFACES.md)."""
+        d = np.linalg.norm(self.xy[:, None, :] - self.xy[None, :, :], axis=2)
+        return d + 0.5 * (self.scan[:, None] + self.scan[None, :])
+
+    def route_cost(self, route: list[int]) -> float:
+        c = self.cost_matrix()
+        return float(sum(c[a, b] for a, b in itertools.pairwise(route)))
+
+
+def from_document(doc: dict[str, Any], budget: float | None = None) -> OpProblem:
+    home = doc["home"]
+    end = doc.get("end") or {"id": home["id"]}
+    closed = end["id"] == home["id"]
+    nodes = [(home["id"], home["x_m"], home["y_m"], 0.0, 0.0)]
+    if not closed:
+        nodes.append((end["id"], end["x_m"], end["y_m"], 0.0, 0.0))
+    nodes += [(s["id"], s["x_m"], s["y_m"], s["reward"], s.get("scan_cost_m", 0.0))
+              for s in doc["sites"]]
+    return OpProblem(
+        ids=[n[0] for n in nodes],
+        xy=np.array([[n[1], n[2]] for n in nodes], dtype=float),
+        reward=np.array([n[3] for n in nodes], dtype=float),
+        scan=np.array([n[4] for n in nodes], dtype=float),
+        budget=float(doc["budget_m"] if budget is None else budget),
+        closed=closed,
+    )
+
+
+def load(path: str | Path, budget: float | None = None) -> OpProblem:
+    return from_document(read_json(path, "mound.sites", 1), budget)

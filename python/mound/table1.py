@@ -1,0 +1,176 @@
+"""Reproduction of the paper's Table I: the planners on the ten standard fields.
+
+For every budget and algorithm: average reward, missed-detection rate eps_MD and
+false-alarm rate eps_FA (a visited site is labelled correctly; an unvisited one keeps the
+classifier's label, mound iff p >= 0.5), average planner time and average budget left,
+over the fields of seeds 0..9. Optionally the exact optimum (HiGHS) with a time limit.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from mound import coarse, exact_op, native, sites, statlog
+from mound.field import STANDARD_SEEDS, make_field, sites_document
+from mound.jsonio import write_atomic
+
+BUDGETS = (40.0, 80.0, 120.0, 160.0, 200.0)
+ALGOS = ("newalg", "greedy", "tsiligirides", "glv", "newalg-ls")
+# The paper's figures quoted in the issues (the rest of its Table I is not available here).
+PAPER = {"total_reward_per_field": 61.37, "newalg_seconds": (5.0, 16.0)}
+
+
+@dataclass
+class Row:
+    scan_cost: float
+    budget: float
+    algo: str
+    reward: float
+    eps_md: float
+    eps_fa: float
+    seconds: float
+    budget_left: float
+    fields: int
+    proven: int = 0      # exact only: fields proven optimal
+    bound: float = 0.0   # exact only: mean upper bound
+
+
+def error_rates(doc: dict[str, Any], visited: set[str]) -> tuple[float, float]:
+    truth = np.array([s["truth"]["mound"] for s in doc["sites"]])
+    label = np.array([s["id"] in visited and s["truth"]["mound"] or
+                      (s["id"] not in visited and s["p_mound"] >= 0.5)
+                      for s in doc["sites"]])
+    md = float(np.mean(~label[truth])) if truth.any() else 0.0
+    fa = float(np.mean(label[~truth])) if (~truth).any() else 0.0
+    return md, fa
+
+
+def run(scan_cost: float = 1.0, budgets: tuple[float, ...] = BUDGETS,
+        algos: tuple[str, ...] = ALGOS, exact_time_limit_s: float = 0.0,
+        workdir: Path | None = None) -> tuple[list[Row], dict[str, Any]]:
+    test = statlog.load("sat.tst")
+    model = coarse.train(statlog.load("sat.trn"), coarse.DEFAULT_BAND)
+    docs = [sites_document(make_field(test, s), test, model, scan_cost, budgets[0])
+            for s in STANDARD_SEEDS]
+    tmp = Path(workdir or tempfile.mkdtemp(prefix="table1."))
+    tmp.mkdir(parents=True, exist_ok=True)
+    paths = []
+    for seed, doc in zip(STANDARD_SEEDS, docs, strict=True):
+        path = tmp / f"field_{seed}_c{scan_cost:g}.json"
+        path.write_text(json.dumps(doc))
+        paths.append(path)
+    rows: list[Row] = []
+    tours: dict[str, Any] = {}
+    for budget in budgets:
+        plans_by_algo: dict[str, list[dict[str, Any]]] = {}
+        for algo in algos:
+            plans = [native.run_json("mound_plan", [str(p), f"{budget:g}", "--algo", algo])
+                     for p in paths]
+            plans_by_algo[algo] = plans
+            rates = [error_rates(d, set(pl["tour"])) for d, pl in zip(docs, plans, strict=True)]
+            rows.append(Row(scan_cost, budget, algo,
+                            float(np.mean([pl["reward"] for pl in plans])),
+                            float(np.mean([r[0] for r in rates])),
+                            float(np.mean([r[1] for r in rates])),
+                            float(np.mean([pl["elapsed_s"] for pl in plans])),
+                            float(np.mean([pl["budget_left_m"] for pl in plans])), len(plans)))
+            tours[f"{algo}@{budget:g}"] = plans[0]["tour"]
+        if exact_time_limit_s > 0:
+            results = []
+            for path, start in zip(paths, plans_by_algo.get("newalg-ls", [None] * len(paths)),
+                                   strict=True):
+                prob = sites.load(path, budget)
+                index = {sid: i for i, sid in enumerate(prob.ids)}
+                warm = [index[t] for t in start["tour"]] if start else None
+                results.append((exact_op.solve(prob, exact_time_limit_s, start_route=warm),
+                                prob))
+            rates = [error_rates(d, {pr.ids[v] for v in r.route})
+                     for d, (r, pr) in zip(docs, results, strict=True)]
+            rows.append(Row(scan_cost, budget, "exact",
+                            float(np.mean([r.reward for r, _ in results])),
+                            float(np.mean([x[0] for x in rates])),
+                            float(np.mean([x[1] for x in rates])),
+                            float(np.mean([r.seconds for r, _ in results])),
+                            float(np.mean([budget - r.cost for r, _ in results])), len(results),
+                            proven=sum(r.status == "optimal" for r, _ in results),
+                            bound=float(np.mean([r.bound for r, _ in results]))))
+    meta = {"total_reward_per_field": float(np.mean([d["provenance"]["total_reward"]
+                                                     for d in docs])),
+            "field0": docs[0], "tours_field0": tours}
+    return rows, meta
+
+
+def format_table(rows: list[Row]) -> str:
+    out = [f"{'c':>4} {'B':>5} {'algorithm':<13} {'reward':>8} {'eps_MD':>7} {'eps_FA':>7} "
+           f"{'time ms':>9} {'left m':>7}  note"]
+    for r in rows:
+        note = f"proven {r.proven}/{r.fields}, bound {r.bound:.3f}" if r.algo == "exact" else ""
+        out.append(f"{r.scan_cost:>4g} {r.budget:>5g} {r.algo:<13} {r.reward:>8.3f} "
+                   f"{r.eps_md:>7.3f} {r.eps_fa:>7.4f} {1000 * r.seconds:>9.2f} "
+                   f"{r.budget_left:>7.2f}  {note}")
+    return "\n".join(out)
+
+
+def write_csv(rows: list[Row], path: Path) -> None:
+    lines = []
+    fields = list(Row.__dataclass_fields__)
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp_path = Path(tmp) / "t.csv"
+        with open(tmp_path, "w", newline="") as f:
+            w = csv.writer(f)
+            w.writerow(fields)
+            for r in rows:
+                w.writerow([getattr(r, k) for k in fields])
+        lines = tmp_path.read_text()
+    write_atomic(path, lines)
+
+
+def plot(rows: list[Row], meta: dict[str, Any], out_dir: Path, budget: float = 120.0) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6, 4))
+    for algo in dict.fromkeys(r.algo for r in rows):
+        pts = [(r.budget, r.reward) for r in rows if r.algo == algo]
+        ax.plot(*zip(*pts, strict=True), marker="o", label=algo)
+    ax.set_xlabel("budget B (m)")
+    ax.set_ylabel("average reward (bits)")
+    ax.set_title("Ten standard fields")
+    ax.legend()
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(out_dir / "reward_vs_budget.png", dpi=120)
+    plt.close(fig)
+
+    doc = meta["field0"]
+    pos = {s["id"]: (s["x_m"], s["y_m"]) for s in doc["sites"]}
+    pos[doc["home"]["id"]] = (doc["home"]["x_m"], doc["home"]["y_m"])
+    algos = [a for a in dict.fromkeys(r.algo for r in rows) if f"{a}@{budget:g}" in
+             meta["tours_field0"]]
+    fig, axes = plt.subplots(1, len(algos), figsize=(3.2 * len(algos), 3.4))
+    reward = np.array([s["reward"] for s in doc["sites"]])
+    for ax, algo in zip(np.atleast_1d(axes), algos, strict=True):
+        ax.scatter([s["x_m"] for s in doc["sites"]], [s["y_m"] for s in doc["sites"]],
+                   s=10 + 60 * reward, c=reward, cmap="viridis", vmin=0, vmax=1)
+        mounds = [s for s in doc["sites"] if s["truth"]["mound"]]
+        ax.scatter([s["x_m"] for s in mounds], [s["y_m"] for s in mounds], marker="x",
+                   c="red", s=40)
+        tour = meta["tours_field0"][f"{algo}@{budget:g}"]
+        ax.plot([pos[t][0] for t in tour], [pos[t][1] for t in tour], c="k", lw=0.8)
+        ax.set_title(f"{algo}", fontsize=9)
+        ax.set_aspect("equal")
+        ax.set_xticks([])
+        ax.set_yticks([])
+    fig.suptitle(f"Field 0, B = {budget:g} m (size/colour: reward; x: true mound)", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(out_dir / "field0_tours.png", dpi=120)
+    plt.close(fig)
