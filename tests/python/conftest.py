@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+
 from mound.paths import REPO_ROOT, build_dir, shared_data_dir
 
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+
 from mound import coarse, statlog
 from mound.classify import logistic, metrics
 from mound.classify.features import Standardizer, band_columns

@@ -9,6 +9,7 @@ import math
 from pathlib import Path
 
 import pytest
+
 from mound import native
 
 

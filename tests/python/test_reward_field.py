@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
 from mound import coarse, statlog
 from mound.cli import main as mound_main
 from mound.field import GRID, STANDARD_SEEDS, make_field, sites_document

@@ -10,6 +10,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+
 from mound import datasets, statlog
 from mound.jsonio import InputError
 
