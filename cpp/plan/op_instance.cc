@@ -6,6 +6,7 @@
 namespace mound::plan {
 
 double OpInstance::Dist(int i, int j) const {
+  if (!dist_matrix.empty()) return dist_matrix[static_cast<size_t>(i) * nodes.size() + j];
   // sqrt rather than std::hypot: coordinates are metres (no overflow risk) and hypot is
   // several times slower on this hot path of the planner.
   const double dx = nodes[i].x_m - nodes[j].x_m, dy = nodes[i].y_m - nodes[j].y_m;

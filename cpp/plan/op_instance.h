@@ -25,6 +25,9 @@ class OpInstance {
   std::vector<OpNode> nodes;
   int end = 0;          // index of the end node; 0 (== home) for a closed tour
   double budget_m = 0;
+  // Optional n*n distances replacing the planar ones (TSPLIB metrics of OPLib files:
+  // rounded, ATT, GEO, explicit). Empty: Euclidean from x_m, y_m.
+  std::vector<double> dist_matrix;
 
   static constexpr int kHome = 0;
   bool Closed() const { return end == kHome; }

@@ -25,6 +25,7 @@ constexpr const char* kUsage =
     "usage: mound_plan SITES.json [BUDGET] [--algo NAME] [--seed N] [--out PLAN.json]\n"
     "       mound_plan tsp FILE.tsp [--seed N] [--runs N] [--trials N] [--time-limit S]\n"
     "                  [--out FILE.json]\n"
+    "       mound_plan op FILE.oplib [--algo NAME] [--seed N] [--out FILE.json]\n"
     "\n"
     "Plans a UAV tour over candidate sites (orienteering): from the home node back home (or\n"
     "to the end node) collecting the most reward within the budget (metres).\n"
@@ -37,7 +38,9 @@ constexpr const char* kUsage =
     "  --iterations N     newalg-ls iterations (default 300)\n"
     "  --out FILE         write the plan there (atomically) instead of stdout\n"
     "The tsp command solves a TSPLIB instance with the built-in Lin-Kernighan-Helsgaun\n"
-    "engine and prints {\"length\", \"tour\" (1-based ids), ...}.\n"
+    "engine and prints {\"length\", \"tour\" (1-based ids), ...}. The op command solves an\n"
+    "OPLib instance (TSPLIB metric, closed tour at the depot, COST_LIMIT) and prints\n"
+    "{\"reward\", \"cost\", \"tour\" (1-based ids), ...}.\n"
     "Exit codes: 0 ok, 2 bad input or usage, 1 internal error.\n";
 
 // Parses "--key value" options after the positional arguments.
@@ -132,6 +135,90 @@ int RunTsp(const std::vector<std::string>& args, std::ostream& out) {
   return kExitOk;
 }
 
+const std::vector<std::string> kAlgos = {"newalg", "newalg-ls", "greedy", "tsiligirides",
+                                         "glv", "exact"};
+
+struct AlgoOptions {
+  NewAlgOptions newalg;
+  BaselineOptions baseline;
+};
+
+AlgoOptions ParseAlgoOptions(const Args& a) {
+  AlgoOptions o;
+  if (a.options.count("--seed"))
+    o.newalg.seed = ParseInt(a.options.at("--seed"), "--seed", 0, 1LL << 62);
+  if (a.options.count("--iterations"))
+    o.newalg.ls_iterations = ParseInt(a.options.at("--iterations"), "--iterations", 0, 1 << 30);
+  if (a.options.count("--time-limit"))
+    o.newalg.ls_time_limit_s = ParseNumber(a.options.at("--time-limit"), "--time-limit");
+  o.baseline.seed = o.newalg.seed;
+  if (a.options.count("--routes"))
+    o.baseline.tsiligirides_routes = ParseInt(a.options.at("--routes"), "--routes", 1, 1 << 30);
+  return o;
+}
+
+std::string ParseAlgo(const Args& a) {
+  const std::string algo = a.options.count("--algo") ? a.options.at("--algo") : "newalg";
+  if (std::find(kAlgos.begin(), kAlgos.end(), algo) == kAlgos.end()) {
+    throw InputError("--algo: unknown algorithm '" + algo +
+                     "' (newalg, newalg-ls, greedy, tsiligirides, glv, exact)");
+  }
+  return algo;
+}
+
+PlanResult Solve(const std::string& algo, const OpInstance& inst, const AlgoOptions& o) {
+  if (algo == "exact" && inst.Size() - inst.FirstSite() > kMaxExactSites) {
+    throw InputError("--algo exact: at most " + std::to_string(kMaxExactSites) + " sites, got " +
+                     std::to_string(inst.Size() - inst.FirstSite()));
+  }
+  PlanResult r = algo == "newalg"         ? SolveNewAlg(inst, o.newalg)
+                 : algo == "newalg-ls"    ? SolveNewAlgLs(inst, o.newalg)
+                 : algo == "greedy"       ? SolveGreedy(inst)
+                 : algo == "tsiligirides" ? SolveTsiligirides(inst, o.baseline)
+                 : algo == "glv"          ? SolveGlv(inst, o.baseline)
+                                          : SolveExactSmall(inst);
+  const std::string defect = inst.CheckRoute(r.route);
+  if (!defect.empty()) throw std::logic_error("planner produced an invalid route: " + defect);
+  return r;
+}
+
+int RunOp(const std::vector<std::string>& args, std::ostream& out) {
+  const Args a = ParseArgs(args, 1, {"--algo", "--seed", "--out", "--iterations", "--time-limit",
+                                     "--routes"});
+  if (a.positional.size() != 1) throw InputError("op: expected exactly one FILE.oplib");
+  const std::string& path = a.positional[0];
+  const std::string algo = ParseAlgo(a);
+  const AlgoOptions o = ParseAlgoOptions(a);
+  const tsp::TsplibInstance t = tsp::ReadTsplib(path);
+  if (t.type != "OP" || t.scores.empty() || t.cost_limit < 0) {
+    throw InputError(path + ": not an OP instance (TYPE: OP, COST_LIMIT, NODE_SCORE_SECTION)");
+  }
+  if (algo == "glv") throw InputError("--algo glv: needs planar coordinates, not " + path);
+  // Node order: the depot (home) first, then the others in file order.
+  std::vector<int> order{t.depot};
+  for (int v = 0; v < t.dimension; ++v)
+    if (v != t.depot) order.push_back(v);
+  OpInstance inst;
+  for (int v : order) inst.nodes.push_back({std::to_string(v + 1), 0, 0, v == t.depot ? 0 : t.scores[v], 0});
+  inst.budget_m = t.cost_limit;
+  const size_t n = order.size();
+  inst.dist_matrix.resize(n * n);
+  for (size_t i = 0; i < n; ++i)
+    for (size_t j = 0; j < n; ++j)
+      inst.dist_matrix[i * n + j] = static_cast<double>(t.problem->Dist(order[i], order[j]));
+  const auto t0 = std::chrono::steady_clock::now();
+  const PlanResult r = Solve(algo, inst, o);
+  const double elapsed =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  nlohmann::json tour = nlohmann::json::array();
+  for (int v : r.route) tour.push_back(order[v] + 1);
+  Emit({{"schema", "mound.op_result"}, {"version", 1}, {"name", t.name}, {"n", t.dimension},
+        {"algo", algo}, {"cost_limit", t.cost_limit}, {"reward", r.reward}, {"cost", r.cost},
+        {"tour", tour}, {"elapsed_s", elapsed}, {"solver", r.stats}},
+       a.options, out);
+  return kExitOk;
+}
+
 int RunPlan(const std::vector<std::string>& args, std::ostream& out) {
   const Args a = ParseArgs(args, 0, {"--algo", "--seed", "--out", "--iterations", "--time-limit",
                                      "--routes"});
@@ -140,42 +227,14 @@ int RunPlan(const std::vector<std::string>& args, std::ostream& out) {
   }
   std::optional<double> budget;
   if (a.positional.size() == 2) budget = ParseNumber(a.positional[1], "BUDGET");
-  const std::string algo = a.options.count("--algo") ? a.options.at("--algo") : "newalg";
-  const std::vector<std::string> algos = {"newalg", "newalg-ls", "greedy", "tsiligirides",
-                                          "glv", "exact"};
-  if (std::find(algos.begin(), algos.end(), algo) == algos.end()) {
-    throw InputError("--algo: unknown algorithm '" + algo +
-                     "' (newalg, newalg-ls, greedy, tsiligirides, glv, exact)");
-  }
-  NewAlgOptions opt;
-  if (a.options.count("--seed")) opt.seed = ParseInt(a.options.at("--seed"), "--seed", 0, 1LL << 62);
-  if (a.options.count("--iterations"))
-    opt.ls_iterations = ParseInt(a.options.at("--iterations"), "--iterations", 0, 1 << 30);
-  if (a.options.count("--time-limit"))
-    opt.ls_time_limit_s = ParseNumber(a.options.at("--time-limit"), "--time-limit");
-  BaselineOptions bopt;
-  bopt.seed = opt.seed;
-  if (a.options.count("--routes"))
-    bopt.tsiligirides_routes = ParseInt(a.options.at("--routes"), "--routes", 1, 1 << 30);
-
+  const std::string algo = ParseAlgo(a);
+  const AlgoOptions o = ParseAlgoOptions(a);
   const SitesFile sites = ReadSites(a.positional[0], budget);
-  const OpInstance& inst = sites.instance;
-  if (algo == "exact" && inst.Size() - inst.FirstSite() > kMaxExactSites) {
-    throw InputError("--algo exact: at most " + std::to_string(kMaxExactSites) + " sites, got " +
-                     std::to_string(inst.Size() - inst.FirstSite()));
-  }
   const auto t0 = std::chrono::steady_clock::now();
-  PlanResult r = algo == "newalg"         ? SolveNewAlg(inst, opt)
-                 : algo == "newalg-ls"    ? SolveNewAlgLs(inst, opt)
-                 : algo == "greedy"       ? SolveGreedy(inst)
-                 : algo == "tsiligirides" ? SolveTsiligirides(inst, bopt)
-                 : algo == "glv"          ? SolveGlv(inst, bopt)
-                                          : SolveExactSmall(inst);
+  const PlanResult r = Solve(algo, sites.instance, o);
   const double elapsed =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  const std::string defect = inst.CheckRoute(r.route);
-  if (!defect.empty()) throw std::logic_error("planner produced an invalid route: " + defect);
-  PlanSummary summary{algo, r.route, elapsed, opt.seed, r.stats};
+  PlanSummary summary{algo, r.route, elapsed, o.newalg.seed, r.stats};
   Emit(PlanToJson(sites, summary), a.options, out);
   return kExitOk;
 }
@@ -194,6 +253,7 @@ int RunMoundPlan(const std::vector<std::string>& args, std::ostream& out, std::o
       return kExitOk;
     }
     if (args[0] == "tsp") return RunTsp(args, out);
+    if (args[0] == "op") return RunOp(args, out);
     return RunPlan(args, out);
   } catch (const InputError& e) {
     err << "mound_plan: " << e.what() << "\n";

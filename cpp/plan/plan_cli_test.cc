@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "common/atomic_file.h"
+#include "tsp/tsplib.h"
 
 namespace mound::plan {
 namespace {
@@ -156,6 +157,30 @@ TEST(PlanCliTest, TspCommandPrintsLengthAndOneBasedTour) {
   std::sort(ids.begin(), ids.end());
   for (int i = 0; i < 51; ++i) EXPECT_EQ(ids[i], i + 1);
   EXPECT_EQ(Call({"tsp", "/nonexistent.tsp"}).code, 2);
+}
+
+TEST(PlanCliTest, OpCommandSolvesOplibWithinTheCostLimit) {
+  const std::string file =
+      std::string(MOUND_SHARED_DATA) + "/oplib/instances/gen1/gr48-gen1-50.oplib";
+  const CliRun r = Call({"op", file, "--algo", "newalg"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  const auto inst = tsp::ReadTsplib(file);
+  const std::vector<int> tour = j["tour"].get<std::vector<int>>();
+  ASSERT_GE(tour.size(), 2u);
+  EXPECT_EQ(tour.front(), 1);  // the depot
+  EXPECT_EQ(tour.back(), 1);
+  double cost = 0, reward = 0;
+  for (size_t i = 0; i + 1 < tour.size(); ++i) {
+    cost += static_cast<double>(inst.problem->Dist(tour[i] - 1, tour[i + 1] - 1));
+    if (i > 0) reward += inst.scores[tour[i] - 1];
+  }
+  EXPECT_LE(cost, inst.cost_limit);
+  EXPECT_DOUBLE_EQ(j["cost"].get<double>(), cost);
+  EXPECT_DOUBLE_EQ(j["reward"].get<double>(), reward);
+  EXPECT_GT(reward, 0);
+  EXPECT_EQ(Call({"op", file, "--algo", "glv"}).code, 2);  // needs planar coordinates
+  EXPECT_EQ(Call({"op", std::string(MOUND_SHARED_DATA) + "/tsplib/eil51.tsp"}).code, 2);
 }
 
 }  // namespace
