@@ -8,45 +8,17 @@
 #include <set>
 
 #include "plan/exact_small.h"
+#include "plan/testing.h"
 
 namespace mound::plan {
 namespace {
 
 OpInstance RandomInstance(int sites, bool closed, double budget, unsigned seed) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> u(0, 10), rw(0, 1), sc(0, 1);
-  OpInstance inst;
-  inst.nodes.push_back({"home", u(rng), u(rng), 0, 0});
-  if (!closed) {
-    inst.nodes.push_back({"end", u(rng), u(rng), 0, 0});
-    inst.end = 1;
-  }
-  for (int i = 0; i < sites; ++i) inst.nodes.push_back({"s" + std::to_string(i), u(rng), u(rng), rw(rng), sc(rng)});
-  inst.budget_m = std::max(budget, closed ? 0.0 : inst.Cost(0, 1) + 1.0);
-  return inst;
+  return testing::RandomInstance(sites, closed, budget, seed, /*random_home=*/true);
 }
 
-// Feasibility recomputed from coordinates, not through OpInstance::Cost.
 void ExpectFeasible(const OpInstance& inst, const PlanResult& r, const char* what) {
-  ASSERT_GE(r.route.size(), 2u) << what;
-  EXPECT_EQ(r.route.front(), 0) << what;
-  EXPECT_EQ(r.route.back(), inst.end) << what;
-  std::set<int> seen;
-  double cost = 0;
-  for (size_t i = 0; i + 1 < r.route.size(); ++i) {
-    const OpNode& a = inst.nodes[r.route[i]];
-    const OpNode& b = inst.nodes[r.route[i + 1]];
-    const double sa = inst.IsSite(r.route[i]) ? a.scan_cost_m : 0.0;
-    const double sb = inst.IsSite(r.route[i + 1]) ? b.scan_cost_m : 0.0;
-    cost += std::sqrt((a.x_m - b.x_m) * (a.x_m - b.x_m) + (a.y_m - b.y_m) * (a.y_m - b.y_m)) +
-            (sa + sb) / 2;
-    if (i > 0) {
-      EXPECT_TRUE(inst.IsSite(r.route[i])) << what;
-      EXPECT_TRUE(seen.insert(r.route[i]).second) << what << ": repeated site";
-    }
-  }
-  EXPECT_LE(cost, inst.budget_m + 1e-9) << what;
-  EXPECT_NEAR(r.cost, cost, 1e-9) << what;
+  testing::ExpectValidRoute(inst, r, what);
 }
 
 TEST(BaselinesTest, FeasibleAndNeverAboveTheOptimum) {

@@ -10,57 +10,16 @@
 #include <set>
 
 #include "plan/exact_small.h"
+#include "plan/testing.h"
 
 namespace mound::plan {
 namespace {
 
-OpInstance RandomInstance(int sites, bool closed, double budget, unsigned seed) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> u(0, 10), rw(0, 1), sc(0, 1);
-  OpInstance inst;
-  inst.nodes.push_back({"home", 0.0, 0.0, 0, 0});
-  if (!closed) {
-    inst.nodes.push_back({"end", u(rng), u(rng), 0, 0});
-    inst.end = 1;
-  }
-  for (int i = 0; i < sites; ++i) {
-    inst.nodes.push_back({"s" + std::to_string(i), u(rng), u(rng), rw(rng), sc(rng)});
-  }
-  // Keep the instance valid: the direct home->end trip must fit (the reader rejects it).
-  inst.budget_m = std::max(budget, closed ? 0.0 : inst.Cost(0, 1) + 1.0);
-  return inst;
-}
-
-// Independent of OpInstance::Cost: the formula of INTERFACES.md written out again.
-double IndependentCost(const OpInstance& inst, const std::vector<int>& route) {
-  double c = 0;
-  for (size_t i = 0; i + 1 < route.size(); ++i) {
-    const OpNode& a = inst.nodes[route[i]];
-    const OpNode& b = inst.nodes[route[i + 1]];
-    const double sa = (route[i] == 0 || route[i] == inst.end) ? 0 : a.scan_cost_m;
-    const double sb = (route[i + 1] == 0 || route[i + 1] == inst.end) ? 0 : b.scan_cost_m;
-    c += std::sqrt((a.x_m - b.x_m) * (a.x_m - b.x_m) + (a.y_m - b.y_m) * (a.y_m - b.y_m)) +
-         (sa + sb) / 2;
-  }
-  return c;
-}
+using testing::IndependentCost;
+using testing::RandomInstance;
 
 void ExpectValid(const OpInstance& inst, const PlanResult& r) {
-  ASSERT_GE(r.route.size(), 2u);
-  EXPECT_EQ(r.route.front(), 0);
-  EXPECT_EQ(r.route.back(), inst.end);
-  std::set<int> seen;
-  double reward = 0;
-  for (size_t i = 1; i + 1 < r.route.size(); ++i) {
-    const int v = r.route[i];
-    ASSERT_GE(v, inst.FirstSite());
-    ASSERT_LT(v, inst.Size());
-    EXPECT_TRUE(seen.insert(v).second) << "site twice: " << v;
-    reward += inst.nodes[v].reward;
-  }
-  EXPECT_LE(IndependentCost(inst, r.route), inst.budget_m + 1e-9);
-  EXPECT_NEAR(r.cost, IndependentCost(inst, r.route), 1e-9);
-  EXPECT_NEAR(r.reward, reward, 1e-9);
+  testing::ExpectValidRoute(inst, r, "route");
 }
 
 // Reference optimum by plain enumeration of every ordered selection (<= 7 sites).
