@@ -157,8 +157,9 @@ TsplibInstance ParseTsplib(const std::string& text, const std::string& source) {
       NumberReader r(lines, i, source);
       for (int k = 0; k < 3 * inst.dimension; ++k) r.Next("display data");
       i = r.line();
-    } else if (key == "COMMENT" || key == "DISPLAY_DATA_TYPE" || key == "NODE_COORD_TYPE") {
-      continue;
+    } else if (key == "COMMENT" || key == "DISPLAY_DATA_TYPE" || key == "NODE_COORD_TYPE" ||
+               key == "TSPSOL" || key == "TSP_SOLUTION" || key == "CAPACITY") {
+      continue;  // informational (TSPSOL/TSP_SOLUTION: a TSP length noted in OPLib files)
     } else {
       throw InputError(source + ":" + std::to_string(lineno) + ": unknown keyword '" + key + "'");
     }
