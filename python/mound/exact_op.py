@@ -174,12 +174,14 @@ def solve(p: OpProblem, time_limit_s: float = 60.0, mip_gap: float = 1e-9,
     h.changeColsIntegrality(ne + n, all_cols,
                             np.array([highspy.HighsVarType.kContinuous] * (ne + n)))
     seen_cuts: set[tuple[frozenset[int], int]] = set()
+    lp_bound = float("inf")  # the cut LP's optimum: an upper bound on the integer optimum
     while time.perf_counter() - start < time_limit_s / 2:
-        h.setOptionValue("time_limit", max(1e-3, time_limit_s / 2))
+        h.setOptionValue("time_limit", max(1e-3, time_limit_s / 2 - (time.perf_counter() - start)))
         h.run()
         sol = np.asarray(h.getSolution().col_value)
-        if sol.size == 0:
+        if sol.size == 0 or h.getModelStatus() != highspy.HighsModelStatus.kOptimal:
             break
+        lp_bound = min(lp_bound, float(h.getInfo().objective_function_value))
         new = [cut for cut in _min_cut_sets(n, edges, sol[:ne], sol[ne:], p.closed)
                if cut not in seen_cuts]
         if not new:
@@ -204,7 +206,7 @@ def solve(p: OpProblem, time_limit_s: float = 60.0, mip_gap: float = 1e-9,
         hs.col_value = warm.tolist()
         h.setSolution(hs)
 
-    bound = float("inf")
+    bound = lp_bound
     route: list[int] = [0, p.end]
     status = "optimal"
     while True:
@@ -217,7 +219,8 @@ def solve(p: OpProblem, time_limit_s: float = 60.0, mip_gap: float = 1e-9,
         h.run()
         info = h.getInfo()
         model_status = h.getModelStatus()
-        bound = min(bound, float(info.mip_dual_bound))
+        if np.isfinite(info.mip_dual_bound):
+            bound = min(bound, float(info.mip_dual_bound))
         if model_status != highspy.HighsModelStatus.kOptimal:
             status = "time_limit"
         x = np.asarray(h.getSolution().col_value)
