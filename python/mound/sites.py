@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from mound.jsonio import read_json
+from mound.jsonio import InputError, read_json
 
 
 @dataclass
@@ -36,6 +36,17 @@ class OpProblem:
 
 
 def from_document(doc: dict[str, Any], budget: float | None = None) -> OpProblem:
+    """The arrays of a mound.sites document (the C++ reader is the full validator; this
+    one reports missing or non-numeric fields as InputError)."""
+    try:
+        return _from_document(doc, budget)
+    except KeyError as e:
+        raise InputError(f"{e.args[0]}: missing required field") from None
+    except (TypeError, ValueError) as e:
+        raise InputError(f"malformed sites document ({e})") from None
+
+
+def _from_document(doc: dict[str, Any], budget: float | None) -> OpProblem:
     home = doc["home"]
     end = doc.get("end") or {"id": home["id"]}
     closed = end["id"] == home["id"]

@@ -55,3 +55,23 @@ def test_time_limit_returns_a_bound_and_a_feasible_route() -> None:
     r = exact_op.solve(p, time_limit_s=0.5)
     assert r.bound >= r.reward - 1e-9
     assert p.route_cost(r.route) <= p.budget + 1e-6
+
+
+def test_cli_writes_a_plan_with_proof_and_rejects_bad_input(tmp_path: Path, capsys) -> None:
+    from mound.cli import main as mound_main
+
+    doc = random_doc(3, 8, closed=False)
+    src = tmp_path / "s.json"
+    src.write_text(json.dumps(doc))
+    out = tmp_path / "plan.json"
+    assert mound_main(["plan", "exact", str(src), "--out", str(out)]) == 0
+    plan = json.loads(out.read_text())
+    dp = native.run_json("mound_plan", [str(src), "--algo", "exact"])
+    assert plan["schema"] == "mound.plan" and plan["solver"]["proof"] == "optimal"
+    assert plan["reward"] == pytest.approx(dp["reward"], abs=1e-6)
+    assert plan["tour"][0] == "home" and plan["tour"][-1] == "end"
+    del doc["sites"][2]["x_m"]
+    src.write_text(json.dumps(doc))
+    assert mound_main(["plan", "exact", str(src), "--out", str(tmp_path / "no.json")]) == 2
+    assert "x_m: missing" in capsys.readouterr().err
+    assert not (tmp_path / "no.json").exists()
