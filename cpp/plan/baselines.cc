@@ -16,13 +16,6 @@ void Finish(const OpInstance& inst, const char* name, PlanResult* res) {
   res->stats["name"] = name;
 }
 
-bool Better(const OpInstance& inst, const std::vector<int>& a, double cost_a,
-            const std::vector<int>& b, double cost_b) {
-  const double ra = inst.RouteReward(a), rb = inst.RouteReward(b);
-  if (ra > rb + 1e-12) return true;
-  return ra >= rb - 1e-12 && cost_a < cost_b - 1e-12;
-}
-
 // Cheapest position to insert v into route (between route[pos-1] and route[pos]).
 std::pair<double, size_t> CheapestInsertion(const OpInstance& inst, const std::vector<int>& route,
                                             int v) {
@@ -143,7 +136,7 @@ PlanResult SolveTsiligirides(const OpInstance& inst, const BaselineOptions& opt)
     }
     route.push_back(inst.end);
     const double c = inst.RouteCost(route);
-    if (Better(inst, route, c, res.route, best_cost)) {
+    if (inst.Better(route, c, res.route, best_cost)) {
       res.route = std::move(route);
       best_cost = c;
     }
@@ -208,7 +201,7 @@ PlanResult SolveGlv(const OpInstance& inst, const BaselineOptions& opt) {
       insert_in_order();
       if (moves == 0 && route.size() == before) break;
     }
-    if (Better(inst, route, cost, res.route, best_cost)) {
+    if (inst.Better(route, cost, res.route, best_cost)) {
       res.route = route;
       best_cost = cost;
     }

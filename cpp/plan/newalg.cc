@@ -170,13 +170,6 @@ void Finish(const OpInstance& inst, PlanResult* res, const RouteOpsStats& ops, i
   res->stats["inserted"] = ops.inserted;
 }
 
-bool Better(const OpInstance& inst, const std::vector<int>& a, const std::vector<int>& b) {
-  const double ra = inst.RouteReward(a), rb = inst.RouteReward(b);
-  const double eps = 1e-12 * (1.0 + std::abs(rb));
-  if (ra > rb + eps) return true;
-  return ra >= rb - eps && inst.RouteCost(a) < inst.RouteCost(b) - 1e-9;
-}
-
 // NewAlg with the caller's statistics (and LKH warm-start penalties).
 PlanResult RunNewAlg(const OpInstance& inst, const NewAlgOptions& opt, RouteOpsStats* ops) {
   PlanResult res;
@@ -245,7 +238,7 @@ PlanResult SolveNewAlgLs(const OpInstance& inst, const NewAlgOptions& opt) {
     InsertByRatio(inst, &route, &in_route, &ops, &removed);
     ImproveLoop(inst, &route, &in_route, opt.seed + 2000 + static_cast<uint64_t>(it),
                 opt.max_rounds, &ops, &rounds);
-    if (Better(inst, route, res.route)) {
+    if (inst.Better(route, inst.RouteCost(route), res.route, inst.RouteCost(res.route))) {
       res.route = std::move(route);
       ++accepted;
     }

@@ -26,6 +26,14 @@ double OpInstance::RouteReward(const std::vector<int>& route) const {
   return r;
 }
 
+bool OpInstance::Better(const std::vector<int>& a, double cost_a, const std::vector<int>& b,
+                        double cost_b) const {
+  const double ra = RouteReward(a), rb = RouteReward(b);
+  const double eps = 1e-12 * (1.0 + std::abs(rb));
+  if (ra > rb + eps) return true;
+  return ra >= rb - eps && cost_a < cost_b - 1e-9;
+}
+
 std::string OpInstance::CheckRoute(const std::vector<int>& route) const {
   if (route.size() < 2) return "route has fewer than two nodes";
   if (route.front() != kHome) return "route does not start at home";

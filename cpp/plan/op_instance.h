@@ -44,6 +44,11 @@ class OpInstance {
   double RouteReward(const std::vector<int>& route) const;
   // Empty string if `route` is a valid route within the budget, else the reason.
   std::string CheckRoute(const std::vector<int>& route) const;
+  // The planners' comparison: route a collects more reward than b, or the same reward
+  // (to a relative 1e-12) for at least 1e-9 m less cost. Costs are passed in because the
+  // callers already have them.
+  bool Better(const std::vector<int>& a, double cost_a, const std::vector<int>& b,
+              double cost_b) const;
 };
 
 // Absolute tolerance for budget comparisons: the sum of route costs is recomputed in

@@ -14,14 +14,18 @@ bool ReorderWithLkh(const OpInstance& inst, std::vector<int>* route, uint64_t se
   std::vector<int> nodes(route->begin(), route->end() - (inst.Closed() ? 1 : 0));
   const int m = static_cast<int>(nodes.size());
   if (m <= 3) return false;
+  // Each pairwise cost once; then scale so the longest edge is 1e6.
+  std::vector<double> c(static_cast<size_t>(m) * m, 0.0);
   double max_cost = 0;
   for (int a = 0; a < m; ++a)
-    for (int b = a + 1; b < m; ++b) max_cost = std::max(max_cost, inst.Cost(nodes[a], nodes[b]));
+    for (int b = a + 1; b < m; ++b) {
+      const double cab = inst.Cost(nodes[a], nodes[b]);
+      c[static_cast<size_t>(a) * m + b] = c[static_cast<size_t>(b) * m + a] = cab;
+      max_cost = std::max(max_cost, cab);
+    }
   const double scale = max_cost > 0 ? 1e6 / max_cost : 1.0;
-  std::vector<tsp::Cost> d(static_cast<size_t>(m) * m, 0);
-  for (int a = 0; a < m; ++a)
-    for (int b = 0; b < m; ++b)
-      if (a != b) d[static_cast<size_t>(a) * m + b] = std::llround(inst.Cost(nodes[a], nodes[b]) * scale);
+  std::vector<tsp::Cost> d(c.size());
+  for (size_t k = 0; k < c.size(); ++k) d[k] = std::llround(c[k] * scale);
   int end_pos = -1;
   if (!inst.Closed()) {
     end_pos = static_cast<int>(std::find(nodes.begin(), nodes.end(), inst.end) - nodes.begin());
