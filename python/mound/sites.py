@@ -67,3 +67,26 @@ def _from_document(doc: dict[str, Any], budget: float | None) -> OpProblem:
 
 def load(path: str | Path, budget: float | None = None) -> OpProblem:
     return from_document(read_json(path, "mound.sites", 1), budget)
+
+
+def from_classic_op_file(path: str | Path) -> dict[str, Any]:
+    """A classic orienteering benchmark file (Tsiligirides/Chao layout: "Tmax P", then
+    "x y score" rows, the first the start and the second the end) as a mound.sites
+    document for a start -> end path."""
+    path = Path(path)
+    rows = [ln.split() for ln in path.read_text().splitlines() if ln.strip()]
+    try:
+        budget = float(rows[0][0])
+        pts = [(float(x), float(y), float(sc)) for x, y, sc in rows[1:]]
+    except (IndexError, ValueError) as e:
+        raise InputError(f"{path}: not a classic OP file ({e})") from None
+    if len(pts) < 2:
+        raise InputError(f"{path}: needs a start and an end node")
+    return {
+        "schema": "mound.sites", "version": 1,
+        "home": {"id": "start", "x_m": pts[0][0], "y_m": pts[0][1]},
+        "end": {"id": "end", "x_m": pts[1][0], "y_m": pts[1][1]},
+        "budget_m": budget,
+        "sites": [{"id": f"n{i}", "x_m": x, "y_m": y, "reward": sc}
+                  for i, (x, y, sc) in enumerate(pts[2:], start=2)],
+    }

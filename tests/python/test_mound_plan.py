@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 
 from mound import native
+from mound.sites import from_classic_op_file
 
 
 def expanded_cost(sites: dict, tour: list[str]) -> float:
@@ -65,25 +66,6 @@ def test_out_file_is_written_and_seed_is_repeatable(example_sites: Path, tmp_pat
     assert not list(tmp_path.glob("*.tmp.*"))
 
 
-def op_instance_as_sites(path: Path) -> tuple[dict, float]:
-    """A classic OP benchmark file (start, end, then sites) as a mound.sites document."""
-    lines = [ln.split() for ln in path.read_text().splitlines() if ln.strip()]
-    tmax = float(lines[0][0])
-    pts = [(float(x), float(y), float(s)) for x, y, s in lines[1:]]
-    sites = {
-        "schema": "mound.sites",
-        "version": 1,
-        "home": {"id": "start", "x_m": pts[0][0], "y_m": pts[0][1]},
-        "end": {"id": "end", "x_m": pts[1][0], "y_m": pts[1][1]},
-        "budget_m": tmax,
-        "sites": [
-            {"id": f"n{i}", "x_m": x, "y_m": y, "reward": s}
-            for i, (x, y, s) in enumerate(pts[2:], start=2)
-        ],
-    }
-    return sites, tmax
-
-
 @pytest.mark.parametrize(
     "instance",
     [
@@ -96,7 +78,8 @@ def op_instance_as_sites(path: Path) -> tuple[dict, float]:
 def test_classic_op_paths_respect_end_node_and_proven_optimum(
     shared_data: Path, tmp_path: Path, instance: str
 ) -> None:
-    sites, tmax = op_instance_as_sites(shared_data / "op" / instance)
+    sites = from_classic_op_file(shared_data / "op" / instance)
+    tmax = sites["budget_m"]
     path = tmp_path / "sites.json"
     path.write_text(json.dumps(sites))
     with open(shared_data / "op" / "best_known.csv", newline="") as f:
@@ -170,3 +153,15 @@ def test_python_nan_and_non_json_are_rejected(tmp_path: Path, mound_plan: Path) 
     with pytest.raises(native.ToolError) as err:
         native.run_tool("mound_plan", [str(src)])
     assert err.value.code == 2 and "nan.json" in err.value.stderr
+
+
+def test_classic_op_file_errors_name_the_file(tmp_path: Path) -> None:
+    from mound.jsonio import InputError
+
+    bad = tmp_path / "bad.txt"
+    bad.write_text("15\t1\n0\t-7\tx\n")
+    with pytest.raises(InputError, match="bad.txt: not a classic OP file"):
+        from_classic_op_file(bad)
+    bad.write_text("15\t1\n0\t-7\t0\n")
+    with pytest.raises(InputError, match="start and an end"):
+        from_classic_op_file(bad)

@@ -26,21 +26,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "python"))
 
 from mound import native
 from mound.paths import shared_data_dir
+from mound.sites import from_classic_op_file
 
 SETS = ("Tsiligirides_1", "Tsiligirides_2", "Tsiligirides_3", "ChaoSet_64", "ChaoSet_66")
-
-
-def as_sites(path: Path) -> dict:
-    rows = [ln.split() for ln in path.read_text().splitlines() if ln.strip()]
-    pts = [(float(x), float(y), float(s)) for x, y, s in rows[1:]]
-    return {
-        "schema": "mound.sites", "version": 1,
-        "home": {"id": "start", "x_m": pts[0][0], "y_m": pts[0][1]},
-        "end": {"id": "end", "x_m": pts[1][0], "y_m": pts[1][1]},
-        "budget_m": float(rows[0][0]),
-        "sites": [{"id": f"n{i}", "x_m": x, "y_m": y, "reward": s}
-                  for i, (x, y, s) in enumerate(pts[2:], start=2)],
-    }
 
 
 def reference(row: dict) -> float | None:
@@ -107,7 +95,7 @@ def run_classic(algos: list[str]) -> list[dict]:
                 key = f"{set_name}/{path.name}"
                 ref = reference(known.get(key, {}))
                 site_file = Path(tmp) / "sites.json"
-                site_file.write_text(json.dumps(as_sites(path)))
+                site_file.write_text(json.dumps(from_classic_op_file(path)))
                 line = f"{key:<58} ref {ref if ref is not None else '?':>6}"
                 for algo in algos:
                     plan = native.run_json("mound_plan", [str(site_file), "--algo", algo])
