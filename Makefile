@@ -12,7 +12,7 @@ ifeq ($(origin MOUND_DATA),undefined)
   endif
 endif
 
-.PHONY: all build setup test test-cpp test-python lint demo bench clean
+.PHONY: all build setup test test-cpp test-python lint demo figures bench clean
 
 all: build
 
@@ -38,7 +38,8 @@ lint: setup
 	$(VENV)/bin/ruff check python tests tools
 
 # The main job, as far as it exists: fetch the satellite data into the cache, train the
-# coarse-search classifier, make standard field 0 and plan a tour over it.
+# coarse-search classifier, make standard field 0 and plan a tour over it; then simulate
+# the UAV images of one site with a tumulus and of its flat control.
 demo: build
 	@mkdir -p runs/demo
 	$(VENV)/bin/mound data fetch
@@ -48,10 +49,18 @@ demo: build
 	./$(BUILD)/mound_plan runs/demo/sites.json 120 --algo newalg --out runs/demo/plan_newalg.json
 	./$(BUILD)/mound_plan runs/demo/sites.json 120 --algo newalg-ls --out runs/demo/plan_newalg_ls.json
 	$(PY) tools/plan_summary.py runs/demo/plan_newalg.json runs/demo/plan_newalg_ls.json
+	$(VENV)/bin/mound sim site --mound tumulus --seed 1 --out runs/demo/site_tumulus --figures
+	$(VENV)/bin/mound sim site --mound none --seed 1 --out runs/demo/site_flat
+
+# The README's figures of the site simulator (docs/figures/).
+figures: build
+	$(VENV)/bin/mound sim site --mound tumulus --seed 1 --out runs/figures/site_tumulus
+	$(VENV)/bin/mound sim figures runs/figures/site_tumulus --out-dir docs/figures --dpi-scale 0.6
 
 bench: build
 	./$(BUILD)/tools/bench/mound_bench_plan
 	$(PY) tools/bench/bench_tsp.py
+	$(PY) tools/bench/bench_render.py
 
 clean:
 	rm -rf $(BUILD)

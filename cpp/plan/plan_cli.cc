@@ -8,6 +8,7 @@
 #include <optional>
 
 #include "common/atomic_file.h"
+#include "common/cli_args.h"
 #include "common/error.h"
 #include "plan/baselines.h"
 #include "plan/exact_small.h"
@@ -42,49 +43,6 @@ constexpr const char* kUsage =
     "OPLib instance (TSPLIB metric, closed tour at the depot, COST_LIMIT) and prints\n"
     "{\"reward\", \"cost\", \"tour\" (1-based ids), ...}.\n"
     "Exit codes: 0 ok, 2 bad input or usage, 1 internal error.\n";
-
-// Parses "--key value" options after the positional arguments.
-struct Args {
-  std::vector<std::string> positional;
-  std::map<std::string, std::string> options;
-};
-
-Args ParseArgs(const std::vector<std::string>& args, size_t begin,
-               const std::vector<std::string>& known) {
-  Args a;
-  for (size_t i = begin; i < args.size(); ++i) {
-    const std::string& s = args[i];
-    if (s.rfind("--", 0) == 0) {
-      if (std::find(known.begin(), known.end(), s) == known.end()) {
-        throw InputError(s + ": unknown option (see --help)");
-      }
-      if (i + 1 >= args.size()) throw InputError(s + ": missing value");
-      a.options[s] = args[++i];
-    } else {
-      a.positional.push_back(s);
-    }
-  }
-  return a;
-}
-
-double ParseNumber(const std::string& s, const std::string& what) {
-  char* end = nullptr;
-  const double v = std::strtod(s.c_str(), &end);
-  if (s.empty() || end != s.c_str() + s.size() || !std::isfinite(v)) {
-    throw InputError(what + ": expected a finite number, got '" + s + "'");
-  }
-  return v;
-}
-
-long long ParseInt(const std::string& s, const std::string& what, long long lo, long long hi) {
-  char* end = nullptr;
-  const long long v = std::strtoll(s.c_str(), &end, 10);
-  if (s.empty() || end != s.c_str() + s.size() || v < lo || v > hi) {
-    throw InputError(what + ": expected an integer in [" + std::to_string(lo) + ", " +
-                     std::to_string(hi) + "], got '" + s + "'");
-  }
-  return v;
-}
 
 void Emit(const nlohmann::json& j, const std::map<std::string, std::string>& options,
           std::ostream& out) {
@@ -242,26 +200,20 @@ int RunPlan(const std::vector<std::string>& args, std::ostream& out) {
 }  // namespace
 
 int RunMoundPlan(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
-  try {
+  return RunGuarded("mound_plan", err, [&]() {
     if (args.empty()) throw InputError("missing SITES.json (see --help)");
     if (args[0] == "--help" || args[0] == "-h") {
       out << kUsage;
-      return kExitOk;
+      return static_cast<int>(kExitOk);
     }
     if (args[0] == "--version") {
       out << kVersion << "\n";
-      return kExitOk;
+      return static_cast<int>(kExitOk);
     }
     if (args[0] == "tsp") return RunTsp(args, out);
     if (args[0] == "op") return RunOp(args, out);
     return RunPlan(args, out);
-  } catch (const InputError& e) {
-    err << "mound_plan: " << e.what() << "\n";
-    return kExitBadInput;
-  } catch (const std::exception& e) {
-    err << "mound_plan: internal error (a bug, please report): " << e.what() << "\n";
-    return kExitInternal;
-  }
+  });
 }
 
 }  // namespace mound::plan

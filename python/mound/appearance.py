@@ -1,11 +1,12 @@
 """Appearance of a site: albedo texture and Lambertian shading on the heightfield grid.
 
-Albedo: a soil colour modulated by fractal value noise (octaves from metres down to the
-grid spacing), grass patches from a low-frequency mask, and sparse small stones, so that
-features can be tracked at every scale. Shading: Lambertian, I = ambient + (1 - ambient) *
-max(0, n . s) with n the surface normal from the height gradient and s the unit vector
-towards the sun (azimuth clockwise from north, elevation above the horizon, radians).
-Deterministic for a seed; colours are 8-bit RGB per grid vertex.
+Albedo: a soil colour modulated by value noise at coarse scales (tens of metres), grass
+patches from a low-frequency mask, and fine detail (octaves from 40 texels down to two,
+dark tufts, scattered stones), so that features can be tracked at every scale.
+Shading: Lambertian, I = ambient + (1 - ambient) * max(0, n . s) with n the surface normal
+from the height gradient and s the unit vector towards the sun (azimuth clockwise from
+north, elevation above the horizon, radians). Deterministic for a seed; colours are 8-bit
+RGB, per grid vertex (shaded_colours) or on a finer texture grid (shaded_texture).
 """
 
 from __future__ import annotations
@@ -51,37 +52,59 @@ def _value_noise(shape: tuple[int, int], cells: int, rng: np.random.Generator) -
     fx = np.linspace(0, cells, shape[1], endpoint=False)
     i, j = fy.astype(int), fx.astype(int)
     ty, tx = fy - i, fx - j
-    ty, tx = ty * ty * (3 - 2 * ty), tx * tx * (3 - 2 * tx)
-    a = lattice[np.ix_(i, j)]
-    b = lattice[np.ix_(i, j + 1)]
-    c = lattice[np.ix_(i + 1, j)]
-    d = lattice[np.ix_(i + 1, j + 1)]
-    top = a + (b - a) * tx[None, :]
-    bottom = c + (d - c) * tx[None, :]
-    return top + (bottom - top) * ty[:, None]
+    ty = (ty * ty * (3 - 2 * ty)).astype(np.float32)[:, None]
+    tx = (tx * tx * (3 - 2 * tx)).astype(np.float32)
+    # Separable: along x on the lattice rows, then along y.
+    along_x = (lattice[:, j] * (1 - tx) + lattice[:, j + 1] * tx).astype(np.float32)
+    top = along_x[i]
+    top += (along_x[i + 1] - top) * ty
+    return top
+
+
+def _octaves(shape: tuple[int, int], size_m: float, longest_m: float, shortest_m: float,
+             decay: float, rng: np.random.Generator) -> np.ndarray:
+    """Sum of value-noise octaves (wavelength halving from `longest_m` down to
+    `shortest_m`), octave k weighted decay^k, centred on 0."""
+    out = np.zeros(shape, dtype=np.float32)
+    cells, weight = max(1, int(round(size_m / longest_m))), 1.0
+    while size_m / cells >= shortest_m and cells <= max(shape) // 2:
+        out += weight * (_value_noise(shape, cells, rng) - 0.5)
+        cells *= 2
+        weight *= decay
+    return out
+
+
+def albedo_grid(shape: tuple[int, int], texel_m: float, seed: int = 0) -> np.ndarray:
+    """(ny, nx, 3) float32 albedo in [0, 255] on a grid of `shape` with `texel_m` spacing.
+
+    Scales are in texels, so the texture suits a camera whose ground pixel is about one
+    texel at any preset (at 5 cm texels: coarse soil brightness from a quarter of the site
+    down to 4 m, grass patches; fine detail a standardised sum of octaves from 2 m down to
+    two texels (+-22 % brightness), dark tufts up to 0.6 m, scattered 2x2-texel stones),
+    so that every image window of a few pixels has texture to track."""
+    rng = np.random.default_rng(seed + 7919)
+    size_m = (max(shape) - 1) * texel_m
+    coarse = 0.5 + _octaves(shape, size_m, size_m / 4, 80 * texel_m, 0.6, rng)
+    fine = _octaves(shape, size_m, 40 * texel_m, 2 * texel_m, 0.85, rng)
+    fine /= max(float(fine.std()), 1e-6)
+    grass_mask = np.clip((_value_noise(shape, 6, rng) - 0.45) * 6, 0, 1).astype(np.float32)
+    tufts = _octaves(shape, size_m, 12 * texel_m, 2 * texel_m, 0.7, rng)
+    tufts = np.clip((tufts - 0.12) * 8, 0, 1)
+    brightness = (0.6 + 0.8 * coarse) * (1 + 0.22 * fine) * (1 - 0.35 * tufts)
+    colour = (SOIL.astype(np.float32) * (1 - grass_mask[..., None]) +
+              GRASS.astype(np.float32) * grass_mask[..., None]) * brightness[..., None]
+    seeds = rng.random(shape) < 0.003
+    stones = seeds.copy()  # 2x2 texels each
+    stones[1:, :] |= seeds[:-1, :]
+    stones[:, 1:] |= seeds[:, :-1]
+    stones[1:, 1:] |= seeds[:-1, :-1]
+    colour[stones] = STONE * rng.uniform(0.75, 1.1, size=(int(stones.sum()), 1))
+    return np.clip(colour, 0, 255)
 
 
 def albedo(hf: Heightfield, seed: int = 0) -> np.ndarray:
-    """(ny, nx, 3) float albedo in [0, 255]."""
-    rng = np.random.default_rng(seed + 7919)
-    shape = hf.z_m.shape
-    n = max(shape)
-    fractal = np.zeros(shape)
-    weight_sum = 0.0
-    cells, weight = 4, 1.0
-    while cells <= n // 2:
-        fractal += weight * _value_noise(shape, cells, rng)
-        weight_sum += weight
-        cells *= 2
-        weight *= 0.6
-    fractal /= weight_sum
-    grass_mask = np.clip((_value_noise(shape, 6, rng) - 0.45) * 6, 0, 1)
-    colour = SOIL * (0.6 + 0.8 * fractal)[..., None]
-    colour = colour * (1 - grass_mask[..., None]) + \
-        (GRASS * (0.7 + 0.6 * fractal)[..., None]) * grass_mask[..., None]
-    stones = rng.random(shape) < 0.004
-    colour[stones] = STONE * rng.uniform(0.8, 1.1, size=(int(stones.sum()), 1))
-    return np.clip(colour, 0, 255)
+    """(ny, nx, 3) float albedo in [0, 255] per heightfield vertex."""
+    return albedo_grid(hf.z_m.shape, float(hf.x_m[1] - hf.x_m[0]), seed)
 
 
 def normals(hf: Heightfield) -> np.ndarray:
@@ -96,3 +119,34 @@ def shaded_colours(hf: Heightfield, lighting: Lighting, seed: int = 0) -> np.nda
     s = lighting.sun_vector()
     intensity = lighting.ambient + (1 - lighting.ambient) * np.clip(normals(hf) @ s, 0, None)
     return np.clip(albedo(hf, seed) * intensity[..., None], 0, 255).astype(np.uint8)
+
+
+def shaded_texture(hf: Heightfield, lighting: Lighting, texel_m: float, seed: int = 0
+                   ) -> np.ndarray:
+    """(th, tw, 3) uint8 RGB texture over the heightfield's extent with texels `texel_m`
+    apart (texel (0, 0) at the grid's first vertex, rows northwards). The heightfield's
+    spacing must be an integer multiple of `texel_m`; normals are interpolated bilinearly
+    between vertices (smooth shading), the albedo has detail down to the texel."""
+    spacing = hf.x_m[1] - hf.x_m[0]
+    factor = spacing / texel_m
+    if texel_m <= 0 or abs(factor - round(factor)) > 1e-6 or round(factor) < 1:
+        raise InputError(f"texture: texel_m {texel_m} must divide the grid spacing {spacing}")
+    f = int(round(factor))
+    shape = ((len(hf.y_m) - 1) * f + 1, (len(hf.x_m) - 1) * f + 1)
+    s = lighting.sun_vector()
+    vertex_light = lighting.ambient + (1 - lighting.ambient) * np.clip(normals(hf) @ s, 0, None)
+    light = _refine(vertex_light.astype(np.float32), f)
+    out = albedo_grid(shape, texel_m, seed)
+    out *= light[..., None]
+    return np.clip(out, 0, 255).astype(np.uint8)
+
+
+def _refine(grid: np.ndarray, f: int) -> np.ndarray:
+    """Bilinear refinement of a vertex grid by an integer factor (corners kept)."""
+    if f == 1:
+        return grid
+    t = np.arange(f, dtype=np.float32) / f
+    rows = grid[:-1, None, :] * (1 - t)[None, :, None] + grid[1:, None, :] * t[None, :, None]
+    rows = np.concatenate([rows.reshape(-1, grid.shape[1]), grid[-1:]], axis=0)
+    cols = rows[:, :-1, None] * (1 - t)[None, None, :] + rows[:, 1:, None] * t[None, None, :]
+    return np.concatenate([cols.reshape(rows.shape[0], -1), rows[:, -1:]], axis=1)

@@ -6,6 +6,8 @@
     mound classify eval MODEL.json [--json OUT.json]
     mound field make --seed S [--model MODEL.json] [--scan-cost M] [--budget M] --out SITES.json
     mound field standard [--model MODEL.json] --out-dir DIR
+    mound sim site [--preset bin_tepe|lab] [--mound tumulus|none] --seed S --out DIR [...]
+    mound sim figures DIR [--out-dir DIR] [--dpi-scale X]
 
 Exit codes: 0 ok, 2 bad input or usage (one line on stderr), 1 internal error.
 """
@@ -166,6 +168,53 @@ def cmd_table1(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_sim_site(args: argparse.Namespace) -> int:
+    from dataclasses import replace
+
+    from mound import sim, terrain
+    from mound.appearance import Lighting
+
+    overrides: dict[str, Any] = {"mound": args.mound == "tumulus", "seed": args.seed}
+    for key in ("profile", "diameter_m", "height_m", "erosion_m", "size_m", "resolution_m"):
+        if getattr(args, key) is not None:
+            overrides[key] = getattr(args, key)
+    if args.pit:
+        overrides.update(pit_radius_m=args.pit[0], pit_depth_m=args.pit[1],
+                         pit_offset_m=args.pit[2])
+    spec = sim.SimSpec(
+        terrain=terrain.preset(args.preset, **overrides),
+        lighting=Lighting(np.deg2rad(args.sun[0]), np.deg2rad(args.sun[1])),
+        width_px=args.size[0], height_px=args.size[1], hfov_rad=np.deg2rad(args.hfov_deg),
+        dist=tuple(args.distortion), pattern=args.pattern,
+        noise_sigma=args.noise_sigma, vignetting=args.vignetting,
+        gps_sigma_h_m=args.gps_sigma[0], gps_sigma_v_m=args.gps_sigma[1], seed=args.seed)
+    if args.altitude is not None:
+        spec = replace(spec, raster_altitude_m=args.altitude)
+    if args.orbit_images is not None:
+        spec = replace(spec, orbit_images=args.orbit_images)
+    site = sim.simulate(spec, args.out, threads=args.threads)
+    t = site["timings"]
+    print(f"{'tumulus' if spec.terrain.mound else 'flat control'} ({args.preset}, seed "
+          f"{args.seed}): {site['stats']['images']} images {spec.width_px}x{spec.height_px} "
+          f"-> {args.out}")
+    print(f"terrain {t['terrain_s']:.2f} s, texture {t['texture_s']:.2f} s, render "
+          f"{t['render_s']:.2f} s ({site['stats']['render_threads']} threads)")
+    if args.figures:
+        cmd_sim_figures(argparse.Namespace(site=args.out, out_dir=args.out, dpi_scale=1.0))
+    return 0
+
+
+def cmd_sim_figures(args: argparse.Namespace) -> int:
+    from mound import sim_figures
+
+    out = Path(args.out_dir or args.site)
+    scale = args.dpi_scale
+    a = sim_figures.contact_sheet(args.site, out / "contact_sheet.png", dpi=int(80 * scale))
+    b = sim_figures.scene_3d(args.site, out / "scene_3d.png", dpi=int(90 * scale))
+    print(f"-> {a}, {b}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = Parser(prog="mound", description="mound-survey command line")
     sub = p.add_subparsers(dest="group", required=True, parser_class=Parser)
@@ -215,6 +264,45 @@ def build_parser() -> argparse.ArgumentParser:
     ex.add_argument("--time-limit", type=float, default=60.0, help="seconds (default 60)")
     ex.add_argument("--out", help="plan.json (default: stdout)")
     ex.set_defaults(func=cmd_plan_exact)
+
+    simp = sub.add_parser("sim", help="site simulator (images with ground truth)"
+                          ).add_subparsers(dest="cmd", required=True, parser_class=Parser)
+    st = simp.add_parser("site", help="render a site's flight with its ground truth")
+    st.add_argument("--preset", choices=("bin_tepe", "lab"), default="bin_tepe")
+    st.add_argument("--mound", choices=("tumulus", "none"), default="tumulus",
+                    help="none: the flat control (same ground, texture and flight)")
+    st.add_argument("--profile", choices=("conical", "spherical_cap", "drum"))
+    st.add_argument("--diameter", dest="diameter_m", type=float, help="m")
+    st.add_argument("--height", dest="height_m", type=float, help="m")
+    st.add_argument("--erosion", dest="erosion_m", type=float, help="m")
+    st.add_argument("--site-size", dest="size_m", type=float, help="side of the site, m")
+    st.add_argument("--resolution", dest="resolution_m", type=float, help="grid spacing, m")
+    st.add_argument("--pit", type=float, nargs=3, metavar=("RADIUS", "DEPTH", "OFFSET"),
+                    help="a looters' pit, m")
+    st.add_argument("--seed", type=int, default=1)
+    st.add_argument("--out", required=True)
+    st.add_argument("--pattern", choices=("raster", "orbit", "both"), default="both")
+    st.add_argument("--size", type=int, nargs=2, default=(1280, 960), metavar=("W", "H"))
+    st.add_argument("--hfov-deg", type=float, default=70.0)
+    st.add_argument("--distortion", type=float, nargs=5, default=(0, 0, 0, 0, 0),
+                    metavar=("K1", "K2", "P1", "P2", "K3"))
+    st.add_argument("--altitude", type=float, help="raster height above the site datum, m")
+    st.add_argument("--orbit-images", type=int)
+    st.add_argument("--sun", type=float, nargs=2, default=(135.0, 40.0),
+                    metavar=("AZIMUTH_DEG", "ELEVATION_DEG"))
+    st.add_argument("--noise-sigma", type=float, default=1.5, help="sensor noise, DN")
+    st.add_argument("--vignetting", type=float, default=0.15)
+    st.add_argument("--gps-sigma", type=float, nargs=2, default=(1.0, 2.0),
+                    metavar=("HORIZONTAL_M", "VERTICAL_M"))
+    st.add_argument("--threads", type=int, help="render threads (default: all cores)")
+    st.add_argument("--figures", action="store_true",
+                    help="also write contact_sheet.png and scene_3d.png into --out")
+    st.set_defaults(func=cmd_sim_site)
+    sf = simp.add_parser("figures", help="contact sheet and 3-D plot of a simulated site")
+    sf.add_argument("site")
+    sf.add_argument("--out-dir", help="default: the site directory")
+    sf.add_argument("--dpi-scale", type=float, default=1.0, help="smaller files below 1")
+    sf.set_defaults(func=cmd_sim_figures)
 
     bench = sub.add_parser("bench", help="benchmarks and reproductions").add_subparsers(
         dest="cmd", required=True, parser_class=Parser)

@@ -10,7 +10,7 @@ blur of the radial profile), and an optional looters' pit is a conical depressio
 the same ground without the mound (same seed, so the same ground).
 
 Presets: "bin_tepe" (a Lydian tumulus: 60 m across, 12 m high, on a 160 m square site) and
-"lab" (a scale model about 1 m across, as in the paper's experiment, on a 2 m square).
+"lab" (a scale model about 1 m across, as in the paper's experiment, on a 2.6 m square).
 """
 
 from __future__ import annotations
@@ -63,7 +63,7 @@ class TerrainSpec:
 
 PRESETS = {
     "bin_tepe": TerrainSpec(),
-    "lab": TerrainSpec(size_m=2.0, resolution_m=0.004, ground_relief_m=0.002, diameter_m=1.0,
+    "lab": TerrainSpec(size_m=2.6, resolution_m=0.004, ground_relief_m=0.002, diameter_m=1.0,
                        height_m=0.15, drum_height_m=0.02, erosion_m=0.02),
 }
 

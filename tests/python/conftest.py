@@ -9,12 +9,16 @@ import pytest
 from mound.paths import REPO_ROOT, build_dir, shared_data_dir
 
 
-@pytest.fixture(scope="session")
-def mound_plan() -> Path:
-    path = build_dir() / "mound_plan"
+def built_tool(name: str) -> Path:
+    path = build_dir() / name
     if not path.exists():
         pytest.fail(f"{path} missing: run `make` first (the tests use the real binary)")
     return path
+
+
+@pytest.fixture(scope="session")
+def mound_plan() -> Path:
+    return built_tool("mound_plan")
 
 
 @pytest.fixture(scope="session")
@@ -35,3 +39,8 @@ def data_cache(shared_data: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
 @pytest.fixture(scope="session")
 def example_sites() -> Path:
     return REPO_ROOT / "data" / "sites.json"
+
+
+@pytest.fixture(scope="session")
+def mound_render() -> Path:
+    return built_tool("mound_render")

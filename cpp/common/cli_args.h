@@ -1,0 +1,36 @@
+// Command-line helpers shared by the project's tools: "--key value" options after
+// positional arguments, strict number parsing, and the exception-to-exit-code wrapper
+// (../shared/STYLE.md: 0 ok, 2 bad input or usage with one line naming the problem,
+// 1 internal error).
+#pragma once
+
+#include <functional>
+#include <map>
+#include <ostream>
+#include <string>
+#include <vector>
+
+namespace mound {
+
+struct Args {
+  std::vector<std::string> positional;
+  std::map<std::string, std::string> options;  // "--key" -> value; flags map to ""
+
+  bool Has(const std::string& key) const { return options.count(key) > 0; }
+};
+
+// Parses args[begin..]: anything starting with "--" must be in `known` (takes a value) or in
+// `flags` (takes none); everything else is positional. Throws InputError otherwise.
+Args ParseArgs(const std::vector<std::string>& args, size_t begin,
+               const std::vector<std::string>& known,
+               const std::vector<std::string>& flags = {});
+
+// A finite number / an integer in [lo, hi]; the message names `what` (e.g. "--seed").
+double ParseNumber(const std::string& s, const std::string& what);
+long long ParseInt(const std::string& s, const std::string& what, long long lo, long long hi);
+
+// Runs `body`, mapping InputError to exit 2 and any other exception to exit 1, each with one
+// line "<tool>: ..." on `err`.
+int RunGuarded(const std::string& tool, std::ostream& err, const std::function<int()>& body);
+
+}  // namespace mound

@@ -1,0 +1,31 @@
+// NumPy .npy arrays (format version 1.0/2.0/3.0, C order, little-endian): the way the Python
+// side hands dense grids (heightfields, textures) to the C++ tools and gets depth maps back.
+// Reference: numpy/lib/format.py ("magic string, header length, a Python dict literal
+// with descr, fortran_order and shape, padded to 64 bytes, then the raw data").
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace mound::sim {
+
+struct NpyArray {
+  std::string descr;            // "<f4", "<f8" or "|u1"
+  std::vector<size_t> shape;
+  std::vector<unsigned char> data;  // raw little-endian elements, C order
+
+  size_t Count() const;
+  // The elements converted to double (any supported descr).
+  std::vector<double> AsDouble() const;
+};
+
+// Reads `path`; throws InputError naming the file for a bad magic, header, dtype, Fortran
+// order or a size that does not match the shape.
+NpyArray ReadNpy(const std::string& path);
+
+// Writes a float32 array atomically.
+void WriteNpyFloat32(const std::string& path, const std::vector<size_t>& shape,
+                     const std::vector<float>& values);
+
+}  // namespace mound::sim

@@ -1,0 +1,79 @@
+// The scene the renderer draws: a heightfield (the terrain surface) and a shaded texture
+// draped over it, both on regular grids in the site's ENU frame (metres, x east, y north,
+// z up), and a pinhole camera with OpenCV's distortion model.
+//
+// Grid convention (as numpy's z[i, j] in python/mound/terrain.py): vertex (i, j) lies at
+// x = x0 + j * spacing, y = y0 + i * spacing; row i grows northwards.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace mound::sim {
+
+struct Heightfield {
+  double x0_m = 0, y0_m = 0, spacing_m = 1;
+  int nx = 0, ny = 0;
+  std::vector<float> z_m;  // ny * nx, row-major
+
+  double X(int j) const { return x0_m + j * spacing_m; }
+  double Y(int i) const { return y0_m + i * spacing_m; }
+  float Z(int i, int j) const { return z_m[static_cast<size_t>(i) * nx + j]; }
+  // Bilinear height; false when (x, y) is outside the grid.
+  bool HeightAt(double x, double y, double* z) const;
+};
+
+// An RGB texture with a mipmap pyramid (2x2 box filter per level) for trilinear sampling.
+class Texture {
+ public:
+  Texture() = default;
+  Texture(double x0_m, double y0_m, double texel_m, int width, int height,
+          std::vector<unsigned char> rgb);
+
+  double texel_m() const { return texel_m_; }
+  int levels() const { return static_cast<int>(levels_.size()); }
+  // Colour at ground point (x, y) seen through a pixel whose footprint on the ground is
+  // `footprint_m` wide: trilinear between the two mipmap levels that bracket it.
+  std::array<float, 3> Sample(double x, double y, double footprint_m) const;
+
+ private:
+  struct Level {
+    int width = 0, height = 0;
+    std::vector<unsigned char> rgb;
+  };
+  std::array<float, 3> Bilinear(const Level& level, double u, double v) const;
+
+  double x0_m_ = 0, y0_m_ = 0, texel_m_ = 1;
+  std::vector<Level> levels_;
+};
+
+// OpenCV pinhole with distortion (k1, k2, p1, p2, k3); pixel (0, 0) is the centre of the
+// top-left pixel.
+struct CameraModel {
+  int width = 0, height = 0;
+  double fx = 0, fy = 0, cx = 0, cy = 0;
+  std::array<double, 5> dist{};  // k1 k2 p1 p2 k3
+
+  bool HasDistortion() const;
+  // Normalised image coordinates (x/z, y/z) -> pixel, with distortion.
+  void Distort(double xn, double yn, double* u, double* v) const;
+};
+
+// cam_from_world: X_cam = R * X_world + t (row-major R).
+struct Pose {
+  std::array<double, 9> R{};
+  std::array<double, 3> t{};
+
+  std::array<double, 3> Apply(double x, double y, double z) const;
+  std::array<double, 3> Centre() const;  // -R^T t
+};
+
+struct Scene {
+  Heightfield terrain;
+  Texture texture;
+  std::array<double, 3> background_rgb{200, 210, 225};  // sky / outside the site
+};
+
+}  // namespace mound::sim

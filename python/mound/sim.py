@@ -1,0 +1,208 @@
+"""Site simulator: what the UAV camera sees over a site, with the ground truth.
+
+`simulate(spec, out_dir)` builds the terrain (terrain.py) and its shaded texture
+(appearance.py), lays out the flight (flight.py: a raster of nadir images and an orbit of
+oblique ones, the same generator the MAVLink mission flies), renders every image with the
+C++ z-buffer rasteriser `build/mound_render` and writes, all in the site's ENU frame
+(metres, x east, y north, z up, origin at the site centre, WGS84 origin stated):
+
+    camera.json       mound.camera v1: K, distortion (OpenCV k1 k2 p1 p2 k3), image size
+    poses.json        mound.poses v1: per image cam_from_world (R, t), the true camera centre
+                      and a noisy "GPS" centre (Gaussian, sigma stated in the file)
+    images/NNNN.png   the rendered images (sensor noise, vignetting)
+    reference.ply     the true surface as a dense point cloud (every heightfield vertex)
+    heightfield.npy   the true surface as a float32 (ny, nx) array; grid in site.json
+    texture.npy       the shaded texture the renderer drapes over it (uint8 RGB)
+    render.json       the render job (mound.render v1), to re-render with mound_render
+    site.json         mound.sim_site v1: every parameter, the file list, timings
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import asdict, dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from mound import appearance, flight, native, terrain
+from mound.camera import Camera
+from mound.jsonio import InputError, write_json
+from mound.ply import write_ply
+
+DEFAULT_ORIGIN = {"lat": 38.5705, "lon": 27.9862, "alt_m": 95.0}  # Bin Tepe, Manisa
+PATTERNS = ("raster", "orbit", "both")
+
+
+@dataclass(frozen=True)
+class SimSpec:
+    terrain: terrain.TerrainSpec = field(default_factory=terrain.TerrainSpec)
+    lighting: appearance.Lighting = field(default_factory=appearance.Lighting)
+    width_px: int = 1280
+    height_px: int = 960
+    hfov_rad: float = 1.2217304763960306  # 70 degrees
+    dist: tuple[float, float, float, float, float] = (0.0, 0.0, 0.0, 0.0, 0.0)
+    pattern: str = "both"
+    # Flight geometry; None: scaled to the mound diameter D (raster at height D over a
+    # D x D square, whose images then stay on the site; orbit of radius D at height
+    # 0.75 D looking at a third of the mound's height), so one layout fits both presets:
+    # 18 nadir + 22 oblique = 40 images by default.
+    raster_altitude_m: float | None = None
+    raster_area_m: float | None = None
+    front_overlap: float = 0.8
+    side_overlap: float = 0.6
+    orbit_radius_m: float | None = None
+    orbit_altitude_m: float | None = None
+    orbit_images: int = 22
+    texel_m: float | None = None  # None: a fifth of the heightfield spacing
+    noise_sigma: float = 1.5      # sensor noise, digital numbers
+    vignetting: float = 0.15
+    gps_sigma_h_m: float = 1.0
+    gps_sigma_v_m: float = 2.0
+    seed: int = 1
+    origin: dict[str, float] = field(default_factory=lambda: dict(DEFAULT_ORIGIN))
+
+    @property
+    def scale_m(self) -> float:
+        return self.terrain.diameter_m
+
+    def camera(self) -> Camera:
+        cam = Camera.from_fov(self.width_px, self.height_px, self.hfov_rad)
+        return replace(cam, dist=tuple(float(d) for d in self.dist))
+
+    def validate(self) -> None:
+        self.terrain.validate()
+        self.lighting.sun_vector()
+        if self.pattern not in PATTERNS:
+            raise InputError(f"sim: pattern must be one of {PATTERNS}, got {self.pattern!r}")
+        if len(self.dist) != 5 or not all(math.isfinite(d) for d in self.dist):
+            raise InputError("sim: distortion needs 5 finite coefficients k1 k2 p1 p2 k3")
+        for name in ("noise_sigma", "gps_sigma_h_m", "gps_sigma_v_m"):
+            if not getattr(self, name) >= 0:
+                raise InputError(f"sim: {name} must be >= 0")
+        if not 0 <= self.vignetting < 1:
+            raise InputError("sim: vignetting must be in [0, 1)")
+        if self.texel_m is not None and self.texel_m <= 0:
+            raise InputError("sim: texel_m must be > 0")
+
+
+def shots(spec: SimSpec) -> list[tuple[str, flight.Shot]]:
+    """The flight's camera poses, labelled by pattern."""
+    cam = spec.camera()
+    d = spec.scale_m
+    out: list[tuple[str, flight.Shot]] = []
+    if spec.pattern in ("raster", "both"):
+        area = spec.raster_area_m if spec.raster_area_m is not None else d
+        alt = spec.raster_altitude_m if spec.raster_altitude_m is not None else d
+        out += [("raster", s) for s in flight.raster(cam, (0.0, 0.0), area, area, alt,
+                                                      spec.front_overlap, spec.side_overlap)]
+    if spec.pattern in ("orbit", "both"):
+        radius = spec.orbit_radius_m if spec.orbit_radius_m is not None else d
+        alt = spec.orbit_altitude_m if spec.orbit_altitude_m is not None else 0.75 * d
+        target_z = spec.terrain.height_m / 3  # also for the flat control: the same flight
+        out += [("orbit", s) for s in flight.orbit((0.0, 0.0, target_z), radius, alt,
+                                                    spec.orbit_images)]
+    return out
+
+
+def _check_above_ground(hf: terrain.Heightfield, labelled: list[tuple[str, flight.Shot]]
+                        ) -> None:
+    for k, (pattern, shot) in enumerate(labelled):
+        c = shot.pose.centre
+        ground = float(hf.height_at(np.array([c[0]]), np.array([c[1]]))[0])
+        if c[2] <= ground + 1e-6:
+            raise InputError(f"sim: {pattern} image {k} at ({c[0]:.2f}, {c[1]:.2f}, "
+                             f"{c[2]:.2f}) m is below the ground ({ground:.2f} m): fly higher")
+
+
+def _grid_doc(x: np.ndarray, y: np.ndarray, name: str, step_key: str) -> dict[str, Any]:
+    return {"npy": name, "x0_m": float(x[0]), "y0_m": float(y[0]),
+            step_key: float(x[1] - x[0]), "shape": [len(y), len(x)]}
+
+
+def simulate(spec: SimSpec, out_dir: str | Path, threads: int | None = None) -> dict[str, Any]:
+    """Renders the site into `out_dir`; returns the site.json document."""
+    spec.validate()
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    timings: dict[str, float] = {}
+    t0 = time.perf_counter()
+    hf = terrain.build(spec.terrain)
+    timings["terrain_s"] = time.perf_counter() - t0
+    labelled = shots(spec)
+    _check_above_ground(hf, labelled)
+    cam = spec.camera()
+
+    t0 = time.perf_counter()
+    spacing = float(hf.x_m[1] - hf.x_m[0])
+    texel = spec.texel_m if spec.texel_m is not None else spacing / 5
+    tex = appearance.shaded_texture(hf, spec.lighting, texel, spec.seed)
+    timings["texture_s"] = time.perf_counter() - t0
+
+    t0 = time.perf_counter()
+    np.save(out / "heightfield.npy.tmp.npy", hf.z_m.astype(np.float32))
+    (out / "heightfield.npy.tmp.npy").replace(out / "heightfield.npy")
+    np.save(out / "texture.npy.tmp.npy", tex)
+    (out / "texture.npy.tmp.npy").replace(out / "texture.npy")
+    camera_doc = {"schema": "mound.camera", "version": 1, **cam.to_doc()}
+    write_json(out / "camera.json", camera_doc)
+    files = [f"images/{k:04d}.png" for k in range(len(labelled))]
+    job = {
+        "schema": "mound.render", "version": 1,
+        "heightfield": _grid_doc(hf.x_m, hf.y_m, "heightfield.npy", "spacing_m"),
+        "texture": {"npy": "texture.npy", "x0_m": float(hf.x_m[0]), "y0_m": float(hf.y_m[0]),
+                    "texel_m": texel},
+        "camera": cam.to_doc(),
+        "images": [{"file": f, "cam_from_world": {"R": s.pose.R.tolist(), "t": s.pose.t.tolist()}}
+                   for f, (_, s) in zip(files, labelled, strict=True)],
+        "background_rgb": [200, 210, 225], "noise_sigma": spec.noise_sigma,
+        "vignetting": spec.vignetting, "seed": spec.seed,
+    }
+    write_json(out / "render.json", job)
+    xyz = hf.points()
+    f = int(round(spacing / texel))
+    write_ply(out / "reference.ply", xyz, tex[::f, ::f].reshape(-1, 3),
+              comment="mound.reference v1 (ENU metres, site centre origin)")
+    timings["write_s"] = time.perf_counter() - t0
+
+    args = [str(out / "render.json"), "--out", str(out)]
+    if threads:
+        args += ["--threads", str(threads)]
+    result = native.run_json("mound_render", args)
+    timings["render_s"] = float(result["elapsed_s"])
+
+    rng = np.random.default_rng([spec.seed, 4711])
+    sigma = np.array([spec.gps_sigma_h_m, spec.gps_sigma_h_m, spec.gps_sigma_v_m])
+    images = []
+    for k, (f_name, (pattern, s), r) in enumerate(zip(files, labelled, result["images"],
+                                                      strict=True)):
+        c = s.pose.centre
+        images.append({
+            "id": k, "file": f_name, "pattern": pattern, "line": s.line,
+            "cam_from_world": {"R": s.pose.R.tolist(), "t": s.pose.t.tolist()},
+            "centre_enu_m": c.tolist(), "gps_enu_m": (c + rng.normal(0, 1, 3) * sigma).tolist(),
+            "covered_fraction": r["covered_fraction"],
+        })
+    write_json(out / "poses.json", {
+        "schema": "mound.poses", "version": 1, "frame": "enu", "origin": spec.origin,
+        "camera": "camera.json",
+        "gps_sigma_m": {"horizontal": spec.gps_sigma_h_m, "vertical": spec.gps_sigma_v_m},
+        "images": images})
+    site = {
+        "schema": "mound.sim_site", "version": 1, "frame": "enu", "origin": spec.origin,
+        "mound": spec.terrain.mound,
+        "terrain": asdict(spec.terrain),
+        "lighting": asdict(spec.lighting),
+        "sim": {k: v for k, v in asdict(spec).items() if k not in ("terrain", "lighting")},
+        "heightfield": _grid_doc(hf.x_m, hf.y_m, "heightfield.npy", "spacing_m"),
+        "texture": {"npy": "texture.npy", "texel_m": texel, "shape": list(tex.shape)},
+        "files": {"camera": "camera.json", "poses": "poses.json", "reference_ply": "reference.ply",
+                  "render_job": "render.json", "images": files},
+        "stats": {"images": len(files), "max_height_m": float(hf.z_m.max()),
+                  "reference_points": int(len(xyz)), "render_threads": result["threads"]},
+        "timings": timings,
+    }
+    write_json(out / "site.json", site)
+    return site
