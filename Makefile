@@ -38,8 +38,10 @@ lint: setup
 	$(VENV)/bin/ruff check python tests tools
 
 # The main job, as far as it exists: fetch the satellite data into the cache, train the
-# coarse-search classifier, make standard field 0 and plan a tour over it; then simulate
-# the UAV images of one site with a tumulus and of its flat control.
+# coarse-search classifier, make standard field 0 and plan a tour over it; plan a tour over
+# the same field at 250 m spacing, turn it into a MAVLink mission (QGC .plan, WPL, GeoJSON)
+# and upload it to a stand-in MAVSDK autopilot; then simulate the UAV images of one site
+# with a tumulus and of its flat control.
 demo: build
 	@mkdir -p runs/demo
 	$(VENV)/bin/mound data fetch
@@ -49,6 +51,10 @@ demo: build
 	./$(BUILD)/mound_plan runs/demo/sites.json 120 --algo newalg --out runs/demo/plan_newalg.json
 	./$(BUILD)/mound_plan runs/demo/sites.json 120 --algo newalg-ls --out runs/demo/plan_newalg_ls.json
 	$(PY) tools/plan_summary.py runs/demo/plan_newalg.json runs/demo/plan_newalg_ls.json
+	$(VENV)/bin/mound field make --seed 0 --model runs/demo/model.json --spacing 250 --scan-cost 400 --budget 8000 --out runs/demo/sites_flight.json
+	./$(BUILD)/mound_plan runs/demo/sites_flight.json --out runs/demo/plan_flight.json
+	$(VENV)/bin/mound mission build runs/demo/plan_flight.json --out runs/demo/mission.plan --wpl runs/demo/mission.waypoints --geojson runs/demo/mission.geojson
+	$(PY) tools/demo_upload.py runs/demo/mission.plan
 	$(VENV)/bin/mound sim site --mound tumulus --seed 1 --out runs/demo/site_tumulus --figures
 	$(VENV)/bin/mound sim site --mound none --seed 1 --out runs/demo/site_flat
 
@@ -61,6 +67,7 @@ bench: build
 	./$(BUILD)/tools/bench/mound_bench_plan
 	$(PY) tools/bench/bench_tsp.py
 	$(PY) tools/bench/bench_render.py
+	$(PY) tools/bench/bench_mission.py
 
 clean:
 	rm -rf $(BUILD)

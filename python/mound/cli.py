@@ -8,6 +8,8 @@
     mound field standard [--model MODEL.json] --out-dir DIR
     mound sim site [--preset bin_tepe|lab] [--mound tumulus|none] --seed S --out DIR [...]
     mound sim figures DIR [--out-dir DIR] [--dpi-scale X]
+    mound mission build PLAN.json [--origin LAT,LON[,ALT]] --out MISSION.plan [...]
+    mound mission upload MISSION.plan --connect udpout:HOST:PORT [--verify] [...]
 
 Exit codes: 0 ok, 2 bad input or usage (one line on stderr), 1 internal error.
 """
@@ -23,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from mound import coarse, datasets, statlog
+from mound import cli_mission, coarse, datasets, statlog
 from mound.field import STANDARD_SEEDS, make_field, sites_document
 from mound.jsonio import InputError, read_json, write_json
 from mound.model import SCHEMA as MODEL_SCHEMA
@@ -99,7 +101,10 @@ def cmd_eval(args: argparse.Namespace) -> int:
 def cmd_field_make(args: argparse.Namespace) -> int:
     test = statlog.load("sat.tst")
     model = load_model(args.model)
-    doc = sites_document(make_field(test, args.seed), test, model, args.scan_cost, args.budget)
+    if args.spacing <= 0:
+        raise UsageError("--spacing must be > 0")
+    doc = sites_document(make_field(test, args.seed), test, model, args.scan_cost, args.budget,
+                         spacing_m=args.spacing)
     write_json(args.out, doc)
     prov = doc["provenance"]
     print(f"field seed {args.seed}: 100 sites, {prov['positives']} positives, "
@@ -250,6 +255,8 @@ def build_parser() -> argparse.ArgumentParser:
         if name == "make":
             m.add_argument("--seed", type=int, required=True)
             m.add_argument("--out", required=True)
+            m.add_argument("--spacing", type=float, default=1.0,
+                           help="grid spacing of the sites, m (1: the paper's field)")
         else:
             m.add_argument("--out-dir", required=True)
         m.add_argument("--model", help="classifier JSON (default: train the default band)")
@@ -303,6 +310,8 @@ def build_parser() -> argparse.ArgumentParser:
     sf.add_argument("--out-dir", help="default: the site directory")
     sf.add_argument("--dpi-scale", type=float, default=1.0, help="smaller files below 1")
     sf.set_defaults(func=cmd_sim_figures)
+
+    cli_mission.add_parser(sub, Parser)
 
     bench = sub.add_parser("bench", help="benchmarks and reproductions").add_subparsers(
         dest="cmd", required=True, parser_class=Parser)

@@ -46,16 +46,17 @@ def make_field(test: Split, seed: int, positives: tuple[int, int] = (3, 5)) -> F
 
 
 def sites_document(field: Field, test: Split, model: Model, scan_cost_m: float,
-                   budget_m: float, home_xy: tuple[float, float] = (0.0, 0.0)
-                   ) -> dict[str, Any]:
-    """The field as a mound.sites v1 document for mound_plan."""
+                   budget_m: float, home_xy: tuple[float, float] = (0.0, 0.0),
+                   spacing_m: float = 1.0) -> dict[str, Any]:
+    """The field as a mound.sites v1 document for mound_plan; sites at spacing_m * (1..10)
+    (1 m: the paper's grid; a few hundred metres: real sites a UAV can fly)."""
     p = model.predict(test.x[field.rows])
     rewards = binary_entropy_bits(p)
     sites = []
     for k in range(GRID * GRID):
         i, j = k % GRID, k // GRID
         sites.append({
-            "id": f"s{k + 1:03d}", "x_m": float(i + 1), "y_m": float(j + 1),
+            "id": f"s{k + 1:03d}", "x_m": spacing_m * (i + 1), "y_m": spacing_m * (j + 1),
             "reward": float(rewards[k]), "scan_cost_m": scan_cost_m, "p_mound": float(p[k]),
             "truth": {"mound": bool(field.positive[k]), "statlog_row": int(field.rows[k]),
                       "class": int(test.cls[field.rows[k]])},

@@ -1,0 +1,110 @@
+"""`mound mission build | upload`: the UAV mission stage of the command line."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from typing import Any
+
+from mound.geodesy import Origin
+from mound.jsonio import InputError, read_json
+
+
+def cmd_build(args: argparse.Namespace) -> int:
+    from mound import mission, missionfiles
+
+    plan = read_json(args.plan, "mound.plan", 1)
+    if args.origin:
+        origin = Origin.parse(args.origin)
+    elif isinstance(plan.get("origin"), dict):
+        origin = Origin.from_doc(plan["origin"], f"{args.plan}: origin")
+    else:
+        raise InputError(f"origin: {args.plan} has no origin; give --origin LAT,LON[,ALT]")
+    spec = mission.MissionSpec(
+        pattern=args.pattern, site_diameter_m=args.site_diameter,
+        raster_altitude_m=args.altitude, transit_altitude_m=args.transit_altitude,
+        cruise_speed_m_s=args.cruise_speed, scan_speed_m_s=args.scan_speed)
+    m = mission.build(plan, origin, spec)
+    missionfiles.write_plan(args.out, m, args.firmware)
+    if args.wpl:
+        missionfiles.write_wpl(args.wpl, m)
+    if args.geojson:
+        missionfiles.write_geojson(args.geojson, m)
+    print(f"{len(m.items)} mission items for {len(m.sites)} sites, flight distance "
+          f"{m.flight_distance_m:.1f} m of budget {m.budget_m:g} m -> {args.out}")
+    for s in m.sites:
+        print(f"  {s['id']}: scan {s['scan_length_m']:.0f} m, {s['images']} images "
+              f"(plan's scan_cost_m {s['scan_cost_m']:g})")
+    return 0
+
+
+def cmd_upload(args: argparse.Namespace) -> int:
+    from mound import missionfiles
+    from mound.mavlink import link as mavlink_link
+    from mound.mavlink import transfer
+    from mound.mission import home_item
+
+    items, home = missionfiles.read_mission(args.mission)
+    firmware = args.firmware
+    if firmware is None:
+        doc: Any = {}
+        if args.mission.endswith(".plan"):
+            doc = json.loads(open(args.mission, encoding="utf-8").read())
+        firmware = "ardupilot" if doc.get("mission", {}).get("firmwareType") == 3 else "px4"
+    if firmware == "ardupilot":
+        items = [home_item(home), *items]
+    key = mavlink_link.signing_key(args.signing_key, args.signing_passphrase)
+    try:
+        lk = mavlink_link.connect(args.connect, key, args.accept_unsigned,
+                                  args.heartbeat_timeout, args.baud)
+    except mavlink_link.LinkError as e:
+        raise InputError(str(e)) from e
+    try:
+        stats = transfer.upload_verified(lk, items, args.verify, args.timeout, args.retries)
+    except mavlink_link.LinkError as e:
+        raise InputError(str(e)) from e
+    finally:
+        lk.close()
+    check = "read back and identical" if stats.verified else "not read back (no --verify)"
+    print(f"uploaded {len(items)} items to system {lk.target_system} in {stats.elapsed_s:.2f} s "
+          f"({stats.retransmissions} retransmissions, {stats.restarts} restarts); {check}")
+    for note in stats.notes:
+        print(f"  {note}")
+    return 0
+
+
+def add_parser(sub: Any, parser_class: type) -> None:
+    grp = sub.add_parser("mission", help="UAV mission: build files, upload over MAVLink"
+                         ).add_subparsers(dest="cmd", required=True, parser_class=parser_class)
+    b = grp.add_parser("build", help="plan.json -> QGroundControl .plan (+ WPL, GeoJSON)")
+    b.add_argument("plan")
+    b.add_argument("--origin", help="LAT,LON[,ALT] of the plan's ENU origin (default: "
+                   "the plan's origin)")
+    b.add_argument("--out", required=True, help="mission .plan file")
+    b.add_argument("--wpl", help="also a 'QGC WPL 110' waypoint file")
+    b.add_argument("--geojson", help="also the path, sites and image footprints as GeoJSON")
+    b.add_argument("--pattern", choices=("raster", "orbit", "both"), default="raster")
+    b.add_argument("--site-diameter", type=float, default=60.0,
+                   help="scan layout scale, m (the simulator's mound diameter)")
+    b.add_argument("--altitude", type=float, help="raster height above home, m")
+    b.add_argument("--transit-altitude", type=float, help="m (default: the scan height)")
+    b.add_argument("--cruise-speed", type=float, default=12.0, help="m/s")
+    b.add_argument("--scan-speed", type=float, default=5.0, help="m/s")
+    b.add_argument("--firmware", choices=("px4", "ardupilot"), default="px4")
+    b.set_defaults(func=cmd_build)
+    u = grp.add_parser("upload", help="upload a .plan or WPL mission over MAVLink")
+    u.add_argument("mission")
+    u.add_argument("--connect", required=True,
+                   help="udpout:HOST:PORT, udpin:HOST:PORT, tcp:HOST:PORT, or a serial device")
+    u.add_argument("--baud", type=int, default=57600)
+    u.add_argument("--verify", action="store_true", help="read the mission back and compare")
+    u.add_argument("--signing-key", help="MAVLink 2 signing key, 64 hex digits")
+    u.add_argument("--signing-passphrase", help="signing key = SHA-256 of this")
+    u.add_argument("--accept-unsigned", action="store_true",
+                   help="with signing: accept unsigned packets from the vehicle")
+    u.add_argument("--timeout", type=float, default=1.0, help="per message, s")
+    u.add_argument("--retries", type=int, default=5)
+    u.add_argument("--heartbeat-timeout", type=float, default=5.0, help="s")
+    u.add_argument("--firmware", choices=("px4", "ardupilot"),
+                   help="ardupilot: item 0 is home (default: from the .plan file)")
+    u.set_defaults(func=cmd_upload)

@@ -1,0 +1,351 @@
+"""From a planned tour (plan.json) to a MAVLink mission: a list of MISSION_ITEM_INT.
+
+The mission, in order (MAVLink command numbers from common.xml):
+    NAV_TAKEOFF (22) at home to the transit height; DO_CHANGE_SPEED (178) to the cruise
+    speed; then for each visited site:
+        NAV_WAYPOINT (16) transit to the site's scan entry point,
+        DO_CHANGE_SPEED to the scan speed,
+        for each scan pattern (raster and/or orbit, from mound.flight via mound.sim.shots:
+        the very poses the site simulator renders):
+            [orbit: DO_SET_ROI_LOCATION (195) at the site centre]
+            DO_SET_CAM_TRIGG_DIST (206) on, at the pattern's image spacing (trigger now),
+            NAV_WAYPOINTs of the pattern (raster: the ends of each line; orbit: every
+            camera position),
+            DO_SET_CAM_TRIGG_DIST 0 (off), [orbit: DO_SET_ROI_NONE (197)]
+        DO_CHANGE_SPEED back to cruise;
+    NAV_RETURN_TO_LAUNCH (20) for a closed tour, or NAV_WAYPOINT + NAV_LAND (21) at the end
+    node of a path.
+Navigation items use MAV_FRAME_GLOBAL_RELATIVE_ALT_INT (6): x, y are latitude and
+longitude in 1e-7 degrees, z metres above home; commands use MAV_FRAME_MISSION (2).
+Heights are above home: the sites' ground is taken to be at home's height (no terrain
+following). Parameters are stored as float32 values, as they travel on the link, so a
+mission read back from a vehicle compares equal item by item.
+
+The flight distance (3-D length of home on the ground -> take-off height -> every
+navigation waypoint -> home (or the end node) -> the ground) is checked against the plan's
+budget before anything is written or uploaded.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+from mound import sim, terrain
+from mound.camera import Camera, Pose
+from mound.geodesy import Origin, enu_to_geodetic
+from mound.jsonio import InputError
+
+# MAV_CMD
+NAV_WAYPOINT = 16
+NAV_RETURN_TO_LAUNCH = 20
+NAV_LAND = 21
+NAV_TAKEOFF = 22
+DO_CHANGE_SPEED = 178
+DO_SET_ROI_LOCATION = 195
+DO_SET_ROI_NONE = 197
+DO_SET_CAM_TRIGG_DIST = 206
+NAV_COMMANDS = {NAV_WAYPOINT, NAV_RETURN_TO_LAUNCH, NAV_LAND, NAV_TAKEOFF}
+# MAV_FRAME
+FRAME_GLOBAL = 0
+FRAME_GLOBAL_RELATIVE_ALT = 3
+FRAME_MISSION = 2
+FRAME_GLOBAL_RELATIVE_ALT_INT = 6
+
+NAN = float("nan")
+
+
+def f32(v: float) -> float:
+    """The float32 value a parameter has on the link."""
+    return float(np.float32(v))
+
+
+@dataclass(frozen=True)
+class MissionItem:
+    """One MISSION_ITEM_INT (seq is the item's position in the list)."""
+
+    command: int
+    frame: int
+    params: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
+    x: int = 0      # latitude * 1e7 in global frames
+    y: int = 0      # longitude * 1e7
+    z: float = 0.0  # metres (above home in the relative frame)
+    autocontinue: int = 1
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "params", tuple(f32(p) for p in self.params))
+        object.__setattr__(self, "z", f32(self.z))
+
+    def same_as(self, other: MissionItem) -> bool:
+        """Equal on the link: NaN parameters (\"unchanged\") compare equal."""
+        def eq(a: float, b: float) -> bool:
+            return (math.isnan(a) and math.isnan(b)) or a == b
+        return (self.command == other.command and self.frame == other.frame
+                and self.x == other.x and self.y == other.y and eq(self.z, other.z)
+                and self.autocontinue == other.autocontinue
+                and all(eq(a, b) for a, b in zip(self.params, other.params, strict=True)))
+
+    @property
+    def lat_deg(self) -> float:
+        return self.x / 1e7
+
+    @property
+    def lon_deg(self) -> float:
+        return self.y / 1e7
+
+
+def home_item(origin: Origin) -> MissionItem:
+    """ArduPilot's seq 0: the home position (absolute altitude)."""
+    return MissionItem(NAV_WAYPOINT, FRAME_GLOBAL, (0, 0, 0, 0), round(origin.lat_deg * 1e7),
+                       round(origin.lon_deg * 1e7), origin.alt_m)
+
+
+@dataclass(frozen=True)
+class MissionSpec:
+    """How each site is scanned and flown to. The scan reuses the simulator's flight
+    layout (sim.SimSpec: camera, overlaps, raster/orbit geometry scaled to the mound
+    diameter `site_diameter_m`)."""
+
+    pattern: str = "raster"            # raster | orbit | both
+    site_diameter_m: float = 60.0
+    camera_hfov_deg: float = 70.0
+    image_size_px: tuple[int, int] = (1280, 960)
+    raster_altitude_m: float | None = None  # None: the simulator's default (the diameter)
+    transit_altitude_m: float | None = None  # None: the highest scan height
+    cruise_speed_m_s: float = 12.0
+    scan_speed_m_s: float = 5.0
+    budget_slack: float = 0.0          # allowed excess over budget_m, as a fraction
+    sim_overrides: dict[str, Any] = field(default_factory=dict)
+
+    def sim_spec(self) -> sim.SimSpec:
+        if self.site_diameter_m <= 0:
+            raise InputError("mission: site_diameter_m must be > 0")
+        size = max(160.0, 2.7 * self.site_diameter_m)
+        t = replace(terrain.TerrainSpec(), size_m=size, diameter_m=self.site_diameter_m,
+                    height_m=self.site_diameter_m / 5, drum_height_m=0.0,
+                    resolution_m=size / 64)
+        spec = sim.SimSpec(terrain=t, width_px=self.image_size_px[0],
+                           height_px=self.image_size_px[1],
+                           hfov_rad=math.radians(self.camera_hfov_deg), pattern=self.pattern,
+                           raster_altitude_m=self.raster_altitude_m)
+        return replace(spec, **self.sim_overrides)
+
+    def validate(self) -> None:
+        if self.pattern not in sim.PATTERNS:
+            raise InputError(f"mission: pattern must be one of {sim.PATTERNS}")
+        for name in ("cruise_speed_m_s", "scan_speed_m_s"):
+            if not getattr(self, name) > 0:
+                raise InputError(f"mission: {name} must be > 0")
+        if self.transit_altitude_m is not None and self.transit_altitude_m <= 0:
+            raise InputError("mission: transit_altitude_m must be > 0")
+        if self.budget_slack < 0:
+            raise InputError("mission: budget_slack must be >= 0")
+
+
+@dataclass
+class ScanLeg:
+    pattern: str
+    points_enu: np.ndarray  # (k, 3) waypoints relative to the site centre
+    trigger_m: float
+    images: int
+    poses: list[Pose]       # the camera poses of the images, relative to the site centre
+
+
+def image_footprint(camera: Camera, pose: Pose, max_range_m: float) -> np.ndarray:
+    """(4, 3) ENU points where the image corners' rays meet the ground z = 0 (rays that
+    miss it, above the horizon, are cut at `max_range_m`)."""
+    w, h = camera.width_px - 1, camera.height_px - 1
+    corners = np.array([[0, 0, 1], [w, 0, 1], [w, h, 1], [0, h, 1]], dtype=float)
+    rays = (pose.R.T @ (np.linalg.inv(camera.K) @ corners.T)).T
+    rays /= np.linalg.norm(rays, axis=1, keepdims=True)
+    c = pose.centre
+    out = []
+    for r in rays:
+        t = -c[2] / r[2] if r[2] < -1e-9 else np.inf
+        out.append(c + min(t, max_range_m) * r)
+    return np.array(out)
+
+
+def scan_legs(spec: MissionSpec) -> list[ScanLeg]:
+    """The scan over one site, relative to its centre, from the simulator's poses."""
+    shots = sim.shots(spec.sim_spec())
+    legs = []
+    for pattern in ("raster", "orbit"):
+        mine = [s for p, s in shots if p == pattern]
+        if not mine:
+            continue
+        centres = np.array([s.pose.centre for s in mine])
+        if pattern == "raster":
+            lines = [s.line for s in mine]
+            ends = [0]
+            for k in range(1, len(mine)):
+                if lines[k] != lines[k - 1]:
+                    ends += [k - 1, k]
+            ends.append(len(mine) - 1)
+            keep = sorted(set(ends))
+            same_line = [k for k in range(1, len(mine)) if lines[k] == lines[k - 1]]
+            step = (float(np.linalg.norm(centres[same_line[0]] - centres[same_line[0] - 1]))
+                    if same_line else 1.0)
+            legs.append(ScanLeg("raster", centres[keep], step, len(mine),
+                                [s.pose for s in mine]))
+        else:
+            step = float(np.linalg.norm(centres[1] - centres[0]))
+            legs.append(ScanLeg("orbit", centres, step, len(mine), [s.pose for s in mine]))
+    return legs
+
+
+def _path_length(points: list[np.ndarray]) -> float:
+    return float(sum(np.linalg.norm(b - a) for a, b in itertools.pairwise(points)))
+
+
+def _up(h: float) -> np.ndarray:
+    return np.array([0.0, 0.0, h])
+
+
+@dataclass
+class Mission:
+    items: list[MissionItem]
+    origin: Origin
+    home_enu: np.ndarray
+    flight_distance_m: float
+    budget_m: float
+    closed: bool
+    sites: list[dict[str, Any]]
+    nav_enu: list[np.ndarray]  # the 3-D flight path, ENU, for exports
+    footprints: list[dict[str, Any]]
+    spec: MissionSpec
+
+    def summary(self) -> dict[str, Any]:
+        return {"schema": "mound.mission", "version": 1, "origin": self.origin.to_doc(),
+                "items": len(self.items), "flight_distance_m": self.flight_distance_m,
+                "budget_m": self.budget_m, "closed": self.closed, "sites": self.sites,
+                "scan": {"pattern": self.spec.pattern,
+                         "site_diameter_m": self.spec.site_diameter_m,
+                         "cruise_speed_m_s": self.spec.cruise_speed_m_s,
+                         "scan_speed_m_s": self.spec.scan_speed_m_s}}
+
+
+def _require_number(obj: dict, key: str, where: str) -> float:
+    v = obj.get(key)
+    if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
+        raise InputError(f"{where}.{key}: expected a finite number, got {v!r}")
+    return float(v)
+
+
+def _plan_nodes(plan: dict[str, Any]) -> tuple[list[dict[str, Any]], bool, float]:
+    """Validated (tour nodes with positions, closed?, budget) of a mound.plan document."""
+    tour = plan.get("tour")
+    if not isinstance(tour, list) or len(tour) < 2:
+        raise InputError("tour: expected the list of ids from home to the end node")
+    wps = plan.get("waypoints")
+    if not isinstance(wps, list):
+        raise InputError("waypoints: missing (positions of the tour's nodes); re-plan with "
+                         "mound_plan, which writes them")
+    by_id = {}
+    for k, w in enumerate(wps):
+        if not isinstance(w, dict) or "id" not in w:
+            raise InputError(f"waypoints[{k}]: expected an object with an id")
+        by_id[w["id"]] = w
+    nodes = []
+    for k, node_id in enumerate(tour):
+        w = by_id.get(node_id)
+        if w is None:
+            raise InputError(f"tour[{k}]: site {node_id!r} has no coordinates in waypoints")
+        x = _require_number(w, "x_m", f"waypoints[{node_id}]")
+        y = _require_number(w, "y_m", f"waypoints[{node_id}]")
+        nodes.append({"id": node_id, "x_m": x, "y_m": y, "kind": w.get("kind", "site"),
+                      "scan_cost_m": float(w.get("scan_cost_m", 0.0) or 0.0)})
+    closed = bool(plan.get("closed", tour[0] == tour[-1]))
+    budget = _require_number(plan, "budget_m", "plan")
+    return nodes, closed, budget
+
+
+def build(plan: dict[str, Any], origin: Origin, spec: MissionSpec | None = None) -> Mission:
+    """The mission for a mound.plan document; InputError if it breaks the budget."""
+    spec = spec or MissionSpec()
+    spec.validate()
+    nodes, closed, budget = _plan_nodes(plan)
+    if len(nodes) <= 2 and (closed or len(nodes) < 2):
+        raise InputError("tour: the plan visits no site, there is nothing to fly")
+    legs = scan_legs(spec)
+    sim_spec = spec.sim_spec()
+    scan_top = max(float(p[:, 2].max()) for p in (leg.points_enu for leg in legs))
+    transit = spec.transit_altitude_m if spec.transit_altitude_m is not None else scan_top
+    home = np.array([nodes[0]["x_m"], nodes[0]["y_m"], 0.0])
+
+    items: list[MissionItem] = []
+    nav_path = [home.copy(), home + _up(transit)]
+
+    def geo(p: np.ndarray) -> tuple[int, int]:
+        lat, lon, _ = enu_to_geodetic(origin, p[None, :])[0]
+        return round(lat * 1e7), round(lon * 1e7)
+
+    def nav(command: int, p: np.ndarray, params: tuple = (0.0, 0.0, 0.0, NAN)) -> None:
+        x, y = geo(p)
+        items.append(MissionItem(command, FRAME_GLOBAL_RELATIVE_ALT_INT, params, x, y, p[2]))
+
+    def do(command: int, params: tuple, p: np.ndarray | None = None,
+           frame: int = FRAME_MISSION) -> None:
+        x, y = geo(p) if p is not None else (0, 0)
+        z = float(p[2]) if p is not None else 0.0
+        items.append(MissionItem(command, frame, params, x, y, z))
+
+    nav(NAV_TAKEOFF, home + _up(transit), (0.0, 0.0, 0.0, NAN))
+    do(DO_CHANGE_SPEED, (1.0, spec.cruise_speed_m_s, -1.0, 0.0))
+    sites_out = []
+    footprints = []
+    cam = sim_spec.camera()
+    for node in nodes[1:-1] if len(nodes) > 2 else []:
+        centre = np.array([node["x_m"], node["y_m"], 0.0])
+        entry = centre + legs[0].points_enu[0]
+        transit_point = np.array([entry[0], entry[1], transit])
+        nav(NAV_WAYPOINT, transit_point)
+        nav_path.append(transit_point)
+        do(DO_CHANGE_SPEED, (1.0, spec.scan_speed_m_s, -1.0, 0.0))
+        scan_path = [transit_point]
+        images = 0
+        for leg in legs:
+            if leg.pattern == "orbit":
+                target = centre + _up(sim_spec.terrain.height_m / 3)
+                do(DO_SET_ROI_LOCATION, (0.0, 0.0, 0.0, 0.0), target,
+                   FRAME_GLOBAL_RELATIVE_ALT_INT)
+            do(DO_SET_CAM_TRIGG_DIST, (leg.trigger_m, 0.0, 1.0, 0.0))
+            for p in leg.points_enu:
+                nav(NAV_WAYPOINT, centre + p)
+                scan_path.append(centre + p)
+            do(DO_SET_CAM_TRIGG_DIST, (0.0, 0.0, 0.0, 0.0))
+            if leg.pattern == "orbit":
+                do(DO_SET_ROI_NONE, (0.0, 0.0, 0.0, 0.0))
+            images += leg.images
+            reach = 3 * float(leg.points_enu[:, 2].max())
+            for k, pose in enumerate(leg.poses):
+                footprints.append({"site": node["id"], "pattern": leg.pattern, "image": k,
+                                   "corners_enu_m": (centre + image_footprint(cam, pose, reach)
+                                                     ).tolist()})
+        do(DO_CHANGE_SPEED, (1.0, spec.cruise_speed_m_s, -1.0, 0.0))
+        nav_path += scan_path[1:]
+        sites_out.append({"id": node["id"], "x_m": node["x_m"], "y_m": node["y_m"],
+                          "scan_length_m": _path_length(scan_path), "images": images,
+                          "scan_cost_m": node["scan_cost_m"]})
+    end = np.array([nodes[-1]["x_m"], nodes[-1]["y_m"], 0.0])
+    if closed:
+        items.append(MissionItem(NAV_RETURN_TO_LAUNCH, FRAME_MISSION))
+        nav_path += [home + _up(transit), home.copy()]
+    else:
+        nav(NAV_WAYPOINT, end + _up(transit))
+        nav(NAV_LAND, end, (0.0, 0.0, 0.0, NAN))
+        nav_path += [end + _up(transit), end.copy()]
+    distance = _path_length(nav_path)
+    if distance > budget * (1 + spec.budget_slack) + 1e-6:
+        worst = max(sites_out, key=lambda s: s["scan_length_m"] - s["scan_cost_m"],
+                    default=None)
+        hint = (f"; a {spec.pattern} scan flies {worst['scan_length_m']:.0f} m per site, the "
+                f"plan assumed scan_cost_m {worst['scan_cost_m']:g}") if worst else ""
+        raise InputError(f"mission: flight distance {distance:.1f} m exceeds the plan's "
+                         f"budget_m {budget:g} m{hint}")
+    return Mission(items, origin, home, distance, budget, closed, sites_out, nav_path,
+                   footprints, spec)

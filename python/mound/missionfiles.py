@@ -1,0 +1,211 @@
+"""Mission files that ground stations open: QGroundControl `.plan`, `QGC WPL 110` text,
+and GeoJSON of the tour and the scan footprints.
+
+- `.plan` (QGroundControl's JSON, fileType "Plan", version 1, mission version 2): items
+  are SimpleItems with 7 params (p1-p4, latitude, longitude, altitude in degrees/metres),
+  frame MAV_FRAME_GLOBAL_RELATIVE_ALT (3) for what we send as ..._INT (6), NaN written as
+  null (as QGroundControl does), home in `plannedHomePosition`. Our summary rides along
+  under the key "mound" (QGroundControl ignores unknown keys).
+- WPL (`QGC WPL 110`, Mission Planner/MAVProxy): one tab-separated line per item,
+  `seq current frame command p1 p2 p3 p4 lat lon alt autocontinue`; line 0 is home.
+- GeoJSON (RFC 7946, lon/lat order): the flown path as a LineString, the sites as Points,
+  and each image's footprint on flat ground (the corners' rays meeting z = 0) as Polygons.
+Readers validate and raise InputError naming the file and item.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from mound.geodesy import Origin, enu_to_geodetic
+from mound.jsonio import InputError, write_atomic
+from mound.mission import (
+    FRAME_GLOBAL_RELATIVE_ALT,
+    FRAME_GLOBAL_RELATIVE_ALT_INT,
+    Mission,
+    MissionItem,
+)
+
+WPL_MAGIC = "QGC WPL 110"
+FIRMWARE = {"px4": 12, "ardupilot": 3}
+
+
+def _file_frame(frame: int) -> int:
+    return FRAME_GLOBAL_RELATIVE_ALT if frame == FRAME_GLOBAL_RELATIVE_ALT_INT else frame
+
+
+def _link_frame(frame: int) -> int:
+    return FRAME_GLOBAL_RELATIVE_ALT_INT if frame == FRAME_GLOBAL_RELATIVE_ALT else frame
+
+
+def _json_number(v: float) -> float | None:
+    return None if math.isnan(v) else v
+
+
+def plan_document(mission: Mission, firmware: str = "px4") -> dict[str, Any]:
+    items = []
+    for k, it in enumerate(mission.items):
+        items.append({
+            "type": "SimpleItem", "command": it.command, "frame": _file_frame(it.frame),
+            "autoContinue": bool(it.autocontinue), "doJumpId": k + 1,
+            "params": [_json_number(p) for p in it.params] + [it.lat_deg, it.lon_deg, it.z],
+            "Altitude": it.z, "AltitudeMode": 1, "AMSLAltAboveTerrain": None,
+        })
+    o = mission.origin
+    return {
+        "fileType": "Plan", "version": 1, "groundStation": "QGroundControl",
+        "mission": {"version": 2, "firmwareType": FIRMWARE[firmware], "vehicleType": 2,
+                    "cruiseSpeed": mission.spec.cruise_speed_m_s,
+                    "hoverSpeed": mission.spec.scan_speed_m_s,
+                    "plannedHomePosition": [o.lat_deg, o.lon_deg, o.alt_m], "items": items},
+        "geoFence": {"circles": [], "polygons": [], "version": 2},
+        "rallyPoints": {"points": [], "version": 2},
+        "mound": mission.summary(),
+    }
+
+
+def write_plan(path: str | Path, mission: Mission, firmware: str = "px4") -> None:
+    write_atomic(path, json.dumps(plan_document(mission, firmware), indent=1,
+                                  allow_nan=False) + "\n")
+
+
+def _param(v: Any, where: str) -> float:
+    if v is None:
+        return float("nan")
+    if isinstance(v, bool) or not isinstance(v, int | float):
+        raise InputError(f"{where}: expected a number or null, got {v!r}")
+    return float(v)
+
+
+def read_plan(path: str | Path) -> tuple[list[MissionItem], Origin]:
+    """Items (link frames, integer lat/lon) and home of a QGroundControl .plan file."""
+    path = Path(path)
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+    except OSError as e:
+        raise InputError(f"{path}: cannot read ({e.strerror})") from e
+    except json.JSONDecodeError as e:
+        raise InputError(f"{path}:{e.lineno}:{e.colno}: not valid JSON ({e.msg})") from e
+    if not isinstance(doc, dict) or doc.get("fileType") != "Plan":
+        raise InputError(f"{path}: fileType: not a QGroundControl plan")
+    m = doc.get("mission")
+    if not isinstance(m, dict) or not isinstance(m.get("items"), list):
+        raise InputError(f"{path}: mission.items: missing")
+    home = m.get("plannedHomePosition")
+    if not (isinstance(home, list) and len(home) == 3):
+        raise InputError(f"{path}: mission.plannedHomePosition: expected [lat, lon, alt]")
+    origin = Origin(*[_param(v, f"{path}: mission.plannedHomePosition") for v in home])
+    items = []
+    for k, raw in enumerate(m["items"]):
+        where = f"{path}: mission.items[{k}]"
+        if not isinstance(raw, dict) or raw.get("type") != "SimpleItem":
+            raise InputError(f"{where}: only SimpleItem is supported (complex items: "
+                             f"export them from QGroundControl as simple items)")
+        params = raw.get("params")
+        if not isinstance(params, list) or len(params) != 7:
+            raise InputError(f"{where}.params: expected 7 numbers")
+        p = [_param(v, f"{where}.params[{i}]") for i, v in enumerate(params)]
+        frame = raw.get("frame")
+        command = raw.get("command")
+        if not isinstance(frame, int) or not isinstance(command, int):
+            raise InputError(f"{where}: command and frame must be integers")
+        lat, lon = (0.0 if math.isnan(v) else v for v in p[4:6])
+        items.append(MissionItem(command, _link_frame(frame), tuple(p[:4]),  # type: ignore[arg-type]
+                                 round(lat * 1e7), round(lon * 1e7),
+                                 0.0 if math.isnan(p[6]) else p[6],
+                                 int(bool(raw.get("autoContinue", True)))))
+    return items, origin
+
+
+def _fmt(v: float) -> str:
+    return "nan" if math.isnan(v) else f"{v:.9g}"
+
+
+def write_wpl(path: str | Path, mission: Mission) -> None:
+    o = mission.origin
+    lines = [WPL_MAGIC,
+             f"0\t1\t0\t16\t0\t0\t0\t0\t{o.lat_deg:.8f}\t{o.lon_deg:.8f}\t{o.alt_m:.6g}\t1"]
+    for k, it in enumerate(mission.items, start=1):
+        fields = [str(k), "0", str(_file_frame(it.frame)), str(it.command),
+                  *(_fmt(p) for p in it.params), f"{it.lat_deg:.8f}", f"{it.lon_deg:.8f}",
+                  _fmt(it.z), str(it.autocontinue)]
+        lines.append("\t".join(fields))
+    write_atomic(path, "\n".join(lines) + "\n")
+
+
+def read_wpl(path: str | Path) -> tuple[list[MissionItem], Origin]:
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as e:
+        raise InputError(f"{path}: cannot read ({e.strerror})") from e
+    rows = [ln for ln in text.splitlines() if ln.strip()]
+    if not rows or rows[0].strip() != WPL_MAGIC:
+        raise InputError(f"{path}:1: not a '{WPL_MAGIC}' waypoint file")
+    parsed = []
+    for n, line in enumerate(rows[1:], start=2):
+        f = line.split("\t") if "\t" in line else line.split()
+        if len(f) != 12:
+            raise InputError(f"{path}:{n}: expected 12 fields, got {len(f)}")
+        try:
+            seq, frame, command, auto = int(f[0]), int(f[2]), int(f[3]), int(f[11])
+            nums = [float(v) for v in f[4:11]]
+        except ValueError as e:
+            raise InputError(f"{path}:{n}: non-numeric field ({e})") from e
+        if seq != len(parsed):
+            raise InputError(f"{path}:{n}: sequence number {seq}, expected {len(parsed)}")
+        parsed.append((frame, command, nums, auto))
+    if not parsed:
+        raise InputError(f"{path}: no home line")
+    home = parsed[0][2]
+    origin = Origin(home[4], home[5], home[6])
+    items = [MissionItem(command, _link_frame(frame), tuple(nums[:4]),  # type: ignore[arg-type]
+                         round(nums[4] * 1e7), round(nums[5] * 1e7), nums[6], auto)
+             for frame, command, nums, auto in parsed[1:]]
+    return items, origin
+
+
+def read_mission(path: str | Path) -> tuple[list[MissionItem], Origin]:
+    """A .plan (JSON) or WPL (text) file, by content."""
+    try:
+        head = Path(path).read_text(encoding="utf-8", errors="replace").lstrip()[:1]
+    except OSError as e:
+        raise InputError(f"{path}: cannot read ({e.strerror})") from e
+    return read_plan(path) if head == "{" else read_wpl(path)
+
+
+def _lonlat(origin: Origin, enu: np.ndarray) -> list[list[float]]:
+    llh = enu_to_geodetic(origin, np.asarray(enu, dtype=float))
+    return [[round(lon, 8), round(lat, 8), round(h - origin.alt_m, 3)] for lat, lon, h in llh]
+
+
+def geojson_document(mission: Mission) -> dict[str, Any]:
+    o = mission.origin
+    features: list[dict[str, Any]] = [{
+        "type": "Feature", "properties": {"kind": "flight_path",
+                                          "length_m": mission.flight_distance_m,
+                                          "budget_m": mission.budget_m},
+        "geometry": {"type": "LineString", "coordinates": _lonlat(o, np.array(mission.nav_enu))},
+    }]
+    for s in mission.sites:
+        features.append({"type": "Feature", "properties": {"kind": "site", **s},
+                         "geometry": {"type": "Point",
+                                      "coordinates": _lonlat(o, np.array([[s["x_m"], s["y_m"],
+                                                                           0.0]]))[0][:2]}})
+    for fp in mission.footprints:
+        ring = np.array(fp["corners_enu_m"] + fp["corners_enu_m"][:1])
+        features.append({"type": "Feature",
+                         "properties": {"kind": "image_footprint", "site": fp["site"],
+                                        "pattern": fp["pattern"], "image": fp["image"]},
+                         "geometry": {"type": "Polygon",
+                                      "coordinates": [[c[:2] for c in _lonlat(o, ring)]]}})
+    return {"type": "FeatureCollection", "features": features}
+
+
+def write_geojson(path: str | Path, mission: Mission) -> None:
+    write_atomic(path, json.dumps(geojson_document(mission)) + "\n")
