@@ -46,11 +46,11 @@ def cmd_upload(args: argparse.Namespace) -> int:
 
     items, home = missionfiles.read_mission(args.mission)
     firmware = args.firmware
-    if firmware is None:
-        doc: Any = {}
-        if args.mission.endswith(".plan"):
-            doc = json.loads(open(args.mission, encoding="utf-8").read())
-        firmware = "ardupilot" if doc.get("mission", {}).get("firmwareType") == 3 else "px4"
+    if firmware is None:  # a .plan says which; a WPL file comes from the ArduPilot world
+        text = open(args.mission, encoding="utf-8").read()
+        doc: Any = json.loads(text) if text.lstrip().startswith("{") else None
+        firmware = "px4" if doc is not None and \
+            doc.get("mission", {}).get("firmwareType") != 3 else "ardupilot"
     if firmware == "ardupilot":
         items = [home_item(home), *items]
     key = mavlink_link.signing_key(args.signing_key, args.signing_passphrase)
@@ -106,5 +106,6 @@ def add_parser(sub: Any, parser_class: type) -> None:
     u.add_argument("--retries", type=int, default=5)
     u.add_argument("--heartbeat-timeout", type=float, default=5.0, help="s")
     u.add_argument("--firmware", choices=("px4", "ardupilot"),
-                   help="ardupilot: item 0 is home (default: from the .plan file)")
+                   help="ardupilot: item 0 is home (default: the .plan's firmwareType; "
+                   "ardupilot for a WPL file)")
     u.set_defaults(func=cmd_upload)

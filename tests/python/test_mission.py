@@ -310,6 +310,10 @@ def test_cli_builds_and_uploads_a_plan(vehicle: MavsdkVehicle, tmp_path: Path,
     assert "read back and identical" in capsys.readouterr().out
     items, home = missionfiles.read_plan(tmp_path / "m.plan")
     assert received_equal(vehicle.wait_for_mission(before + 1), [mission.home_item(home), *items])
+    # The WPL file (ArduPilot's format: home on line 0) uploads the same mission.
+    assert mound_main(["mission", "upload", str(tmp_path / "m.waypoints"), "--connect",
+                       vehicle.connect_string]) == 0
+    assert received_equal(vehicle.wait_for_mission(before + 2), [mission.home_item(home), *items])
 
 
 def test_cli_refuses_a_mission_over_budget(tmp_path: Path,
