@@ -1,5 +1,6 @@
 #include "sim/npy.h"
 
+#include <algorithm>
 #include <cstring>
 #include <regex>
 
@@ -72,9 +73,16 @@ NpyArray ReadNpy(const std::string& path) {
   if (!std::regex_search(header, m, std::regex("'shape'\\s*:\\s*\\(([^)]*)\\)"))) throw bad("no shape");
   const std::string dims = m[1];
   std::regex num("\\d+");
+  // At most 2^32 elements of at most 8 bytes: no overflow below, and a clear message for
+  // a corrupt header that claims more than any real grid.
+  const unsigned long long kMaxElements = 1ULL << 32;
+  unsigned long long count = 1;
   for (auto it = std::sregex_iterator(dims.begin(), dims.end(), num); it != std::sregex_iterator();
        ++it) {
+    if (it->str().size() > 12) throw bad("shape entry " + it->str() + " too large");
     a.shape.push_back(std::stoull(it->str()));
+    count *= std::max<unsigned long long>(a.shape.back(), 1);
+    if (count > kMaxElements) throw bad("shape has more than 2^32 elements");
   }
   const size_t bytes = a.Count() * esize;
   if (raw.size() - offset - header_len != bytes) {

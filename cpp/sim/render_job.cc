@@ -66,8 +66,10 @@ std::string Resolve(const std::string& base, const std::string& rel) {
 Heightfield LoadHeightfield(const json& h, const std::string& dir) {
   const std::string file = Resolve(dir, RequireString(h, "npy", "heightfield"));
   const NpyArray a = ReadNpy(file);
-  if (a.descr == "|u1" || a.shape.size() != 2 || a.shape[0] < 2 || a.shape[1] < 2) {
-    throw InputError("heightfield.npy: " + file + " must be a float array of shape (ny, nx), ny, nx >= 2");
+  if (a.descr == "|u1" || a.shape.size() != 2 || a.shape[0] < 2 || a.shape[1] < 2 ||
+      a.shape[0] > 100000 || a.shape[1] > 100000) {
+    throw InputError("heightfield.npy: " + file +
+                     " must be a float array of shape (ny, nx), 2 <= ny, nx <= 100000");
   }
   Heightfield hf;
   hf.x0_m = RequireFinite(h, "x0_m", "heightfield");
@@ -85,7 +87,8 @@ Heightfield LoadHeightfield(const json& h, const std::string& dir) {
 Texture LoadTexture(const json& t, const std::string& dir) {
   const std::string file = Resolve(dir, RequireString(t, "npy", "texture"));
   NpyArray a = ReadNpy(file);
-  if (a.descr != "|u1" || a.shape.size() != 3 || a.shape[2] != 3 || a.shape[0] < 1 || a.shape[1] < 1) {
+  if (a.descr != "|u1" || a.shape.size() != 3 || a.shape[2] != 3 || a.shape[0] < 1 ||
+      a.shape[1] < 1 || a.shape[0] > 100000 || a.shape[1] > 100000) {
     throw InputError("texture.npy: " + file + " must be a uint8 array of shape (h, w, 3)");
   }
   return Texture(RequireFinite(t, "x0_m", "texture"), RequireFinite(t, "y0_m", "texture"),
@@ -102,6 +105,9 @@ CameraModel LoadCamera(const json& c) {
     throw InputError("camera.K: expected [[fx, 0, cx], [0, fy, cy], [0, 0, 1]]");
   }
   if (K[0] <= 0 || K[4] <= 0) throw InputError("camera.K: fx and fy must be > 0");
+  if (static_cast<long long>(cam.width) * cam.height > 64LL * 1000 * 1000) {
+    throw InputError("camera: width x height must be at most 64 megapixels");
+  }
   cam.fx = K[0];
   cam.fy = K[4];
   cam.cx = K[2];

@@ -235,6 +235,25 @@ TEST(Npy, Float32RoundTripAndErrors) {
     std::fclose(f);
   }
   EXPECT_THROW(ReadNpy(path), std::exception);
+  // A corrupt header claiming 2^33 elements (whose byte count would overflow when
+  // multiplied out naively) is refused by its shape, not by reading past the data.
+  {
+    std::string header = "{'descr': '<f8', 'fortran_order': False, 'shape': (8589934592, 2), }";
+    header += std::string(64 - (10 + header.size() + 1) % 64, ' ') + "\n";
+    std::string raw = std::string("\x93NUMPY\x01\x00", 8);
+    raw += static_cast<char>(header.size() & 0xff);
+    raw += static_cast<char>(header.size() >> 8);
+    raw += header + std::string(16, '\0');
+    std::FILE* f = std::fopen(path.c_str(), "wb");
+    std::fwrite(raw.data(), 1, raw.size(), f);
+    std::fclose(f);
+    try {
+      ReadNpy(path);
+      ADD_FAILURE() << "accepted a 2^34-element shape";
+    } catch (const std::exception& e) {
+      EXPECT_NE(std::string(e.what()).find("2^32"), std::string::npos) << e.what();
+    }
+  }
   std::filesystem::remove(path);
   EXPECT_THROW(ReadNpy(path), std::exception);
 }

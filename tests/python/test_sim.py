@@ -211,6 +211,7 @@ ROTATION = "images[0].cam_from_world.R"
     ({"images.0.file": "a.tif"}, "images[0].file"),
     ({"camera.K": [[-5, 0, 1], [0, 5, 1], [0, 0, 1]]}, "camera.K"),
     ({"camera.width": 0}, "camera.width"),
+    ({"camera.width": 20000, "camera.height": 20000}, "64 megapixels"),
     ({"heightfield.spacing_m": 0}, "heightfield.spacing_m"),
     ({"texture.npy": "/nonexistent.npy"}, "/nonexistent.npy"),
     ({"heightfield.npy": "TEXTURE"}, "heightfield.npy"),
