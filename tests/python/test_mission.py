@@ -260,7 +260,7 @@ def test_upload_over_a_serial_line() -> None:
             os.close(fd)
 
 
-@pytest.mark.parametrize("n, loss", [(20, 0.1), (200, 0.06)])
+@pytest.mark.parametrize("n, loss", [(20, 0.1), (200, 0.06), (1000, 0.05)])
 def test_upload_through_a_lossy_link(vehicle: MavsdkVehicle, n: int, loss: float) -> None:
     items = items_of(n)
     before = len(vehicle.missions)

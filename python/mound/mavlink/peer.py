@@ -45,11 +45,15 @@ class MavsdkVehicle:
         self._server = MissionRawServer(self._mavsdk.server_component(0))
         self._lock = threading.Lock()
         self.missions: list[list[Any]] = []
+        self.failed_transfers: list[str] = []
         self._server.subscribe_incoming_mission(self._on_mission)
 
     def _on_mission(self, result: Any, plan: Any, _user: Any) -> None:
-        with self._lock:
-            self.missions.append(list(plan.mission_items))
+        with self._lock:  # an abandoned transfer is reported too, with an empty plan
+            if result.name == "SUCCESS":
+                self.missions.append(list(plan.mission_items))
+            else:
+                self.failed_transfers.append(result.name)
 
     def wait_for_mission(self, count: int = 1, timeout_s: float = 5.0) -> list[Any]:
         deadline = time.monotonic() + timeout_s

@@ -110,11 +110,8 @@ def upload(link: Link, items: list[MissionItem], timeout_s: float = 1.0, retries
                     f"({retries} retries of {timeout_s:g} s each, {restarts} restarts)")
 
 
-def download(link: Link, timeout_s: float = 0.25, retries: int = 8, mission_type: int = 0
-             ) -> tuple[list[MissionItem], TransferStats]:
-    """Reads the vehicle's mission back."""
-    stats = TransferStats()
-    start = time.monotonic()
+def _download_once(link: Link, timeout_s: float, retries: int, mission_type: int,
+                   stats: TransferStats) -> list[MissionItem]:
     conn = link.conn
     count = None
     for _ in range(retries + 1):
@@ -147,16 +144,32 @@ def download(link: Link, timeout_s: float = 0.25, retries: int = 8, mission_type
                 break
             stats.retransmissions += 1
         if got is None:
-            raise LinkError(f"read-back: item {seq} of {count} not received after "
-                            f"{retries + 1} requests")
+            raise LinkError(f"item {seq} of {count} not received after {retries + 1} requests")
         items.append(MissionItem(got.command, got.frame,
                                  (got.param1, got.param2, got.param3, got.param4),
                                  got.x, got.y, got.z, got.autocontinue))
     conn.mav.mission_ack_send(link.target_system, link.target_component, MAV_MISSION_ACCEPTED,
                               mission_type)
-    stats.items = count
-    stats.elapsed_s = time.monotonic() - start
-    return items, stats
+    return items
+
+
+def download(link: Link, timeout_s: float = 0.25, retries: int = 8, restarts: int = 2,
+             mission_type: int = 0) -> tuple[list[MissionItem], TransferStats]:
+    """Reads the vehicle's mission back; a transfer the vehicle abandons is started again
+    from MISSION_REQUEST_LIST, up to `restarts` times."""
+    stats = TransferStats()
+    start = time.monotonic()
+    for attempt in range(restarts + 1):
+        stats.restarts = attempt
+        try:
+            items = _download_once(link, timeout_s, retries, mission_type, stats)
+        except LinkError as e:
+            stats.notes.append(f"read-back attempt {attempt + 1}: {e}")
+            continue
+        stats.items = len(items)
+        stats.elapsed_s = time.monotonic() - start
+        return items, stats
+    raise LinkError(f"read-back failed: {'; '.join(stats.notes)}")
 
 
 def first_difference(sent: list[MissionItem], got: list[MissionItem]) -> str | None:
