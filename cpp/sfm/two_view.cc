@@ -1,0 +1,206 @@
+#include "sfm/two_view.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/features2d.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "common/error.h"
+
+namespace mound::sfm {
+Eigen::Matrix3d Skew(const Eigen::Vector3d& v) {
+  Eigen::Matrix3d s;
+  s << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
+  return s;
+}
+
+namespace {
+
+cv::Mat AsMat(const GreyImage& g) {
+  if (g.width <= 0 || g.height <= 0 || g.pixels.size() != static_cast<size_t>(g.width) * g.height) {
+    throw InputError("image: empty or inconsistent grey image");
+  }
+  return cv::Mat(g.height, g.width, CV_8UC1, const_cast<uint8_t*>(g.pixels.data()));
+}
+
+}  // namespace
+
+GreyImage LoadGrey(const std::string& path) {
+  const cv::Mat m = cv::imread(path, cv::IMREAD_GRAYSCALE);
+  if (m.empty()) throw InputError(path + ": cannot read the image (missing or not an image)");
+  GreyImage g;
+  g.width = m.cols;
+  g.height = m.rows;
+  g.pixels.assign(m.datastart, m.dataend);
+  return g;
+}
+
+Matches MatchFeatures(const GreyImage& a, const GreyImage& b, int max_features) {
+  cv::Ptr<cv::SIFT> sift = cv::SIFT::create(max_features);
+  std::vector<cv::KeyPoint> ka, kb;
+  cv::Mat da, db;
+  sift->detectAndCompute(AsMat(a), cv::noArray(), ka, da);
+  sift->detectAndCompute(AsMat(b), cv::noArray(), kb, db);
+  Matches out;
+  if (ka.size() < 2 || kb.size() < 2) return out;
+  cv::BFMatcher matcher(cv::NORM_L2);
+  std::vector<std::vector<cv::DMatch>> ab, ba;
+  matcher.knnMatch(da, db, ab, 2);
+  matcher.knnMatch(db, da, ba, 1);
+  for (const auto& m : ab) {
+    if (m.size() < 2 || m[0].distance >= 0.8f * m[1].distance) continue;
+    const auto& back = ba[m[0].trainIdx];
+    if (back.empty() || back[0].trainIdx != m[0].queryIdx) continue;  // not mutual
+    out.px1.emplace_back(ka[m[0].queryIdx].pt.x, ka[m[0].queryIdx].pt.y);
+    out.px2.emplace_back(kb[m[0].trainIdx].pt.x, kb[m[0].trainIdx].pt.y);
+  }
+  return out;
+}
+
+std::vector<Eigen::Vector3d> Normalise(const std::vector<Eigen::Vector2d>& px,
+                                       const CameraIntrinsics& K) {
+  std::vector<Eigen::Vector3d> out;
+  if (px.empty()) return out;
+  cv::Mat src(static_cast<int>(px.size()), 1, CV_64FC2), dst;
+  for (size_t i = 0; i < px.size(); ++i) src.at<cv::Vec2d>(static_cast<int>(i)) = {px[i].x(), px[i].y()};
+  const cv::Matx33d Km(K.fx, 0, K.cx, 0, K.fy, K.cy, 0, 0, 1);
+  cv::undistortPoints(src, dst, Km, std::vector<double>(K.dist.begin(), K.dist.end()));
+  for (size_t i = 0; i < px.size(); ++i) {
+    const cv::Vec2d v = dst.at<cv::Vec2d>(static_cast<int>(i));
+    out.emplace_back(v[0], v[1], 1.0);
+  }
+  return out;
+}
+
+Eigen::VectorXd StackedEpipolarDepths(const std::vector<Eigen::Vector3d>& x1,
+                                      const std::vector<Eigen::Vector3d>& x2,
+                                      const Eigen::Matrix3d& R, const Eigen::Vector3d& t) {
+  const size_t n = x1.size();
+  // M^T M = [diag(d) b; b^T c].
+  std::vector<double> d(n), b(n);
+  std::vector<bool> valid(n);
+  double c = 0, d_min = std::numeric_limits<double>::infinity();
+  for (size_t j = 0; j < n; ++j) {
+    const Eigen::Matrix3d s = Skew(x2[j]);
+    const Eigen::Vector3d a = s * (R * x1[j]);
+    const Eigen::Vector3d e = s * t;
+    d[j] = a.squaredNorm();
+    b[j] = a.dot(e);
+    c += e.squaredNorm();
+    valid[j] = d[j] > 1e-12 * (x1[j].squaredNorm() * x2[j].squaredNorm());
+    if (valid[j]) d_min = std::min(d_min, d[j]);
+  }
+  Eigen::VectorXd v = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(n) + 1);
+  if (!std::isfinite(d_min)) return v;
+  // The smallest eigenvalue mu solves f(mu) = c - mu - sum b_j^2 / (d_j - mu) = 0 on
+  // [0, d_min), where f decreases from f(0) (the Schur complement, >= 0) to -infinity.
+  auto f = [&](double mu) {
+    double s = c - mu;
+    for (size_t j = 0; j < n; ++j)
+      if (valid[j]) s -= b[j] * b[j] / (d[j] - mu);
+    return s;
+  };
+  double lo = 0, hi = d_min;
+  if (f(0) > 0) {
+    for (int it = 0; it < 200 && hi - lo > 1e-300; ++it) {
+      const double mid = 0.5 * (lo + hi);
+      if (mid <= lo || mid >= hi) break;
+      (f(mid) > 0 ? lo : hi) = mid;
+    }
+  }
+  const double mu = lo;
+  // Eigenvector: (d_j - mu) lambda_j + b_j gamma = 0, with gamma = 1, then unit norm.
+  for (size_t j = 0; j < n; ++j) {
+    if (valid[j]) v[static_cast<Eigen::Index>(j)] = -b[j] / (d[j] - mu);
+  }
+  v[static_cast<Eigen::Index>(n)] = 1.0;
+  return v / v.norm();
+}
+
+TwoViewResult InitialiseTwoView(const Matches& m, const CameraIntrinsics& K, double ransac_px,
+                                uint64_t seed) {
+  const size_t n = m.px1.size();
+  if (n < 8 || m.px2.size() != n) {
+    throw InputError("two-view: need at least 8 matches, got " + std::to_string(n));
+  }
+  const std::vector<Eigen::Vector3d> x1 = Normalise(m.px1, K), x2 = Normalise(m.px2, K);
+  // RANSAC on undistorted pixel coordinates, so that the threshold is in pixels.
+  std::vector<cv::Point2d> p1, p2;
+  for (size_t i = 0; i < n; ++i) {
+    p1.emplace_back(K.fx * x1[i].x() + K.cx, K.fy * x1[i].y() + K.cy);
+    p2.emplace_back(K.fx * x2[i].x() + K.cx, K.fy * x2[i].y() + K.cy);
+  }
+  cv::theRNG() = cv::RNG(seed);
+  std::vector<unsigned char> mask;
+  cv::findFundamentalMat(p1, p2, cv::FM_RANSAC, ransac_px, 0.999, mask);
+  TwoViewResult r;
+  r.matches = static_cast<int>(n);
+  std::vector<cv::Point2d> q1, q2;
+  for (size_t i = 0; i < mask.size(); ++i) {
+    if (mask[i]) {
+      r.inliers.push_back(static_cast<int>(i));
+      q1.push_back(p1[i]);
+      q2.push_back(p2[i]);
+    }
+  }
+  if (r.inliers.size() < 8) {
+    throw InputError("two-view: " + std::to_string(r.inliers.size()) +
+                     " RANSAC inliers, need at least 8 (too little overlap or texture?)");
+  }
+  // The 8-point algorithm (Hartley-normalised, in OpenCV) on every inlier.
+  const cv::Mat F = cv::findFundamentalMat(q1, q2, cv::FM_8POINT);
+  if (F.rows != 3) throw InputError("two-view: the 8-point algorithm found no solution");
+  Eigen::Matrix3d Fe, Ke;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) Fe(i, j) = F.at<double>(i, j);
+  Ke << K.fx, 0, K.cx, 0, K.fy, K.cy, 0, 0, 1;
+  const Eigen::Matrix3d E = Ke.transpose() * Fe * Ke;
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(E, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d U = svd.matrixU(), V = svd.matrixV();
+  if (U.determinant() < 0) U = -U;
+  if (V.determinant() < 0) V = -V;
+  Eigen::Matrix3d W;
+  W << 0, -1, 0, 1, 0, 0, 0, 0, 1;
+  const Eigen::Matrix3d Rs[2] = {U * W * V.transpose(), U * W.transpose() * V.transpose()};
+  const Eigen::Vector3d u3 = U.col(2);
+  std::vector<Eigen::Vector3d> y1, y2;
+  for (int i : r.inliers) {
+    y1.push_back(x1[i]);
+    y2.push_back(x2[i]);
+  }
+  int best = -1;
+  for (const Eigen::Matrix3d& R : Rs) {
+    for (double sign : {1.0, -1.0}) {
+      const Eigen::Vector3d t = sign * u3;
+      const Eigen::VectorXd v = StackedEpipolarDepths(y1, y2, R, t);
+      const double gamma = v[v.size() - 1];
+      if (gamma <= 1e-12) continue;
+      std::vector<double> d1, d2;
+      int positive = 0;
+      for (size_t j = 0; j < y1.size(); ++j) {
+        const double l1 = v[static_cast<Eigen::Index>(j)] / gamma;
+        const Eigen::Vector3d X2 = l1 * (R * y1[j]) + t;
+        const double l2 = X2.z();
+        d1.push_back(l1);
+        d2.push_back(l2);
+        if (l1 > 0 && l2 > 0) ++positive;
+      }
+      if (positive > best) {
+        best = positive;
+        r.R = R;
+        r.t = t;
+        r.depth1 = d1;
+        r.depth2 = d2;
+        r.positive_depth = positive;
+      }
+    }
+  }
+  if (best <= 0) throw InputError("two-view: no pose puts the points in front of both cameras");
+  return r;
+}
+
+}  // namespace mound::sfm

@@ -1,0 +1,192 @@
+// Two-view initialisation: the stacked-epipolar depths against a dense SVD, exact depths on
+// exact data, and the whole chain (SIFT matches, RANSAC, 8-point, pose, depths) on images
+// rendered by the site simulator's renderer, against its ground truth.
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+#include <Eigen/SVD>
+#include <algorithm>
+#include <cmath>
+#include <iostream>
+#include <random>
+
+#include "sfm/two_view.h"
+#include "sim/render.h"
+
+namespace mound::sfm {
+namespace {
+
+struct Scene {
+  Eigen::Matrix3d R;
+  Eigen::Vector3d t;
+  std::vector<Eigen::Vector3d> x1, x2;
+  std::vector<double> depth1;
+};
+
+Scene RandomScene(int n, double noise, uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-1, 1);
+  std::normal_distribution<double> g(0, noise);
+  Scene s;
+  s.R = Eigen::AngleAxisd(0.2, Eigen::Vector3d(0.3, 1, 0.2).normalized()).toRotationMatrix();
+  s.t = Eigen::Vector3d(-1, 0.2, 0.1).normalized();
+  for (int j = 0; j < n; ++j) {
+    const Eigen::Vector3d X(3 * u(rng), 3 * u(rng), 8 + 2 * u(rng));
+    const Eigen::Vector3d X2 = s.R * X + s.t;
+    s.x1.push_back(Eigen::Vector3d(X.x() / X.z() + g(rng), X.y() / X.z() + g(rng), 1));
+    s.x2.push_back(Eigen::Vector3d(X2.x() / X2.z() + g(rng), X2.y() / X2.z() + g(rng), 1));
+    s.depth1.push_back(X.z());
+  }
+  return s;
+}
+
+TEST(StackedEpipolarDepths, EqualsTheDenseSvdSolution) {
+  const Scene s = RandomScene(30, 2e-3, 7);
+  const int n = 30;
+  Eigen::MatrixXd M = Eigen::MatrixXd::Zero(3 * n, n + 1);
+  for (int j = 0; j < n; ++j) {
+    M.block<3, 1>(3 * j, j) = Skew(s.x2[j]) * s.R * s.x1[j];
+    M.block<3, 1>(3 * j, n) = Skew(s.x2[j]) * s.t;
+  }
+  Eigen::JacobiSVD<Eigen::MatrixXd> svd(M, Eigen::ComputeFullV);
+  Eigen::VectorXd dense = svd.matrixV().col(n);
+  if (dense[n] < 0) dense = -dense;
+  const Eigen::VectorXd ours = StackedEpipolarDepths(s.x1, s.x2, s.R, s.t);
+  EXPECT_NEAR(ours.norm(), 1.0, 1e-12);
+  EXPECT_LT((ours - dense).cwiseAbs().maxCoeff(), 1e-9);
+  EXPECT_GT(svd.singularValues()[n - 1], 1e-6);  // noisy: a real least-squares problem
+}
+
+TEST(StackedEpipolarDepths, ExactDataGivesTheTrueDepths) {
+  const Scene s = RandomScene(50, 0.0, 3);
+  const Eigen::VectorXd v = StackedEpipolarDepths(s.x1, s.x2, s.R, s.t);
+  const double gamma = v[50];
+  for (int j = 0; j < 50; ++j) EXPECT_NEAR(v[j] / gamma, s.depth1[j], 1e-9 * s.depth1[j]);
+}
+
+// --- rendered images -------------------------------------------------------------------
+
+sim::Pose LookAt(const Eigen::Vector3d& c, const Eigen::Vector3d& target) {
+  const Eigen::Vector3d z = (target - c).normalized();
+  const Eigen::Vector3d x = z.cross(Eigen::Vector3d(0, 1, 0)).normalized();
+  const Eigen::Vector3d y = z.cross(x);
+  sim::Pose p;
+  for (int k = 0; k < 3; ++k) {
+    p.R[k] = x[k];
+    p.R[3 + k] = y[k];
+    p.R[6 + k] = z[k];
+  }
+  for (int r = 0; r < 3; ++r) p.t[r] = -(p.R[3 * r] * c[0] + p.R[3 * r + 1] * c[1] + p.R[3 * r + 2] * c[2]);
+  return p;
+}
+
+// A multi-octave random texture (bilinear value noise, 4 octaves) as features to track.
+sim::Texture NoiseTexture(double half_m, double texel_m, uint32_t seed) {
+  const int n = static_cast<int>(std::lround(2 * half_m / texel_m)) + 1;
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(0, 1);
+  std::vector<float> acc(static_cast<size_t>(n) * n, 0.f);
+  for (int cell : {64, 16, 4, 2}) {
+    const int m = n / cell + 2;
+    std::vector<float> lattice(static_cast<size_t>(m) * m);
+    for (float& v : lattice) v = u(rng);
+    for (int i = 0; i < n; ++i) {
+      for (int j = 0; j < n; ++j) {
+        const float fy = static_cast<float>(i) / cell, fx = static_cast<float>(j) / cell;
+        const int i0 = static_cast<int>(fy), j0 = static_cast<int>(fx);
+        const float a = fy - i0, b = fx - j0;
+        const float v = (1 - a) * ((1 - b) * lattice[i0 * m + j0] + b * lattice[i0 * m + j0 + 1]) +
+                        a * ((1 - b) * lattice[(i0 + 1) * m + j0] + b * lattice[(i0 + 1) * m + j0 + 1]);
+        acc[static_cast<size_t>(i) * n + j] += v;
+      }
+    }
+  }
+  std::vector<unsigned char> rgb;
+  for (float v : acc) {
+    const auto c = static_cast<unsigned char>(std::clamp(v * 64.f, 0.f, 255.f));
+    rgb.insert(rgb.end(), {c, c, c});
+  }
+  return sim::Texture(-half_m, -half_m, texel_m, n, n, std::move(rgb));
+}
+
+TEST(TwoView, RecoversPoseAndDepthsFromRenderedImages) {
+  sim::Scene scene;
+  sim::Heightfield& hf = scene.terrain;
+  hf.x0_m = hf.y0_m = -40;
+  hf.spacing_m = 0.25;
+  hf.nx = hf.ny = 321;
+  for (int i = 0; i < hf.ny; ++i)
+    for (int j = 0; j < hf.nx; ++j) {
+      const double r = std::hypot(hf.X(j), hf.Y(i));
+      hf.z_m.push_back(static_cast<float>(r < 15 ? std::sqrt(15.0 * 15 - r * r) / 3 : 0.0));
+    }
+  scene.texture = NoiseTexture(40, 0.05, 11);
+  sim::CameraModel cam;
+  cam.width = 800;
+  cam.height = 600;
+  cam.fx = cam.fy = 700;
+  cam.cx = 399.5;
+  cam.cy = 299.5;
+  cam.dist = {-0.05, 0.01, 0, 0, 0};
+  const Eigen::Vector3d c1(-5, -3, 40), c2(5, 1, 38);
+  const sim::Pose p1 = LookAt(c1, {0, 0, 0}), p2 = LookAt(c2, {1, 0, 0});
+  sim::RenderSettings rs;
+  rs.keep_geometry = true;
+  rs.noise_sigma = 1.0;
+  const sim::RenderedImage a = sim::Render(scene, cam, p1, rs), b = sim::Render(scene, cam, p2, rs);
+  auto grey = [](const sim::RenderedImage& im) {
+    GreyImage g{im.width, im.height, {}};
+    for (size_t k = 0; k < im.rgb.size(); k += 3) g.pixels.push_back(im.rgb[k]);
+    return g;
+  };
+  const Matches m = MatchFeatures(grey(a), grey(b), 3000);
+  ASSERT_GT(m.px1.size(), 500u);
+  CameraIntrinsics K{cam.fx, cam.fy, cam.cx, cam.cy, cam.dist};
+  const TwoViewResult r = InitialiseTwoView(m, K);
+  EXPECT_GT(r.inliers.size(), m.px1.size() * 8 / 10);
+  EXPECT_EQ(r.positive_depth, static_cast<int>(r.inliers.size()));
+
+  // Ground truth relative pose cam2_from_cam1.
+  Eigen::Matrix3d R1, R2;
+  for (int k = 0; k < 9; ++k) {
+    R1(k / 3, k % 3) = p1.R[k];
+    R2(k / 3, k % 3) = p2.R[k];
+  }
+  const Eigen::Vector3d t1(p1.t[0], p1.t[1], p1.t[2]), t2(p2.t[0], p2.t[1], p2.t[2]);
+  const Eigen::Matrix3d R_true = R2 * R1.transpose();
+  const Eigen::Vector3d t_true = t2 - R_true * t1;
+  const double rot_err = Eigen::AngleAxisd(r.R * R_true.transpose()).angle();
+  const double dir_err = std::acos(std::clamp(r.t.dot(t_true.normalized()), -1.0, 1.0));
+  EXPECT_LT(rot_err * 180 / M_PI, 0.1);
+  EXPECT_LT(dir_err * 180 / M_PI, 1.0);
+
+  // Depths, up to the one scale two views leave open (|t_true| here).
+  std::vector<double> rel;
+  for (size_t k = 0; k < r.inliers.size(); ++k) {
+    const Eigen::Vector2d px = m.px1[r.inliers[k]];
+    const int u = static_cast<int>(std::lround(px.x())), v = static_cast<int>(std::lround(px.y()));
+    const double gt = a.depth_m[static_cast<size_t>(v) * a.width + u];
+    if (std::isnan(gt)) continue;
+    rel.push_back(std::fabs(r.depth1[k] * t_true.norm() - gt) / gt);
+  }
+  ASSERT_GT(rel.size(), 400u);
+  std::sort(rel.begin(), rel.end());
+  std::cout << m.px1.size() << " matches, " << r.inliers.size() << " inliers; rotation error "
+            << rot_err * 180 / M_PI << " deg, translation direction error " << dir_err * 180 / M_PI
+            << " deg; depth error median " << rel[rel.size() / 2] << ", 90th percentile "
+            << rel[rel.size() * 9 / 10] << "\n";
+  EXPECT_LT(rel[rel.size() / 2], 0.01);
+  EXPECT_LT(rel[rel.size() * 9 / 10], 0.03);
+}
+
+TEST(TwoView, TooFewMatchesIsAClearError) {
+  Matches m;
+  for (int k = 0; k < 5; ++k) {
+    m.px1.emplace_back(k, k);
+    m.px2.emplace_back(k + 1, k);
+  }
+  EXPECT_THROW(InitialiseTwoView(m, CameraIntrinsics{500, 500, 320, 240, {}}), std::exception);
+}
+
+}  // namespace
+}  // namespace mound::sfm

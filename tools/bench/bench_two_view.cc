@@ -1,0 +1,84 @@
+// Benchmark (not a test): two-view initialisation (cpp/sfm) on a simulated site's images
+// against the simulator's ground-truth poses.
+//
+//   build/tools/bench/mound_bench_two_view SITE_DIR
+//
+// For each image and the next one of the same flight pattern: SIFT matches, RANSAC +
+// 8-point pose, stacked-epipolar depths; prints matches, inliers, the rotation error and
+// the translation-direction error against poses.json (degrees), and the medians.
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "sfm/two_view.h"
+
+namespace {
+
+void Pose(const nlohmann::json& im, Eigen::Matrix3d* R, Eigen::Vector3d* t) {
+  const auto& p = im.at("cam_from_world");
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) (*R)(r, c) = p.at("R")[r][c].get<double>();
+    (*t)[r] = p.at("t")[r].get<double>();
+  }
+}
+
+double Median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v.empty() ? NAN : v[v.size() / 2];
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc != 2) {
+    std::cerr << "usage: mound_bench_two_view SITE_DIR\n";
+    return 2;
+  }
+  const std::string dir = argv[1];
+  std::ifstream pf(dir + "/poses.json"), cf(dir + "/camera.json");
+  if (!pf || !cf) {
+    std::cerr << "mound_bench_two_view: " << dir << " needs poses.json and camera.json\n";
+    return 2;
+  }
+  const nlohmann::json poses = nlohmann::json::parse(pf), camera = nlohmann::json::parse(cf);
+  mound::sfm::CameraIntrinsics K;
+  K.fx = camera.at("K")[0][0];
+  K.fy = camera.at("K")[1][1];
+  K.cx = camera.at("K")[0][2];
+  K.cy = camera.at("K")[1][2];
+  for (int k = 0; k < 5; ++k) K.dist[k] = camera.at("dist_k1k2p1p2k3")[k];
+  const auto& images = poses.at("images");
+  std::vector<double> rot, dir_err, secs;
+  for (size_t a = 0; a + 1 < images.size(); ++a) {
+    if (images[a].at("pattern") != images[a + 1].at("pattern")) continue;
+    const auto t0 = std::chrono::steady_clock::now();
+    const mound::sfm::Matches m = mound::sfm::MatchFeatures(
+        mound::sfm::LoadGrey(dir + "/" + images[a].at("file").get<std::string>()),
+        mound::sfm::LoadGrey(dir + "/" + images[a + 1].at("file").get<std::string>()));
+    const mound::sfm::TwoViewResult r = mound::sfm::InitialiseTwoView(m, K);
+    secs.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+    Eigen::Matrix3d R1, R2;
+    Eigen::Vector3d t1, t2;
+    Pose(images[a], &R1, &t1);
+    Pose(images[a + 1], &R2, &t2);
+    const Eigen::Matrix3d R_true = R2 * R1.transpose();
+    const Eigen::Vector3d t_true = (t2 - R_true * t1).normalized();
+    rot.push_back(Eigen::AngleAxisd(r.R * R_true.transpose()).angle() * 180 / M_PI);
+    dir_err.push_back(std::acos(std::clamp(r.t.dot(t_true), -1.0, 1.0)) * 180 / M_PI);
+    std::cout << images[a].at("pattern").get<std::string>() << " " << a << "-" << a + 1 << ": "
+              << m.px1.size() << " matches, " << r.inliers.size() << " inliers, rotation error "
+              << rot.back() << " deg, translation direction error " << dir_err.back() << " deg\n";
+  }
+  std::cout << rot.size() << " pairs: median rotation error " << Median(rot)
+            << " deg (max " << *std::max_element(rot.begin(), rot.end())
+            << "), median translation direction error " << Median(dir_err) << " deg (max "
+            << *std::max_element(dir_err.begin(), dir_err.end()) << "), median "
+            << Median(secs) << " s per pair\n";
+  return 0;
+}
