@@ -9,6 +9,7 @@
 #include <opencv2/features2d.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "ba/bundle_adjuster.h"
 #include "common/error.h"
 
 namespace mound::sfm {
@@ -201,6 +202,47 @@ TwoViewResult InitialiseTwoView(const Matches& m, const CameraIntrinsics& K, dou
   }
   if (best <= 0) throw InputError("two-view: no pose puts the points in front of both cameras");
   return r;
+}
+
+std::pair<double, double> RefineTwoView(const Matches& m, const CameraIntrinsics& K,
+                                        TwoViewResult* r) {
+  ba::Problem p;
+  p.camera = {K.fx, K.fy, K.cx, K.cy, K.dist};
+  p.views.resize(2);
+  const Eigen::AngleAxisd aa(r->R);
+  const Eigen::Vector3d w = aa.angle() * aa.axis();
+  p.views[1].rotation = {w.x(), w.y(), w.z()};
+  p.views[1].translation = {r->t.x(), r->t.y(), r->t.z()};
+  std::vector<Eigen::Vector2d> px;
+  for (int i : r->inliers) px.push_back(m.px1[i]);
+  const std::vector<Eigen::Vector3d> x1 = Normalise(px, K);
+  std::vector<int> index(r->inliers.size(), -1);
+  for (size_t k = 0; k < r->inliers.size(); ++k) {
+    if (!(r->depth1[k] > 0 && r->depth2[k] > 0)) continue;  // behind a camera: left out
+    index[k] = static_cast<int>(p.points.size());
+    const Eigen::Vector3d X = r->depth1[k] * x1[k];
+    p.points.push_back({X.x(), X.y(), X.z()});
+    const int i = r->inliers[k];
+    p.observations.push_back({0, index[k], m.px1[i].x(), m.px1[i].y()});
+    p.observations.push_back({1, index[k], m.px2[i].x(), m.px2[i].y()});
+  }
+  ba::Options o;
+  o.fixed_view = 0;
+  o.scale_view = 1;
+  const ba::Summary s = ba::Adjust(&p, o);
+  const auto& rv = p.views[1].rotation;
+  const Eigen::Vector3d wr(rv[0], rv[1], rv[2]);
+  r->R = wr.norm() > 0 ? Eigen::AngleAxisd(wr.norm(), wr.normalized()).toRotationMatrix()
+                       : Eigen::Matrix3d::Identity();
+  r->t = Eigen::Vector3d(p.views[1].translation[0], p.views[1].translation[1],
+                         p.views[1].translation[2]);
+  for (size_t k = 0; k < index.size(); ++k) {
+    if (index[k] < 0) continue;
+    const auto& X = p.points[index[k]];
+    r->depth1[k] = X[2];
+    r->depth2[k] = (r->R * Eigen::Vector3d(X[0], X[1], X[2]) + r->t).z();
+  }
+  return {s.initial_rmse_px, s.final_rmse_px};
 }
 
 }  // namespace mound::sfm

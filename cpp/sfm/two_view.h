@@ -22,6 +22,7 @@
 #include <array>
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace mound::sfm {
@@ -74,6 +75,12 @@ TwoViewResult InitialiseTwoView(const Matches& m, const CameraIntrinsics& K,
 
 // [v]x: the matrix of the cross product, [v]x w = v x w.
 Eigen::Matrix3d Skew(const Eigen::Vector3d& v);
+
+// Two-view bundle adjustment of an initialisation (cpp/ba: camera 1 fixed, |t| kept):
+// refines R, t and the inlier depths in place; returns the RMS reprojection error
+// before and after (pixels).
+std::pair<double, double> RefineTwoView(const Matches& m, const CameraIntrinsics& K,
+                                        TwoViewResult* r);
 
 // Normalised homogeneous coordinates of pixels (undistorted, K removed).
 std::vector<Eigen::Vector3d> Normalise(const std::vector<Eigen::Vector2d>& px,

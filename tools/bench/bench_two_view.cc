@@ -4,8 +4,9 @@
 //   build/tools/bench/mound_bench_two_view SITE_DIR
 //
 // For each image and the next one of the same flight pattern: SIFT matches, RANSAC +
-// 8-point pose, stacked-epipolar depths; prints matches, inliers, the rotation error and
-// the translation-direction error against poses.json (degrees), and the medians.
+// 8-point pose, stacked-epipolar depths, then two-view bundle adjustment; prints matches,
+// inliers, the rotation error and the translation-direction error against poses.json
+// (degrees) before and after the adjustment, and the medians.
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <chrono>
@@ -54,14 +55,17 @@ int main(int argc, char** argv) {
   K.cy = camera.at("K")[1][2];
   for (int k = 0; k < 5; ++k) K.dist[k] = camera.at("dist_k1k2p1p2k3")[k];
   const auto& images = poses.at("images");
-  std::vector<double> rot, dir_err, secs;
+  std::vector<double> rot, dir_err, rot_init, dir_init, secs;
   for (size_t a = 0; a + 1 < images.size(); ++a) {
     if (images[a].at("pattern") != images[a + 1].at("pattern")) continue;
     const auto t0 = std::chrono::steady_clock::now();
     const mound::sfm::Matches m = mound::sfm::MatchFeatures(
         mound::sfm::LoadGrey(dir + "/" + images[a].at("file").get<std::string>()),
         mound::sfm::LoadGrey(dir + "/" + images[a + 1].at("file").get<std::string>()));
-    const mound::sfm::TwoViewResult r = mound::sfm::InitialiseTwoView(m, K);
+    mound::sfm::TwoViewResult r = mound::sfm::InitialiseTwoView(m, K);
+    const Eigen::Matrix3d R_init = r.R;
+    const Eigen::Vector3d t_init = r.t;
+    const std::pair<double, double> rmse = mound::sfm::RefineTwoView(m, K, &r);
     secs.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
     Eigen::Matrix3d R1, R2;
     Eigen::Vector3d t1, t2;
@@ -69,13 +73,27 @@ int main(int argc, char** argv) {
     Pose(images[a + 1], &R2, &t2);
     const Eigen::Matrix3d R_true = R2 * R1.transpose();
     const Eigen::Vector3d t_true = (t2 - R_true * t1).normalized();
-    rot.push_back(Eigen::AngleAxisd(r.R * R_true.transpose()).angle() * 180 / M_PI);
-    dir_err.push_back(std::acos(std::clamp(r.t.dot(t_true), -1.0, 1.0)) * 180 / M_PI);
+    auto rot_deg = [&](const Eigen::Matrix3d& R) {
+      return Eigen::AngleAxisd(R * R_true.transpose()).angle() * 180 / M_PI;
+    };
+    auto dir_deg = [&](const Eigen::Vector3d& t) {
+      return std::acos(std::clamp(t.dot(t_true), -1.0, 1.0)) * 180 / M_PI;
+    };
+    rot_init.push_back(rot_deg(R_init));
+    dir_init.push_back(dir_deg(t_init));
+    rot.push_back(rot_deg(r.R));
+    dir_err.push_back(dir_deg(r.t));
     std::cout << images[a].at("pattern").get<std::string>() << " " << a << "-" << a + 1 << ": "
-              << m.px1.size() << " matches, " << r.inliers.size() << " inliers, rotation error "
-              << rot.back() << " deg, translation direction error " << dir_err.back() << " deg\n";
+              << m.px1.size() << " matches, " << r.inliers.size() << " inliers; 8-point: "
+              << rot_init.back() << " / " << dir_init.back() << " deg; after BA ("
+              << rmse.first << " -> " << rmse.second << " px): " << rot.back() << " / "
+              << dir_err.back() << " deg (rotation / translation direction error)\n";
   }
-  std::cout << rot.size() << " pairs: median rotation error " << Median(rot)
+  std::cout << rot.size() << " pairs, 8-point: median rotation error " << Median(rot_init)
+            << " deg (max " << *std::max_element(rot_init.begin(), rot_init.end())
+            << "), median translation direction error " << Median(dir_init) << " deg (max "
+            << *std::max_element(dir_init.begin(), dir_init.end()) << ")\n";
+  std::cout << "after two-view BA: median rotation error " << Median(rot)
             << " deg (max " << *std::max_element(rot.begin(), rot.end())
             << "), median translation direction error " << Median(dir_err) << " deg (max "
             << *std::max_element(dir_err.begin(), dir_err.end()) << "), median "
