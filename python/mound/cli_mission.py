@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 from typing import Any
 
 from mound.geodesy import Origin
@@ -44,14 +43,8 @@ def cmd_upload(args: argparse.Namespace) -> int:
     from mound.mavlink import transfer
     from mound.mission import home_item
 
-    items, home = missionfiles.read_mission(args.mission)
-    firmware = args.firmware
-    if firmware is None:  # a .plan says which; a WPL file comes from the ArduPilot world
-        text = open(args.mission, encoding="utf-8").read()
-        doc: Any = json.loads(text) if text.lstrip().startswith("{") else None
-        firmware = "px4" if doc is not None and \
-            doc.get("mission", {}).get("firmwareType") != 3 else "ardupilot"
-    if firmware == "ardupilot":
+    items, home, file_firmware = missionfiles.read_mission(args.mission)
+    if (args.firmware or file_firmware) == "ardupilot":
         items = [home_item(home), *items]
     key = mavlink_link.signing_key(args.signing_key, args.signing_passphrase)
     try:

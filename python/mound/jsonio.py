@@ -47,17 +47,25 @@ def write_json(path: str | Path, doc: dict[str, Any]) -> None:
     write_atomic(path, json.dumps(doc, indent=1, allow_nan=False) + "\n")
 
 
-def read_json(path: str | Path, schema: str, max_version: int) -> dict[str, Any]:
-    """Reads a `schema` document of version 1..max_version; InputError on any defect."""
-    path = Path(path)
+def read_text(path: str | Path) -> str:
+    """A UTF-8 text file; InputError naming the file if it cannot be read."""
     try:
-        text = path.read_text(encoding="utf-8")
+        return Path(path).read_text(encoding="utf-8")
     except OSError as e:
         raise InputError(f"{path}: cannot read ({e.strerror})") from e
+
+
+def parse_json(text: str, path: str | Path) -> Any:
+    """JSON text read from `path`; a syntax error names the file, line and column."""
     try:
-        doc = json.loads(text)
+        return json.loads(text)
     except json.JSONDecodeError as e:
         raise InputError(f"{path}:{e.lineno}:{e.colno}: not valid JSON ({e.msg})") from e
+
+
+def read_json(path: str | Path, schema: str, max_version: int) -> dict[str, Any]:
+    """Reads a `schema` document of version 1..max_version; InputError on any defect."""
+    doc = parse_json(read_text(path), path)
     if not isinstance(doc, dict):
         raise InputError(f"{path}: top level must be an object")
     if doc.get("schema") != schema:

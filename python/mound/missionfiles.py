@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from mound.geodesy import Origin, enu_to_geodetic
-from mound.jsonio import InputError, write_atomic
+from mound.jsonio import InputError, parse_json, read_text, write_atomic, write_json
 from mound.mission import (
     FRAME_GLOBAL_RELATIVE_ALT,
     FRAME_GLOBAL_RELATIVE_ALT_INT,
@@ -70,8 +70,7 @@ def plan_document(mission: Mission, firmware: str = "px4") -> dict[str, Any]:
 
 
 def write_plan(path: str | Path, mission: Mission, firmware: str = "px4") -> None:
-    write_atomic(path, json.dumps(plan_document(mission, firmware), indent=1,
-                                  allow_nan=False) + "\n")
+    write_json(path, plan_document(mission, firmware))
 
 
 def _param(v: Any, where: str) -> float:
@@ -82,15 +81,8 @@ def _param(v: Any, where: str) -> float:
     return float(v)
 
 
-def read_plan(path: str | Path) -> tuple[list[MissionItem], Origin]:
-    """Items (link frames, integer lat/lon) and home of a QGroundControl .plan file."""
-    path = Path(path)
-    try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
-    except OSError as e:
-        raise InputError(f"{path}: cannot read ({e.strerror})") from e
-    except json.JSONDecodeError as e:
-        raise InputError(f"{path}:{e.lineno}:{e.colno}: not valid JSON ({e.msg})") from e
+def _parse_plan(text: str, path: str | Path) -> tuple[list[MissionItem], Origin, str]:
+    doc = parse_json(text, path)
     if not isinstance(doc, dict) or doc.get("fileType") != "Plan":
         raise InputError(f"{path}: fileType: not a QGroundControl plan")
     m = doc.get("mission")
@@ -119,6 +111,13 @@ def read_plan(path: str | Path) -> tuple[list[MissionItem], Origin]:
                                  round(lat * 1e7), round(lon * 1e7),
                                  0.0 if math.isnan(p[6]) else p[6],
                                  int(bool(raw.get("autoContinue", True)))))
+    firmware = "ardupilot" if m.get("firmwareType") == FIRMWARE["ardupilot"] else "px4"
+    return items, origin, firmware
+
+
+def read_plan(path: str | Path) -> tuple[list[MissionItem], Origin]:
+    """Items (link frames, integer lat/lon) and home of a QGroundControl .plan file."""
+    items, origin, _ = _parse_plan(read_text(path), path)
     return items, origin
 
 
@@ -138,12 +137,7 @@ def write_wpl(path: str | Path, mission: Mission) -> None:
     write_atomic(path, "\n".join(lines) + "\n")
 
 
-def read_wpl(path: str | Path) -> tuple[list[MissionItem], Origin]:
-    path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as e:
-        raise InputError(f"{path}: cannot read ({e.strerror})") from e
+def _parse_wpl(text: str, path: str | Path) -> tuple[list[MissionItem], Origin]:
     rows = [ln for ln in text.splitlines() if ln.strip()]
     if not rows or rows[0].strip() != WPL_MAGIC:
         raise InputError(f"{path}:1: not a '{WPL_MAGIC}' waypoint file")
@@ -170,13 +164,18 @@ def read_wpl(path: str | Path) -> tuple[list[MissionItem], Origin]:
     return items, origin
 
 
-def read_mission(path: str | Path) -> tuple[list[MissionItem], Origin]:
-    """A .plan (JSON) or WPL (text) file, by content."""
-    try:
-        head = Path(path).read_text(encoding="utf-8", errors="replace").lstrip()[:1]
-    except OSError as e:
-        raise InputError(f"{path}: cannot read ({e.strerror})") from e
-    return read_plan(path) if head == "{" else read_wpl(path)
+def read_wpl(path: str | Path) -> tuple[list[MissionItem], Origin]:
+    return _parse_wpl(read_text(path), path)
+
+
+def read_mission(path: str | Path) -> tuple[list[MissionItem], Origin, str]:
+    """Items, home and firmware ("px4" or "ardupilot") of a .plan (JSON) or WPL (text)
+    file, told apart by content. A .plan names its firmware in firmwareType; a WPL file
+    comes from the ArduPilot world (Mission Planner, MAVProxy)."""
+    text = read_text(path)
+    if text.lstrip().startswith("{"):
+        return _parse_plan(text, path)
+    return (*_parse_wpl(text, path), "ardupilot")
 
 
 def _lonlat(origin: Origin, enu: np.ndarray) -> list[list[float]]:

@@ -146,7 +146,8 @@ def test_plan_and_wpl_files_parse_back_to_the_same_items(tmp_path: Path) -> None
     missionfiles.write_wpl(tmp_path / "m.waypoints", m)
     missionfiles.write_geojson(tmp_path / "m.geojson", m)
     for name in ("m.plan", "m.waypoints"):
-        items, home = missionfiles.read_mission(tmp_path / name)
+        items, home, firmware = missionfiles.read_mission(tmp_path / name)
+        assert firmware == ("px4" if name == "m.plan" else "ardupilot")
         assert transfer.first_difference(m.items, items) is None
         assert (home.lat_deg, home.lon_deg) == (ORIGIN.lat_deg, ORIGIN.lon_deg)
     doc = json.loads((tmp_path / "m.plan").read_text())
