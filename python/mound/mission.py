@@ -181,12 +181,10 @@ def scan_legs(spec: MissionSpec) -> list[ScanLeg]:
         centres = np.array([s.pose.centre for s in mine])
         if pattern == "raster":
             lines = [s.line for s in mine]
-            ends = [0]
-            for k in range(1, len(mine)):
-                if lines[k] != lines[k - 1]:
-                    ends += [k - 1, k]
-            ends.append(len(mine) - 1)
-            keep = sorted(set(ends))
+            last = len(mine) - 1
+            # The first and last shot of each line.
+            keep = [k for k in range(len(mine)) if k in (0, last)
+                    or lines[k] != lines[k - 1] or lines[k] != lines[k + 1]]
             same_line = [k for k in range(1, len(mine)) if lines[k] == lines[k - 1]]
             step = (float(np.linalg.norm(centres[same_line[0]] - centres[same_line[0] - 1]))
                     if same_line else 1.0)
@@ -210,7 +208,6 @@ def _up(h: float) -> np.ndarray:
 class Mission:
     items: list[MissionItem]
     origin: Origin
-    home_enu: np.ndarray
     flight_distance_m: float
     budget_m: float
     closed: bool
@@ -347,5 +344,5 @@ def build(plan: dict[str, Any], origin: Origin, spec: MissionSpec | None = None)
                 f"plan assumed scan_cost_m {worst['scan_cost_m']:g}") if worst else ""
         raise InputError(f"mission: flight distance {distance:.1f} m exceeds the plan's "
                          f"budget_m {budget:g} m{hint}")
-    return Mission(items, origin, home, distance, budget, closed, sites_out, nav_path,
-                   footprints, spec)
+    return Mission(items, origin, distance, budget, closed, sites_out, nav_path, footprints,
+                   spec)

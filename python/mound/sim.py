@@ -117,9 +117,12 @@ def _check_above_ground(hf: terrain.Heightfield, labelled: list[tuple[str, fligh
                              f"{c[2]:.2f}) m is below the ground ({ground:.2f} m): fly higher")
 
 
-def _grid_doc(x: np.ndarray, y: np.ndarray, name: str, step_key: str) -> dict[str, Any]:
-    return {"npy": name, "x0_m": float(x[0]), "y0_m": float(y[0]),
-            step_key: float(x[1] - x[0]), "shape": [len(y), len(x)]}
+def _save_npy(path: Path, array: np.ndarray) -> None:
+    """np.save through a temporary file and a rename (np.save appends .npy to names
+    without it, hence the .tmp.npy suffix)."""
+    tmp = path.with_name(path.name + ".tmp.npy")
+    np.save(tmp, array)
+    tmp.replace(path)
 
 
 def simulate(spec: SimSpec, out_dir: str | Path, threads: int | None = None) -> dict[str, Any]:
@@ -142,16 +145,17 @@ def simulate(spec: SimSpec, out_dir: str | Path, threads: int | None = None) -> 
     timings["texture_s"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
-    np.save(out / "heightfield.npy.tmp.npy", hf.z_m.astype(np.float32))
-    (out / "heightfield.npy.tmp.npy").replace(out / "heightfield.npy")
-    np.save(out / "texture.npy.tmp.npy", tex)
-    (out / "texture.npy.tmp.npy").replace(out / "texture.npy")
+    _save_npy(out / "heightfield.npy", hf.z_m.astype(np.float32))
+    _save_npy(out / "texture.npy", tex)
+    heightfield_doc = {"npy": "heightfield.npy", "x0_m": float(hf.x_m[0]),
+                       "y0_m": float(hf.y_m[0]), "spacing_m": spacing,
+                       "shape": list(hf.z_m.shape)}
     camera_doc = {"schema": "mound.camera", "version": 1, **cam.to_doc()}
     write_json(out / "camera.json", camera_doc)
     files = [f"images/{k:04d}.png" for k in range(len(labelled))]
     job = {
         "schema": "mound.render", "version": 1,
-        "heightfield": _grid_doc(hf.x_m, hf.y_m, "heightfield.npy", "spacing_m"),
+        "heightfield": heightfield_doc,
         "texture": {"npy": "texture.npy", "x0_m": float(hf.x_m[0]), "y0_m": float(hf.y_m[0]),
                     "texel_m": texel},
         "camera": cam.to_doc(),
@@ -196,7 +200,7 @@ def simulate(spec: SimSpec, out_dir: str | Path, threads: int | None = None) -> 
         "terrain": asdict(spec.terrain),
         "lighting": asdict(spec.lighting),
         "sim": {k: v for k, v in asdict(spec).items() if k not in ("terrain", "lighting")},
-        "heightfield": _grid_doc(hf.x_m, hf.y_m, "heightfield.npy", "spacing_m"),
+        "heightfield": heightfield_doc,
         "texture": {"npy": "texture.npy", "texel_m": texel, "shape": list(tex.shape)},
         "files": {"camera": "camera.json", "poses": "poses.json", "reference_ply": "reference.ply",
                   "render_job": "render.json", "images": files},
