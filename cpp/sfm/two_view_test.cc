@@ -67,20 +67,6 @@ TEST(StackedEpipolarDepths, ExactDataGivesTheTrueDepths) {
 
 // --- rendered images -------------------------------------------------------------------
 
-sim::Pose LookAt(const Eigen::Vector3d& c, const Eigen::Vector3d& target) {
-  const Eigen::Vector3d z = (target - c).normalized();
-  const Eigen::Vector3d x = z.cross(Eigen::Vector3d(0, 1, 0)).normalized();
-  const Eigen::Vector3d y = z.cross(x);
-  sim::Pose p;
-  for (int k = 0; k < 3; ++k) {
-    p.R[k] = x[k];
-    p.R[3 + k] = y[k];
-    p.R[6 + k] = z[k];
-  }
-  for (int r = 0; r < 3; ++r) p.t[r] = -(p.R[3 * r] * c[0] + p.R[3 * r + 1] * c[1] + p.R[3 * r + 2] * c[2]);
-  return p;
-}
-
 // A multi-octave random texture (bilinear value noise, 4 octaves) as features to track.
 sim::Texture NoiseTexture(double half_m, double texel_m, uint32_t seed) {
   const int n = static_cast<int>(std::lround(2 * half_m / texel_m)) + 1;
@@ -138,7 +124,10 @@ PairResult RenderedPair(const std::function<double(double, double)>& height,
   cam.cx = 399.5;
   cam.cy = 299.5;
   cam.dist = {-0.05, 0.01, 0, 0, 0};
-  const sim::Pose p1 = LookAt(c1, look1), p2 = LookAt(c2, look2);
+  auto look_at = [](const Eigen::Vector3d& c, const Eigen::Vector3d& target) {
+    return sim::LookAt({c.x(), c.y(), c.z()}, {target.x(), target.y(), target.z()});
+  };
+  const sim::Pose p1 = look_at(c1, look1), p2 = look_at(c2, look2);
   sim::RenderSettings rs;
   rs.keep_geometry = true;
   rs.noise_sigma = 1.0;

@@ -95,8 +95,10 @@ RenderedImage Render(const Scene& scene, const CameraModel& camera, const Pose& 
   const int W = camera.width, H = camera.height;
   // Vertices far outside the image are dropped before distortion, whose polynomial folds
   // back beyond its valid range: limit at twice the corner's normalised radius.
-  const double xc = std::max(camera.cx, W - 1 - camera.cx) / camera.fx;
-  const double yc = std::max(camera.cy, H - 1 - camera.cy) / camera.fy;
+  // The farthest image corner from the principal point, in pixels.
+  const double corner_u = std::max(camera.cx, W - 1 - camera.cx);
+  const double corner_v = std::max(camera.cy, H - 1 - camera.cy);
+  const double xc = corner_u / camera.fx, yc = corner_v / camera.fy;
   const double r2_limit = 4 * (xc * xc + yc * yc);
   std::vector<Vertex> verts(static_cast<size_t>(hf.nx) * hf.ny);
   std::vector<float> enu(verts.size() * 3);
@@ -143,8 +145,7 @@ RenderedImage Render(const Scene& scene, const CameraModel& camera, const Pose& 
     out.xyz_m.assign(static_cast<size_t>(W) * H * 3, std::numeric_limits<float>::quiet_NaN());
   }
   Gaussian noise(settings.noise_seed);
-  const double corner2 = std::pow(std::max(camera.cx, W - 1 - camera.cx), 2) +
-                         std::pow(std::max(camera.cy, H - 1 - camera.cy), 2);
+  const double corner2 = corner_u * corner_u + corner_v * corner_v;
   const float fallback_scale = static_cast<float>(1.0 / std::min(camera.fx, camera.fy));
   for (int v = 0; v < H; ++v) {
     for (int u = 0; u < W; ++u) {

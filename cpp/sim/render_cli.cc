@@ -93,13 +93,14 @@ int RunMoundRender(const std::vector<std::string>& args, std::ostream& out, std:
           rs.noise_seed = SplitMix(job.seed * 1000003ULL + k);
           rs.keep_geometry = geometry;
           const RenderedImage im = Render(job.scene, job.camera, job.images[k].pose, rs);
-          const std::string path = (out_dir / job.images[k].file).string();
-          WriteImage(path, im);
+          const std::filesystem::path path = out_dir / job.images[k].file;
+          WriteImage(path.string(), im);
           if (geometry) {
-            const std::vector<size_t> hw2 = {static_cast<size_t>(im.height), static_cast<size_t>(im.width)};
-            const std::string stem = path.substr(0, path.size() - std::filesystem::path(path).extension().string().size());
-            WriteNpyFloat32(stem + ".depth.npy", hw2, im.depth_m);
-            WriteNpyFloat32(stem + ".xyz.npy", {hw2[0], hw2[1], 3}, im.xyz_m);
+            const size_t h = static_cast<size_t>(im.height), w = static_cast<size_t>(im.width);
+            WriteNpyFloat32(std::filesystem::path(path).replace_extension(".depth.npy").string(),
+                            {h, w}, im.depth_m);
+            WriteNpyFloat32(std::filesystem::path(path).replace_extension(".xyz.npy").string(),
+                            {h, w, 3}, im.xyz_m);
           }
           covered[k] = static_cast<double>(im.covered_px) / (static_cast<double>(im.width) * im.height);
           seconds[k] = std::chrono::duration<double>(std::chrono::steady_clock::now() - s0).count();

@@ -37,25 +37,6 @@ Texture MakeTexture(double half_m, double texel_m,
   return Texture(-half_m, -half_m, texel_m, n, n, std::move(rgb));
 }
 
-// cam_from_world of a camera at `c` looking at `target`, image up towards +y (north).
-Pose LookAt(std::array<double, 3> c, std::array<double, 3> target) {
-  std::array<double, 3> z = {target[0] - c[0], target[1] - c[1], target[2] - c[2]};
-  double n = std::sqrt(z[0] * z[0] + z[1] * z[1] + z[2] * z[2]);
-  for (double& v : z) v /= n;
-  // x = z cross up(0, 1, 0)... use up = +y unless nearly parallel
-  std::array<double, 3> up = {0, 1, 0};
-  std::array<double, 3> x = {z[1] * up[2] - z[2] * up[1], z[2] * up[0] - z[0] * up[2],
-                             z[0] * up[1] - z[1] * up[0]};
-  n = std::sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2]);
-  for (double& v : x) v /= n;
-  const std::array<double, 3> y = {z[1] * x[2] - z[2] * x[1], z[2] * x[0] - z[0] * x[2],
-                                   z[0] * x[1] - z[1] * x[0]};
-  Pose p;
-  p.R = {x[0], x[1], x[2], y[0], y[1], y[2], z[0], z[1], z[2]};
-  for (int r = 0; r < 3; ++r) p.t[r] = -(p.R[3 * r] * c[0] + p.R[3 * r + 1] * c[1] + p.R[3 * r + 2] * c[2]);
-  return p;
-}
-
 CameraModel MakeCamera(std::array<double, 5> dist = {}) {
   CameraModel cam;
   cam.width = 640;

@@ -104,4 +104,27 @@ std::array<double, 3> Pose::Centre() const {
           -(R[2] * t[0] + R[5] * t[1] + R[8] * t[2])};
 }
 
+Pose LookAt(const std::array<double, 3>& c, const std::array<double, 3>& target) {
+  auto normalised = [](std::array<double, 3> v) {
+    const double n = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    for (double& x : v) x /= n;
+    return v;
+  };
+  auto cross = [](const std::array<double, 3>& a, const std::array<double, 3>& b) {
+    return std::array<double, 3>{a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
+                                 a[0] * b[1] - a[1] * b[0]};
+  };
+  const std::array<double, 3> z = normalised({target[0] - c[0], target[1] - c[1], target[2] - c[2]});
+  const std::array<double, 3> x = normalised(cross(z, {0, 1, 0}));
+  const std::array<double, 3> y = cross(z, x);
+  Pose p;
+  for (int k = 0; k < 3; ++k) {
+    p.R[k] = x[k];
+    p.R[3 + k] = y[k];
+    p.R[6 + k] = z[k];
+  }
+  for (int r = 0; r < 3; ++r) p.t[r] = -(p.R[3 * r] * c[0] + p.R[3 * r + 1] * c[1] + p.R[3 * r + 2] * c[2]);
+  return p;
+}
+
 }  // namespace mound::sim

@@ -70,6 +70,11 @@ struct Pose {
   std::array<double, 3> Centre() const;  // -R^T t
 };
 
+// cam_from_world of a camera at `centre` looking at `target`, the image's up as close to
+// north (+y) as possible (as mound.camera.Pose.look_at). Not for a camera looking straight
+// along +-y.
+Pose LookAt(const std::array<double, 3>& centre, const std::array<double, 3>& target);
+
 struct Scene {
   Heightfield terrain;
   Texture texture;
