@@ -49,10 +49,7 @@ TEST(BaselinesTest, FeasibleAndNeverAboveTheOptimum) {
 TEST(BaselinesTest, LargerInstancesStayFeasible) {
   for (bool closed : {true, false}) {
     OpInstance inst = RandomInstance(150, closed, 0, 9);
-    for (auto& n : inst.nodes) {
-      n.x_m *= 10;
-      n.y_m *= 10;
-    }
+    testing::ScaleCoordinates(&inst, 10);
     inst.budget_m = std::max(300.0, inst.Cost(0, inst.end) + 10);
     BaselineOptions opt;
     ExpectFeasible(inst, SolveGreedy(inst), "greedy");

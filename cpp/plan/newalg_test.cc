@@ -95,10 +95,7 @@ TEST(NewAlgTest, NeverAboveOptimumOnSmallInstancesAndGapIsReported) {
 TEST(NewAlgTest, LargerInstancesAreValidAndDeterministic) {
   for (bool closed : {true, false}) {
     OpInstance inst = RandomInstance(300, closed, 0, 7);
-    for (auto& n : inst.nodes) {
-      n.x_m *= 100;
-      n.y_m *= 100;
-    }
+    testing::ScaleCoordinates(&inst, 100);
     inst.budget_m = 3000;
     NewAlgOptions opt;
     opt.seed = 3;

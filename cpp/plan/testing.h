@@ -36,6 +36,14 @@ inline OpInstance RandomInstance(int sites, bool closed, double budget, unsigned
   return inst;
 }
 
+// Multiplies every node's coordinates by `factor` (sparser layouts of the same instance).
+inline void ScaleCoordinates(OpInstance* inst, double factor) {
+  for (auto& n : inst->nodes) {
+    n.x_m *= factor;
+    n.y_m *= factor;
+  }
+}
+
 // The cost formula of INTERFACES.md written out again, independent of OpInstance::Cost.
 inline double IndependentCost(const OpInstance& inst, const std::vector<int>& route) {
   double c = 0;
