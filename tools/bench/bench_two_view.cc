@@ -5,14 +5,16 @@
 //
 // For each image and the next one of the same flight pattern: SIFT matches, RANSAC +
 // 8-point pose, stacked-epipolar depths, then two-view bundle adjustment; prints matches,
-// inliers, the rotation error and the translation-direction error against poses.json
-// (degrees) before and after the adjustment, and the medians.
+// inliers (how well the images can be tracked), the rotation error and the
+// translation-direction error against poses.json (degrees) before and after the
+// adjustment, and the medians.
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <fstream>
 #include <iostream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -56,6 +58,7 @@ int main(int argc, char** argv) {
   for (int k = 0; k < 5; ++k) K.dist[k] = camera.at("dist_k1k2p1p2k3")[k];
   const auto& images = poses.at("images");
   std::vector<double> rot, dir_err, rot_init, dir_init, secs;
+  std::map<std::string, std::vector<double>> inliers;  // per flight pattern
   for (size_t a = 0; a + 1 < images.size(); ++a) {
     if (images[a].at("pattern") != images[a + 1].at("pattern")) continue;
     const auto t0 = std::chrono::steady_clock::now();
@@ -79,6 +82,7 @@ int main(int argc, char** argv) {
     auto dir_deg = [&](const Eigen::Vector3d& t) {
       return std::acos(std::clamp(t.dot(t_true), -1.0, 1.0)) * 180 / M_PI;
     };
+    inliers[images[a].at("pattern").get<std::string>()].push_back(r.inliers.size());
     rot_init.push_back(rot_deg(R_init));
     dir_init.push_back(dir_deg(t_init));
     rot.push_back(rot_deg(r.R));
@@ -88,6 +92,11 @@ int main(int argc, char** argv) {
               << rot_init.back() << " / " << dir_init.back() << " deg; after BA ("
               << rmse.first << " -> " << rmse.second << " px): " << rot.back() << " / "
               << dir_err.back() << " deg (rotation / translation direction error)\n";
+  }
+  for (const auto& [pattern, v] : inliers) {
+    std::cout << pattern << ": median " << Median(v) << " RANSAC inliers (min "
+              << *std::min_element(v.begin(), v.end()) << ") over " << v.size()
+              << " consecutive pairs\n";
   }
   std::cout << rot.size() << " pairs, 8-point: median rotation error " << Median(rot_init)
             << " deg (max " << *std::max_element(rot_init.begin(), rot_init.end())
