@@ -2,49 +2,76 @@
 
 #include <ceres/ceres.h>
 
+#include <array>
 #include <cmath>
 
+#include "ba/cost_functions.h"
 #include "common/error.h"
 
 namespace mound::ba {
+namespace {
+
+// A view's pose as Ceres' parameter blocks: angle-axis rotation and translation.
+struct PoseBlocks {
+  std::array<double, 3> rotation{}, translation{};
+};
+
+PoseBlocks ToBlocks(const geometry::Rigid3d& cam_from_world) {
+  PoseBlocks b;
+  const Eigen::AngleAxisd aa(cam_from_world.rotation);
+  const Eigen::Vector3d w = aa.angle() * aa.axis();
+  b.rotation = {w.x(), w.y(), w.z()};
+  b.translation = {cam_from_world.translation.x(), cam_from_world.translation.y(),
+                   cam_from_world.translation.z()};
+  return b;
+}
+
+geometry::Rigid3d FromBlocks(const PoseBlocks& b) {
+  const Eigen::Vector3d w(b.rotation[0], b.rotation[1], b.rotation[2]);
+  const Eigen::Quaterniond q = w.norm() > 0 ? Eigen::Quaterniond(Eigen::AngleAxisd(w.norm(), w.normalized()))
+                                            : Eigen::Quaterniond::Identity();
+  return {q, Eigen::Vector3d(b.translation[0], b.translation[1], b.translation[2])};
+}
+
+}  // namespace
 
 double RmseReprojection(const Problem& p) {
   double sum = 0;
   for (const Observation& o : p.observations) {
-    const ReprojectionError e(o.u_px, o.v_px, p.camera);
-    double r[2];
-    e(p.views[o.view].rotation.data(), p.views[o.view].translation.data(),
-      p.points[o.point].data(), r);
-    sum += r[0] * r[0] + r[1] * r[1];
+    Eigen::Vector2d uv;
+    if (!p.camera.ImageFromCamera(p.cam_from_world[o.view] * p.points[o.point], &uv)) continue;
+    sum += (uv - o.px).squaredNorm();
   }
   return p.observations.empty() ? 0 : std::sqrt(sum / p.observations.size());
 }
 
 Summary Adjust(Problem* p, const Options& o) {
-  const int nv = static_cast<int>(p->views.size()), np = static_cast<int>(p->points.size());
+  const int nv = static_cast<int>(p->cam_from_world.size()), np = static_cast<int>(p->points.size());
   for (size_t k = 0; k < p->observations.size(); ++k) {
     const Observation& ob = p->observations[k];
     if (ob.view < 0 || ob.view >= nv || ob.point < 0 || ob.point >= np) {
-      throw InputError("observations[" + std::to_string(k) + "]: view or point out of range");
+      throw InternalError("ba::Adjust: observations[" + std::to_string(k) + "]: view or point out of range");
     }
   }
-  if (o.fixed_view < 0 || o.fixed_view >= nv) throw InputError("fixed_view: out of range");
+  if (o.fixed_view < 0 || o.fixed_view >= nv) throw InternalError("ba::Adjust: fixed_view out of range");
   Summary s;
   s.initial_rmse_px = RmseReprojection(*p);
+  std::vector<PoseBlocks> poses;
+  for (const geometry::Rigid3d& v : p->cam_from_world) poses.push_back(ToBlocks(v));
   ceres::Problem problem;
   for (const Observation& ob : p->observations) {
-    problem.AddResidualBlock(ReprojectionError::Create(ob.u_px, ob.v_px, p->camera),
-                             new ceres::HuberLoss(o.huber_px), p->views[ob.view].rotation.data(),
-                             p->views[ob.view].translation.data(), p->points[ob.point].data());
+    problem.AddResidualBlock(ReprojectionError::Create(ob.px.x(), ob.px.y(), p->camera),
+                             new ceres::HuberLoss(o.huber_px), poses[ob.view].rotation.data(),
+                             poses[ob.view].translation.data(), p->points[ob.point].data());
   }
-  View& fixed = p->views[o.fixed_view];
+  PoseBlocks& fixed = poses[o.fixed_view];
   if (problem.HasParameterBlock(fixed.rotation.data())) {
     problem.SetParameterBlockConstant(fixed.rotation.data());
     problem.SetParameterBlockConstant(fixed.translation.data());
   }
   if (o.scale_view >= 0 && o.scale_view < nv && o.scale_view != o.fixed_view &&
-      problem.HasParameterBlock(p->views[o.scale_view].translation.data())) {
-    problem.SetManifold(p->views[o.scale_view].translation.data(), new ceres::SphereManifold<3>());
+      problem.HasParameterBlock(poses[o.scale_view].translation.data())) {
+    problem.SetManifold(poses[o.scale_view].translation.data(), new ceres::SphereManifold<3>());
   }
   ceres::Solver::Options so;
   so.minimizer_type = ceres::TRUST_REGION;
@@ -56,6 +83,7 @@ Summary Adjust(Problem* p, const Options& o) {
   so.parameter_tolerance = 1e-10;
   ceres::Solver::Summary summary;
   ceres::Solve(so, &problem, &summary);
+  for (int k = 0; k < nv; ++k) p->cam_from_world[k] = FromBlocks(poses[k]);
   s.final_rmse_px = RmseReprojection(*p);
   s.iterations = static_cast<int>(summary.iterations.size());
   s.converged = summary.termination_type == ceres::CONVERGENCE;

@@ -1,6 +1,7 @@
 // Bundle adjustment: all camera poses and points refined together by Levenberg-Marquardt
 // (Ceres, sparse Schur complement, points eliminated first) on the Huber-robustified
-// reprojection error.
+// reprojection error. Eigen in, Eigen out: Ceres is private to this library
+// (cost_functions.h is its private header).
 //
 // Gauge: the first view (`fixed_view`) is held fixed, which removes rotation and
 // translation; the scale is fixed by keeping the length of `scale_view`'s translation
@@ -8,29 +9,25 @@
 // its length. Intrinsics are fixed (calibrated camera).
 #pragma once
 
-#include <array>
+#include <Eigen/Core>
 #include <string>
 #include <vector>
 
-#include "ba/cost_functions.h"
+#include "geometry/camera_model.h"
+#include "geometry/rigid3.h"
 
 namespace mound::ba {
-
-struct View {
-  std::array<double, 3> rotation{};     // angle-axis of cam_from_world
-  std::array<double, 3> translation{};  // t of cam_from_world
-};
 
 struct Observation {
   int view = 0;
   int point = 0;
-  double u_px = 0, v_px = 0;  // observed (distorted) pixel
+  Eigen::Vector2d px = Eigen::Vector2d::Zero();  // observed (distorted) pixel
 };
 
 struct Problem {
-  PinholeRadial camera;
-  std::vector<View> views;
-  std::vector<std::array<double, 3>> points;
+  geometry::CameraModel camera;
+  std::vector<geometry::Rigid3d> cam_from_world;  // one per view
+  std::vector<Eigen::Vector3d> points;            // in the world frame
   std::vector<Observation> observations;
 };
 
@@ -49,10 +46,12 @@ struct Summary {
   std::string brief;  // Ceres' one-line report
 };
 
-// Refines `problem` in place. Throws InputError for indices out of range.
+// Refines `problem` in place. An observation or gauge index out of range is a caller's bug
+// (InternalError).
 Summary Adjust(Problem* problem, const Options& options);
 
-// Root-mean-square reprojection error of all observations (pixels).
+// Root-mean-square reprojection error of all observations (pixels); a point behind its
+// camera contributes nothing (as in the adjustment).
 double RmseReprojection(const Problem& problem);
 
 }  // namespace mound::ba

@@ -11,12 +11,16 @@
 #include <random>
 
 #include "ba/bundle_adjuster.h"
+#include "ba/cost_functions.h"
+#include "common/error.h"
 
 namespace mound::ba {
 namespace {
 
-PinholeRadial Camera() {
-  PinholeRadial c;
+geometry::CameraModel Camera() {
+  geometry::CameraModel c;
+  c.width = 1280;
+  c.height = 960;
   c.fx = 900;
   c.fy = 905;
   c.cx = 640;
@@ -37,12 +41,9 @@ TEST(ReprojectionError, JacobianMatchesNumericDifferences) {
   EXPECT_TRUE(checker.Probe(params, 1e-7, &results)) << results.error_log;
 }
 
-std::array<double, 3> Centre(const View& v) {
-  double minus_t[3] = {-v.translation[0], -v.translation[1], -v.translation[2]};
-  double inverse[3] = {-v.rotation[0], -v.rotation[1], -v.rotation[2]};
-  std::array<double, 3> c;
-  ceres::AngleAxisRotatePoint(inverse, minus_t, c.data());
-  return c;
+// A view from the angle-axis rotation w and the translation t of its cam_from_world.
+geometry::Rigid3d View(const Eigen::Vector3d& w, const Eigen::Vector3d& t) {
+  return {Eigen::Quaterniond(Eigen::AngleAxisd(w.norm(), w.normalized())), t};
 }
 
 TEST(BundleAdjuster, RecoversAPerturbedSceneToTheNoiseLevel) {
@@ -54,42 +55,35 @@ TEST(BundleAdjuster, RecoversAPerturbedSceneToTheNoiseLevel) {
   // Six views on an arc looking at the origin from about 30 m; the first at the origin of
   // the frame is the gauge, so the world frame is camera 0's.
   for (int k = 0; k < 6; ++k) {
-    View v;
-    v.rotation = {0.02 * k, 0.12 * k, 0.01 * k};
-    v.translation = {-1.5 * k, 0.2 * k, 0.1 * k};
-    truth.views.push_back(v);
+    truth.cam_from_world.push_back(k == 0 ? geometry::Rigid3d()
+                                          : View({0.02 * k, 0.12 * k, 0.01 * k}, {-1.5 * k, 0.2 * k, 0.1 * k}));
   }
-  for (int j = 0; j < 400; ++j) truth.points.push_back({8 * u(rng), 6 * u(rng), 30 + 10 * u(rng)});
+  for (int j = 0; j < 400; ++j) truth.points.emplace_back(8 * u(rng), 6 * u(rng), 30 + 10 * u(rng));
   Problem noisy = truth;
   for (int k = 0; k < 6; ++k) {
     for (int j = 0; j < 400; ++j) {
-      double p[3];
-      ceres::AngleAxisRotatePoint(truth.views[k].rotation.data(), truth.points[j].data(), p);
-      for (int i = 0; i < 3; ++i) p[i] += truth.views[k].translation[i];
-      if (p[2] <= 0) continue;
-      double r[2];
-      ReprojectionError(0, 0, truth.camera)(truth.views[k].rotation.data(),
-                                            truth.views[k].translation.data(),
-                                            truth.points[j].data(), r);
+      Eigen::Vector2d r;
+      if (!truth.camera.ImageFromCamera(truth.cam_from_world[k] * truth.points[j], &r)) continue;
       if (r[0] < 0 || r[0] > 1280 || r[1] < 0 || r[1] > 960) continue;
-      noisy.observations.push_back({k, j, r[0] + 0.5 * g(rng), r[1] + 0.5 * g(rng)});
+      noisy.observations.push_back({k, j, {r[0] + 0.5 * g(rng), r[1] + 0.5 * g(rng)}});
     }
   }
   truth.observations = noisy.observations;
   // Perturb everything but the gauge view: ~1 degree, ~0.3 m, points ~0.3 m.
   for (int k = 1; k < 6; ++k) {
+    const Eigen::AngleAxisd aa(truth.cam_from_world[k].rotation);
+    Eigen::Vector3d w = aa.angle() * aa.axis(), t = truth.cam_from_world[k].translation;
     for (int i = 0; i < 3; ++i) {
-      noisy.views[k].rotation[i] += 0.015 * g(rng);
-      noisy.views[k].translation[i] += 0.3 * g(rng);
+      w[i] += 0.015 * g(rng);
+      t[i] += 0.3 * g(rng);
     }
+    noisy.cam_from_world[k] = View(w, t);
   }
   // Keep the last view's translation length exact: it is the scale gauge.
-  const auto& tt = truth.views[5].translation;
-  auto& tn = noisy.views[5].translation;
-  const double ratio = std::hypot(tt[0], tt[1], tt[2]) / std::hypot(tn[0], tn[1], tn[2]);
-  for (double& t : tn) t *= ratio;
-  for (auto& X : noisy.points)
-    for (double& x : X) x += 0.3 * g(rng);
+  Eigen::Vector3d& tn = noisy.cam_from_world[5].translation;
+  tn *= truth.cam_from_world[5].translation.norm() / tn.norm();
+  for (Eigen::Vector3d& X : noisy.points)
+    for (int i = 0; i < 3; ++i) X[i] += 0.3 * g(rng);
 
   Options options;
   options.scale_view = 5;
@@ -104,15 +98,10 @@ TEST(BundleAdjuster, RecoversAPerturbedSceneToTheNoiseLevel) {
   EXPECT_LE(s.final_rmse_px, RmseReprojection(truth));
   EXPECT_TRUE(s.converged) << s.brief;
   for (int k = 0; k < 6; ++k) {
-    const std::array<double, 3> a = Centre(noisy.views[k]), b = Centre(truth.views[k]);
-    const double centre_m = std::hypot(a[0] - b[0], a[1] - b[1], a[2] - b[2]);
+    const double centre_m = (noisy.cam_from_world[k].Centre() - truth.cam_from_world[k].Centre()).norm();
     // Rotation difference R_est R_true^T as an angle.
-    double Ra[9], Rb[9];
-    ceres::AngleAxisToRotationMatrix(noisy.views[k].rotation.data(), Ra);
-    ceres::AngleAxisToRotationMatrix(truth.views[k].rotation.data(), Rb);
-    double trace = 0;  // trace(Ra Rb^T) = sum of elementwise products (column-major too)
-    for (int i = 0; i < 9; ++i) trace += Ra[i] * Rb[i];
-    const double angle_deg = std::acos(std::clamp((trace - 1) / 2, -1.0, 1.0)) * 180 / M_PI;
+    const double angle_deg =
+        geometry::RotationAngle(noisy.cam_from_world[k].rotation, truth.cam_from_world[k].rotation) * 180 / M_PI;
     std::cout << "view " << k << ": centre error " << centre_m * 100 << " cm, rotation error "
               << angle_deg << " deg\n";
     // From 0.5 px noise at f = 900 px and 20-40 m depth, the rotation about the vertical
@@ -122,13 +111,13 @@ TEST(BundleAdjuster, RecoversAPerturbedSceneToTheNoiseLevel) {
   }
 }
 
-TEST(BundleAdjuster, RejectsObservationsOutOfRange) {
+TEST(BundleAdjuster, ObservationsOutOfRangeAreAnInternalError) {
   Problem p;
   p.camera = Camera();
-  p.views.resize(2);
-  p.points.push_back({0, 0, 10});
-  p.observations.push_back({2, 0, 1, 1});
-  EXPECT_THROW(Adjust(&p, Options{}), std::exception);
+  p.cam_from_world.resize(2);
+  p.points.emplace_back(0, 0, 10);
+  p.observations.push_back({2, 0, {1, 1}});
+  EXPECT_THROW(Adjust(&p, Options{}), InternalError);  // a caller's bug, not bad input
 }
 
 }  // namespace

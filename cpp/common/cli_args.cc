@@ -52,6 +52,9 @@ int RunGuarded(const std::string& tool, std::ostream& err, const std::function<i
   } catch (const InputError& e) {
     err << tool << ": " << e.what() << "\n";
     return kExitBadInput;
+  } catch (const NoResultError& e) {
+    err << tool << ": no result: " << e.what() << "\n";
+    return kExitNoResult;
   } catch (const std::exception& e) {
     err << tool << ": internal error (a bug, please report): " << e.what() << "\n";
     return kExitInternal;

@@ -1,7 +1,7 @@
 // Command-line helpers shared by the project's tools: "--key value" options after
 // positional arguments, strict number parsing, and the exception-to-exit-code wrapper
 // (../shared/STYLE.md: 0 ok, 2 bad input or usage with one line naming the problem,
-// 1 internal error).
+// 1 internal error, 3 valid input that allowed no result).
 #pragma once
 
 #include <functional>
@@ -29,8 +29,8 @@ Args ParseArgs(const std::vector<std::string>& args, size_t begin,
 double ParseNumber(const std::string& s, const std::string& what);
 long long ParseInt(const std::string& s, const std::string& what, long long lo, long long hi);
 
-// Runs `body`, mapping InputError to exit 2 and any other exception to exit 1, each with one
-// line "<tool>: ..." on `err`.
+// Runs `body`, mapping InputError to exit 2, NoResultError to exit 3 and any other
+// exception to exit 1, each with one line "<tool>: ..." on `err`.
 int RunGuarded(const std::string& tool, std::ostream& err, const std::function<int()>& body);
 
 }  // namespace mound

@@ -1,7 +1,13 @@
 // Error types and exit codes shared by every tool of the project.
 //
-// Contract (../shared/INTERFACES.md): exit 0 ok, 2 bad input or usage (one line on stderr
-// naming the argument, file, field or line), 1 internal failure (a bug).
+// Contract (../shared/INTERFACES.md, ../shared/STYLE.md): exit 0 ok, 1 internal failure (a
+// bug), 2 bad input or usage (one line on stderr naming the argument, file, field or line),
+// 3 valid input that allowed no result (a degenerate scene: too little motion or texture;
+// the tool still writes its result file with "status": "failed" and the reason).
+//
+// Three error types keep these apart: InputError (the user can fix it: exit 2),
+// NoResultError (nothing is wrong with the input, it just admits no answer: exit 3) and
+// InternalError (a violated precondition inside a library: a bug, exit 1).
 #pragma once
 
 #include <stdexcept>
@@ -9,13 +15,25 @@
 
 namespace mound {
 
-enum ExitCode : int { kExitOk = 0, kExitInternal = 1, kExitBadInput = 2 };
+enum ExitCode : int { kExitOk = 0, kExitInternal = 1, kExitBadInput = 2, kExitNoResult = 3 };
 
 // Thrown for anything the user can fix: a bad argument, file, field or value. The message
 // is one line and names the offending item, e.g. "sites[3].reward: must be >= 0, got -1".
 class InputError : public std::runtime_error {
  public:
   explicit InputError(const std::string& what) : std::runtime_error(what) {}
+};
+
+// Valid input that allowed no result, e.g. two views with fewer than 8 consistent matches.
+class NoResultError : public std::runtime_error {
+ public:
+  explicit NoResultError(const std::string& what) : std::runtime_error(what) {}
+};
+
+// A caller broke a library function's precondition (an index out of range): a bug.
+class InternalError : public std::logic_error {
+ public:
+  explicit InternalError(const std::string& what) : std::logic_error(what) {}
 };
 
 }  // namespace mound

@@ -63,7 +63,7 @@ Matches MatchFeatures(const GreyImage& a, const GreyImage& b, int max_features) 
 }
 
 std::vector<Eigen::Vector3d> Normalise(const std::vector<Eigen::Vector2d>& px,
-                                       const CameraIntrinsics& K) {
+                                       const geometry::CameraModel& K) {
   std::vector<Eigen::Vector3d> out;
   if (px.empty()) return out;
   cv::Mat src(static_cast<int>(px.size()), 1, CV_64FC2), dst;
@@ -122,12 +122,11 @@ Eigen::VectorXd StackedEpipolarDepths(const std::vector<Eigen::Vector3d>& x1,
   return v / v.norm();
 }
 
-TwoViewResult InitialiseTwoView(const Matches& m, const CameraIntrinsics& K, double ransac_px,
+TwoViewResult InitialiseTwoView(const Matches& m, const geometry::CameraModel& K, double ransac_px,
                                 uint64_t seed) {
   const size_t n = m.px1.size();
-  if (n < 8 || m.px2.size() != n) {
-    throw InputError("two-view: need at least 8 matches, got " + std::to_string(n));
-  }
+  if (m.px2.size() != n) throw InternalError("InitialiseTwoView: px1 and px2 differ in length");
+  if (n < 8) throw NoResultError("two-view: need at least 8 matches, got " + std::to_string(n));
   const std::vector<Eigen::Vector3d> x1 = Normalise(m.px1, K), x2 = Normalise(m.px2, K);
   // RANSAC on undistorted pixel coordinates, so that the threshold is in pixels.
   std::vector<cv::Point2d> p1, p2;
@@ -149,16 +148,16 @@ TwoViewResult InitialiseTwoView(const Matches& m, const CameraIntrinsics& K, dou
     }
   }
   if (r.inliers.size() < 8) {
-    throw InputError("two-view: " + std::to_string(r.inliers.size()) +
+    throw NoResultError("two-view: " + std::to_string(r.inliers.size()) +
                      " RANSAC inliers, need at least 8 (too little overlap or texture?)");
   }
   // The 8-point algorithm (Hartley-normalised, in OpenCV) on every inlier.
   const cv::Mat F = cv::findFundamentalMat(q1, q2, cv::FM_8POINT);
-  if (F.rows != 3) throw InputError("two-view: the 8-point algorithm found no solution");
+  if (F.rows != 3) throw NoResultError("two-view: the 8-point algorithm found no solution");
   Eigen::Matrix3d Fe, Ke;
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) Fe(i, j) = F.at<double>(i, j);
-  Ke << K.fx, 0, K.cx, 0, K.fy, K.cy, 0, 0, 1;
+  Ke = K.K();
   const Eigen::Matrix3d E = Ke.transpose() * Fe * Ke;
   Eigen::JacobiSVD<Eigen::Matrix3d> svd(E, Eigen::ComputeFullU | Eigen::ComputeFullV);
   Eigen::Matrix3d U = svd.matrixU(), V = svd.matrixV();
@@ -192,27 +191,22 @@ TwoViewResult InitialiseTwoView(const Matches& m, const CameraIntrinsics& K, dou
       }
       if (positive > best) {
         best = positive;
-        r.R = R;
-        r.t = t;
+        r.cam2_from_cam1 = geometry::Rigid3d(R, t);
         r.depth1 = d1;
         r.depth2 = d2;
         r.positive_depth = positive;
       }
     }
   }
-  if (best <= 0) throw InputError("two-view: no pose puts the points in front of both cameras");
+  if (best <= 0) throw NoResultError("two-view: no pose puts the points in front of both cameras");
   return r;
 }
 
-std::pair<double, double> RefineTwoView(const Matches& m, const CameraIntrinsics& K,
+std::pair<double, double> RefineTwoView(const Matches& m, const geometry::CameraModel& K,
                                         TwoViewResult* r) {
   ba::Problem p;
-  p.camera = {K.fx, K.fy, K.cx, K.cy, K.dist};
-  p.views.resize(2);
-  const Eigen::AngleAxisd aa(r->R);
-  const Eigen::Vector3d w = aa.angle() * aa.axis();
-  p.views[1].rotation = {w.x(), w.y(), w.z()};
-  p.views[1].translation = {r->t.x(), r->t.y(), r->t.z()};
+  p.camera = K;
+  p.cam_from_world = {geometry::Rigid3d(), r->cam2_from_cam1};
   std::vector<Eigen::Vector2d> px;
   for (int i : r->inliers) px.push_back(m.px1[i]);
   const std::vector<Eigen::Vector3d> x1 = Normalise(px, K);
@@ -220,27 +214,21 @@ std::pair<double, double> RefineTwoView(const Matches& m, const CameraIntrinsics
   for (size_t k = 0; k < r->inliers.size(); ++k) {
     if (!(r->depth1[k] > 0 && r->depth2[k] > 0)) continue;  // behind a camera: left out
     index[k] = static_cast<int>(p.points.size());
-    const Eigen::Vector3d X = r->depth1[k] * x1[k];
-    p.points.push_back({X.x(), X.y(), X.z()});
+    p.points.push_back(r->depth1[k] * x1[k]);
     const int i = r->inliers[k];
-    p.observations.push_back({0, index[k], m.px1[i].x(), m.px1[i].y()});
-    p.observations.push_back({1, index[k], m.px2[i].x(), m.px2[i].y()});
+    p.observations.push_back({0, index[k], m.px1[i]});
+    p.observations.push_back({1, index[k], m.px2[i]});
   }
   ba::Options o;
   o.fixed_view = 0;
   o.scale_view = 1;
   const ba::Summary s = ba::Adjust(&p, o);
-  const auto& rv = p.views[1].rotation;
-  const Eigen::Vector3d wr(rv[0], rv[1], rv[2]);
-  r->R = wr.norm() > 0 ? Eigen::AngleAxisd(wr.norm(), wr.normalized()).toRotationMatrix()
-                       : Eigen::Matrix3d::Identity();
-  r->t = Eigen::Vector3d(p.views[1].translation[0], p.views[1].translation[1],
-                         p.views[1].translation[2]);
+  r->cam2_from_cam1 = p.cam_from_world[1];
   for (size_t k = 0; k < index.size(); ++k) {
     if (index[k] < 0) continue;
-    const auto& X = p.points[index[k]];
-    r->depth1[k] = X[2];
-    r->depth2[k] = (r->R * Eigen::Vector3d(X[0], X[1], X[2]) + r->t).z();
+    const Eigen::Vector3d& X = p.points[index[k]];
+    r->depth1[k] = X.z();
+    r->depth2[k] = (r->cam2_from_cam1 * X).z();
   }
   return {s.initial_rmse_px, s.final_rmse_px};
 }

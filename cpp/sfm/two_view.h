@@ -3,9 +3,10 @@
 // stacked epipolar system, solved by its singular value decomposition.
 //
 // Frames: OpenCV camera frames (x right, y down, z forward); the pose is cam2_from_cam1,
-// X2 = R X1 + t, with |t| = 1 (two views fix the scene only up to scale).
+// X2 = R X1 + t, with |t| = 1 (two views fix the scene only up to scale). The camera is the
+// project's model (geometry/camera_model.h), calibrated.
 //
-// Depths (Ma, Soatto, Kosecka & Sastry, "An Invitation to 3-D Vision", 2004, sec. 5.2):
+// Depths, the paper's eqs. (9)-(11) (Ma, Soatto, Kosecka & Sastry, "An Invitation to 3-D Vision", 2004, sec. 5.2):
 // for each point j with normalised image coordinates x1_j, x2_j (homogeneous),
 //   lambda2_j x2_j = lambda1_j R x1_j + gamma t,
 // and multiplying by the skew matrix of x2_j removes lambda2_j:
@@ -25,12 +26,10 @@
 #include <utility>
 #include <vector>
 
-namespace mound::sfm {
+#include "geometry/camera_model.h"
+#include "geometry/rigid3.h"
 
-struct CameraIntrinsics {
-  double fx = 0, fy = 0, cx = 0, cy = 0;
-  std::array<double, 5> dist{};  // OpenCV k1 k2 p1 p2 k3
-};
+namespace mound::sfm {
 
 // An 8-bit grey image, row-major.
 struct GreyImage {
@@ -48,7 +47,7 @@ struct Matches {
 // (0.8) kept only when mutual.
 Matches MatchFeatures(const GreyImage& a, const GreyImage& b, int max_features = 4000);
 
-// Depths lambda1 (and gamma) of the stacked epipolar system for a given pose; `x1`, `x2`
+// Eq. (11): depths lambda1 (and gamma) of the stacked epipolar system for a given pose; `x1`, `x2`
 // normalised homogeneous coordinates. Returns v = (lambda1_1..n, gamma) with unit norm
 // and gamma >= 0; points with x2 parallel to R x1 (no parallax) get depth 0.
 Eigen::VectorXd StackedEpipolarDepths(const std::vector<Eigen::Vector3d>& x1,
@@ -56,8 +55,7 @@ Eigen::VectorXd StackedEpipolarDepths(const std::vector<Eigen::Vector3d>& x1,
                                       const Eigen::Matrix3d& R, const Eigen::Vector3d& t);
 
 struct TwoViewResult {
-  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();  // cam2_from_cam1
-  Eigen::Vector3d t = Eigen::Vector3d::Zero();      // unit length
+  geometry::Rigid3d cam2_from_cam1;  // translation of unit length
   std::vector<int> inliers;       // indices into the matches
   std::vector<double> depth1;     // per inlier: depth in camera 1, in units of |t|
   std::vector<double> depth2;     // per inlier: depth in camera 2
@@ -68,9 +66,10 @@ struct TwoViewResult {
 // RANSAC (fundamental matrix, 1 px) selects the inliers, the 8-point algorithm on all of
 // them gives F, E = K^T F K projected onto the essential matrices; of its four
 // decompositions the one that puts the most points in front of both cameras wins; the
-// depths come from the stacked epipolar system. Throws InputError with fewer than 8
-// matches or inliers.
-TwoViewResult InitialiseTwoView(const Matches& m, const CameraIntrinsics& K,
+// depths come from the stacked epipolar system. Fewer than 8 matches or inliers, or no
+// pose with points in front of both cameras, is a degenerate scene (NoResultError); px1 and
+// px2 of different lengths a caller's bug (InternalError).
+TwoViewResult InitialiseTwoView(const Matches& m, const geometry::CameraModel& camera,
                                 double ransac_px = 1.0, uint64_t seed = 1);
 
 // [v]x: the matrix of the cross product, [v]x w = v x w.
@@ -79,11 +78,11 @@ Eigen::Matrix3d Skew(const Eigen::Vector3d& v);
 // Two-view bundle adjustment of an initialisation (cpp/ba: camera 1 fixed, |t| kept):
 // refines R, t and the inlier depths in place; returns the RMS reprojection error
 // before and after (pixels).
-std::pair<double, double> RefineTwoView(const Matches& m, const CameraIntrinsics& K,
+std::pair<double, double> RefineTwoView(const Matches& m, const geometry::CameraModel& camera,
                                         TwoViewResult* r);
 
 // Normalised homogeneous coordinates of pixels (undistorted, K removed).
 std::vector<Eigen::Vector3d> Normalise(const std::vector<Eigen::Vector2d>& px,
-                                       const CameraIntrinsics& K);
+                                       const geometry::CameraModel& camera);
 
 }  // namespace mound::sfm

@@ -11,6 +11,7 @@
 #include <iostream>
 #include <random>
 
+#include "common/error.h"
 #include "sfm/two_view.h"
 #include "sim/render.h"
 
@@ -117,17 +118,14 @@ PairResult RenderedPair(const std::function<double(double, double)>& height,
   for (int i = 0; i < hf.ny; ++i)
     for (int j = 0; j < hf.nx; ++j) hf.z_m.push_back(static_cast<float>(height(hf.X(j), hf.Y(i))));
   scene.texture = NoiseTexture(40, 0.05, 11);
-  sim::CameraModel cam;
+  geometry::CameraModel cam;
   cam.width = 800;
   cam.height = 600;
   cam.fx = cam.fy = 700;
   cam.cx = 399.5;
   cam.cy = 299.5;
   cam.dist = {-0.05, 0.01, 0, 0, 0};
-  auto look_at = [](const Eigen::Vector3d& c, const Eigen::Vector3d& target) {
-    return sim::LookAt({c.x(), c.y(), c.z()}, {target.x(), target.y(), target.z()});
-  };
-  const sim::Pose p1 = look_at(c1, look1), p2 = look_at(c2, look2);
+  const geometry::Rigid3d p1 = geometry::LookAt(c1, look1), p2 = geometry::LookAt(c2, look2);
   sim::RenderSettings rs;
   rs.keep_geometry = true;
   rs.noise_sigma = 1.0;
@@ -140,25 +138,19 @@ PairResult RenderedPair(const std::function<double(double, double)>& height,
   PairResult out;
   const Matches m = MatchFeatures(grey(a), grey(b), 3000);
   out.matches = m.px1.size();
-  const CameraIntrinsics K{cam.fx, cam.fy, cam.cx, cam.cy, cam.dist};
-  out.r = InitialiseTwoView(m, K);
+  out.r = InitialiseTwoView(m, cam);
   // Ground truth relative pose cam2_from_cam1.
-  Eigen::Matrix3d R1, R2;
-  for (int k = 0; k < 9; ++k) {
-    R1(k / 3, k % 3) = p1.R[k];
-    R2(k / 3, k % 3) = p2.R[k];
-  }
-  const Eigen::Vector3d t1(p1.t[0], p1.t[1], p1.t[2]), t2(p2.t[0], p2.t[1], p2.t[2]);
-  const Eigen::Matrix3d R_true = R2 * R1.transpose();
-  const Eigen::Vector3d t_true = t2 - R_true * t1;
+  const geometry::Rigid3d truth = p2 * p1.Inverse();
+  const Eigen::Matrix3d R_true = truth.RotationMatrix();
+  const Eigen::Vector3d t_true = truth.translation;
   auto rot_deg = [&](const Eigen::Matrix3d& R) {
     return Eigen::AngleAxisd(R * R_true.transpose()).angle() * 180 / M_PI;
   };
   auto dir_deg = [&](const Eigen::Vector3d& t) {
     return std::acos(std::clamp(t.dot(t_true.normalized()), -1.0, 1.0)) * 180 / M_PI;
   };
-  out.rot_deg = rot_deg(out.r.R);
-  out.dir_deg = dir_deg(out.r.t);
+  out.rot_deg = rot_deg(out.r.cam2_from_cam1.RotationMatrix());
+  out.dir_deg = dir_deg(out.r.cam2_from_cam1.translation);
   // Depths, up to the one scale two views leave open (|t_true| here).
   for (size_t k = 0; k < out.r.inliers.size(); ++k) {
     const Eigen::Vector2d px = m.px1[out.r.inliers[k]];
@@ -168,9 +160,9 @@ PairResult RenderedPair(const std::function<double(double, double)>& height,
   }
   std::sort(out.depth_rel_err.begin(), out.depth_rel_err.end());
   TwoViewResult refined = out.r;
-  out.rmse = RefineTwoView(m, K, &refined);
-  out.ba_rot_deg = rot_deg(refined.R);
-  out.ba_dir_deg = dir_deg(refined.t);
+  out.rmse = RefineTwoView(m, cam, &refined);
+  out.ba_rot_deg = rot_deg(refined.cam2_from_cam1.RotationMatrix());
+  out.ba_dir_deg = dir_deg(refined.cam2_from_cam1.translation);
   std::cout << out.matches << " matches, " << out.r.inliers.size() << " inliers; 8-point: "
             << "rotation error " << out.rot_deg << " deg, translation direction error "
             << out.dir_deg << " deg; after two-view BA (" << out.rmse.first << " -> "
@@ -220,7 +212,11 @@ TEST(TwoView, TooFewMatchesIsAClearError) {
     m.px1.emplace_back(k, k);
     m.px2.emplace_back(k + 1, k);
   }
-  EXPECT_THROW(InitialiseTwoView(m, CameraIntrinsics{500, 500, 320, 240, {}}), std::exception);
+  geometry::CameraModel K;
+  K.fx = K.fy = 500;
+  K.cx = 320;
+  K.cy = 240;
+  EXPECT_THROW(InitialiseTwoView(m, K), NoResultError);  // a degenerate scene, not bad input
 }
 
 }  // namespace

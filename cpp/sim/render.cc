@@ -89,8 +89,8 @@ float NeighbourStep(const GBuffer& g, size_t k, size_t n) {
 
 }  // namespace
 
-RenderedImage Render(const Scene& scene, const CameraModel& camera, const Pose& pose,
-                     const RenderSettings& settings) {
+RenderedImage Render(const Scene& scene, const geometry::CameraModel& camera,
+                     const geometry::Rigid3d& cam_from_world, const RenderSettings& settings) {
   const Heightfield& hf = scene.terrain;
   const int W = camera.width, H = camera.height;
   // Vertices far outside the image are dropped before distortion, whose polynomial folds
@@ -100,6 +100,9 @@ RenderedImage Render(const Scene& scene, const CameraModel& camera, const Pose& 
   const double corner_v = std::max(camera.cy, H - 1 - camera.cy);
   const double xc = corner_u / camera.fx, yc = corner_v / camera.fy;
   const double r2_limit = 4 * (xc * xc + yc * yc);
+  const Eigen::Matrix3d R = cam_from_world.RotationMatrix();
+  const Eigen::Vector3d& t = cam_from_world.translation;
+  const std::array<double, geometry::CameraModel::kNumParams> params = camera.Params();
   std::vector<Vertex> verts(static_cast<size_t>(hf.nx) * hf.ny);
   std::vector<float> enu(verts.size() * 3);
   for (int i = 0; i < hf.ny; ++i) {
@@ -109,13 +112,13 @@ RenderedImage Render(const Scene& scene, const CameraModel& camera, const Pose& 
       enu[3 * k] = static_cast<float>(X);
       enu[3 * k + 1] = static_cast<float>(Y);
       enu[3 * k + 2] = static_cast<float>(Z);
-      const std::array<double, 3> pc = pose.Apply(X, Y, Z);
+      const Eigen::Vector3d pc = R * Eigen::Vector3d(X, Y, Z) + t;
       Vertex& vx = verts[k];
       if (pc[2] < settings.near_m) continue;
       const double xn = pc[0] / pc[2], yn = pc[1] / pc[2];
       if (xn * xn + yn * yn > r2_limit) continue;
       double u, v;
-      camera.Distort(xn, yn, &u, &v);
+      geometry::ImageFromNormalised(params.data(), xn, yn, &u, &v);
       vx = {static_cast<float>(u), static_cast<float>(v), static_cast<float>(1.0 / pc[2]), true};
     }
   }

@@ -22,6 +22,8 @@
 #include <cstdint>
 #include <vector>
 
+#include "geometry/camera_model.h"
+#include "geometry/rigid3.h"
 #include "sim/scene.h"
 
 namespace mound::sim {
@@ -44,7 +46,7 @@ struct RenderedImage {
   size_t covered_px = 0;
 };
 
-RenderedImage Render(const Scene& scene, const CameraModel& camera, const Pose& pose,
-                     const RenderSettings& settings);
+RenderedImage Render(const Scene& scene, const geometry::CameraModel& camera,
+                     const geometry::Rigid3d& cam_from_world, const RenderSettings& settings);
 
 }  // namespace mound::sim

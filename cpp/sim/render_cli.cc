@@ -92,7 +92,7 @@ int RunMoundRender(const std::vector<std::string>& args, std::ostream& out, std:
           rs.vignetting = job.vignetting;
           rs.noise_seed = SplitMix(job.seed * 1000003ULL + k);
           rs.keep_geometry = geometry;
-          const RenderedImage im = Render(job.scene, job.camera, job.images[k].pose, rs);
+          const RenderedImage im = Render(job.scene, job.camera, job.images[k].cam_from_world, rs);
           const std::filesystem::path path = out_dir / job.images[k].file;
           WriteImage(path.string(), im);
           if (geometry) {

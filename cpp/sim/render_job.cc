@@ -99,8 +99,8 @@ Texture LoadTexture(const json& t, const std::string& dir) {
                  static_cast<int>(a.shape[0]), std::move(a.data));
 }
 
-CameraModel LoadCamera(const json& c) {
-  CameraModel cam;
+geometry::CameraModel LoadCamera(const json& c) {
+  geometry::CameraModel cam;
   cam.width = RequireInt(c, "width", "camera", 1, 20000);
   cam.height = RequireInt(c, "height", "camera", 1, 20000);
   const std::vector<double> K = RequireMatrix3(c, "K", "camera");
@@ -122,8 +122,7 @@ CameraModel LoadCamera(const json& c) {
   return cam;
 }
 
-Pose LoadPose(const json& p, const std::string& path) {
-  Pose pose;
+geometry::Rigid3d LoadPose(const json& p, const std::string& path) {
   const std::vector<double> R = RequireMatrix3(p, "R", path);
   const std::vector<double> t = RequireNumbers(p, "t", path, 3);
   for (int r = 0; r < 3; ++r) {
@@ -138,9 +137,8 @@ Pose LoadPose(const json& p, const std::string& path) {
   const double det = R[0] * (R[4] * R[8] - R[5] * R[7]) - R[1] * (R[3] * R[8] - R[5] * R[6]) +
                      R[2] * (R[3] * R[7] - R[4] * R[6]);
   if (det < 0) throw InputError(path + ".R: a reflection (det -1), not a rotation");
-  std::copy(R.begin(), R.end(), pose.R.begin());
-  std::copy(t.begin(), t.end(), pose.t.begin());
-  return pose;
+  return {Eigen::Matrix3d(Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(R.data())),
+          Eigen::Vector3d(t[0], t[1], t[2])};
 }
 
 std::string CheckImageFile(const std::string& file, const std::string& path) {
@@ -184,8 +182,8 @@ RenderJob LoadRenderJob(const std::string& path) {
     ImageJob im;
     im.file = CheckImageFile(RequireString(images[k], "file", p), JoinPath(p, "file"));
     const std::string pp = JoinPath(p, "cam_from_world");
-    im.pose = LoadPose(RequireField(images[k], "cam_from_world", p), pp);
-    const std::array<double, 3> c = im.pose.Centre();
+    im.cam_from_world = LoadPose(RequireField(images[k], "cam_from_world", p), pp);
+    const Eigen::Vector3d c = im.cam_from_world.Centre();
     double ground = 0;
     if (job.scene.terrain.HeightAt(c[0], c[1], &ground) && c[2] <= ground) {
       throw InputError(pp + ": the camera centre (" + FormatNumber(c[0]) + ", " + FormatNumber(c[1]) +

@@ -18,18 +18,20 @@
 #include <string>
 #include <vector>
 
+#include "geometry/camera_model.h"
+#include "geometry/rigid3.h"
 #include "sim/scene.h"
 
 namespace mound::sim {
 
 struct ImageJob {
   std::string file;
-  Pose pose;
+  geometry::Rigid3d cam_from_world;
 };
 
 struct RenderJob {
   Scene scene;
-  CameraModel camera;
+  geometry::CameraModel camera;
   std::vector<ImageJob> images;
   double noise_sigma = 0;
   double vignetting = 0;

@@ -37,6 +37,14 @@ Texture MakeTexture(double half_m, double texel_m,
   return Texture(-half_m, -half_m, texel_m, n, n, std::move(rgb));
 }
 
+using geometry::CameraModel;
+using Pose = geometry::Rigid3d;  // cam_from_world
+
+Eigen::Vector3d Vec(const std::array<double, 3>& a) { return {a[0], a[1], a[2]}; }
+Pose LookAt(const std::array<double, 3>& centre, const std::array<double, 3>& target) {
+  return geometry::LookAt(Vec(centre), Vec(target));
+}
+
 CameraModel MakeCamera(std::array<double, 5> dist = {}) {
   CameraModel cam;
   cam.width = 640;
@@ -50,10 +58,9 @@ CameraModel MakeCamera(std::array<double, 5> dist = {}) {
 }
 
 std::array<double, 2> Project(const CameraModel& cam, const Pose& pose, std::array<double, 3> X) {
-  const std::array<double, 3> pc = pose.Apply(X[0], X[1], X[2]);
-  double u, v;
-  cam.Distort(pc[0] / pc[2], pc[1] / pc[2], &u, &v);
-  return {u, v};
+  const Eigen::Vector3d pc = pose * Vec(X);
+  const Eigen::Vector2d uv = cam.ImageFromNormalised({pc.x() / pc.z(), pc.y() / pc.z()});
+  return {uv.x(), uv.y()};
 }
 
 // Intensity-weighted centroid of (value - background) in a window around `guess`.
@@ -136,7 +143,7 @@ TEST(Render, StoredGroundPointsReprojectOntoTheirPixels) {
         // ... and projects back onto the pixel's centre.
         const std::array<double, 2> p = Project(cam, pose, X);
         worst = std::max({worst, std::fabs(p[0] - u), std::fabs(p[1] - v)});
-        EXPECT_NEAR(pose.Apply(X[0], X[1], X[2])[2], im.depth_m[k], 1e-3 * im.depth_m[k]);
+        EXPECT_NEAR((pose * Vec(X)).z(), im.depth_m[k], 1e-3 * im.depth_m[k]);
         ++checked;
       }
     }
@@ -154,7 +161,7 @@ TEST(Render, PointBehindTheMoundIsHiddenFromALowObliqueView) {
   const std::array<double, 2> px = Project(cam, pose, behind);
   const int u = static_cast<int>(std::lround(px[0])), v = static_cast<int>(std::lround(px[1]));
   const size_t k = static_cast<size_t>(v) * cam.width + u;
-  const double true_depth = pose.Apply(behind[0], behind[1], behind[2])[2];
+  const double true_depth = (pose * Vec(behind)).z();
   RenderSettings rs;
   rs.keep_geometry = true;
   for (bool with_mound : {false, true}) {

@@ -1,6 +1,6 @@
 // The scene the renderer draws: a heightfield (the terrain surface) and a shaded texture
 // draped over it, both on regular grids in the site's ENU frame (metres, x east, y north,
-// z up), and a pinhole camera with OpenCV's distortion model.
+// z up). The camera is the project's one model (geometry/camera_model.h).
 //
 // Grid convention (as numpy's z[i, j] in python/mound/terrain.py): vertex (i, j) lies at
 // x = x0 + j * spacing, y = y0 + i * spacing; row i grows northwards.
@@ -48,32 +48,6 @@ class Texture {
   double x0_m_ = 0, y0_m_ = 0, texel_m_ = 1;
   std::vector<Level> levels_;
 };
-
-// OpenCV pinhole with distortion (k1, k2, p1, p2, k3); pixel (0, 0) is the centre of the
-// top-left pixel.
-struct CameraModel {
-  int width = 0, height = 0;
-  double fx = 0, fy = 0, cx = 0, cy = 0;
-  std::array<double, 5> dist{};  // k1 k2 p1 p2 k3
-
-  bool HasDistortion() const;
-  // Normalised image coordinates (x/z, y/z) -> pixel, with distortion.
-  void Distort(double xn, double yn, double* u, double* v) const;
-};
-
-// cam_from_world: X_cam = R * X_world + t (row-major R).
-struct Pose {
-  std::array<double, 9> R{};
-  std::array<double, 3> t{};
-
-  std::array<double, 3> Apply(double x, double y, double z) const;
-  std::array<double, 3> Centre() const;  // -R^T t
-};
-
-// cam_from_world of a camera at `centre` looking at `target`, the image's up as close to
-// north (+y) as possible (as mound.camera.Pose.look_at). Not for a camera looking straight
-// along +-y.
-Pose LookAt(const std::array<double, 3>& centre, const std::array<double, 3>& target);
 
 struct Scene {
   Heightfield terrain;

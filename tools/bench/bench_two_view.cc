@@ -23,12 +23,15 @@
 
 namespace {
 
-void Pose(const nlohmann::json& im, Eigen::Matrix3d* R, Eigen::Vector3d* t) {
+mound::geometry::Rigid3d CamFromWorld(const nlohmann::json& im) {
   const auto& p = im.at("cam_from_world");
+  Eigen::Matrix3d R;
+  Eigen::Vector3d t;
   for (int r = 0; r < 3; ++r) {
-    for (int c = 0; c < 3; ++c) (*R)(r, c) = p.at("R")[r][c].get<double>();
-    (*t)[r] = p.at("t")[r].get<double>();
+    for (int c = 0; c < 3; ++c) R(r, c) = p.at("R")[r][c].get<double>();
+    t[r] = p.at("t")[r].get<double>();
   }
+  return {R, t};
 }
 
 double Median(std::vector<double> v) {
@@ -50,7 +53,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   const nlohmann::json poses = nlohmann::json::parse(pf), camera = nlohmann::json::parse(cf);
-  mound::sfm::CameraIntrinsics K;
+  mound::geometry::CameraModel K;
   K.fx = camera.at("K")[0][0];
   K.fy = camera.at("K")[1][1];
   K.cx = camera.at("K")[0][2];
@@ -66,16 +69,13 @@ int main(int argc, char** argv) {
         mound::sfm::LoadGrey(dir + "/" + images[a].at("file").get<std::string>()),
         mound::sfm::LoadGrey(dir + "/" + images[a + 1].at("file").get<std::string>()));
     mound::sfm::TwoViewResult r = mound::sfm::InitialiseTwoView(m, K);
-    const Eigen::Matrix3d R_init = r.R;
-    const Eigen::Vector3d t_init = r.t;
+    const Eigen::Matrix3d R_init = r.cam2_from_cam1.RotationMatrix();
+    const Eigen::Vector3d t_init = r.cam2_from_cam1.translation;
     const std::pair<double, double> rmse = mound::sfm::RefineTwoView(m, K, &r);
     secs.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-    Eigen::Matrix3d R1, R2;
-    Eigen::Vector3d t1, t2;
-    Pose(images[a], &R1, &t1);
-    Pose(images[a + 1], &R2, &t2);
-    const Eigen::Matrix3d R_true = R2 * R1.transpose();
-    const Eigen::Vector3d t_true = (t2 - R_true * t1).normalized();
+    const mound::geometry::Rigid3d truth = CamFromWorld(images[a + 1]) * CamFromWorld(images[a]).Inverse();
+    const Eigen::Matrix3d R_true = truth.RotationMatrix();
+    const Eigen::Vector3d t_true = truth.translation.normalized();
     auto rot_deg = [&](const Eigen::Matrix3d& R) {
       return Eigen::AngleAxisd(R * R_true.transpose()).angle() * 180 / M_PI;
     };
@@ -85,8 +85,8 @@ int main(int argc, char** argv) {
     inliers[images[a].at("pattern").get<std::string>()].push_back(r.inliers.size());
     rot_init.push_back(rot_deg(R_init));
     dir_init.push_back(dir_deg(t_init));
-    rot.push_back(rot_deg(r.R));
-    dir_err.push_back(dir_deg(r.t));
+    rot.push_back(rot_deg(r.cam2_from_cam1.RotationMatrix()));
+    dir_err.push_back(dir_deg(r.cam2_from_cam1.translation));
     std::cout << images[a].at("pattern").get<std::string>() << " " << a << "-" << a + 1 << ": "
               << m.px1.size() << " matches, " << r.inliers.size() << " inliers; 8-point: "
               << rot_init.back() << " / " << dir_init.back() << " deg; after BA ("

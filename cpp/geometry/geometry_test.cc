@@ -1,0 +1,103 @@
+// The shared camera model and transforms: OpenCV's distortion formula at hand-computed
+// values, undistortion as its inverse, rigid-transform algebra, and Umeyama's similarity
+// recovering a known one.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "geometry/camera_model.h"
+#include "geometry/rigid3.h"
+#include "geometry/sim3.h"
+
+namespace mound::geometry {
+namespace {
+
+CameraModel Camera() {
+  CameraModel c;
+  c.width = 1280;
+  c.height = 960;
+  c.fx = 900;
+  c.fy = 905;
+  c.cx = 640;
+  c.cy = 480;
+  c.dist = {-0.12, 0.03, 0.0008, -0.0005, 0.001};
+  return c;
+}
+
+TEST(CameraModel, DistortionIsOpenCvsPolynomial) {
+  const CameraModel c = Camera();
+  const double x = 0.3, y = -0.2, r2 = x * x + y * y;
+  const double radial = 1 - 0.12 * r2 + 0.03 * r2 * r2 + 0.001 * r2 * r2 * r2;
+  const double xd = x * radial + 2 * 0.0008 * x * y + -0.0005 * (r2 + 2 * x * x);
+  const double yd = y * radial + 0.0008 * (r2 + 2 * y * y) + 2 * -0.0005 * x * y;
+  const Eigen::Vector2d uv = c.ImageFromNormalised({x, y});
+  EXPECT_NEAR(uv.x(), 900 * xd + 640, 1e-9);
+  EXPECT_NEAR(uv.y(), 905 * yd + 480, 1e-9);
+  Eigen::Vector2d px;
+  EXPECT_TRUE(c.ImageFromCamera(Eigen::Vector3d(3 * x, 3 * y, 3), &px));
+  EXPECT_NEAR((px - uv).norm(), 0, 1e-9);
+  EXPECT_FALSE(c.ImageFromCamera(Eigen::Vector3d(0.1, 0.1, -1), &px));
+}
+
+TEST(CameraModel, UndistortionInvertsDistortion) {
+  const CameraModel c = Camera();
+  for (double u : {0.0, 300.0, 640.0, 1279.0}) {
+    for (double v : {0.0, 480.0, 959.0}) {
+      const Eigen::Vector2d xy = c.NormalisedFromImage({u, v});
+      EXPECT_NEAR((c.ImageFromNormalised(xy) - Eigen::Vector2d(u, v)).norm(), 0, 1e-8);
+    }
+  }
+  const CameraModel round = CameraModel::FromParams(c.Params().data(), c.width, c.height);
+  EXPECT_EQ(round.Params(), c.Params());
+}
+
+TEST(Rigid3d, ComposesInvertsAndFindsTheCentre) {
+  const Rigid3d a(Eigen::AngleAxisd(0.4, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix(),
+                  Eigen::Vector3d(1, -2, 5));
+  const Rigid3d b(Eigen::AngleAxisd(-1.1, Eigen::Vector3d(0, 1, 0)).toRotationMatrix(),
+                  Eigen::Vector3d(0.5, 0, -3));
+  const Eigen::Vector3d x(0.3, 0.7, -1.9);
+  EXPECT_NEAR(((a * b) * x - a * (b * x)).norm(), 0, 1e-12);
+  EXPECT_NEAR((a.Inverse() * (a * x) - x).norm(), 0, 1e-12);
+  EXPECT_NEAR((a * a.Centre()).norm(), 0, 1e-12);  // the camera centre maps to the origin
+  EXPECT_NEAR(RotationAngle(a.rotation, (a * b).rotation * b.rotation.conjugate()), 0, 1e-12);
+}
+
+TEST(Rigid3d, LookAtPutsTheTargetOnTheOpticalAxisWithNorthUp) {
+  const Eigen::Vector3d c(3, -20, 15), target(1, 2, 0);
+  const Rigid3d cam_from_world = LookAt(c, target);
+  const Eigen::Vector3d t = cam_from_world * target;
+  EXPECT_NEAR(t.x(), 0, 1e-12);
+  EXPECT_NEAR(t.y(), 0, 1e-12);
+  EXPECT_NEAR(t.z(), (target - c).norm(), 1e-12);
+  EXPECT_NEAR((cam_from_world.Centre() - c).norm(), 0, 1e-12);
+  // A point north of the target appears above it in the image (smaller y).
+  EXPECT_LT((cam_from_world * (target + Eigen::Vector3d(0, 1, 0))).y(), 0);
+}
+
+TEST(Sim3d, UmeyamaRecoversAKnownSimilarity) {
+  std::mt19937 rng(3);
+  std::normal_distribution<double> g(0, 10);
+  Sim3d truth;
+  truth.scale = 2.7;
+  truth.rotation = Eigen::AngleAxisd(2.0, Eigen::Vector3d(-1, 0.5, 2).normalized());
+  truth.translation = {100, -40, 7};
+  std::vector<Eigen::Vector3d> src, dst;
+  for (int i = 0; i < 20; ++i) {
+    src.emplace_back(g(rng), g(rng), g(rng));
+    dst.push_back(truth * src.back());
+  }
+  const std::optional<Sim3d> s = EstimateSim3d(src, dst);
+  ASSERT_TRUE(s);
+  EXPECT_NEAR(s->scale, 2.7, 1e-9);
+  EXPECT_NEAR(RotationAngle(s->rotation, truth.rotation), 0, 1e-9);
+  EXPECT_NEAR((s->translation - truth.translation).norm(), 0, 1e-8);
+  EXPECT_NEAR((s->Inverse() * dst[3] - src[3]).norm(), 0, 1e-9);
+  // Collinear sources and too few pairs give no answer.
+  EXPECT_FALSE(EstimateSim3d({{0, 0, 0}, {1, 1, 1}, {2, 2, 2}, {3, 3, 3}}, dst));
+  EXPECT_FALSE(EstimateSim3d({src[0], src[1]}, {dst[0], dst[1]}));
+}
+
+}  // namespace
+}  // namespace mound::geometry
