@@ -58,7 +58,8 @@ TEST(BundleAdjuster, RecoversAPerturbedSceneToTheNoiseLevel) {
     truth.cam_from_world.push_back(k == 0 ? geometry::Rigid3d()
                                           : View({0.02 * k, 0.12 * k, 0.01 * k}, {-1.5 * k, 0.2 * k, 0.1 * k}));
   }
-  for (int j = 0; j < 400; ++j) truth.points.emplace_back(8 * u(rng), 6 * u(rng), 30 + 10 * u(rng));
+  // Braces: the three draws in order (function arguments have no evaluation order).
+  for (int j = 0; j < 400; ++j) truth.points.push_back(Eigen::Vector3d{8 * u(rng), 6 * u(rng), 30 + 10 * u(rng)});
   Problem noisy = truth;
   for (int k = 0; k < 6; ++k) {
     for (int j = 0; j < 400; ++j) {
