@@ -14,7 +14,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "python"))
 
 from mound.cli import main as mound_main
-from mound.mavlink.peer import MavsdkVehicle
+from mound.uav.mavlink.peer import MavsdkVehicle
 
 
 def main() -> int:

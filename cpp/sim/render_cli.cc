@@ -26,7 +26,7 @@ constexpr const char* kUsage =
     "usage: mound_render JOB.json --out DIR [--threads N] [--geometry]\n"
     "\n"
     "Renders the images of a mound.render job (a heightfield terrain with a texture, a camera\n"
-    "and cam_from_world poses; python/mound/sim.py writes them) with a z-buffer rasteriser.\n"
+    "and cam_from_world poses; python/mound/sim/site.py writes them) with a z-buffer rasteriser.\n"
     "  --out DIR      where the images go (paths in the job are relative to it)\n"
     "  --threads N    images rendered in parallel (default: the number of cores)\n"
     "  --geometry     also write <image>.depth.npy and <image>.xyz.npy per image\n"

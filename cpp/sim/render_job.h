@@ -1,4 +1,4 @@
-// The render job file (mound.render v1, written by python/mound/sim.py): which scene, which
+// The render job file (mound.render v1, written by python/mound/sim/site.py): which scene, which
 // camera, which poses, and the sensor effects. Loading validates every field and reports the
 // first problem as an InputError naming it ("images[3].cam_from_world.R: not a rotation").
 //

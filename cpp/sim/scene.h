@@ -2,7 +2,7 @@
 // draped over it, both on regular grids in the site's ENU frame (metres, x east, y north,
 // z up). The camera is the project's one model (geometry/camera_model.h).
 //
-// Grid convention (as numpy's z[i, j] in python/mound/terrain.py): vertex (i, j) lies at
+// Grid convention (as numpy's z[i, j] in python/mound/sim/terrain.py): vertex (i, j) lies at
 // x = x0 + j * spacing, y = y0 + i * spacing; row i grows northwards.
 #pragma once
 

@@ -25,12 +25,15 @@ from typing import Any
 
 import numpy as np
 
-from mound import cli_mission, coarse, datasets, statlog
-from mound.field import STANDARD_SEEDS, make_field, sites_document
-from mound.jsonio import InputError, read_json, write_json
-from mound.model import SCHEMA as MODEL_SCHEMA
-from mound.model import VERSION as MODEL_VERSION
-from mound.model import Model
+from mound import datasets
+from mound.classify import coarse, statlog
+from mound.classify.model import SCHEMA as MODEL_SCHEMA
+from mound.classify.model import VERSION as MODEL_VERSION
+from mound.classify.model import Model
+from mound.errors import InputError
+from mound.jsonio import read_json, write_json
+from mound.plan.field import STANDARD_SEEDS, make_field, sites_document
+from mound.uav import cli as uav_cli
 
 
 class UsageError(InputError):
@@ -129,7 +132,8 @@ def cmd_field_standard(args: argparse.Namespace) -> int:
 
 
 def cmd_plan_exact(args: argparse.Namespace) -> int:
-    from mound import exact_op, sites
+    from mound.plan import exact as exact_op
+    from mound.plan import sites
 
     prob = sites.load(args.sites, args.budget)
     r = exact_op.solve(prob, time_limit_s=args.time_limit)
@@ -153,7 +157,7 @@ def cmd_plan_exact(args: argparse.Namespace) -> int:
 
 
 def cmd_table1(args: argparse.Namespace) -> int:
-    from mound import table1
+    from mound.plan import table1
 
     out = Path(args.out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -176,8 +180,9 @@ def cmd_table1(args: argparse.Namespace) -> int:
 def cmd_sim_site(args: argparse.Namespace) -> int:
     from dataclasses import replace
 
-    from mound import sim, terrain
-    from mound.appearance import Lighting
+    from mound.sim import site as sim
+    from mound.sim import terrain
+    from mound.sim.appearance import Lighting
 
     overrides: dict[str, Any] = {"mound": args.mound == "tumulus", "seed": args.seed}
     for key in ("profile", "diameter_m", "height_m", "erosion_m", "size_m", "resolution_m"):
@@ -210,7 +215,7 @@ def cmd_sim_site(args: argparse.Namespace) -> int:
 
 
 def cmd_sim_figures(args: argparse.Namespace) -> int:
-    from mound import sim_figures
+    from mound.sim import figures as sim_figures
 
     out = Path(args.out_dir or args.site)
     scale = args.dpi_scale
@@ -311,7 +316,7 @@ def build_parser() -> argparse.ArgumentParser:
     sf.add_argument("--dpi-scale", type=float, default=1.0, help="smaller files below 1")
     sf.set_defaults(func=cmd_sim_figures)
 
-    cli_mission.add_parser(sub, Parser)
+    uav_cli.add_parser(sub, Parser)
 
     bench = sub.add_parser("bench", help="benchmarks and reproductions").add_subparsers(
         dest="cmd", required=True, parser_class=Parser)

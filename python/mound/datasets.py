@@ -18,7 +18,7 @@ import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
-from mound.jsonio import InputError
+from mound.errors import InputError
 
 
 @dataclass(frozen=True)

@@ -9,9 +9,7 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-
-class InputError(ValueError):
-    """Bad input the user can fix; the message names the file, line or field."""
+from mound.errors import InputError
 
 
 def write_atomic(path: str | Path, text: str) -> None:

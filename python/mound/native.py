@@ -1,56 +1,53 @@
 """The only place that runs the project's C++ tools as subprocesses.
 
-Tools are called with an argument list (never a shell string), in their own session so
-that an interrupt reaches the whole process group, and their exit codes are mapped to one
-exception type that carries the tool name, the code and the tail of stderr
-(../shared/STYLE.md: 0 ok, 2 bad input, 1 internal error, 128+N killed by signal N).
+Ready for minute-long runs (ODM's `system.run` is the model, ../shared/STYLE.md):
+- argument lists only, never a shell string; the command and its exit status are logged;
+- the tool's stderr (its progress and messages) is streamed line by line as it comes, to
+  the console when `echo` is set and to a log file when `log` is given, and its tail is
+  kept for the error message; stdout (where a tool prints a JSON result) is collected;
+- the tool runs in its own session (process group), so it survives no interrupt of ours:
+  on Ctrl-C (KeyboardInterrupt) or when `timeout_s` runs out, the whole group gets
+  SIGTERM, then SIGKILL after a grace period, and is reaped before we go on;
+- exit codes map to the project's errors (mound.errors): 2 -> ToolInputError (an
+  InputError), 3 -> ToolNoResultError (a NoResultError), 1 or a signal -> ToolError,
+  past the time limit -> ToolTimeout.
 """
 
 from __future__ import annotations
 
+import collections
 import json
+import os
+import signal
 import subprocess
+import sys
+import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import IO, Any
 
+from mound.errors import (  # noqa: F401  (re-exported for callers: native.ToolError)
+    EXIT_BAD_INPUT,
+    EXIT_INTERNAL,
+    EXIT_NO_RESULT,
+    EXIT_OK,
+    ToolError,
+    ToolTimeout,
+    tool_error,
+)
 from mound.paths import build_dir
 
-EXIT_OK = 0
-EXIT_INTERNAL = 1
-EXIT_BAD_INPUT = 2
-
-
-class ToolError(RuntimeError):
-    """A project tool failed; `code` is its exit status (negative: killed by a signal)."""
-
-    def __init__(self, tool: str, code: int, stderr: str) -> None:
-        self.tool = tool
-        self.code = code
-        self.stderr = stderr
-        tail = "\n".join(stderr.strip().splitlines()[-10:])
-        super().__init__(f"{tool} failed ({describe_exit(code)}): {tail}")
-
-
-def describe_exit(code: int) -> str:
-    if code == EXIT_BAD_INPUT:
-        return "exit 2: bad input"
-    if code == EXIT_INTERNAL:
-        return "exit 1: internal error"
-    signal_number = -code if code < 0 else code - 128 if code > 128 else 0
-    if signal_number == 9:
-        return f"exit {code}: killed (out of memory?)"
-    if signal_number in (6, 11):
-        return f"exit {code}: crashed (signal {signal_number})"
-    return f"exit {code}"
+TAIL_LINES = 200       # stderr lines kept in memory for the error message
+GRACE_S = 3.0          # between SIGTERM and SIGKILL
 
 
 @dataclass
 class ToolRun:
     stdout: str
-    stderr: str
+    stderr: str          # the last TAIL_LINES lines
     elapsed_s: float
+    pid: int
 
 
 def tool_path(name: str) -> Path:
@@ -60,21 +57,104 @@ def tool_path(name: str) -> Path:
     return path
 
 
-def run_tool(name: str, args: list[str], timeout_s: float | None = None) -> ToolRun:
-    """Runs build/<name> with `args`; raises ToolError on a non-zero exit."""
+def _end_group(proc: subprocess.Popen[bytes]) -> None:
+    """SIGTERM to the tool's process group, SIGKILL after GRACE_S, then reap it."""
+    for sig, wait_s in ((signal.SIGTERM, GRACE_S), (signal.SIGKILL, 10.0)):
+        try:
+            os.killpg(proc.pid, sig)
+        except ProcessLookupError:
+            break
+        try:
+            proc.wait(timeout=wait_s)
+            break
+        except subprocess.TimeoutExpired:
+            continue
+    # The leader may be gone while others of its group live on: end them too.
+    try:
+        os.killpg(proc.pid, signal.SIGKILL)
+    except ProcessLookupError:
+        pass
+    proc.wait()
+
+
+def run_tool(name: str, args: list[str], timeout_s: float | None = None, *,
+             log: str | Path | None = None, echo: bool = False) -> ToolRun:
+    """Runs build/<name> with `args`; raises a ToolError (see the module text) unless it
+    exits 0."""
     cmd = [str(tool_path(name)), *args]
+    log_file: IO[str] | None = None
+    if log is not None:
+        Path(log).parent.mkdir(parents=True, exist_ok=True)
+        log_file = open(log, "a", encoding="utf-8")
+    tail: collections.deque[str] = collections.deque(maxlen=TAIL_LINES)
+    out_chunks: list[bytes] = []
+    lock = threading.Lock()
+
+    def note(line: str) -> None:
+        with lock:
+            if log_file is not None:
+                log_file.write(line if line.endswith("\n") else line + "\n")
+                log_file.flush()
+
     start = time.perf_counter()
-    proc = subprocess.run(
-        cmd, capture_output=True, text=True, timeout=timeout_s, start_new_session=True,
-        check=False,
-    )
-    elapsed = time.perf_counter() - start
-    if proc.returncode != 0:
-        raise ToolError(name, proc.returncode, proc.stderr)
-    return ToolRun(proc.stdout, proc.stderr, elapsed)
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            stdin=subprocess.DEVNULL, start_new_session=True)
+    note(f"[native] pid {proc.pid}: {' '.join(cmd)}")
+    assert proc.stdout is not None and proc.stderr is not None
+    stdout, stderr = proc.stdout, proc.stderr
+
+    def pump_stderr() -> None:
+        for raw in iter(stderr.readline, b""):
+            line = raw.decode("utf-8", "replace")
+            tail.append(line.rstrip("\n"))
+            note(line)
+            if echo:
+                sys.stderr.write(line)
+                sys.stderr.flush()
+
+    def pump_stdout() -> None:
+        for chunk in iter(lambda: stdout.read(65536), b""):
+            out_chunks.append(chunk)
+
+    readers = [threading.Thread(target=pump_stderr, daemon=True),
+               threading.Thread(target=pump_stdout, daemon=True)]
+    for t in readers:
+        t.start()
+    try:
+        try:
+            code = proc.wait(timeout=timeout_s)
+        except subprocess.TimeoutExpired:
+            _end_group(proc)
+            note(f"[native] pid {proc.pid}: ended after the {timeout_s:g} s time limit")
+            for t in readers:
+                t.join(timeout=5)
+            raise ToolTimeout(name, proc.returncode,
+                              "\n".join(tail) + f"\n{name}: ended after {timeout_s:g} s") from None
+        except BaseException:  # KeyboardInterrupt, SystemExit: the tool must not outlive us
+            _end_group(proc)
+            note(f"[native] pid {proc.pid}: ended on interrupt")
+            raise
+        for t in readers:
+            t.join()
+        elapsed = time.perf_counter() - start
+        note(f"[native] pid {proc.pid}: exit {code} after {elapsed:.3f} s")
+    finally:
+        stdout.close()
+        stderr.close()
+        if log_file is not None:
+            log_file.close()
+    if code != 0:
+        raise tool_error(name, code, "\n".join(tail))
+    return ToolRun(b"".join(out_chunks).decode("utf-8", "replace"), "\n".join(tail), elapsed,
+                   proc.pid)
 
 
-def run_json(name: str, args: list[str], timeout_s: float | None = None) -> dict[str, Any]:
+def run_json(name: str, args: list[str], timeout_s: float | None = None, *,
+             log: str | Path | None = None, echo: bool = False) -> dict[str, Any]:
     """Runs a tool that prints one JSON document on stdout and returns it parsed."""
-    result: dict[str, Any] = json.loads(run_tool(name, args, timeout_s).stdout)
+    run = run_tool(name, args, timeout_s, log=log, echo=echo)
+    try:
+        result: dict[str, Any] = json.loads(run.stdout)
+    except json.JSONDecodeError as e:
+        raise ToolError(name, EXIT_INTERNAL, f"stdout is not JSON ({e})") from e
     return result

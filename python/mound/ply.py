@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mound.jsonio import InputError
+from mound.errors import InputError
 
 
 def write_ply(path: str | Path, xyz: np.ndarray, rgb: np.ndarray | None = None,

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mound import appearance, terrain
-from mound.jsonio import InputError
+from mound.errors import InputError
+from mound.sim import appearance, terrain
 
 
 @pytest.fixture(scope="module")

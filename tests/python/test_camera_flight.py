@@ -7,9 +7,9 @@ import itertools
 import numpy as np
 import pytest
 
-from mound.camera import Camera, Pose, project
-from mound.flight import orbit, raster
-from mound.jsonio import InputError
+from mound.errors import InputError
+from mound.geometry.camera import Camera, Pose, project
+from mound.geometry.flight import orbit, raster
 
 CAM = Camera.from_fov(1280, 960, np.deg2rad(70))
 

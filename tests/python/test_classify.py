@@ -5,11 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from mound import coarse, statlog
-from mound.classify import logistic, metrics
+from mound.classify import coarse, logistic, metrics, statlog
 from mound.classify.features import Standardizer, band_columns
-from mound.jsonio import InputError
-from mound.model import Model
+from mound.classify.model import Model
+from mound.errors import InputError
 
 
 @pytest.fixture(scope="module")

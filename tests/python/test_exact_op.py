@@ -8,7 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mound import exact_op, native, sites
+from mound import native
+from mound.plan import exact as exact_op
+from mound.plan import sites
 
 
 def random_doc(seed: int, n_sites: int, closed: bool) -> dict:

@@ -12,14 +12,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mound import mission, missionfiles, sim
 from mound.cli import main as mound_main
-from mound.geodesy import Origin, enu_to_geodetic, geodetic_to_enu
-from mound.jsonio import InputError
-from mound.mavlink import link as mavlink_link
-from mound.mavlink import transfer
-from mound.mavlink.peer import MavsdkVehicle, free_port
-from mound.mavlink.relay import LossyRelay
+from mound.errors import InputError
+from mound.geometry.geodesy import Origin, enu_to_geodetic, geodetic_to_enu
+from mound.sim import site as sim
+from mound.uav import files as mission_files
+from mound.uav import mission_items
+from mound.uav.mavlink import link as mavlink_link
+from mound.uav.mavlink import transfer
+from mound.uav.mavlink.peer import MavsdkVehicle, free_port
+from mound.uav.mavlink.relay import LossyRelay
 
 ORIGIN = Origin(38.5705, 27.9862, 95.0)
 
@@ -40,8 +42,8 @@ def grid_plan(n_sites: int, spacing: float = 300.0, closed: bool = True) -> dict
             "closed": closed, "budget_m": 1e7, "origin": ORIGIN.to_doc()}
 
 
-def items_of(n: int) -> list[mission.MissionItem]:
-    m = mission.build(grid_plan(max(2, n // 9 + 1)), ORIGIN, mission.MissionSpec())
+def items_of(n: int) -> list[mission_items.MissionItem]:
+    m = mission_items.build(grid_plan(max(2, n // 9 + 1)), ORIGIN, mission_items.MissionSpec())
     assert len(m.items) >= n
     return m.items[:n]
 
@@ -83,16 +85,17 @@ def test_bad_origin_is_rejected(text: str) -> None:
 
 def test_mission_flies_the_simulators_camera_positions() -> None:
     plan = grid_plan(2)
-    spec = mission.MissionSpec(pattern="both")
-    m = mission.build(plan, ORIGIN, spec)
+    spec = mission_items.MissionSpec(pattern="both")
+    m = mission_items.build(plan, ORIGIN, spec)
     cmds = [it.command for it in m.items]
-    assert cmds[0] == mission.NAV_TAKEOFF and cmds[-1] == mission.NAV_RETURN_TO_LAUNCH
-    assert cmds.count(mission.DO_SET_CAM_TRIGG_DIST) == 2 * 2 * 2  # on + off per pattern
-    assert cmds.count(mission.DO_SET_ROI_LOCATION) == 2 == cmds.count(mission.DO_SET_ROI_NONE)
-    trig = [it for it in m.items if it.command == mission.DO_SET_CAM_TRIGG_DIST]
+    assert cmds[0] == mission_items.NAV_TAKEOFF and cmds[-1] == mission_items.NAV_RETURN_TO_LAUNCH
+    assert cmds.count(mission_items.DO_SET_CAM_TRIGG_DIST) == 2 * 2 * 2  # on + off per pattern
+    roi_on, roi_off = mission_items.DO_SET_ROI_LOCATION, mission_items.DO_SET_ROI_NONE
+    assert cmds.count(roi_on) == 2 == cmds.count(roi_off)
+    trig = [it for it in m.items if it.command == mission_items.DO_SET_CAM_TRIGG_DIST]
     assert [it.params[0] > 0 for it in trig] == [True, False] * 4
-    nav = [it for it in m.items if it.command == mission.NAV_WAYPOINT
-           and it.frame == mission.FRAME_GLOBAL_RELATIVE_ALT_INT]
+    nav = [it for it in m.items if it.command == mission_items.NAV_WAYPOINT
+           and it.frame == mission_items.FRAME_GLOBAL_RELATIVE_ALT_INT]
     enu = geodetic_to_enu(ORIGIN, np.array([[it.lat_deg, it.lon_deg, ORIGIN.alt_m + it.z]
                                             for it in nav]))
     # Every orbit camera position of the simulator, moved to the first site, is a waypoint
@@ -111,19 +114,19 @@ def test_mission_flies_the_simulators_camera_positions() -> None:
 
 
 def test_path_plan_lands_at_the_end_node_and_distance_is_checked() -> None:
-    m = mission.build(grid_plan(3, closed=False), ORIGIN)
-    assert m.items[-1].command == mission.NAV_LAND
+    m = mission_items.build(grid_plan(3, closed=False), ORIGIN)
+    assert m.items[-1].command == mission_items.NAV_LAND
     end = geodetic_to_enu(ORIGIN, np.array([[m.items[-1].lat_deg, m.items[-1].lon_deg,
                                              ORIGIN.alt_m]]))[0]
     np.testing.assert_allclose(end[:2], [-200.0, 50.0], atol=0.02)
     # The flight distance is the 3-D path length; a budget just below it is refused.
     plan = grid_plan(3)
-    d = mission.build(plan, ORIGIN).flight_distance_m
+    d = mission_items.build(plan, ORIGIN).flight_distance_m
     plan["budget_m"] = d - 1.0
     with pytest.raises(InputError, match="exceeds the plan's budget_m"):
-        mission.build(plan, ORIGIN)
+        mission_items.build(plan, ORIGIN)
     plan["budget_m"] = d + 1.0
-    assert mission.build(plan, ORIGIN).flight_distance_m == pytest.approx(d)
+    assert mission_items.build(plan, ORIGIN).flight_distance_m == pytest.approx(d)
 
 
 @pytest.mark.parametrize("edit, message", [
@@ -137,16 +140,16 @@ def test_bad_plans_are_rejected(edit, message: str) -> None:
     plan = grid_plan(2)
     edit(plan)
     with pytest.raises(InputError, match=message):
-        mission.build(plan, ORIGIN)
+        mission_items.build(plan, ORIGIN)
 
 
 def test_plan_and_wpl_files_parse_back_to_the_same_items(tmp_path: Path) -> None:
-    m = mission.build(grid_plan(3), ORIGIN, mission.MissionSpec(pattern="both"))
-    missionfiles.write_plan(tmp_path / "m.plan", m)
-    missionfiles.write_wpl(tmp_path / "m.waypoints", m)
-    missionfiles.write_geojson(tmp_path / "m.geojson", m)
+    m = mission_items.build(grid_plan(3), ORIGIN, mission_items.MissionSpec(pattern="both"))
+    mission_files.write_plan(tmp_path / "m.plan", m)
+    mission_files.write_wpl(tmp_path / "m.waypoints", m)
+    mission_files.write_geojson(tmp_path / "m.geojson", m)
     for name in ("m.plan", "m.waypoints"):
-        items, home, firmware = missionfiles.read_mission(tmp_path / name)
+        items, home, firmware = mission_files.read_mission(tmp_path / name)
         assert firmware == ("px4" if name == "m.plan" else "ardupilot")
         assert transfer.first_difference(m.items, items) is None
         assert (home.lat_deg, home.lon_deg) == (ORIGIN.lat_deg, ORIGIN.lon_deg)
@@ -156,7 +159,7 @@ def test_plan_and_wpl_files_parse_back_to_the_same_items(tmp_path: Path) -> None
     geo = json.loads((tmp_path / "m.geojson").read_text())
     kinds = [f["properties"]["kind"] for f in geo["features"]]
     assert kinds.count("site") == 3 and kinds.count("flight_path") == 1
-    assert kinds.count("image_footprint") == 3 * len(sim.shots(mission.MissionSpec(
+    assert kinds.count("image_footprint") == 3 * len(sim.shots(mission_items.MissionSpec(
         pattern="both").sim_spec()))
     lon, lat = geo["features"][0]["geometry"]["coordinates"][0][:2]
     assert lon == pytest.approx(27.9862) and lat == pytest.approx(38.5705)  # lon, lat order
@@ -184,7 +187,7 @@ def test_bad_mission_files_are_rejected(tmp_path: Path, text: str, message: str)
     path = tmp_path / "bad.mission"
     path.write_text(text)
     with pytest.raises(InputError, match=message):
-        missionfiles.read_mission(path)
+        mission_files.read_mission(path)
 
 
 # --- MAVLink mission protocol against MAVSDK -----------------------------------------
@@ -195,7 +198,7 @@ def vehicle() -> MavsdkVehicle:
         yield v
 
 
-def upload_via(connect: str, items: list[mission.MissionItem], **kw: object
+def upload_via(connect: str, items: list[mission_items.MissionItem], **kw: object
                ) -> transfer.TransferStats:
     """Connects, uploads (read-back verified unless verify=False) and closes."""
     lk = mavlink_link.connect(connect, timeout_s=5)
@@ -205,8 +208,8 @@ def upload_via(connect: str, items: list[mission.MissionItem], **kw: object
         lk.close()
 
 
-def received_equal(vehicle_items: list, sent: list[mission.MissionItem]) -> bool:
-    got = [mission.MissionItem(i.command, i.frame, (i.param1, i.param2, i.param3, i.param4),
+def received_equal(vehicle_items: list, sent: list[mission_items.MissionItem]) -> bool:
+    got = [mission_items.MissionItem(i.command, i.frame, (i.param1, i.param2, i.param3, i.param4),
                                i.x, i.y, i.z, i.autocontinue) for i in vehicle_items]
     return transfer.first_difference(sent, got) is None
 
@@ -289,8 +292,8 @@ def test_an_unreachable_vehicle_times_out_with_a_clear_message(
     with pytest.raises(mavlink_link.LinkError, match=f"no heartbeat .* udpout:127.0.0.1:{port}"):
         mavlink_link.connect(f"udpout:127.0.0.1:{port}", timeout_s=1.0)
     assert time.monotonic() - start < 3
-    m = mission.build(grid_plan(2), ORIGIN)
-    missionfiles.write_plan(tmp_path / "m.plan", m)
+    m = mission_items.build(grid_plan(2), ORIGIN)
+    mission_files.write_plan(tmp_path / "m.plan", m)
     code = mound_main(["mission", "upload", str(tmp_path / "m.plan"), "--connect",
                        f"udpout:127.0.0.1:{port}", "--heartbeat-timeout", "1"])
     assert code == 2 and "no heartbeat from a vehicle" in capsys.readouterr().err
@@ -309,12 +312,13 @@ def test_cli_builds_and_uploads_a_plan(vehicle: MavsdkVehicle, tmp_path: Path,
                        vehicle.connect_string, "--verify", "--signing-key", key,
                        "--accept-unsigned"]) == 0
     assert "read back and identical" in capsys.readouterr().out
-    items, home = missionfiles.read_plan(tmp_path / "m.plan")
-    assert received_equal(vehicle.wait_for_mission(before + 1), [mission.home_item(home), *items])
+    items, home = mission_files.read_plan(tmp_path / "m.plan")
+    with_home = [mission_items.home_item(home), *items]
+    assert received_equal(vehicle.wait_for_mission(before + 1), with_home)
     # The WPL file (ArduPilot's format: home on line 0) uploads the same mission.
     assert mound_main(["mission", "upload", str(tmp_path / "m.waypoints"), "--connect",
                        vehicle.connect_string]) == 0
-    assert received_equal(vehicle.wait_for_mission(before + 2), [mission.home_item(home), *items])
+    assert received_equal(vehicle.wait_for_mission(before + 2), with_home)
 
 
 def test_cli_refuses_a_mission_over_budget(tmp_path: Path,

@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from mound import native
-from mound.sites import from_classic_op_file
+from mound.plan.sites import from_classic_op_file
 
 
 def expanded_cost(sites: dict, tour: list[str]) -> float:
@@ -156,7 +156,7 @@ def test_python_nan_and_non_json_are_rejected(tmp_path: Path, mound_plan: Path) 
 
 
 def test_classic_op_file_errors_name_the_file(tmp_path: Path) -> None:
-    from mound.jsonio import InputError
+    from mound.errors import InputError
 
     bad = tmp_path / "bad.txt"
     bad.write_text("15\t1\n0\t-7\tx\n")

@@ -8,10 +8,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mound import coarse, statlog
+from mound.classify import coarse, statlog
+from mound.classify.reward import binary_entropy_bits
 from mound.cli import main as mound_main
-from mound.field import GRID, STANDARD_SEEDS, make_field, sites_document
-from mound.reward import binary_entropy_bits
+from mound.plan.field import GRID, STANDARD_SEEDS, make_field, sites_document
 
 
 def test_entropy_is_one_bit_at_half_and_zero_at_the_ends() -> None:

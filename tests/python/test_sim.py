@@ -1,4 +1,4 @@
-"""Site simulator end to end: python/mound/sim.py driving the real build/mound_render.
+"""Site simulator end to end: python/mound/sim/site.py driving the real build/mound_render.
 
 A small configuration (320x240 images, 0.5 m grid) keeps each render well under a second.
 """
@@ -13,11 +13,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mound import sim, terrain
-from mound.camera import Camera, Pose, project
 from mound.cli import main as mound_main
-from mound.jsonio import InputError
+from mound.errors import InputError
+from mound.geometry.camera import Camera, Pose, project
 from mound.ply import read_ply
+from mound.sim import site as sim
+from mound.sim import terrain
 
 DIST = (-0.12, 0.03, 0.0005, -0.0004, 0.0)
 
@@ -89,7 +90,7 @@ def test_ground_truth_files_describe_the_scene(pair: dict[str, Path]) -> None:
 
 
 def test_pixels_see_what_the_python_camera_projects(pair: dict[str, Path]) -> None:
-    """The renderer and python/mound/camera.py agree: each pixel's ground point projects
+    """The renderer and python/mound/geometry/camera.py agree: each pixel's ground point projects
     back onto that pixel's centre (with the distortion), for nadir and oblique views."""
     site = pair["mound"]
     poses = json.loads((site / "poses.json").read_text())

@@ -11,8 +11,9 @@ from pathlib import Path
 
 import pytest
 
-from mound import datasets, statlog
-from mound.jsonio import InputError
+from mound import datasets
+from mound.classify import statlog
+from mound.errors import InputError
 
 
 def test_loads_both_files_with_documented_counts(shared_data: Path) -> None:

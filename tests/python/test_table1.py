@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from mound.table1 import error_rates
+from mound.plan.table1 import error_rates
 
 
 def site(sid: str, mound: bool, p: float) -> dict:

@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mound import terrain
-from mound.jsonio import InputError
+from mound.errors import InputError
 from mound.ply import read_ply, write_ply
+from mound.sim import terrain
 
 
 def test_mound_and_flat_control_differ_only_where_the_mound_is() -> None:

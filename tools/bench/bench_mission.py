@@ -17,25 +17,25 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "python"))
 
-from mound import mission
-from mound.geodesy import Origin
-from mound.mavlink import link as mavlink_link
-from mound.mavlink import transfer
-from mound.mavlink.peer import MavsdkVehicle
-from mound.mavlink.relay import LossyRelay
+from mound.geometry.geodesy import Origin
+from mound.uav import mission_items
+from mound.uav.mavlink import link as mavlink_link
+from mound.uav.mavlink import transfer
+from mound.uav.mavlink.peer import MavsdkVehicle
+from mound.uav.mavlink.relay import LossyRelay
 
 
-def items_of(n: int) -> list[mission.MissionItem]:
+def items_of(n: int) -> list[mission_items.MissionItem]:
     sites = n // 9 + 2
     wps = [{"id": "home", "x_m": 0.0, "y_m": 0.0}]
     wps += [{"id": f"s{k}", "x_m": 300.0 * (1 + k % 10), "y_m": 300.0 * (1 + k // 10)}
             for k in range(sites)]
     plan = {"tour": [w["id"] for w in wps] + ["home"], "waypoints": wps, "closed": True,
             "budget_m": 1e9}
-    return mission.build(plan, Origin(38.5705, 27.9862, 95.0)).items[:n]
+    return mission_items.build(plan, Origin(38.5705, 27.9862, 95.0)).items[:n]
 
 
-def run(vehicle: MavsdkVehicle, items: list[mission.MissionItem], loss: float, seed: int
+def run(vehicle: MavsdkVehicle, items: list[mission_items.MissionItem], loss: float, seed: int
         ) -> tuple[float, float, int, int]:
     def once(connect: str) -> tuple[float, float, int]:
         lk = mavlink_link.connect(connect, timeout_s=5)

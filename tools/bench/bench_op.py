@@ -26,7 +26,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "python"))
 
 from mound import native
 from mound.paths import shared_data_dir
-from mound.sites import from_classic_op_file
+from mound.plan.sites import from_classic_op_file
 
 SETS = ("Tsiligirides_1", "Tsiligirides_2", "Tsiligirides_3", "ChaoSet_64", "ChaoSet_66")
 

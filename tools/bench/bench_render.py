@@ -20,7 +20,8 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "python"))
 
-from mound import native, sim
+from mound import native
+from mound.sim import site as sim
 
 
 def main() -> int:

@@ -1,4 +1,5 @@
-"""Coarse search: logistic regression on low-resolution multispectral pixels.
+"""Coarse search: logistic regression on low-resolution multispectral pixels (Statlog).
 
-Pure numpy/scipy, no file I/O (the CLI and mound.model_io do the I/O).
+features, logistic, metrics and reward are pure numpy/scipy with no file I/O; statlog
+reads the data set, coarse trains and evaluates, model is the classifier's JSON form.
 """

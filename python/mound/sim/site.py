@@ -27,10 +27,13 @@ from typing import Any
 
 import numpy as np
 
-from mound import appearance, flight, native, terrain
-from mound.camera import Camera
-from mound.jsonio import InputError, write_json
+from mound import native
+from mound.errors import InputError
+from mound.geometry import flight
+from mound.geometry.camera import Camera
+from mound.jsonio import write_json
 from mound.ply import write_ply
+from mound.sim import appearance, terrain
 
 DEFAULT_ORIGIN = {"lat": 38.5705, "lon": 27.9862, "alt_m": 95.0}  # Bin Tepe, Manisa
 PATTERNS = ("raster", "orbit", "both")

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mound.jsonio import InputError
+from mound.errors import InputError
 
 A = 6378137.0                  # WGS84 semi-major axis, m
 F = 1 / 298.257223563          # flattening

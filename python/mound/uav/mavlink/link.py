@@ -17,7 +17,7 @@ from typing import Any
 
 from pymavlink import mavutil
 
-from mound.jsonio import InputError
+from mound.errors import InputError
 
 GCS_SYSTEM_ID = 255
 GCS_COMPONENT_ID = 190  # MAV_COMP_ID_MISSIONPLANNER

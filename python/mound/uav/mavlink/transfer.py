@@ -21,8 +21,8 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 
-from mound.mavlink.link import Link, LinkError
-from mound.mission import MissionItem
+from mound.uav.mavlink.link import Link, LinkError
+from mound.uav.mission_items import MissionItem
 
 MAV_MISSION_ACCEPTED = 0
 MISSION_RESULT = {

@@ -15,9 +15,9 @@ from typing import Any
 
 import numpy as np
 
-from mound.model import Model
-from mound.reward import binary_entropy_bits
-from mound.statlog import COTTON, Split
+from mound.classify.model import Model
+from mound.classify.reward import binary_entropy_bits
+from mound.classify.statlog import COTTON, Split
 
 GRID = 10
 STANDARD_SEEDS = tuple(range(10))

@@ -9,7 +9,8 @@ from typing import Any
 
 import numpy as np
 
-from mound.jsonio import InputError, read_json
+from mound.errors import InputError
+from mound.jsonio import read_json
 
 
 @dataclass

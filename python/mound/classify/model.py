@@ -9,7 +9,7 @@ import numpy as np
 
 from mound.classify.features import Standardizer, band_columns
 from mound.classify.logistic import predict_proba
-from mound.jsonio import InputError
+from mound.errors import InputError
 
 SCHEMA = "mound.classifier"
 VERSION = 1

@@ -5,7 +5,7 @@ The mission, in order (MAVLink command numbers from common.xml):
     speed; then for each visited site:
         NAV_WAYPOINT (16) transit to the site's scan entry point,
         DO_CHANGE_SPEED to the scan speed,
-        for each scan pattern (raster and/or orbit, from mound.flight via mound.sim.shots:
+        for each scan pattern (raster and/or orbit, from mound.geometry.flight:
         the very poses the site simulator renders):
             [orbit: DO_SET_ROI_LOCATION (195) at the site centre]
             DO_SET_CAM_TRIGG_DIST (206) on, at the pattern's image spacing (trigger now),
@@ -35,10 +35,11 @@ from typing import Any
 
 import numpy as np
 
-from mound import sim, terrain
-from mound.camera import Camera, Pose
-from mound.geodesy import Origin, enu_to_geodetic
-from mound.jsonio import InputError
+from mound.errors import InputError
+from mound.geometry.camera import Camera, Pose
+from mound.geometry.geodesy import Origin, enu_to_geodetic
+from mound.sim import site as sim
+from mound.sim import terrain
 
 # MAV_CMD
 NAV_WAYPOINT = 16

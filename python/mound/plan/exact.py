@@ -28,7 +28,7 @@ import numpy as np
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import breadth_first_order, maximum_flow
 
-from mound.sites import OpProblem
+from mound.plan.sites import OpProblem
 
 
 @dataclass

@@ -5,12 +5,14 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from mound.geodesy import Origin
-from mound.jsonio import InputError, read_json
+from mound.errors import InputError
+from mound.geometry.geodesy import Origin
+from mound.jsonio import read_json
 
 
 def cmd_build(args: argparse.Namespace) -> int:
-    from mound import mission, missionfiles
+    from mound.uav import files as mission_files
+    from mound.uav import mission_items
 
     plan = read_json(args.plan, "mound.plan", 1)
     if args.origin:
@@ -19,16 +21,16 @@ def cmd_build(args: argparse.Namespace) -> int:
         origin = Origin.from_doc(plan["origin"], f"{args.plan}: origin")
     else:
         raise InputError(f"origin: {args.plan} has no origin; give --origin LAT,LON[,ALT]")
-    spec = mission.MissionSpec(
+    spec = mission_items.MissionSpec(
         pattern=args.pattern, site_diameter_m=args.site_diameter,
         raster_altitude_m=args.altitude, transit_altitude_m=args.transit_altitude,
         cruise_speed_m_s=args.cruise_speed, scan_speed_m_s=args.scan_speed)
-    m = mission.build(plan, origin, spec)
-    missionfiles.write_plan(args.out, m, args.firmware)
+    m = mission_items.build(plan, origin, spec)
+    mission_files.write_plan(args.out, m, args.firmware)
     if args.wpl:
-        missionfiles.write_wpl(args.wpl, m)
+        mission_files.write_wpl(args.wpl, m)
     if args.geojson:
-        missionfiles.write_geojson(args.geojson, m)
+        mission_files.write_geojson(args.geojson, m)
     print(f"{len(m.items)} mission items for {len(m.sites)} sites, flight distance "
           f"{m.flight_distance_m:.1f} m of budget {m.budget_m:g} m -> {args.out}")
     for s in m.sites:
@@ -38,12 +40,12 @@ def cmd_build(args: argparse.Namespace) -> int:
 
 
 def cmd_upload(args: argparse.Namespace) -> int:
-    from mound import missionfiles
-    from mound.mavlink import link as mavlink_link
-    from mound.mavlink import transfer
-    from mound.mission import home_item
+    from mound.uav import files as mission_files
+    from mound.uav.mavlink import link as mavlink_link
+    from mound.uav.mavlink import transfer
+    from mound.uav.mission_items import home_item
 
-    items, home, file_firmware = missionfiles.read_mission(args.mission)
+    items, home, file_firmware = mission_files.read_mission(args.mission)
     if (args.firmware or file_firmware) == "ardupilot":
         items = [home_item(home), *items]
     key = mavlink_link.signing_key(args.signing_key, args.signing_passphrase)

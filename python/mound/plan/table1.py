@@ -18,9 +18,12 @@ from typing import Any
 
 import numpy as np
 
-from mound import coarse, exact_op, native, sites, statlog
-from mound.field import STANDARD_SEEDS, make_field, sites_document
+from mound import native
+from mound.classify import coarse, statlog
 from mound.jsonio import write_atomic
+from mound.plan import exact as exact_op
+from mound.plan import sites
+from mound.plan.field import STANDARD_SEEDS, make_field, sites_document
 
 BUDGETS = (40.0, 80.0, 120.0, 160.0, 200.0)
 ALGOS = ("newalg", "greedy", "tsiligirides", "glv", "newalg-ls")

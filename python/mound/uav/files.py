@@ -22,9 +22,10 @@ from typing import Any
 
 import numpy as np
 
-from mound.geodesy import Origin, enu_to_geodetic
-from mound.jsonio import InputError, parse_json, read_text, write_atomic, write_json
-from mound.mission import (
+from mound.errors import InputError
+from mound.geometry.geodesy import Origin, enu_to_geodetic
+from mound.jsonio import parse_json, read_text, write_atomic, write_json
+from mound.uav.mission_items import (
     FRAME_GLOBAL_RELATIVE_ALT,
     FRAME_GLOBAL_RELATIVE_ALT_INT,
     Mission,

@@ -8,8 +8,8 @@ import numpy as np
 
 from mound.classify import logistic, metrics
 from mound.classify.features import BAND_NAMES, Standardizer, band_columns
-from mound.model import Model
-from mound.statlog import Split
+from mound.classify.model import Model
+from mound.classify.statlog import Split
 
 DEFAULT_L2 = 1e-4
 DEFAULT_BAND = 1  # red: best held-out AUC on sat.trn (`mound classify bands`, README)

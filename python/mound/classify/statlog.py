@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from mound.datasets import STATLOG, dataset_path, verify
-from mound.jsonio import InputError
+from mound.errors import InputError
 
 N_FEATURES = 36
 N_BANDS = 4

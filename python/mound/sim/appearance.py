@@ -16,8 +16,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mound.jsonio import InputError
-from mound.terrain import Heightfield
+from mound.errors import InputError
+from mound.sim.terrain import Heightfield
 
 SOIL = np.array([150.0, 118.0, 84.0])
 GRASS = np.array([96.0, 122.0, 60.0])

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from mound.jsonio import InputError
+from mound.errors import InputError
 
 
 @dataclass(frozen=True)

@@ -19,7 +19,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from mound.jsonio import InputError
+from mound.errors import InputError
 
 PROFILES = ("conical", "spherical_cap", "drum")
 

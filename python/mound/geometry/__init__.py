@@ -1,0 +1,1 @@
+"""Geometry shared by the stages: the pinhole camera, flight (scan) patterns, WGS84 geodesy."""
