@@ -39,7 +39,8 @@ lint: setup
 
 # The main job, as far as it exists: fetch the satellite data into the cache, train the
 # coarse-search classifier, make standard field 0 and plan a tour over it; plan a tour over
-# the same field at 250 m spacing, turn it into a MAVLink mission (QGC .plan, WPL, GeoJSON)
+# the same field at 250 m spacing (scan costs from the raster scan each site gets, the budget
+# from the aircraft's range), turn it into a MAVLink mission (QGC .plan, WPL, GeoJSON)
 # and upload it to a stand-in MAVSDK autopilot; then simulate the UAV images of one site
 # with a tumulus and of its flat control.
 demo: build
@@ -51,7 +52,7 @@ demo: build
 	./$(BUILD)/mound_plan runs/demo/sites.json 120 --algo newalg --out runs/demo/plan_newalg.json
 	./$(BUILD)/mound_plan runs/demo/sites.json 120 --algo newalg-ls --out runs/demo/plan_newalg_ls.json
 	$(PY) tools/plan_summary.py runs/demo/plan_newalg.json runs/demo/plan_newalg_ls.json
-	$(VENV)/bin/mound field make --seed 0 --model runs/demo/model.json --spacing 250 --scan-cost 400 --budget 8000 --out runs/demo/sites_flight.json
+	$(VENV)/bin/mound field make --seed 0 --model runs/demo/model.json --spacing 250 --scan-pattern raster --out runs/demo/sites_flight.json
 	./$(BUILD)/mound_plan runs/demo/sites_flight.json --out runs/demo/plan_flight.json
 	$(VENV)/bin/mound mission build runs/demo/plan_flight.json --out runs/demo/mission.plan --wpl runs/demo/mission.waypoints --geojson runs/demo/mission.geojson
 	$(PY) tools/demo_upload.py runs/demo/mission.plan

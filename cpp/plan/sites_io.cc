@@ -23,11 +23,17 @@ SitesFile ParseSites(const std::string& text, const std::string& path,
     RequireFinite(o, "lon", "origin");
     out.origin = o;
   }
+  if (doc.contains("scan") && !doc["scan"].is_null()) {
+    if (!doc["scan"].is_object()) throw InputError("scan: must be an object");
+    out.scan = doc["scan"];
+  }
+  out.takeoff_landing_m = OptionalNonNegative(doc, "takeoff_landing_m", "").value_or(0.0);
   const nlohmann::json& home = RequireField(doc, "home", "");
   OpNode h;
   h.id = RequireString(home, "id", "home");
   h.x_m = RequireFinite(home, "x_m", "home");
   h.y_m = RequireFinite(home, "y_m", "home");
+  h.scan_cost_m = out.takeoff_landing_m;
   inst.nodes.push_back(h);
 
   if (doc.contains("end") && !doc["end"].is_null()) {
@@ -38,6 +44,7 @@ SitesFile ParseSites(const std::string& text, const std::string& path,
       e.id = id;
       e.x_m = RequireFinite(end, "x_m", "end");
       e.y_m = RequireFinite(end, "y_m", "end");
+      e.scan_cost_m = out.takeoff_landing_m;
       inst.nodes.push_back(e);
       inst.end = 1;
     }
@@ -146,6 +153,8 @@ nlohmann::json PlanToJson(const SitesFile& sites, const PlanSummary& plan) {
   j["waypoints"] = wps;
   j["solver"] = plan.solver;
   if (!sites.origin.is_null()) j["origin"] = sites.origin;
+  if (!sites.scan.is_null()) j["scan"] = sites.scan;
+  j["takeoff_landing_m"] = sites.takeoff_landing_m;
   return j;
 }
 

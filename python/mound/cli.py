@@ -4,14 +4,17 @@
     mound classify bands
     mound classify train [--band B | --all] [--solver gd|lbfgs] [--l2 X] --out MODEL.json
     mound classify eval MODEL.json [--json OUT.json]
-    mound field make --seed S [--model MODEL.json] [--scan-cost M] [--budget M] --out SITES.json
+    mound field make --seed S [--model MODEL.json] [--spacing M] [--budget M]
+                     [--scan-cost M | --scan-pattern P [--site-diameter D] [--altitude H]]
+                     --out SITES.json
     mound field standard [--model MODEL.json] --out-dir DIR
     mound sim site [--preset bin_tepe|lab] [--mound tumulus|none] --seed S --out DIR [...]
     mound sim figures DIR [--out-dir DIR] [--dpi-scale X]
     mound mission build PLAN.json [--origin LAT,LON[,ALT]] --out MISSION.plan [...]
     mound mission upload MISSION.plan --connect udpout:HOST:PORT [--verify] [...]
 
-Exit codes: 0 ok, 2 bad input or usage (one line on stderr), 1 internal error.
+Exit codes: 0 ok, 1 internal error, 2 bad input or usage (one line on stderr), 3 valid
+input that allowed no result.
 """
 
 from __future__ import annotations
@@ -30,10 +33,12 @@ from mound.classify import coarse, statlog
 from mound.classify.model import SCHEMA as MODEL_SCHEMA
 from mound.classify.model import VERSION as MODEL_VERSION
 from mound.classify.model import Model
-from mound.errors import InputError
+from mound.errors import EXIT_BAD_INPUT, EXIT_NO_RESULT, InputError, NoResultError
+from mound.geometry.flight import ScanSpec
 from mound.jsonio import read_json, write_json
 from mound.plan.field import STANDARD_SEEDS, make_field, sites_document
 from mound.uav import cli as uav_cli
+from mound.uav import mission_items
 
 
 class UsageError(InputError):
@@ -101,13 +106,33 @@ def cmd_eval(args: argparse.Namespace) -> int:
     return 0
 
 
+def field_costs(args: argparse.Namespace) -> tuple[ScanSpec | None, float | None, float]:
+    """(scan, scan cost, budget) of `mound field make|standard`: with --scan-pattern the
+    scan cost comes from the pattern and the budget defaults to the aircraft's range;
+    otherwise the paper's node cost (1 m) and budget (120 m)."""
+    if args.scan_pattern is None:
+        if args.site_diameter is not None or args.altitude is not None:
+            raise UsageError("--site-diameter and --altitude need --scan-pattern")
+        return (None, 1.0 if args.scan_cost is None else args.scan_cost,
+                120.0 if args.budget is None else args.budget)
+    if args.scan_cost is not None:
+        raise UsageError("--scan-cost: the scan cost comes from --scan-pattern; give one")
+    scan = mission_items.scan_for_site(
+        60.0 if args.site_diameter is None else args.site_diameter, args.scan_pattern,
+        args.altitude)
+    scan.validate()
+    budget = mission_items.flight_budget_m() if args.budget is None else args.budget
+    return scan, None, budget
+
+
 def cmd_field_make(args: argparse.Namespace) -> int:
     test = statlog.load("sat.tst")
     model = load_model(args.model)
     if args.spacing <= 0:
         raise UsageError("--spacing must be > 0")
-    doc = sites_document(make_field(test, args.seed), test, model, args.scan_cost, args.budget,
-                         spacing_m=args.spacing)
+    scan, scan_cost, budget = field_costs(args)
+    doc = sites_document(make_field(test, args.seed), test, model, scan_cost, budget,
+                         spacing_m=args.spacing, scan=scan)
     write_json(args.out, doc)
     prov = doc["provenance"]
     print(f"field seed {args.seed}: 100 sites, {prov['positives']} positives, "
@@ -121,7 +146,8 @@ def cmd_field_standard(args: argparse.Namespace) -> int:
     out = Path(args.out_dir)
     totals = []
     for seed in STANDARD_SEEDS:
-        doc = sites_document(make_field(test, seed), test, model, args.scan_cost, args.budget)
+        scan, scan_cost, budget = field_costs(args)
+        doc = sites_document(make_field(test, seed), test, model, scan_cost, budget, scan=scan)
         write_json(out / f"field_{seed}.json", doc)
         totals.append(doc["provenance"]["total_reward"])
         print(f"field {seed}: {doc['provenance']['positives']} positives, "
@@ -265,8 +291,19 @@ def build_parser() -> argparse.ArgumentParser:
         else:
             m.add_argument("--out-dir", required=True)
         m.add_argument("--model", help="classifier JSON (default: train the default band)")
-        m.add_argument("--scan-cost", type=float, default=1.0, help="node cost per site, m")
-        m.add_argument("--budget", type=float, default=120.0, help="budget_m written, m")
+        m.add_argument("--scan-cost", type=float,
+                       help="node cost per site, m (default 1: the paper's)")
+        m.add_argument("--scan-pattern", choices=("raster", "orbit", "both"),
+                       help="derive each site's scan cost from this scan (the flight the "
+                       "mission flies) and record it, with the take-off/landing climb")
+        m.add_argument("--site-diameter", type=float,
+                       help="with --scan-pattern: the scan's scale, m (default 60)")
+        m.add_argument("--altitude", type=float,
+                       help="with --scan-pattern: the raster's height, m (default: the "
+                       "site diameter)")
+        m.add_argument("--budget", type=float,
+                       help="budget_m written, m (default 120, the paper's; with "
+                       "--scan-pattern the aircraft's range, 14,400 m)")
         m.set_defaults(func=func)
     plan = sub.add_parser("plan", help="tour planning (Python side)").add_subparsers(
         dest="cmd", required=True, parser_class=Parser)
@@ -333,9 +370,10 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     try:
         args = build_parser().parse_args(argv)
-        scan = getattr(args, "scan_cost", 0.0)
+        scan = getattr(args, "scan_cost", None)
         budget = getattr(args, "budget", None)
-        if min(scan if isinstance(scan, list) else [scan]) < 0 or (budget or 0) < 0:
+        costs = [c for c in (scan if isinstance(scan, list) else [scan]) if c is not None]
+        if min(costs, default=0) < 0 or (budget or 0) < 0:
             raise UsageError("--scan-cost and budgets must be >= 0")
         start = time.perf_counter()
         code: int = args.func(args)
@@ -343,7 +381,10 @@ def main(argv: list[str] | None = None) -> int:
         return code
     except InputError as e:
         print(f"mound: {e}", file=sys.stderr)
-        return 2
+        return EXIT_BAD_INPUT
+    except NoResultError as e:
+        print(f"mound: no result: {e}", file=sys.stderr)
+        return EXIT_NO_RESULT
     except Exception as e:
         print(f"mound: internal error (a bug, please report): {e!r}", file=sys.stderr)
         return 1

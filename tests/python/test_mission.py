@@ -85,7 +85,7 @@ def test_bad_origin_is_rejected(text: str) -> None:
 
 def test_mission_flies_the_simulators_camera_positions() -> None:
     plan = grid_plan(2)
-    spec = mission_items.MissionSpec(pattern="both")
+    spec = mission_items.MissionSpec(scan=mission_items.scan_for_site(pattern="both"))
     m = mission_items.build(plan, ORIGIN, spec)
     cmds = [it.command for it in m.items]
     assert cmds[0] == mission_items.NAV_TAKEOFF and cmds[-1] == mission_items.NAV_RETURN_TO_LAUNCH
@@ -98,9 +98,9 @@ def test_mission_flies_the_simulators_camera_positions() -> None:
            and it.frame == mission_items.FRAME_GLOBAL_RELATIVE_ALT_INT]
     enu = geodetic_to_enu(ORIGIN, np.array([[it.lat_deg, it.lon_deg, ORIGIN.alt_m + it.z]
                                             for it in nav]))
-    # Every orbit camera position of the simulator, moved to the first site, is a waypoint
-    # (to the centimetre: 1e-7 degrees of latitude is 1.1 cm).
-    shots = sim.shots(spec.sim_spec())
+    # Every orbit camera position of the simulator (its default 60 m tumulus), moved to the
+    # first site, is a waypoint (to the centimetre: 1e-7 degrees of latitude is 1.1 cm).
+    shots = sim.shots(sim.SimSpec(pattern="both"))
     site = np.array([plan["waypoints"][1]["x_m"], plan["waypoints"][1]["y_m"], 0.0])
     for pattern, shot in shots:
         if pattern == "orbit":
@@ -144,7 +144,8 @@ def test_bad_plans_are_rejected(edit, message: str) -> None:
 
 
 def test_plan_and_wpl_files_parse_back_to_the_same_items(tmp_path: Path) -> None:
-    m = mission_items.build(grid_plan(3), ORIGIN, mission_items.MissionSpec(pattern="both"))
+    both = mission_items.MissionSpec(scan=mission_items.scan_for_site(pattern="both"))
+    m = mission_items.build(grid_plan(3), ORIGIN, both)
     mission_files.write_plan(tmp_path / "m.plan", m)
     mission_files.write_wpl(tmp_path / "m.waypoints", m)
     mission_files.write_geojson(tmp_path / "m.geojson", m)
@@ -159,8 +160,7 @@ def test_plan_and_wpl_files_parse_back_to_the_same_items(tmp_path: Path) -> None
     geo = json.loads((tmp_path / "m.geojson").read_text())
     kinds = [f["properties"]["kind"] for f in geo["features"]]
     assert kinds.count("site") == 3 and kinds.count("flight_path") == 1
-    assert kinds.count("image_footprint") == 3 * len(sim.shots(mission_items.MissionSpec(
-        pattern="both").sim_spec()))
+    assert kinds.count("image_footprint") == 3 * len(both.scan.shots())
     lon, lat = geo["features"][0]["geometry"]["coordinates"][0][:2]
     assert lon == pytest.approx(27.9862) and lat == pytest.approx(38.5705)  # lon, lat order
     for f in geo["features"]:

@@ -15,11 +15,13 @@ from mound.plan.sites import from_classic_op_file
 
 
 def expanded_cost(sites: dict, tour: list[str]) -> float:
-    """The INTERFACES.md cost formula, recomputed here independently of the C++ code."""
-    nodes = {sites["home"]["id"]: (sites["home"]["x_m"], sites["home"]["y_m"], 0.0)}
+    """The INTERFACES.md cost formula, recomputed here independently of the C++ code; the
+    take-off/landing climb is the home and end nodes' cost."""
+    overhead = sites.get("takeoff_landing_m", 0.0)
+    nodes = {sites["home"]["id"]: (sites["home"]["x_m"], sites["home"]["y_m"], overhead)}
     end = sites.get("end") or {"id": sites["home"]["id"]}
     if end["id"] != sites["home"]["id"]:
-        nodes[end["id"]] = (end["x_m"], end["y_m"], 0.0)
+        nodes[end["id"]] = (end["x_m"], end["y_m"], overhead)
     for s in sites["sites"]:
         nodes[s["id"]] = (s["x_m"], s["y_m"], s.get("scan_cost_m", 0.0))
     total = 0.0

@@ -18,6 +18,8 @@ import numpy as np
 from mound.classify.model import Model
 from mound.classify.reward import binary_entropy_bits
 from mound.classify.statlog import COTTON, Split
+from mound.errors import InputError
+from mound.geometry.flight import ScanSpec
 
 GRID = 10
 STANDARD_SEEDS = tuple(range(10))
@@ -45,11 +47,24 @@ def make_field(test: Split, seed: int, positives: tuple[int, int] = (3, 5)) -> F
     return Field(seed=seed, rows=rows, positive=positive)
 
 
-def sites_document(field: Field, test: Split, model: Model, scan_cost_m: float,
+def sites_document(field: Field, test: Split, model: Model, scan_cost_m: float | None,
                    budget_m: float, home_xy: tuple[float, float] = (0.0, 0.0),
-                   spacing_m: float = 1.0) -> dict[str, Any]:
+                   spacing_m: float = 1.0, scan: ScanSpec | None = None) -> dict[str, Any]:
     """The field as a mound.sites v1 document for mound_plan; sites at spacing_m * (1..10)
-    (1 m: the paper's grid; a few hundred metres: real sites a UAV can fly)."""
+    (1 m: the paper's grid; a few hundred metres: real sites a UAV can fly).
+
+    With `scan` (how each site is flown), the scan cost is derived from it
+    (ScanSpec.site_cost_m) and the document records the spec and the take-off/landing
+    climb, so that every plan within the budget is a flight within it; otherwise every
+    site costs `scan_cost_m` (the paper's node cost)."""
+    extra: dict[str, Any] = {}
+    if scan is not None:
+        if scan_cost_m is not None:
+            raise InputError("scan_cost_m: give a scan pattern or a scan cost, not both")
+        scan_cost_m = scan.site_cost_m()
+        extra = {"scan": scan.to_doc(), "takeoff_landing_m": scan.takeoff_landing_m()}
+    elif scan_cost_m is None:
+        raise InputError("scan_cost_m: missing (or give a scan pattern)")
     p = model.predict(test.x[field.rows])
     rewards = binary_entropy_bits(p)
     sites = []
@@ -66,6 +81,7 @@ def sites_document(field: Field, test: Split, model: Model, scan_cost_m: float,
         "home": {"id": "home", "x_m": home_xy[0], "y_m": home_xy[1]},
         "end": {"id": "home"},
         "budget_m": budget_m,
+        **extra,
         "sites": sites,
         "provenance": {"tool": "mound field make", "seed": field.seed,
                        "classifier": {"band": model.band, "solver": model.solver, "l2": model.l2},

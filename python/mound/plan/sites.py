@@ -18,7 +18,7 @@ class OpProblem:
     ids: list[str]
     xy: np.ndarray         # (n, 2) metres
     reward: np.ndarray     # (n,), 0 at home and end
-    scan: np.ndarray       # (n,), 0 at home and end
+    scan: np.ndarray       # (n,); home and end: takeoff_landing_m (0 unless given)
     budget: float
     closed: bool           # closed tour (end == home) or path home -> node 1
 
@@ -51,9 +51,12 @@ def _from_document(doc: dict[str, Any], budget: float | None) -> OpProblem:
     home = doc["home"]
     end = doc.get("end") or {"id": home["id"]}
     closed = end["id"] == home["id"]
-    nodes = [(home["id"], home["x_m"], home["y_m"], 0.0, 0.0)]
+    # The take-off climb and landing descent, flown once per tour, as the home and end
+    # nodes' cost: a closed tour pays home's twice by halves, a path home's and end's halves.
+    overhead = float(doc.get("takeoff_landing_m", 0.0))
+    nodes = [(home["id"], home["x_m"], home["y_m"], 0.0, overhead)]
     if not closed:
-        nodes.append((end["id"], end["x_m"], end["y_m"], 0.0, 0.0))
+        nodes.append((end["id"], end["x_m"], end["y_m"], 0.0, overhead))
     nodes += [(s["id"], s["x_m"], s["y_m"], s["reward"], s.get("scan_cost_m", 0.0))
               for s in doc["sites"]]
     return OpProblem(

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -31,12 +31,12 @@ from mound import native
 from mound.errors import InputError
 from mound.geometry import flight
 from mound.geometry.camera import Camera
+from mound.geometry.flight import PATTERNS, ScanSpec
 from mound.jsonio import write_json
 from mound.ply import write_ply
 from mound.sim import appearance, terrain
 
 DEFAULT_ORIGIN = {"lat": 38.5705, "lon": 27.9862, "alt_m": 95.0}  # Bin Tepe, Manisa
-PATTERNS = ("raster", "orbit", "both")
 
 
 @dataclass(frozen=True)
@@ -71,9 +71,20 @@ class SimSpec:
     def scale_m(self) -> float:
         return self.terrain.diameter_m
 
+    def scan(self) -> ScanSpec:
+        """The flight over the site (the same ScanSpec a mission flies): the layout scaled
+        to the mound diameter, the orbit looking at a third of the mound's height (also
+        for the flat control, which gets the same flight)."""
+        return ScanSpec(
+            pattern=self.pattern, scale_m=self.scale_m, width_px=self.width_px,
+            height_px=self.height_px, hfov_rad=self.hfov_rad, dist=self.dist,
+            raster_altitude_m=self.raster_altitude_m, raster_area_m=self.raster_area_m,
+            front_overlap=self.front_overlap, side_overlap=self.side_overlap,
+            orbit_radius_m=self.orbit_radius_m, orbit_altitude_m=self.orbit_altitude_m,
+            orbit_images=self.orbit_images, target_height_m=self.terrain.height_m / 3)
+
     def camera(self) -> Camera:
-        cam = Camera.from_fov(self.width_px, self.height_px, self.hfov_rad)
-        return replace(cam, dist=tuple(float(d) for d in self.dist))
+        return self.scan().camera()
 
     def validate(self) -> None:
         self.terrain.validate()
@@ -93,21 +104,7 @@ class SimSpec:
 
 def shots(spec: SimSpec) -> list[tuple[str, flight.Shot]]:
     """The flight's camera poses, labelled by pattern."""
-    cam = spec.camera()
-    d = spec.scale_m
-    out: list[tuple[str, flight.Shot]] = []
-    if spec.pattern in ("raster", "both"):
-        area = spec.raster_area_m if spec.raster_area_m is not None else d
-        alt = spec.raster_altitude_m if spec.raster_altitude_m is not None else d
-        out += [("raster", s) for s in flight.raster(cam, (0.0, 0.0), area, area, alt,
-                                                      spec.front_overlap, spec.side_overlap)]
-    if spec.pattern in ("orbit", "both"):
-        radius = spec.orbit_radius_m if spec.orbit_radius_m is not None else d
-        alt = spec.orbit_altitude_m if spec.orbit_altitude_m is not None else 0.75 * d
-        target_z = spec.terrain.height_m / 3  # also for the flat control: the same flight
-        out += [("orbit", s) for s in flight.orbit((0.0, 0.0, target_z), radius, alt,
-                                                    spec.orbit_images)]
-    return out
+    return spec.scan().shots()
 
 
 def _check_above_ground(hf: terrain.Heightfield, labelled: list[tuple[str, flight.Shot]]

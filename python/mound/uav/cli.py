@@ -21,10 +21,16 @@ def cmd_build(args: argparse.Namespace) -> int:
         origin = Origin.from_doc(plan["origin"], f"{args.plan}: origin")
     else:
         raise InputError(f"origin: {args.plan} has no origin; give --origin LAT,LON[,ALT]")
-    spec = mission_items.MissionSpec(
-        pattern=args.pattern, site_diameter_m=args.site_diameter,
-        raster_altitude_m=args.altitude, transit_altitude_m=args.transit_altitude,
-        cruise_speed_m_s=args.cruise_speed, scan_speed_m_s=args.scan_speed)
+    scan = mission_items.plan_scan(plan, str(args.plan))
+    given = (args.pattern, args.site_diameter, args.altitude, args.transit_altitude)
+    if scan is None or any(v is not None for v in given):
+        # No scan in the plan, or options that override it: the flight check below then
+        # tells whether the plan's scan costs still cover it.
+        scan = mission_items.scan_for_site(
+            args.site_diameter if args.site_diameter is not None else 60.0,
+            args.pattern or "raster", args.altitude, args.transit_altitude)
+    spec = mission_items.MissionSpec(scan=scan, cruise_speed_m_s=args.cruise_speed,
+                                     scan_speed_m_s=args.scan_speed)
     m = mission_items.build(plan, origin, spec)
     mission_files.write_plan(args.out, m, args.firmware)
     if args.wpl:
@@ -78,9 +84,11 @@ def add_parser(sub: Any, parser_class: type) -> None:
     b.add_argument("--out", required=True, help="mission .plan file")
     b.add_argument("--wpl", help="also a 'QGC WPL 110' waypoint file")
     b.add_argument("--geojson", help="also the path, sites and image footprints as GeoJSON")
-    b.add_argument("--pattern", choices=("raster", "orbit", "both"), default="raster")
-    b.add_argument("--site-diameter", type=float, default=60.0,
-                   help="scan layout scale, m (the simulator's mound diameter)")
+    b.add_argument("--pattern", choices=("raster", "orbit", "both"),
+                   help="scan pattern (default: the plan's scan, else raster); any of these "
+                   "four options replaces the plan's scan")
+    b.add_argument("--site-diameter", type=float,
+                   help="scan layout scale, m (the simulator's mound diameter; default 60)")
     b.add_argument("--altitude", type=float, help="raster height above home, m")
     b.add_argument("--transit-altitude", type=float, help="m (default: the scan height)")
     b.add_argument("--cruise-speed", type=float, default=12.0, help="m/s")

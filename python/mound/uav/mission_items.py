@@ -5,8 +5,8 @@ The mission, in order (MAVLink command numbers from common.xml):
     speed; then for each visited site:
         NAV_WAYPOINT (16) transit to the site's scan entry point,
         DO_CHANGE_SPEED to the scan speed,
-        for each scan pattern (raster and/or orbit, from mound.geometry.flight:
-        the very poses the site simulator renders):
+        for each scan pattern (raster and/or orbit, from the ScanSpec of
+        mound.geometry.flight: the very poses the site simulator renders):
             [orbit: DO_SET_ROI_LOCATION (195) at the site centre]
             DO_SET_CAM_TRIGG_DIST (206) on, at the pattern's image spacing (trigger now),
             NAV_WAYPOINTs of the pattern (raster: the ends of each line; orbit: every
@@ -23,23 +23,25 @@ mission read back from a vehicle compares equal item by item.
 
 The flight distance (3-D length of home on the ground -> take-off height -> every
 navigation waypoint -> home (or the end node) -> the ground) is checked against the plan's
-budget before anything is written or uploaded.
+budget before anything is written or uploaded. A plan made from a sites document whose
+scan costs came from the same ScanSpec (`mound field make --scan-pattern`, which also
+records the spec and the take-off/landing climb in the document, carried into plan.json by
+mound_plan) always passes: the flight is at most the plan's cost (see
+ScanSpec.site_cost_m).
 """
 
 from __future__ import annotations
 
-import itertools
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from mound.errors import InputError
 from mound.geometry.camera import Camera, Pose
+from mound.geometry.flight import PATTERNS, ScanSpec, path_length
 from mound.geometry.geodesy import Origin, enu_to_geodetic
-from mound.sim import site as sim
-from mound.sim import terrain
 
 # MAV_CMD
 NAV_WAYPOINT = 16
@@ -105,55 +107,43 @@ def home_item(origin: Origin) -> MissionItem:
                        round(origin.lon_deg * 1e7), origin.alt_m)
 
 
+def scan_for_site(diameter_m: float = 60.0, pattern: str = "raster",
+                  raster_altitude_m: float | None = None,
+                  transit_altitude_m: float | None = None) -> ScanSpec:
+    """The scan of a site of `diameter_m` as the simulator lays it out for a mound of that
+    diameter (height D / 5, the orbit looking at a third of it)."""
+    if not (math.isfinite(diameter_m) and diameter_m > 0):
+        raise InputError("mission: site_diameter_m must be > 0")
+    return ScanSpec(pattern=pattern, scale_m=diameter_m, raster_altitude_m=raster_altitude_m,
+                    target_height_m=diameter_m / 15, transit_altitude_m=transit_altitude_m)
+
+
+def flight_budget_m(endurance_s: float = 25 * 60, cruise_speed_m_s: float = 12.0,
+                    reserve: float = 0.2) -> float:
+    """A distance budget from the aircraft's endurance: a survey multicopter's 25 minutes
+    at the default cruise speed, 20 % kept in reserve (14,400 m)."""
+    return endurance_s * cruise_speed_m_s * (1 - reserve)
+
+
 @dataclass(frozen=True)
 class MissionSpec:
-    """How each site is scanned and flown to. The scan reuses the simulator's flight
-    layout (sim.SimSpec: camera, overlaps, raster/orbit geometry scaled to the mound
-    diameter `site_diameter_m`)."""
+    """How each site is scanned (the ScanSpec, shared with the simulator and the planner's
+    scan costs) and how fast the aircraft flies."""
 
-    pattern: str = "raster"            # raster | orbit | both
-    site_diameter_m: float = 60.0
-    camera_hfov_deg: float = 70.0
-    image_size_px: tuple[int, int] = (1280, 960)
-    raster_altitude_m: float | None = None  # None: the simulator's default (the diameter)
-    transit_altitude_m: float | None = None  # None: the highest scan height
+    scan: ScanSpec = field(default_factory=scan_for_site)
     cruise_speed_m_s: float = 12.0
     scan_speed_m_s: float = 5.0
     budget_slack: float = 0.0          # allowed excess over budget_m, as a fraction
-    sim_overrides: dict[str, Any] = field(default_factory=dict)
-
-    def sim_spec(self) -> sim.SimSpec:
-        if self.site_diameter_m <= 0:
-            raise InputError("mission: site_diameter_m must be > 0")
-        size = max(160.0, 2.7 * self.site_diameter_m)
-        t = replace(terrain.TerrainSpec(), size_m=size, diameter_m=self.site_diameter_m,
-                    height_m=self.site_diameter_m / 5, drum_height_m=0.0,
-                    resolution_m=size / 64)
-        spec = sim.SimSpec(terrain=t, width_px=self.image_size_px[0],
-                           height_px=self.image_size_px[1],
-                           hfov_rad=math.radians(self.camera_hfov_deg), pattern=self.pattern,
-                           raster_altitude_m=self.raster_altitude_m)
-        return replace(spec, **self.sim_overrides)
 
     def validate(self) -> None:
-        if self.pattern not in sim.PATTERNS:
-            raise InputError(f"mission: pattern must be one of {sim.PATTERNS}")
+        if self.scan.pattern not in PATTERNS:
+            raise InputError(f"mission: pattern must be one of {PATTERNS}")
+        self.scan.validate()
         for name in ("cruise_speed_m_s", "scan_speed_m_s"):
             if not getattr(self, name) > 0:
                 raise InputError(f"mission: {name} must be > 0")
-        if self.transit_altitude_m is not None and self.transit_altitude_m <= 0:
-            raise InputError("mission: transit_altitude_m must be > 0")
         if self.budget_slack < 0:
             raise InputError("mission: budget_slack must be >= 0")
-
-
-@dataclass
-class ScanLeg:
-    pattern: str
-    points_enu: np.ndarray  # (k, 3) waypoints relative to the site centre
-    trigger_m: float
-    images: int
-    poses: list[Pose]       # the camera poses of the images, relative to the site centre
 
 
 def image_footprint(camera: Camera, pose: Pose, max_range_m: float) -> np.ndarray:
@@ -169,36 +159,6 @@ def image_footprint(camera: Camera, pose: Pose, max_range_m: float) -> np.ndarra
         t = -c[2] / r[2] if r[2] < -1e-9 else np.inf
         out.append(c + min(t, max_range_m) * r)
     return np.array(out)
-
-
-def scan_legs(spec: MissionSpec) -> list[ScanLeg]:
-    """The scan over one site, relative to its centre, from the simulator's poses."""
-    shots = sim.shots(spec.sim_spec())
-    legs = []
-    for pattern in ("raster", "orbit"):
-        mine = [s for p, s in shots if p == pattern]
-        if not mine:
-            continue
-        centres = np.array([s.pose.centre for s in mine])
-        if pattern == "raster":
-            lines = [s.line for s in mine]
-            last = len(mine) - 1
-            # The first and last shot of each line.
-            keep = [k for k in range(len(mine)) if k in (0, last)
-                    or lines[k] != lines[k - 1] or lines[k] != lines[k + 1]]
-            same_line = [k for k in range(1, len(mine)) if lines[k] == lines[k - 1]]
-            step = (float(np.linalg.norm(centres[same_line[0]] - centres[same_line[0] - 1]))
-                    if same_line else 1.0)
-            legs.append(ScanLeg("raster", centres[keep], step, len(mine),
-                                [s.pose for s in mine]))
-        else:
-            step = float(np.linalg.norm(centres[1] - centres[0]))
-            legs.append(ScanLeg("orbit", centres, step, len(mine), [s.pose for s in mine]))
-    return legs
-
-
-def _path_length(points: list[np.ndarray]) -> float:
-    return float(sum(np.linalg.norm(b - a) for a, b in itertools.pairwise(points)))
 
 
 def _up(h: float) -> np.ndarray:
@@ -221,8 +181,8 @@ class Mission:
         return {"schema": "mound.mission", "version": 1, "origin": self.origin.to_doc(),
                 "items": len(self.items), "flight_distance_m": self.flight_distance_m,
                 "budget_m": self.budget_m, "closed": self.closed, "sites": self.sites,
-                "scan": {"pattern": self.spec.pattern,
-                         "site_diameter_m": self.spec.site_diameter_m,
+                "scan": {"pattern": self.spec.scan.pattern,
+                         "site_diameter_m": self.spec.scan.scale_m,
                          "cruise_speed_m_s": self.spec.cruise_speed_m_s,
                          "scan_speed_m_s": self.spec.scan_speed_m_s}}
 
@@ -262,17 +222,25 @@ def _plan_nodes(plan: dict[str, Any]) -> tuple[list[dict[str, Any]], bool, float
     return nodes, closed, budget
 
 
+def plan_scan(plan: dict[str, Any], where: str = "plan") -> ScanSpec | None:
+    """The ScanSpec a plan's scan costs were derived from (`scan` of its sites document,
+    carried along by mound_plan), or None."""
+    doc = plan.get("scan")
+    return None if doc is None else ScanSpec.from_doc(doc, f"{where}: scan")
+
+
 def build(plan: dict[str, Any], origin: Origin, spec: MissionSpec | None = None) -> Mission:
-    """The mission for a mound.plan document; InputError if it breaks the budget."""
-    spec = spec or MissionSpec()
+    """The mission for a mound.plan document; InputError if it breaks the budget. Without
+    `spec`, the plan's own scan (plan_scan) or the default one is flown."""
+    if spec is None:
+        scan = plan_scan(plan)
+        spec = MissionSpec(scan=scan) if scan is not None else MissionSpec()
     spec.validate()
     nodes, closed, budget = _plan_nodes(plan)
     if len(nodes) <= 2 and (closed or len(nodes) < 2):
         raise InputError("tour: the plan visits no site, there is nothing to fly")
-    legs = scan_legs(spec)
-    sim_spec = spec.sim_spec()
-    scan_top = max(float(p[:, 2].max()) for p in (leg.points_enu for leg in legs))
-    transit = spec.transit_altitude_m if spec.transit_altitude_m is not None else scan_top
+    legs = spec.scan.legs()
+    transit = spec.scan.transit_m(legs)
     home = np.array([nodes[0]["x_m"], nodes[0]["y_m"], 0.0])
 
     items: list[MissionItem] = []
@@ -296,7 +264,7 @@ def build(plan: dict[str, Any], origin: Origin, spec: MissionSpec | None = None)
     do(DO_CHANGE_SPEED, (1.0, spec.cruise_speed_m_s, -1.0, 0.0))
     sites_out = []
     footprints = []
-    cam = sim_spec.camera()
+    cam = spec.scan.camera()
     for node in nodes[1:-1] if len(nodes) > 2 else []:
         centre = np.array([node["x_m"], node["y_m"], 0.0])
         entry = centre + legs[0].points_enu[0]
@@ -308,7 +276,7 @@ def build(plan: dict[str, Any], origin: Origin, spec: MissionSpec | None = None)
         images = 0
         for leg in legs:
             if leg.pattern == "orbit":
-                target = centre + _up(sim_spec.terrain.height_m / 3)
+                target = centre + _up(spec.scan.target_height_m)
                 do(DO_SET_ROI_LOCATION, (0.0, 0.0, 0.0, 0.0), target,
                    FRAME_GLOBAL_RELATIVE_ALT_INT)
             do(DO_SET_CAM_TRIGG_DIST, (leg.trigger_m, 0.0, 1.0, 0.0))
@@ -327,7 +295,7 @@ def build(plan: dict[str, Any], origin: Origin, spec: MissionSpec | None = None)
         do(DO_CHANGE_SPEED, (1.0, spec.cruise_speed_m_s, -1.0, 0.0))
         nav_path += scan_path[1:]
         sites_out.append({"id": node["id"], "x_m": node["x_m"], "y_m": node["y_m"],
-                          "scan_length_m": _path_length(scan_path), "images": images,
+                          "scan_length_m": path_length(scan_path), "images": images,
                           "scan_cost_m": node["scan_cost_m"]})
     end = np.array([nodes[-1]["x_m"], nodes[-1]["y_m"], 0.0])
     if closed:
@@ -337,11 +305,11 @@ def build(plan: dict[str, Any], origin: Origin, spec: MissionSpec | None = None)
         nav(NAV_WAYPOINT, end + _up(transit))
         nav(NAV_LAND, end, (0.0, 0.0, 0.0, NAN))
         nav_path += [end + _up(transit), end.copy()]
-    distance = _path_length(nav_path)
+    distance = path_length(nav_path)
     if distance > budget * (1 + spec.budget_slack) + 1e-6:
         worst = max(sites_out, key=lambda s: s["scan_length_m"] - s["scan_cost_m"],
                     default=None)
-        hint = (f"; a {spec.pattern} scan flies {worst['scan_length_m']:.0f} m per site, the "
+        hint = (f"; a {spec.scan.pattern} scan flies {worst['scan_length_m']:.0f} m per site, the "
                 f"plan assumed scan_cost_m {worst['scan_cost_m']:g}") if worst else ""
         raise InputError(f"mission: flight distance {distance:.1f} m exceeds the plan's "
                          f"budget_m {budget:g} m{hint}")

@@ -1,0 +1,86 @@
+"""mound.native, the one subprocess caller: exit codes mapped to the project's errors,
+stderr streamed to a log, and no tool left running after a time-out or a Ctrl-C."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mound import native
+from mound.errors import InputError, ToolError, ToolInputError, ToolTimeout
+from mound.paths import REPO_ROOT
+
+
+def big_tsp(path: Path, n: int = 6000) -> Path:
+    """A random EUC_2D instance that keeps mound_plan busy for tens of seconds."""
+    rng = np.random.default_rng(1)
+    xy = rng.integers(0, 100_000, size=(n, 2))
+    lines = ["NAME: big", "TYPE: TSP", f"DIMENSION: {n}", "EDGE_WEIGHT_TYPE: EUC_2D",
+             "NODE_COORD_SECTION", *[f"{k + 1} {x} {y}" for k, (x, y) in enumerate(xy)], "EOF"]
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def gone(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return True
+    return Path(f"/proc/{pid}/stat").read_text().split()[2] == "Z"  # a zombie is dead too
+
+
+def test_bad_input_is_an_input_error_with_the_tools_message(tmp_path: Path,
+                                                             mound_plan: Path) -> None:
+    bad = tmp_path / "sites.json"
+    bad.write_text(json.dumps({"schema": "mound.sites", "version": 1}))
+    log = tmp_path / "logs" / "plan.log"
+    with pytest.raises(ToolInputError) as err:
+        native.run_tool("mound_plan", [str(bad)], log=log)
+    assert isinstance(err.value, InputError) and err.value.code == native.EXIT_BAD_INPUT
+    assert "home" in err.value.tail and "exit 2: bad input" in str(err.value)
+    text = log.read_text()
+    assert "[native] pid" in text and "home" in text and "exit 2" in text
+
+
+def test_a_time_limit_ends_the_tool(tmp_path: Path, mound_plan: Path) -> None:
+    tsp = big_tsp(tmp_path / "big.tsp")
+    log = tmp_path / "tsp.log"
+    start = time.monotonic()
+    with pytest.raises(ToolTimeout) as err:
+        native.run_tool("mound_plan", ["tsp", str(tsp)], timeout_s=1.0, log=log)
+    assert time.monotonic() - start < 1.0 + native.GRACE_S + 2
+    pid = int(log.read_text().split("[native] pid ")[1].split(":")[0])
+    assert gone(pid)
+    assert isinstance(err.value, ToolError) and "time limit" in log.read_text()
+
+
+def test_ctrl_c_during_a_long_call_leaves_no_child_behind(tmp_path: Path,
+                                                           mound_plan: Path) -> None:
+    tsp = big_tsp(tmp_path / "big.tsp")
+    log = tmp_path / "tsp.log"
+    script = ("import sys\nfrom mound import native\n"
+              f"native.run_tool('mound_plan', ['tsp', {str(tsp)!r}], log={str(log)!r})\n")
+    # The driver in its own process group, as a terminal's foreground job: Ctrl-C is a
+    # SIGINT to that group, which the tool (in a session of its own) never sees.
+    driver = subprocess.Popen([sys.executable, "-c", script], start_new_session=True,
+                              stderr=subprocess.PIPE, text=True,
+                              env={**os.environ, "PYTHONPATH": str(REPO_ROOT / "python")})
+    deadline = time.monotonic() + 30
+    while time.monotonic() < deadline and not (log.exists() and "pid" in log.read_text()):
+        time.sleep(0.05)
+    pid = int(log.read_text().split("[native] pid ")[1].split(":")[0])
+    time.sleep(0.5)
+    assert not gone(pid), "the tool should still be working"
+    os.killpg(driver.pid, signal.SIGINT)
+    _, stderr = driver.communicate(timeout=native.GRACE_S + 10)
+    assert driver.returncode != 0 and "KeyboardInterrupt" in stderr
+    assert gone(pid), "the tool outlived the interrupted driver"
+    assert "ended on interrupt" in log.read_text()
