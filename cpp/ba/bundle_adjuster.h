@@ -46,7 +46,7 @@ struct Summary {
   std::string brief;  // Ceres' one-line report
 };
 
-// Refines `problem` in place. An observation or gauge index out of range is a caller's bug
+// Paper: bundle adjustment. Refines `problem` in place. An observation or gauge index out of range is a caller's bug
 // (InternalError).
 Summary Adjust(Problem* problem, const Options& options);
 

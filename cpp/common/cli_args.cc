@@ -27,6 +27,10 @@ Args ParseArgs(const std::vector<std::string>& args, size_t begin,
   return a;
 }
 
+bool WantsHelp(const std::vector<std::string>& args) {
+  return std::any_of(args.begin(), args.end(), [](const std::string& s) { return s == "--help" || s == "-h"; });
+}
+
 double ParseNumber(const std::string& s, const std::string& what) {
   char* end = nullptr;
   const double v = std::strtod(s.c_str(), &end);

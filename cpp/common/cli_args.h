@@ -25,6 +25,10 @@ Args ParseArgs(const std::vector<std::string>& args, size_t begin,
                const std::vector<std::string>& known,
                const std::vector<std::string>& flags = {});
 
+// True when --help or -h stands anywhere among the arguments (the usage text then wins over
+// any other argument, valid or not).
+bool WantsHelp(const std::vector<std::string>& args);
+
 // A finite number / an integer in [lo, hi]; the message names `what` (e.g. "--seed").
 double ParseNumber(const std::string& s, const std::string& what);
 long long ParseInt(const std::string& s, const std::string& what, long long lo, long long hi);

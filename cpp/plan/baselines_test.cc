@@ -8,17 +8,17 @@
 #include <set>
 
 #include "plan/exact_small.h"
-#include "plan/testing.h"
+#include "plan/test_instances.h"
 
 namespace mound::plan {
 namespace {
 
 OpInstance RandomInstance(int sites, bool closed, double budget, unsigned seed) {
-  return testing::RandomInstance(sites, closed, budget, seed, /*random_home=*/true);
+  return test_instances::RandomInstance(sites, closed, budget, seed, /*random_home=*/true);
 }
 
 void ExpectFeasible(const OpInstance& inst, const PlanResult& r, const char* what) {
-  testing::ExpectValidRoute(inst, r, what);
+  test_instances::ExpectValidRoute(inst, r, what);
 }
 
 TEST(BaselinesTest, FeasibleAndNeverAboveTheOptimum) {
@@ -49,7 +49,7 @@ TEST(BaselinesTest, FeasibleAndNeverAboveTheOptimum) {
 TEST(BaselinesTest, LargerInstancesStayFeasible) {
   for (bool closed : {true, false}) {
     OpInstance inst = RandomInstance(150, closed, 0, 9);
-    testing::ScaleCoordinates(&inst, 10);
+    test_instances::ScaleCoordinates(&inst, 10);
     inst.budget_m = std::max(300.0, inst.Cost(0, inst.end) + 10);
     BaselineOptions opt;
     ExpectFeasible(inst, SolveGreedy(inst), "greedy");

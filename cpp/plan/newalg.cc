@@ -50,7 +50,7 @@ std::vector<int> DfsRoute(const OpInstance& inst, const Tree& t, const std::vect
   return route;
 }
 
-// Step 1: the two rounds of tree growth. Returns the depth-first route of the tree.
+// Paper, NewAlg step 1: the two rounds of tree growth. Returns the depth-first route of the tree.
 std::vector<int> GrowTree(const OpInstance& inst, nlohmann::json* stats) {
   const int n = inst.Size();
   const double inf = std::numeric_limits<double>::infinity();
@@ -145,7 +145,7 @@ std::vector<int> GrowTree(const OpInstance& inst, nlohmann::json* stats) {
   return route;
 }
 
-// Steps 2-3 repeated until no site is inserted.
+// Paper, NewAlg step 4: steps 2-3 repeated until no site is inserted.
 void ImproveLoop(const OpInstance& inst, std::vector<int>* route, std::vector<char>* in_route,
                  uint64_t seed, int max_rounds, RouteOpsStats* ops, int* rounds) {
   for (int r = 0; r < max_rounds; ++r) {

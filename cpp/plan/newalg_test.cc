@@ -10,16 +10,16 @@
 #include <set>
 
 #include "plan/exact_small.h"
-#include "plan/testing.h"
+#include "plan/test_instances.h"
 
 namespace mound::plan {
 namespace {
 
-using testing::IndependentCost;
-using testing::RandomInstance;
+using test_instances::IndependentCost;
+using test_instances::RandomInstance;
 
 void ExpectValid(const OpInstance& inst, const PlanResult& r) {
-  testing::ExpectValidRoute(inst, r, "route");
+  test_instances::ExpectValidRoute(inst, r, "route");
 }
 
 // Reference optimum by plain enumeration of every ordered selection (<= 7 sites).
@@ -95,7 +95,7 @@ TEST(NewAlgTest, NeverAboveOptimumOnSmallInstancesAndGapIsReported) {
 TEST(NewAlgTest, LargerInstancesAreValidAndDeterministic) {
   for (bool closed : {true, false}) {
     OpInstance inst = RandomInstance(300, closed, 0, 7);
-    testing::ScaleCoordinates(&inst, 100);
+    test_instances::ScaleCoordinates(&inst, 100);
     inst.budget_m = 3000;
     NewAlgOptions opt;
     opt.seed = 3;

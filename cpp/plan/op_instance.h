@@ -36,6 +36,7 @@ class OpInstance {
   bool IsSite(int v) const { return v >= FirstSite(); }
 
   double Dist(int i, int j) const;
+  // Paper: the expanded edge cost c_ij = d(i,j) + (c_i + c_j) / 2.
   double Cost(int i, int j) const {
     return Dist(i, j) + 0.5 * (nodes[i].scan_cost_m + nodes[j].scan_cost_m);
   }

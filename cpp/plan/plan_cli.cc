@@ -23,10 +23,13 @@ namespace {
 constexpr const char* kVersion = "mound_plan 0.1.0";
 
 constexpr const char* kUsage =
-    "usage: mound_plan SITES.json [BUDGET] [--algo NAME] [--seed N] [--out PLAN.json]\n"
+    "usage: mound_plan SITES.json [BUDGET] [--algo NAME] [--seed N] [--iterations N]\n"
+    "                  [--time-limit S] [--routes N] [--out PLAN.json]\n"
     "       mound_plan tsp FILE.tsp [--seed N] [--runs N] [--trials N] [--time-limit S]\n"
-    "                  [--out FILE.json]\n"
-    "       mound_plan op FILE.oplib [--algo NAME] [--seed N] [--out FILE.json]\n"
+    "                  [--optimum L] [--kick-segment K] [--out FILE.json]\n"
+    "       mound_plan op FILE.oplib [--algo NAME] [--seed N] [--iterations N]\n"
+    "                  [--time-limit S] [--routes N] [--out FILE.json]\n"
+    "       mound_plan --help | --version\n"
     "\n"
     "Plans a UAV tour over candidate sites (orienteering): from the home node back home (or\n"
     "to the end node) collecting the most reward within the budget (metres).\n"
@@ -34,15 +37,22 @@ constexpr const char* kUsage =
     "  --algo NAME        newalg (default, the paper's algorithm), newalg-ls (NewAlg plus an\n"
     "                     iterated local search), greedy (BenAlg), tsiligirides (1984),\n"
     "                     glv (Golden-Levy-Vohra 1987), exact (<= 16 sites, dynamic programme)\n"
-    "  --routes N         tsiligirides: routes built (default 3000, as in the original)\n"
     "  --seed N           random seed (default 1); equal seeds give equal plans\n"
     "  --iterations N     newalg-ls iterations (default 300)\n"
-    "  --out FILE         write the plan there (atomically) instead of stdout\n"
+    "  --time-limit S     newalg-ls: stop after S seconds (default: none)\n"
+    "  --routes N         tsiligirides: routes built (default 3000, as in the original)\n"
+    "  --out FILE         write the result there (atomically) instead of stdout\n"
     "The tsp command solves a TSPLIB instance with the built-in Lin-Kernighan-Helsgaun\n"
-    "engine and prints {\"length\", \"tour\" (1-based ids), ...}. The op command solves an\n"
-    "OPLib instance (TSPLIB metric, closed tour at the depot, COST_LIMIT) and prints\n"
-    "{\"reward\", \"cost\", \"tour\" (1-based ids), ...}.\n"
-    "Exit codes: 0 ok, 2 bad input or usage, 1 internal error.\n";
+    "engine and prints {\"length\", \"tour\" (1-based ids), ...}:\n"
+    "  --runs N           independent runs, the best kept (default 1)\n"
+    "  --trials N         trials per run (default: the number of nodes)\n"
+    "  --time-limit S     stop the search after S seconds\n"
+    "  --optimum L        stop as soon as a tour of length L is found\n"
+    "  --kick-segment K   longest segment of a double-bridge kick (default max(50, n/4))\n"
+    "The op command solves an OPLib instance (TSPLIB metric, closed tour at the depot,\n"
+    "COST_LIMIT) and prints {\"reward\", \"cost\", \"tour\" (1-based ids), ...}.\n"
+    "--help anywhere on the command line prints this text.\n"
+    "Exit codes: 0 ok, 1 internal error, 2 bad input or usage (one line naming it).\n";
 
 void Emit(const nlohmann::json& j, const std::map<std::string, std::string>& options,
           std::ostream& out) {
@@ -202,7 +212,7 @@ int RunPlan(const std::vector<std::string>& args, std::ostream& out) {
 int RunMoundPlan(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
   return RunGuarded("mound_plan", err, [&]() {
     if (args.empty()) throw InputError("missing SITES.json (see --help)");
-    if (args[0] == "--help" || args[0] == "-h") {
+    if (WantsHelp(args)) {
       out << kUsage;
       return static_cast<int>(kExitOk);
     }

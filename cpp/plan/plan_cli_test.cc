@@ -128,6 +128,8 @@ TEST(PlanCliTest, BadInputExitsTwoWithOneLineNamingTheFieldAndWritesNothing) {
       {"not JSON", [] { return std::string("{\"schema\": \"mound.sites\", "); }, {}, "bad.json"},
       {"unknown algo", with([](auto&) {}), {"--algo", "magic"}, "--algo"},
       {"unknown option", with([](auto&) {}), {"--fast"}, "--fast"},
+      {"negative take-off", with([](auto& j) { j["takeoff_landing_m"] = -1; }), {}, "takeoff_landing_m"},
+      {"scan not an object", with([](auto& j) { j["scan"] = 3; }), {}, "scan"},
   };
   for (const BadCase& c : cases) {
     const std::string in = WriteTemp("bad.json", c.text());
@@ -145,6 +147,43 @@ TEST(PlanCliTest, BadInputExitsTwoWithOneLineNamingTheFieldAndWritesNothing) {
   }
   EXPECT_EQ(Call({TempPath("does-not-exist.json")}).code, 2);
   EXPECT_EQ(Call({}).code, 2);
+}
+
+TEST(PlanCliTest, TakeoffLandingIsPaidOnceAndTheScanIsCarriedAlong) {
+  auto j = GoodSites();
+  j["takeoff_landing_m"] = 4.0;
+  j["scan"] = {{"pattern", "raster"}, {"scale_m", 60}};
+  j["sites"] = nlohmann::json::array({{{"id", "a"}, {"x_m", 3}, {"y_m", 4}, {"reward", 1.0}, {"scan_cost_m", 1}}});
+  const std::string in = WriteTemp("climb.json", j.dump());
+  const CliRun r = Call({in, "100"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto plan = nlohmann::json::parse(r.out);
+  // home -> a -> home: 5 + 5 planar, scan 1, take-off and landing 4 once.
+  EXPECT_NEAR(plan["cost_m"].get<double>(), 15.0, 1e-9);
+  EXPECT_EQ(plan["scan"], j["scan"]);
+  EXPECT_EQ(plan["takeoff_landing_m"], 4.0);
+  // A path pays it once too (half at home, half at the end node).
+  j["end"] = {{"id", "e"}, {"x_m", 6}, {"y_m", 0}};
+  const CliRun p = Call({WriteTemp("climb_path.json", j.dump()), "100"});
+  ASSERT_EQ(p.code, 0) << p.err;
+  EXPECT_NEAR(nlohmann::json::parse(p.out)["cost_m"].get<double>(), 5 + 5 + 1 + 4.0, 1e-9);
+  // Too small for the climbs and one site: refused as bad input naming the budget.
+  EXPECT_EQ(Call({in, "14"}).code, 2);
+}
+
+TEST(PlanCliTest, HelpAnywhereOnTheCommandLinePrintsTheUsage) {
+  for (const std::vector<std::string>& args :
+       {std::vector<std::string>{"--help"}, {"sites.json", "--help"}, {"tsp", "x.tsp", "-h"},
+        {"op", "--seed", "nonsense", "--help"}}) {
+    const CliRun r = Call(args);
+    EXPECT_EQ(r.code, 0) << r.err;
+    EXPECT_NE(r.out.find("usage: mound_plan"), std::string::npos);
+    // Every option any command accepts is in the usage text.
+    for (const char* opt : {"--algo", "--seed", "--iterations", "--time-limit", "--routes", "--out",
+                            "--runs", "--trials", "--optimum", "--kick-segment", "--version"}) {
+      EXPECT_NE(r.out.find(opt), std::string::npos) << opt;
+    }
+  }
 }
 
 TEST(PlanCliTest, TspCommandPrintsLengthAndOneBasedTour) {

@@ -77,6 +77,7 @@ std::vector<Eigen::Vector3d> Normalise(const std::vector<Eigen::Vector2d>& px,
   return out;
 }
 
+// Eqs. (9)-(11): the stacked epipolar system, solved exactly (see the header).
 Eigen::VectorXd StackedEpipolarDepths(const std::vector<Eigen::Vector3d>& x1,
                                       const std::vector<Eigen::Vector3d>& x2,
                                       const Eigen::Matrix3d& R, const Eigen::Vector3d& t) {

@@ -63,7 +63,8 @@ struct TwoViewResult {
   int positive_depth = 0;         // inliers in front of both cameras
 };
 
-// RANSAC (fundamental matrix, 1 px) selects the inliers, the 8-point algorithm on all of
+// Paper: the 8-point initialisation. RANSAC (fundamental matrix, 1 px) selects the
+// inliers, the 8-point algorithm on all of
 // them gives F, E = K^T F K projected onto the essential matrices; of its four
 // decompositions the one that puts the most points in front of both cameras wins; the
 // depths come from the stacked epipolar system. Fewer than 8 matches or inliers, or no

@@ -30,7 +30,8 @@ constexpr const char* kUsage =
     "  --out DIR      where the images go (paths in the job are relative to it)\n"
     "  --threads N    images rendered in parallel (default: the number of cores)\n"
     "  --geometry     also write <image>.depth.npy and <image>.xyz.npy per image\n"
-    "Exit codes: 0 ok, 2 bad input or usage, 1 internal error.\n";
+    "--help anywhere on the command line prints this text.\n"
+    "Exit codes: 0 ok, 1 internal error, 2 bad input or usage (one line naming it).\n";
 
 uint64_t SplitMix(uint64_t x) {
   x += 0x9e3779b97f4a7c15ULL;
@@ -56,7 +57,7 @@ void WriteImage(const std::string& path, const RenderedImage& im) {
 
 int RunMoundRender(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
   return RunGuarded("mound_render", err, [&]() {
-    if (!args.empty() && (args[0] == "--help" || args[0] == "-h")) {
+    if (WantsHelp(args)) {
       out << kUsage;
       return static_cast<int>(kExitOk);
     }

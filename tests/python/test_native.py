@@ -84,3 +84,10 @@ def test_ctrl_c_during_a_long_call_leaves_no_child_behind(tmp_path: Path,
     assert driver.returncode != 0 and "KeyboardInterrupt" in stderr
     assert gone(pid), "the tool outlived the interrupted driver"
     assert "ended on interrupt" in log.read_text()
+
+
+@pytest.mark.parametrize("tool, args", [("mound_render", ["job.json", "--help"]),
+                                        ("mound_plan", ["sites.json", "--algo", "x", "--help"])])
+def test_help_anywhere_prints_the_usage(tool: str, args: list[str]) -> None:
+    run = native.run_tool(tool, args)
+    assert run.stdout.startswith(f"usage: {tool}") and "--help anywhere" in run.stdout

@@ -34,6 +34,8 @@ class Fit:
 
 def loss_and_grad(w: np.ndarray, x: np.ndarray, y: np.ndarray, l2: float = 0.0
                   ) -> tuple[float, np.ndarray]:
+    """Paper (coarse search): the mean logistic loss (1/n) sum log(1 + exp(-y w^T x)),
+    the negative log-likelihood of the model below, and its gradient."""
     z = y * (x @ w)
     loss = float(np.mean(np.logaddexp(0.0, -z)))
     grad = -(x.T @ (y * expit(-z))) / x.shape[0]
@@ -51,7 +53,8 @@ def lipschitz(x: np.ndarray, l2: float) -> float:
 
 def fit_gd(x: np.ndarray, y: np.ndarray, l2: float = 0.0, tol: float = 1e-6,
            max_iter: int = 200_000) -> Fit:
-    """Gradient descent from w = 0 until |grad| <= tol."""
+    """Paper (coarse search): gradient descent w <- w - (1/L) grad from w = 0 until
+    |grad| <= tol, L the Lipschitz constant of the gradient."""
     start = time.perf_counter()
     step = 1.0 / lipschitz(x, l2)
     w = np.zeros(x.shape[1])
@@ -85,4 +88,5 @@ def fit(x: np.ndarray, y: np.ndarray, solver: str = "gd", l2: float = 0.0,
 
 
 def predict_proba(w: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """Paper (coarse search): the logistic model p(mound | x) = 1 / (1 + exp(-w^T x))."""
     return expit(x @ w)

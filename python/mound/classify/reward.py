@@ -11,7 +11,8 @@ from scipy.special import xlogy
 
 
 def binary_entropy_bits(p: np.ndarray | float) -> np.ndarray:
-    """Vectorised H(p) in bits; exact 0 at p = 0 and 1 (no NaN), p outside [0, 1] refused."""
+    """Paper: a site's reward, the binary entropy of p(mound). Vectorised H(p) in bits;
+    exact 0 at p = 0 and 1 (no NaN), p outside [0, 1] refused."""
     q = np.asarray(p, dtype=np.float64)
     if np.any(~np.isfinite(q)) or np.any(q < 0) or np.any(q > 1):
         raise ValueError("probabilities must be finite and in [0, 1]")

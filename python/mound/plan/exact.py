@@ -1,6 +1,7 @@
 """Exact orienteering by integer programming (HiGHS), subtour cuts added lazily.
 
-Undirected model on nodes 0..n-1 (0 = home, 1 = end of a path):
+Eq. (4), the paper's integer programme for the tour, in its undirected form
+(solve() below); the model on nodes 0..n-1 (0 = home, 1 = end of a path):
   max  sum_i r_i y_i
   s.t. sum_{e in delta(i)} x_e = 2 y_i   for every site i; 2 at home of a closed tour
        (a path: degree 1 at home and at the end node)

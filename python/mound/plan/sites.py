@@ -27,7 +27,7 @@ class OpProblem:
         return 0 if self.closed else 1
 
     def cost_matrix(self) -> np.ndarray:
-        """Expanded costs c_ij = d_ij + (s_i + s_j) / 2 (INTERFACES.md)."""
+        """Paper: the expanded costs c_ij = d_ij + (s_i + s_j) / 2 (INTERFACES.md)."""
         d = np.linalg.norm(self.xy[:, None, :] - self.xy[None, :, :], axis=2)
         return d + 0.5 * (self.scan[:, None] + self.scan[None, :])
 

@@ -47,7 +47,9 @@ class Row:
 
 
 def error_rates(doc: dict[str, Any], visited: set[str]) -> tuple[float, float]:
-    """(eps_MD, eps_FA): a visited site gets its true label, the others p_mound >= 0.5."""
+    """Paper's error rates (eps_MD, eps_FA): missed detections among the true mounds and
+    false alarms among the others; a visited site gets its true label, the others
+    p_mound >= 0.5."""
     truth = np.array([s["truth"]["mound"] for s in doc["sites"]])
     label = np.array([s["truth"]["mound"] if s["id"] in visited else s["p_mound"] >= 0.5
                       for s in doc["sites"]])

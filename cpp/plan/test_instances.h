@@ -12,7 +12,7 @@
 #include "plan/newalg.h"
 #include "plan/op_instance.h"
 
-namespace mound::plan::testing {
+namespace mound::plan::test_instances {
 
 // Sites uniform in a 10 x 10 m square with rewards and scan costs in [0, 1]; home at the
 // origin or random; a path gets a random end node. The budget is raised to the direct
@@ -78,4 +78,4 @@ inline void ExpectValidRoute(const OpInstance& inst, const PlanResult& r, const 
   EXPECT_NEAR(r.reward, reward, 1e-9) << what;
 }
 
-}  // namespace mound::plan::testing
+}  // namespace mound::plan::test_instances
