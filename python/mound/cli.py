@@ -367,9 +367,26 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+def help_argv(parser: argparse.ArgumentParser, argv: list[str]) -> list[str]:
+    """`--help` anywhere on the command line: the help of the deepest (sub)command named
+    before anything else, whatever the other arguments are."""
+    path: list[str] = []
+    for token in argv:
+        subs = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
+        if not subs or token not in subs[0].choices:
+            break
+        path.append(token)
+        parser = subs[0].choices[token]
+    return [*path, "--help"]
+
+
 def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
     try:
-        args = build_parser().parse_args(argv)
+        parser = build_parser()
+        if "-h" in argv or "--help" in argv:
+            argv = help_argv(parser, argv)
+        args = parser.parse_args(argv)
         scan = getattr(args, "scan_cost", None)
         budget = getattr(args, "budget", None)
         costs = [c for c in (scan if isinstance(scan, list) else [scan]) if c is not None]

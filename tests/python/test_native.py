@@ -91,3 +91,17 @@ def test_ctrl_c_during_a_long_call_leaves_no_child_behind(tmp_path: Path,
 def test_help_anywhere_prints_the_usage(tool: str, args: list[str]) -> None:
     run = native.run_tool(tool, args)
     assert run.stdout.startswith(f"usage: {tool}") and "--help anywhere" in run.stdout
+
+
+@pytest.mark.parametrize("argv, usage", [
+    (["field", "make", "--seed", "--help"], "usage: mound field make"),
+    (["sim", "site", "--seed", "x", "-h"], "usage: mound sim site"),
+    (["mission", "build", "--help", "plan.json"], "usage: mound mission build"),
+])
+def test_mound_help_anywhere(argv: list[str], usage: str,
+                             capsys: pytest.CaptureFixture[str]) -> None:
+    from mound.cli import main as mound_main
+
+    with pytest.raises(SystemExit) as done:
+        mound_main(argv)
+    assert done.value.code == 0 and capsys.readouterr().out.startswith(usage)
