@@ -59,10 +59,18 @@ Summary Adjust(Problem* p, const Options& o) {
   std::vector<PoseBlocks> poses;
   for (const geometry::Rigid3d& v : p->cam_from_world) poses.push_back(ToBlocks(v));
   ceres::Problem problem;
+  std::array<double, 3> intrinsics{p->camera.fx, p->camera.dist[0], p->camera.dist[1]};
   for (const Observation& ob : p->observations) {
-    problem.AddResidualBlock(ReprojectionError::Create(ob.px.x(), ob.px.y(), p->camera),
-                             new ceres::HuberLoss(o.huber_px), poses[ob.view].rotation.data(),
-                             poses[ob.view].translation.data(), p->points[ob.point].data());
+    if (o.refine_intrinsics) {
+      problem.AddResidualBlock(ReprojectionErrorWithIntrinsics::Create(ob.px.x(), ob.px.y(), p->camera),
+                               new ceres::HuberLoss(o.huber_px), poses[ob.view].rotation.data(),
+                               poses[ob.view].translation.data(), p->points[ob.point].data(),
+                               intrinsics.data());
+    } else {
+      problem.AddResidualBlock(ReprojectionError::Create(ob.px.x(), ob.px.y(), p->camera),
+                               new ceres::HuberLoss(o.huber_px), poses[ob.view].rotation.data(),
+                               poses[ob.view].translation.data(), p->points[ob.point].data());
+    }
   }
   PoseBlocks& fixed = poses[o.fixed_view];
   if (problem.HasParameterBlock(fixed.rotation.data())) {
@@ -81,9 +89,17 @@ Summary Adjust(Problem* p, const Options& o) {
   so.num_threads = o.threads;
   so.function_tolerance = 1e-10;
   so.parameter_tolerance = 1e-10;
+  so.max_solver_time_in_seconds = o.max_time_s;
   ceres::Solver::Summary summary;
   ceres::Solve(so, &problem, &summary);
   for (int k = 0; k < nv; ++k) p->cam_from_world[k] = FromBlocks(poses[k]);
+  if (o.refine_intrinsics && problem.HasParameterBlock(intrinsics.data())) {
+    const double aspect = p->camera.fy / p->camera.fx;
+    p->camera.fx = intrinsics[0];
+    p->camera.fy = intrinsics[0] * aspect;
+    p->camera.dist[0] = intrinsics[1];
+    p->camera.dist[1] = intrinsics[2];
+  }
   s.final_rmse_px = RmseReprojection(*p);
   s.iterations = static_cast<int>(summary.iterations.size());
   s.converged = summary.termination_type == ceres::CONVERGENCE;

@@ -6,7 +6,8 @@
 // Gauge: the first view (`fixed_view`) is held fixed, which removes rotation and
 // translation; the scale is fixed by keeping the length of `scale_view`'s translation
 // (a sphere manifold on it), so with the fixed view at the origin the baseline keeps
-// its length. Intrinsics are fixed (calibrated camera).
+// its length. Intrinsics are fixed (calibrated camera) unless `refine_intrinsics`, which
+// refines the shared focal length and k1, k2 (self-calibration from EXIF's starting values).
 #pragma once
 
 #include <Eigen/Core>
@@ -37,6 +38,8 @@ struct Options {
   int fixed_view = 0;
   int scale_view = 1;  // -1: no scale constraint (e.g. a view with known position fixed)
   int threads = 1;
+  bool refine_intrinsics = false;  // f (fy / fx kept), k1, k2 of the shared camera
+  double max_time_s = 1e9;
 };
 
 struct Summary {

@@ -50,4 +50,41 @@ class ReprojectionError {
   std::array<double, geometry::CameraModel::kNumParams> params_;
 };
 
+// The same with the shared intrinsics refined (self-calibration, as COLMAP's
+// SIMPLE_RADIAL): a fourth block [f, k1, k2]; fx = f, fy = f * aspect, and cx, cy, p1, p2,
+// k3 held at the camera's values.
+class ReprojectionErrorWithIntrinsics {
+ public:
+  ReprojectionErrorWithIntrinsics(double u_px, double v_px, const geometry::CameraModel& camera)
+      : u_(u_px), v_(v_px), aspect_(camera.fy / camera.fx), fixed_(camera.Params()) {}
+
+  template <typename T>
+  bool operator()(const T* rotation, const T* translation, const T* point, const T* intrinsics,
+                  T* residual) const {
+    T p[3];
+    ceres::AngleAxisRotatePoint(rotation, point, p);
+    for (int i = 0; i < 3; ++i) p[i] += translation[i];
+    const T params[geometry::CameraModel::kNumParams] = {
+        intrinsics[0], intrinsics[0] * T(aspect_), T(fixed_[2]), T(fixed_[3]), intrinsics[1],
+        intrinsics[2], T(fixed_[6]), T(fixed_[7]), T(fixed_[8])};
+    T u, v;
+    if (!geometry::ImageFromCamera(params, p, &u, &v)) {
+      residual[0] = residual[1] = T(0);
+      return true;
+    }
+    residual[0] = u - T(u_);
+    residual[1] = v - T(v_);
+    return true;
+  }
+
+  static ceres::CostFunction* Create(double u_px, double v_px, const geometry::CameraModel& camera) {
+    return new ceres::AutoDiffCostFunction<ReprojectionErrorWithIntrinsics, 2, 3, 3, 3, 3>(
+        new ReprojectionErrorWithIntrinsics(u_px, v_px, camera));
+  }
+
+ private:
+  double u_, v_, aspect_;
+  std::array<double, geometry::CameraModel::kNumParams> fixed_;
+};
+
 }  // namespace mound::ba

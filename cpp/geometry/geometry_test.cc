@@ -7,6 +7,7 @@
 #include <random>
 
 #include "geometry/camera_model.h"
+#include "geometry/geodesy.h"
 #include "geometry/rigid3.h"
 #include "geometry/sim3.h"
 
@@ -97,6 +98,22 @@ TEST(Sim3d, UmeyamaRecoversAKnownSimilarity) {
   // Collinear sources and too few pairs give no answer.
   EXPECT_FALSE(EstimateSim3d({{0, 0, 0}, {1, 1, 1}, {2, 2, 2}, {3, 3, 3}}, dst));
   EXPECT_FALSE(EstimateSim3d({src[0], src[1]}, {dst[0], dst[1]}));
+}
+
+TEST(Geodesy, Wgs84KnownPointsAndRoundTrips) {
+  const Eigen::Vector3d equator = EcefFromGeodetic({0, 0, 0});
+  EXPECT_NEAR((equator - Eigen::Vector3d(6378137.0, 0, 0)).norm(), 0, 1e-6);
+  EXPECT_NEAR(EcefFromGeodetic({90, 0, 0}).z(), 6356752.314245, 1e-5);  // semi-minor axis
+  const Geodetic origin{38.5705, 27.9862, 95.0};
+  const Eigen::Vector3d up = EnuFromGeodetic(origin, {38.5705, 27.9862, 195.0});
+  EXPECT_NEAR((up - Eigen::Vector3d(0, 0, 100)).norm(), 0, 1e-6);
+  // One arc-second of latitude is about 30.8 m of northing here.
+  const Eigen::Vector3d north = EnuFromGeodetic(origin, {38.5705 + 1.0 / 3600, 27.9862, 95.0});
+  EXPECT_NEAR(north.y(), 30.85, 0.05);
+  EXPECT_NEAR(north.x(), 0, 1e-6);
+  for (const Eigen::Vector3d& enu : {Eigen::Vector3d(30000, -20000, 500), Eigen::Vector3d(-5, 7, -3)}) {
+    EXPECT_NEAR((EnuFromGeodetic(origin, GeodeticFromEnu(origin, enu)) - enu).norm(), 0, 1e-6);
+  }
 }
 
 }  // namespace

@@ -1,0 +1,169 @@
+#include "recon/exif.h"
+
+#include <cstdint>
+#include <fstream>
+#include <vector>
+
+namespace mound::recon {
+namespace {
+
+class Tiff {
+ public:
+  explicit Tiff(std::vector<uint8_t> d) : d_(std::move(d)) {}
+  bool Init() {
+    if (d_.size() < 8) return false;
+    if (d_[0] == 'I' && d_[1] == 'I') le_ = true;
+    else if (d_[0] == 'M' && d_[1] == 'M') le_ = false;
+    else return false;
+    return U16(2) == 42;
+  }
+  uint32_t FirstIfd() const { return U32(4); }
+  bool Ok(size_t off, size_t n) const { return off <= d_.size() && n <= d_.size() - off; }
+  uint16_t U16(size_t o) const {
+    if (!Ok(o, 2)) return 0;
+    return le_ ? static_cast<uint16_t>(d_[o] | d_[o + 1] << 8) : static_cast<uint16_t>(d_[o] << 8 | d_[o + 1]);
+  }
+  uint32_t U32(size_t o) const {
+    if (!Ok(o, 4)) return 0;
+    return le_ ? (uint32_t(d_[o]) | uint32_t(d_[o + 1]) << 8 | uint32_t(d_[o + 2]) << 16 | uint32_t(d_[o + 3]) << 24)
+               : (uint32_t(d_[o]) << 24 | uint32_t(d_[o + 1]) << 16 | uint32_t(d_[o + 2]) << 8 | uint32_t(d_[o + 3]));
+  }
+  struct Entry {
+    uint16_t tag = 0, type = 0;
+    uint32_t count = 0;
+    size_t value_offset = 0;  // where the value (or its first element) lies
+  };
+  std::vector<Entry> Ifd(uint32_t off) const {
+    std::vector<Entry> out;
+    const uint16_t n = U16(off);
+    if (!Ok(off + 2, size_t(n) * 12)) return out;
+    static const int kSize[] = {0, 1, 1, 2, 4, 8, 1, 1, 2, 4, 8, 4, 8};
+    for (int i = 0; i < n; ++i) {
+      const size_t e = off + 2 + size_t(i) * 12;
+      Entry en{U16(e), U16(e + 2), U32(e + 4), e + 8};
+      if (en.type == 0 || en.type > 12) continue;
+      const uint64_t bytes = uint64_t(kSize[en.type]) * en.count;
+      if (bytes > 4) en.value_offset = U32(e + 8);
+      if (!Ok(en.value_offset, bytes)) continue;
+      out.push_back(en);
+    }
+    return out;
+  }
+  // Numeric value k of an entry (SHORT, LONG, RATIONAL, SRATIONAL); nothing otherwise.
+  std::optional<double> Number(const Entry& e, uint32_t k = 0) const {
+    if (k >= e.count) return std::nullopt;
+    switch (e.type) {
+      case 3: return U16(e.value_offset + 2 * k);
+      case 4: return U32(e.value_offset + 4 * k);
+      case 5: {
+        const uint32_t num = U32(e.value_offset + 8 * k), den = U32(e.value_offset + 8 * k + 4);
+        if (den == 0) return std::nullopt;
+        return double(num) / den;
+      }
+      case 10: {
+        const int32_t num = static_cast<int32_t>(U32(e.value_offset + 8 * k));
+        const int32_t den = static_cast<int32_t>(U32(e.value_offset + 8 * k + 4));
+        if (den == 0) return std::nullopt;
+        return double(num) / den;
+      }
+      default: return std::nullopt;
+    }
+  }
+  std::string Text(const Entry& e) const {
+    if (e.type != 2) return "";
+    std::string s(d_.begin() + e.value_offset, d_.begin() + e.value_offset + e.count);
+    while (!s.empty() && (s.back() == '\0' || s.back() == ' ')) s.pop_back();
+    return s;
+  }
+  char Char(const Entry& e) const { return e.type == 2 && e.count > 0 ? static_cast<char>(d_[e.value_offset]) : 0; }
+
+ private:
+  std::vector<uint8_t> d_;
+  bool le_ = true;
+};
+
+std::vector<uint8_t> ExifBlock(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::vector<uint8_t> head(2);
+  if (!in.read(reinterpret_cast<char*>(head.data()), 2) || head[0] != 0xFF || head[1] != 0xD8) return {};
+  for (int segments = 0; segments < 64; ++segments) {
+    uint8_t m[4];
+    if (!in.read(reinterpret_cast<char*>(m), 4) || m[0] != 0xFF) return {};
+    const int len = m[2] << 8 | m[3];
+    if (len < 2) return {};
+    if (m[1] == 0xDA || m[1] == 0xD9) return {};  // image data: no EXIF before it
+    std::vector<uint8_t> seg(len - 2);
+    if (!in.read(reinterpret_cast<char*>(seg.data()), seg.size())) return {};
+    if (m[1] == 0xE1 && seg.size() > 6 && std::equal(seg.begin(), seg.begin() + 6, "Exif\0\0")) {
+      return std::vector<uint8_t>(seg.begin() + 6, seg.end());
+    }
+  }
+  return {};
+}
+
+}  // namespace
+
+Exif ReadExif(const std::string& path) {
+  Exif x;
+  Tiff t(ExifBlock(path));
+  if (!t.Init()) return x;
+  uint32_t exif_ifd = 0, gps_ifd = 0;
+  for (const auto& e : t.Ifd(t.FirstIfd())) {
+    if (e.tag == 0x010F) x.make = t.Text(e);
+    if (e.tag == 0x0110) x.model = t.Text(e);
+    if (e.tag == 0x8769) exif_ifd = static_cast<uint32_t>(t.Number(e).value_or(0));
+    if (e.tag == 0x8825) gps_ifd = static_cast<uint32_t>(t.Number(e).value_or(0));
+  }
+  if (exif_ifd) {
+    for (const auto& e : t.Ifd(exif_ifd)) {
+      if (e.tag == 0x920A) x.focal_mm = t.Number(e);
+      if (e.tag == 0xA405) x.focal_35mm = t.Number(e);
+      if (e.tag == 0xA20E) x.focal_plane_x_res = t.Number(e);
+      if (e.tag == 0xA002) {
+        if (auto w = t.Number(e)) x.width_px = static_cast<int>(*w);
+      }
+      if (e.tag == 0xA210) {
+        const double unit = t.Number(e).value_or(2);
+        x.focal_plane_unit_mm = unit == 3 ? 10.0 : unit == 4 ? 1.0 : unit == 5 ? 1e-3 : 25.4;
+      }
+    }
+  }
+  if (gps_ifd) {
+    char lat_ref = 0, lon_ref = 0;
+    int alt_ref = 0;
+    std::optional<double> lat, lon, alt;
+    auto dms = [&](const Tiff::Entry& e) -> std::optional<double> {
+      const auto d = t.Number(e, 0), m = t.Number(e, 1), s = t.Number(e, 2);
+      if (!d || !m || !s) return std::nullopt;
+      return *d + *m / 60 + *s / 3600;
+    };
+    for (const auto& e : t.Ifd(gps_ifd)) {
+      if (e.tag == 1) lat_ref = t.Char(e);
+      if (e.tag == 2) lat = dms(e);
+      if (e.tag == 3) lon_ref = t.Char(e);
+      if (e.tag == 4) lon = dms(e);
+      if (e.tag == 5 && e.count > 0) alt_ref = e.type == 1 ? t.U16(e.value_offset) & 0xFF : 0;
+      if (e.tag == 6) alt = t.Number(e);
+    }
+    if (lat && lon && *lat <= 90 && *lon <= 180) {
+      x.lat_deg = lat_ref == 'S' ? -*lat : *lat;
+      x.lon_deg = lon_ref == 'W' ? -*lon : *lon;
+      if (alt) x.alt_m = alt_ref == 1 ? -*alt : *alt;
+    }
+  }
+  return x;
+}
+
+std::optional<double> FocalPx(const Exif& e, int width_px) {
+  if (e.focal_mm && *e.focal_mm > 0 && e.focal_plane_x_res && *e.focal_plane_x_res > 0) {
+    const double unit_mm = e.focal_plane_unit_mm.value_or(25.4);
+    // The focal plane resolution refers to the full sensor image (PixelXDimension wide).
+    double px = *e.focal_mm * *e.focal_plane_x_res / unit_mm;
+    if (e.width_px && *e.width_px > 0) px *= static_cast<double>(width_px) / *e.width_px;
+    return px;
+  }
+  if (e.focal_35mm && *e.focal_35mm > 0) return *e.focal_35mm / 36.0 * width_px;
+  return std::nullopt;
+}
+
+}  // namespace mound::recon

@@ -1,0 +1,52 @@
+// Features, matches and two-view geometry of an image set, the front end of the
+// reconstruction (COLMAP's feature extraction, matching and geometric verification).
+//
+// SIFT (OpenCV) on the image downscaled to at most `max_image_size` pixels on its longer
+// side; keypoints are reported in the full image's pixels (pixel (0, 0) is the centre of the
+// top-left pixel). Matching: nearest neighbours by L2 with Lowe's ratio test, kept when
+// mutual. Verification: RANSAC on the fundamental matrix of undistorted pixels; the
+// homography's inliers are counted too (a pair a homography explains has little parallax).
+#pragma once
+
+#include <Eigen/Core>
+#include <array>
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "geometry/camera_model.h"
+
+namespace mound::sfm {
+
+struct ImageFeatures {
+  int width = 0, height = 0;                        // of the full image
+  std::vector<Eigen::Vector2d> keypoints;           // full-image pixels
+  std::vector<std::array<uint8_t, 3>> colors;       // RGB at each keypoint
+  Eigen::Matrix<float, Eigen::Dynamic, 128, Eigen::RowMajor> descriptors;
+};
+
+struct FeatureOptions {
+  int max_image_size = 2000;  // longer side, pixels; larger images are downscaled
+  int max_features = 8000;
+};
+
+// InputError naming the file when it cannot be read as an image.
+ImageFeatures ExtractFeatures(const std::string& path, const FeatureOptions& options);
+
+// Keypoint index pairs (in a, in b).
+using MatchList = std::vector<std::pair<int, int>>;
+MatchList MatchDescriptors(const ImageFeatures& a, const ImageFeatures& b, float ratio = 0.8f);
+
+struct VerifiedPair {
+  int image1 = 0, image2 = 0;
+  MatchList inliers;        // consistent with the fundamental matrix
+  int homography_inliers = 0;
+};
+
+// Geometric verification of `matches` (RANSAC on F at `max_error_px` undistorted pixels).
+VerifiedPair VerifyPair(int i1, int i2, const ImageFeatures& a, const ImageFeatures& b,
+                        const MatchList& matches, const geometry::CameraModel& camera,
+                        double max_error_px, uint64_t seed);
+
+}  // namespace mound::sfm
