@@ -138,14 +138,17 @@ void WriteColmapText(const std::string& dir, const sfm::Reconstruction& r,
   cam << std::setprecision(17);
   cam << "# Camera list with one line of data per camera:\n"
       << "#   CAMERA_ID, MODEL, WIDTH, HEIGHT, PARAMS[]\n# Number of cameras: 1\n";
-  // OpenCV's k3 needs COLMAP's FULL_OPENCV (k1 k2 p1 p2 k3 k4 k5 k6).
+  // OpenCV's k3 needs COLMAP's FULL_OPENCV (k1 k2 p1 p2 k3 k4 k5 k6). COLMAP puts pixel
+  // (0, 0) at the top-left corner of the first pixel, OpenCV at its centre: +0.5 to the
+  // principal point and to every keypoint.
+  const double cx = c.cx + 0.5, cy = c.cy + 0.5;
   if (c.dist[4] != 0) {
-    cam << "1 FULL_OPENCV " << c.width << " " << c.height << " " << c.fx << " " << c.fy << " " << c.cx
-        << " " << c.cy << " " << c.dist[0] << " " << c.dist[1] << " " << c.dist[2] << " " << c.dist[3]
+    cam << "1 FULL_OPENCV " << c.width << " " << c.height << " " << c.fx << " " << c.fy << " " << cx
+        << " " << cy << " " << c.dist[0] << " " << c.dist[1] << " " << c.dist[2] << " " << c.dist[3]
         << " " << c.dist[4] << " 0 0 0\n";
   } else {
-    cam << "1 OPENCV " << c.width << " " << c.height << " " << c.fx << " " << c.fy << " " << c.cx << " "
-        << c.cy << " " << c.dist[0] << " " << c.dist[1] << " " << c.dist[2] << " " << c.dist[3] << "\n";
+    cam << "1 OPENCV " << c.width << " " << c.height << " " << c.fx << " " << c.fy << " " << cx << " "
+        << cy << " " << c.dist[0] << " " << c.dist[1] << " " << c.dist[2] << " " << c.dist[3] << "\n";
   }
   // Per image: its keypoints that belong to a point (POINT2D index -> point id).
   std::vector<std::vector<std::pair<int, int>>> obs(files.size());  // (keypoint, point)

@@ -32,8 +32,16 @@ def write_ply(path: str | Path, xyz: np.ndarray, rgb: np.ndarray | None = None,
     tmp.replace(path)
 
 
+# PLY scalar types (both the names of the PLY 1.0 text and the sized ones) as numpy's.
+PLY_TYPES = {"char": "i1", "uchar": "u1", "short": "<i2", "ushort": "<u2", "int": "<i4",
+             "uint": "<u4", "float": "<f4", "double": "<f8", "int8": "i1", "uint8": "u1",
+             "int16": "<i2", "uint16": "<u2", "int32": "<i4", "uint32": "<u4",
+             "float32": "<f4", "float64": "<f8"}
+
+
 def read_ply(path: str | Path) -> tuple[np.ndarray, np.ndarray | None]:
-    """(xyz, rgb or None) of a binary little-endian PLY written by write_ply."""
+    """(xyz, rgb or None) of a binary little-endian PLY of vertices with scalar
+    properties (write_ply's, mound_recon's with its track_length)."""
     raw = Path(path).read_bytes()
     end = raw.find(b"end_header\n")
     if not raw.startswith(b"ply\n") or end < 0:
@@ -48,7 +56,7 @@ def read_ply(path: str | Path) -> tuple[np.ndarray, np.ndarray | None]:
         if parts[:2] == ["element", "vertex"]:
             count = int(parts[2])
         elif parts and parts[0] == "property":
-            kind = {"float": "<f4", "uchar": "u1"}.get(parts[1])
+            kind = PLY_TYPES.get(parts[1])
             if kind is None:
                 raise InputError(f"{path}: unsupported property type {parts[1]}")
             fields.append((parts[2], kind))

@@ -44,3 +44,8 @@ def example_sites() -> Path:
 @pytest.fixture(scope="session")
 def mound_render() -> Path:
     return built_tool("mound_render")
+
+
+@pytest.fixture(scope="session")
+def mound_recon() -> Path:
+    return built_tool("mound_recon")
