@@ -225,7 +225,7 @@ int RunReconstruct(const std::vector<std::string>& args) {
                    {"pairs_matched", pair_list.size()}, {"pairs_verified", useful_pairs},
                    {"max_image_size", fo.max_image_size}, {"max_features", fo.max_features}};
   sfm::MapperOptions mo;
-  mo.max_error_px = 4.0 * verify_px;
+  mo.max_error_px = 4.0;  // COLMAP's filter threshold, full-resolution pixels
   mo.refine_intrinsics = refine;
   mo.threads = threads;
   mo.seed = seed;

@@ -10,6 +10,7 @@
     mound field standard [--model MODEL.json] --out-dir DIR
     mound sim site [--preset bin_tepe|lab] [--mound tumulus|none] --seed S --out DIR [...]
     mound sim figures DIR [--out-dir DIR] [--dpi-scale X]
+    mound recon figure RECON_DIR --out PNG
     mound mission build PLAN.json [--origin LAT,LON[,ALT]] --out MISSION.plan [...]
     mound mission upload MISSION.plan --connect udpout:HOST:PORT [--verify] [...]
 
@@ -240,6 +241,14 @@ def cmd_sim_site(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_recon_figure(args: argparse.Namespace) -> int:
+    from mound.recon import figures as recon_figures
+
+    out = recon_figures.cloud_and_cameras(args.recon_dir, args.out)
+    print(f"-> {out}")
+    return 0
+
+
 def cmd_sim_figures(args: argparse.Namespace) -> int:
     from mound.sim import figures as sim_figures
 
@@ -347,6 +356,12 @@ def build_parser() -> argparse.ArgumentParser:
     st.add_argument("--figures", action="store_true",
                     help="also write contact_sheet.png and scene_3d.png into --out")
     st.set_defaults(func=cmd_sim_site)
+    rc = sub.add_parser("recon", help="the 3-D stage (Python side)").add_subparsers(
+        dest="cmd", required=True, parser_class=Parser)
+    rf = rc.add_parser("figure", help="picture of a mound_recon output: cloud + cameras")
+    rf.add_argument("recon_dir")
+    rf.add_argument("--out", required=True, help="PNG file")
+    rf.set_defaults(func=cmd_recon_figure)
     sf = simp.add_parser("figures", help="contact sheet and 3-D plot of a simulated site")
     sf.add_argument("site")
     sf.add_argument("--out-dir", help="default: the site directory")

@@ -192,3 +192,12 @@ def test_no_texture_is_no_result_with_a_reason(tmp_path: Path) -> None:
     doc = json.loads((tmp_path / "out" / "recon.json").read_text())
     assert doc["status"] == "failed" and "too little motion or texture" in doc["reason"]
     assert not (tmp_path / "out" / "points.ply").exists()
+
+
+def test_figure_of_the_reconstruction(recon: Path, tmp_path: Path) -> None:
+    import matplotlib.image as mpimg
+
+    png = tmp_path / "recon.png"
+    assert mound_main(["recon", "figure", str(recon), "--out", str(png)]) == 0
+    img = mpimg.imread(png)
+    assert img.shape[0] > 300 and img[..., :3].std() > 0.05  # a picture, not a blank page

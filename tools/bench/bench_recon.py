@@ -1,0 +1,193 @@
+"""Benchmark (not a test): mound_recon reconstruct against ground truth and against COLMAP
+(PyPI pycolmap, its incremental mapper) on the same images in the same run.
+
+    .venv/bin/python tools/bench/bench_recon.py [--sets fountain,caliterra,sim] [--colmap]
+        [--reps 1] [--threads 2] [--out runs/bench_recon]
+
+fountain: Strecha fountain-P11 (11 images 3072 x 2048, K.txt): registered images and the
+  camera-centre error after a similarity to the ground-truth cameras (ground-truth units).
+caliterra: 40 nadir drone photos (EXIF intrinsics and GPS): registered, reprojection error,
+  the GPS residual of the metric fit.
+sim: the default simulated site (40 images 1280 x 960, tumulus, camera.json + GPS):
+  centre error after a similarity to the truth, and the cloud's height error against the
+  true heightfield.
+Prints min and median wall time over --reps and, with --colmap, pycolmap's figures and the
+time ratio (pycolmap / ours) beside ours.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "python"))
+
+from mound.paths import REPO_ROOT, build_dir, shared_data_dir
+from mound.ply import read_ply
+
+
+def umeyama(src: np.ndarray, dst: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
+    ms, md = src.mean(0), dst.mean(0)
+    a, b = src - ms, dst - md
+    u, d, vt = np.linalg.svd(b.T @ a / len(src))
+    sign = np.diag([1, 1, np.sign(np.linalg.det(u @ vt))])
+    r = u @ sign @ vt
+    s = float(np.trace(np.diag(d) @ sign) / (a ** 2).sum(1).mean())
+    return s, r, md - s * r @ ms
+
+
+def centre_errors(est: dict[str, np.ndarray], truth: dict[str, np.ndarray]) -> np.ndarray:
+    names = sorted(set(est) & set(truth))
+    a = np.array([est[n] for n in names])
+    b = np.array([truth[n] for n in names])
+    s, r, t = umeyama(a, b)
+    return np.linalg.norm((s * (r @ a.T)).T + t - b, axis=1)
+
+
+def strecha_centres(folder: Path) -> dict[str, np.ndarray]:
+    out = {}
+    for f in sorted((folder / "gt_dense_cameras").glob("*.camera")):
+        lines = [line for line in f.read_text().splitlines() if line.strip()]
+        rows = [list(map(float, line.split())) for line in lines]
+        out[f.name.replace(".camera", "")] = np.array(rows[7])  # K(3), zeros, R(3), centre
+    return out
+
+
+def run_ours(images: Path, out: Path, args: list[str], threads: int) -> tuple[float, dict]:
+    start = time.perf_counter()
+    r = subprocess.run([str(build_dir() / "mound_recon"), "reconstruct", str(images), "--out",
+                        str(out), "--threads", str(threads), *args], capture_output=True,
+                       text=True, check=False)
+    elapsed = time.perf_counter() - start
+    if r.returncode != 0:
+        raise SystemExit(f"mound_recon failed on {images}: {r.stderr.strip()}")
+    return elapsed, json.loads((out / "recon.json").read_text())
+
+
+def run_colmap(images: Path, out: Path, threads: int, max_size: int, camera: str | None
+               ) -> tuple[float, dict[str, np.ndarray], dict]:
+    import pycolmap
+
+    out.mkdir(parents=True, exist_ok=True)
+    db = out / "database.db"
+    db.unlink(missing_ok=True)
+    start = time.perf_counter()
+    eo = pycolmap.FeatureExtractionOptions()
+    eo.num_threads = threads
+    eo.max_image_size = max_size
+    ro = pycolmap.ImageReaderOptions()
+    mode = pycolmap.CameraMode.SINGLE
+    if camera:
+        ro.camera_model = "PINHOLE"
+        ro.camera_params = camera
+    pycolmap.extract_features(db, images, camera_mode=mode, reader_options=ro,
+                              extraction_options=eo)
+    pycolmap.match_exhaustive(db)
+    mo = pycolmap.IncrementalPipelineOptions()
+    mo.num_threads = threads
+    if camera:
+        mo.ba_refine_focal_length = False
+        mo.ba_refine_extra_params = False
+        mo.ba_refine_principal_point = False
+    recs = pycolmap.incremental_mapping(db, images, out, options=mo)
+    elapsed = time.perf_counter() - start
+    best = max(recs.values(), key=lambda r: r.num_reg_images())
+    centres = {im.name: im.projection_center() for im in best.images.values()}
+    return elapsed, centres, {"registered": best.num_reg_images(),
+                              "error_px": best.compute_mean_reprojection_error()}
+
+
+def summary(times: list[float]) -> str:
+    return f"min {min(times):.1f} s, median {statistics.median(times):.1f} s"
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--sets", default="fountain,caliterra,sim")
+    ap.add_argument("--colmap", action="store_true", help="run pycolmap on the same images")
+    ap.add_argument("--reps", type=int, default=1)
+    ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--out", default="runs/bench_recon")
+    args = ap.parse_args()
+    out = Path(args.out)
+    data = shared_data_dir() / "images"
+    for name in args.sets.split(","):
+        print(f"== {name}")
+        if name == "fountain":
+            folder = data / "fountain-P11"
+            extra = ["--camera", str(folder / "K.txt")]
+            truth = strecha_centres(folder)
+            images = folder / "images"
+        elif name == "caliterra":
+            folder = data / "caliterra"
+            images = folder / "images"
+            extra = ["--gps", "exif"]
+            truth = {}
+        elif name == "sim":
+            site = REPO_ROOT / "runs" / "figures" / "site_tumulus"
+            if not (site / "poses.json").exists():
+                raise SystemExit(f"{site} missing: run `make figures` first")
+            images = site / "images"
+            extra = ["--camera", str(site / "camera.json"), "--gps", str(site / "poses.json")]
+            poses = json.loads((site / "poses.json").read_text())
+            truth = {im["file"].split("/")[-1]: np.array(im["centre_enu_m"])
+                     for im in poses["images"]}
+        else:
+            raise SystemExit(f"unknown set {name}")
+        times = []
+        for _ in range(args.reps):
+            t, doc = run_ours(images, out / name, extra, args.threads)
+            times.append(t)
+        reg = f"{doc['registered']}/{len(doc['images'])}"
+        line = (f"ours: {reg} registered, {doc['points']} points, RMSE "
+                f"{doc['reprojection_rmse_px']:.3f} px, {summary(times)} "
+                f"({', '.join(f'{k} {v:.1f}' for k, v in doc['timings_s'].items())})")
+        print(line)
+        est = {im["file"]: np.array(im["centre"]) for im in doc["images"] if im["registered"]}
+        if truth:
+            e = centre_errors(est, truth)
+            print(f"  camera centres after a similarity to the truth: mean {e.mean():.4f}, "
+                  f"max {e.max():.4f}")
+        if "gps_fit" in doc:
+            g = doc["gps_fit"]
+            print(f"  GPS fit: {g.get('inliers')}/{g.get('images')} inliers, RMS "
+                  f"{g.get('rmse_m', 0):.2f} m (horizontal {g.get('rmse_horizontal_m', 0):.2f}, "
+                  f"vertical "
+                  f"{g.get('rmse_vertical_m', 0):.2f})")
+        if name == "sim":
+            xyz, _ = read_ply(out / name / "points.ply")
+            site = REPO_ROOT / "runs" / "figures" / "site_tumulus"
+            grid = json.loads((site / "site.json").read_text())["heightfield"]
+            z = np.load(site / "heightfield.npy")
+            step = grid["spacing_m"]
+            j = np.clip(((xyz[:, 0] - grid["x0_m"]) / step).round().astype(int), 0, z.shape[1] - 1)
+            i = np.clip(((xyz[:, 1] - grid["y0_m"]) / step).round().astype(int), 0, z.shape[0] - 1)
+            err = np.abs(xyz[:, 2] - z[i, j])
+            print(f"  cloud height error in the GPS frame (nearest grid vertex): median "
+                  f"{np.median(err):.3f} m, 90th percentile {np.percentile(err, 90):.3f} m")
+        if args.colmap:
+            cam = None
+            if name == "fountain":
+                k = np.loadtxt(folder / "K.txt")
+                cam = f"{k[0, 0]},{k[1, 1]},{k[0, 2] + 0.5},{k[1, 2] + 0.5}"
+            ct, ccentres, cinfo = run_colmap(images, out / f"{name}_colmap", args.threads,
+                                             2000, cam)
+            print(f"pycolmap: {cinfo['registered']} registered, mean reprojection error "
+                  f"{cinfo['error_px']:.3f} px, {ct:.1f} s; time ratio pycolmap / ours "
+                  f"{ct / min(times):.2f}")
+            if truth:
+                e = centre_errors(ccentres, truth)
+                print(f"  pycolmap camera centres after a similarity: mean {e.mean():.4f}, "
+                      f"max {e.max():.4f}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
