@@ -42,7 +42,8 @@ lint: setup
 # the same field at 250 m spacing (scan costs from the raster scan each site gets, the budget
 # from the aircraft's range), turn it into a MAVLink mission (QGC .plan, WPL, GeoJSON)
 # and upload it to a stand-in MAVSDK autopilot; then simulate the UAV images of one site
-# with a tumulus and of its flat control.
+# with a tumulus and of its flat control, and reconstruct the tumulus site in 3-D
+# (metric, georeferenced by the simulated GPS).
 demo: build
 	@mkdir -p runs/demo
 	$(VENV)/bin/mound data fetch
@@ -58,17 +59,20 @@ demo: build
 	$(PY) tools/demo_upload.py runs/demo/mission.plan
 	$(VENV)/bin/mound sim site --mound tumulus --seed 1 --out runs/demo/site_tumulus --figures
 	$(VENV)/bin/mound sim site --mound none --seed 1 --out runs/demo/site_flat
+	./$(BUILD)/mound_recon reconstruct runs/demo/site_tumulus/images --out runs/demo/recon_tumulus --camera runs/demo/site_tumulus/camera.json --gps runs/demo/site_tumulus/poses.json
+	$(VENV)/bin/mound recon figure runs/demo/recon_tumulus --out runs/demo/recon_tumulus.png
 
 # The README's figures of the site simulator (docs/figures/).
 figures: build
 	$(VENV)/bin/mound sim site --mound tumulus --seed 1 --out runs/figures/site_tumulus
 	$(VENV)/bin/mound sim figures runs/figures/site_tumulus --out-dir docs/figures --dpi-scale 0.6
 
-bench: build
+bench: build figures
 	./$(BUILD)/tools/bench/mound_bench_plan
 	$(PY) tools/bench/bench_tsp.py
 	$(PY) tools/bench/bench_render.py
 	$(PY) tools/bench/bench_mission.py
+	$(PY) tools/bench/bench_recon.py --colmap
 
 clean:
 	rm -rf $(BUILD)

@@ -51,6 +51,27 @@ def centre_errors(est: dict[str, np.ndarray], truth: dict[str, np.ndarray]) -> n
     return np.linalg.norm((s * (r @ a.T)).T + t - b, axis=1)
 
 
+def cloud_error_aligned(xyz: np.ndarray, est: dict[str, np.ndarray],
+                        truth: dict[str, np.ndarray], site: Path) -> str:
+    """Median and 90th percentile of |z - heightfield| (bilinear) after mapping the cloud
+    by the similarity that takes the estimated camera centres onto the true ones."""
+    names = sorted(set(est) & set(truth))
+    s, r, t = umeyama(np.array([est[n] for n in names]), np.array([truth[n] for n in names]))
+    p = (s * (r @ xyz.T)).T + t
+    grid = json.loads((site / "site.json").read_text())["heightfield"]
+    z = np.load(site / "heightfield.npy")
+    fj = (p[:, 0] - grid["x0_m"]) / grid["spacing_m"]
+    fi = (p[:, 1] - grid["y0_m"]) / grid["spacing_m"]
+    ok = (fi >= 0) & (fj >= 0) & (fi < z.shape[0] - 1) & (fj < z.shape[1] - 1)
+    i0, j0 = fi[ok].astype(int), fj[ok].astype(int)
+    a, b = fi[ok] - i0, fj[ok] - j0
+    h = ((1 - a) * ((1 - b) * z[i0, j0] + b * z[i0, j0 + 1])
+         + a * ((1 - b) * z[i0 + 1, j0] + b * z[i0 + 1, j0 + 1]))
+    e = np.abs(p[ok, 2] - h)
+    return (f"median {np.median(e):.3f} m, 90th percentile {np.percentile(e, 90):.3f} m "
+            f"({ok.mean():.1%} of the points over the grid)")
+
+
 def strecha_centres(folder: Path) -> dict[str, np.ndarray]:
     out = {}
     for f in sorted((folder / "gt_dense_cameras").glob("*.camera")):
@@ -172,6 +193,8 @@ def main() -> int:
             err = np.abs(xyz[:, 2] - z[i, j])
             print(f"  cloud height error in the GPS frame (nearest grid vertex): median "
                   f"{np.median(err):.3f} m, 90th percentile {np.percentile(err, 90):.3f} m")
+            print(f"  the same after the cameras' similarity to the truth (the shape): "
+                  f"{cloud_error_aligned(xyz, est, truth, site)}")
         if args.colmap:
             cam = None
             if name == "fountain":
