@@ -47,12 +47,9 @@ std::vector<std::vector<TrackElement>> BuildTracks(const std::vector<VerifiedPai
     std::sort(t.begin(), t.end(), [](const TrackElement& a, const TrackElement& b) {
       return a.image != b.image ? a.image < b.image : a.keypoint < b.keypoint;
     });
-    // A track that sees an image twice holds a wrong match: keep one keypoint per image
-    // (the triangulation keeps only the observations that reproject).
-    t.erase(std::unique(t.begin(), t.end(), [](const TrackElement& a, const TrackElement& b) {
-              return a.image == b.image;
-            }), t.end());
-    if (t.size() >= 2) tracks.push_back(std::move(t));
+    bool twice = false;
+    for (size_t j = 1; j < t.size(); ++j) twice |= t[j].image == t[j - 1].image;
+    if (!twice) tracks.push_back(std::move(t));
   }
   std::sort(tracks.begin(), tracks.end(), [](const auto& a, const auto& b) {
     return a.front().image != b.front().image ? a.front().image < b.front().image

@@ -12,7 +12,9 @@ import numpy as np
 import pytest
 
 from mound.cli import main as mound_main
+from mound.geometry.align import apply, umeyama
 from mound.ply import read_ply
+from mound.sim.terrain import load_site_heightfield
 
 
 def run_recon(args: list[str]) -> subprocess.CompletedProcess[str]:
@@ -20,17 +22,6 @@ def run_recon(args: list[str]) -> subprocess.CompletedProcess[str]:
 
     return subprocess.run([str(build_dir() / "mound_recon"), *args], capture_output=True, text=True,
                           timeout=600, check=False)
-
-
-def umeyama(src: np.ndarray, dst: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
-    """Least-squares similarity dst ~ s R src + t (Umeyama 1991), written here independently."""
-    ms, md = src.mean(0), dst.mean(0)
-    a, b = src - ms, dst - md
-    u, d, vt = np.linalg.svd(b.T @ a / len(src))
-    sign = np.diag([1, 1, np.sign(np.linalg.det(u @ vt))])
-    r = u @ sign @ vt
-    s = float(np.trace(np.diag(d) @ sign) / (a ** 2).sum(1).mean())
-    return s, r, md - s * r @ ms
 
 
 @pytest.fixture(scope="module")
@@ -73,7 +64,7 @@ def test_poses_scale_and_cloud_match_the_truth(site: Path, recon: Path) -> None:
     # between every two images (independent of the frame) within 0.1 degrees (0.05 deg is
     # about 0.4 px at this 457 px focal length; the centres are off by up to 3 cm at 70 m).
     s, rot, t = umeyama(est_c, true_c)
-    aligned = (s * (rot @ est_c.T)).T + t
+    aligned = apply(s, rot, t, est_c)
     assert np.max(np.linalg.norm(aligned - true_c, axis=1)) < 0.05
     r_est = [np.array(im["cam_from_world"]["R"]) for im in doc["images"]]
     r_true = [np.array(truth[im["file"]]["cam_from_world"]["R"]) for im in doc["images"]]
@@ -85,17 +76,10 @@ def test_poses_scale_and_cloud_match_the_truth(site: Path, recon: Path) -> None:
     # The cloud on the true surface: heights against the heightfield at each point.
     xyz, rgb = read_ply(recon / "points.ply")
     assert len(xyz) == doc["points"] and rgb is not None
-    p = (s * (rot @ xyz.T)).T + t
-    grid = json.loads((site / "site.json").read_text())["heightfield"]
-    z = np.load(site / "heightfield.npy")
-    j = (p[:, 0] - grid["x0_m"]) / grid["spacing_m"]
-    i = (p[:, 1] - grid["y0_m"]) / grid["spacing_m"]
-    inside = (i >= 0) & (j >= 0) & (i < z.shape[0] - 1) & (j < z.shape[1] - 1)
-    i0, j0 = i[inside].astype(int), j[inside].astype(int)
-    a, b = i[inside] - i0, j[inside] - j0
-    h = ((1 - a) * ((1 - b) * z[i0, j0] + b * z[i0, j0 + 1])
-         + a * ((1 - b) * z[i0 + 1, j0] + b * z[i0 + 1, j0 + 1]))
-    err = np.abs(p[inside, 2] - h)
+    p = apply(s, rot, t, xyz)
+    hf = load_site_heightfield(site)
+    inside = hf.covers(p[:, 0], p[:, 1])
+    err = np.abs(p[inside, 2] - hf.height_at(p[inside, 0], p[inside, 1]))
     assert inside.mean() > 0.95
     assert np.median(err) < 0.05 and np.percentile(err, 90) < 0.25
 

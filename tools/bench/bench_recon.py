@@ -29,18 +29,10 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "python"))
 
+from mound.geometry.align import apply, umeyama
 from mound.paths import REPO_ROOT, build_dir, shared_data_dir
 from mound.ply import read_ply
-
-
-def umeyama(src: np.ndarray, dst: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
-    ms, md = src.mean(0), dst.mean(0)
-    a, b = src - ms, dst - md
-    u, d, vt = np.linalg.svd(b.T @ a / len(src))
-    sign = np.diag([1, 1, np.sign(np.linalg.det(u @ vt))])
-    r = u @ sign @ vt
-    s = float(np.trace(np.diag(d) @ sign) / (a ** 2).sum(1).mean())
-    return s, r, md - s * r @ ms
+from mound.sim.terrain import load_site_heightfield
 
 
 def centre_errors(est: dict[str, np.ndarray], truth: dict[str, np.ndarray]) -> np.ndarray:
@@ -48,7 +40,7 @@ def centre_errors(est: dict[str, np.ndarray], truth: dict[str, np.ndarray]) -> n
     a = np.array([est[n] for n in names])
     b = np.array([truth[n] for n in names])
     s, r, t = umeyama(a, b)
-    return np.linalg.norm((s * (r @ a.T)).T + t - b, axis=1)
+    return np.linalg.norm(apply(s, r, t, a) - b, axis=1)
 
 
 def cloud_error_aligned(xyz: np.ndarray, est: dict[str, np.ndarray],
@@ -57,17 +49,10 @@ def cloud_error_aligned(xyz: np.ndarray, est: dict[str, np.ndarray],
     by the similarity that takes the estimated camera centres onto the true ones."""
     names = sorted(set(est) & set(truth))
     s, r, t = umeyama(np.array([est[n] for n in names]), np.array([truth[n] for n in names]))
-    p = (s * (r @ xyz.T)).T + t
-    grid = json.loads((site / "site.json").read_text())["heightfield"]
-    z = np.load(site / "heightfield.npy")
-    fj = (p[:, 0] - grid["x0_m"]) / grid["spacing_m"]
-    fi = (p[:, 1] - grid["y0_m"]) / grid["spacing_m"]
-    ok = (fi >= 0) & (fj >= 0) & (fi < z.shape[0] - 1) & (fj < z.shape[1] - 1)
-    i0, j0 = fi[ok].astype(int), fj[ok].astype(int)
-    a, b = fi[ok] - i0, fj[ok] - j0
-    h = ((1 - a) * ((1 - b) * z[i0, j0] + b * z[i0, j0 + 1])
-         + a * ((1 - b) * z[i0 + 1, j0] + b * z[i0 + 1, j0 + 1]))
-    e = np.abs(p[ok, 2] - h)
+    p = apply(s, r, t, xyz)
+    hf = load_site_heightfield(site)
+    ok = hf.covers(p[:, 0], p[:, 1])
+    e = np.abs(p[ok, 2] - hf.height_at(p[ok, 0], p[ok, 1]))
     return (f"median {np.median(e):.3f} m, 90th percentile {np.percentile(e, 90):.3f} m "
             f"({ok.mean():.1%} of the points over the grid)")
 
@@ -184,14 +169,9 @@ def main() -> int:
                   f"{g.get('rmse_vertical_m', 0):.2f})")
         if name == "sim":
             xyz, _ = read_ply(out / name / "points.ply")
-            site = REPO_ROOT / "runs" / "figures" / "site_tumulus"
-            grid = json.loads((site / "site.json").read_text())["heightfield"]
-            z = np.load(site / "heightfield.npy")
-            step = grid["spacing_m"]
-            j = np.clip(((xyz[:, 0] - grid["x0_m"]) / step).round().astype(int), 0, z.shape[1] - 1)
-            i = np.clip(((xyz[:, 1] - grid["y0_m"]) / step).round().astype(int), 0, z.shape[0] - 1)
-            err = np.abs(xyz[:, 2] - z[i, j])
-            print(f"  cloud height error in the GPS frame (nearest grid vertex): median "
+            hf = load_site_heightfield(REPO_ROOT / "runs" / "figures" / "site_tumulus")
+            err = np.abs(xyz[:, 2] - hf.height_at(xyz[:, 0], xyz[:, 1]))
+            print(f"  cloud height error in the GPS frame: median "
                   f"{np.median(err):.3f} m, 90th percentile {np.percentile(err, 90):.3f} m")
             print(f"  the same after the cameras' similarity to the truth (the shape): "
                   f"{cloud_error_aligned(xyz, est, truth, site)}")

@@ -13,6 +13,7 @@ import numpy as np
 
 from mound.jsonio import read_json
 from mound.ply import read_ply
+from mound.sim.figures import save_figure
 
 
 def cloud_and_cameras(recon_dir: str | Path, out_png: str | Path, max_points: int = 40000,
@@ -59,9 +60,4 @@ def cloud_and_cameras(recon_dir: str | Path, out_png: str | Path, max_points: in
     ax.view_init(elev=28, azim=-60)
     ax.set_title(f"{doc['registered']}/{len(doc['images'])} images, {doc['points']} points, "
                  f"RMSE {doc['reprojection_rmse_px']:.2f} px, frame {doc.get('frame')}")
-    fig.tight_layout()
-    out_png = Path(out_png)
-    out_png.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out_png, dpi=dpi)
-    plt.close(fig)
-    return out_png
+    return save_figure(fig, out_png, dpi)

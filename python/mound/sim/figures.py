@@ -16,7 +16,7 @@ from matplotlib.colors import LightSource, Normalize
 from mound.jsonio import read_json
 
 
-def _save(fig: plt.Figure, out_png: str | Path, dpi: int) -> Path:
+def save_figure(fig: plt.Figure, out_png: str | Path, dpi: int) -> Path:
     fig.tight_layout()
     out_png = Path(out_png)
     out_png.parent.mkdir(parents=True, exist_ok=True)
@@ -44,7 +44,7 @@ def contact_sheet(site_dir: str | Path, out_png: str | Path, columns: int = 8,
     size = f"{site['sim']['width_px']}x{site['sim']['height_px']}"
     fig.suptitle(f"{site_dir.name}: {kind}, {len(images)} images {size}, "
                  f"seed {site['sim']['seed']}", fontsize=9)
-    return _save(fig, out_png, dpi)
+    return save_figure(fig, out_png, dpi)
 
 
 def _frustum(R: np.ndarray, t: np.ndarray, K: np.ndarray, w: int, h: int, depth: float
@@ -101,4 +101,4 @@ def scene_3d(site_dir: str | Path, out_png: str | Path, grid_step: int = 8, dpi:
     top = max(im["centre_enu_m"][2] for im in poses["images"])
     ax.set_box_aspect((1, 1, (top - float(z.min())) / (x[-1] - x[0])))
     ax.view_init(elev=28, azim=-60)
-    return _save(fig, out_png, dpi)
+    return save_figure(fig, out_png, dpi)

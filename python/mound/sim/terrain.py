@@ -16,6 +16,7 @@ Presets: "bin_tepe" (a Lydian tumulus: 60 m across, 12 m high, on a 160 m square
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from pathlib import Path
 
 import numpy as np
 
@@ -94,6 +95,11 @@ class Heightfield:
         return ((1 - a) * (1 - b) * z[i, j] + (1 - a) * b * z[i, j + 1] +
                 a * (1 - b) * z[i + 1, j] + a * b * z[i + 1, j + 1])
 
+    def covers(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """Whether (x, y) lies over the grid."""
+        return ((x >= self.x_m[0]) & (x <= self.x_m[-1]) & (y >= self.y_m[0])
+                & (y <= self.y_m[-1]))
+
     def points(self) -> np.ndarray:
         """All grid vertices as (n, 3) ENU points."""
         xx, yy = np.meshgrid(self.x_m, self.y_m)
@@ -146,3 +152,16 @@ def build(spec: TerrainSpec) -> Heightfield:
             mound -= spec.pit_depth_m * np.clip(1 - rp / spec.pit_radius_m, 0, None)
         z = z + mound
     return Heightfield(axis, axis.copy(), z)
+
+
+def load_site_heightfield(site_dir: str | Path) -> Heightfield:
+    """The true surface a simulated site was rendered from (site.json's grid and
+    heightfield.npy)."""
+    import json
+
+    site_dir = Path(site_dir)
+    grid = json.loads((site_dir / "site.json").read_text())["heightfield"]
+    z = np.load(site_dir / grid["npy"])
+    ny, nx = z.shape
+    return Heightfield(x_m=grid["x0_m"] + grid["spacing_m"] * np.arange(nx),
+                       y_m=grid["y0_m"] + grid["spacing_m"] * np.arange(ny), z_m=z)
