@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <mutex>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/features2d.hpp>
@@ -58,10 +59,21 @@ MatchList MatchDescriptors(const ImageFeatures& a, const ImageFeatures& b, float
   std::vector<std::vector<cv::DMatch>> ab, ba;
   const cv::Mat da = AsMat(a), db = AsMat(b);
   if (std::min(da.rows, db.rows) >= 1000) {
-    cv::FlannBasedMatcher ma(cv::makePtr<cv::flann::KDTreeIndexParams>(4), cv::makePtr<cv::flann::SearchParams>(64));
-    ma.knnMatch(da, db, ab, 2);
-    cv::FlannBasedMatcher mb(cv::makePtr<cv::flann::KDTreeIndexParams>(4), cv::makePtr<cv::flann::SearchParams>(64));
-    mb.knnMatch(db, da, ba, 1);
+    // FLANN draws the trees' split dimensions from the C library's global rand(): build
+    // each index under one lock from a fixed seed, so that the matches do not depend on
+    // which thread got there first (searching draws nothing).
+    auto trained = [](const cv::Mat& train) {
+      auto m = cv::makePtr<cv::FlannBasedMatcher>(cv::makePtr<cv::flann::KDTreeIndexParams>(4),
+                                                  cv::makePtr<cv::flann::SearchParams>(64));
+      static std::mutex flann_rand;
+      std::lock_guard<std::mutex> lock(flann_rand);
+      cvflann::seed_random(1);
+      m->add(std::vector<cv::Mat>{train});
+      m->train();
+      return m;
+    };
+    trained(db)->knnMatch(da, ab, 2);
+    trained(da)->knnMatch(db, ba, 1);
   } else {
     cv::BFMatcher matcher(cv::NORM_L2);
     matcher.knnMatch(da, db, ab, 2);

@@ -342,7 +342,7 @@ class Mapper {
     bo.fixed_view = view_of[r_.init_image1];
     bo.scale_view = view_of[r_.init_image2];
     bo.threads = o_.threads;
-    bo.max_iterations = 50;
+    bo.max_iterations = 200;
     bo.huber_px = 1.0;
     bo.refine_intrinsics = o_.refine_intrinsics && r_.NumRegistered() >= 3;
     ba::Adjust(&p, bo);
