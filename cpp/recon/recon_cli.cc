@@ -29,7 +29,8 @@ constexpr const char* kVersion = "mound_recon 0.1.0";
 constexpr const char* kUsage =
     "usage: mound_recon reconstruct IMAGES_DIR --out OUT_DIR [--camera camera.json|K.txt]\n"
     "                   [--gps poses.json|exif] [--max-image-size PX] [--max-features N]\n"
-    "                   [--matching auto|exhaustive|sequential] [--window N]\n"
+    "                   [--features sift|klt] [--matching auto|exhaustive|sequential]\n"
+    "                   [--window N]\n"
     "                   [--threads N] [--seed N]\n"
     "       mound_recon --help | --version\n"
     "\n"
@@ -42,7 +43,9 @@ constexpr const char* kUsage =
     "  --gps FILE|exif      mound.poses v1 (images[].file + gps_enu_m) or the photos' EXIF\n"
     "                       GPS (ENU metres around the first photo, WGS84)\n"
     "  --max-image-size PX  longer side for feature extraction (default 2000)\n"
-    "  --max-features N     SIFT features per image (default 8000)\n"
+    "  --max-features N     SIFT features (or KLT corners) per image (default 8000)\n"
+    "  --features F         sift (default: detect and match) or klt (track corners from\n"
+    "                       each image into the next: small motions, in sequence order)\n"
     "  --matching M         auto (exhaustive up to 20 images, else a window along the\n"
     "                       sequence plus the GPS neighbours), exhaustive, sequential\n"
     "  --window N           images ahead matched in sequence (default 8)\n"
@@ -109,7 +112,7 @@ nlohmann::json PoseJson(const geometry::Rigid3d& p) {
 
 int RunReconstruct(const std::vector<std::string>& args) {
   const Args a = ParseArgs(args, 1, {"--out", "--camera", "--gps", "--max-image-size", "--max-features",
-                                     "--matching", "--window", "--threads", "--seed"});
+                                     "--matching", "--window", "--threads", "--seed", "--features"});
   if (a.positional.size() != 1) throw InputError("reconstruct: expected exactly one IMAGES_DIR (see --help)");
   if (!a.Has("--out")) throw InputError("--out: the output directory is required");
   const std::string dir = a.positional[0], out = a.options.at("--out");
@@ -122,6 +125,10 @@ int RunReconstruct(const std::vector<std::string>& args) {
   const std::string matching = a.Has("--matching") ? a.options.at("--matching") : "auto";
   if (matching != "auto" && matching != "exhaustive" && matching != "sequential") {
     throw InputError("--matching: expected auto, exhaustive or sequential, got '" + matching + "'");
+  }
+  const std::string feature_kind = a.Has("--features") ? a.options.at("--features") : "sift";
+  if (feature_kind != "sift" && feature_kind != "klt") {
+    throw InputError("--features: expected sift or klt, got '" + feature_kind + "'");
   }
   const int window = a.Has("--window") ? static_cast<int>(ParseInt(a.options.at("--window"), "--window", 1, 10000)) : 8;
   const std::vector<std::string> files = ListImages(dir);
@@ -138,7 +145,16 @@ int RunReconstruct(const std::vector<std::string>& args) {
 
   auto t0 = Clock::now();
   std::vector<sfm::ImageFeatures> features(n);
-  ParallelFor(n, threads, [&](int i) { features[i] = sfm::ExtractFeatures(dir + "/" + files[i], fo); });
+  std::vector<sfm::MatchList> tracked;  // KLT: matches of consecutive images
+  if (feature_kind == "klt") {
+    std::vector<std::string> paths;
+    for (const std::string& f : files) paths.push_back(dir + "/" + f);
+    sfm::KltResult k = sfm::TrackKlt(paths, fo);
+    features = std::move(k.features);
+    tracked = std::move(k.consecutive);
+  } else {
+    ParallelFor(n, threads, [&](int i) { features[i] = sfm::ExtractFeatures(dir + "/" + files[i], fo); });
+  }
   for (int i = 1; i < n; ++i) {
     if (features[i].width != features[0].width || features[i].height != features[0].height) {
       throw InputError(files[i] + ": " + std::to_string(features[i].width) + "x" + std::to_string(features[i].height) +
@@ -183,9 +199,11 @@ int RunReconstruct(const std::vector<std::string>& args) {
     gps = g;
   }
 
-  // Pairs to match.
+  // Pairs to match (KLT: the consecutive images it tracked).
   std::set<std::pair<int, int>> pair_set;
-  if (matching == "exhaustive" || (matching == "auto" && n <= 20)) {
+  if (feature_kind == "klt") {
+    for (int i = 0; i + 1 < n; ++i) pair_set.insert({i, i + 1});
+  } else if (matching == "exhaustive" || (matching == "auto" && n <= 20)) {
     for (int i = 0; i < n; ++i)
       for (int j = i + 1; j < n; ++j) pair_set.insert({i, j});
   } else {
@@ -212,7 +230,7 @@ int RunReconstruct(const std::vector<std::string>& args) {
   std::vector<sfm::VerifiedPair> verified(pair_list.size());
   ParallelFor(static_cast<int>(pair_list.size()), threads, [&](int k) {
     const auto [i, j] = pair_list[k];
-    const sfm::MatchList m = sfm::MatchDescriptors(features[i], features[j]);
+    const sfm::MatchList m = feature_kind == "klt" ? tracked[i] : sfm::MatchDescriptors(features[i], features[j]);
     verified[k] = sfm::VerifyPair(i, j, features[i], features[j], m, camera, verify_px, seed + k);
   });
   timings["matching_s"] = Since(t0);
@@ -223,7 +241,8 @@ int RunReconstruct(const std::vector<std::string>& args) {
                         {"images_dir", dir}, {"status", "ok"}};
   doc["inputs"] = {{"images", n}, {"camera_source", camera_source}, {"gps_source", gps ? gps->source : "none"},
                    {"pairs_matched", pair_list.size()}, {"pairs_verified", useful_pairs},
-                   {"max_image_size", fo.max_image_size}, {"max_features", fo.max_features}};
+                   {"max_image_size", fo.max_image_size}, {"max_features", fo.max_features},
+                   {"features", feature_kind}};
   sfm::MapperOptions mo;
   mo.max_error_px = 4.0;  // COLMAP's filter threshold, full-resolution pixels
   mo.refine_intrinsics = refine;

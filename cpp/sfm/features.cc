@@ -9,6 +9,7 @@
 #include <opencv2/flann.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <opencv2/video/tracking.hpp>
 
 #include "common/error.h"
 
@@ -40,6 +41,78 @@ ImageFeatures ExtractFeatures(const std::string& path, const FeatureOptions& o) 
     for (int j = 0; j < 128; ++j) f.descriptors(static_cast<Eigen::Index>(k), j) = desc.at<float>(static_cast<int>(k), j);
   }
   return f;
+}
+
+namespace {
+
+struct Loaded {
+  cv::Mat bgr, grey;  // grey at the working scale
+  double scale = 1;
+};
+
+Loaded Load(const std::string& path, int max_image_size) {
+  Loaded l;
+  l.bgr = cv::imread(path, cv::IMREAD_COLOR);
+  if (l.bgr.empty()) throw InputError(path + ": cannot read the image (missing or not an image)");
+  l.scale = std::min(1.0, static_cast<double>(max_image_size) / std::max(l.bgr.cols, l.bgr.rows));
+  cv::Mat small = l.bgr;
+  if (l.scale < 1) cv::resize(l.bgr, small, cv::Size(), l.scale, l.scale, cv::INTER_AREA);
+  cv::cvtColor(small, l.grey, cv::COLOR_BGR2GRAY);
+  return l;
+}
+
+// Adds a keypoint at working-scale position p (full-image pixels and colour recorded).
+void AddKeypoint(const Loaded& l, const cv::Point2f& p, ImageFeatures* f) {
+  const double u = (p.x + 0.5) / l.scale - 0.5, v = (p.y + 0.5) / l.scale - 0.5;
+  f->keypoints.emplace_back(u, v);
+  const int x = std::clamp(static_cast<int>(std::lround(u)), 0, l.bgr.cols - 1);
+  const int y = std::clamp(static_cast<int>(std::lround(v)), 0, l.bgr.rows - 1);
+  const cv::Vec3b c = l.bgr.at<cv::Vec3b>(y, x);
+  f->colors.push_back({c[2], c[1], c[0]});
+}
+
+}  // namespace
+
+KltResult TrackKlt(const std::vector<std::string>& paths, const FeatureOptions& o) {
+  KltResult r;
+  Loaded prev;
+  std::vector<cv::Point2f> prev_pts;  // working-scale positions of the previous keypoints
+  const cv::TermCriteria term(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 30, 0.01);
+  for (size_t k = 0; k < paths.size(); ++k) {
+    Loaded cur = Load(paths[k], o.max_image_size);
+    ImageFeatures f;
+    f.width = cur.bgr.cols;
+    f.height = cur.bgr.rows;
+    std::vector<cv::Point2f> pts;
+    MatchList matches;
+    cv::Mat taken = cv::Mat::ones(cur.grey.size(), CV_8U) * 255;  // where new corners may go
+    if (k > 0 && !prev_pts.empty() && cur.grey.size() == prev.grey.size()) {
+      std::vector<cv::Point2f> fwd, back;
+      std::vector<unsigned char> st1, st2;
+      std::vector<float> err;
+      cv::calcOpticalFlowPyrLK(prev.grey, cur.grey, prev_pts, fwd, st1, err, cv::Size(21, 21), 3, term);
+      cv::calcOpticalFlowPyrLK(cur.grey, prev.grey, fwd, back, st2, err, cv::Size(21, 21), 3, term);
+      for (size_t i = 0; i < prev_pts.size(); ++i) {
+        const cv::Point2f& p = fwd[i];
+        if (!st1[i] || !st2[i] || cv::norm(back[i] - prev_pts[i]) > 0.5f) continue;
+        if (p.x < 0 || p.y < 0 || p.x > cur.grey.cols - 1 || p.y > cur.grey.rows - 1) continue;
+        matches.emplace_back(static_cast<int>(i), static_cast<int>(pts.size()));
+        pts.push_back(p);
+        cv::circle(taken, p, 7, 0, -1);
+      }
+    }
+    // New corners where nothing is tracked.
+    std::vector<cv::Point2f> corners;
+    const int want = o.max_features - static_cast<int>(pts.size());
+    if (want > 0) cv::goodFeaturesToTrack(cur.grey, corners, want, 0.001, 7, taken, 7);
+    pts.insert(pts.end(), corners.begin(), corners.end());
+    for (const cv::Point2f& p : pts) AddKeypoint(cur, p, &f);
+    if (k > 0) r.consecutive.push_back(std::move(matches));
+    r.features.push_back(std::move(f));
+    prev = std::move(cur);
+    prev_pts = std::move(pts);
+  }
+  return r;
 }
 
 namespace {

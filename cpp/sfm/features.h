@@ -36,6 +36,18 @@ ImageFeatures ExtractFeatures(const std::string& path, const FeatureOptions& opt
 
 // Keypoint index pairs (in a, in b).
 using MatchList = std::vector<std::pair<int, int>>;
+
+// The paper's alternative for small motions: tracking instead of matching. Shi-Tomasi
+// corners tracked from each image into the next by pyramidal Lucas-Kanade (21 x 21 window,
+// 4 levels) with a forward-backward check (0.5 px); an image's keypoints are the points
+// tracked into it plus new corners away from them, so tracks run along the sequence.
+// Returns the features of every image and, for k >= 1, the matches (k-1, k) in
+// `consecutive[k - 1]`.
+struct KltResult {
+  std::vector<ImageFeatures> features;
+  std::vector<MatchList> consecutive;
+};
+KltResult TrackKlt(const std::vector<std::string>& paths, const FeatureOptions& options);
 MatchList MatchDescriptors(const ImageFeatures& a, const ImageFeatures& b, float ratio = 0.8f);
 
 struct VerifiedPair {
