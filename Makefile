@@ -65,6 +65,7 @@ demo: build
 # The README's figures of the site simulator (docs/figures/).
 figures: build
 	$(VENV)/bin/mound sim site --mound tumulus --seed 1 --out runs/figures/site_tumulus
+	$(VENV)/bin/mound sim site --mound none --seed 1 --out runs/figures/site_flat
 	$(VENV)/bin/mound sim figures runs/figures/site_tumulus --out-dir docs/figures --dpi-scale 0.6
 
 bench: build figures

@@ -90,8 +90,8 @@ KltResult TrackKlt(const std::vector<std::string>& paths, const FeatureOptions& 
       std::vector<cv::Point2f> fwd, back;
       std::vector<unsigned char> st1, st2;
       std::vector<float> err;
-      cv::calcOpticalFlowPyrLK(prev.grey, cur.grey, prev_pts, fwd, st1, err, cv::Size(21, 21), 3, term);
-      cv::calcOpticalFlowPyrLK(cur.grey, prev.grey, fwd, back, st2, err, cv::Size(21, 21), 3, term);
+      cv::calcOpticalFlowPyrLK(prev.grey, cur.grey, prev_pts, fwd, st1, err, cv::Size(21, 21), 5, term);
+      cv::calcOpticalFlowPyrLK(cur.grey, prev.grey, fwd, back, st2, err, cv::Size(21, 21), 5, term);
       for (size_t i = 0; i < prev_pts.size(); ++i) {
         const cv::Point2f& p = fwd[i];
         if (!st1[i] || !st2[i] || cv::norm(back[i] - prev_pts[i]) > 0.5f) continue;

@@ -8,7 +8,8 @@ fountain: Strecha fountain-P11 (11 images 3072 x 2048, K.txt): registered images
   camera-centre error after a similarity to the ground-truth cameras (ground-truth units).
 caliterra: 40 nadir drone photos (EXIF intrinsics and GPS): registered, reprojection error,
   the GPS residual of the metric fit.
-sim: the default simulated site (40 images 1280 x 960, tumulus, camera.json + GPS):
+sim, flat: the default simulated site (40 images 1280 x 960, tumulus, camera.json + GPS)
+  and its flat control:
   centre error after a similarity to the truth, and the cloud's height error against the
   true heightfield.
 Prints min and median wall time over --reps and, with --colmap, pycolmap's figures and the
@@ -116,7 +117,8 @@ def summary(times: list[float]) -> str:
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--sets", default="fountain,caliterra,sim")
+    ap.add_argument("--sets", default="fountain,caliterra,sim,flat")
+    ap.add_argument("--features", default="sift", help="sift or klt (mound_recon --features)")
     ap.add_argument("--colmap", action="store_true", help="run pycolmap on the same images")
     ap.add_argument("--reps", type=int, default=1)
     ap.add_argument("--threads", type=int, default=2)
@@ -136,8 +138,8 @@ def main() -> int:
             images = folder / "images"
             extra = ["--gps", "exif"]
             truth = {}
-        elif name == "sim":
-            site = REPO_ROOT / "runs" / "figures" / "site_tumulus"
+        elif name in ("sim", "flat"):
+            site = REPO_ROOT / "runs" / "figures" / ("site_tumulus" if name == "sim" else "site_flat")
             if not (site / "poses.json").exists():
                 raise SystemExit(f"{site} missing: run `make figures` first")
             images = site / "images"
@@ -149,7 +151,8 @@ def main() -> int:
             raise SystemExit(f"unknown set {name}")
         times = []
         for _ in range(args.reps):
-            t, doc = run_ours(images, out / name, extra, args.threads)
+            t, doc = run_ours(images, out / name, [*extra, "--features", args.features],
+                              args.threads)
             times.append(t)
         reg = f"{doc['registered']}/{len(doc['images'])}"
         line = (f"ours: {reg} registered, {doc['points']} points, RMSE "
@@ -167,9 +170,9 @@ def main() -> int:
                   f"{g.get('rmse_m', 0):.2f} m (horizontal {g.get('rmse_horizontal_m', 0):.2f}, "
                   f"vertical "
                   f"{g.get('rmse_vertical_m', 0):.2f})")
-        if name == "sim":
+        if name in ("sim", "flat"):
             xyz, _ = read_ply(out / name / "points.ply")
-            hf = load_site_heightfield(REPO_ROOT / "runs" / "figures" / "site_tumulus")
+            hf = load_site_heightfield(site)
             err = np.abs(xyz[:, 2] - hf.height_at(xyz[:, 0], xyz[:, 1]))
             print(f"  cloud height error in the GPS frame: median "
                   f"{np.median(err):.3f} m, 90th percentile {np.percentile(err, 90):.3f} m")
