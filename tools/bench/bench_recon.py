@@ -139,7 +139,8 @@ def main() -> int:
             extra = ["--gps", "exif"]
             truth = {}
         elif name in ("sim", "flat"):
-            site = REPO_ROOT / "runs" / "figures" / ("site_tumulus" if name == "sim" else "site_flat")
+            folder_name = "site_tumulus" if name == "sim" else "site_flat"
+            site = REPO_ROOT / "runs" / "figures" / folder_name
             if not (site / "poses.json").exists():
                 raise SystemExit(f"{site} missing: run `make figures` first")
             images = site / "images"
