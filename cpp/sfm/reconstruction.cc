@@ -104,7 +104,7 @@ class Mapper {
     Adjust();
     for (size_t i = 0; i < f_.size(); ++i)
       if (r_.registered[i]) Triangulate(static_cast<int>(i));
-    Adjust();
+    Adjust(200);  // the last adjustment runs to convergence; the ones on the way stop at 50
     Finish();
     return std::move(r_);
   }
@@ -323,7 +323,7 @@ class Mapper {
     return X;
   }
 
-  void Adjust() {
+  void Adjust(int max_iterations = 50) {
     ba::Problem p;
     p.camera = r_.camera;
     std::vector<int> view_of(f_.size(), -1), image_of;
@@ -342,7 +342,7 @@ class Mapper {
     bo.fixed_view = view_of[r_.init_image1];
     bo.scale_view = view_of[r_.init_image2];
     bo.threads = o_.threads;
-    bo.max_iterations = 200;
+    bo.max_iterations = max_iterations;
     bo.huber_px = 1.0;
     bo.refine_intrinsics = o_.refine_intrinsics && r_.NumRegistered() >= 3;
     ba::Adjust(&p, bo);
