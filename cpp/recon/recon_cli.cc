@@ -30,7 +30,7 @@ constexpr const char* kUsage =
     "usage: mound_recon reconstruct IMAGES_DIR --out OUT_DIR [--camera camera.json|K.txt]\n"
     "                   [--gps poses.json|exif] [--max-image-size PX] [--max-features N]\n"
     "                   [--features sift|klt] [--matching auto|exhaustive|sequential]\n"
-    "                   [--window N]\n"
+    "                   [--window N] [--align level|full]\n"
     "                   [--threads N] [--seed N]\n"
     "       mound_recon --help | --version\n"
     "\n"
@@ -42,6 +42,10 @@ constexpr const char* kUsage =
     "                       without it: EXIF focal length, refined with k1, k2 in BA\n"
     "  --gps FILE|exif      mound.poses v1 (images[].file + gps_enu_m) or the photos' EXIF\n"
     "                       GPS (ENU metres around the first photo, WGS84)\n"
+    "  --align A            level: the vertical from the images (the cameras' mean viewing\n"
+    "                       direction), heading/scale/position from horizontal GPS (the\n"
+    "                       default with --gps exif: consumer GPS heights drift); full: a\n"
+    "                       7-parameter similarity to the GPS positions (default otherwise)\n"
     "  --max-image-size PX  longer side for feature extraction (default 2000)\n"
     "  --max-features N     SIFT features (or KLT corners) per image (default 8000)\n"
     "  --features F         sift (default: detect and match) or klt (track corners from\n"
@@ -112,7 +116,7 @@ nlohmann::json PoseJson(const geometry::Rigid3d& p) {
 
 int RunReconstruct(const std::vector<std::string>& args) {
   const Args a = ParseArgs(args, 1, {"--out", "--camera", "--gps", "--max-image-size", "--max-features",
-                                     "--matching", "--window", "--threads", "--seed", "--features"});
+                                     "--matching", "--window", "--threads", "--seed", "--features", "--align"});
   if (a.positional.size() != 1) throw InputError("reconstruct: expected exactly one IMAGES_DIR (see --help)");
   if (!a.Has("--out")) throw InputError("--out: the output directory is required");
   const std::string dir = a.positional[0], out = a.options.at("--out");
@@ -126,6 +130,9 @@ int RunReconstruct(const std::vector<std::string>& args) {
   if (matching != "auto" && matching != "exhaustive" && matching != "sequential") {
     throw InputError("--matching: expected auto, exhaustive or sequential, got '" + matching + "'");
   }
+  const std::string gps_arg_early = a.Has("--gps") ? a.options.at("--gps") : "";
+  const std::string align = a.Has("--align") ? a.options.at("--align") : (gps_arg_early == "exif" ? "level" : "full");
+  if (align != "level" && align != "full") throw InputError("--align: expected level or full, got '" + align + "'");
   const std::string feature_kind = a.Has("--features") ? a.options.at("--features") : "sift";
   if (feature_kind != "sift" && feature_kind != "klt") {
     throw InputError("--features: expected sift or klt, got '" + feature_kind + "'");
@@ -275,7 +282,14 @@ int RunReconstruct(const std::vector<std::string>& args) {
       world.push_back(g->second);
       which.push_back(i);
     }
-    const auto fit = sfm::FitSim3Robust(model, world, seed);
+    // Consumer GPS heights drift (Caliterra's climb 80 m during the flight): by default
+    // with EXIF GPS the vertical comes from the images (FitLevelledSim3Robust), with a
+    // poses file from all three GPS coordinates; --align chooses.
+    Eigen::Vector3d down_in_model = Eigen::Vector3d::Zero();
+    for (int i = 0; i < n; ++i)
+      if (r.registered[i]) down_in_model += r.cam_from_world[i].rotation.conjugate() * Eigen::Vector3d::UnitZ();
+    const auto fit = align == "level" ? sfm::FitLevelledSim3Robust(model, world, down_in_model, seed)
+                                      : sfm::FitSim3Robust(model, world, seed);
     if (fit && fit->inliers >= 3) {
       sfm::Transform(fit->world_from_model, &r);
       doc["frame"] = "enu";
@@ -286,7 +300,10 @@ int RunReconstruct(const std::vector<std::string>& args) {
         if (!fit->inlier[k]) outliers.push_back(files[which[k]]);
       doc["gps_fit"] = {{"images", model.size()}, {"inliers", fit->inliers}, {"outliers", outliers},
                         {"rmse_m", fit->rmse_m}, {"rmse_horizontal_m", fit->rmse_horizontal_m},
-                        {"rmse_vertical_m", fit->rmse_vertical_m}, {"scale", fit->world_from_model.scale}};
+                        {"rmse_vertical_m", fit->rmse_vertical_m}, {"scale", fit->world_from_model.scale},
+                        {"method", align == "level" ? "level: vertical from the images, heading, scale and "
+                                                      "position from horizontal GPS, height offset by median"
+                                                    : "full: 7-parameter similarity to the GPS positions"}};
     } else {
       doc["gps_fit"] = {{"images", model.size()}, {"note", "fewer than 3 registered images with GPS: frame left arbitrary"}};
     }

@@ -46,6 +46,32 @@ TEST(GeoFit, RobustSimilarityIgnoresGrossGpsErrors) {
   EXPECT_FALSE(FitSim3Robust({model[0], model[1]}, {world[0], world[1]}, 1));
 }
 
+TEST(GeoFit, LevelledFitIgnoresAClimbingGpsAltitude) {
+  // Cameras on a level plane looking straight down in the model's own frame (down = +z
+  // there); the GPS heights climb 80 m along the flight, as Caliterra's do.
+  std::mt19937 rng(4);
+  std::normal_distribution<double> g(0, 1);
+  geometry::Sim3d truth;
+  truth.scale = 9.0;
+  truth.rotation = Eigen::AngleAxisd(0.9, Eigen::Vector3d::UnitZ()) *
+                   Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX());  // model +z -> world -z
+  truth.translation = {300, -200, 60};
+  std::vector<Eigen::Vector3d> model, world;
+  for (int i = 0; i < 40; ++i) {
+    model.emplace_back((i % 10) - 4.5, (i / 10) * 3.0 - 4.5, 0.0);
+    world.push_back(truth * model.back() + Eigen::Vector3d(2 * g(rng), 2 * g(rng), 80.0 * i / 39));
+  }
+  const auto level = FitLevelledSim3Robust(model, world, Eigen::Vector3d::UnitZ(), 1);
+  ASSERT_TRUE(level);
+  EXPECT_NEAR(level->world_from_model.scale, 9.0, 0.15);
+  EXPECT_LT(geometry::RotationAngle(level->world_from_model.rotation, truth.rotation), 0.01);
+  EXPECT_LT(level->rmse_horizontal_m, 3.5);
+  // The 7-parameter fit follows the climb and tilts the model by degrees.
+  const auto full = FitSim3Robust(model, world, 1);
+  ASSERT_TRUE(full);
+  EXPECT_GT(geometry::RotationAngle(full->world_from_model.rotation, truth.rotation), 0.1);
+}
+
 TEST(GeoFit, TransformKeepsPosesRigidAndMovesPointsAndCentres) {
   Reconstruction r;
   r.registered = {true, true};
