@@ -130,8 +130,8 @@ int RunReconstruct(const std::vector<std::string>& args) {
   if (matching != "auto" && matching != "exhaustive" && matching != "sequential") {
     throw InputError("--matching: expected auto, exhaustive or sequential, got '" + matching + "'");
   }
-  const std::string gps_arg_early = a.Has("--gps") ? a.options.at("--gps") : "";
-  const std::string align = a.Has("--align") ? a.options.at("--align") : (gps_arg_early == "exif" ? "level" : "full");
+  const std::string gps_arg = a.Has("--gps") ? a.options.at("--gps") : "";
+  const std::string align = a.Has("--align") ? a.options.at("--align") : (gps_arg == "exif" ? "level" : "full");
   if (align != "level" && align != "full") throw InputError("--align: expected level or full, got '" + align + "'");
   const std::string feature_kind = a.Has("--features") ? a.options.at("--features") : "sift";
   if (feature_kind != "sift" && feature_kind != "klt") {
@@ -147,7 +147,6 @@ int RunReconstruct(const std::vector<std::string>& args) {
   nlohmann::json timings = nlohmann::json::object();
   // GPS from a poses file is checked before any work.
   std::optional<GpsPositions> gps;
-  const std::string gps_arg = a.Has("--gps") ? a.options.at("--gps") : "";
   if (!gps_arg.empty() && gps_arg != "exif") gps = ReadGpsPoses(gps_arg, files);
 
   auto t0 = Clock::now();

@@ -15,34 +15,6 @@
 
 namespace mound::sfm {
 
-ImageFeatures ExtractFeatures(const std::string& path, const FeatureOptions& o) {
-  const cv::Mat bgr = cv::imread(path, cv::IMREAD_COLOR);
-  if (bgr.empty()) throw InputError(path + ": cannot read the image (missing or not an image)");
-  ImageFeatures f;
-  f.width = bgr.cols;
-  f.height = bgr.rows;
-  const double scale = std::min(1.0, static_cast<double>(o.max_image_size) / std::max(bgr.cols, bgr.rows));
-  cv::Mat small = bgr;
-  if (scale < 1) cv::resize(bgr, small, cv::Size(), scale, scale, cv::INTER_AREA);
-  cv::Mat grey;
-  cv::cvtColor(small, grey, cv::COLOR_BGR2GRAY);
-  std::vector<cv::KeyPoint> kps;
-  cv::Mat desc;
-  cv::SIFT::create(o.max_features)->detectAndCompute(grey, cv::noArray(), kps, desc);
-  f.descriptors.resize(static_cast<Eigen::Index>(kps.size()), 128);
-  for (size_t k = 0; k < kps.size(); ++k) {
-    // Pixel centres: full-image coordinate = (small coordinate + 0.5) / scale - 0.5.
-    const double u = (kps[k].pt.x + 0.5) / scale - 0.5, v = (kps[k].pt.y + 0.5) / scale - 0.5;
-    f.keypoints.emplace_back(u, v);
-    const int x = std::clamp(static_cast<int>(std::lround(u)), 0, bgr.cols - 1);
-    const int y = std::clamp(static_cast<int>(std::lround(v)), 0, bgr.rows - 1);
-    const cv::Vec3b c = bgr.at<cv::Vec3b>(y, x);
-    f.colors.push_back({c[2], c[1], c[0]});
-    for (int j = 0; j < 128; ++j) f.descriptors(static_cast<Eigen::Index>(k), j) = desc.at<float>(static_cast<int>(k), j);
-  }
-  return f;
-}
-
 namespace {
 
 struct Loaded {
@@ -61,7 +33,8 @@ Loaded Load(const std::string& path, int max_image_size) {
   return l;
 }
 
-// Adds a keypoint at working-scale position p (full-image pixels and colour recorded).
+// Adds a keypoint at working-scale position p: full-image pixel centres, (p + 0.5) / scale
+// - 0.5, and the colour there.
 void AddKeypoint(const Loaded& l, const cv::Point2f& p, ImageFeatures* f) {
   const double u = (p.x + 0.5) / l.scale - 0.5, v = (p.y + 0.5) / l.scale - 0.5;
   f->keypoints.emplace_back(u, v);
@@ -72,6 +45,22 @@ void AddKeypoint(const Loaded& l, const cv::Point2f& p, ImageFeatures* f) {
 }
 
 }  // namespace
+
+ImageFeatures ExtractFeatures(const std::string& path, const FeatureOptions& o) {
+  const Loaded l = Load(path, o.max_image_size);
+  ImageFeatures f;
+  f.width = l.bgr.cols;
+  f.height = l.bgr.rows;
+  std::vector<cv::KeyPoint> kps;
+  cv::Mat desc;
+  cv::SIFT::create(o.max_features)->detectAndCompute(l.grey, cv::noArray(), kps, desc);
+  f.descriptors.resize(static_cast<Eigen::Index>(kps.size()), 128);
+  for (size_t k = 0; k < kps.size(); ++k) {
+    AddKeypoint(l, kps[k].pt, &f);
+    for (int j = 0; j < 128; ++j) f.descriptors(static_cast<Eigen::Index>(k), j) = desc.at<float>(static_cast<int>(k), j);
+  }
+  return f;
+}
 
 KltResult TrackKlt(const std::vector<std::string>& paths, const FeatureOptions& o) {
   KltResult r;

@@ -63,6 +63,11 @@ namespace {
 
 constexpr double kDeg = M_PI / 180;
 
+// Angle between two directions, radians.
+double Angle(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  return std::acos(std::clamp(a.normalized().dot(b.normalized()), -1.0, 1.0));
+}
+
 class Mapper {
  public:
   Mapper(const std::vector<ImageFeatures>& f, const std::vector<VerifiedPair>& pairs,
@@ -161,7 +166,7 @@ class Mapper {
       for (size_t k = 0; k < tv.inliers.size(); ++k) {
         if (!(tv.depth1[k] > 0 && tv.depth2[k] > 0)) continue;
         const Eigen::Vector3d X = tv.depth1[k] * x1[k];
-        const double angle = std::acos(std::clamp(X.normalized().dot((X - c2).normalized()), -1.0, 1.0));
+        const double angle = Angle(X, X - c2);
         if (angle >= o_.min_tri_angle_deg * kDeg) ++score;
       }
       if (score > best_score) {
@@ -280,7 +285,7 @@ class Mapper {
       }
       for (size_t a = 0; a < obs.size(); ++a)
         for (size_t b = a + 1; b < obs.size(); ++b) {
-          const double ang = std::acos(std::clamp(dirs[a].dot(dirs[b]), -1.0, 1.0));
+          const double ang = Angle(dirs[a], dirs[b]);
           if (ang > best_angle) {
             best_angle = ang;
             ia = static_cast<int>(a);
@@ -293,8 +298,7 @@ class Mapper {
       Point3D p;
       p.xyz = *X;
       // The triangulation angle at the point itself must be wide enough too.
-      const double at_point = std::acos(std::clamp(
-          (centres[ia] - *X).normalized().dot((centres[ib] - *X).normalized()), -1.0, 1.0));
+      const double at_point = Angle(centres[ia] - *X, centres[ib] - *X);
       if (at_point < o_.min_tri_angle_deg * kDeg) continue;
       for (const TrackElement& e : obs)
         if (ErrorPx(p, e) <= o_.max_error_px) p.track.push_back(e);
@@ -369,9 +373,8 @@ class Mapper {
       double widest = 0;
       for (size_t a = 0; a < good.size() && widest < o_.min_tri_angle_deg * kDeg; ++a)
         for (size_t b = a + 1; b < good.size(); ++b) {
-          const Eigen::Vector3d da = (r_.cam_from_world[good[a].image].Centre() - p.xyz).normalized();
-          const Eigen::Vector3d db = (r_.cam_from_world[good[b].image].Centre() - p.xyz).normalized();
-          widest = std::max(widest, std::acos(std::clamp(da.dot(db), -1.0, 1.0)));
+          widest = std::max(widest, Angle(r_.cam_from_world[good[a].image].Centre() - p.xyz,
+                                          r_.cam_from_world[good[b].image].Centre() - p.xyz));
         }
       if (widest < o_.min_tri_angle_deg * kDeg) continue;
       p.track = std::move(good);
