@@ -11,6 +11,7 @@ cd "$ROOT"
 APT_PACKAGES=(
   build-essential cmake ninja-build pkg-config git
   nlohmann-json3-dev libgtest-dev libeigen3-dev libopencv-dev libceres-dev
+  libpcl-dev libopenmpi-dev
   python3 python3-venv python3-dev
 )
 

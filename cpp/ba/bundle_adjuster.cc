@@ -53,7 +53,9 @@ Summary Adjust(Problem* p, const Options& o) {
       throw InternalError("ba::Adjust: observations[" + std::to_string(k) + "]: view or point out of range");
     }
   }
-  if (o.fixed_view < 0 || o.fixed_view >= nv) throw InternalError("ba::Adjust: fixed_view out of range");
+  if (o.fixed_view < -1 || o.fixed_view >= nv) throw InternalError("ba::Adjust: fixed_view out of range");
+  for (int v : o.constant_views)
+    if (v < 0 || v >= nv) throw InternalError("ba::Adjust: constant_views: view out of range");
   Summary s;
   s.initial_rmse_px = RmseReprojection(*p);
   std::vector<PoseBlocks> poses;
@@ -72,12 +74,15 @@ Summary Adjust(Problem* p, const Options& o) {
                                poses[ob.view].translation.data(), p->points[ob.point].data());
     }
   }
-  PoseBlocks& fixed = poses[o.fixed_view];
-  if (problem.HasParameterBlock(fixed.rotation.data())) {
-    problem.SetParameterBlockConstant(fixed.rotation.data());
-    problem.SetParameterBlockConstant(fixed.translation.data());
+  std::vector<bool> constant(nv, false);
+  if (o.fixed_view >= 0) constant[o.fixed_view] = true;
+  for (int v : o.constant_views) constant[v] = true;
+  for (int v = 0; v < nv; ++v) {
+    if (!constant[v] || !problem.HasParameterBlock(poses[v].rotation.data())) continue;
+    problem.SetParameterBlockConstant(poses[v].rotation.data());
+    problem.SetParameterBlockConstant(poses[v].translation.data());
   }
-  if (o.scale_view >= 0 && o.scale_view < nv && o.scale_view != o.fixed_view &&
+  if (o.scale_view >= 0 && o.scale_view < nv && !constant[o.scale_view] &&
       problem.HasParameterBlock(poses[o.scale_view].translation.data())) {
     problem.SetManifold(poses[o.scale_view].translation.data(), new ceres::SphereManifold<3>());
   }
@@ -87,7 +92,7 @@ Summary Adjust(Problem* p, const Options& o) {
   so.linear_solver_type = ceres::SPARSE_SCHUR;
   so.max_num_iterations = o.max_iterations;
   so.num_threads = o.threads;
-  so.function_tolerance = 1e-10;
+  so.function_tolerance = o.function_tolerance;
   so.parameter_tolerance = 1e-10;
   so.max_solver_time_in_seconds = o.max_time_s;
   ceres::Solver::Summary summary;

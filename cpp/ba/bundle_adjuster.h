@@ -35,11 +35,17 @@ struct Problem {
 struct Options {
   double huber_px = 1.0;
   int max_iterations = 100;
-  int fixed_view = 0;
+  int fixed_view = 0;  // -1: none (the gauge comes from `constant_views`)
   int scale_view = 1;  // -1: no scale constraint (e.g. a view with known position fixed)
+  // Views held constant besides `fixed_view`: a local adjustment around a new image keeps
+  // the rest of the model where it is (two or more of them fix the gauge).
+  std::vector<int> constant_views;
   int threads = 1;
   bool refine_intrinsics = false;  // f (fy / fx kept), k1, k2 of the shared camera
   double max_time_s = 1e9;
+  // Stops when the cost changes by less than this fraction in an iteration (Ceres'
+  // function_tolerance); the mapper's adjustments on the way use 1e-6.
+  double function_tolerance = 1e-10;
 };
 
 struct Summary {

@@ -112,6 +112,47 @@ TEST(BundleAdjuster, RecoversAPerturbedSceneToTheNoiseLevel) {
   }
 }
 
+// A local adjustment: two views held constant (they fix the gauge, no fixed_view, no
+// scale view); a perturbed third view and the points move back to the truth, the constant
+// views do not move at all.
+TEST(BundleAdjuster, ConstantViewsHoldTheGaugeOfALocalAdjustment) {
+  std::mt19937 rng(9);
+  std::normal_distribution<double> g(0, 1);
+  std::uniform_real_distribution<double> u(-1, 1);
+  Problem truth;
+  truth.camera = Camera();
+  truth.cam_from_world = {View({0.01, -0.05, 0.0}, {1.0, 0.0, 0.5}), View({0.0, 0.1, 0.02}, {-2.0, 0.1, 0.2}),
+                          View({0.03, 0.2, -0.01}, {-4.5, 0.3, 0.6})};
+  for (int j = 0; j < 300; ++j) truth.points.push_back(Eigen::Vector3d{8 * u(rng), 6 * u(rng), 30 + 10 * u(rng)});
+  for (int k = 0; k < 3; ++k)
+    for (int j = 0; j < 300; ++j) {
+      Eigen::Vector2d r;
+      if (truth.camera.ImageFromCamera(truth.cam_from_world[k] * truth.points[j], &r))
+        truth.observations.push_back({k, j, {r[0] + 0.2 * g(rng), r[1] + 0.2 * g(rng)}});
+    }
+  Problem p = truth;
+  p.cam_from_world[2].translation += Eigen::Vector3d(0.4, -0.3, 0.5);
+  p.cam_from_world[2].rotation = p.cam_from_world[2].rotation * Eigen::Quaterniond(Eigen::AngleAxisd(0.02, Eigen::Vector3d::UnitY()));
+  for (Eigen::Vector3d& X : p.points)
+    for (int i = 0; i < 3; ++i) X[i] += 0.2 * g(rng);
+  Options o;
+  o.fixed_view = -1;
+  o.scale_view = -1;
+  o.constant_views = {0, 1};
+  o.max_iterations = 50;
+  const Summary s = Adjust(&p, o);
+  EXPECT_LT(s.final_rmse_px, 0.3) << s.brief;
+  for (int k = 0; k < 2; ++k) {
+    // (up to the round trip through angle-axis parameters)
+    EXPECT_LT((p.cam_from_world[k].translation - truth.cam_from_world[k].translation).norm(), 1e-12) << "view " << k;
+    EXPECT_LT(geometry::RotationAngle(p.cam_from_world[k].rotation, truth.cam_from_world[k].rotation), 1e-12) << "view " << k;
+  }
+  EXPECT_LT((p.cam_from_world[2].Centre() - truth.cam_from_world[2].Centre()).norm(), 0.02);
+  EXPECT_LT(geometry::RotationAngle(p.cam_from_world[2].rotation, truth.cam_from_world[2].rotation) * 180 / M_PI, 0.05);
+  o.constant_views = {3};
+  EXPECT_THROW(Adjust(&p, o), InternalError);
+}
+
 TEST(BundleAdjuster, ObservationsOutOfRangeAreAnInternalError) {
   Problem p;
   p.camera = Camera();

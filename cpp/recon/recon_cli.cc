@@ -16,6 +16,7 @@
 #include "common/cli_args.h"
 #include "common/error.h"
 #include "common/json_util.h"
+#include "recon/compare_cli.h"
 #include "recon/exif.h"
 #include "recon/recon_io.h"
 #include "sfm/features.h"
@@ -32,6 +33,11 @@ constexpr const char* kUsage =
     "                   [--features sift|klt] [--matching auto|exhaustive|sequential]\n"
     "                   [--window N] [--align level|full]\n"
     "                   [--threads N] [--seed N]\n"
+    "       mound_recon compare CLOUD.ply REFERENCE.ply --out OUT_DIR [--no-scale]\n"
+    "                   [--init auto|none|pca] [--max-points N] [--seed N]\n"
+    "       mound_recon verdict RECON_DIR --out verdict.json [--reference REFERENCE.ply]\n"
+    "                   [--threshold-ratio R] [--radius M] [--min-height M] [--min-diameter M]\n"
+    "                   [--relief-threshold M]\n"
     "       mound_recon --help | --version\n"
     "\n"
     "reconstruct: incremental structure from motion of one site's UAV images (SIFT,\n"
@@ -55,6 +61,23 @@ constexpr const char* kUsage =
     "  --window N           images ahead matched in sequence (default 8)\n"
     "  --threads N          (default: the number of cores)\n"
     "  --seed N             RANSAC seed (default 1)\n"
+    "\n"
+    "compare: ICP with scale (PCL; correspondences beyond 3x their median rejected) of the\n"
+    "cloud onto the reference, then each point's distance to the reference surface.\n"
+    "  --out DIR            compare.json (mound.compare v1), aligned.ply (+ distance)\n"
+    "  --no-scale           rigid ICP (the clouds share a metric scale)\n"
+    "  --init I             auto (none when the clouds overlap already, else pca), none,\n"
+    "                       pca (principal axes, 24 starts tried by a coarse ICP)\n"
+    "  --max-points N       cloud points sampled for the ICP iterations (default 20000)\n"
+    "verdict: mound or no_mound for a reconstructed site (verdict.json, mound.verdict v1).\n"
+    "  default              reference-free: ground fitted robustly, the most prominent rise\n"
+    "                       measured (height, base diameter, roundness, dome fit); needs a\n"
+    "                       georeferenced model; --min-height (1 m), --min-diameter (8 m),\n"
+    "                       --relief-threshold (0.3 m), --radius (the site, default: 80 %\n"
+    "                       of the points)\n"
+    "  --reference PLY      the paper's test: compare, distances fitted by N(mu, sigma),\n"
+    "                       mound when mu <= R x the reference's relief (--threshold-ratio,\n"
+    "                       default 0.05)\n"
     "--help anywhere on the command line prints this text.\n"
     "Exit codes: 0 ok, 1 internal error, 2 bad input (one line naming it), 3 valid input\n"
     "that allowed no result (recon.json says \"status\": \"failed\" and why).\n";
@@ -234,9 +257,10 @@ int RunReconstruct(const std::vector<std::string>& args) {
   t0 = Clock::now();
   const double verify_px = std::max(1.0, 1.0 * std::max(W, H) / 2000.0);
   std::vector<sfm::VerifiedPair> verified(pair_list.size());
+  const sfm::DescriptorMatcher matcher(features);
   ParallelFor(static_cast<int>(pair_list.size()), threads, [&](int k) {
     const auto [i, j] = pair_list[k];
-    const sfm::MatchList m = feature_kind == "klt" ? tracked[i] : sfm::MatchDescriptors(features[i], features[j]);
+    const sfm::MatchList m = feature_kind == "klt" ? tracked[i] : matcher.Match(i, j);
     verified[k] = sfm::VerifyPair(i, j, features[i], features[j], m, camera, verify_px, seed + k);
   });
   timings["matching_s"] = Since(t0);
@@ -267,6 +291,9 @@ int RunReconstruct(const std::vector<std::string>& args) {
     throw;
   }
   timings["mapping_s"] = Since(t0);
+  nlohmann::json mapping_stages = {{"initialise", r.timings.initialise_s}, {"register", r.timings.register_s},
+                                 {"triangulate", r.timings.triangulate_s}, {"local_ba", r.timings.local_ba_s},
+                                 {"global_ba", r.timings.global_ba_s}};
 
   // The metric frame: a robust similarity from the camera centres to GPS.
   doc["frame"] = "arbitrary";
@@ -325,12 +352,13 @@ int RunReconstruct(const std::vector<std::string>& args) {
   doc["points"] = r.points.size();
   doc["reprojection_rmse_px"] = r.rmse_px;
   doc["initial_pair"] = {files[r.init_image1], files[r.init_image2]};
-  doc["bundle_adjustments"] = r.ba_runs;
+  doc["bundle_adjustments"] = {{"global", r.ba_runs}, {"local", r.local_ba_runs}};
   t0 = Clock::now();
   WritePly(out + "/points.ply", r);
   WriteColmapText(out, r, files, features);
   timings["write_s"] = Since(t0);
   doc["timings_s"] = timings;
+  doc["mapping_timings_s"] = mapping_stages;
   WriteFileAtomic(out + "/recon.json", doc.dump(1) + "\n");
   std::cerr << "mound_recon: " << r.NumRegistered() << "/" << n << " images registered, " << r.points.size()
             << " points, RMSE " << r.rmse_px << " px, frame " << doc["frame"].get<std::string>() << "\n";
@@ -345,12 +373,14 @@ int RunMoundRecon(const std::vector<std::string>& args, std::ostream& out, std::
       out << kUsage;
       return static_cast<int>(kExitOk);
     }
-    if (args.empty()) throw InputError("missing a command: reconstruct (see --help)");
+    if (args.empty()) throw InputError("missing a command: reconstruct, compare or verdict (see --help)");
     if (args[0] == "--version") {
       out << kVersion << "\n";
       return static_cast<int>(kExitOk);
     }
     if (args[0] == "reconstruct") return RunReconstruct(args);
+    if (args[0] == "compare") return RunCompare(args);
+    if (args[0] == "verdict") return RunVerdict(args);
     throw InputError("unknown command '" + args[0] + "' (see --help)");
   });
 }

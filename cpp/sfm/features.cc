@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <mutex>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
@@ -46,20 +47,42 @@ void AddKeypoint(const Loaded& l, const cv::Point2f& p, ImageFeatures* f) {
 
 }  // namespace
 
-ImageFeatures ExtractFeatures(const std::string& path, const FeatureOptions& o) {
-  const Loaded l = Load(path, o.max_image_size);
+namespace {
+
+ImageFeatures Sift(const Loaded& l, int max_features) {
   ImageFeatures f;
   f.width = l.bgr.cols;
   f.height = l.bgr.rows;
   std::vector<cv::KeyPoint> kps;
   cv::Mat desc;
-  cv::SIFT::create(o.max_features)->detectAndCompute(l.grey, cv::noArray(), kps, desc);
+  cv::SIFT::create(max_features)->detectAndCompute(l.grey, cv::noArray(), kps, desc);
   f.descriptors.resize(static_cast<Eigen::Index>(kps.size()), 128);
+  // OpenCV's SIFT builds its pyramid on the image upsampled 2x by linear interpolation
+  // (output pixel X samples the input at X / 2 - 0.25) and halves it by taking every other
+  // pixel, yet reports positions as octave pixel x 2^(octave - 1): every keypoint lies
+  // 0.25 px right of and below the image content it was found on (opencv/opencv#23123;
+  // features_test.cc measures it). Uncorrected, the bias acts as a shifted principal point
+  // and bends the model (camera centres on the simulated orbit: 9.9 mm -> 3.8 mm).
+  constexpr float kSiftBiasPx = 0.25f;
   for (size_t k = 0; k < kps.size(); ++k) {
-    AddKeypoint(l, kps[k].pt, &f);
+    AddKeypoint(l, kps[k].pt - cv::Point2f(kSiftBiasPx, kSiftBiasPx), &f);
     for (int j = 0; j < 128; ++j) f.descriptors(static_cast<Eigen::Index>(k), j) = desc.at<float>(static_cast<int>(k), j);
   }
   return f;
+}
+
+}  // namespace
+
+ImageFeatures ExtractFeatures(const std::string& path, const FeatureOptions& o) {
+  return Sift(Load(path, o.max_image_size), o.max_features);
+}
+
+ImageFeatures ExtractFeatures(const uint8_t* grey, int width, int height, int max_features) {
+  if (grey == nullptr || width <= 0 || height <= 0) throw InputError("image: empty grey image");
+  Loaded l;
+  l.grey = cv::Mat(height, width, CV_8UC1, const_cast<uint8_t*>(grey)).clone();
+  cv::cvtColor(l.grey, l.bgr, cv::COLOR_GRAY2BGR);
+  return Sift(l, max_features);
 }
 
 KltResult TrackKlt(const std::vector<std::string>& paths, const FeatureOptions& o) {
@@ -111,43 +134,98 @@ cv::Mat AsMat(const ImageFeatures& f) {
                  const_cast<float*>(f.descriptors.data()));
 }
 
+// Nearest-neighbour search over one image's descriptors: approximate (FLANN, randomised
+// k-d trees) for large sets, as COLMAP and OpenMVG do on the CPU; exact brute force for
+// small ones.
+class SearchIndex {
+ public:
+  explicit SearchIndex(const ImageFeatures& f) : train_(AsMat(f)) {
+    if (train_.rows < 1000) return;
+    // FLANN draws the trees' split dimensions from the C library's global rand(): build
+    // each index under one lock from a fixed seed, so that the trees do not depend on
+    // which thread got there first (searching draws nothing).
+    static std::mutex flann_rand;
+    std::lock_guard<std::mutex> lock(flann_rand);
+    cvflann::seed_random(1);
+    flann_ = std::make_unique<cv::flann::Index>(train_, cv::flann::KDTreeIndexParams(4));
+  }
+  // The k nearest training rows of each query row (index -1 where fewer exist).
+  void Search(const cv::Mat& queries, int k, cv::Mat* indices, cv::Mat* dists) const {
+    if (flann_) {
+      flann_->knnSearch(queries, *indices, *dists, k, cv::flann::SearchParams(64));
+      return;
+    }
+    std::vector<std::vector<cv::DMatch>> m;
+    cv::BFMatcher(cv::NORM_L2).knnMatch(queries, train_, m, k);
+    *indices = cv::Mat(queries.rows, k, CV_32S, cv::Scalar(-1));
+    *dists = cv::Mat(queries.rows, k, CV_32F, cv::Scalar(0));
+    for (size_t q = 0; q < m.size(); ++q)
+      for (size_t r = 0; r < m[q].size() && static_cast<int>(r) < k; ++r) {
+        indices->at<int>(static_cast<int>(q), static_cast<int>(r)) = m[q][r].trainIdx;
+        // FLANN reports squared L2 distances: so does this.
+        dists->at<float>(static_cast<int>(q), static_cast<int>(r)) = m[q][r].distance * m[q][r].distance;
+      }
+  }
+
+ private:
+  cv::Mat train_;  // a view of the features' descriptors
+  std::unique_ptr<cv::flann::Index> flann_;
+};
+
+// Ratio test on a's nearest two in b, then the mutual check: b's nearest in a, searched
+// only for the survivors.
+MatchList MatchWith(const ImageFeatures& a, const SearchIndex& index_a, const ImageFeatures& b,
+                    const SearchIndex& index_b, float ratio) {
+  MatchList out;
+  if (a.descriptors.rows() < 2 || b.descriptors.rows() < 2) return out;
+  cv::Mat idx, dist;
+  index_b.Search(AsMat(a), 2, &idx, &dist);
+  const float ratio2 = ratio * ratio;  // squared distances
+  std::vector<std::pair<int, int>> candidates;
+  for (int q = 0; q < idx.rows; ++q) {
+    const int n0 = idx.at<int>(q, 0), n1 = idx.at<int>(q, 1);
+    if (n0 < 0 || n1 < 0 || !(dist.at<float>(q, 0) < ratio2 * dist.at<float>(q, 1))) continue;
+    candidates.emplace_back(q, n0);
+  }
+  if (candidates.empty()) return out;
+  cv::Mat back_queries(static_cast<int>(candidates.size()), 128, CV_32F);
+  for (size_t c = 0; c < candidates.size(); ++c)
+    std::memcpy(back_queries.ptr<float>(static_cast<int>(c)), b.descriptors.row(candidates[c].second).data(),
+                128 * sizeof(float));
+  cv::Mat back_idx, back_dist;
+  index_a.Search(back_queries, 1, &back_idx, &back_dist);
+  for (size_t c = 0; c < candidates.size(); ++c)
+    if (back_idx.at<int>(static_cast<int>(c), 0) == candidates[c].first) out.push_back(candidates[c]);
+  return out;
+}
+
 }  // namespace
 
 MatchList MatchDescriptors(const ImageFeatures& a, const ImageFeatures& b, float ratio) {
-  MatchList out;
-  if (a.descriptors.rows() < 2 || b.descriptors.rows() < 2) return out;
-  // Approximate nearest neighbours (FLANN, randomised k-d trees) for large sets, as
-  // COLMAP and OpenMVG do on the CPU; exact brute force for small ones.
-  std::vector<std::vector<cv::DMatch>> ab, ba;
-  const cv::Mat da = AsMat(a), db = AsMat(b);
-  if (std::min(da.rows, db.rows) >= 1000) {
-    // FLANN draws the trees' split dimensions from the C library's global rand(): build
-    // each index under one lock from a fixed seed, so that the matches do not depend on
-    // which thread got there first (searching draws nothing).
-    auto trained = [](const cv::Mat& train) {
-      auto m = cv::makePtr<cv::FlannBasedMatcher>(cv::makePtr<cv::flann::KDTreeIndexParams>(4),
-                                                  cv::makePtr<cv::flann::SearchParams>(64));
-      static std::mutex flann_rand;
-      std::lock_guard<std::mutex> lock(flann_rand);
-      cvflann::seed_random(1);
-      m->add(std::vector<cv::Mat>{train});
-      m->train();
-      return m;
-    };
-    trained(db)->knnMatch(da, ab, 2);
-    trained(da)->knnMatch(db, ba, 1);
-  } else {
-    cv::BFMatcher matcher(cv::NORM_L2);
-    matcher.knnMatch(da, db, ab, 2);
-    matcher.knnMatch(db, da, ba, 1);
+  return MatchWith(a, SearchIndex(a), b, SearchIndex(b), ratio);
+}
+
+struct DescriptorMatcher::Impl {
+  const std::vector<ImageFeatures>& features;
+  float ratio;
+  mutable std::vector<std::unique_ptr<SearchIndex>> index;
+  mutable std::vector<std::once_flag> built;
+  const SearchIndex& Index(int i) const {
+    std::call_once(built[i], [&] { index[i] = std::make_unique<SearchIndex>(features[i]); });
+    return *index[i];
   }
-  for (const auto& m : ab) {
-    if (m.size() < 2 || m[0].distance >= ratio * m[1].distance) continue;
-    const auto& back = ba[m[0].trainIdx];
-    if (back.empty() || back[0].trainIdx != m[0].queryIdx) continue;  // not mutual
-    out.emplace_back(m[0].queryIdx, m[0].trainIdx);
-  }
-  return out;
+};
+
+DescriptorMatcher::DescriptorMatcher(const std::vector<ImageFeatures>& features, float ratio)
+    : impl_(new Impl{features, ratio, std::vector<std::unique_ptr<SearchIndex>>(features.size()),
+                     std::vector<std::once_flag>(features.size())}) {}
+
+DescriptorMatcher::~DescriptorMatcher() = default;
+
+MatchList DescriptorMatcher::Match(int i, int j) const {
+  const int n = static_cast<int>(impl_->features.size());
+  if (i < 0 || j < 0 || i >= n || j >= n) throw InternalError("DescriptorMatcher::Match: image out of range");
+  return MatchWith(impl_->features[i], impl_->Index(i), impl_->features[j], impl_->Index(j), impl_->ratio);
 }
 
 VerifiedPair VerifyPair(int i1, int i2, const ImageFeatures& a, const ImageFeatures& b,

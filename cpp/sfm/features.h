@@ -11,6 +11,7 @@
 #include <Eigen/Core>
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <utility>
 #include <vector>
@@ -33,6 +34,8 @@ struct FeatureOptions {
 
 // InputError naming the file when it cannot be read as an image.
 ImageFeatures ExtractFeatures(const std::string& path, const FeatureOptions& options);
+// The same on an 8-bit grey image in memory (row-major, no downscaling; colours grey).
+ImageFeatures ExtractFeatures(const uint8_t* grey, int width, int height, int max_features);
 
 // Keypoint index pairs (in a, in b).
 using MatchList = std::vector<std::pair<int, int>>;
@@ -49,6 +52,24 @@ struct KltResult {
 };
 KltResult TrackKlt(const std::vector<std::string>& paths, const FeatureOptions& options);
 MatchList MatchDescriptors(const ImageFeatures& a, const ImageFeatures& b, float ratio = 0.8f);
+
+// The same for many pairs of one image set: each image's search index (FLANN randomised
+// k-d trees, 4 trees, 64 checks, for 1,000 descriptors or more; brute force below) is built
+// once, on first use, and shared by every pair it is in; the backward search of the mutual
+// check runs only for the matches that passed the ratio test. Match() is thread-safe and
+// its result does not depend on the order of calls or on the threads.
+class DescriptorMatcher {
+ public:
+  explicit DescriptorMatcher(const std::vector<ImageFeatures>& features, float ratio = 0.8f);
+  ~DescriptorMatcher();
+  DescriptorMatcher(const DescriptorMatcher&) = delete;
+  DescriptorMatcher& operator=(const DescriptorMatcher&) = delete;
+  MatchList Match(int i, int j) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
 
 struct VerifiedPair {
   int image1 = 0, image2 = 0;

@@ -2,6 +2,7 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <chrono>
 #include <complex>
 #include <cmath>
 #include <numeric>
@@ -63,6 +64,19 @@ namespace {
 
 constexpr double kDeg = M_PI / 180;
 
+// Adds the seconds of its lifetime to `*sum`.
+class ScopedTimer {
+ public:
+  explicit ScopedTimer(double* sum) : sum_(sum), t0_(std::chrono::steady_clock::now()) {}
+  ~ScopedTimer() { *sum_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count(); }
+  ScopedTimer(const ScopedTimer&) = delete;
+  ScopedTimer& operator=(const ScopedTimer&) = delete;
+
+ private:
+  double* sum_;
+  std::chrono::steady_clock::time_point t0_;
+};
+
 // Angle between two directions, radians.
 double Angle(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
   return std::acos(std::clamp(a.normalized().dot(b.normalized()), -1.0, 1.0));
@@ -90,26 +104,42 @@ class Mapper {
   }
 
   Reconstruction Run() {
-    Initialise();
+    {
+      ScopedTimer timer(&r_.timings.initialise_s);
+      Initialise();
+    }
     std::vector<int> failures(f_.size(), 0);
     int next_ba = std::max(4, r_.NumRegistered() + 1);
     while (true) {
       const int image = NextImage(failures);
       if (image < 0) break;
-      if (!Register(image)) {
+      bool ok;
+      {
+        ScopedTimer timer(&r_.timings.register_s);
+        ok = Register(image);
+      }
+      if (!ok) {
         ++failures[image];
         continue;
       }
-      Triangulate(image);
+      {
+        ScopedTimer timer(&r_.timings.triangulate_s);
+        Triangulate(image);
+      }
       if (r_.NumRegistered() >= next_ba) {
         Adjust();
-        next_ba = std::max(next_ba + 1, static_cast<int>(std::ceil(r_.NumRegistered() * 1.3)));
+        next_ba = std::max(next_ba + 1, static_cast<int>(std::ceil(r_.NumRegistered() * o_.global_ba_growth)));
         std::fill(failures.begin(), failures.end(), 0);  // a better model may register them
+      } else {
+        LocalAdjust(image);
       }
     }
     Adjust();
-    for (size_t i = 0; i < f_.size(); ++i)
-      if (r_.registered[i]) Triangulate(static_cast<int>(i));
+    {
+      ScopedTimer timer(&r_.timings.triangulate_s);
+      for (size_t i = 0; i < f_.size(); ++i)
+        if (r_.registered[i]) Triangulate(static_cast<int>(i));
+    }
     Adjust(200);  // the last adjustment runs to convergence; the ones on the way stop at 50
     Finish();
     return std::move(r_);
@@ -328,7 +358,71 @@ class Mapper {
     return X;
   }
 
+  // Bundle adjustment of `image` and the images sharing the most points with it, over the
+  // points they see; every other registered image that sees those points is held
+  // constant (and fixes the gauge). Skipped while fewer than two images would be held.
+  void LocalAdjust(int image) {
+    if (o_.local_ba_images <= 0) return;
+    ScopedTimer timer(&r_.timings.local_ba_s);
+    std::vector<int> shared(f_.size(), 0);
+    for (const Point3D& p : r_.points) {
+      bool sees = false;
+      for (const TrackElement& e : p.track) sees |= e.image == image;
+      if (!sees) continue;
+      for (const TrackElement& e : p.track)
+        if (e.image != image) ++shared[e.image];
+    }
+    std::vector<int> others;
+    for (size_t i = 0; i < f_.size(); ++i)
+      if (shared[i] > 0) others.push_back(static_cast<int>(i));
+    std::sort(others.begin(), others.end(), [&](int a, int b) {
+      return shared[a] != shared[b] ? shared[a] > shared[b] : a < b;
+    });
+    if (static_cast<int>(others.size()) > o_.local_ba_images) others.resize(o_.local_ba_images);
+    std::vector<bool> local(f_.size(), false);
+    local[image] = true;
+    for (int i : others) local[i] = true;
+
+    ba::Problem p;
+    p.camera = r_.camera;
+    std::vector<int> view_of(f_.size(), -1), image_of, point_ids;
+    ba::Options bo;
+    auto view = [&](int i) {
+      if (view_of[i] < 0) {
+        view_of[i] = static_cast<int>(p.cam_from_world.size());
+        image_of.push_back(i);
+        p.cam_from_world.push_back(r_.cam_from_world[i]);
+        if (!local[i]) bo.constant_views.push_back(view_of[i]);
+      }
+      return view_of[i];
+    };
+    for (size_t j = 0; j < r_.points.size(); ++j) {
+      bool in = false;
+      for (const TrackElement& e : r_.points[j].track) in |= local[e.image];
+      if (!in) continue;
+      const int id = static_cast<int>(p.points.size());
+      point_ids.push_back(static_cast<int>(j));
+      p.points.push_back(r_.points[j].xyz);
+      for (const TrackElement& e : r_.points[j].track)
+        p.observations.push_back({view(e.image), id, f_[e.image].keypoints[e.keypoint]});
+    }
+    if (bo.constant_views.size() < 2) return;
+    bo.fixed_view = -1;
+    bo.scale_view = -1;
+    bo.threads = o_.threads;
+    bo.max_iterations = o_.local_ba_iterations;
+    bo.function_tolerance = 1e-6;
+    bo.huber_px = 1.0;
+    ba::Adjust(&p, bo);
+    ++r_.local_ba_runs;
+    for (size_t v = 0; v < image_of.size(); ++v)
+      if (local[image_of[v]]) r_.cam_from_world[image_of[v]] = p.cam_from_world[v];
+    for (size_t k = 0; k < point_ids.size(); ++k) r_.points[point_ids[k]].xyz = p.points[k];
+    Filter();
+  }
+
   void Adjust(int max_iterations = 50) {
+    ScopedTimer timer(&r_.timings.global_ba_s);
     ba::Problem p;
     p.camera = r_.camera;
     std::vector<int> view_of(f_.size(), -1), image_of;
@@ -348,6 +442,7 @@ class Mapper {
     bo.scale_view = view_of[r_.init_image2];
     bo.threads = o_.threads;
     bo.max_iterations = max_iterations;
+    bo.function_tolerance = max_iterations > 50 ? 1e-7 : 1e-6;
     bo.huber_px = 1.0;
     bo.refine_intrinsics = o_.refine_intrinsics && r_.NumRegistered() >= 3;
     ba::Adjust(&p, bo);

@@ -5,8 +5,8 @@
 //   algorithm with the stacked-epipolar depths, eqs. (9)-(11), and two-view BA; then the
 //   next image with the most triangulated tracks registered by PnP + RANSAC, its new tracks
 //   triangulated (two-view DLT of the widest pair of rays, minimum angle, reprojection check
-//   in every registered view), bundle adjustment of the whole model as it grows by ~30 %,
-//   outlier observations filtered; at the end a last triangulation pass and adjustment.
+//   in every registered view), a local bundle adjustment around each new image, one of the
+//   whole model as it grows by ~30 %, outlier observations filtered; at the end a last triangulation pass and adjustment.
 // Frames: OpenCV camera axes, cam_from_world; the model's frame is the first image's camera
 // and its scale the initial baseline (1), until Georegister maps it onto GPS positions.
 #pragma once
@@ -45,7 +45,12 @@ struct Reconstruction {
   std::vector<Point3D> points;
   double rmse_px = 0;
   int init_image1 = -1, init_image2 = -1;
-  int ba_runs = 0;
+  int ba_runs = 0, local_ba_runs = 0;
+  // Seconds per mapping stage: initialisation, PnP registration, triangulation, local and
+  // global bundle adjustment (with their outlier filtering).
+  struct Timings {
+    double initialise_s = 0, register_s = 0, triangulate_s = 0, local_ba_s = 0, global_ba_s = 0;
+  } timings;
   int NumRegistered() const;
 };
 
@@ -54,6 +59,13 @@ struct MapperOptions {
   double max_error_px = 4.0;        // PnP RANSAC and triangulation/filtering threshold
   double min_tri_angle_deg = 1.5;
   int min_pnp_inliers = 15;
+  // After each registration: the new image and the `local_ba_images` images that share
+  // the most points with it are adjusted with those points, the rest of the model held
+  // (COLMAP's local BA, 6 images); the whole model is adjusted when it has grown by
+  // `global_ba_growth` since the last global adjustment.
+  int local_ba_images = 6;
+  int local_ba_iterations = 25;
+  double global_ba_growth = 1.3;
   bool refine_intrinsics = false;   // f, k1, k2 in bundle adjustment (EXIF intrinsics)
   int threads = 1;
   uint64_t seed = 1;

@@ -10,6 +10,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "ba/bundle_adjuster.h"
+#include "sfm/features.h"
 #include "common/error.h"
 
 namespace mound::sfm {
@@ -41,23 +42,14 @@ GreyImage LoadGrey(const std::string& path) {
 }
 
 Matches MatchFeatures(const GreyImage& a, const GreyImage& b, int max_features) {
-  cv::Ptr<cv::SIFT> sift = cv::SIFT::create(max_features);
-  std::vector<cv::KeyPoint> ka, kb;
-  cv::Mat da, db;
-  sift->detectAndCompute(AsMat(a), cv::noArray(), ka, da);
-  sift->detectAndCompute(AsMat(b), cv::noArray(), kb, db);
+  AsMat(a);  // validates
+  AsMat(b);
+  const ImageFeatures fa = ExtractFeatures(a.pixels.data(), a.width, a.height, max_features);
+  const ImageFeatures fb = ExtractFeatures(b.pixels.data(), b.width, b.height, max_features);
   Matches out;
-  if (ka.size() < 2 || kb.size() < 2) return out;
-  cv::BFMatcher matcher(cv::NORM_L2);
-  std::vector<std::vector<cv::DMatch>> ab, ba;
-  matcher.knnMatch(da, db, ab, 2);
-  matcher.knnMatch(db, da, ba, 1);
-  for (const auto& m : ab) {
-    if (m.size() < 2 || m[0].distance >= 0.8f * m[1].distance) continue;
-    const auto& back = ba[m[0].trainIdx];
-    if (back.empty() || back[0].trainIdx != m[0].queryIdx) continue;  // not mutual
-    out.px1.emplace_back(ka[m[0].queryIdx].pt.x, ka[m[0].queryIdx].pt.y);
-    out.px2.emplace_back(kb[m[0].trainIdx].pt.x, kb[m[0].trainIdx].pt.y);
+  for (const auto& [i, j] : MatchDescriptors(fa, fb)) {
+    out.px1.push_back(fa.keypoints[i]);
+    out.px2.push_back(fb.keypoints[j]);
   }
   return out;
 }

@@ -43,8 +43,8 @@ struct Matches {
   std::vector<Eigen::Vector2d> px1, px2;  // pixel coordinates (distorted, as observed)
 };
 
-// SIFT features (up to max_features per image), nearest neighbours with Lowe's ratio test
-// (0.8) kept only when mutual.
+// SIFT features (up to max_features per image; features.h, its bias corrected), matched
+// as MatchDescriptors does (ratio test 0.8, mutual).
 Matches MatchFeatures(const GreyImage& a, const GreyImage& b, int max_features = 4000);
 
 // Eq. (11): depths lambda1 (and gamma) of the stacked epipolar system for a given pose; `x1`, `x2`

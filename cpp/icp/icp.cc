@@ -1,0 +1,432 @@
+#include "icp/icp.h"
+
+#include <pcl/kdtree/kdtree_flann.h>
+#include <pcl/point_cloud.h>
+#include <pcl/point_types.h>
+#include <pcl/registration/correspondence_rejection_median_distance.h>
+#include <pcl/registration/icp.h>
+#include <pcl/registration/transformation_estimation_svd_scale.h>
+#include <pcl/search/kdtree.h>
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <numeric>
+#include <random>
+
+#include "common/error.h"
+
+namespace mound::icp {
+namespace {
+
+using Cloud = pcl::PointCloud<pcl::PointXYZ>;
+using geometry::Sim3d;
+
+Sim3d Compose(const Sim3d& a, const Sim3d& b) {  // a * b
+  Sim3d c;
+  c.scale = a.scale * b.scale;
+  c.rotation = a.rotation * b.rotation;
+  c.translation = a.scale * (a.rotation * b.translation) + a.translation;
+  return c;
+}
+
+Eigen::Matrix3d Skew(const Eigen::Vector3d& v) {
+  Eigen::Matrix3d m;
+  m << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
+  return m;
+}
+
+Sim3d Shift(const Eigen::Vector3d& t) {
+  Sim3d s;
+  s.translation = t;
+  return s;
+}
+
+Eigen::Matrix4f ToMatrix(const Sim3d& s) {
+  Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+  m.topLeftCorner<3, 3>() = s.scale * s.rotation.toRotationMatrix();
+  m.topRightCorner<3, 1>() = s.translation;
+  return m.cast<float>();
+}
+
+Sim3d FromMatrix(const Eigen::Matrix4f& mf) {
+  const Eigen::Matrix4d m = mf.cast<double>();
+  const Eigen::Matrix3d a = m.topLeftCorner<3, 3>();
+  Sim3d s;
+  s.scale = std::cbrt(a.determinant());
+  if (!(s.scale > 0) || !std::isfinite(s.scale)) throw NoResultError("ICP degenerated (scale " + std::to_string(s.scale) + ")");
+  // The nearest rotation to a / s (float round-off).
+  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(a / s.scale, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d r = svd.matrixU() * svd.matrixV().transpose();
+  if (r.determinant() < 0) r = -r;
+  s.rotation = Eigen::Quaterniond(r).normalized();
+  s.translation = m.topRightCorner<3, 1>();
+  return s;
+}
+
+Cloud::Ptr ToPcl(const std::vector<Eigen::Vector3d>& p, const Eigen::Vector3d& offset, const std::vector<int>& which) {
+  Cloud::Ptr c(new Cloud);
+  c->reserve(which.size());
+  for (int i : which) {
+    const Eigen::Vector3d q = p[i] - offset;
+    c->push_back(pcl::PointXYZ(static_cast<float>(q.x()), static_cast<float>(q.y()), static_cast<float>(q.z())));
+  }
+  return c;
+}
+
+std::vector<int> Sample(int n, int max_points, uint64_t seed) {
+  std::vector<int> idx(n);
+  std::iota(idx.begin(), idx.end(), 0);
+  if (n > max_points) {
+    std::mt19937_64 rng(seed);
+    std::shuffle(idx.begin(), idx.end(), rng);
+    idx.resize(max_points);
+    std::sort(idx.begin(), idx.end());
+  }
+  return idx;
+}
+
+struct Stats {
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  double rms_radius = 0;
+};
+
+Stats Moments(const std::vector<Eigen::Vector3d>& p) {
+  Stats s;
+  for (const auto& x : p) s.centroid += x;
+  s.centroid /= static_cast<double>(p.size());
+  for (const auto& x : p) s.cov += (x - s.centroid) * (x - s.centroid).transpose();
+  s.cov /= static_cast<double>(p.size());
+  s.rms_radius = std::sqrt(s.cov.trace());
+  return s;
+}
+
+struct Run {
+  Sim3d T;  // target_from_source in the centred frames
+  int iterations = 0;
+  bool converged = false;
+  double median = 0, rmse = 0, inlier_fraction = 0;
+};
+
+// Nearest-neighbour statistics of `src` mapped by T against the target tree.
+void Score(const Cloud& src, const pcl::search::KdTree<pcl::PointXYZ>& tree, double median_factor, Run* r) {
+  const Eigen::Matrix4f M = ToMatrix(r->T);
+  std::vector<double> d(src.size());
+  pcl::Indices k(1);
+  std::vector<float> d2(1);
+  for (size_t i = 0; i < src.size(); ++i) {
+    pcl::PointXYZ q;
+    q.getVector3fMap() = (M * src[i].getVector4fMap()).head<3>();
+    d[i] = tree.nearestKSearch(q, 1, k, d2) > 0 ? std::sqrt(d2[0]) : 1e30;
+  }
+  std::vector<double> sorted = d;
+  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+  r->median = sorted[sorted.size() / 2];
+  const double cut = median_factor * r->median;
+  double s2 = 0;
+  int n = 0;
+  for (double x : d)
+    if (x <= cut) {
+      s2 += x * x;
+      ++n;
+    }
+  r->rmse = n ? std::sqrt(s2 / n) : 0;
+  r->inlier_fraction = static_cast<double>(n) / static_cast<double>(d.size());
+}
+
+Run RunIcp(const Cloud::Ptr& src, const Cloud::Ptr& tgt, const pcl::search::KdTree<pcl::PointXYZ>::Ptr& tree,
+           const Sim3d& init, const Options& o, int max_iterations, double extent) {
+  pcl::IterativeClosestPoint<pcl::PointXYZ, pcl::PointXYZ> icp;
+  icp.setInputSource(src);
+  icp.setInputTarget(tgt);
+  icp.setSearchMethodTarget(tree, true);
+  if (o.estimate_scale) {
+    icp.setTransformationEstimation(
+        pcl::make_shared<pcl::registration::TransformationEstimationSVDScale<pcl::PointXYZ, pcl::PointXYZ>>());
+  }
+  auto rejector = pcl::make_shared<pcl::registration::CorrespondenceRejectorMedianDistance>();
+  rejector->setMedianFactor(o.median_factor);
+  icp.addCorrespondenceRejector(rejector);
+  icp.setMaxCorrespondenceDistance(extent);
+  icp.setMaximumIterations(max_iterations);
+  const double te = o.translation_epsilon * extent;
+  icp.setTransformationEpsilon(te * te);
+  icp.setTransformationRotationEpsilon(std::cos(o.rotation_epsilon_rad));
+  icp.setEuclideanFitnessEpsilon(o.relative_mse_epsilon);
+  Run r;
+  std::function<void(const Cloud&, const pcl::Indices&, const Cloud&, const pcl::Indices&)> count =
+      [&r](const Cloud&, const pcl::Indices&, const Cloud&, const pcl::Indices&) { ++r.iterations; };
+  icp.registerVisualizationCallback(count);
+  Cloud out;
+  icp.align(out, ToMatrix(init));
+  using State = pcl::registration::DefaultConvergenceCriteria<float>::ConvergenceState;
+  const State state = icp.getConvergeCriteria()->getConvergenceState();
+  if (state == State::CONVERGENCE_CRITERIA_NO_CORRESPONDENCES) {
+    throw NoResultError("the clouds do not overlap: ICP found too few correspondences");
+  }
+  r.converged = icp.hasConverged() && state != State::CONVERGENCE_CRITERIA_ITERATIONS &&
+                state != State::CONVERGENCE_CRITERIA_FAILURE_AFTER_MAX_ITERATIONS;
+  r.T = FromMatrix(icp.getFinalTransformation());
+  return r;
+}
+
+
+// Surface normals of reference points (PCA of their 8 nearest neighbours), computed on
+// first use and cached: only the points that become correspondences need one.
+class Normals {
+ public:
+  Normals(const Cloud::Ptr& ref, const pcl::search::KdTree<pcl::PointXYZ>::Ptr& tree)
+      : ref_(ref), tree_(tree), n_(ref->size(), Eigen::Vector3d::Zero()), done_(ref->size(), false) {}
+  const Eigen::Vector3d& At(int i) {
+    if (!done_[i]) {
+      pcl::Indices k;
+      std::vector<float> d2;
+      tree_->nearestKSearch((*ref_)[i], 8, k, d2);
+      Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+      for (int j : k) mean += (*ref_)[j].getVector3fMap().cast<double>();
+      mean /= static_cast<double>(k.size());
+      Eigen::Matrix3d C = Eigen::Matrix3d::Zero();
+      for (int j : k) {
+        const Eigen::Vector3d d = (*ref_)[j].getVector3fMap().cast<double>() - mean;
+        C += d * d.transpose();
+      }
+      n_[i] = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(C).eigenvectors().col(0);
+      done_[i] = true;
+    }
+    return n_[i];
+  }
+
+ private:
+  Cloud::Ptr ref_;
+  pcl::search::KdTree<pcl::PointXYZ>::Ptr tree_;
+  std::vector<Eigen::Vector3d> n_;
+  std::vector<bool> done_;
+};
+
+// ICP with scale, point-to-plane (Chen & Medioni 1992) plus a weak point-to-point term
+// (weight 0.2) that keeps the directions a smooth surface leaves free determined. Each
+// iteration: nearest reference point of every sampled source point; correspondences beyond
+// median_factor x the median distance dropped; one Gauss-Newton step on the 7 parameters
+// (rotation, translation, scale about the correspondences' centroid).
+Run RunPlaneIcp(const std::vector<Eigen::Vector3d>& src, const Cloud::Ptr& tgt,
+                const pcl::search::KdTree<pcl::PointXYZ>::Ptr& tree, Normals* normals, const Sim3d& init,
+                const Options& o, int max_iterations, double extent) {
+  Run r;
+  r.T = init;
+  const int np = o.estimate_scale ? 7 : 6;
+  const double w_point = 0.02;
+  pcl::Indices k(1);
+  std::vector<float> d2(1);
+  std::vector<Eigen::Vector3d> p(src.size());
+  std::vector<int> nn(src.size());
+  std::vector<double> dist(src.size());
+  for (int it = 0; it < max_iterations; ++it) {
+    ++r.iterations;
+    for (size_t i = 0; i < src.size(); ++i) {
+      p[i] = r.T * src[i];
+      const pcl::PointXYZ q(static_cast<float>(p[i].x()), static_cast<float>(p[i].y()), static_cast<float>(p[i].z()));
+      if (tree->nearestKSearch(q, 1, k, d2) > 0) {
+        nn[i] = k[0];
+        dist[i] = std::sqrt(d2[0]);
+      } else {
+        nn[i] = -1;
+        dist[i] = 1e30;
+      }
+    }
+    std::vector<double> sorted = dist;
+    std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+    const double cut = std::min(extent, std::max(1e-9, o.median_factor * sorted[sorted.size() / 2]));
+    std::vector<int> use;
+    Eigen::Vector3d c = Eigen::Vector3d::Zero();
+    for (size_t i = 0; i < src.size(); ++i)
+      if (nn[i] >= 0 && dist[i] <= cut) {
+        use.push_back(static_cast<int>(i));
+        c += p[i];
+      }
+    if (use.size() < 10) throw NoResultError("the clouds do not overlap: ICP found too few correspondences");
+    c /= static_cast<double>(use.size());
+    Eigen::Matrix<double, 7, 7> A = Eigen::Matrix<double, 7, 7>::Zero();
+    Eigen::Matrix<double, 7, 1> b = Eigen::Matrix<double, 7, 1>::Zero();
+    for (int i : use) {
+      const Eigen::Vector3d q = (*tgt)[nn[i]].getVector3fMap().cast<double>();
+      const Eigen::Vector3d& n = normals->At(nn[i]);
+      const Eigen::Vector3d pt = p[i] - c;
+      Eigen::Matrix<double, 7, 1> J;
+      J << pt.cross(n), n, n.dot(pt);
+      const double res = n.dot(p[i] - q);
+      A += J * J.transpose();
+      b += J * res;
+      Eigen::Matrix<double, 3, 7> Jp;
+      Jp << -Skew(pt), Eigen::Matrix3d::Identity(), pt;
+      A += w_point * w_point * Jp.transpose() * Jp;
+      b += w_point * w_point * Jp.transpose() * (p[i] - q);
+    }
+    Eigen::Matrix<double, 7, 1> x = Eigen::Matrix<double, 7, 1>::Zero();
+    x.head(np) = -A.topLeftCorner(np, np).ldlt().solve(b.head(np));
+    if (!x.allFinite()) throw NoResultError("ICP degenerated (singular normal equations)");
+    const Eigen::Vector3d w = x.head<3>(), tau = x.segment<3>(3);
+    Sim3d step;
+    step.scale = 1 + x[6];
+    step.rotation = w.norm() > 0 ? Eigen::Quaterniond(Eigen::AngleAxisd(w.norm(), w.normalized()))
+                                 : Eigen::Quaterniond::Identity();
+    // p -> c + tau + s R (p - c)
+    step.translation = c + tau - step.scale * (step.rotation * c);
+    r.T = Compose(step, r.T);
+    if (w.norm() < o.rotation_epsilon_rad && tau.norm() < o.translation_epsilon * extent &&
+        std::fabs(x[6]) < o.translation_epsilon) {
+      r.converged = true;
+      break;
+    }
+  }
+  return r;
+}
+
+}  // namespace
+
+Result Align(const std::vector<Eigen::Vector3d>& cloud, const std::vector<Eigen::Vector3d>& reference,
+             const Options& o) {
+  if (cloud.size() < 10) throw InputError("cloud: " + std::to_string(cloud.size()) + " points; ICP needs at least 10");
+  if (reference.size() < 10) throw InputError("reference: " + std::to_string(reference.size()) + " points; ICP needs at least 10");
+  if (o.init != "auto" && o.init != "none" && o.init != "pca") throw InputError("--init: expected auto, none or pca, got '" + o.init + "'");
+  if (o.method != "point_to_plane" && o.method != "pcl_point_to_point") {
+    throw InputError("--method: expected point_to_plane or pcl_point_to_point, got '" + o.method + "'");
+  }
+  const Stats sc = Moments(cloud), sr = Moments(reference);
+  if (!(sr.rms_radius > 0) || !(sc.rms_radius > 0)) throw NoResultError("a cloud has all its points at one place");
+  std::vector<int> all_ref(reference.size());
+  std::iota(all_ref.begin(), all_ref.end(), 0);
+  const Cloud::Ptr tgt = ToPcl(reference, sr.centroid, all_ref);
+  pcl::search::KdTree<pcl::PointXYZ>::Ptr tree(new pcl::search::KdTree<pcl::PointXYZ>);
+  tree->setInputCloud(tgt);
+  Normals normals(tgt, tree);
+  const std::vector<int> sample = Sample(static_cast<int>(cloud.size()), o.max_source_points, o.seed);
+  const Cloud::Ptr src = ToPcl(cloud, sc.centroid, sample);
+  std::vector<Eigen::Vector3d> src_e;
+  for (int i : sample) src_e.push_back(cloud[i] - sc.centroid);
+  const double extent = sr.rms_radius;
+  auto run = [&](const Cloud::Ptr& s, const std::vector<Eigen::Vector3d>& se, const Sim3d& start, int iters) {
+    Run r = o.method == "point_to_plane" ? RunPlaneIcp(se, tgt, tree, &normals, start, o, iters, extent)
+                                         : RunIcp(s, tgt, tree, start, o, iters, extent);
+    Score(*s, *tree, o.median_factor, &r);
+    return r;
+  };
+  // Centred frames: reference' = reference - c_r, cloud' = cloud - c_c.
+  std::string init = o.init;
+  if (init == "auto") {
+    const double ratio = sc.rms_radius / sr.rms_radius;
+    init = (sc.centroid - sr.centroid).norm() < extent && ratio > 0.1 && ratio < 2 ? "none" : "pca";
+  }
+  Run best;
+  if (init == "none") {
+    best = run(src, src_e, Shift(sc.centroid - sr.centroid), o.max_iterations);
+  } else {
+    // Principal axes (largest first); rotations about the smallest axis (the normal of a
+    // terrain patch, whose in-plane axes are ill-defined) in 30-degree steps, normal flipped
+    // or not: 24 starts, each refined by a coarse ICP; the best by median distance wins.
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> ec(sc.cov), er(sr.cov);
+    Eigen::Matrix3d Ec = ec.eigenvectors().rowwise().reverse(), Er = er.eigenvectors().rowwise().reverse();
+    if (Ec.determinant() < 0) Ec.col(2) *= -1;
+    if (Er.determinant() < 0) Er.col(2) *= -1;
+    const std::vector<int> coarse_idx = Sample(static_cast<int>(cloud.size()), 2000, o.seed + 1);
+    const Cloud::Ptr coarse = ToPcl(cloud, sc.centroid, coarse_idx);
+    std::vector<Eigen::Vector3d> coarse_e;
+    for (int i : coarse_idx) coarse_e.push_back(cloud[i] - sc.centroid);
+    // A start is scored both ways: the median distance of the cloud's points to the
+    // reference and of a reference sample to the mapped cloud, so that a fit whose scale
+    // collapsed onto a patch of the reference does not win.
+    const std::vector<int> ref_idx = Sample(static_cast<int>(reference.size()), 2000, o.seed + 2);
+    auto reverse_median = [&](const Sim3d& T) {
+      Cloud::Ptr mapped(new Cloud);
+      for (const Eigen::Vector3d& p : coarse_e) {
+        const Eigen::Vector3d q = T * p;
+        mapped->push_back(pcl::PointXYZ(static_cast<float>(q.x()), static_cast<float>(q.y()), static_cast<float>(q.z())));
+      }
+      pcl::KdTreeFLANN<pcl::PointXYZ> t;
+      t.setInputCloud(mapped);
+      pcl::Indices k(1);
+      std::vector<float> d2(1);
+      std::vector<double> d;
+      for (int i : ref_idx) d.push_back(t.nearestKSearch((*tgt)[i], 1, k, d2) > 0 ? std::sqrt(d2[0]) : 1e30);
+      std::nth_element(d.begin(), d.begin() + d.size() / 2, d.end());
+      return d[d.size() / 2];
+    };
+    double best_median = std::numeric_limits<double>::infinity();
+    for (int flip = 0; flip < 2; ++flip)
+      for (int k = 0; k < 12; ++k) {
+        Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
+        if (flip) D.diagonal() << 1, -1, -1;
+        const Eigen::Matrix3d R = Er * Eigen::AngleAxisd(k * M_PI / 6, Eigen::Vector3d::UnitZ()).toRotationMatrix() * D * Ec.transpose();
+        Sim3d start;
+        start.rotation = Eigen::Quaterniond(R);
+        start.scale = o.estimate_scale ? sr.rms_radius / sc.rms_radius : 1.0;
+        Run r;
+        try {
+          r = run(coarse, coarse_e, start, 30);
+        } catch (const NoResultError&) {
+          continue;  // this start lost the overlap
+        }
+        const double score = r.median + reverse_median(r.T);
+        if (score < best_median) {
+          best_median = score;
+          best = r;
+        }
+      }
+    if (!std::isfinite(best_median)) throw NoResultError("no start of the ICP found an overlap between the clouds");
+    best = run(src, src_e, best.T, o.max_iterations);
+  }
+  Result res;
+  res.reference_from_cloud = Compose(Shift(sr.centroid), Compose(best.T, Shift(-sc.centroid)));
+  res.init_used = init;
+  res.iterations = best.iterations;
+  res.converged = best.converged;
+  res.rmse_m = best.rmse;
+  res.inlier_fraction = best.inlier_fraction;
+  return res;
+}
+
+std::vector<double> SurfaceDistances(const std::vector<Eigen::Vector3d>& points,
+                                     const std::vector<Eigen::Vector3d>& reference) {
+  if (reference.size() < 6) throw InputError("reference: fewer than 6 points, no surface");
+  const Stats sr = Moments(reference);
+  std::vector<int> all(reference.size());
+  std::iota(all.begin(), all.end(), 0);
+  const Cloud::Ptr ref = ToPcl(reference, sr.centroid, all);
+  pcl::KdTreeFLANN<pcl::PointXYZ> tree;
+  tree.setInputCloud(ref);
+  std::vector<double> out(points.size());
+  pcl::Indices k(6);
+  std::vector<float> d2(6);
+  for (size_t i = 0; i < points.size(); ++i) {
+    const Eigen::Vector3d q = points[i] - sr.centroid;
+    const int n = tree.nearestKSearch(pcl::PointXYZ(static_cast<float>(q.x()), static_cast<float>(q.y()), static_cast<float>(q.z())), 6, k, d2);
+    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+    std::vector<Eigen::Vector3d> nb(n);
+    for (int j = 0; j < n; ++j) {
+      nb[j] = reference[k[j]] - sr.centroid;
+      mean += nb[j];
+    }
+    mean /= n;
+    const double nearest = std::sqrt(d2[0]);
+    double radius = 0;
+    Eigen::Matrix3d C = Eigen::Matrix3d::Zero();
+    for (int j = 0; j < n; ++j) {
+      C += (nb[j] - mean) * (nb[j] - mean).transpose();
+      radius = std::max(radius, (nb[j] - nb[0]).norm());
+    }
+    double d = nearest;
+    if (n >= 3) {
+      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(C);
+      // A plane when the neighbourhood is not a line: the two larger spreads comparable.
+      if (es.eigenvalues()[1] > 1e-6 * es.eigenvalues()[2]) {
+        const double plane = std::fabs(es.eigenvectors().col(0).dot(q - mean));
+        d = std::max(plane, nearest - radius);
+      }
+    }
+    out[i] = d;
+  }
+  return out;
+}
+
+}  // namespace mound::icp

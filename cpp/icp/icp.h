@@ -1,0 +1,71 @@
+// Aligning a reconstructed cloud to a reference cloud: iterative closest point with scale
+// (Besl & McKay 1992), point-to-plane (Chen & Medioni 1992) with a scale parameter and a
+// weak point-to-point term, Gauss-Newton on 7 parameters; or PCL's point-to-point ICP with
+// its SVD-with-scale estimator (Umeyama 1991); robust to clutter and partial overlap, and the
+// distances of the aligned cloud to the reference surface (the paper's comparison, done
+// there in CloudCompare). Eigen in, Eigen out: PCL is private to this library.
+//
+// Robustness: correspondences farther than `median_factor` x their median distance are
+// rejected in every iteration (PCL's median-distance rejector), so clutter and the parts
+// one cloud has and the other lacks do not drag the fit. Speed: at most
+// `max_source_points` of the cloud (a seeded random sample, as CloudCompare's "random
+// sampling limit") take part in the iterations; the distances are computed for every point.
+// Convergence: the iteration's step is smaller than `translation_epsilon` (as a fraction of
+// the reference's extent; the scale step likewise) and `rotation_epsilon_rad`; otherwise it
+// stops after `max_iterations` unconverged (PCL's variant also stops on a relative change of
+// the mean squared error below `relative_mse_epsilon`).
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "geometry/sim3.h"
+
+namespace mound::icp {
+
+struct Options {
+  bool estimate_scale = true;
+  // point_to_plane (default): written here, on PCL's k-d tree; pcl_point_to_point: PCL's
+  // IterativeClosestPoint with its SVD-with-scale estimator (slow on smooth terrain, where
+  // point-to-point ICP crawls along the surface; kept for comparison).
+  std::string method = "point_to_plane";
+  // none: the clouds share a frame (both georeferenced); pca: principal axes with their
+  // ambiguities (24 starts) tried by a coarse ICP each; auto: none when the cloud's
+  // centroid lies within the reference's extent (RMS radius) and its own extent is 0.1-2x
+  // the reference's (a flight covers part of a reference site), else pca.
+  std::string init = "auto";
+  int max_iterations = 100;
+  double median_factor = 3.0;
+  // Steps below these move the cloud by less than 1e-4 of its extent: below the sampling's
+  // nearest-neighbour jitter.
+  double translation_epsilon = 1e-4;   // of the reference's extent (the scale step likewise)
+  double rotation_epsilon_rad = 1e-4;
+  double relative_mse_epsilon = 1e-9;
+  int max_source_points = 20000;
+  uint64_t seed = 1;
+};
+
+struct Result {
+  geometry::Sim3d reference_from_cloud;
+  std::string init_used;  // none | pca
+  int iterations = 0;
+  bool converged = false;
+  double rmse_m = 0;            // point-to-point, over the inliers of the last iteration
+  double inlier_fraction = 0;   // of the sampled cloud points
+};
+
+// Throws InputError for clouds with fewer than 10 points, NoResultError when the clouds do
+// not overlap (no correspondences survive) or the fit degenerates.
+Result Align(const std::vector<Eigen::Vector3d>& cloud, const std::vector<Eigen::Vector3d>& reference,
+             const Options& options);
+
+// Unsigned distance of each point to the reference surface: to the least-squares plane of
+// its 6 nearest reference points (CloudCompare's local-model distance), but never less than
+// the distance to the nearest reference point minus that neighbourhood's radius (points
+// beyond the reference's edge).
+std::vector<double> SurfaceDistances(const std::vector<Eigen::Vector3d>& points,
+                                     const std::vector<Eigen::Vector3d>& reference);
+
+}  // namespace mound::icp

@@ -1,0 +1,106 @@
+// Features: SIFT keypoints land on the image content they were found on (OpenCV's 0.25 px
+// pyramid bias corrected), and the matcher that shares one search index per image returns
+// what the pairwise matcher returns, with the displacement of a shifted image.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <set>
+#include <vector>
+
+#include "common/error.h"
+#include "sfm/features.h"
+
+namespace mound::sfm {
+namespace {
+
+struct Image {
+  int width = 640, height = 480;
+  std::vector<uint8_t> pixels;
+};
+
+// Isotropic Gaussian blobs (sigma 2.5 px) at sub-pixel centres, pixel (0, 0) centred at
+// (0, 0), on a dark background.
+Image Blobs(const std::vector<Eigen::Vector2d>& centres) {
+  Image im;
+  std::vector<double> v(static_cast<size_t>(im.width) * im.height, 30.0);
+  const double s = 2.5;
+  for (const Eigen::Vector2d& c : centres)
+    for (int y = static_cast<int>(c.y()) - 12; y <= static_cast<int>(c.y()) + 12; ++y)
+      for (int x = static_cast<int>(c.x()) - 12; x <= static_cast<int>(c.x()) + 12; ++x) {
+        if (x < 0 || y < 0 || x >= im.width || y >= im.height) continue;
+        const double r2 = (x - c.x()) * (x - c.x()) + (y - c.y()) * (y - c.y());
+        v[static_cast<size_t>(y) * im.width + x] += 200.0 * std::exp(-r2 / (2 * s * s));
+      }
+  for (double p : v) im.pixels.push_back(static_cast<uint8_t>(std::lround(std::min(255.0, p))));
+  return im;
+}
+
+TEST(ExtractFeatures, KeypointsSitOnTheBlobCentresWithoutBias) {
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> frac(0, 1);
+  std::vector<Eigen::Vector2d> centres;
+  for (int y = 40; y < 440; y += 40)
+    for (int x = 40; x < 600; x += 40) centres.emplace_back(x + frac(rng), y + frac(rng));
+  const Image im = Blobs(centres);
+  const ImageFeatures f = ExtractFeatures(im.pixels.data(), im.width, im.height, 2000);
+  double sx = 0, sy = 0;
+  int n = 0;
+  std::set<size_t> found;
+  for (const Eigen::Vector2d& k : f.keypoints)
+    for (size_t c = 0; c < centres.size(); ++c) {
+      const Eigen::Vector2d d = k - centres[c];
+      if (d.norm() > 1.0) continue;
+      sx += d.x();
+      sy += d.y();
+      ++n;
+      found.insert(c);
+    }
+  ASSERT_GT(found.size(), centres.size() * 9 / 10);
+  // The mean offset over all blobs: ~0 (uncorrected it is +0.25 px in x and y).
+  EXPECT_LT(std::fabs(sx / n), 0.05) << "mean x offset over " << n << " keypoints";
+  EXPECT_LT(std::fabs(sy / n), 0.05) << "mean y offset over " << n << " keypoints";
+}
+
+// Smoothed random texture; `shift` moves the content right and down by whole pixels.
+Image Texture(int shift_x, int shift_y) {
+  Image im;
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(0, 1);
+  const int W = im.width + 64, H = im.height + 64;
+  std::vector<double> noise(static_cast<size_t>(W) * H);
+  for (double& x : noise) x = u(rng);
+  std::vector<double> blur(noise.size(), 0);
+  for (int y = 2; y < H - 2; ++y)
+    for (int x = 2; x < W - 2; ++x) {
+      double s = 0;
+      for (int dy = -2; dy <= 2; ++dy)
+        for (int dx = -2; dx <= 2; ++dx) s += noise[static_cast<size_t>(y + dy) * W + x + dx];
+      blur[static_cast<size_t>(y) * W + x] = s / 25;
+    }
+  for (int y = 0; y < im.height; ++y)
+    for (int x = 0; x < im.width; ++x) {
+      const double v = blur[static_cast<size_t>(y - shift_y + 32) * W + (x - shift_x + 32)];
+      im.pixels.push_back(static_cast<uint8_t>(std::clamp(std::lround((v - 0.5) * 900 + 128), 0L, 255L)));
+    }
+  return im;
+}
+
+TEST(DescriptorMatcher, SharedIndexesMatchAsThePairwiseMatcherAndFindTheShift) {
+  const Image a = Texture(0, 0), b = Texture(7, 3);
+  std::vector<ImageFeatures> f = {ExtractFeatures(a.pixels.data(), a.width, a.height, 4000),
+                                  ExtractFeatures(b.pixels.data(), b.width, b.height, 4000)};
+  ASSERT_GE(f[0].keypoints.size(), 1000u);  // the FLANN path
+  const DescriptorMatcher matcher(f);
+  const MatchList m = matcher.Match(0, 1);
+  EXPECT_EQ(m, MatchDescriptors(f[0], f[1]));
+  EXPECT_EQ(matcher.Match(0, 1), m);  // the second call reuses the indexes
+  ASSERT_GT(m.size(), 300u);
+  int right = 0;
+  for (const auto& [i, j] : m) right += (f[1].keypoints[j] - f[0].keypoints[i] - Eigen::Vector2d(7, 3)).norm() < 0.5;
+  EXPECT_GT(right, static_cast<int>(m.size() * 95 / 100));
+  EXPECT_THROW(matcher.Match(0, 2), InternalError);
+}
+
+}  // namespace
+}  // namespace mound::sfm

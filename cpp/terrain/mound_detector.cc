@@ -1,0 +1,327 @@
+#include "terrain/mound_detector.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+#include "common/error.h"
+
+namespace mound::terrain {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+double Median(std::vector<double> v) {
+  if (v.empty()) return kNaN;
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
+
+double Quantile(std::vector<double> v, double q) {
+  if (v.empty()) return kNaN;
+  const size_t k = std::min(v.size() - 1, static_cast<size_t>(q * (v.size() - 1) + 0.5));
+  std::nth_element(v.begin(), v.begin() + k, v.end());
+  return v[k];
+}
+
+double Logistic(double x) { return 1 / (1 + std::exp(-x)); }
+
+Eigen::Matrix<double, 6, 1> Basis(double x, double y) {
+  Eigen::Matrix<double, 6, 1> b;
+  b << 1, x, y, x * x, x * y, y * y;
+  return b;
+}
+
+struct Grid {
+  int w = 0, h = 0;
+  double cell = 0;
+  Eigen::Vector2d origin;  // centre of cell (0, 0) relative to the site centre
+  std::vector<double> z;   // NaN: no data
+  double& At(int i, int j) { return z[static_cast<size_t>(j) * w + i]; }
+  double Get(int i, int j) const { return z[static_cast<size_t>(j) * w + i]; }
+  Eigen::Vector2d Centre(int i, int j) const { return origin + cell * Eigen::Vector2d(i, j); }
+};
+
+}  // namespace
+
+Detection DetectMound(const std::vector<Eigen::Vector3d>& points, const Eigen::Vector2d& centre, double radius_m,
+                      const DetectorOptions& o) {
+  if (!(radius_m > 0)) throw InputError("site radius must be > 0");
+  std::vector<Eigen::Vector3d> site;
+  for (const Eigen::Vector3d& p : points)
+    if ((p.head<2>() - centre).norm() <= radius_m) site.push_back(p);
+  if (site.size() < 100) {
+    throw NoResultError("only " + std::to_string(site.size()) + " points within " + std::to_string(radius_m) +
+                        " m of the site centre; a terrain model needs at least 100");
+  }
+  Detection d;
+  const double area = M_PI * radius_m * radius_m;
+  d.cell_m = o.cell_m > 0 ? o.cell_m
+                          : std::clamp(std::sqrt(area / (site.size() / 4.0)), 0.25, std::max(0.25, radius_m / 25));
+  Grid g;
+  g.cell = d.cell_m;
+  g.w = g.h = 2 * static_cast<int>(std::ceil(radius_m / g.cell)) + 1;
+  g.origin = -Eigen::Vector2d(g.w / 2, g.h / 2) * g.cell;
+  d.grid_width = g.w;
+  d.grid_height = g.h;
+  std::vector<std::vector<double>> bins(static_cast<size_t>(g.w) * g.h);
+  for (const Eigen::Vector3d& p : site) {
+    const Eigen::Vector2d q = (p.head<2>() - centre - g.origin) / g.cell;
+    const int i = static_cast<int>(std::lround(q.x())), j = static_cast<int>(std::lround(q.y()));
+    if (i >= 0 && j >= 0 && i < g.w && j < g.h) bins[static_cast<size_t>(j) * g.w + i].push_back(p.z());
+  }
+  g.z.assign(bins.size(), kNaN);
+  std::vector<bool> inside(bins.size(), false), measured(bins.size(), false);
+  for (int j = 0; j < g.h; ++j)
+    for (int i = 0; i < g.w; ++i) {
+      const size_t k = static_cast<size_t>(j) * g.w + i;
+      inside[k] = g.Centre(i, j).norm() <= radius_m;
+      if (!bins[k].empty() && inside[k]) {
+        g.z[k] = Median(bins[k]);
+        measured[k] = true;
+        ++d.cells_with_points;
+      }
+    }
+  // Spikes (a few stray points in a cell) out: a cell whose height departs from the median
+  // of its measured 3 x 3 neighbours by more than 6 robust sigmas of that departure over
+  // the grid is treated as empty.
+  {
+    std::vector<double> dep(g.z.size(), kNaN), all;
+    for (int j = 0; j < g.h; ++j)
+      for (int i = 0; i < g.w; ++i) {
+        const size_t k = static_cast<size_t>(j) * g.w + i;
+        if (!measured[k]) continue;
+        std::vector<double> nb;
+        for (int b = std::max(0, j - 1); b <= std::min(g.h - 1, j + 1); ++b)
+          for (int a = std::max(0, i - 1); a <= std::min(g.w - 1, i + 1); ++a)
+            if ((a != i || b != j) && measured[static_cast<size_t>(b) * g.w + a]) nb.push_back(g.Get(a, b));
+        if (nb.size() < 3) continue;
+        dep[k] = g.z[k] - Median(nb);
+        all.push_back(std::fabs(dep[k]));
+      }
+    const double spread = 1.4826 * Median(all);
+    for (size_t k = 0; k < g.z.size(); ++k)
+      if (!std::isnan(dep[k]) && std::fabs(dep[k]) > 6 * spread) {
+        g.z[k] = kNaN;
+        measured[k] = false;
+        --d.cells_with_points;
+      }
+  }
+  // Fill the empty cells inside the site from their measured neighbours (repeated averaging).
+  for (int pass = 0; pass < 2 * g.w; ++pass) {
+    std::vector<double> next = g.z;
+    int filled = 0, missing = 0;
+    for (int j = 0; j < g.h; ++j)
+      for (int i = 0; i < g.w; ++i) {
+        const size_t k = static_cast<size_t>(j) * g.w + i;
+        if (!inside[k] || !std::isnan(g.z[k])) continue;
+        double s = 0;
+        int n = 0;
+        for (const auto& [di, dj] : {std::pair{1, 0}, {-1, 0}, {0, 1}, {0, -1}}) {
+          const int a = i + di, b = j + dj;
+          if (a < 0 || b < 0 || a >= g.w || b >= g.h || std::isnan(g.Get(a, b))) continue;
+          s += g.Get(a, b);
+          ++n;
+        }
+        if (n > 0) {
+          next[k] = s / n;
+          ++filled;
+        } else {
+          ++missing;
+        }
+      }
+    g.z = std::move(next);
+    if (missing == 0 || filled == 0) break;
+  }
+
+  // Ground: asymmetric IRLS quadratic on the measured cells.
+  std::vector<size_t> cells;
+  for (size_t k = 0; k < g.z.size(); ++k)
+    if (measured[k]) cells.push_back(k);
+  // Start from the lowest 30 % of the cells (a lower envelope: the ground around a rise),
+  // then reweight: cells more than 2 sigma above or 4 below the surface are left out.
+  const int nb = o.ground_order >= 2 ? 6 : 3;
+  std::vector<bool> use(cells.size(), false);
+  {
+    std::vector<double> zs;
+    for (size_t k : cells) zs.push_back(g.z[k]);
+    const double low = Quantile(zs, 0.3);
+    for (size_t c = 0; c < cells.size(); ++c) use[c] = g.z[cells[c]] <= low;
+  }
+  Eigen::Matrix<double, 6, 1> coef = Eigen::Matrix<double, 6, 1>::Zero();
+  double sigma = 0;
+  auto xy = [&](size_t k) -> Eigen::Vector2d {
+    return g.Centre(static_cast<int>(k % g.w), static_cast<int>(k / g.w)) / radius_m;  // scaled for conditioning
+  };
+  for (int it = 0; it < 20; ++it) {
+    Eigen::MatrixXd A = Eigen::MatrixXd::Zero(nb, nb);
+    Eigen::VectorXd b = Eigen::VectorXd::Zero(nb);
+    int n = 0;
+    for (size_t c = 0; c < cells.size(); ++c) {
+      if (!use[c]) continue;
+      const Eigen::Vector2d p = xy(cells[c]);
+      const Eigen::VectorXd f = Basis(p.x(), p.y()).head(nb);
+      A += f * f.transpose();
+      b += f * g.z[cells[c]];
+      ++n;
+    }
+    if (n < 2 * nb) break;
+    coef.setZero();
+    coef.head(nb) = A.ldlt().solve(b);
+    std::vector<double> r;
+    for (size_t c = 0; c < cells.size(); ++c)
+      if (use[c]) {
+        const Eigen::Vector2d p = xy(cells[c]);
+        r.push_back(g.z[cells[c]] - Basis(p.x(), p.y()).dot(coef));
+      }
+    const double med = Median(r);
+    std::vector<double> dev;
+    for (double x : r) dev.push_back(std::fabs(x - med));
+    sigma = std::max(1e-3, 1.4826 * Median(dev));
+    bool changed = false;
+    for (size_t c = 0; c < cells.size(); ++c) {
+      const Eigen::Vector2d p = xy(cells[c]);
+      const double res = g.z[cells[c]] - Basis(p.x(), p.y()).dot(coef);
+      const bool u = res <= 2 * sigma && res >= -4 * sigma;
+      changed |= u != use[c];
+      use[c] = u;
+    }
+    if (!changed) break;
+  }
+  d.ground_noise_m = sigma;
+  // Coefficients in metres of x, y from the centre.
+  const double s = radius_m;
+  d.ground_coefficients = {coef[0], coef[1] / s, coef[2] / s, coef[3] / (s * s), coef[4] / (s * s), coef[5] / (s * s)};
+
+  // Relief and the rises above the threshold.
+  std::vector<double> relief(g.z.size(), kNaN);
+  for (size_t k = 0; k < g.z.size(); ++k) {
+    if (!inside[k] || std::isnan(g.z[k])) continue;
+    const Eigen::Vector2d p = xy(k);
+    relief[k] = g.z[k] - Basis(p.x(), p.y()).dot(coef);
+  }
+  std::vector<int> label(g.z.size(), -1);
+  std::vector<std::vector<size_t>> comps;
+  for (size_t k = 0; k < g.z.size(); ++k) {
+    if (label[k] >= 0 || !(relief[k] > o.relief_threshold_m)) continue;
+    std::vector<size_t> stack = {k}, comp;
+    label[k] = static_cast<int>(comps.size());
+    while (!stack.empty()) {
+      const size_t c = stack.back();
+      stack.pop_back();
+      comp.push_back(c);
+      const int i = static_cast<int>(c % g.w), j = static_cast<int>(c / g.w);
+      for (const auto& [di, dj] : {std::pair{1, 0}, {-1, 0}, {0, 1}, {0, -1}}) {
+        const int a = i + di, b = j + dj;
+        if (a < 0 || b < 0 || a >= g.w || b >= g.h) continue;
+        const size_t n = static_cast<size_t>(b) * g.w + a;
+        if (label[n] < 0 && relief[n] > o.relief_threshold_m) {
+          label[n] = label[k];
+          stack.push_back(n);
+        }
+      }
+    }
+    comps.push_back(std::move(comp));
+  }
+  const double cell_area = g.cell * g.cell;
+  std::vector<Rise> rises;
+  for (const auto& comp : comps) {
+    if (comp.size() < 4) continue;  // a few cells: noise
+    Rise r;
+    r.cells = static_cast<int>(comp.size());
+    r.area_m2 = comp.size() * cell_area;
+    std::vector<double> h;
+    Eigen::Vector2d c = Eigen::Vector2d::Zero();
+    double wsum = 0;
+    for (size_t k : comp) {
+      h.push_back(relief[k]);
+      r.volume_m3 += relief[k] * cell_area;
+      const Eigen::Vector2d p = g.Centre(static_cast<int>(k % g.w), static_cast<int>(k / g.w));
+      c += relief[k] * p;
+      wsum += relief[k];
+    }
+    c /= wsum;
+    r.height_m = Quantile(h, 0.99);
+    Eigen::Matrix2d M = Eigen::Matrix2d::Zero();
+    for (size_t k : comp) {
+      const Eigen::Vector2d p = g.Centre(static_cast<int>(k % g.w), static_cast<int>(k / g.w)) - c;
+      M += p * p.transpose();
+    }
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es(M / comp.size());
+    r.roundness = es.eigenvalues()[1] > 0 ? std::sqrt(std::max(0.0, es.eigenvalues()[0]) / es.eigenvalues()[1]) : 0;
+    // Dome fit over the cells within 1.5 equivalent radii (a paraboloid of revolution,
+    // clipped at zero): grid search on R, H in closed form.
+    const double r_eq = std::sqrt(r.area_m2 / M_PI);
+    std::vector<std::pair<double, double>> prof;  // (radius, relief)
+    const int reach = static_cast<int>(std::ceil(1.5 * r_eq / g.cell)) + 1;
+    const Eigen::Vector2d cc = (c - g.origin) / g.cell;
+    for (int j = static_cast<int>(cc.y()) - reach; j <= static_cast<int>(cc.y()) + reach; ++j)
+      for (int i = static_cast<int>(cc.x()) - reach; i <= static_cast<int>(cc.x()) + reach; ++i) {
+        if (i < 0 || j < 0 || i >= g.w || j >= g.h) continue;
+        const double rel = relief[static_cast<size_t>(j) * g.w + i];
+        const double rad = (g.Centre(i, j) - c).norm();
+        if (!std::isnan(rel) && rad <= 1.5 * r_eq) prof.emplace_back(rad, rel);
+      }
+    double mean = 0;
+    for (const auto& pr : prof) mean += pr.second;
+    mean /= std::max<size_t>(1, prof.size());
+    double tot = 0;
+    for (const auto& pr : prof) tot += (pr.second - mean) * (pr.second - mean);
+    double best_r2 = -1e9;
+    for (double R = 0.5 * r_eq; R <= 1.5 * r_eq + 1e-9; R += r_eq / 40) {
+      double fh = 0, ff = 0;
+      for (const auto& [rad, rel] : prof) {
+        const double f = std::max(0.0, 1 - rad * rad / (R * R));
+        fh += f * rel;
+        ff += f * f;
+      }
+      if (!(ff > 0)) continue;
+      const double H = fh / ff;
+      double res = 0;
+      for (const auto& [rad, rel] : prof) {
+        const double e = rel - H * std::max(0.0, 1 - rad * rad / (R * R));
+        res += e * e;
+      }
+      const double r2 = tot > 0 ? 1 - res / tot : 0;
+      if (r2 > best_r2) {
+        best_r2 = r2;
+        r.base_diameter_m = 2 * R;
+        r.dome_height_m = H;
+      }
+    }
+    r.dome_r2 = best_r2;
+    r.centre = centre + c;
+    rises.push_back(r);
+  }
+  d.rises = static_cast<int>(rises.size());
+  std::ostringstream why;
+  if (rises.empty()) {
+    d.mound = false;
+    d.confidence = Logistic(8.0 * (1.0 - 0.0));  // nothing above the threshold at all
+    why << "no rise above " << o.relief_threshold_m << " m over the ground";
+    d.reason = why.str();
+    return d;
+  }
+  const Rise& t = *std::max_element(rises.begin(), rises.end(), [](const Rise& a, const Rise& b) {
+    return a.height_m * a.area_m2 < b.height_m * b.area_m2;  // the most prominent
+  });
+  d.tallest = t;
+  const double ph = Logistic((t.height_m - o.min_height_m) / (0.15 * o.min_height_m));
+  const double pd = Logistic((t.base_diameter_m - o.min_diameter_m) / (0.15 * o.min_diameter_m));
+  const double pr = Logistic((t.roundness - o.min_roundness) / 0.05);
+  const double pf = Logistic((t.dome_r2 - o.min_dome_r2) / 0.05);
+  const double p = ph * pd * pr * pf;
+  d.mound = t.height_m >= o.min_height_m && t.base_diameter_m >= o.min_diameter_m &&
+            t.roundness >= o.min_roundness && t.dome_r2 >= o.min_dome_r2;
+  d.confidence = d.mound ? p : 1 - p;
+  why.precision(3);
+  why << "most prominent rise: height " << t.height_m << " m (min " << o.min_height_m << "), base diameter "
+      << t.base_diameter_m << " m (min " << o.min_diameter_m << "), roundness " << t.roundness << " (min "
+      << o.min_roundness << "), dome fit R^2 " << t.dome_r2 << " (min " << o.min_dome_r2 << ")";
+  d.reason = why.str();
+  return d;
+}
+
+}  // namespace mound::terrain

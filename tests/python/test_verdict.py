@@ -1,0 +1,139 @@
+"""mound_recon compare and verdict on small simulated sites (a tumulus and its flat
+control, reconstructed from 12 images), and every bad input."""
+
+from __future__ import annotations
+
+import json
+import math
+import struct
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mound.cli import main as mound_main
+from mound.ply import read_ply
+
+
+def run_recon(args: list[str]) -> subprocess.CompletedProcess[str]:
+    from mound.paths import build_dir
+
+    return subprocess.run([str(build_dir() / "mound_recon"), *args], capture_output=True, text=True,
+                          timeout=600, check=False)
+
+
+def reconstruct(tmp: pytest.TempPathFactory, mound: str) -> tuple[Path, Path]:
+    site = tmp.mktemp(f"site_{mound}")
+    assert mound_main(["sim", "site", "--mound", mound, "--seed", "5", "--pattern", "orbit",
+                       "--orbit-images", "12", "--size", "640", "480", "--out", str(site)]) == 0
+    out = tmp.mktemp(f"recon_{mound}")
+    r = run_recon(["reconstruct", str(site / "images"), "--out", str(out), "--camera",
+                   str(site / "camera.json"), "--gps", str(site / "poses.json"), "--threads", "2"])
+    assert r.returncode == 0, r.stderr
+    return site, out
+
+
+@pytest.fixture(scope="module")
+def tumulus(tmp_path_factory: pytest.TempPathFactory, mound_recon: Path) -> tuple[Path, Path]:
+    return reconstruct(tmp_path_factory, "tumulus")
+
+
+@pytest.fixture(scope="module")
+def flat(tmp_path_factory: pytest.TempPathFactory, mound_recon: Path) -> tuple[Path, Path]:
+    return reconstruct(tmp_path_factory, "none")
+
+
+def test_reference_free_verdicts(tumulus: tuple[Path, Path], flat: tuple[Path, Path],
+                                 tmp_path: Path) -> None:
+    site, recon = tumulus
+    r = run_recon(["verdict", str(recon), "--out", str(tmp_path / "v.json")])
+    assert r.returncode == 0, r.stderr
+    v = json.loads((tmp_path / "v.json").read_text())
+    assert v["schema"] == "mound.verdict" and v["method"] == "reference_free_dome"
+    assert v["label"] == "mound", v["reason"]
+    assert 0.5 < v["confidence"] <= 1
+    spec = json.loads((site / "site.json").read_text())["terrain"]
+    rise = v["measurements"]["rise"]
+    # The bin_tepe preset: 60 m across, 12 m high (eroded edges): measured within 20 %.
+    assert abs(rise["height_m"] - spec["height_m"]) < 0.2 * spec["height_m"], rise
+    assert abs(rise["base_diameter_m"] - spec["diameter_m"]) < 0.2 * spec["diameter_m"], rise
+    assert math.hypot(*rise["centre_enu_m"]) < 3.0
+    _, recon_flat = flat
+    r = run_recon(["verdict", str(recon_flat), "--out", str(tmp_path / "f.json")])
+    assert r.returncode == 0, r.stderr
+    f = json.loads((tmp_path / "f.json").read_text())
+    assert f["label"] == "no_mound", f["reason"]
+
+
+def test_paper_test_and_compare(tumulus: tuple[Path, Path], flat: tuple[Path, Path],
+                                tmp_path: Path) -> None:
+    site, recon = tumulus
+    ref = site / "reference.ply"
+    r = run_recon(["compare", str(recon / "points.ply"), str(ref), "--out", str(tmp_path / "c")])
+    assert r.returncode == 0, r.stderr
+    c = json.loads((tmp_path / "c" / "compare.json").read_text())
+    assert c["schema"] == "mound.compare" and c["status"] == "ok" and c["converged"]
+    # Both clouds are in the site's ENU frame: ICP corrects the GPS-sized error only.
+    assert abs(c["reference_from_cloud"]["scale"] - 1) < 0.05
+    assert c["distance_m"]["median"] < 0.1
+    xyz, _ = read_ply(tmp_path / "c" / "aligned.ply")
+    assert len(xyz) == c["points"]["cloud"]
+    verdicts = {}
+    for name, rd in (("tumulus", recon), ("flat", flat[1])):
+        out = tmp_path / f"{name}.json"
+        r = run_recon(["verdict", str(rd), "--reference", str(ref), "--out", str(out)])
+        assert r.returncode == 0, r.stderr
+        verdicts[name] = json.loads(out.read_text())
+    m, f = verdicts["tumulus"]["measurements"], verdicts["flat"]["measurements"]
+    assert verdicts["tumulus"]["label"] == "mound" and verdicts["flat"]["label"] == "no_mound"
+    assert m["mu_m"] < m["threshold_m"] < f["mu_m"]
+
+
+def write(path: Path, data: bytes) -> Path:
+    path.write_bytes(data)
+    return path
+
+
+def test_bad_inputs(tumulus: tuple[Path, Path], tmp_path: Path) -> None:
+    site, recon = tumulus
+    ref = str(site / "reference.ply")
+    header = b"ply\nformat binary_little_endian 1.0\nelement vertex 20\n" \
+             b"property float x\nproperty float y\nproperty float z\nend_header\n"
+    cases = {
+        "empty": (write(tmp_path / "empty.ply", b""), "not a PLY file"),
+        "not ply": (write(tmp_path / "x.ply", b"solid stl\n"), "not a PLY file"),
+        "truncated": (write(tmp_path / "t.ply", header + b"\0" * 100), "truncated"),
+        "nan": (write(tmp_path / "n.ply", header + struct.pack("<3f", 1, math.nan, 2) * 20),
+                "non-finite"),
+    }
+    for name, (path, words) in cases.items():
+        r = run_recon(["compare", str(path), ref, "--out", str(tmp_path / "o")])
+        assert r.returncode == 2, (name, r.stderr)
+        assert words in r.stderr and r.stderr.count("\n") == 1, (name, r.stderr)
+    # No overlap: a cloud 10 km away in the same frame.
+    xyz, _ = read_ply(recon / "points.ply")
+    far = xyz + np.array([1e4, 0, 0])
+    body = b"".join(struct.pack("<3f", *p) for p in far.astype(np.float32))
+    hdr = (f"ply\nformat binary_little_endian 1.0\nelement vertex {len(far)}\nproperty float x\n"
+           "property float y\nproperty float z\nend_header\n").encode()
+    r = run_recon(["compare", str(write(tmp_path / "far.ply", hdr + body)), ref, "--init", "none",
+                   "--out", str(tmp_path / "far")])
+    assert r.returncode == 3, r.stderr
+    doc = json.loads((tmp_path / "far" / "compare.json").read_text())
+    assert doc["status"] == "failed" and "overlap" in doc["reason"]
+    # Verdict: a directory without recon.json; a model without GPS for the reference-free test.
+    r = run_recon(["verdict", str(tmp_path), "--out", str(tmp_path / "v.json")])
+    assert r.returncode == 2 and "recon.json" in r.stderr
+    bare = tmp_path / "bare"
+    bare.mkdir()
+    doc = json.loads((recon / "recon.json").read_text())
+    doc["frame"], doc["scale"] = "arbitrary", "unknown"
+    (bare / "recon.json").write_text(json.dumps(doc))
+    (bare / "points.ply").write_bytes((recon / "points.ply").read_bytes())
+    r = run_recon(["verdict", str(bare), "--out", str(tmp_path / "v.json")])
+    assert r.returncode == 3, r.stderr
+    v = json.loads((tmp_path / "v.json").read_text())
+    assert v["status"] == "failed" and "georeferenced" in v["reason"]
+    r = run_recon(["verdict", str(recon), "--out", str(tmp_path / "v.json"), "--radius", "-1"])
+    assert r.returncode == 2 and "--radius" in r.stderr
