@@ -61,6 +61,8 @@ demo: build
 	$(VENV)/bin/mound sim site --mound none --seed 1 --out runs/demo/site_flat
 	./$(BUILD)/mound_recon reconstruct runs/demo/site_tumulus/images --out runs/demo/recon_tumulus --camera runs/demo/site_tumulus/camera.json --gps runs/demo/site_tumulus/poses.json
 	$(VENV)/bin/mound recon figure runs/demo/recon_tumulus --out runs/demo/recon_tumulus.png
+	./$(BUILD)/mound_recon verdict runs/demo/recon_tumulus --out runs/demo/recon_tumulus/verdict.json
+	./$(BUILD)/mound_recon verdict runs/demo/recon_tumulus --reference runs/demo/site_tumulus/reference.ply --out runs/demo/recon_tumulus/verdict_paper.json
 
 # The README's figures of the site simulator (docs/figures/).
 figures: build
@@ -74,6 +76,8 @@ bench: build figures
 	$(PY) tools/bench/bench_render.py
 	$(PY) tools/bench/bench_mission.py
 	$(PY) tools/bench/bench_recon.py --colmap
+	$(PY) tools/bench/bench_icp.py
+	$(PY) tools/bench/bench_verdict.py --paper --grid
 
 clean:
 	rm -rf $(BUILD)

@@ -299,6 +299,9 @@ Result Align(const std::vector<Eigen::Vector3d>& cloud, const std::vector<Eigen:
   std::iota(all_ref.begin(), all_ref.end(), 0);
   const Cloud::Ptr tgt = ToPcl(reference, sr.centroid, all_ref);
   pcl::search::KdTree<pcl::PointXYZ>::Ptr tree(new pcl::search::KdTree<pcl::PointXYZ>);
+  // Approximate nearest neighbours (within 1 + eps of the nearest distance): ICP needs
+  // correspondences, not exact ones, and the last iterations' distances are ~ the spacing.
+  tree->setEpsilon(0.5f);
   tree->setInputCloud(tgt);
   Normals normals(tgt, tree);
   const std::vector<int> sample = Sample(static_cast<int>(cloud.size()), o.max_source_points, o.seed);
@@ -318,9 +321,44 @@ Result Align(const std::vector<Eigen::Vector3d>& cloud, const std::vector<Eigen:
     const double ratio = sc.rms_radius / sr.rms_radius;
     init = (sc.centroid - sr.centroid).norm() < extent && ratio > 0.1 && ratio < 2 ? "none" : "pca";
   }
+  // Coarse to fine: a 2,000-point sample converges first (most of the iterations, at a
+  // tenth of the cost), then the full sample refines from there.
+  const std::vector<int> coarse_idx = Sample(static_cast<int>(cloud.size()), 2000, o.seed + 1);
+  const Cloud::Ptr coarse = ToPcl(cloud, sc.centroid, coarse_idx);
+  std::vector<Eigen::Vector3d> coarse_e;
+  for (int i : coarse_idx) coarse_e.push_back(cloud[i] - sc.centroid);
   Run best;
+  int coarse_iterations = 0;
+  bool scale_fixed = false, frame_kept = false;
   if (init == "none") {
-    best = run(src, src_e, Shift(sc.centroid - sr.centroid), o.max_iterations);
+    best = run(coarse, coarse_e, Shift(sc.centroid - sr.centroid), o.max_iterations);
+    coarse_iterations = best.iterations;
+    best = run(src, src_e, best.T, o.max_iterations);
+    // Both clouds georeferenced: their scales agree to the GPS fit's accuracy (~1 %). A
+    // fit that leaves [1 - max_scale_change, 1 + max_scale_change] has made the shapes
+    // agree by stretching one (a flat site against a mound's reference does that): redo it
+    // rigid.
+    if (o.estimate_scale && std::fabs(best.T.scale - 1) > o.max_scale_change) {
+      Options rigid = o;
+      rigid.estimate_scale = false;
+      Run r = RunPlaneIcp(coarse_e, tgt, tree, &normals, Shift(sc.centroid - sr.centroid), rigid, o.max_iterations, extent);
+      coarse_iterations += r.iterations;
+      r = RunPlaneIcp(src_e, tgt, tree, &normals, r.T, rigid, o.max_iterations, extent);
+      Score(*src, *tree, o.median_factor, &r);
+      best = r;
+      scale_fixed = true;
+    }
+    // Nor is a fit that moved the cloud far beyond GPS errors (a flat site slides over a
+    // mound's reference onto its flat surroundings): the georeferenced frame is kept.
+    const Sim3d start = Shift(sc.centroid - sr.centroid);
+    const double moved = (best.T * Eigen::Vector3d::Zero() - start * Eigen::Vector3d::Zero()).norm();
+    if (moved > o.max_shift_fraction * sc.rms_radius || best.T.rotation.angularDistance(start.rotation) > o.max_rotation_rad) {
+      Run r;
+      r.T = start;
+      Score(*src, *tree, o.median_factor, &r);
+      best = r;
+      frame_kept = true;
+    }
   } else {
     // Principal axes (largest first); rotations about the smallest axis (the normal of a
     // terrain patch, whose in-plane axes are ill-defined) in 30-degree steps, normal flipped
@@ -329,10 +367,6 @@ Result Align(const std::vector<Eigen::Vector3d>& cloud, const std::vector<Eigen:
     Eigen::Matrix3d Ec = ec.eigenvectors().rowwise().reverse(), Er = er.eigenvectors().rowwise().reverse();
     if (Ec.determinant() < 0) Ec.col(2) *= -1;
     if (Er.determinant() < 0) Er.col(2) *= -1;
-    const std::vector<int> coarse_idx = Sample(static_cast<int>(cloud.size()), 2000, o.seed + 1);
-    const Cloud::Ptr coarse = ToPcl(cloud, sc.centroid, coarse_idx);
-    std::vector<Eigen::Vector3d> coarse_e;
-    for (int i : coarse_idx) coarse_e.push_back(cloud[i] - sc.centroid);
     // A start is scored both ways: the median distance of the cloud's points to the
     // reference and of a reference sample to the mapped cloud, so that a fit whose scale
     // collapsed onto a patch of the reference does not win.
@@ -368,6 +402,7 @@ Result Align(const std::vector<Eigen::Vector3d>& cloud, const std::vector<Eigen:
           continue;  // this start lost the overlap
         }
         const double score = r.median + reverse_median(r.T);
+        coarse_iterations += r.iterations;
         if (score < best_median) {
           best_median = score;
           best = r;
@@ -380,6 +415,9 @@ Result Align(const std::vector<Eigen::Vector3d>& cloud, const std::vector<Eigen:
   res.reference_from_cloud = Compose(Shift(sr.centroid), Compose(best.T, Shift(-sc.centroid)));
   res.init_used = init;
   res.iterations = best.iterations;
+  res.coarse_iterations = coarse_iterations;
+  res.scale_fixed = scale_fixed;
+  res.frame_kept = frame_kept;
   res.converged = best.converged;
   res.rmse_m = best.rmse;
   res.inlier_fraction = best.inlier_fraction;

@@ -44,13 +44,24 @@ struct Options {
   double rotation_epsilon_rad = 1e-4;
   double relative_mse_epsilon = 1e-9;
   int max_source_points = 20000;
+  // With init none (a shared, georeferenced frame): a fitted scale further than this from
+  // 1 is not believed, and the fit is redone rigid (Result::scale_fixed).
+  double max_scale_change = 0.1;
+  // ...and a fit that moves the cloud's centre by more than this fraction of its extent
+  // (RMS radius), or turns it by more than max_rotation_rad, is rejected: the georeferenced
+  // frame is kept as it is (Result::frame_kept).
+  double max_shift_fraction = 0.1;
+  double max_rotation_rad = 0.17;  // 10 degrees
   uint64_t seed = 1;
 };
 
 struct Result {
   geometry::Sim3d reference_from_cloud;
   std::string init_used;  // none | pca
-  int iterations = 0;
+  int iterations = 0;         // of the final ICP on the full sample
+  int coarse_iterations = 0;  // of the 2,000-point ICPs before it (all starts)
+  bool scale_fixed = false;   // the fit with scale left max_scale_change: redone rigid
+  bool frame_kept = false;    // the fit moved too far: the input frame kept, no alignment
   bool converged = false;
   double rmse_m = 0;            // point-to-point, over the inliers of the last iteration
   double inlier_fraction = 0;   // of the sampled cloud points

@@ -38,15 +38,28 @@ double Quantile(std::vector<double> v, double q) {
   return v[k];
 }
 
-// Mean, std (the paper's N(mu, sigma) fit: its maximum-likelihood parameters), median,
-// 90th percentile, max and a 20-bin histogram up to the 99th percentile.
-nlohmann::json DistanceJson(const std::vector<double>& d) {
-  double mean = 0;
-  for (double x : d) mean += x;
-  mean /= d.size();
+// Mean and std (the maximum-likelihood N(mu, sigma)) of the distances up to `quantile`.
+std::pair<double, double> NormalFit(const std::vector<double>& d, double quantile) {
+  const double top = Quantile(d, quantile);
+  double mean = 0, n = 0;
+  for (double x : d)
+    if (x <= top) {
+      mean += x;
+      ++n;
+    }
+  mean /= n;
   double var = 0;
-  for (double x : d) var += (x - mean) * (x - mean);
-  const double sd = std::sqrt(var / d.size());
+  for (double x : d)
+    if (x <= top) var += (x - mean) * (x - mean);
+  return {mean, std::sqrt(var / n)};
+}
+
+// Mean, std, median, 90th percentile, max, a 20-bin histogram up to the 99th percentile,
+// and the paper's N(mu, sigma) fitted to the distances below their 99th percentile (a
+// sparse model's few stray points, tens of metres off, would otherwise make sigma).
+nlohmann::json DistanceJson(const std::vector<double>& d) {
+  const auto [mean, sd] = NormalFit(d, 1.0);
+  const auto [mu, sigma] = NormalFit(d, 0.99);
   const double top = std::max(1e-9, Quantile(d, 0.99));
   std::vector<long long> counts(20, 0);
   long long above = 0;
@@ -57,6 +70,7 @@ nlohmann::json DistanceJson(const std::vector<double>& d) {
   }
   return {{"mean", mean}, {"std", sd}, {"median", Quantile(d, 0.5)}, {"p90", Quantile(d, 0.9)},
           {"max", *std::max_element(d.begin(), d.end())},
+          {"normal_fit", {{"mu", mu}, {"sigma", sigma}, {"below_quantile", 0.99}}},
           {"histogram", {{"bin_width_m", top / 20}, {"counts", counts}, {"above_last_bin", above}}}};
 }
 
@@ -81,7 +95,9 @@ Comparison Compare(const PlyCloud& cloud, const PlyCloud& reference, const icp::
 
 nlohmann::json ComparisonJson(const Comparison& c) {
   return {{"init", c.fit.init_used}, {"reference_from_cloud", SimJson(c.fit.reference_from_cloud)},
-          {"iterations", c.fit.iterations}, {"converged", c.fit.converged}, {"rmse_m", c.fit.rmse_m},
+          {"iterations", c.fit.iterations}, {"coarse_iterations", c.fit.coarse_iterations},
+          {"scale_fixed", c.fit.scale_fixed}, {"frame_kept", c.fit.frame_kept},
+          {"converged", c.fit.converged}, {"rmse_m", c.fit.rmse_m},
           {"inlier_fraction", c.fit.inlier_fraction}, {"distance_m", DistanceJson(c.distance)}};
 }
 
@@ -212,7 +228,7 @@ int RunVerdict(const std::vector<std::string>& args) {
     for (const auto& p : reference.xyz) z.push_back(p.z());
     const double relief = Quantile(z, 0.99) - Quantile(z, 0.01);
     const nlohmann::json cmp = ComparisonJson(c);
-    const double mu = cmp["distance_m"]["mean"], sigma = cmp["distance_m"]["std"];
+    const double mu = cmp["distance_m"]["normal_fit"]["mu"], sigma = cmp["distance_m"]["normal_fit"]["sigma"];
     const double threshold = ratio * relief;
     const bool mound = mu <= threshold;
     doc["method"] = "paper_normal_fit";

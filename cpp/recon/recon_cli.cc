@@ -75,9 +75,9 @@ constexpr const char* kUsage =
     "                       georeferenced model; --min-height (1 m), --min-diameter (8 m),\n"
     "                       --relief-threshold (0.3 m), --radius (the site, default: 80 %\n"
     "                       of the points)\n"
-    "  --reference PLY      the paper's test: compare, distances fitted by N(mu, sigma),\n"
-    "                       mound when mu <= R x the reference's relief (--threshold-ratio,\n"
-    "                       default 0.05)\n"
+    "  --reference PLY      the paper's test: compare, N(mu, sigma) fitted to the distances\n"
+    "                       below their 99th percentile, mound when mu <= R x the\n"
+    "                       reference's relief (--threshold-ratio, default 0.05)\n"
     "--help anywhere on the command line prints this text.\n"
     "Exit codes: 0 ok, 1 internal error, 2 bad input (one line naming it), 3 valid input\n"
     "that allowed no result (recon.json says \"status\": \"failed\" and why).\n";

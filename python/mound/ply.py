@@ -42,6 +42,15 @@ PLY_TYPES = {"char": "i1", "uchar": "u1", "short": "<i2", "ushort": "<u2", "int"
 def read_ply(path: str | Path) -> tuple[np.ndarray, np.ndarray | None]:
     """(xyz, rgb or None) of a binary little-endian PLY of vertices with scalar
     properties (write_ply's, mound_recon's with its track_length)."""
+    data = read_ply_fields(path)
+    xyz = np.stack([data["x"], data["y"], data["z"]], axis=1).astype(np.float64)
+    rgb = np.stack([data["red"], data["green"], data["blue"]], axis=1) \
+        if "red" in data else None
+    return xyz, rgb
+
+
+def read_ply_fields(path: str | Path) -> dict[str, np.ndarray]:
+    """Every vertex property of such a file by name (e.g. aligned.ply's `distance`)."""
     raw = Path(path).read_bytes()
     end = raw.find(b"end_header\n")
     if not raw.startswith(b"ply\n") or end < 0:
@@ -67,8 +76,7 @@ def read_ply(path: str | Path) -> tuple[np.ndarray, np.ndarray | None]:
     if len(body) < count * dtype.itemsize:
         raise InputError(f"{path}: truncated ({len(body)} bytes for {count} vertices)")
     data = np.frombuffer(body, dtype=dtype, count=count)
-    xyz = np.stack([data["x"], data["y"], data["z"]], axis=1).astype(np.float64)
-    rgb = np.stack([data["red"], data["green"], data["blue"]], axis=1) \
-        if "red" in dtype.names else None
-    return xyz, rgb
+    if not {"x", "y", "z"} <= set(data.dtype.names or ()):
+        raise InputError(f"{path}: the vertices lack x, y or z")
+    return {name: data[name] for name in data.dtype.names or ()}
 

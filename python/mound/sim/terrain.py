@@ -55,7 +55,9 @@ class TerrainSpec:
             need(self.height_m > 0, f"height_m must be > 0, got {self.height_m}")
             need(self.diameter_m <= self.size_m, "the mound must fit on the site")
             need(self.profile in PROFILES, f"profile must be one of {PROFILES}")
-            need(0 <= self.drum_height_m < self.height_m, "drum_height_m must be in [0, height)")
+            if self.profile == "drum":
+                need(0 <= self.drum_height_m < self.height_m,
+                     "drum_height_m must be in [0, height)")
             need(self.erosion_m >= 0, "erosion_m must be >= 0")
             need(self.pit_radius_m >= 0 and self.pit_depth_m >= 0, "pit sizes must be >= 0")
             need(self.pit_offset_m + self.pit_radius_m <= self.diameter_m / 2 or
