@@ -57,7 +57,7 @@ def test_same_seed_same_ground_and_lab_preset_scale() -> None:
 
 @pytest.mark.parametrize("bad", [
     {"diameter_m": -5.0}, {"height_m": 0.0}, {"size_m": -1.0}, {"profile": "pyramid"},
-    {"resolution_m": 0.0}, {"diameter_m": 500.0}, {"drum_height_m": 20.0},
+    {"resolution_m": 0.0}, {"diameter_m": 500.0}, {"profile": "drum", "drum_height_m": 20.0},
     {"pit_radius_m": 5.0, "pit_depth_m": 1.0, "pit_offset_m": 40.0},
 ])
 def test_impossible_terrain_is_rejected(bad: dict) -> None:

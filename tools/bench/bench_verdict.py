@@ -120,7 +120,7 @@ def grid(args: argparse.Namespace, out: Path) -> None:
         for d in args.diameters:
             for h in [0.0, *args.heights]:
                 name = f"grid_d{d:g}_h{h:g}_s{seed}"
-                extra = ["--diameter", str(d), "--height", str(max(h, 1.0))]
+                extra = ["--diameter", str(d), "--height", str(h if h > 0 else 1.0)]
                 site = site_and_recon(out, name, "tumulus" if h > 0 else "none", seed, args.size,
                                       args.threads, extra)
                 v = verdict(site.parent / "recon", site.parent / "verdict_free.json")
