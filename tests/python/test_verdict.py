@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from mound.cli import main as mound_main
-from mound.ply import read_ply
+from mound.ply import read_ply, read_ply_fields
 
 
 def run_recon(args: list[str]) -> subprocess.CompletedProcess[str]:
@@ -137,3 +137,45 @@ def test_bad_inputs(tumulus: tuple[Path, Path], tmp_path: Path) -> None:
     assert v["status"] == "failed" and "georeferenced" in v["reason"]
     r = run_recon(["verdict", str(recon), "--out", str(tmp_path / "v.json"), "--radius", "-1"])
     assert r.returncode == 2 and "--radius" in r.stderr
+
+
+def test_distance_statistics_of_a_constructed_case(tmp_path: Path, mound_recon: Path) -> None:
+    """A plane z = 0 sampled on a 0.25 m grid and points above and below it at known
+    distances (uniform in [0, 1] m, signs alternating, so that ICP has nothing to correct):
+    the statistics are those of the uniform distribution."""
+    g = np.arange(-20, 20.001, 0.25)
+    xx, yy = np.meshgrid(g, g)
+    ref = np.column_stack([xx.ravel(), yy.ravel(), np.zeros(xx.size)])
+    rng = np.random.default_rng(4)
+    n = 4000
+    d = (np.arange(n) + 0.5) / n  # exactly uniform
+    rng.shuffle(d)
+    xy = rng.uniform(-15, 15, (n, 2))
+    sign = np.where(np.arange(n) % 2 == 0, 1.0, -1.0)
+    cloud = np.column_stack([xy, sign * d])
+
+    def ply(path: Path, xyz: np.ndarray) -> Path:
+        hdr = (f"ply\nformat binary_little_endian 1.0\nelement vertex {len(xyz)}\n"
+               "property float x\nproperty float y\nproperty float z\nend_header\n").encode()
+        path.write_bytes(hdr + xyz.astype("<f4").tobytes())
+        return path
+
+    r = run_recon(["compare", str(ply(tmp_path / "c.ply", cloud)),
+                   str(ply(tmp_path / "r.ply", ref)), "--out", str(tmp_path / "o")])
+    assert r.returncode == 0, r.stderr
+    doc = json.loads((tmp_path / "o" / "compare.json").read_text())
+    dm = doc["distance_m"]
+    assert doc["init"] == "none"
+    assert dm["mean"] == pytest.approx(0.5, abs=0.01)
+    assert dm["std"] == pytest.approx(1 / math.sqrt(12), abs=0.01)
+    assert dm["median"] == pytest.approx(0.5, abs=0.01)
+    assert dm["p90"] == pytest.approx(0.9, abs=0.01)
+    assert dm["max"] == pytest.approx(1.0, abs=0.01)
+    # N(mu, sigma) below the 99th percentile: uniform on [0, 0.99].
+    assert dm["normal_fit"]["mu"] == pytest.approx(0.495, abs=0.01)
+    assert dm["normal_fit"]["sigma"] == pytest.approx(0.99 / math.sqrt(12), abs=0.01)
+    h = dm["histogram"]
+    assert sum(h["counts"]) + h["above_last_bin"] == n
+    assert max(h["counts"]) - min(h["counts"]) < 0.02 * n  # flat
+    fields = read_ply_fields(tmp_path / "o" / "aligned.ply")
+    assert np.sort(fields["distance"]) == pytest.approx(np.sort(d), abs=0.01)
