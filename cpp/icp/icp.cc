@@ -16,6 +16,7 @@
 #include <random>
 
 #include "common/error.h"
+#include "common/stats.h"
 
 namespace mound::icp {
 namespace {
@@ -121,9 +122,7 @@ void Score(const Cloud& src, const pcl::search::KdTree<pcl::PointXYZ>& tree, dou
     q.getVector3fMap() = (M * src[i].getVector4fMap()).head<3>();
     d[i] = tree.nearestKSearch(q, 1, k, d2) > 0 ? std::sqrt(d2[0]) : 1e30;
   }
-  std::vector<double> sorted = d;
-  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
-  r->median = sorted[sorted.size() / 2];
+  r->median = Median(d);
   const double cut = median_factor * r->median;
   double s2 = 0;
   int n = 0;
@@ -235,9 +234,7 @@ Run RunPlaneIcp(const std::vector<Eigen::Vector3d>& src, const Cloud::Ptr& tgt,
         dist[i] = 1e30;
       }
     }
-    std::vector<double> sorted = dist;
-    std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
-    const double cut = std::min(extent, std::max(1e-9, o.median_factor * sorted[sorted.size() / 2]));
+    const double cut = std::min(extent, std::max(1e-9, o.median_factor * Median(dist)));
     std::vector<int> use;
     Eigen::Vector3d c = Eigen::Vector3d::Zero();
     for (size_t i = 0; i < src.size(); ++i)
@@ -383,8 +380,7 @@ Result Align(const std::vector<Eigen::Vector3d>& cloud, const std::vector<Eigen:
       std::vector<float> d2(1);
       std::vector<double> d;
       for (int i : ref_idx) d.push_back(t.nearestKSearch((*tgt)[i], 1, k, d2) > 0 ? std::sqrt(d2[0]) : 1e30);
-      std::nth_element(d.begin(), d.begin() + d.size() / 2, d.end());
-      return d[d.size() / 2];
+      return Median(std::move(d));
     };
     double best_median = std::numeric_limits<double>::infinity();
     for (int flip = 0; flip < 2; ++flip)

@@ -15,6 +15,7 @@
 #include "common/cli_args.h"
 #include "common/error.h"
 #include "common/json_util.h"
+#include "common/stats.h"
 #include "geometry/ply.h"
 #include "icp/icp.h"
 #include "terrain/mound_detector.h"
@@ -30,12 +31,6 @@ nlohmann::json SimJson(const geometry::Sim3d& s) {
   nlohmann::json rows = nlohmann::json::array();
   for (int r = 0; r < 3; ++r) rows.push_back({R(r, 0), R(r, 1), R(r, 2)});
   return {{"R", rows}, {"t", {s.translation.x(), s.translation.y(), s.translation.z()}}, {"scale", s.scale}};
-}
-
-double Quantile(std::vector<double> v, double q) {
-  const size_t k = std::min(v.size() - 1, static_cast<size_t>(q * (v.size() - 1) + 0.5));
-  std::nth_element(v.begin(), v.begin() + k, v.end());
-  return v[k];
 }
 
 // Mean and std (the maximum-likelihood N(mu, sigma)) of the distances up to `quantile`.

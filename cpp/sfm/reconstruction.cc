@@ -13,6 +13,7 @@
 
 #include "ba/bundle_adjuster.h"
 #include "common/error.h"
+#include "common/stats.h"
 #include "sfm/two_view.h"
 
 namespace mound::sfm {
@@ -535,10 +536,6 @@ std::optional<GeoFit> FitSim3Robust(const std::vector<Eigen::Vector3d>& model,
     for (int i = 0; i < n; ++i) r[i] = (s * model[i] - world[i]).norm();
     return r;
   };
-  auto median = [](std::vector<double> v) {
-    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-    return v[v.size() / 2];
-  };
   std::optional<geometry::Sim3d> best;
   double best_med = std::numeric_limits<double>::infinity();
   const int iterations = n <= 12 ? 400 : 1000;
@@ -547,7 +544,7 @@ std::optional<GeoFit> FitSim3Robust(const std::vector<Eigen::Vector3d>& model,
     if (a == b || b == c || a == c) continue;
     const auto s = geometry::EstimateSim3d({model[a], model[b], model[c]}, {world[a], world[b], world[c]});
     if (!s) continue;
-    const double med = median(residuals(*s));
+    const double med = Median(residuals(*s));
     if (med < best_med) {
       best_med = med;
       best = s;
@@ -557,7 +554,7 @@ std::optional<GeoFit> FitSim3Robust(const std::vector<Eigen::Vector3d>& model,
   if (!best) return std::nullopt;
   // Inliers within 2.5 robust sigmas (1.4826 * median), then refit on them.
   GeoFit fit;
-  const double threshold = std::max(min_threshold_m, 2.5 * 1.4826 * median(residuals(*best)));
+  const double threshold = std::max(min_threshold_m, 2.5 * 1.4826 * Median(residuals(*best)));
   std::vector<Eigen::Vector3d> src, dst;
   std::vector<double> r = residuals(*best);
   fit.inlier.assign(n, false);
@@ -623,10 +620,6 @@ std::optional<GeoFit> FitLevelledSim3Robust(const std::vector<Eigen::Vector3d>& 
     for (int i = 0; i < n; ++i) r[i] = std::abs(a * C(m[i].x(), m[i].y()) + b - C(world[i].x(), world[i].y()));
     return r;
   };
-  auto median = [](std::vector<double> v) {
-    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-    return v[v.size() / 2];
-  };
   std::mt19937_64 rng(seed);
   std::uniform_int_distribution<int> pick(0, n - 1);
   C best_a, best_b;
@@ -636,7 +629,7 @@ std::optional<GeoFit> FitLevelledSim3Robust(const std::vector<Eigen::Vector3d>& 
     if (i == j) continue;
     C a, b;
     if (!fit2({i, j}, &a, &b)) continue;
-    const double med = median(horizontal(a, b));
+    const double med = Median(horizontal(a, b));
     if (med < best_med) {
       best_med = med;
       best_a = a;
@@ -659,7 +652,7 @@ std::optional<GeoFit> FitLevelledSim3Robust(const std::vector<Eigen::Vector3d>& 
   const double scale = std::abs(a);
   std::vector<double> dz;
   for (int i : in) dz.push_back(world[i].z() - scale * m[i].z());
-  const double z0 = dz.empty() ? 0 : median(dz);
+  const double z0 = dz.empty() ? 0 : Median(dz);
   geometry::Sim3d s;
   s.scale = scale;
   s.rotation = Eigen::Quaterniond(Eigen::AngleAxisd(std::arg(a), Eigen::Vector3d::UnitZ())) * level;

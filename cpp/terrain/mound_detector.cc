@@ -7,24 +7,12 @@
 #include <sstream>
 
 #include "common/error.h"
+#include "common/stats.h"
 
 namespace mound::terrain {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-
-double Median(std::vector<double> v) {
-  if (v.empty()) return kNaN;
-  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-  return v[v.size() / 2];
-}
-
-double Quantile(std::vector<double> v, double q) {
-  if (v.empty()) return kNaN;
-  const size_t k = std::min(v.size() - 1, static_cast<size_t>(q * (v.size() - 1) + 0.5));
-  std::nth_element(v.begin(), v.begin() + k, v.end());
-  return v[k];
-}
 
 double Logistic(double x) { return 1 / (1 + std::exp(-x)); }
 
