@@ -384,73 +384,79 @@ class Mapper {
     local[image] = true;
     for (int i : others) local[i] = true;
 
-    ba::Problem p;
-    p.camera = r_.camera;
-    std::vector<int> view_of(f_.size(), -1), image_of, point_ids;
+    Subproblem sp = Build(local);
+    if (sp.constant_views.size() < 2) return;
     ba::Options bo;
-    auto view = [&](int i) {
-      if (view_of[i] < 0) {
-        view_of[i] = static_cast<int>(p.cam_from_world.size());
-        image_of.push_back(i);
-        p.cam_from_world.push_back(r_.cam_from_world[i]);
-        if (!local[i]) bo.constant_views.push_back(view_of[i]);
-      }
-      return view_of[i];
-    };
-    for (size_t j = 0; j < r_.points.size(); ++j) {
-      bool in = false;
-      for (const TrackElement& e : r_.points[j].track) in |= local[e.image];
-      if (!in) continue;
-      const int id = static_cast<int>(p.points.size());
-      point_ids.push_back(static_cast<int>(j));
-      p.points.push_back(r_.points[j].xyz);
-      for (const TrackElement& e : r_.points[j].track)
-        p.observations.push_back({view(e.image), id, f_[e.image].keypoints[e.keypoint]});
-    }
-    if (bo.constant_views.size() < 2) return;
     bo.fixed_view = -1;
     bo.scale_view = -1;
-    bo.threads = o_.threads;
     bo.max_iterations = o_.local_ba_iterations;
     bo.function_tolerance = 1e-6;
-    bo.huber_px = 1.0;
-    ba::Adjust(&p, bo);
+    Solve(&sp, bo);
     ++r_.local_ba_runs;
-    for (size_t v = 0; v < image_of.size(); ++v)
-      if (local[image_of[v]]) r_.cam_from_world[image_of[v]] = p.cam_from_world[v];
-    for (size_t k = 0; k < point_ids.size(); ++k) r_.points[point_ids[k]].xyz = p.points[k];
-    Filter();
   }
 
   void Adjust(int max_iterations = 50) {
     ScopedTimer timer(&r_.timings.global_ba_s);
-    ba::Problem p;
-    p.camera = r_.camera;
-    std::vector<int> view_of(f_.size(), -1), image_of;
-    for (size_t i = 0; i < f_.size(); ++i) {
-      if (!r_.registered[i]) continue;
-      view_of[i] = static_cast<int>(p.cam_from_world.size());
-      image_of.push_back(static_cast<int>(i));
-      p.cam_from_world.push_back(r_.cam_from_world[i]);
-    }
-    for (size_t j = 0; j < r_.points.size(); ++j) {
-      p.points.push_back(r_.points[j].xyz);
-      for (const TrackElement& e : r_.points[j].track)
-        p.observations.push_back({view_of[e.image], static_cast<int>(j), f_[e.image].keypoints[e.keypoint]});
-    }
+    Subproblem sp = Build(r_.registered);
     ba::Options bo;
-    bo.fixed_view = view_of[r_.init_image1];
-    bo.scale_view = view_of[r_.init_image2];
-    bo.threads = o_.threads;
+    bo.fixed_view = sp.view_of[r_.init_image1];
+    bo.scale_view = sp.view_of[r_.init_image2];
     bo.max_iterations = max_iterations;
     bo.function_tolerance = max_iterations > 50 ? 1e-7 : 1e-6;
-    bo.huber_px = 1.0;
     bo.refine_intrinsics = o_.refine_intrinsics && r_.NumRegistered() >= 3;
-    ba::Adjust(&p, bo);
+    Solve(&sp, bo);
     ++r_.ba_runs;
-    r_.camera = p.camera;
-    for (size_t v = 0; v < image_of.size(); ++v) r_.cam_from_world[image_of[v]] = p.cam_from_world[v];
-    for (size_t j = 0; j < r_.points.size(); ++j) r_.points[j].xyz = p.points[j];
+  }
+
+  // A bundle-adjustment problem: the images marked `free` are its variable views (in image
+  // order), the points any of them sees its points, and every other image observing those
+  // points joins as a constant view (a local adjustment's fixed surroundings).
+  struct Subproblem {
+    ba::Problem problem;
+    std::vector<int> view_of, image_of, point_ids, constant_views;
+    std::vector<bool> free;
+  };
+
+  Subproblem Build(const std::vector<bool>& free) const {
+    Subproblem sp;
+    sp.free = free;
+    sp.problem.camera = r_.camera;
+    sp.view_of.assign(f_.size(), -1);
+    auto view = [&](int i) {
+      if (sp.view_of[i] < 0) {
+        sp.view_of[i] = static_cast<int>(sp.problem.cam_from_world.size());
+        sp.image_of.push_back(i);
+        sp.problem.cam_from_world.push_back(r_.cam_from_world[i]);
+        if (!free[i]) sp.constant_views.push_back(sp.view_of[i]);
+      }
+      return sp.view_of[i];
+    };
+    for (size_t i = 0; i < f_.size(); ++i)
+      if (free[i]) view(static_cast<int>(i));
+    for (size_t j = 0; j < r_.points.size(); ++j) {
+      bool in = false;
+      for (const TrackElement& e : r_.points[j].track) in |= free[e.image];
+      if (!in) continue;
+      const int id = static_cast<int>(sp.problem.points.size());
+      sp.point_ids.push_back(static_cast<int>(j));
+      sp.problem.points.push_back(r_.points[j].xyz);
+      for (const TrackElement& e : r_.points[j].track)
+        sp.problem.observations.push_back({view(e.image), id, f_[e.image].keypoints[e.keypoint]});
+    }
+    return sp;
+  }
+
+  // Adjusts (Huber 1 px, the mapper's threads) and writes the free views, the points and
+  // the camera (changed only when refine_intrinsics) back; then filters.
+  void Solve(Subproblem* sp, ba::Options bo) {
+    bo.constant_views = sp->constant_views;
+    bo.threads = o_.threads;
+    bo.huber_px = 1.0;
+    ba::Adjust(&sp->problem, bo);
+    r_.camera = sp->problem.camera;
+    for (size_t v = 0; v < sp->image_of.size(); ++v)
+      if (sp->free[sp->image_of[v]]) r_.cam_from_world[sp->image_of[v]] = sp->problem.cam_from_world[v];
+    for (size_t k = 0; k < sp->point_ids.size(); ++k) r_.points[sp->point_ids[k]].xyz = sp->problem.points[k];
     Filter();
   }
 
