@@ -205,7 +205,7 @@ class Normals {
 };
 
 // ICP with scale, point-to-plane (Chen & Medioni 1992) plus a weak point-to-point term
-// (weight 0.2) that keeps the directions a smooth surface leaves free determined. Each
+// (weight 0.02) that keeps the directions a smooth surface leaves free determined. Each
 // iteration: nearest reference point of every sampled source point; correspondences beyond
 // median_factor x the median distance dropped; one Gauss-Newton step on the 7 parameters
 // (rotation, translation, scale about the correspondences' centroid).
@@ -306,10 +306,11 @@ Result Align(const std::vector<Eigen::Vector3d>& cloud, const std::vector<Eigen:
   std::vector<Eigen::Vector3d> src_e;
   for (int i : sample) src_e.push_back(cloud[i] - sc.centroid);
   const double extent = sr.rms_radius;
-  auto run = [&](const Cloud::Ptr& s, const std::vector<Eigen::Vector3d>& se, const Sim3d& start, int iters) {
-    Run r = o.method == "point_to_plane" ? RunPlaneIcp(se, tgt, tree, &normals, start, o, iters, extent)
-                                         : RunIcp(s, tgt, tree, start, o, iters, extent);
-    Score(*s, *tree, o.median_factor, &r);
+  auto run = [&](const Cloud::Ptr& s, const std::vector<Eigen::Vector3d>& se, const Sim3d& start, int iters,
+                 const Options& opt) {
+    Run r = opt.method == "point_to_plane" ? RunPlaneIcp(se, tgt, tree, &normals, start, opt, iters, extent)
+                                           : RunIcp(s, tgt, tree, start, opt, iters, extent);
+    Score(*s, *tree, opt.median_factor, &r);
     return r;
   };
   // Centred frames: reference' = reference - c_r, cloud' = cloud - c_c.
@@ -328,9 +329,13 @@ Result Align(const std::vector<Eigen::Vector3d>& cloud, const std::vector<Eigen:
   int coarse_iterations = 0;
   bool scale_fixed = false, frame_kept = false;
   if (init == "none") {
-    best = run(coarse, coarse_e, Shift(sc.centroid - sr.centroid), o.max_iterations);
-    coarse_iterations = best.iterations;
-    best = run(src, src_e, best.T, o.max_iterations);
+    const Sim3d start = Shift(sc.centroid - sr.centroid);  // the identity, centred frames
+    auto coarse_to_fine = [&](const Options& opt) {
+      const Run c = run(coarse, coarse_e, start, opt.max_iterations, opt);
+      coarse_iterations += c.iterations;
+      return run(src, src_e, c.T, opt.max_iterations, opt);
+    };
+    best = coarse_to_fine(o);
     // Both clouds georeferenced: their scales agree to the GPS fit's accuracy (~1 %). A
     // fit that leaves [1 - max_scale_change, 1 + max_scale_change] has made the shapes
     // agree by stretching one (a flat site against a mound's reference does that): redo it
@@ -338,16 +343,11 @@ Result Align(const std::vector<Eigen::Vector3d>& cloud, const std::vector<Eigen:
     if (o.estimate_scale && std::fabs(best.T.scale - 1) > o.max_scale_change) {
       Options rigid = o;
       rigid.estimate_scale = false;
-      Run r = RunPlaneIcp(coarse_e, tgt, tree, &normals, Shift(sc.centroid - sr.centroid), rigid, o.max_iterations, extent);
-      coarse_iterations += r.iterations;
-      r = RunPlaneIcp(src_e, tgt, tree, &normals, r.T, rigid, o.max_iterations, extent);
-      Score(*src, *tree, o.median_factor, &r);
-      best = r;
+      best = coarse_to_fine(rigid);
       scale_fixed = true;
     }
     // Nor is a fit that moved the cloud far beyond GPS errors (a flat site slides over a
     // mound's reference onto its flat surroundings): the georeferenced frame is kept.
-    const Sim3d start = Shift(sc.centroid - sr.centroid);
     const double moved = (best.T * Eigen::Vector3d::Zero() - start * Eigen::Vector3d::Zero()).norm();
     if (moved > o.max_shift_fraction * sc.rms_radius || best.T.rotation.angularDistance(start.rotation) > o.max_rotation_rad) {
       Run r;
@@ -393,7 +393,7 @@ Result Align(const std::vector<Eigen::Vector3d>& cloud, const std::vector<Eigen:
         start.scale = o.estimate_scale ? sr.rms_radius / sc.rms_radius : 1.0;
         Run r;
         try {
-          r = run(coarse, coarse_e, start, 30);
+          r = run(coarse, coarse_e, start, 30, o);
         } catch (const NoResultError&) {
           continue;  // this start lost the overlap
         }
@@ -405,7 +405,7 @@ Result Align(const std::vector<Eigen::Vector3d>& cloud, const std::vector<Eigen:
         }
       }
     if (!std::isfinite(best_median)) throw NoResultError("no start of the ICP found an overlap between the clouds");
-    best = run(src, src_e, best.T, o.max_iterations);
+    best = run(src, src_e, best.T, o.max_iterations, o);
   }
   Result res;
   res.reference_from_cloud = Compose(Shift(sr.centroid), Compose(best.T, Shift(-sc.centroid)));

@@ -5,11 +5,9 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <iostream>
 #include <numeric>
 #include <optional>
-#include <sstream>
 
 #include "common/atomic_file.h"
 #include "common/cli_args.h"
@@ -113,11 +111,7 @@ icp::Options IcpOptions(const Args& a) {
 }
 
 nlohmann::json LoadRecon(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path + ": cannot open (RECON_DIR must hold mound_recon reconstruct's output)");
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  nlohmann::json doc = ParseJson(ss.str(), path);
+  nlohmann::json doc = ParseJson(ReadFile(path), path);
   CheckSchema(doc, "mound.recon", 1, path);
   return doc;
 }
