@@ -12,6 +12,7 @@ APT_PACKAGES=(
   build-essential cmake ninja-build pkg-config git
   nlohmann-json3-dev libgtest-dev libeigen3-dev libopencv-dev libceres-dev
   libpcl-dev libopenmpi-dev
+  chromium
   python3 python3-venv python3-dev
 )
 

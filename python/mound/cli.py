@@ -34,7 +34,7 @@ from mound.classify import coarse, statlog
 from mound.classify.model import SCHEMA as MODEL_SCHEMA
 from mound.classify.model import VERSION as MODEL_VERSION
 from mound.classify.model import Model
-from mound.errors import EXIT_BAD_INPUT, EXIT_NO_RESULT, InputError, NoResultError
+from mound.errors import InputError, exit_for
 from mound.geometry.flight import ScanSpec
 from mound.jsonio import read_json, write_json
 from mound.plan.field import STANDARD_SEEDS, make_field, sites_document
@@ -411,15 +411,8 @@ def main(argv: list[str] | None = None) -> int:
         code: int = args.func(args)
         print(f"({time.perf_counter() - start:.2f} s)", file=sys.stderr)
         return code
-    except InputError as e:
-        print(f"mound: {e}", file=sys.stderr)
-        return EXIT_BAD_INPUT
-    except NoResultError as e:
-        print(f"mound: no result: {e}", file=sys.stderr)
-        return EXIT_NO_RESULT
     except Exception as e:
-        print(f"mound: internal error (a bug, please report): {e!r}", file=sys.stderr)
-        return 1
+        return exit_for("mound", e)
 
 
 if __name__ == "__main__":

@@ -13,6 +13,7 @@
 from __future__ import annotations
 
 import signal
+import sys
 
 EXIT_OK = 0
 EXIT_INTERNAL = 1
@@ -83,3 +84,16 @@ def tool_error(tool: str, code: int, stderr: str) -> ToolError:
     if code == EXIT_NO_RESULT:
         return ToolNoResultError(tool, code, stderr)
     return ToolError(tool, code, stderr)
+
+
+def exit_for(prog: str, e: Exception) -> int:
+    """A command line's answer to an error that reached its main: one line on stderr and
+    the exit code (2 bad input, 3 no result, 1 anything else: a bug)."""
+    if isinstance(e, InputError):
+        print(f"{prog}: {e}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    if isinstance(e, NoResultError):
+        print(f"{prog}: no result: {e}", file=sys.stderr)
+        return EXIT_NO_RESULT
+    print(f"{prog}: internal error (a bug, please report): {e!r}", file=sys.stderr)
+    return EXIT_INTERNAL

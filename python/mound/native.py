@@ -16,6 +16,7 @@ Ready for minute-long runs (ODM's `system.run` is the model, ../shared/STYLE.md)
 from __future__ import annotations
 
 import collections
+import contextlib
 import json
 import os
 import signal
@@ -23,6 +24,7 @@ import subprocess
 import sys
 import threading
 import time
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any
@@ -40,6 +42,26 @@ from mound.paths import build_dir
 
 TAIL_LINES = 200       # stderr lines kept in memory for the error message
 GRACE_S = 3.0          # between SIGTERM and SIGKILL
+
+# The tools running now in this process (any thread) with the tag of the work they belong
+# to, so that end_all() can stop them: a Dask worker running a survey's tasks is told to by
+# the driver when the user interrupts it. An ended tag stays ended: a task of that run
+# that was between two tools then cannot start another (no race with the next Popen).
+_live: dict[subprocess.Popen[bytes], str | None] = {}
+_ended: set[str] = set()
+_live_lock = threading.Lock()
+_local = threading.local()
+
+
+@contextlib.contextmanager
+def tagged(tag: str) -> Iterator[None]:
+    """Every tool this thread starts inside the block belongs to the work `tag`."""
+    previous = getattr(_local, "tag", None)
+    _local.tag = tag
+    try:
+        yield
+    finally:
+        _local.tag = previous
 
 
 @dataclass
@@ -77,6 +99,19 @@ def _end_group(proc: subprocess.Popen[bytes]) -> None:
     proc.wait()
 
 
+def end_all(tag: str | None = None) -> int:
+    """Ends every tool this process is running now (their whole process groups), or only
+    those of the work `tag`, which then starts no more; as on Ctrl-C. The threads waiting
+    for them see a killed tool (a ToolError). Returns how many were ended."""
+    with _live_lock:
+        if tag is not None:
+            _ended.add(tag)
+        procs = [p for p, t in _live.items() if tag is None or t == tag]
+    for proc in procs:
+        _end_group(proc)
+    return len(procs)
+
+
 def run_tool(name: str, args: list[str], timeout_s: float | None = None, *,
              log: str | Path | None = None, echo: bool = False) -> ToolRun:
     """Runs build/<name> with `args`; raises a ToolError (see the module text) unless it
@@ -97,8 +132,14 @@ def run_tool(name: str, args: list[str], timeout_s: float | None = None, *,
                 log_file.flush()
 
     start = time.perf_counter()
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            stdin=subprocess.DEVNULL, start_new_session=True)
+    tag = getattr(_local, "tag", None)
+    with _live_lock:
+        if tag is not None and tag in _ended:
+            raise ToolError(name, -signal.SIGTERM, f"{name}: not started, the work was "
+                            "interrupted")
+        proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                stdin=subprocess.DEVNULL, start_new_session=True)
+        _live[proc] = tag
     note(f"[native] pid {proc.pid}: {' '.join(cmd)}")
     assert proc.stdout is not None and proc.stderr is not None
     stdout, stderr = proc.stdout, proc.stderr
@@ -139,6 +180,8 @@ def run_tool(name: str, args: list[str], timeout_s: float | None = None, *,
         elapsed = time.perf_counter() - start
         note(f"[native] pid {proc.pid}: exit {code} after {elapsed:.3f} s")
     finally:
+        with _live_lock:
+            _live.pop(proc, None)
         stdout.close()
         stderr.close()
         if log_file is not None:

@@ -1,0 +1,467 @@
+"""`python python/mission.py`: the whole survey, from satellite data to a verdict per site.
+
+Stages, each writing into the run directory (tree.py) and skipped on a rerun when its
+inputs and options are unchanged (ledger.py):
+
+    classify   train the coarse-search classifier on Statlog sat.trn, evaluate on sat.tst
+    field      the candidate sites: the paper's 10 x 10 protocol (field seed, flyable
+               spacing) or the user's --sites file; p(mound), reward, scan costs
+    plan       mound_plan: the orienteering tour within the budget
+    mission    the tour as a MAVLink mission (.plan, .waypoints, .geojson), uploaded and
+               read back with --connect
+    sites3d    per visited site on Dask: its flight simulated from the site's hidden truth
+               (or the photos of --images-root), mound_recon reconstruct, mound_recon
+               verdict, the site's pictures; a failing site is reported and the rest go on
+    report     final labels (the 3-D verdict where visited, the classifier's elsewhere),
+               eps_MD / eps_FA, summary.json (mound.survey v1), report.html, report.md
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+import uuid
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from mound import native
+from mound.cli import Parser, UsageError
+from mound.datasets import sha256_of
+from mound.errors import EXIT_NO_RESULT, exit_for
+from mound.jsonio import read_json, write_json
+from mound.survey.ledger import Ledger, StageRecord, digest
+from mound.survey.tree import RunTree
+
+STAGES = ("classify", "field", "plan", "mission", "sites3d", "report")
+SCHEMA = "mound.survey"
+VERSION = 1
+
+
+class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
+    """Shows defaults, except None and False (options that are off unless given)."""
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        if action.default in (None, False, argparse.SUPPRESS):
+            return action.help or ""
+        return super()._get_help_string(action) or ""
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = Parser(
+        prog="python python/mission.py",
+        description="The whole survey in one command: classifier -> candidate sites -> "
+        "tour (mound_plan) -> MAVLink mission -> per visited site its flight (simulated, "
+        "or your photos), mound_recon reconstruct and verdict -> final labels, eps_MD, "
+        "eps_FA, summary.json and report.html. A rerun with the same options skips what "
+        "is done (interrupt it any time and run it again).",
+        formatter_class=HelpFormatter)
+    p.add_argument("--out", default="runs/survey", help="run directory")
+    g = p.add_argument_group("candidate sites")
+    g.add_argument("--field-seed", type=int, default=0,
+                   help="the paper's protocol: a 10 x 10 field of Statlog sat.tst examples, "
+                   "3-5 of them positives (mounds); seeds 0-9 are the standard fields")
+    g.add_argument("--spacing", type=float, default=250.0,
+                   help="distance between neighbouring sites of the field, m")
+    g.add_argument("--sites", help="your own sites instead: a mound.sites JSON or a GeoJSON "
+                   "FeatureCollection of points (a 'home' feature, then sites with p_mound, "
+                   "optional reward and truth); see README")
+    g.add_argument("--budget", type=float, help="flight distance budget, m (default: the "
+                   "sites file's budget_m, else the aircraft's range, 14,400 m)")
+    g = p.add_argument_group("flight")
+    g.add_argument("--scan-pattern", choices=("raster", "orbit", "both"), default="raster",
+                   help="how each site is scanned (the mission flies it, the simulator "
+                   "renders it, the planner pays for it)")
+    g.add_argument("--site-diameter", type=float, default=60.0,
+                   help="size of the scan (and of a simulated tumulus), m")
+    g.add_argument("--algo", default="newalg",
+                   choices=("newalg", "newalg-ls", "greedy", "tsiligirides", "glv"),
+                   help="mound_plan's algorithm")
+    g.add_argument("--plan-seed", type=int, default=1, help="mound_plan's seed")
+    g.add_argument("--connect", help="also upload the mission to this MAVLink vehicle and "
+                   "read it back (udpout:HOST:PORT, udpin:HOST:PORT, tcp:HOST:PORT, serial)")
+    g.add_argument("--firmware", choices=("px4", "ardupilot"), default="px4")
+    g = p.add_argument_group("3-D stage")
+    g.add_argument("--images-root", help="the UAV's photos: one folder per site id (with "
+                   "camera.json / poses.json when known, else EXIF); default: simulate "
+                   "each visited site's flight from its hidden truth")
+    g.add_argument("--image-size", type=int, nargs=2, default=(640, 480),
+                   metavar=("W", "H"), help="simulated image size, px")
+    g.add_argument("--sim-seed", type=int, default=1, help="seed of the simulated sites")
+    g.add_argument("--max-features", type=int, default=4000,
+                   help="SIFT features per image (mound_recon reconstruct)")
+    g.add_argument("--reference", help="judge by the paper's test against this reference "
+                   "mound (PLY) instead of the reference-free dome detector")
+    g.add_argument("--site-timeout", type=float, default=1800.0,
+                   help="limit per tool run of a site, s")
+    g = p.add_argument_group("scale-out")
+    g.add_argument("--scheduler", help="address of a running Dask scheduler "
+                   "(tcp://HOST:8786); default: a local cluster")
+    g.add_argument("--workers", type=int, help="local cluster: worker processes "
+                   "(default: one per core)")
+    g.add_argument("--site-threads", type=int, default=1,
+                   help="threads of each site's tools (one task per worker thread)")
+    g = p.add_argument_group("run")
+    g.add_argument("--force", action="store_true", help="redo every stage")
+    g.add_argument("--rerun-from", choices=STAGES,
+                   help="redo this stage and those after it")
+    g.add_argument("--no-progress", action="store_true", help="no progress bar")
+    return p
+
+
+@dataclass
+class Context:
+    args: argparse.Namespace
+    tree: RunTree
+    ledger: Ledger
+    stages: list[dict[str, Any]] = field(default_factory=list)
+    keys: dict[str, str] = field(default_factory=dict)
+    redo_from: int = 6  # index into STAGES: stages from here on are redone
+    run_id: str = field(default_factory=lambda: uuid.uuid4().hex)
+
+    def say(self, text: str) -> None:
+        print(text, flush=True)
+
+
+def run_stage(ctx: Context, name: str, material: dict[str, Any], work: Any) -> str:
+    """Runs `work()` -> (outputs relative to the run directory, a one-line note) unless the
+    ledger holds this stage with the same key and its outputs; records it."""
+    key = digest({"stage": name, **material})
+    ctx.keys[name] = key
+    redo = STAGES.index(name) >= ctx.redo_from
+    if not redo and ctx.ledger.is_done(name, key):
+        prev = ctx.ledger.previous(name)
+        ctx.stages.append({"name": name, "wall_s": 0.0, "skipped": True,
+                           "wall_s_when_run": prev.get("wall_s"), "note": prev.get("note", "")})
+        ctx.say(f"[{name}] skipped, unchanged: {prev.get('note', '')} "
+                f"(ran in {prev.get('wall_s', 0):.1f} s)")
+        return key
+    ctx.ledger.forget(name)
+    start = time.perf_counter()
+    outputs, note, complete = work()
+    wall = time.perf_counter() - start
+    if complete:
+        ctx.ledger.record(StageRecord(name, key, wall, outputs, note=note))
+    ctx.stages.append({"name": name, "wall_s": wall, "skipped": False, "note": note,
+                       "complete": complete})
+    ctx.say(f"[{name}] {note} ({wall:.1f} s)")
+    return key
+
+
+# ---------------------------------------------------------------------------- stages
+
+def stage_classify(ctx: Context) -> str:
+    from mound import datasets
+    from mound.classify import coarse, statlog
+
+    if ctx.args.sites:
+        ctx.stages.append({"name": "classify", "wall_s": 0.0, "skipped": True,
+                           "note": "not needed: --sites gives each site's p_mound"})
+        ctx.say("[classify] not needed: --sites gives each site's p_mound")
+        ctx.keys["classify"] = "user-sites"
+        return "user-sites"
+
+    def work() -> tuple[list[str], str, bool]:
+        datasets.fetch(datasets.STATLOG)
+        model = coarse.train(statlog.load("sat.trn"), coarse.DEFAULT_BAND)
+        write_json(ctx.tree.model, model.to_doc())
+        s = coarse.evaluate(model, statlog.load("sat.tst"))
+        write_json(ctx.tree.classifier_eval, {
+            "schema": "mound.classifier_eval", "version": 1,
+            **{k: v for k, v in s.items() if k != "reliability"}})
+        return (["model.json", "classifier.json"],
+                f"band {model.band} logistic regression, sat.tst accuracy {s['accuracy']:.3f}, "
+                f"AUC {s['auc']:.3f}", True)
+
+    return run_stage(ctx, "classify", {"data": datasets.STATLOG.files,
+                                       "band": coarse.DEFAULT_BAND, "l2": coarse.DEFAULT_L2},
+                     work)
+
+
+def scan_spec(args: argparse.Namespace) -> Any:
+    from mound.uav import mission_items
+
+    scan = mission_items.scan_for_site(args.site_diameter, args.scan_pattern)
+    from dataclasses import replace
+    scan = replace(scan, width_px=args.image_size[0], height_px=args.image_size[1])
+    scan.validate()
+    return scan
+
+
+def stage_field(ctx: Context) -> str:
+    from mound.classify import statlog
+    from mound.classify.model import SCHEMA as MODEL_SCHEMA
+    from mound.classify.model import VERSION as MODEL_VERSION
+    from mound.classify.model import Model
+    from mound.plan.field import make_field, sites_document
+    from mound.survey.sites_input import load_user_sites
+    from mound.uav.mission_items import flight_budget_m
+
+    a = ctx.args
+    scan = scan_spec(a)
+    if a.sites:
+        # Validated now, before anything is planned or flown, even when the stage is
+        # skipped: a bad file must stop the run here.
+        doc = load_user_sites(a.sites, scan, a.budget, flight_budget_m(),
+                              need_truth=not a.images_root)
+        material: dict[str, Any] = {"sites": doc}
+    else:
+        material = {"classify": ctx.keys["classify"], "seed": a.field_seed,
+                    "spacing": a.spacing, "scan": scan.to_doc(), "budget": a.budget}
+
+    def work() -> tuple[list[str], str, bool]:
+        if a.sites:
+            out = doc
+        else:
+            test = statlog.load("sat.tst")
+            model = Model.from_doc(read_json(ctx.tree.model, MODEL_SCHEMA, MODEL_VERSION),
+                                   ctx.tree.model)
+            out = sites_document(make_field(test, a.field_seed), test, model, None,
+                                 a.budget if a.budget is not None else flight_budget_m(),
+                                 spacing_m=a.spacing, scan=scan)
+        write_json(ctx.tree.sites, out)
+        prov = out["provenance"]
+        what = f"field seed {a.field_seed}" if not a.sites else f"{a.sites}"
+        return (["sites.json"], f"{what}: {len(out['sites'])} sites, {prov['positives']} "
+                f"true mounds, total reward {prov['total_reward']:.2f} bits, scan cost "
+                f"{scan.site_cost_m():.0f} m per site, budget {out['budget_m']:.0f} m", True)
+
+    return run_stage(ctx, "field", material, work)
+
+
+def stage_plan(ctx: Context) -> str:
+    a = ctx.args
+
+    def work() -> tuple[list[str], str, bool]:
+        native.run_tool("mound_plan", [str(ctx.tree.sites), "--algo", a.algo, "--seed",
+                                       str(a.plan_seed), "--out", str(ctx.tree.plan)],
+                        timeout_s=600, log=ctx.tree.root / "log.txt")
+        plan = read_json(ctx.tree.plan, "mound.plan", 1)
+        return (["plan.json"], f"{a.algo}: {plan['n_visited']} of {plan['n_sites']} sites, "
+                f"reward {plan['reward']:.2f} bits, {plan['cost_m']:.0f} m of "
+                f"{plan['budget_m']:.0f} m", True)
+
+    return run_stage(ctx, "plan", {"field": ctx.keys["field"], "algo": a.algo,
+                                   "seed": a.plan_seed}, work)
+
+
+def stage_mission(ctx: Context) -> str:
+    from mound.geometry.geodesy import Origin
+    from mound.survey import figures
+    from mound.uav import files as mission_files
+    from mound.uav import mission_items
+    from mound.uav.cli import upload_mission
+
+    a = ctx.args
+    t = ctx.tree
+
+    def work() -> tuple[list[str], str, bool]:
+        plan = read_json(t.plan, "mound.plan", 1)
+        if not plan.get("n_visited"):
+            return [], "nothing to fly: no site fits the budget", True
+        origin = Origin.from_doc(plan["origin"], f"{t.plan}: origin")
+        scan = mission_items.plan_scan(plan, str(t.plan))
+        m = mission_items.build(plan, origin, mission_items.MissionSpec(scan=scan))
+        mission_files.write_plan(t.mission_plan, m, a.firmware)
+        mission_files.write_wpl(t.mission_wpl, m)
+        mission_files.write_geojson(t.mission_geojson, m)
+        summary = m.summary()
+        note = (f"{len(m.items)} MAVLink items, {len(m.sites)} sites, flight "
+                f"{m.flight_distance_m:.0f} m of {m.budget_m:.0f} m")
+        if a.connect:
+            r = upload_mission(t.mission_plan, a.connect, verify=True, firmware=a.firmware)
+            summary["upload"] = {"connect": a.connect, **r}
+            note += (f"; uploaded to system {r['target_system']} and read back "
+                     f"({r['elapsed_s']:.2f} s)")
+        else:
+            note += "; not uploaded (no --connect)"
+        write_json(t.mission_summary, summary)
+        t.report_dir.mkdir(parents=True, exist_ok=True)
+        figures.mission_map(m.nav_enu, m.footprints, m.sites, t.report_dir / "mission.png")
+        return (["mission.plan", "mission.waypoints", "mission.geojson", "mission.json",
+                 "report/mission.png"], note, True)
+
+    return run_stage(ctx, "mission", {"plan": ctx.keys["plan"], "connect": a.connect,
+                                      "firmware": a.firmware}, work)
+
+
+def _folder_digest(folder: Path) -> str:
+    if not folder.is_dir():
+        return "missing"
+    return digest(sorted((p.name, p.stat().st_size, p.stat().st_mtime_ns)
+                         for p in folder.iterdir() if p.is_file()))
+
+
+def site_jobs(ctx: Context) -> list[Any]:
+    from mound.survey.site_work import SiteJob
+
+    a = ctx.args
+    sites_doc = read_json(ctx.tree.sites, "mound.sites", 1)
+    plan = read_json(ctx.tree.plan, "mound.plan", 1)
+    tour = set(plan["tour"])
+    root = ctx.tree.root.resolve()
+    options = {"image_size": tuple(a.image_size), "pattern": a.scan_pattern,
+               "site_diameter_m": a.site_diameter, "sim_seed": a.sim_seed,
+               "recon_args": ("--max-features", str(a.max_features)),
+               "verdict_args": ("--reference", str(Path(a.reference).resolve()))
+               if a.reference else (), "threads": a.site_threads,
+               "timeout_s": a.site_timeout}
+    jobs = []
+    for index, s in enumerate(sites_doc["sites"]):
+        if s["id"] not in tour:
+            continue
+        images = str((Path(a.images_root) / s["id"]).resolve()) if a.images_root else None
+        key = digest({"site": {k: s.get(k) for k in ("id", "x_m", "y_m", "truth")},
+                      "index": index, "options": options, "images": images,
+                      "images_digest": _folder_digest(Path(images)) if images else None,
+                      "reference": sha256_of(Path(a.reference)) if a.reference else None})
+        jobs.append(SiteJob(site=s, index=index, run_root=str(root), run_id=ctx.run_id,
+                            origin=sites_doc["origin"], key=key, images_dir=images,
+                            **options))  # type: ignore[arg-type]
+    return jobs
+
+
+def _reusable(job: Any) -> dict[str, Any] | None:
+    path = job.tree.result
+    if not path.is_file():
+        return None
+    try:
+        row = json.loads(path.read_text())
+    except (OSError, json.JSONDecodeError):
+        return None
+    if row.get("key") != job.key:
+        return None
+    if row.get("status") == "ok" or row.get("retry") is False:
+        return row
+    return None
+
+
+def stage_sites3d(ctx: Context) -> str:
+    from mound.survey import cluster
+
+    a = ctx.args
+    jobs = site_jobs(ctx)
+
+    def work() -> tuple[list[str], str, bool]:
+        rows: dict[str, dict[str, Any]] = {}
+        todo = []
+        for job in jobs:
+            row = None if STAGES.index("sites3d") >= ctx.redo_from else _reusable(job)
+            if row is not None:
+                rows[job.site["id"]] = row
+            else:
+                todo.append(job)
+        if todo:
+            ctx.say(f"[sites3d] {len(todo)} of {len(jobs)} visited sites to process "
+                    f"({len(jobs) - len(todo)} done before)")
+            with cluster.client_for(a.scheduler, a.workers) as client:
+                ctx.say(f"[sites3d] Dask {cluster.describe(client)}")
+
+                def on_row(row: dict[str, Any]) -> None:
+                    rows[row["id"]] = row
+                    if "schema" not in row:  # the task died before writing its row
+                        job = next(j for j in todo if j.site["id"] == row["id"])
+                        write_json(job.tree.result, row)
+
+                cluster.run_sites(client, todo, ctx.run_id, on_row,
+                                  progress=not a.no_progress)
+        ok = [r for r in rows.values() if r.get("status") == "ok"]
+        failed = [r for r in rows.values() if r.get("status") != "ok"]
+        mounds = sum(1 for r in ok if r.get("verdict") == "mound")
+        note = (f"{len(jobs)} visited sites: {len(ok)} judged ({mounds} mound, "
+                f"{len(ok) - mounds} no mound), {len(failed)} failed")
+        for r in failed:
+            ctx.say(f"[sites3d] {r['id']} failed: {r.get('reason', '?')}")
+        complete = all(r.get("retry") is False for r in failed)
+        root = ctx.tree.root.resolve()
+        outputs = [str(j.tree.result.relative_to(root)) for j in jobs]
+        return outputs, note, complete
+
+    return run_stage(ctx, "sites3d", {"plan": ctx.keys["plan"],
+                                      "sites": [j.key for j in jobs]}, work)
+
+
+def stage_report(ctx: Context, started: float) -> str:
+    from mound.survey import report
+
+    def work() -> tuple[list[str], str, bool]:
+        summary = report.build_summary(ctx.tree, ctx.args, ctx.stages, started)
+        write_json(ctx.tree.summary, summary)
+        report.write_reports(ctx.tree, summary)
+        m = summary["metrics"]
+        fmt = (lambda v: "n/a" if v is None else f"{v:.3f}")  # noqa: E731
+        return (["summary.json", "report.html", "report.md"],
+                f"eps_MD {fmt(m['eps_md'])}, eps_FA {fmt(m['eps_fa'])} (classifier alone: "
+                f"{fmt(m['classifier_only']['eps_md'])}, "
+                f"{fmt(m['classifier_only']['eps_fa'])}) -> {ctx.tree.report_html}", True)
+
+    # The report always reflects this run's stage table, so it is rebuilt every time
+    # (a few seconds); its key still records what it was built from.
+    ctx.redo_from = min(ctx.redo_from, STAGES.index("report"))
+    return run_stage(ctx, "report", {k: ctx.keys.get(k) for k in STAGES[:-1]}, work)
+
+
+def check_args(a: argparse.Namespace) -> None:
+    if a.spacing <= 0:
+        raise UsageError("--spacing: must be > 0 m")
+    if a.budget is not None and a.budget <= 0:
+        raise UsageError("--budget: must be > 0 m")
+    if a.site_diameter <= 0:
+        raise UsageError("--site-diameter: must be > 0 m")
+    if min(a.image_size) < 64:
+        raise UsageError("--image-size: at least 64 x 64 px")
+    if a.max_features < 100:
+        raise UsageError("--max-features: at least 100")
+    if a.site_timeout <= 0 or a.site_threads < 1 or (a.workers is not None and a.workers < 1):
+        raise UsageError("--site-timeout, --site-threads, --workers: must be positive")
+    if a.images_root and not Path(a.images_root).is_dir():
+        raise UsageError(f"--images-root: {a.images_root} is not a folder")
+    if a.reference and not Path(a.reference).is_file():
+        raise UsageError(f"--reference: {a.reference} not found")
+    if a.sites and not Path(a.sites).is_file():
+        raise UsageError(f"--sites: {a.sites} not found")
+    for tool in ("mound_plan", "mound_recon", "mound_render"):
+        try:
+            native.tool_path(tool)
+        except FileNotFoundError as e:
+            raise UsageError(f"{e}") from None
+
+
+def run(argv: list[str]) -> int:
+    args = build_parser().parse_args(argv)
+    check_args(args)
+    started = time.time()
+    tree = RunTree(Path(args.out))
+    tree.root.mkdir(parents=True, exist_ok=True)
+    ctx = Context(args, tree, Ledger(tree.ledger))
+    if args.force:
+        ctx.redo_from = 0
+    elif args.rerun_from:
+        ctx.redo_from = STAGES.index(args.rerun_from)
+    ctx.say(f"survey -> {tree.root} ({os.cpu_count()} cores)")
+    stage_classify(ctx)
+    stage_field(ctx)
+    stage_plan(ctx)
+    stage_mission(ctx)
+    stage_sites3d(ctx)
+    stage_report(ctx, started)
+    total = time.time() - started
+    summary = read_json(tree.summary, SCHEMA, VERSION)
+    ctx.say(f"done in {total:.1f} s ({summary['status']}): {tree.summary}, {tree.report_html}")
+    return EXIT_NO_RESULT if summary["status"] == "failed" else 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    try:
+        return run(argv)
+    except KeyboardInterrupt:
+        print("\nmission.py: interrupted; run the same command again to resume",
+              file=sys.stderr)
+        return 130
+    except Exception as e:
+        return exit_for("mission.py", e)
+

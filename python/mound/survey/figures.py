@@ -1,0 +1,156 @@
+"""The survey report's pictures: the field map with the tour, the mission in local metres,
+and per site a strip of its images and the relief map with the verdict (PNG files)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+from PIL import Image
+from scipy.stats import binned_statistic_2d
+
+from mound.jsonio import read_json
+from mound.ply import read_ply
+from mound.sim.figures import save_figure
+
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff")
+
+
+def thumbnail_strip(images_dir: Path, out_png: Path, count: int = 8,
+                    height_px: int = 96) -> Path:
+    """`count` images spread over the flight, side by side at `height_px`."""
+    files = sorted(p for p in Path(images_dir).iterdir() if p.suffix.lower() in IMAGE_SUFFIXES)
+    if not files:
+        raise ValueError(f"{images_dir}: no images")
+    pick = [files[int(round(k))] for k in np.linspace(0, len(files) - 1, min(count, len(files)))]
+    thumbs = []
+    for f in pick:
+        with Image.open(f) as im:
+            im = im.convert("RGB")
+            w = max(1, round(im.width * height_px / im.height))
+            thumbs.append(im.resize((w, height_px), Image.Resampling.LANCZOS))
+    gap = 4
+    strip = Image.new("RGB", (sum(t.width for t in thumbs) + gap * (len(thumbs) - 1),
+                              height_px), (255, 255, 255))
+    x = 0
+    for t in thumbs:
+        strip.paste(t, (x, 0))
+        x += t.width + gap
+    out_png.parent.mkdir(parents=True, exist_ok=True)
+    tmp = out_png.with_name(out_png.name + ".tmp.png")
+    strip.save(tmp)
+    tmp.replace(out_png)
+    return out_png
+
+
+def _ground(coef: list[float], x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """mound_recon verdict's ground: z = c0 + c1 x + c2 y + c3 x^2 + c4 x y + c5 y^2 (x, y
+    from the site centre)."""
+    c = list(coef) + [0.0] * (6 - len(coef))
+    return c[0] + c[1] * x + c[2] * y + c[3] * x * x + c[4] * x * y + c[5] * y * y
+
+
+def relief_map(recon_dir: Path, verdict_json: Path, out_png: Path, title: str = "",
+               dpi: int = 70) -> Path:
+    """Height above the fitted ground (the verdict's) of the reconstructed points, gridded
+    by median, with the measured rise's base circle."""
+    xyz, _ = read_ply(Path(recon_dir) / "points.ply")
+    verdict = read_json(verdict_json, "mound.verdict", 1)
+    m = verdict.get("measurements", {})
+    centre = np.array(m.get("site_centre_enu_m", np.median(xyz[:, :2], axis=0)), dtype=float)
+    radius = float(m.get("site_radius_m", np.percentile(
+        np.linalg.norm(xyz[:, :2] - centre, axis=1), 80)))
+    d = xyz[:, :2] - centre
+    inside = np.linalg.norm(d, axis=1) <= radius
+    d, z = d[inside], xyz[inside, 2]
+    if "ground_coefficients" in m:
+        h = z - _ground(m["ground_coefficients"], d[:, 0], d[:, 1])
+    else:
+        h = z - np.percentile(z, 15)
+    cell = float(m.get("cell_m", radius / 30)) or radius / 30
+    bins = max(8, int(np.ceil(2 * radius / cell)))
+    edges = np.linspace(-radius, radius, bins + 1)
+    grid, _, _, _ = binned_statistic_2d(d[:, 0], d[:, 1], h, "median", bins=[edges, edges])
+    fig, ax = plt.subplots(figsize=(4.2, 3.6))
+    lim = max(1.0, float(np.nanpercentile(grid, 99))) if np.isfinite(grid).any() else 1.0
+    im = ax.imshow(grid.T, origin="lower", extent=(-radius, radius, -radius, radius),
+                   cmap="terrain", vmin=min(-0.5, float(np.nanmin(grid))) if np.isfinite(
+                       grid).any() else -0.5, vmax=lim)
+    fig.colorbar(im, ax=ax, label="height above ground (m)")
+    rise = m.get("rise")
+    if isinstance(rise, dict) and rise.get("base_diameter_m"):
+        c = np.array(rise.get("centre_enu_m", centre), dtype=float) - centre
+        r = 0.5 * float(rise["base_diameter_m"])
+        t = np.linspace(0, 2 * np.pi, 100)
+        ax.plot(c[0] + r * np.cos(t), c[1] + r * np.sin(t), "k--", lw=1)
+        ax.text(c[0], c[1], f"{rise.get('height_m', 0):.1f} m", ha="center", va="center",
+                fontsize=8)
+    ax.set_xlabel("east of site centre (m)")
+    ax.set_ylabel("north (m)")
+    ax.set_title(title or verdict.get("label", ""), fontsize=9)
+    return save_figure(fig, out_png, dpi)
+
+
+def field_map(sites_doc: dict[str, Any], plan: dict[str, Any] | None,
+              rows: dict[str, dict[str, Any]], out_png: Path, dpi: int = 80) -> Path:
+    """Every site coloured by p(mound), the tour, the true mounds ringed and each visited
+    site's verdict marked."""
+    sites = sites_doc["sites"]
+    xy = np.array([[s["x_m"], s["y_m"]] for s in sites])
+    p = np.array([s.get("p_mound", np.nan) for s in sites])
+    fig, ax = plt.subplots(figsize=(6.4, 5.6))
+    if plan is not None:
+        pos = {w["id"]: (w["x_m"], w["y_m"]) for w in plan.get("waypoints", [])}
+        path = np.array([pos[i] for i in plan["tour"] if i in pos])
+        if len(path):
+            ax.plot(path[:, 0], path[:, 1], "-", color="0.35", lw=1.2, zorder=1,
+                    label=f"tour ({plan['cost_m']:.0f} m of {plan['budget_m']:.0f} m)")
+    sc = ax.scatter(xy[:, 0], xy[:, 1], c=p, cmap="viridis", vmin=0, vmax=1, s=60,
+                    zorder=2, edgecolors="none")
+    fig.colorbar(sc, ax=ax, label="p(mound) from the satellite classifier")
+    truth = np.array([bool(s.get("truth", {}).get("mound")) for s in sites])
+    if truth.any():
+        ax.scatter(xy[truth, 0], xy[truth, 1], s=190, facecolors="none", edgecolors="red",
+                   lw=1.5, zorder=3, label="true mound")
+    for verdict, marker, colour in (("mound", "^", "orange"), ("no_mound", "x", "black"),
+                                    ("failed", "s", "magenta")):
+        ids = [k for k, s in enumerate(sites) if rows.get(s["id"], {}).get("verdict") == verdict]
+        if ids:
+            ax.scatter(xy[ids, 0], xy[ids, 1] + 0.0, marker=marker, c=colour, s=36, zorder=4,
+                       label=f"3-D verdict: {verdict}")
+    home = sites_doc["home"]
+    ax.plot(home["x_m"], home["y_m"], "k*", ms=14, zorder=5, label="home")
+    ax.set_aspect("equal")
+    ax.set_xlabel("east (m)")
+    ax.set_ylabel("north (m)")
+    ax.legend(loc="upper left", bbox_to_anchor=(0, -0.12), ncol=3, fontsize=7, frameon=False)
+    ax.set_title("candidate sites, tour and verdicts", fontsize=10)
+    return save_figure(fig, out_png, dpi)
+
+
+def mission_map(nav_enu: np.ndarray, footprints: list[dict[str, Any]],
+                sites: list[dict[str, Any]], out_png: Path, dpi: int = 80) -> Path:
+    """The MAVLink mission's flight path in local metres, coloured by height, with the
+    image footprints on the ground."""
+    fig, ax = plt.subplots(figsize=(6.4, 5.2))
+    for fp in footprints:
+        c = np.array(fp["corners_enu_m"] + fp["corners_enu_m"][:1])
+        ax.fill(c[:, 0], c[:, 1], color="tab:blue", alpha=0.04, lw=0)
+    pts = np.asarray(nav_enu, dtype=float)
+    if len(pts):
+        sc = ax.scatter(pts[:, 0], pts[:, 1], c=pts[:, 2], cmap="plasma", s=4, zorder=3)
+        ax.plot(pts[:, 0], pts[:, 1], "-", color="0.3", lw=0.6, zorder=2)
+        fig.colorbar(sc, ax=ax, label="height above home (m)")
+    for s in sites:
+        ax.annotate(s["id"], (s["x_m"], s["y_m"]), fontsize=6, xytext=(3, 3),
+                    textcoords="offset points")
+    ax.set_aspect("equal")
+    ax.set_xlabel("east of home (m)")
+    ax.set_ylabel("north of home (m)")
+    ax.set_title("MAVLink mission: path and image footprints", fontsize=10)
+    return save_figure(fig, out_png, dpi)

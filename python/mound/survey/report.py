@@ -1,0 +1,356 @@
+"""The survey's results: summary.json (mound.survey v1), report.html and report.md.
+
+Final label of a site: the 3-D verdict where the UAV visited it and the verdict came out;
+the classifier's (p_mound >= 0.5) elsewhere, failed sites included. The paper's error
+rates on the sites whose truth is known: eps_MD, the fraction of true mounds labelled
+"no mound" (missed detections); eps_FA, the fraction of the other sites labelled "mound"
+(false alarms). Beside them, the same rates of the classifier alone and of a perfect
+verification of the visited sites (the paper's Table I assumption).
+
+report.html opens from the file system: styles inline, every picture a PNG beside it
+(report/ and sites/<id>/), referenced by relative paths.
+"""
+
+from __future__ import annotations
+
+import argparse
+import html
+import json
+import time
+from pathlib import Path
+from typing import Any
+
+from mound.jsonio import read_json, write_atomic
+from mound.survey import figures
+from mound.survey.tree import RunTree, SiteTree
+
+SCHEMA = "mound.survey"
+VERSION = 1
+
+
+def error_rates(labels: list[bool], truth: list[bool | None]) -> tuple[float | None,
+                                                                        float | None]:
+    """(eps_MD, eps_FA) of boolean labels against the known truths (None: unknown)."""
+    pos = [lab for lab, t in zip(labels, truth, strict=True) if t is True]
+    neg = [lab for lab, t in zip(labels, truth, strict=True) if t is False]
+    md = sum(1 for lab in pos if not lab) / len(pos) if pos else None
+    fa = sum(1 for lab in neg if lab) / len(neg) if neg else None
+    return md, fa
+
+
+def _load(path: Path, schema: str) -> dict[str, Any] | None:
+    return read_json(path, schema, 1) if path.is_file() else None
+
+
+def site_rows(tree: RunTree, sites_doc: dict[str, Any], plan: dict[str, Any] | None
+              ) -> list[dict[str, Any]]:
+    tour = set(plan["tour"]) if plan else set()
+    rows = []
+    for s in sites_doc["sites"]:
+        truth = s.get("truth", {}).get("mound") if isinstance(s.get("truth"), dict) else None
+        row: dict[str, Any] = {"id": s["id"], "x_m": s["x_m"], "y_m": s["y_m"],
+                               "p_mound": s["p_mound"], "reward": s["reward"],
+                               "visited": s["id"] in tour}
+        if truth is not None:
+            row["truth"] = bool(truth)
+        classifier = "mound" if s["p_mound"] >= 0.5 else "no_mound"
+        row["classifier_label"] = classifier
+        if row["visited"]:
+            path = SiteTree(tree.site_dir(s["id"])).result
+            result = json.loads(path.read_text()) if path.is_file() else {
+                "status": "failed", "reason": "not processed"}
+            if result.get("status") == "ok":
+                row["verdict"] = result["verdict"]
+                row["final_label"] = result["verdict"]
+                row["label_source"] = "3-D verdict"
+                for k in ("confidence", "method", "reason", "rise", "distance_m"):
+                    if k in result:
+                        row[k] = result[k]
+            else:
+                row["verdict"] = "failed"
+                row["failure"] = result.get("reason", "?")
+                row["final_label"] = classifier
+                row["label_source"] = "classifier (3-D stage failed)"
+            for k in ("recon", "timings_s", "files", "source", "simulated", "worker"):
+                if k in result:
+                    row[k] = result[k]
+        else:
+            row["final_label"] = classifier
+            row["label_source"] = "classifier"
+        rows.append(row)
+    return rows
+
+
+def build_summary(tree: RunTree, args: argparse.Namespace, stages: list[dict[str, Any]],
+                  started: float) -> dict[str, Any]:
+    sites_doc = read_json(tree.sites, "mound.sites", 1)
+    plan = _load(tree.plan, "mound.plan")
+    mission = _load(tree.mission_summary, "mound.mission")
+    rows = site_rows(tree, sites_doc, plan)
+    truth = [r.get("truth") for r in rows]
+    final = [r["final_label"] == "mound" for r in rows]
+    classifier = [r["classifier_label"] == "mound" for r in rows]
+    perfect = [bool(r["truth"]) if r["visited"] and "truth" in r else c
+               for r, c in zip(rows, classifier, strict=True)]
+    md, fa = error_rates(final, truth)
+    cmd, cfa = error_rates(classifier, truth)
+    pmd, pfa = error_rates(perfect, truth)
+    visited = [r for r in rows if r["visited"]]
+    judged = [r for r in visited if r["verdict"] != "failed"]
+    correct = [r for r in judged if "truth" in r and (r["verdict"] == "mound") == r["truth"]]
+    status, reason = "ok", ""
+    if not visited:
+        status, reason = "failed", "no site fits the budget: nothing was flown"
+    elif not judged:
+        status, reason = "failed", "no visited site could be judged (see sites[].failure)"
+    elif len(judged) < len(visited):
+        status, reason = "partial", f"{len(visited) - len(judged)} visited sites failed"
+    doc: dict[str, Any] = {
+        "schema": SCHEMA, "version": VERSION, "status": status,
+        "created_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+        "origin": sites_doc.get("origin"),
+        "options": {k: (list(v) if isinstance(v, tuple) else v) for k, v in vars(args).items()},
+        "field": {"source": args.sites or f"standard field seed {args.field_seed}",
+                  "sites": len(rows), "true_mounds": sum(1 for t in truth if t),
+                  "truth_known": sum(1 for t in truth if t is not None),
+                  "total_reward": sum(r["reward"] for r in rows)},
+        "sites": rows,
+        "metrics": {
+            "eps_md": md, "eps_fa": fa,
+            "reward": plan["reward"] if plan else 0.0,
+            "cost_m": plan["cost_m"] if plan else 0.0,
+            "budget_m": sites_doc["budget_m"],
+            "visited": len(visited), "judged": len(judged),
+            "failed": len(visited) - len(judged),
+            "verdicts_correct": len(correct),
+            "verdicts_with_truth": sum(1 for r in judged if "truth" in r),
+            "classifier_only": {"eps_md": cmd, "eps_fa": cfa},
+            "perfect_verification": {"eps_md": pmd, "eps_fa": pfa},
+        },
+        "stages": stages,
+        "wall_s": time.time() - started,
+    }
+    if reason:
+        doc["reason"] = reason
+    if plan:
+        doc["plan"] = {k: plan.get(k) for k in ("algo", "tour", "reward", "cost_m", "budget_m",
+                                                 "n_visited", "n_sites")}
+    if mission:
+        doc["mission"] = {k: mission.get(k) for k in ("items", "flight_distance_m",
+                                                       "budget_m", "upload")}
+    return doc
+
+
+def _fmt(v: Any, digits: int = 3) -> str:
+    if v is None:
+        return "n/a"
+    if isinstance(v, float):
+        return f"{v:.{digits}f}"
+    return str(v)
+
+
+STYLE = """
+body{font-family:system-ui,-apple-system,'Segoe UI',sans-serif;margin:24px;color:#222;
+max-width:1200px}
+h1{margin-bottom:4px} h2{border-bottom:1px solid #ccc;padding-bottom:4px;margin-top:32px}
+table{border-collapse:collapse;font-size:13px;margin:8px 0}
+td,th{border:1px solid #ddd;padding:3px 8px;text-align:right}
+th{background:#f3f3f3} td.l,th.l{text-align:left}
+.mound{color:#b35900;font-weight:600} .no_mound{color:#205080} .failed{color:#b00020;
+font-weight:600}
+.card{border:1px solid #ccc;border-radius:6px;padding:10px 14px;margin:14px 0}
+.card img{max-width:100%;margin:4px 0} .row{display:flex;gap:12px;flex-wrap:wrap}
+.row img{max-width:48%} .muted{color:#666;font-size:13px} .big{font-size:18px}
+"""
+
+CHECK_IMAGES = """
+window.addEventListener('load', function () {
+  var imgs = Array.prototype.slice.call(document.images);
+  var broken = imgs.filter(function (i) { return !(i.complete && i.naturalWidth > 0); });
+  document.body.setAttribute('data-images', String(imgs.length));
+  document.body.setAttribute('data-broken', broken.map(function (i) {
+    return i.getAttribute('src'); }).join(' '));
+});
+"""
+
+
+def _label(v: str) -> str:
+    return f'<span class="{html.escape(v)}">{html.escape(v.replace("_", " "))}</span>'
+
+
+def _img(src: str, alt: str) -> str:
+    return f'<img src="{html.escape(src)}" alt="{html.escape(alt)}">'
+
+
+def _site_card(r: dict[str, Any]) -> str:
+    e = html.escape
+    truth = "" if "truth" not in r else (" · truth: " + _label("mound" if r["truth"]
+                                                              else "no_mound"))
+    parts = [f'<div class="card" id="site-{e(r["id"])}"><div class="big"><b>{e(r["id"])}</b> '
+             f'at ({r["x_m"]:.0f}, {r["y_m"]:.0f}) m · p(mound) {r["p_mound"]:.3f} · '
+             f'3-D verdict: {_label(r["verdict"])}{truth}</div>']
+    if r["verdict"] == "failed":
+        parts.append(f'<p class="failed">failed: {e(str(r.get("failure", "")))}</p>'
+                     f'<p class="muted">final label from the classifier: '
+                     f'{_label(r["final_label"])}</p>')
+    else:
+        parts.append(f'<p>{e(str(r.get("reason", "")))} (confidence '
+                     f'{_fmt(r.get("confidence"))}, method {e(str(r.get("method", "")))})</p>')
+    files = r.get("files", {})
+    if "thumbnails" in files:
+        parts.append(_img(files["thumbnails"], f"images of {r['id']}"))
+    pics = [_img(files[k], f"{k} of {r['id']}") for k in ("cloud", "relief") if k in files]
+    if pics:
+        parts.append('<div class="row">' + "".join(pics) + "</div>")
+    rec = r.get("recon")
+    t = r.get("timings_s", {})
+    bits = []
+    if rec:
+        bits.append(f"{rec.get('registered')}/{rec.get('images')} images registered, "
+                    f"{rec.get('points')} points, RMSE {_fmt(rec.get('reprojection_rmse_px'))}"
+                    f" px, frame {rec.get('frame')}")
+    if r.get("simulated"):
+        s = r["simulated"]
+        bits.append("simulated " + (f"tumulus {s['height_m']:.1f} m high, {s['diameter_m']:.0f}"
+                                    " m across" if s["mound"] else "flat ground")
+                    + f" (seed {s['seed']})")
+    if t:
+        bits.append("time " + ", ".join(f"{k} {v:.1f} s" for k, v in t.items()))
+    if r.get("worker"):
+        bits.append(f"worker {r['worker']}")
+    parts.append('<p class="muted">' + e(" · ".join(bits)) + "</p></div>")
+    return "".join(parts)
+
+
+def _metrics_table(m: dict[str, Any]) -> str:
+    rows = [("classifier alone (p ≥ 0.5)", m["classifier_only"]),
+            ("this survey (3-D verdicts where visited)", {"eps_md": m["eps_md"],
+                                                         "eps_fa": m["eps_fa"]}),
+            ("perfect verification of the visited sites", m["perfect_verification"])]
+    body = "".join(f'<tr><td class="l">{html.escape(name)}</td><td>{_fmt(v["eps_md"])}</td>'
+                   f'<td>{_fmt(v["eps_fa"])}</td></tr>' for name, v in rows)
+    return ('<table><tr><th class="l">labels</th><th>ε<sub>MD</sub> (missed)</th>'
+            f'<th>ε<sub>FA</sub> (false alarms)</th></tr>{body}</table>')
+
+
+def _stage_table(stages: list[dict[str, Any]]) -> str:
+    body = ""
+    for s in stages:
+        wall = (f"skipped (ran in {_fmt(s.get('wall_s_when_run'), 1)} s)" if s.get("skipped")
+                else f"{s['wall_s']:.1f} s")
+        body += (f'<tr><td class="l">{html.escape(s["name"])}</td><td>{wall}</td>'
+                 f'<td class="l">{html.escape(str(s.get("note", "")))}</td></tr>')
+    return ('<table><tr><th class="l">stage</th><th>wall time</th><th class="l">result</th>'
+            f'</tr>{body}</table>')
+
+
+def _sites_table(rows: list[dict[str, Any]]) -> str:
+    body = ""
+    for r in sorted(rows, key=lambda r: (not r["visited"], -r["reward"])):
+        link = (f'<a href="#site-{html.escape(r["id"])}">{html.escape(r["id"])}</a>'
+                if r["visited"] else html.escape(r["id"]))
+        truth = "" if "truth" not in r else _label("mound" if r["truth"] else "no_mound")
+        body += (f'<tr><td class="l">{link}</td><td>{r["x_m"]:.0f}</td><td>{r["y_m"]:.0f}</td>'
+                 f'<td>{r["p_mound"]:.3f}</td><td>{r["reward"]:.3f}</td>'
+                 f'<td>{"yes" if r["visited"] else ""}</td>'
+                 f'<td class="l">{_label(r["verdict"]) if "verdict" in r else ""}</td>'
+                 f'<td class="l">{_label(r["final_label"])}</td><td class="l">{truth}</td></tr>')
+    return ('<table><tr><th class="l">site</th><th>x (m)</th><th>y (m)</th><th>p(mound)</th>'
+            '<th>reward (bits)</th><th>visited</th><th class="l">3-D verdict</th>'
+            f'<th class="l">final label</th><th class="l">truth</th></tr>{body}</table>')
+
+
+def write_reports(tree: RunTree, summary: dict[str, Any]) -> None:
+    tree.report_dir.mkdir(parents=True, exist_ok=True)
+    sites_doc = read_json(tree.sites, "mound.sites", 1)
+    plan = _load(tree.plan, "mound.plan")
+    by_id = {r["id"]: r for r in summary["sites"]}
+    figures.field_map(sites_doc, plan, by_id, tree.report_dir / "field.png")
+    for r in summary["sites"]:
+        files = r.get("files")
+        if files:  # site files are relative to the run directory, as is report.html
+            r["files"] = {k: v for k, v in files.items() if (tree.root / v).exists()}
+    write_atomic(tree.report_html, render_html(tree, summary))
+    write_atomic(tree.report_md, render_md(summary))
+
+
+def render_html(tree: RunTree, s: dict[str, Any]) -> str:
+    e = html.escape
+    m = s["metrics"]
+    visited = [r for r in s["sites"] if r["visited"]]
+    plan = s.get("plan") or {}
+    mission = s.get("mission") or {}
+    upload = (mission.get("upload") or {})
+    head = (f"<p>{e(s['field']['source'])}: {s['field']['sites']} candidate sites, "
+            f"{s['field']['true_mounds']} true mounds; status <b>{e(s['status'])}</b>"
+            + (f" ({e(s['reason'])})" if s.get("reason") else "") + "</p>"
+            f"<p>Tour ({e(str(plan.get('algo', '')))}): {m['visited']} sites, reward "
+            f"{m['reward']:.2f} bits, {m['cost_m']:.0f} m of a {m['budget_m']:.0f} m budget. "
+            f"3-D verdicts: {m['judged']} of {m['visited']} sites ({m['failed']} failed), "
+            f"{m['verdicts_correct']} of {m['verdicts_with_truth']} right where the truth is "
+            f"known. Mission: {mission.get('items', 0)} MAVLink items, "
+            + (f"uploaded to system {upload.get('target_system')} and read back."
+               if upload else "not uploaded (no --connect).") + "</p>")
+    mission_png = tree.report_dir / "mission.png"
+    maps = _img("report/field.png", "field map")
+    if mission_png.is_file():
+        maps += _img("report/mission.png", "mission map")
+    cards = "".join(_site_card(r) for r in visited)
+    return f"""<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8"><title>mound-survey report</title>
+<style>{STYLE}</style></head>
+<body>
+<h1>Survey report</h1>
+<p class="muted">mound-survey · {e(s['created_utc'])} · run {e(str(tree.root))} ·
+wall time {s['wall_s']:.0f} s · origin {e(json.dumps(s.get('origin')))}</p>
+{head}
+<h2>Error rates</h2>
+{_metrics_table(m)}
+<h2>Field and tour</h2>
+<div class="row">{maps}</div>
+<h2>Visited sites</h2>
+{cards or '<p>none</p>'}
+<h2>All sites</h2>
+{_sites_table(s['sites'])}
+<h2>Stages</h2>
+{_stage_table(s['stages'])}
+<p class="muted">Final label: the 3-D verdict where the site was visited and judged, the
+classifier's (p ≥ 0.5) elsewhere. ε<sub>MD</sub>: true mounds labelled no mound;
+ε<sub>FA</sub>: other sites labelled mound (the paper's definitions).</p>
+<script>{CHECK_IMAGES}</script>
+</body></html>
+"""
+
+
+def render_md(s: dict[str, Any]) -> str:
+    m = s["metrics"]
+    lines = ["# Survey report", "",
+             f"{s['field']['source']}: {s['field']['sites']} sites, "
+             f"{s['field']['true_mounds']} true mounds; status **{s['status']}**"
+             + (f" ({s['reason']})" if s.get("reason") else ""), "",
+             f"Tour: {m['visited']} sites, reward {m['reward']:.2f} bits, "
+             f"{m['cost_m']:.0f} m of {m['budget_m']:.0f} m. 3-D verdicts: {m['judged']} of "
+             f"{m['visited']} ({m['failed']} failed), {m['verdicts_correct']} of "
+             f"{m['verdicts_with_truth']} right.", "",
+             "| labels | eps_MD | eps_FA |", "|---|---|---|",
+             f"| classifier alone | {_fmt(m['classifier_only']['eps_md'])} | "
+             f"{_fmt(m['classifier_only']['eps_fa'])} |",
+             f"| this survey | {_fmt(m['eps_md'])} | {_fmt(m['eps_fa'])} |",
+             f"| perfect verification | {_fmt(m['perfect_verification']['eps_md'])} | "
+             f"{_fmt(m['perfect_verification']['eps_fa'])} |", "",
+             "![field](report/field.png)", "", "## Visited sites", "",
+             "| site | p(mound) | verdict | truth | height m | diameter m | note |",
+             "|---|---|---|---|---|---|---|"]
+    for r in s["sites"]:
+        if not r["visited"]:
+            continue
+        rise = r.get("rise") or {}
+        note = r.get("failure", "") if r["verdict"] == "failed" else ""
+        lines.append(f"| {r['id']} | {r['p_mound']:.3f} | {r['verdict']} | "
+                     f"{_fmt(r.get('truth'))} | {_fmt(rise.get('height_m'), 1)} | "
+                     f"{_fmt(rise.get('base_diameter_m'), 1)} | {note} |")
+    lines += ["", "## Stages", "", "| stage | wall s | result |", "|---|---|---|"]
+    for st in s["stages"]:
+        wall = "skipped" if st.get("skipped") else f"{st['wall_s']:.1f}"
+        lines.append(f"| {st['name']} | {wall} | {st.get('note', '')} |")
+    return "\n".join(lines) + "\n"

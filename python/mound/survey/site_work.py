@@ -1,0 +1,222 @@
+"""The 3-D work of one visited site, as one task: images (simulated, or the UAV's photos),
+`mound_recon reconstruct`, `mound_recon verdict`, the site's pictures for the report.
+
+`process_site(job)` runs on a Dask worker (or in the driver's process); it never raises
+for a failing site: the row it returns (and writes to DIR/sites/<id>/site_result.json,
+`mound.survey_site` v1) says `status: failed` and why, and whether a rerun should try
+again (`retry`: a time-out, a crash, a killed tool) or not (the input allowed no result).
+"""
+
+from __future__ import annotations
+
+import os
+import socket
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from mound import native
+from mound.errors import InputError, NoResultError, ToolError, ToolTimeout
+from mound.geometry.geodesy import Origin, enu_to_geodetic
+from mound.jsonio import read_json, write_json
+from mound.survey.tree import SiteTree
+
+SCHEMA = "mound.survey_site"
+VERSION = 1
+MOUND_HEIGHTS_M = (4.0, 12.0)  # simulated tumuli: heights drawn uniformly from this range
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff")
+
+
+@dataclass(frozen=True)
+class SiteJob:
+    """Everything one site's task needs; plain data, so that it travels to any worker."""
+
+    site: dict[str, Any]            # the mound.sites row (id, x_m, y_m, truth, ...)
+    index: int                      # position in the field (seeds the simulation)
+    run_root: str                   # absolute path of the run directory
+    origin: dict[str, float]        # the survey's WGS84 origin of x_m, y_m
+    key: str                        # digest of everything below and the site row
+    run_id: str = ""                # tags the tools of this run (native.tagged)
+    images_dir: str | None = None   # the UAV's photos; None: simulate the flight
+    image_size: tuple[int, int] = (640, 480)
+    pattern: str = "raster"
+    site_diameter_m: float = 60.0
+    sim_seed: int = 1
+    recon_args: tuple[str, ...] = ()
+    verdict_args: tuple[str, ...] = ()
+    threads: int = 1
+    timeout_s: float = 1800.0
+    figures: bool = True
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def tree(self) -> SiteTree:
+        return SiteTree(Path(self.run_root) / "sites" / self.site["id"])
+
+
+def _rel(path: Path, root: Path) -> str:
+    try:
+        return str(path.relative_to(root))
+    except ValueError:
+        return str(path)
+
+
+def _simulate(job: SiteJob, row: dict[str, Any]) -> tuple[Path, Path | None, str]:
+    from mound.sim import site as sim
+    from mound.sim import terrain
+
+    truth = job.site.get("truth", {}).get("mound")
+    if truth is None:
+        raise InputError(f"sites: {job.site['id']}.truth: needed to simulate its flight")
+    rng = np.random.default_rng([job.sim_seed, job.index])
+    height = float(rng.uniform(*MOUND_HEIGHTS_M))
+    seed = 1000 * job.sim_seed + job.index + 1
+    origin = Origin.from_doc(job.origin)
+    lat, lon, alt = enu_to_geodetic(origin, np.array([[job.site["x_m"], job.site["y_m"], 0.0]]))[0]
+    spec = sim.SimSpec(
+        terrain=terrain.preset("bin_tepe", mound=bool(truth), seed=seed,
+                               diameter_m=job.site_diameter_m, height_m=height,
+                               size_m=max(160.0, 8 * job.site_diameter_m / 3)),
+        width_px=job.image_size[0], height_px=job.image_size[1], pattern=job.pattern,
+        seed=seed, origin={"lat": float(lat), "lon": float(lon), "alt_m": float(alt)})
+    t = job.tree
+    doc = sim.simulate(spec, t.sim, threads=job.threads)
+    row["simulated"] = {"mound": bool(truth), "height_m": height if truth else 0.0,
+                        "diameter_m": job.site_diameter_m, "seed": seed,
+                        "images": doc["stats"]["images"]}
+    return t.sim / "images", t.sim / "camera.json", str(t.sim / "poses.json")
+
+
+def _photos(job: SiteJob) -> tuple[Path, Path | None, str]:
+    assert job.images_dir is not None
+    folder = Path(job.images_dir)
+    if not folder.is_dir():
+        raise InputError(f"--images-root: no folder {folder} for site {job.site['id']}")
+    images = [p for p in folder.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES]
+    if not images:
+        raise InputError(f"{folder}: no images ({', '.join(IMAGE_SUFFIXES)})")
+    camera = folder / "camera.json"
+    poses = folder / "poses.json"
+    return folder, camera if camera.is_file() else None, str(poses) if poses.is_file() else "exif"
+
+
+def _recon_summary(recon_dir: Path) -> dict[str, Any]:
+    doc = read_json(recon_dir / "recon.json", "mound.recon", 1)
+    images = doc.get("images", [])
+    return {"status": doc.get("status"), "frame": doc.get("frame"),
+            "registered": sum(1 for i in images if i.get("registered")),
+            "images": len(images), "points": doc.get("points"),
+            "reprojection_rmse_px": doc.get("reprojection_rmse_px"),
+            "reason": doc.get("reason")}
+
+
+def _verdict_summary(doc: dict[str, Any]) -> dict[str, Any]:
+    out: dict[str, Any] = {"verdict": doc["label"], "confidence": doc.get("confidence"),
+                           "method": doc.get("method"), "reason": doc.get("reason", "")}
+    m = doc.get("measurements", {})
+    rise = m.get("rise") if isinstance(m, dict) else None
+    if isinstance(rise, dict):
+        out["rise"] = {k: rise.get(k) for k in ("height_m", "base_diameter_m", "roundness",
+                                                 "dome_r2", "volume_m3", "centre_enu_m")}
+    if isinstance(m, dict) and "distance_m" in m:
+        out["distance_m"] = m["distance_m"]
+    return out
+
+
+def process_site(job: SiteJob) -> dict[str, Any]:
+    """Runs the site's work; returns its row (see the module text)."""
+    with native.tagged(job.run_id):
+        return _process_site(job)
+
+
+def _process_site(job: SiteJob) -> dict[str, Any]:
+    t = job.tree
+    root = Path(job.run_root)
+    t.root.mkdir(parents=True, exist_ok=True)
+    start = time.perf_counter()
+    row: dict[str, Any] = {"schema": SCHEMA, "version": VERSION, "id": job.site["id"],
+                           "key": job.key, "status": "failed",
+                           "source": "photos" if job.images_dir else "simulated",
+                           "worker": f"{socket.gethostname()}:{os.getpid()}", "timings_s": {}}
+    timings: dict[str, float] = row["timings_s"]
+    stage = "images"
+    try:
+        t0 = time.perf_counter()
+        if job.images_dir:
+            images, camera, gps = _photos(job)
+        else:
+            images, camera, gps = _simulate(job, row)
+            timings["simulate"] = time.perf_counter() - t0
+        stage = "reconstruct"
+        args = ["reconstruct", str(images), "--out", str(t.recon), "--gps", gps,
+                "--threads", str(job.threads), *job.recon_args]
+        if camera is not None:
+            args += ["--camera", str(camera)]
+        t0 = time.perf_counter()
+        try:
+            native.run_tool("mound_recon", args, job.timeout_s, log=t.log)
+        finally:
+            timings["reconstruct"] = time.perf_counter() - t0
+            if (t.recon / "recon.json").is_file():
+                row["recon"] = _recon_summary(t.recon)
+        stage = "verdict"
+        t0 = time.perf_counter()
+        native.run_tool("mound_recon", ["verdict", str(t.recon), "--out", str(t.verdict),
+                                        *job.verdict_args], job.timeout_s, log=t.log)
+        timings["verdict"] = time.perf_counter() - t0
+        row.update(_verdict_summary(read_json(t.verdict, "mound.verdict", 1)))
+        row["status"] = "ok"
+        row["files"] = {"images": _rel(images, root), "recon": _rel(t.recon, root),
+                        "verdict": _rel(t.verdict, root)}
+    except (InputError, NoResultError) as e:
+        # The site's input allowed no result: the same input will fail the same way.
+        row.update(reason=f"{stage}: {_reason(e, t)}", retry=False)
+    except (ToolTimeout, ToolError, OSError) as e:
+        row.update(reason=f"{stage}: {_reason(e, t)}", retry=True)
+    except Exception as e:  # a bug; the other sites go on, the row says what happened
+        row.update(reason=f"{stage}: internal error {e!r}", retry=True)
+    if job.figures and row["status"] == "ok":
+        t0 = time.perf_counter()
+        try:
+            row["files"].update(site_figures(job, images, row))
+        except Exception as e:  # the verdict stands; the report shows what is missing
+            row["figures_error"] = repr(e)
+        timings["figures"] = time.perf_counter() - t0
+    timings["total"] = time.perf_counter() - start
+    write_json(t.result, row)
+    return row
+
+
+def _reason(e: Exception, t: SiteTree) -> str:
+    """One line: a tool's own reason from recon.json when it wrote one, else the error."""
+    recon_json = t.recon / "recon.json"
+    if isinstance(e, ToolError) and recon_json.is_file():
+        try:
+            doc = read_json(recon_json, "mound.recon", 1)
+            if doc.get("status") == "failed" and doc.get("reason"):
+                return f"mound_recon: {doc['reason']}"
+        except InputError:
+            pass
+    if isinstance(e, ToolError):
+        last = e.tail.strip().splitlines()[-1] if e.tail.strip() else ""
+        return f"{e.tool} ({e.code}): {last}"
+    return str(e)
+
+
+def site_figures(job: SiteJob, images: Path, row: dict[str, Any]) -> dict[str, str]:
+    """The report's pictures of a site: a strip of its images, the cloud with cameras and
+    the relief map with the verdict."""
+    from mound.recon import figures as recon_figures
+    from mound.survey import figures
+
+    t = job.tree
+    root = Path(job.run_root)
+    figures.thumbnail_strip(images, t.thumbnails)
+    recon_figures.cloud_and_cameras(t.recon, t.cloud_png, max_points=15000, dpi=60)
+    figures.relief_map(t.recon, t.verdict, t.relief_png, title=f"{job.site['id']}: "
+                       f"{row.get('verdict', '?')}")
+    return {"thumbnails": _rel(t.thumbnails, root), "cloud": _rel(t.cloud_png, root),
+            "relief": _rel(t.relief_png, root)}

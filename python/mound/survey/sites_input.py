@@ -1,0 +1,193 @@
+"""The candidate sites of a survey: the paper's standard field, or the user's own file.
+
+`--sites FILE` takes a mound.sites v1 document (INTERFACES.md) or a GeoJSON
+FeatureCollection of Point features ([lon, lat] in WGS84): one feature with
+`"kind": "home"` (the take-off point, which becomes the ENU origin), every other one a
+candidate site with properties `id` (else the feature's `id`), `p_mound` in [0, 1]
+(required: unvisited sites keep the classifier's label), optional `reward` (default: the
+binary entropy of p_mound) and `truth` (bool, or {"mound": bool}: needed to simulate the
+flight). A top-level `budget_m` member is read as the budget. Every defect stops the run
+before anything is planned or flown, with an InputError naming the file and the field.
+
+Scan costs always come from the scan the mission flies (ScanSpec.site_cost_m), so that a
+plan within the budget is a flight within it; a file's own scan_cost_m is replaced.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from mound.classify.reward import binary_entropy_bits
+from mound.errors import InputError
+from mound.geometry.flight import ScanSpec
+from mound.geometry.geodesy import Origin, geodetic_to_enu
+from mound.jsonio import parse_json, read_text
+
+
+def _number(obj: dict[str, Any], key: str, where: str, *, lo: float = -math.inf,
+            hi: float = math.inf, required: bool = True) -> float | None:
+    if key not in obj or obj[key] is None:
+        if required:
+            raise InputError(f"{where}.{key}: missing")
+        return None
+    v = obj[key]
+    if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
+        raise InputError(f"{where}.{key}: expected a finite number, got {v!r}")
+    if not lo <= v <= hi:
+        raise InputError(f"{where}.{key}: must be in [{lo:g}, {hi:g}], got {v!r}")
+    return float(v)
+
+
+def _truth(value: Any, where: str) -> bool | None:
+    if value is None:
+        return None
+    if isinstance(value, dict):
+        value = value.get("mound")
+    if not isinstance(value, bool):
+        raise InputError(f"{where}.truth: expected true/false or {{\"mound\": true/false}}, "
+                         f"got {value!r}")
+    return value
+
+
+def _site(props: dict[str, Any], site_id: Any, x: float, y: float, where: str
+          ) -> dict[str, Any]:
+    if not isinstance(site_id, str) or not site_id.strip():
+        raise InputError(f"{where}.id: expected a non-empty string, got {site_id!r}")
+    p = _number(props, "p_mound", where, lo=0.0, hi=1.0)
+    reward = _number(props, "reward", where, lo=0.0, required=False)
+    if reward is None:
+        reward = float(binary_entropy_bits(p))
+    site: dict[str, Any] = {"id": site_id, "x_m": x, "y_m": y, "p_mound": p, "reward": reward}
+    truth = _truth(props.get("truth"), where)
+    if truth is not None:
+        site["truth"] = {"mound": truth}
+    return site
+
+
+def _from_mound_sites(doc: dict[str, Any], path: Path) -> tuple[dict[str, Any], list[Any]]:
+    version = doc.get("version")
+    if version != 1:
+        raise InputError(f"{path}: version: unsupported mound.sites version {version!r}")
+    if not isinstance(doc.get("origin"), dict):
+        raise InputError(f"{path}: origin: missing (the mission needs the WGS84 origin of "
+                         "x_m/y_m: {\"lat\", \"lon\", \"alt_m\"})")
+    origin = Origin.from_doc(doc["origin"], f"{path}: origin")
+    home = doc.get("home")
+    if not isinstance(home, dict):
+        raise InputError(f"{path}: home: missing (an object with id, x_m, y_m)")
+    hx = _number(home, "x_m", f"{path}: home")
+    hy = _number(home, "y_m", f"{path}: home")
+    if not isinstance(home.get("id"), str):
+        raise InputError(f"{path}: home.id: expected a string")
+    out: dict[str, Any] = {"origin": origin.to_doc(),
+                           "home": {"id": home["id"], "x_m": hx, "y_m": hy}}
+    end = doc.get("end")
+    if isinstance(end, dict) and end.get("id", home["id"]) != home["id"]:
+        out["end"] = {"id": str(end["id"]), "x_m": _number(end, "x_m", f"{path}: end"),
+                      "y_m": _number(end, "y_m", f"{path}: end")}
+    else:
+        out["end"] = {"id": home["id"]}
+    budget = _number(doc, "budget_m", str(path), lo=0.0, required=False)
+    if budget is not None:
+        out["budget_m"] = budget
+    sites = doc.get("sites")
+    if not isinstance(sites, list) or not sites:
+        raise InputError(f"{path}: sites: expected a non-empty list")
+    rows = []
+    for k, s in enumerate(sites):
+        where = f"{path}: sites[{k}]"
+        if not isinstance(s, dict):
+            raise InputError(f"{where}: expected an object")
+        rows.append(_site(s, s.get("id"), _number(s, "x_m", where),  # type: ignore[arg-type]
+                          _number(s, "y_m", where), where))  # type: ignore[arg-type]
+    return out, rows
+
+
+def _from_geojson(doc: dict[str, Any], path: Path) -> tuple[dict[str, Any], list[Any]]:
+    features = doc.get("features")
+    if not isinstance(features, list) or not features:
+        raise InputError(f"{path}: features: expected a non-empty list of Point features")
+    home = None
+    points = []
+    for k, f in enumerate(features):
+        where = f"{path}: features[{k}]"
+        if not isinstance(f, dict) or f.get("type") != "Feature":
+            raise InputError(f"{where}: expected a GeoJSON Feature")
+        geom = f.get("geometry")
+        if not isinstance(geom, dict) or geom.get("type") != "Point":
+            raise InputError(f"{where}.geometry: expected a Point")
+        c = geom.get("coordinates")
+        if not isinstance(c, list) or len(c) < 2:
+            raise InputError(f"{where}.geometry.coordinates: expected [lon, lat]")
+        lonlat = {"lon": c[0], "lat": c[1]}
+        lon = _number(lonlat, "lon", f"{where}.geometry.coordinates", lo=-180, hi=180)
+        lat = _number(lonlat, "lat", f"{where}.geometry.coordinates", lo=-90, hi=90)
+        props = f.get("properties") or {}
+        if not isinstance(props, dict):
+            raise InputError(f"{where}.properties: expected an object")
+        if props.get("kind") == "home":
+            if home is not None:
+                raise InputError(f"{where}: a second feature with kind 'home'")
+            alt = _number(props, "alt_m", f"{where}.properties", required=False) or 0.0
+            home = Origin(lat, lon, alt)  # type: ignore[arg-type]
+        else:
+            points.append((k, lat, lon, props, props.get("id", f.get("id"))))
+    if home is None:
+        raise InputError(f"{path}: features: no feature with properties.kind = 'home' (the "
+                         "take-off point, the origin of the survey's local frame)")
+    if not points:
+        raise InputError(f"{path}: features: no candidate site besides home")
+    llh = np.array([[lat, lon, home.alt_m] for _, lat, lon, _, _ in points])
+    enu = geodetic_to_enu(home, llh)
+    rows = [_site(props, sid, float(e[0]), float(e[1]), f"{path}: features[{k}].properties")
+            for (k, _, _, props, sid), e in zip(points, enu, strict=True)]
+    out: dict[str, Any] = {"origin": home.to_doc(), "home": {"id": "home", "x_m": 0.0,
+                                                            "y_m": 0.0},
+                           "end": {"id": "home"}}
+    budget = _number(doc, "budget_m", str(path), lo=0.0, required=False)
+    if budget is not None:
+        out["budget_m"] = budget
+    return out, rows
+
+
+def load_user_sites(path: str | Path, scan: ScanSpec, budget_m: float | None,
+                    default_budget_m: float, need_truth: bool) -> dict[str, Any]:
+    """The run's mound.sites document from the user's file; InputError on any defect.
+    `need_truth`: every site must carry its truth (the flights are simulated)."""
+    path = Path(path)
+    doc = parse_json(read_text(path), path)
+    if not isinstance(doc, dict):
+        raise InputError(f"{path}: expected a JSON object (mound.sites or GeoJSON)")
+    if doc.get("schema") == "mound.sites":
+        head, rows = _from_mound_sites(doc, path)
+    elif doc.get("type") == "FeatureCollection":
+        head, rows = _from_geojson(doc, path)
+    else:
+        raise InputError(f"{path}: schema: neither a mound.sites document nor a GeoJSON "
+                         "FeatureCollection (type)")
+    ids = [head["home"]["id"], head["end"]["id"]]
+    seen = set(ids)
+    for k, r in enumerate(rows):
+        if r["id"] in seen:
+            raise InputError(f"{path}: sites[{k}].id: {r['id']!r} is not unique (or is the "
+                             "home/end id)")
+        seen.add(r["id"])
+        if need_truth and "truth" not in r:
+            raise InputError(f"{path}: sites[{k}].truth: missing; the flights are simulated "
+                             "from each site's truth (or give --images-root with the photos)")
+        r["scan_cost_m"] = scan.site_cost_m()
+    budget = budget_m if budget_m is not None else head.pop("budget_m", default_budget_m)
+    head.pop("budget_m", None)
+    if not budget > 0:
+        raise InputError("budget_m: must be > 0")
+    return {"schema": "mound.sites", "version": 1, **head, "budget_m": float(budget),
+            "scan": scan.to_doc(), "takeoff_landing_m": scan.takeoff_landing_m(),
+            "sites": rows,
+            "provenance": {"tool": "python/mission.py --sites", "source": str(path),
+                           "total_reward": float(sum(r["reward"] for r in rows)),
+                           "positives": sum(bool(r.get("truth", {}).get("mound"))
+                                            for r in rows)}}

@@ -1,0 +1,118 @@
+"""Every artefact path of a survey run, in one place (ODM's ODM_Tree idea, STYLE.md).
+
+    DIR/stages.json          the ledger: per stage its key (options + inputs), wall time
+    DIR/model.json           the classifier (mound.classifier)
+    DIR/classifier.json      its evaluation on sat.tst
+    DIR/sites.json           the candidate sites (mound.sites v1), input of mound_plan
+    DIR/plan.json            mound_plan's tour (mound.plan v1)
+    DIR/mission.plan         the MAVLink mission (QGroundControl .plan), .waypoints, .geojson
+    DIR/mission.json         the mission's summary (mound.mission v1)
+    DIR/sites/<id>/          per visited site: sim/ (simulated flight), recon/ (mound_recon
+                             reconstruct + verdict.json), figures, site_result.json, log.txt
+    DIR/summary.json         mound.survey v1
+    DIR/report.html, report.md, report/ (the report's pictures)
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+
+@dataclass(frozen=True)
+class RunTree:
+    root: Path
+
+    @property
+    def ledger(self) -> Path:
+        return self.root / "stages.json"
+
+    @property
+    def model(self) -> Path:
+        return self.root / "model.json"
+
+    @property
+    def classifier_eval(self) -> Path:
+        return self.root / "classifier.json"
+
+    @property
+    def sites(self) -> Path:
+        return self.root / "sites.json"
+
+    @property
+    def plan(self) -> Path:
+        return self.root / "plan.json"
+
+    @property
+    def mission_plan(self) -> Path:
+        return self.root / "mission.plan"
+
+    @property
+    def mission_wpl(self) -> Path:
+        return self.root / "mission.waypoints"
+
+    @property
+    def mission_geojson(self) -> Path:
+        return self.root / "mission.geojson"
+
+    @property
+    def mission_summary(self) -> Path:
+        return self.root / "mission.json"
+
+    def site_dir(self, site_id: str) -> Path:
+        return self.root / "sites" / site_id
+
+    @property
+    def summary(self) -> Path:
+        return self.root / "summary.json"
+
+    @property
+    def report_html(self) -> Path:
+        return self.root / "report.html"
+
+    @property
+    def report_md(self) -> Path:
+        return self.root / "report.md"
+
+    @property
+    def report_dir(self) -> Path:
+        return self.root / "report"
+
+
+@dataclass(frozen=True)
+class SiteTree:
+    """The files of one visited site (inside DIR/sites/<id>/)."""
+
+    root: Path
+
+    @property
+    def sim(self) -> Path:
+        return self.root / "sim"
+
+    @property
+    def recon(self) -> Path:
+        return self.root / "recon"
+
+    @property
+    def verdict(self) -> Path:
+        return self.root / "recon" / "verdict.json"
+
+    @property
+    def result(self) -> Path:
+        return self.root / "site_result.json"
+
+    @property
+    def log(self) -> Path:
+        return self.root / "log.txt"
+
+    @property
+    def thumbnails(self) -> Path:
+        return self.root / "thumbnails.png"
+
+    @property
+    def cloud_png(self) -> Path:
+        return self.root / "cloud.png"
+
+    @property
+    def relief_png(self) -> Path:
+        return self.root / "relief.png"

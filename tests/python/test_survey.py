@@ -1,0 +1,375 @@
+"""python/mission.py, the end-to-end survey: the whole driver on a small field (2 visited
+sites, 320 x 240 images), interrupted with Ctrl-C and resumed, its artefacts checked with
+their real readers (mound.sites / mound.plan / the mission file reader / the PLY reader,
+MAVSDK as the vehicle that receives the mission, headless Chromium for the report), a
+failing site with photos that allow no reconstruction (on a Dask cluster started
+separately), and bad --sites files that stop the run before anything is planned."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from mound.classify.reward import binary_entropy_bits
+from mound.geometry.geodesy import Origin, enu_to_geodetic
+from mound.paths import REPO_ROOT
+from mound.plan import sites as op_sites
+from mound.ply import read_ply
+from mound.survey import driver
+from mound.survey.report import error_rates
+from mound.survey.sites_input import load_user_sites
+from mound.uav import files as mission_files
+from mound.uav import mission_items
+from mound.uav.mavlink.peer import MavsdkVehicle
+
+MISSION_PY = REPO_ROOT / "python" / "mission.py"
+SMALL = ["--budget", "3000", "--image-size", "320", "240", "--no-progress"]
+CHROMIUM = shutil.which("chromium")
+
+
+def system_python() -> str:
+    """A python3 other than the venv's, to check that mission.py re-executes itself."""
+    venv_bin = str(REPO_ROOT / ".venv" / "bin")
+    path = os.pathsep.join(p for p in os.environ.get("PATH", "").split(os.pathsep)
+                           if p != venv_bin)
+    return shutil.which("python3", path=path) or sys.executable
+
+
+def run_driver(args: list[str], timeout_s: float = 600) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([system_python(), str(MISSION_PY), *args], capture_output=True,
+                          text=True, timeout=timeout_s, cwd=REPO_ROOT)
+
+
+def tool_processes(marker: str) -> list[str]:
+    """Command lines of running processes that mention `marker` (the run directory)."""
+    found = []
+    for p in Path("/proc").iterdir():
+        if not p.name.isdigit():
+            continue
+        try:
+            cmd = (p / "cmdline").read_bytes().replace(b"\0", b" ").decode()
+        except OSError:
+            continue
+        if marker in cmd and ("mound_recon" in cmd or "mound_render" in cmd):
+            found.append(cmd)
+    return found
+
+
+@pytest.fixture(scope="module")
+def vehicle() -> Iterator[MavsdkVehicle]:
+    with MavsdkVehicle("udpin") as v:
+        yield v
+
+
+@pytest.fixture(scope="module")
+def survey(tmp_path_factory: pytest.TempPathFactory, vehicle: MavsdkVehicle
+           ) -> dict[str, Any]:
+    """Runs the driver once, interrupts it (SIGINT to its process group, as a terminal's
+    Ctrl-C) after the first site is done, then reruns it to the end and a third time."""
+    os.environ.setdefault("MOUND_DATA", str(REPO_ROOT.parent / "shared" / "data"))
+    out = tmp_path_factory.mktemp("survey") / "run"
+    args = ["--out", str(out), *SMALL, "--workers", "1", "--connect",
+            vehicle.connect_string]
+    proc = subprocess.Popen([system_python(), str(MISSION_PY), *args], cwd=REPO_ROOT,
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                            start_new_session=True)
+    deadline = time.monotonic() + 300
+    first = None
+    while time.monotonic() < deadline and proc.poll() is None:
+        done = list(out.glob("sites/*/site_result.json"))
+        if done:
+            first = done[0]
+            break
+        time.sleep(0.2)
+    assert first is not None, "no site finished before the deadline"
+    first_mtime = first.stat().st_mtime_ns
+    os.killpg(proc.pid, signal.SIGINT)
+    interrupted_out, _ = proc.communicate(timeout=60)
+    time.sleep(0.5)
+    leftovers = tool_processes(str(out))
+    second = run_driver(args)
+    third = run_driver(args)
+    return {"out": out, "interrupted_rc": proc.returncode, "interrupted": interrupted_out,
+            "leftovers": leftovers, "first": first, "first_mtime": first_mtime,
+            "second": second, "third": third, "vehicle": vehicle}
+
+
+def test_interrupt_ends_the_tools_and_the_rerun_resumes(survey: dict[str, Any]) -> None:
+    assert survey["interrupted_rc"] == 130, survey["interrupted"]
+    assert "run the same command again to resume" in survey["interrupted"]
+    assert survey["leftovers"] == [], "tools outlived the interrupted driver"
+    second = survey["second"]
+    assert second.returncode == 0, second.stdout + second.stderr
+    for stage in ("classify", "field", "plan", "mission"):
+        assert f"[{stage}] skipped, unchanged" in second.stdout, second.stdout
+    assert "1 of 2 visited sites to process (1 done before)" in second.stdout
+    # The finished site was not redone.
+    assert survey["first"].stat().st_mtime_ns == survey["first_mtime"]
+    third = survey["third"]
+    assert third.returncode == 0, third.stdout + third.stderr
+    for stage in ("classify", "field", "plan", "mission", "sites3d"):
+        assert f"[{stage}] skipped, unchanged" in third.stdout, third.stdout
+
+
+def test_every_artefact_of_the_run(survey: dict[str, Any]) -> None:
+    out: Path = survey["out"]
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["schema"] == "mound.survey" and summary["version"] == 1
+    assert summary["status"] == "ok"
+    # The plan is feasible: its tour's cost recomputed from the sites file is within the
+    # budget, and its reward is the sum of the visited sites' rewards.
+    sites_doc = json.loads((out / "sites.json").read_text())
+    plan = json.loads((out / "plan.json").read_text())
+    prob = op_sites.from_document(sites_doc)
+    index = {sid: k for k, sid in enumerate(prob.ids)}
+    route = [index[sid] for sid in plan["tour"]]
+    assert prob.route_cost(route) <= prob.budget + 1e-6
+    assert prob.route_cost(route) == pytest.approx(plan["cost_m"], rel=1e-9)
+    visited = set(plan["tour"]) - {"home"}
+    assert len(visited) == 2
+    assert float(prob.reward[route].sum()) == pytest.approx(plan["reward"], rel=1e-9)
+    # The mission file parses, and the vehicle (MAVSDK) received it.
+    items, home, firmware = mission_files.read_mission(out / "mission.plan")
+    mission = json.loads((out / "mission.json").read_text())
+    assert len(items) == mission["items"] and firmware == "px4"
+    assert home.lat_deg == pytest.approx(sites_doc["origin"]["lat"])
+    assert mission["upload"]["verified"] is True
+    assert len(survey["vehicle"].wait_for_mission(1)) == len(items)
+    assert mission_files.read_mission(out / "mission.waypoints")[0]
+    # Each visited site has a cloud and a verdict; simulated truth decides the verdict here.
+    rows = {r["id"]: r for r in summary["sites"]}
+    for sid in visited:
+        row = rows[sid]
+        assert row["visited"] and row["verdict"] in ("mound", "no_mound")
+        xyz, _ = read_ply(out / "sites" / sid / "recon" / "points.ply")
+        assert len(xyz) > 1000 and np.isfinite(xyz).all()
+        verdict = json.loads((out / "sites" / sid / "recon" / "verdict.json").read_text())
+        assert verdict["schema"] == "mound.verdict" and verdict["label"] == row["verdict"]
+        assert row["verdict"] == ("mound" if row["truth"] else "no_mound")
+        for key in ("thumbnails", "cloud", "relief"):
+            assert (out / row["files"][key]).is_file()
+    assert {r["id"] for r in summary["sites"] if r["visited"]} == visited
+    assert len(summary["sites"]) == 100
+    # The metrics recompute from the rows.
+    for r in summary["sites"]:
+        expect = r["verdict"] if r["visited"] and r["verdict"] != "failed" else (
+            "mound" if r["p_mound"] >= 0.5 else "no_mound")
+        assert r["final_label"] == expect
+    truth = [r["truth"] for r in summary["sites"]]
+    md, fa = error_rates([r["final_label"] == "mound" for r in summary["sites"]], truth)
+    m = summary["metrics"]
+    assert (m["eps_md"], m["eps_fa"]) == (md, fa)
+    cmd, cfa = error_rates([r["p_mound"] >= 0.5 for r in summary["sites"]], truth)
+    assert (m["classifier_only"]["eps_md"], m["classifier_only"]["eps_fa"]) == (cmd, cfa)
+    assert m["reward"] == plan["reward"] and m["cost_m"] == plan["cost_m"]
+    assert m["budget_m"] == 3000.0
+    names = [s["name"] for s in summary["stages"]]
+    assert names == ["classify", "field", "plan", "mission", "sites3d"]
+    assert (out / "report.md").read_text().startswith("# Survey report")
+
+
+@pytest.mark.skipif(CHROMIUM is None, reason="Debian chromium not installed (tools/setup.sh)")
+def test_report_renders_in_headless_chromium(survey: dict[str, Any], tmp_path: Path) -> None:
+    out: Path = survey["out"]
+    url = (out / "report.html").resolve().as_uri()
+    base = [str(CHROMIUM), "--headless", "--no-sandbox", "--disable-gpu",
+            "--hide-scrollbars", f"--user-data-dir={tmp_path / 'profile'}"]
+    dom = subprocess.run([*base, "--virtual-time-budget=10000", "--dump-dom", url],
+                         capture_output=True, text=True, timeout=120)
+    assert dom.returncode == 0, dom.stderr[-2000:]
+    html = (out / "report.html").read_text()
+    n_img = html.count("<img ")
+    assert n_img >= 2 + 3 * 2  # field, mission, and three pictures per visited site
+    # The page's own check, run by the browser after loading: every image decoded.
+    assert f'data-images="{n_img}"' in dom.stdout, dom.stdout[:500]
+    assert 'data-broken=""' in dom.stdout
+    shot = tmp_path / "report.png"
+    r = subprocess.run([*base, "--window-size=1280,2400", f"--screenshot={shot}", url],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0 and shot.is_file(), r.stderr[-2000:]
+    pixels = np.asarray(Image.open(shot).convert("RGB"), dtype=float)
+    assert pixels.shape[:2] == (2400, 1280)
+    assert pixels.std() > 20  # not blank
+    assert len(np.unique(pixels.reshape(-1, 3)[::97], axis=0)) > 200  # pictures, not text
+
+
+def test_error_rates_on_a_constructed_case() -> None:
+    # 4 true mounds (one missed), 6 others (two false alarms), 2 unknown (ignored).
+    labels = [True, True, True, False, True, True, False, False, False, False, True, False]
+    truth: list[bool | None] = [True] * 4 + [False] * 6 + [None] * 2
+    assert error_rates(labels, truth) == (0.25, 2 / 6)
+    assert error_rates([True], [None]) == (None, None)
+
+
+def free_tcp_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def test_a_failing_site_is_reported_and_the_run_finishes(
+        survey: dict[str, Any], tmp_path: Path) -> None:
+    """The UAV's photos (--images-root) of the two visited sites: the first run's simulated
+    images for one, eight featureless grey frames for the other (mound_recon exits 3). The
+    per-site work runs on a Dask scheduler and two workers started separately."""
+    out: Path = survey["out"]
+    summary = json.loads((out / "summary.json").read_text())
+    visited = sorted(r["id"] for r in summary["sites"] if r["visited"])
+    good, bad = visited
+    photos = tmp_path / "photos"
+    sim = out / "sites" / good / "sim"
+    (photos / good).mkdir(parents=True)
+    for f in sorted((sim / "images").iterdir()):
+        (photos / good / f.name).symlink_to(f)
+    for name in ("camera.json", "poses.json"):
+        (photos / good / name).symlink_to(sim / name)
+    (photos / bad).mkdir()
+    for k in range(8):
+        Image.new("RGB", (320, 240), (128, 128, 128)).save(photos / bad / f"{k:04d}.png")
+    shutil.copy(sim / "camera.json", photos / bad / "camera.json")
+    poses = json.loads((sim / "poses.json").read_text())
+    poses["images"] = poses["images"][:8]  # GPS of the eight frames
+    (photos / bad / "poses.json").write_text(json.dumps(poses))
+
+    port = free_tcp_port()
+    venv_bin = REPO_ROOT / ".venv" / "bin"
+    address = f"tcp://127.0.0.1:{port}"
+    cluster = [subprocess.Popen([str(venv_bin / "dask"), "scheduler", "--host", "127.0.0.1",
+                                 "--port", str(port), "--no-dashboard"],
+                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                                start_new_session=True)]
+    try:
+        cluster.append(subprocess.Popen(
+            [str(venv_bin / "dask"), "worker", address, "--nworkers", "2", "--nthreads", "1",
+             "--no-dashboard"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+            start_new_session=True, cwd=tmp_path))
+        run = tmp_path / "run"
+        r = run_driver(["--out", str(run), *SMALL, "--images-root", str(photos),
+                        "--scheduler", address])
+        assert r.returncode == 0, r.stdout + r.stderr
+        assert "2 workers" in r.stdout
+        s = json.loads((run / "summary.json").read_text())
+        rows = {x["id"]: x for x in s["sites"]}
+        assert s["status"] == "partial"
+        assert rows[good]["verdict"] == ("mound" if rows[good]["truth"] else "no_mound")
+        assert rows[bad]["verdict"] == "failed"
+        assert "no image pair with enough matches" in rows[bad]["failure"]
+        assert rows[bad]["final_label"] == ("mound" if rows[bad]["p_mound"] >= 0.5
+                                            else "no_mound")
+        assert s["metrics"]["failed"] == 1 and s["metrics"]["judged"] == 1
+        result = json.loads((run / "sites" / bad / "site_result.json").read_text())
+        assert result["status"] == "failed" and result["retry"] is False
+        assert "failed:" in (run / "report.html").read_text()
+        # A failure the input explains is not retried: a rerun skips the whole stage.
+        again = run_driver(["--out", str(run), *SMALL, "--images-root", str(photos),
+                            "--scheduler", address])
+        assert "[sites3d] skipped, unchanged" in again.stdout, again.stdout
+    finally:
+        for p in reversed(cluster):
+            os.killpg(p.pid, signal.SIGTERM)
+            p.wait(timeout=30)
+
+
+# --- bad input stops the run before anything is planned ------------------------------
+
+def good_sites() -> dict[str, Any]:
+    return {"schema": "mound.sites", "version": 1,
+            "origin": {"lat": 38.5705, "lon": 27.9862, "alt_m": 95.0},
+            "home": {"id": "home", "x_m": 0.0, "y_m": 0.0}, "budget_m": 5000.0,
+            "sites": [{"id": "a", "x_m": 300.0, "y_m": 0.0, "p_mound": 0.4, "truth": True},
+                      {"id": "b", "x_m": 0.0, "y_m": 400.0, "p_mound": 0.1,
+                       "truth": {"mound": False}}]}
+
+
+def broken(change: Any) -> dict[str, Any]:
+    doc = good_sites()
+    change(doc)
+    return doc
+
+
+BAD_SITES = [
+    (lambda d: d["sites"][1].pop("p_mound"), "sites[1].p_mound: missing"),
+    (lambda d: d["sites"][0].update(p_mound=1.5), "sites[0].p_mound: must be in [0, 1]"),
+    (lambda d: d["sites"][0].update(x_m="far"), "sites[0].x_m: expected a finite number"),
+    (lambda d: d["sites"][1].update(id="a"), "sites[1].id: 'a' is not unique"),
+    (lambda d: d.pop("origin"), "origin: missing"),
+    (lambda d: d["sites"][0].pop("truth"), "sites[0].truth: missing"),
+    (lambda d: d["sites"][0].update(truth="yes"), "sites[0].truth: expected true/false"),
+    (lambda d: d.update(sites=[]), "sites: expected a non-empty list"),
+    (lambda d: d.update(version=7), "version: unsupported"),
+]
+
+
+@pytest.mark.parametrize(("change", "message"), BAD_SITES)
+def test_a_bad_sites_file_stops_the_run_before_planning(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str], change: Any, message: str) -> None:
+    path = tmp_path / "sites.json"
+    path.write_text(json.dumps(broken(change)))
+    out = tmp_path / "run"
+    code = driver.main(["--sites", str(path), "--out", str(out), "--no-progress"])
+    err = capsys.readouterr().err.strip()
+    assert code == 2
+    assert len(err.splitlines()) == 1 and message in err and str(path) in err, err
+    assert not (out / "sites.json").exists() and not (out / "plan.json").exists()
+
+
+def test_not_a_sites_file(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    for text, message in (("{\"a\": ", "not valid JSON"), ("[1, 2]", "expected a JSON object"),
+                          ("{\"type\": \"Feature\"}", "schema: neither")):
+        path = tmp_path / "x.json"
+        path.write_text(text)
+        assert driver.main(["--sites", str(path), "--out", str(tmp_path / "r")]) == 2
+        assert message in capsys.readouterr().err
+
+
+def test_geojson_sites_are_placed_in_the_home_frame(tmp_path: Path) -> None:
+    home = Origin(38.5705, 27.9862, 95.0)
+    enu = np.array([[500.0, 0.0, 0.0], [0.0, -700.0, 0.0], [250.0, 250.0, 0.0]])
+    llh = enu_to_geodetic(home, enu)
+    features = [{"type": "Feature", "properties": {"kind": "home", "alt_m": 95.0},
+                 "geometry": {"type": "Point", "coordinates": [home.lon_deg, home.lat_deg]}}]
+    for k, (lat, lon, _) in enumerate(llh):
+        features.append({"type": "Feature", "id": f"g{k}",
+                         "properties": {"p_mound": 0.2 * (k + 1), "truth": k == 1},
+                         "geometry": {"type": "Point", "coordinates": [lon, lat]}})
+    path = tmp_path / "sites.geojson"
+    path.write_text(json.dumps({"type": "FeatureCollection", "budget_m": 9000,
+                                "features": features}))
+    scan = mission_items.scan_for_site(60.0, "raster")
+    doc = load_user_sites(path, scan, None, 14400.0, need_truth=True)
+    assert doc["budget_m"] == 9000 and doc["origin"]["lat"] == home.lat_deg
+    got = np.array([[s["x_m"], s["y_m"]] for s in doc["sites"]])
+    assert np.abs(got - enu[:, :2]).max() < 1e-3
+    assert [s["id"] for s in doc["sites"]] == ["g0", "g1", "g2"]
+    assert doc["sites"][1]["truth"] == {"mound": True}
+    assert doc["sites"][2]["reward"] == pytest.approx(float(binary_entropy_bits(0.6)))
+    assert all(s["scan_cost_m"] == scan.site_cost_m() for s in doc["sites"])
+    del features[0]
+    path.write_text(json.dumps({"type": "FeatureCollection", "features": features}))
+    with pytest.raises(ValueError, match="no feature with properties.kind = 'home'"):
+        load_user_sites(path, scan, None, 14400.0, need_truth=True)
+
+
+def test_help_and_usage_errors(capsys: pytest.CaptureFixture[str]) -> None:
+    r = run_driver(["--help"], timeout_s=60)
+    assert r.returncode == 0
+    for option in ("--sites", "--images-root", "--scheduler", "--connect", "--out",
+                   "--rerun-from", "--budget", "--field-seed"):
+        assert option in r.stdout
+    assert driver.main(["--spacing", "-1"]) == 2
+    assert "--spacing" in capsys.readouterr().err
+    assert driver.main(["--images-root", "/nonexistent/photos"]) == 2
+    assert "--images-root" in capsys.readouterr().err
