@@ -12,7 +12,7 @@ ifeq ($(origin MOUND_DATA),undefined)
   endif
 endif
 
-.PHONY: all build setup test test-cpp test-python lint demo figures bench clean
+.PHONY: all build setup test test-cpp test-python lint demo demo-stages figures bench clean
 
 all: build
 
@@ -37,14 +37,18 @@ test-python: build
 lint: setup
 	$(VENV)/bin/ruff check python tests tools
 
-# The main job, as far as it exists: fetch the satellite data into the cache, train the
-# coarse-search classifier, make standard field 0 and plan a tour over it; plan a tour over
-# the same field at 250 m spacing (scan costs from the raster scan each site gets, the budget
-# from the aircraft's range), turn it into a MAVLink mission (QGC .plan, WPL, GeoJSON)
-# and upload it to a stand-in MAVSDK autopilot; then simulate the UAV images of one site
-# with a tumulus and of its flat control, and reconstruct the tumulus site in 3-D
-# (metric, georeferenced by the simulated GPS).
+# The main job: the whole survey in one command (python/mission.py re-executes itself
+# under .venv): train the classifier, make standard field 0 at 250 m spacing, plan the tour,
+# build the MAVLink mission, simulate and reconstruct every visited site in 3-D on a local
+# Dask cluster, judge it, and write runs/survey/{summary.json,report.html,report.md}.
+# A rerun skips what is done. Then the mission goes to a stand-in MAVSDK autopilot, since
+# no aircraft is attached.
 demo: build
+	python3 python/mission.py
+	$(PY) tools/demo_upload.py runs/survey/mission.plan
+
+# The stages one by one with their own CLIs, as the driver runs them (runs/demo/).
+demo-stages: build
 	@mkdir -p runs/demo
 	$(VENV)/bin/mound data fetch
 	$(VENV)/bin/mound classify train --out runs/demo/model.json

@@ -23,13 +23,13 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from mound.classify.metrics import detection_error_rates
 from mound.classify.reward import binary_entropy_bits
 from mound.geometry.geodesy import Origin, enu_to_geodetic
 from mound.paths import REPO_ROOT
 from mound.plan import sites as op_sites
 from mound.ply import read_ply
 from mound.survey import driver
-from mound.survey.report import error_rates
 from mound.survey.sites_input import load_user_sites
 from mound.uav import files as mission_files
 from mound.uav import mission_items
@@ -169,10 +169,10 @@ def test_every_artefact_of_the_run(survey: dict[str, Any]) -> None:
             "mound" if r["p_mound"] >= 0.5 else "no_mound")
         assert r["final_label"] == expect
     truth = [r["truth"] for r in summary["sites"]]
-    md, fa = error_rates([r["final_label"] == "mound" for r in summary["sites"]], truth)
+    md, fa = detection_error_rates([r["final_label"] == "mound" for r in summary["sites"]], truth)
     m = summary["metrics"]
     assert (m["eps_md"], m["eps_fa"]) == (md, fa)
-    cmd, cfa = error_rates([r["p_mound"] >= 0.5 for r in summary["sites"]], truth)
+    cmd, cfa = detection_error_rates([r["p_mound"] >= 0.5 for r in summary["sites"]], truth)
     assert (m["classifier_only"]["eps_md"], m["classifier_only"]["eps_fa"]) == (cmd, cfa)
     assert m["reward"] == plan["reward"] and m["cost_m"] == plan["cost_m"]
     assert m["budget_m"] == 3000.0
@@ -210,8 +210,8 @@ def test_error_rates_on_a_constructed_case() -> None:
     # 4 true mounds (one missed), 6 others (two false alarms), 2 unknown (ignored).
     labels = [True, True, True, False, True, True, False, False, False, False, True, False]
     truth: list[bool | None] = [True] * 4 + [False] * 6 + [None] * 2
-    assert error_rates(labels, truth) == (0.25, 2 / 6)
-    assert error_rates([True], [None]) == (None, None)
+    assert detection_error_rates(labels, truth) == (0.25, 2 / 6)
+    assert detection_error_rates([True], [None]) == (None, None)
 
 
 def free_tcp_port() -> int:

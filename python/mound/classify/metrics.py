@@ -58,3 +58,16 @@ def summary(p: np.ndarray, y: np.ndarray) -> dict[str, float]:
         "auc": roc_auc(p, y), "log_loss": log_loss(p, y),
         "ece": expected_calibration_error(p, y),
     }
+
+
+def detection_error_rates(labels: list[bool], truth: list[bool | None]
+                          ) -> tuple[float | None, float | None]:
+    """The paper's error rates of mound labels: eps_MD, the fraction of true mounds labelled
+    "no mound" (missed detections), and eps_FA, the fraction of the other sites labelled
+    "mound" (false alarms). Sites of unknown truth (None) are left out; a rate over no
+    site is None."""
+    pos = [lab for lab, t in zip(labels, truth, strict=True) if t is True]
+    neg = [lab for lab, t in zip(labels, truth, strict=True) if t is False]
+    md = sum(1 for lab in pos if not lab) / len(pos) if pos else None
+    fa = sum(1 for lab in neg if lab) / len(neg) if neg else None
+    return md, fa

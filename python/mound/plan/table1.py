@@ -20,6 +20,7 @@ import numpy as np
 
 from mound import native
 from mound.classify import coarse, statlog
+from mound.classify.metrics import detection_error_rates
 from mound.jsonio import write_atomic
 from mound.plan import exact as exact_op
 from mound.plan import sites
@@ -50,12 +51,11 @@ def error_rates(doc: dict[str, Any], visited: set[str]) -> tuple[float, float]:
     """Paper's error rates (eps_MD, eps_FA): missed detections among the true mounds and
     false alarms among the others; a visited site gets its true label, the others
     p_mound >= 0.5."""
-    truth = np.array([s["truth"]["mound"] for s in doc["sites"]])
-    label = np.array([s["truth"]["mound"] if s["id"] in visited else s["p_mound"] >= 0.5
-                      for s in doc["sites"]])
-    md = float(np.mean(~label[truth])) if truth.any() else 0.0
-    fa = float(np.mean(label[~truth])) if (~truth).any() else 0.0
-    return md, fa
+    truth = [bool(s["truth"]["mound"]) for s in doc["sites"]]
+    label = [t if s["id"] in visited else s["p_mound"] >= 0.5
+             for s, t in zip(doc["sites"], truth, strict=True)]
+    md, fa = detection_error_rates(label, list(truth))
+    return md or 0.0, fa or 0.0
 
 
 def run(scan_cost: float = 1.0, budgets: tuple[float, ...] = BUDGETS,

@@ -83,7 +83,8 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--plan-seed", type=int, default=1, help="mound_plan's seed")
     g.add_argument("--connect", help="also upload the mission to this MAVLink vehicle and "
                    "read it back (udpout:HOST:PORT, udpin:HOST:PORT, tcp:HOST:PORT, serial)")
-    g.add_argument("--firmware", choices=("px4", "ardupilot"), default="px4")
+    g.add_argument("--firmware", choices=("px4", "ardupilot"), default="px4",
+                   help="the vehicle's dialect of mission items (default: px4)")
     g = p.add_argument_group("3-D stage")
     g.add_argument("--images-root", help="the UAV's photos: one folder per site id (with "
                    "camera.json / poses.json when known, else EXIF); default: simulate "

@@ -20,22 +20,13 @@ import time
 from pathlib import Path
 from typing import Any
 
+from mound.classify.metrics import detection_error_rates
 from mound.jsonio import read_json, write_atomic
 from mound.survey import figures
 from mound.survey.tree import RunTree, SiteTree
 
 SCHEMA = "mound.survey"
 VERSION = 1
-
-
-def error_rates(labels: list[bool], truth: list[bool | None]) -> tuple[float | None,
-                                                                        float | None]:
-    """(eps_MD, eps_FA) of boolean labels against the known truths (None: unknown)."""
-    pos = [lab for lab, t in zip(labels, truth, strict=True) if t is True]
-    neg = [lab for lab, t in zip(labels, truth, strict=True) if t is False]
-    md = sum(1 for lab in pos if not lab) / len(pos) if pos else None
-    fa = sum(1 for lab in neg if lab) / len(neg) if neg else None
-    return md, fa
 
 
 def _load(path: Path, schema: str) -> dict[str, Any] | None:
@@ -92,9 +83,9 @@ def build_summary(tree: RunTree, args: argparse.Namespace, stages: list[dict[str
     classifier = [r["classifier_label"] == "mound" for r in rows]
     perfect = [bool(r["truth"]) if r["visited"] and "truth" in r else c
                for r, c in zip(rows, classifier, strict=True)]
-    md, fa = error_rates(final, truth)
-    cmd, cfa = error_rates(classifier, truth)
-    pmd, pfa = error_rates(perfect, truth)
+    md, fa = detection_error_rates(final, truth)
+    cmd, cfa = detection_error_rates(classifier, truth)
+    pmd, pfa = detection_error_rates(perfect, truth)
     visited = [r for r in rows if r["visited"]]
     judged = [r for r in visited if r["verdict"] != "failed"]
     correct = [r for r in judged if "truth" in r and (r["verdict"] == "mound") == r["truth"]]
@@ -274,6 +265,16 @@ def write_reports(tree: RunTree, summary: dict[str, Any]) -> None:
     write_atomic(tree.report_md, render_md(summary))
 
 
+def _wall_line(s: dict[str, Any]) -> str:
+    """This invocation's wall time, and the stages' own times when some were skipped."""
+    line = f"wall time {s['wall_s']:.0f} s"
+    if any(st.get("skipped") for st in s.get("stages", [])):
+        total = sum((st.get("wall_s_when_run") or 0.0) if st.get("skipped") else st["wall_s"]
+                    for st in s["stages"])
+        line += f" (resumed; the stages took {total:.0f} s when they ran)"
+    return line
+
+
 def render_html(tree: RunTree, s: dict[str, Any]) -> str:
     e = html.escape
     m = s["metrics"]
@@ -302,7 +303,7 @@ def render_html(tree: RunTree, s: dict[str, Any]) -> str:
 <body>
 <h1>Survey report</h1>
 <p class="muted">mound-survey · {e(s['created_utc'])} · run {e(str(tree.root))} ·
-wall time {s['wall_s']:.0f} s · origin {e(json.dumps(s.get('origin')))}</p>
+{_wall_line(s)} · origin {e(json.dumps(s.get('origin')))}</p>
 {head}
 <h2>Error rates</h2>
 {_metrics_table(m)}
