@@ -3,6 +3,7 @@
 // whatever was there before untouched.
 #pragma once
 
+#include <cstddef>
 #include <string>
 
 namespace mound {
@@ -11,7 +12,11 @@ namespace mound {
 // writable (a user problem), std::runtime_error for other I/O failures.
 void WriteFileAtomic(const std::string& path, const std::string& contents);
 
-// Reads a whole file. Throws InputError naming the path if it cannot be read.
-std::string ReadFile(const std::string& path);
+// The most ReadFile accepts unless told otherwise (1 GiB): far above any input of ours.
+constexpr size_t kMaxReadBytes = size_t{1} << 30;
+
+// Reads a whole file. Throws InputError naming the path if it cannot be read or holds
+// more than `max_bytes` (an endless device, a runaway file).
+std::string ReadFile(const std::string& path, size_t max_bytes = kMaxReadBytes);
 
 }  // namespace mound

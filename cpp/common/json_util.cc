@@ -26,7 +26,10 @@ std::pair<int, int> LineColumn(const std::string& text, size_t pos) {
 // The last `"key":` before `pos`, if any: names the field a syntax error happened in.
 std::string LastKeyBefore(const std::string& text, size_t pos) {
   static const std::regex kKey("\"([^\"\\\\]{1,64})\"\\s*:");
-  const std::string head = text.substr(0, std::min(pos, text.size()));
+  // Only the last few KiB: enough to find the key, and bounded work on a huge file.
+  const size_t end = std::min(pos, text.size());
+  const size_t begin = end > 4096 ? end - 4096 : 0;
+  const std::string head = text.substr(begin, end - begin);
   std::string last;
   for (auto it = std::sregex_iterator(head.begin(), head.end(), kKey);
        it != std::sregex_iterator(); ++it) {
@@ -108,6 +111,23 @@ double RequireFinite(const nlohmann::json& obj, const std::string& key, const st
   return d;
 }
 
+double RequireInRange(const nlohmann::json& obj, const std::string& key, const std::string& path,
+                      double lo, double hi) {
+  const double d = RequireFinite(obj, key, path);
+  if (d < lo || d > hi) {
+    throw InputError(JoinPath(path, key) + ": must be in [" + FormatNumber(lo) + ", " +
+                     FormatNumber(hi) + "], got " + FormatNumber(d));
+  }
+  return d;
+}
+
+std::optional<double> OptionalInRange(const nlohmann::json& obj, const std::string& key,
+                                      const std::string& path, double lo, double hi) {
+  auto it = obj.find(key);
+  if (it == obj.end() || it->is_null()) return std::nullopt;
+  return RequireInRange(obj, key, path, lo, hi);
+}
+
 double RequireNonNegative(const nlohmann::json& obj, const std::string& key,
                           const std::string& path) {
   const double d = RequireFinite(obj, key, path);
@@ -128,6 +148,20 @@ std::string RequireString(const nlohmann::json& obj, const std::string& key,
   if (!v.is_string()) throw InputError(JoinPath(path, key) + ": must be a string");
   std::string s = v.get<std::string>();
   if (s.empty()) throw InputError(JoinPath(path, key) + ": must not be empty");
+  return s;
+}
+
+std::string RequireId(const nlohmann::json& obj, const std::string& key, const std::string& path) {
+  std::string s = RequireString(obj, key, path);
+  if (s.size() > kMaxIdBytes) {
+    throw InputError(JoinPath(path, key) + ": longer than " + std::to_string(kMaxIdBytes) +
+                     " bytes");
+  }
+  for (unsigned char c : s) {
+    if (c < 0x20 || c == 0x7f) {
+      throw InputError(JoinPath(path, key) + ": control character in an id");
+    }
+  }
   return s;
 }
 

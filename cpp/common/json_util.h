@@ -31,6 +31,14 @@ std::optional<double> OptionalNonNegative(const nlohmann::json& obj, const std::
                                           const std::string& path);
 std::string RequireString(const nlohmann::json& obj, const std::string& key,
                           const std::string& path);
+// A finite number in [lo, hi] (readers bound magnitudes before any arithmetic on them).
+double RequireInRange(const nlohmann::json& obj, const std::string& key, const std::string& path,
+                      double lo, double hi);
+std::optional<double> OptionalInRange(const nlohmann::json& obj, const std::string& key,
+                                      const std::string& path, double lo, double hi);
+// An identifier: a non-empty string of at most kMaxIdBytes without control characters.
+constexpr size_t kMaxIdBytes = 256;
+std::string RequireId(const nlohmann::json& obj, const std::string& key, const std::string& path);
 
 // "a.b" or "b" when `path` is empty.
 std::string JoinPath(const std::string& path, const std::string& key);

@@ -51,7 +51,17 @@ std::vector<int> DfsRoute(const OpInstance& inst, const Tree& t, const std::vect
 }
 
 // Paper, NewAlg step 1: the two rounds of tree growth. Returns the depth-first route of the tree.
-std::vector<int> GrowTree(const OpInstance& inst, nlohmann::json* stats) {
+std::vector<int> GrowTree(const OpInstance& inst, nlohmann::json* stats,
+                          const std::function<void(const std::string&)>& progress) {
+  auto last_report = std::chrono::steady_clock::now();
+  auto report = [&](const char* round, int added, int rejected) {
+    if (!progress || std::chrono::steady_clock::now() - last_report < std::chrono::seconds(2)) {
+      return;
+    }
+    last_report = std::chrono::steady_clock::now();
+    progress(std::string("growing the tree, ") + round + ": " + std::to_string(added) +
+             " sites added, " + std::to_string(rejected) + " did not fit");
+  };
   const int n = inst.Size();
   const double inf = std::numeric_limits<double>::infinity();
   Tree t;
@@ -117,14 +127,16 @@ std::vector<int> GrowTree(const OpInstance& inst, nlohmann::json* stats) {
     if (v < 0) break;
     add(v, conn_to[v], conn[v]);
     ++round1;
+    report("round 1", round1, 0);
   }
   // Round 2: the depth-first route must stay within B. A site that does not fit is not
   // tried again.
   const double limit2 = inst.budget_m + BudgetSlack(inst.budget_m);
   std::vector<char> rejected(n, 0);
   std::vector<int> route = DfsRoute(inst, t, toward_end);
-  int round2 = 0;
+  int round2 = 0, rejections = 0;
   for (;;) {
+    report("round 2", round2, rejections);
     const int v = best_by_ratio([&](int u) { return !rejected[u]; });
     if (v < 0) break;
     const double c = conn[v];
@@ -137,6 +149,7 @@ std::vector<int> GrowTree(const OpInstance& inst, nlohmann::json* stats) {
     } else {
       detach(v, c);
       rejected[v] = 1;
+      ++rejections;
     }
   }
   (*stats)["tree_round1"] = round1;
@@ -147,11 +160,17 @@ std::vector<int> GrowTree(const OpInstance& inst, nlohmann::json* stats) {
 
 // Paper, NewAlg step 4: steps 2-3 repeated until no site is inserted.
 void ImproveLoop(const OpInstance& inst, std::vector<int>* route, std::vector<char>* in_route,
-                 uint64_t seed, int max_rounds, RouteOpsStats* ops, int* rounds) {
+                 uint64_t seed, int max_rounds, RouteOpsStats* ops, int* rounds,
+                 const std::function<void(const std::string&)>& progress = {}) {
   for (int r = 0; r < max_rounds; ++r) {
     ++*rounds;
     ReorderWithLkh(inst, route, seed + static_cast<uint64_t>(r), ops);
-    if (InsertByRatio(inst, route, in_route, ops) == 0) break;
+    const int inserted = InsertByRatio(inst, route, in_route, ops);
+    if (progress) {
+      progress("round " + std::to_string(r + 1) + ": " + std::to_string(route->size() - 2) +
+               " sites on the route, " + std::to_string(inserted) + " inserted");
+    }
+    if (inserted == 0) break;
   }
 }
 
@@ -175,10 +194,13 @@ PlanResult RunNewAlg(const OpInstance& inst, const NewAlgOptions& opt, RouteOpsS
   PlanResult res;
   res.stats = nlohmann::json::object();
   res.stats["name"] = "newalg";
-  res.route = GrowTree(inst, &res.stats);
+  res.route = GrowTree(inst, &res.stats, opt.progress);
+  if (opt.progress) {
+    opt.progress("tree grown: " + std::to_string(res.route.size() - 2) + " sites on its route");
+  }
   std::vector<char> in_route = Membership(inst, res.route);
   int rounds = 0;
-  ImproveLoop(inst, &res.route, &in_route, opt.seed, opt.max_rounds, ops, &rounds);
+  ImproveLoop(inst, &res.route, &in_route, opt.seed, opt.max_rounds, ops, &rounds, opt.progress);
   Finish(inst, &res, *ops, rounds);
   return res;
 }

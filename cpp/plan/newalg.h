@@ -17,6 +17,8 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
+#include <string>
 #include <nlohmann/json.hpp>
 #include <vector>
 
@@ -29,6 +31,8 @@ struct NewAlgOptions {
   int max_rounds = 100;        // step 2-3 repetitions
   int ls_iterations = 300;     // newalg-ls only
   double ls_time_limit_s = 0;  // newalg-ls only; <= 0: no limit
+  // One-line accounts of a long solve (tree grown, each improvement round). Empty: silent.
+  std::function<void(const std::string&)> progress;
 };
 
 struct PlanResult {

@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
+#include <functional>
 #include <map>
 #include <optional>
 
@@ -46,7 +48,7 @@ constexpr const char* kUsage =
     "engine and prints {\"length\", \"tour\" (1-based ids), ...}:\n"
     "  --runs N           independent runs, the best kept (default 1)\n"
     "  --trials N         trials per run (default: the number of nodes)\n"
-    "  --time-limit S     stop the search after S seconds\n"
+    "  --time-limit S     stop after S seconds (the whole solve, the ascent included)\n"
     "  --optimum L        stop as soon as a tour of length L is found\n"
     "  --kick-segment K   longest segment of a double-bridge kick (default max(50, n/4))\n"
     "The op command solves an OPLib instance (TSPLIB metric, closed tour at the depot,\n"
@@ -65,7 +67,23 @@ void Emit(const nlohmann::json& j, const std::map<std::string, std::string>& opt
   }
 }
 
-int RunTsp(const std::vector<std::string>& args, std::ostream& out) {
+// Large instances report progress on stderr (one line each, prefixed with the command), so
+// that a long solve is visibly alive; small ones stay quiet.
+constexpr int kProgressTspNodes = 5000;
+constexpr int kProgressSites = 10000;
+constexpr int kMaxOpNodes = 10000;  // the op command builds an n x n matrix of doubles
+
+std::function<void(const std::string&)> Reporter(std::ostream& err, const std::string& what,
+                                                 std::chrono::steady_clock::time_point t0) {
+  return [&err, what, t0](const std::string& line) {
+    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    char stamp[32];
+    std::snprintf(stamp, sizeof(stamp), "[%.1f s] ", s);
+    err << what << ": " << stamp << line << "\n" << std::flush;
+  };
+}
+
+int RunTsp(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
   const Args a = ParseArgs(args, 1, {"--seed", "--runs", "--trials", "--time-limit", "--out",
                                      "--optimum", "--kick-segment"});
   if (a.positional.size() != 1) throw InputError("tsp: expected exactly one FILE.tsp");
@@ -84,6 +102,7 @@ int RunTsp(const std::vector<std::string>& args, std::ostream& out) {
   const auto t0 = std::chrono::steady_clock::now();
   const tsp::TsplibInstance inst = tsp::ReadTsplib(path);
   if (inst.dimension < 1) throw InputError(path + ": DIMENSION must be >= 1");
+  if (inst.dimension >= kProgressTspNodes) opt.progress = Reporter(err, "mound_plan tsp", t0);
   const tsp::TspResult r = tsp::SolveTsp(*inst.problem, opt);
   const double elapsed =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -150,17 +169,23 @@ PlanResult Solve(const std::string& algo, const OpInstance& inst, const AlgoOpti
   return r;
 }
 
-int RunOp(const std::vector<std::string>& args, std::ostream& out) {
+int RunOp(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
   const Args a = ParseArgs(args, 1, {"--algo", "--seed", "--out", "--iterations", "--time-limit",
                                      "--routes"});
   if (a.positional.size() != 1) throw InputError("op: expected exactly one FILE.oplib");
   const std::string& path = a.positional[0];
   const std::string algo = ParseAlgo(a);
-  const AlgoOptions o = ParseAlgoOptions(a);
+  AlgoOptions o = ParseAlgoOptions(a);
+  const auto t_read = std::chrono::steady_clock::now();
   const tsp::TsplibInstance t = tsp::ReadTsplib(path);
   if (t.type != "OP" || t.scores.empty() || t.cost_limit < 0) {
     throw InputError(path + ": not an OP instance (TYPE: OP, COST_LIMIT, NODE_SCORE_SECTION)");
   }
+  if (t.dimension > kMaxOpNodes) {
+    throw InputError(path + ": DIMENSION " + std::to_string(t.dimension) +
+                     ": the op command takes at most " + std::to_string(kMaxOpNodes) + " nodes");
+  }
+  if (t.dimension >= kProgressSites) o.newalg.progress = Reporter(err, "mound_plan op", t_read);
   if (algo == "glv") throw InputError("--algo glv: needs planar coordinates, not " + path);
   // Node order: the depot (home) first, then the others in file order.
   std::vector<int> order{t.depot};
@@ -187,7 +212,7 @@ int RunOp(const std::vector<std::string>& args, std::ostream& out) {
   return kExitOk;
 }
 
-int RunPlan(const std::vector<std::string>& args, std::ostream& out) {
+int RunPlan(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
   const Args a = ParseArgs(args, 0, {"--algo", "--seed", "--out", "--iterations", "--time-limit",
                                      "--routes"});
   if (a.positional.empty() || a.positional.size() > 2) {
@@ -196,8 +221,14 @@ int RunPlan(const std::vector<std::string>& args, std::ostream& out) {
   std::optional<double> budget;
   if (a.positional.size() == 2) budget = ParseNumber(a.positional[1], "BUDGET");
   const std::string algo = ParseAlgo(a);
-  const AlgoOptions o = ParseAlgoOptions(a);
+  AlgoOptions o = ParseAlgoOptions(a);
+  const auto t_read = std::chrono::steady_clock::now();
   const SitesFile sites = ReadSites(a.positional[0], budget);
+  const int n_sites = sites.instance.Size() - sites.instance.FirstSite();
+  if (n_sites >= kProgressSites) {
+    o.newalg.progress = Reporter(err, "mound_plan", t_read);
+    o.newalg.progress("read " + std::to_string(n_sites) + " sites; planning with " + algo);
+  }
   const auto t0 = std::chrono::steady_clock::now();
   const PlanResult r = Solve(algo, sites.instance, o);
   const double elapsed =
@@ -220,9 +251,9 @@ int RunMoundPlan(const std::vector<std::string>& args, std::ostream& out, std::o
       out << kVersion << "\n";
       return static_cast<int>(kExitOk);
     }
-    if (args[0] == "tsp") return RunTsp(args, out);
-    if (args[0] == "op") return RunOp(args, out);
-    return RunPlan(args, out);
+    if (args[0] == "tsp") return RunTsp(args, out, err);
+    if (args[0] == "op") return RunOp(args, out, err);
+    return RunPlan(args, out, err);
   });
 }
 

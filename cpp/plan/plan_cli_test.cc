@@ -130,6 +130,19 @@ TEST(PlanCliTest, BadInputExitsTwoWithOneLineNamingTheFieldAndWritesNothing) {
       {"unknown option", with([](auto&) {}), {"--fast"}, "--fast"},
       {"negative take-off", with([](auto& j) { j["takeoff_landing_m"] = -1; }), {}, "takeoff_landing_m"},
       {"scan not an object", with([](auto& j) { j["scan"] = 3; }), {}, "scan"},
+      // Fuzzer findings (issue 14): magnitudes that overflowed the cost scaling (x_m 1e155
+      // crashed newalg), ids with control characters, a latitude of 1e20.
+      {"huge coordinate", with([](auto& j) { j["sites"][0]["x_m"] = 1e155; }), {}, "sites[0].x_m"},
+      {"huge home", with([](auto& j) { j["home"]["y_m"] = -1e9; }), {}, "home.y_m"},
+      {"huge reward", with([](auto& j) { j["sites"][1]["reward"] = 1e300; }), {}, "sites[1].reward"},
+      {"huge scan", with([](auto& j) { j["sites"][1]["scan_cost_m"] = 1e200; }), {},
+       "sites[1].scan_cost_m"},
+      {"huge budget", with([](auto& j) { j["budget_m"] = 1e300; }), {}, "budget_m"},
+      {"control id", with([](auto& j) { j["sites"][2]["id"] = "a\nb"; }), {}, "sites[2].id"},
+      {"long id", with([](auto& j) { j["sites"][2]["id"] = std::string(300, 'x'); }), {},
+       "sites[2].id"},
+      {"latitude", with([](auto& j) { j["origin"]["lat"] = 1e20; }), {}, "origin.lat"},
+      {"origin not object", with([](auto& j) { j["origin"] = 5; }), {}, "origin"},
   };
   for (const BadCase& c : cases) {
     const std::string in = WriteTemp("bad.json", c.text());
@@ -220,6 +233,104 @@ TEST(PlanCliTest, OpCommandSolvesOplibWithinTheCostLimit) {
   EXPECT_GT(reward, 0);
   EXPECT_EQ(Call({"op", file, "--algo", "glv"}).code, 2);  // needs planar coordinates
   EXPECT_EQ(Call({"op", std::string(MOUND_SHARED_DATA) + "/tsplib/eil51.tsp"}).code, 2);
+}
+
+// Fuzzer findings (issue 14) on TSPLIB/OPLib input: each exits 2 with one line naming the
+// file (and line) instead of crashing, answering with nodes that do not exist, overflowing
+// the integer costs or allocating a matrix the file does not hold.
+TEST(PlanCliTest, HostileTsplibAndOplibFilesExitTwo) {
+  const std::string op_head =
+      "NAME: t\nTYPE: OP\nDIMENSION: 8\nEDGE_WEIGHT_TYPE: EUC_2D\nCOST_LIMIT: 30\n"
+      "NODE_COORD_SECTION\n1 0 0\n2 1 0\n3 2 0\n4 3 0\n4.5 4 0\n";
+  std::string coords8;
+  for (int k = 1; k <= 8; ++k) coords8 += std::to_string(k) + " " + std::to_string(k) + " 0\n";
+  std::string scores8;
+  for (int k = 1; k <= 8; ++k) scores8 += std::to_string(k) + " " + std::to_string(k % 3) + "\n";
+  auto op_file = [&](const std::string& depot, const std::string& extra = "") {
+    return "NAME: t\nTYPE: OP\nDIMENSION: 8\nEDGE_WEIGHT_TYPE: EUC_2D\nCOST_LIMIT: 30\n" + extra +
+           "NODE_COORD_SECTION\n" + coords8 + "NODE_SCORE_SECTION\n" + scores8 +
+           "DEPOT_SECTION\n" + depot + "\nEOF\n";
+  };
+  struct Case {
+    std::string name, command, text, must_name;
+  };
+  std::string big_explicit = "NAME: x\nTYPE: TSP\nDIMENSION: 50000\nEDGE_WEIGHT_TYPE: EXPLICIT\n"
+                             "EDGE_WEIGHT_FORMAT: FULL_MATRIX\nEDGE_WEIGHT_SECTION\n0 1\n1 0\nEOF\n";
+  std::string huge_dim = "NAME: x\nTYPE: TSP\nDIMENSION: 10000000\nEDGE_WEIGHT_TYPE: EXPLICIT\n"
+                         "EDGE_WEIGHT_FORMAT: UPPER_ROW\nEDGE_WEIGHT_SECTION\n1\nEOF\n";
+  std::string five = "NAME: x\nTYPE: TSP\nDIMENSION: 5\nEDGE_WEIGHT_TYPE: EUC_2D\n"
+                     "NODE_COORD_SECTION\n1 0 0\n2 5e18 0\n3 1 1\n4 2 2\n5 3 3\nEOF\n";
+  std::string berlin = ReadFile(std::string(MOUND_SHARED_DATA) + "/tsplib/berlin52.tsp");
+  const size_t at = berlin.find("\n1 ", berlin.find("NODE_COORD_SECTION"));
+  ASSERT_NE(at, std::string::npos);
+  berlin.replace(at, berlin.find('\n', at + 1) - at, "\n1 1e18 655.0");
+  const std::vector<Case> cases = {
+      {"depot 1e9", "op", op_file("1000000000\n-1"), "depot"},
+      {"depot 0", "op", op_file("0\n-1"), "depot"},
+      {"depot 9", "op", op_file("9\n-1"), "depot"},
+      {"depot -5", "op", op_file("-5\n-1"), "depot"},
+      {"depot 1000", "op", op_file("1000\n-1"), "depot"},
+      {"depot fraction", "op", op_file("2.5\n-1"), "depot"},
+      {"two depots", "op", op_file("1\n2\n-1"), "DEPOT_SECTION"},
+      {"cost limit text", "op", op_file("1\n-1").replace(op_file("1\n-1").find("COST_LIMIT: 30"), 14,
+                                                       "COST_LIMIT: abc"), "COST_LIMIT"},
+      {"fractional node id", "op", op_head, "node id"},
+      {"berlin52 with 1e18", "tsp", berlin, "x coordinate"},
+      {"5 nodes with 5e18", "tsp", five, "x coordinate"},
+      {"explicit 50000", "tsp", big_explicit, "explicit matrix of 50000"},
+      {"dimension 1e7", "tsp", huge_dim, "DIMENSION"},
+      {"negative weight", "tsp", "NAME: x\nTYPE: TSP\nDIMENSION: 3\nEDGE_WEIGHT_TYPE: EXPLICIT\n"
+       "EDGE_WEIGHT_FORMAT: UPPER_ROW\nEDGE_WEIGHT_SECTION\n1 -2\n3\nEOF\n", "edge weight"},
+      {"dimension twice", "tsp", "DIMENSION: 3\nDIMENSION: 4\n", "DIMENSION given twice"},
+  };
+  for (const Case& c : cases) {
+    const std::string in = WriteTemp("hostile.tsp", c.text);
+    const std::string out = TempPath("never.json");
+    std::remove(out.c_str());
+    const CliRun r = Call({c.command, in, "--out", out});
+    EXPECT_EQ(r.code, 2) << c.name << ": " << r.err << r.out;
+    EXPECT_NE(r.err.find(c.must_name), std::string::npos) << c.name << ": " << r.err;
+    EXPECT_NE(r.err.find(in), std::string::npos) << c.name << ": " << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << c.name << ": " << r.err;
+    EXPECT_FALSE(Exists(out)) << c.name;
+  }
+  // The same OP file with a valid depot is solved (the cases above differ in one line).
+  const std::string ok = WriteTemp("ok.oplib", op_file("3\n-1"));
+  const CliRun r = Call({"op", ok});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(nlohmann::json::parse(r.out)["tour"].front(), 3);
+}
+
+// --time-limit bounds the whole solve, the subgradient ascent included, and a large
+// instance reports its progress on stderr (issue 14: 4,000 nodes with --time-limit 2 took
+// 25.8 s, 25.6 s of it in the ascent, in silence).
+TEST(PlanCliTest, TspTimeLimitCoversTheAscentAndLargeInstancesReportProgress) {
+  std::string text = "NAME: r6000\nTYPE: TSP\nDIMENSION: 6000\nEDGE_WEIGHT_TYPE: EUC_2D\n"
+                     "NODE_COORD_SECTION\n";
+  uint64_t x = 88172645463325252ULL;
+  auto next = [&x]() {
+    x ^= x << 13;
+    x ^= x >> 7;
+    x ^= x << 17;
+    return static_cast<int>(x % 100000);
+  };
+  for (int k = 1; k <= 6000; ++k) {
+    const int a = next(), b = next();
+    text += std::to_string(k) + " " + std::to_string(a) + " " + std::to_string(b) + "\n";
+  }
+  const std::string in = WriteTemp("r6000.tsp", text + "EOF\n");
+  const CliRun r = Call({"tsp", in, "--time-limit", "1"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto j = nlohmann::json::parse(r.out);
+  // Stopped by the limit, not by convergence: a full ascent on 6,000 nodes needs thousands
+  // of iterations (period n/2 = 3,000 to start with).
+  EXPECT_LT(j["stats"]["ascent_iterations"].get<int>(), 3000);
+  EXPECT_NE(r.err.find("ascent done"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("(stopped at half the time limit)"), std::string::npos) << r.err;
+  std::vector<int> ids = j["tour"].get<std::vector<int>>();
+  ASSERT_EQ(ids.size(), 6000u);
+  std::sort(ids.begin(), ids.end());
+  for (int i = 0; i < 6000; ++i) ASSERT_EQ(ids[i], i + 1);
 }
 
 }  // namespace

@@ -9,6 +9,18 @@
 #include "common/json_util.h"
 
 namespace mound::plan {
+namespace {
+
+// Magnitudes a survey can have, checked before any arithmetic: coordinates of a local
+// frame within 10^8 m (the Earth's circumference is 4 * 10^7 m), scan and take-off costs
+// within 10^8 m, budgets within 10^12 m, rewards within 10^12, latitudes and longitudes
+// in degrees. Beyond them, squared distances and sums lose all precision or overflow.
+constexpr double kMaxCoordM = 1e8;
+constexpr double kMaxCostM = 1e8;
+constexpr double kMaxBudgetM = 1e12;
+constexpr double kMaxReward = 1e12;
+
+}  // namespace
 
 SitesFile ParseSites(const std::string& text, const std::string& path,
                      std::optional<double> budget_override) {
@@ -19,31 +31,33 @@ SitesFile ParseSites(const std::string& text, const std::string& path,
   OpInstance& inst = out.instance;
   if (doc.contains("origin") && !doc["origin"].is_null()) {
     const auto& o = doc["origin"];
-    RequireFinite(o, "lat", "origin");
-    RequireFinite(o, "lon", "origin");
+    if (!o.is_object()) throw InputError("origin: must be an object");
+    RequireInRange(o, "lat", "origin", -90, 90);
+    RequireInRange(o, "lon", "origin", -180, 180);
+    OptionalInRange(o, "alt_m", "origin", -1e5, 1e5);
     out.origin = o;
   }
   if (doc.contains("scan") && !doc["scan"].is_null()) {
     if (!doc["scan"].is_object()) throw InputError("scan: must be an object");
     out.scan = doc["scan"];
   }
-  out.takeoff_landing_m = OptionalNonNegative(doc, "takeoff_landing_m", "").value_or(0.0);
+  out.takeoff_landing_m = OptionalInRange(doc, "takeoff_landing_m", "", 0, kMaxCostM).value_or(0.0);
   const nlohmann::json& home = RequireField(doc, "home", "");
   OpNode h;
-  h.id = RequireString(home, "id", "home");
-  h.x_m = RequireFinite(home, "x_m", "home");
-  h.y_m = RequireFinite(home, "y_m", "home");
+  h.id = RequireId(home, "id", "home");
+  h.x_m = RequireInRange(home, "x_m", "home", -kMaxCoordM, kMaxCoordM);
+  h.y_m = RequireInRange(home, "y_m", "home", -kMaxCoordM, kMaxCoordM);
   h.scan_cost_m = out.takeoff_landing_m;
   inst.nodes.push_back(h);
 
   if (doc.contains("end") && !doc["end"].is_null()) {
     const nlohmann::json& end = doc["end"];
-    const std::string id = RequireString(end, "id", "end");
+    const std::string id = RequireId(end, "id", "end");
     if (id != h.id) {
       OpNode e;
       e.id = id;
-      e.x_m = RequireFinite(end, "x_m", "end");
-      e.y_m = RequireFinite(end, "y_m", "end");
+      e.x_m = RequireInRange(end, "x_m", "end", -kMaxCoordM, kMaxCoordM);
+      e.y_m = RequireInRange(end, "y_m", "end", -kMaxCoordM, kMaxCoordM);
       e.scan_cost_m = out.takeoff_landing_m;
       inst.nodes.push_back(e);
       inst.end = 1;
@@ -60,7 +74,7 @@ SitesFile ParseSites(const std::string& text, const std::string& path,
     const nlohmann::json& s = sites[i];
     if (!s.is_object()) throw InputError(p + ": must be an object");
     OpNode n;
-    n.id = RequireString(s, "id", p);
+    n.id = RequireId(s, "id", p);
     auto [it, inserted] = seen.emplace(n.id, i);
     if (!inserted) {
       const std::string other = it->second == std::numeric_limits<size_t>::max()
@@ -68,24 +82,25 @@ SitesFile ParseSites(const std::string& text, const std::string& path,
                                     : "sites[" + std::to_string(it->second) + "]";
       throw InputError(p + ".id: duplicate id \"" + n.id + "\" (also " + other + ")");
     }
-    n.x_m = RequireFinite(s, "x_m", p);
-    n.y_m = RequireFinite(s, "y_m", p);
-    n.reward = RequireNonNegative(s, "reward", p);
-    n.scan_cost_m = OptionalNonNegative(s, "scan_cost_m", p).value_or(0.0);
+    n.x_m = RequireInRange(s, "x_m", p, -kMaxCoordM, kMaxCoordM);
+    n.y_m = RequireInRange(s, "y_m", p, -kMaxCoordM, kMaxCoordM);
+    n.reward = RequireInRange(s, "reward", p, 0, kMaxReward);
+    n.scan_cost_m = OptionalInRange(s, "scan_cost_m", p, 0, kMaxCostM).value_or(0.0);
     inst.nodes.push_back(n);
   }
 
   if (budget_override) {
-    if (!std::isfinite(*budget_override) || *budget_override < 0) {
-      throw InputError("BUDGET: must be a finite number >= 0");
+    if (!std::isfinite(*budget_override) || *budget_override < 0 ||
+        *budget_override > kMaxBudgetM) {
+      throw InputError("BUDGET: must be a finite number in [0, 1e12]");
     }
     inst.budget_m = *budget_override;
-    if (doc.contains("budget_m")) RequireNonNegative(doc, "budget_m", "");  // still validated
+    if (doc.contains("budget_m")) RequireInRange(doc, "budget_m", "", 0, kMaxBudgetM);  // still validated
   } else {
     if (!doc.contains("budget_m")) {
       throw InputError("budget_m: missing (give it in " + path + " or as BUDGET on the command line)");
     }
-    inst.budget_m = RequireNonNegative(doc, "budget_m", "");
+    inst.budget_m = RequireInRange(doc, "budget_m", "", 0, kMaxBudgetM);
     out.budget_in_file = true;
   }
 

@@ -1,8 +1,10 @@
 #include "sim/npy.h"
 
 #include <algorithm>
+#include <cctype>
+#include <cerrno>
 #include <cstring>
-#include <regex>
+#include <fstream>
 
 #include "common/atomic_file.h"
 #include "common/error.h"
@@ -42,54 +44,112 @@ std::vector<double> NpyArray::AsDouble() const {
   return out;
 }
 
+namespace {
+
+// The header is a Python dict literal; numpy writes it in one form ("{'descr': '<f4',
+// 'fortran_order': False, 'shape': (3, 4), }"). A small scanner (no regular expressions:
+// std::regex recurses per character and overflows the stack on long inputs) finds the
+// value after `'key':` and stops at the first delimiter.
+std::string ValueAfter(const std::string& header, const std::string& key, const std::string& path) {
+  const std::string quoted = "'" + key + "'";
+  const size_t k = header.find(quoted);
+  if (k == std::string::npos) throw InputError(path + ": not a valid .npy: no " + key);
+  size_t i = header.find_first_not_of(" \t", k + quoted.size());
+  if (i == std::string::npos || header[i] != ':') {
+    throw InputError(path + ": not a valid .npy: no ':' after " + key);
+  }
+  i = header.find_first_not_of(" \t", i + 1);
+  if (i == std::string::npos) throw InputError(path + ": not a valid .npy: no value for " + key);
+  const char open = header[i];
+  const char close = open == '\'' ? '\'' : open == '(' ? ')' : '\0';
+  if (close != '\0') {
+    const size_t j = header.find(close, i + 1);
+    if (j == std::string::npos) throw InputError(path + ": not a valid .npy: unterminated " + key);
+    return header.substr(i + 1, j - i - 1);
+  }
+  const size_t j = header.find_first_of(",}", i);
+  return header.substr(i, (j == std::string::npos ? header.size() : j) - i);
+}
+
+}  // namespace
+
 NpyArray ReadNpy(const std::string& path) {
-  const std::string raw = ReadFile(path);
   auto bad = [&](const std::string& why) { return InputError(path + ": not a valid .npy: " + why); };
-  if (raw.size() < 10 || raw.compare(0, 6, "\x93NUMPY") != 0) throw bad("bad magic");
-  const int major = static_cast<unsigned char>(raw[6]);
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path + ": cannot open (" + std::strerror(errno) + ")");
+  char lead[12];
+  in.read(lead, 10);
+  if (in.gcount() < 10 || std::string(lead, 6) != "\x93NUMPY") throw bad("bad magic");
+  const int major = static_cast<unsigned char>(lead[6]);
   size_t header_len = 0;
-  size_t offset = 0;
   if (major == 1) {
-    header_len = static_cast<unsigned char>(raw[8]) | (static_cast<unsigned char>(raw[9]) << 8);
-    offset = 10;
+    header_len = static_cast<unsigned char>(lead[8]) | (static_cast<unsigned char>(lead[9]) << 8);
   } else if (major == 2 || major == 3) {
-    if (raw.size() < 12) throw bad("truncated header");
-    for (int k = 0; k < 4; ++k) header_len |= size_t(static_cast<unsigned char>(raw[8 + k])) << (8 * k);
-    offset = 12;
+    in.read(lead + 10, 2);
+    if (in.gcount() < 2) throw bad("truncated header");
+    for (int k = 0; k < 4; ++k) header_len |= size_t(static_cast<unsigned char>(lead[8 + k])) << (8 * k);
   } else {
     throw bad("unknown format version " + std::to_string(major));
   }
-  if (raw.size() < offset + header_len) throw bad("truncated header");
-  const std::string header = raw.substr(offset, header_len);
-  std::smatch m;
+  // numpy itself refuses headers over 10,000 bytes unless told otherwise; ours are < 200.
+  constexpr size_t kMaxHeader = 65536;
+  if (header_len > kMaxHeader) {
+    throw bad("header of " + std::to_string(header_len) + " bytes (at most " +
+              std::to_string(kMaxHeader) + ")");
+  }
+  std::string header(header_len, '\0');
+  in.read(header.data(), static_cast<std::streamsize>(header_len));
+  if (static_cast<size_t>(in.gcount()) != header_len) throw bad("truncated header");
+
   NpyArray a;
-  if (!std::regex_search(header, m, std::regex("'descr'\\s*:\\s*'([^']*)'"))) throw bad("no descr");
-  a.descr = m[1];
+  a.descr = ValueAfter(header, "descr", path);
   const size_t esize = ElementSize(a.descr);
-  if (esize == 0) throw bad("dtype " + a.descr + " (expected <f4, <f8 or |u1)");
-  if (!std::regex_search(header, m, std::regex("'fortran_order'\\s*:\\s*(True|False)")))
-    throw bad("no fortran_order");
-  if (m[1] == "True") throw InputError(path + ": Fortran-ordered arrays are not supported");
-  if (!std::regex_search(header, m, std::regex("'shape'\\s*:\\s*\\(([^)]*)\\)"))) throw bad("no shape");
-  const std::string dims = m[1];
-  std::regex num("\\d+");
-  // At most 2^32 elements of at most 8 bytes: no overflow below, and a clear message for
-  // a corrupt header that claims more than any real grid.
-  const unsigned long long kMaxElements = 1ULL << 32;
+  if (esize == 0) {
+    throw bad("dtype " + a.descr.substr(0, 32) + " (expected <f4, <f8 or |u1)");
+  }
+  const std::string order = ValueAfter(header, "fortran_order", path);
+  if (order == "True") throw InputError(path + ": Fortran-ordered arrays are not supported");
+  if (order != "False") throw bad("fortran_order must be True or False");
+  const std::string dims = ValueAfter(header, "shape", path);
+  // At most 2^31 elements (16 GiB of float64, far beyond any grid of ours) in at most 8
+  // dimensions: no overflow below, and a clear message for a corrupt header.
+  constexpr unsigned long long kMaxElements = 1ULL << 31;
+  constexpr size_t kMaxDims = 8;
   unsigned long long count = 1;
-  for (auto it = std::sregex_iterator(dims.begin(), dims.end(), num); it != std::sregex_iterator();
-       ++it) {
-    if (it->str().size() > 12) throw bad("shape entry " + it->str() + " too large");
-    a.shape.push_back(std::stoull(it->str()));
+  size_t i = 0;
+  while (i < dims.size()) {
+    if (dims[i] == ' ' || dims[i] == ',') {
+      ++i;
+      continue;
+    }
+    if (!std::isdigit(static_cast<unsigned char>(dims[i]))) throw bad("shape must list integers");
+    size_t j = i;
+    while (j < dims.size() && std::isdigit(static_cast<unsigned char>(dims[j]))) ++j;
+    if (j - i > 12) throw bad("shape entry " + dims.substr(i, 16) + "... too large");
+    if (a.shape.size() == kMaxDims) throw bad("more than 8 dimensions");
+    a.shape.push_back(std::stoull(dims.substr(i, j - i)));
     count *= std::max<unsigned long long>(a.shape.back(), 1);
-    if (count > kMaxElements) throw bad("shape has more than 2^32 elements");
+    if (count > kMaxElements) throw bad("shape has more than 2^31 elements");
+    i = j;
   }
   const size_t bytes = a.Count() * esize;
-  if (raw.size() - offset - header_len != bytes) {
-    throw bad("data has " + std::to_string(raw.size() - offset - header_len) + " bytes, shape needs " +
-              std::to_string(bytes));
+  // Read exactly what the shape needs, in chunks (the vector grows only as data comes, so a
+  // lying header cannot make it allocate), then insist on the end of the file.
+  constexpr size_t kChunk = size_t{1} << 20;
+  while (a.data.size() < bytes) {
+    const size_t want = std::min(kChunk, bytes - a.data.size());
+    const size_t at = a.data.size();
+    a.data.resize(at + want);
+    in.read(reinterpret_cast<char*>(a.data.data() + at), static_cast<std::streamsize>(want));
+    const size_t got = static_cast<size_t>(in.gcount());
+    if (got < want) {
+      throw bad("data has " + std::to_string(at + got) + " bytes, shape needs " +
+                std::to_string(bytes));
+    }
   }
-  a.data.assign(raw.begin() + offset + header_len, raw.end());
+  if (in.peek() != std::char_traits<char>::eof()) {
+    throw bad("more data than the shape needs (" + std::to_string(bytes) + " bytes)");
+  }
   return a;
 }
 

@@ -1,5 +1,7 @@
 #include "sim/render_cli.h"
 
+#include <stdlib.h>
+
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -72,11 +74,32 @@ int RunMoundRender(const std::vector<std::string>& args, std::ostream& out, std:
     const auto t0 = std::chrono::steady_clock::now();
     const RenderJob job = LoadRenderJob(a.positional[0]);
     const double load_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    const std::filesystem::path out_dir(a.options.at("--out"));
+    const std::filesystem::path final_dir(a.options.at("--out"));
+    // All or nothing: the images go to a staging folder inside --out and are moved into
+    // place only when every one of them has been written; a failure removes the staging
+    // folder (and --out itself if this run created it), so no earlier image is left behind.
     std::error_code ec;
+    const bool created_out = !std::filesystem::exists(final_dir, ec);
+    std::filesystem::create_directories(final_dir, ec);
+    if (ec) throw InputError("--out: cannot create " + final_dir.string() + " (" + ec.message() + ")");
+    std::string staging_name = (final_dir / ".mound_render.XXXXXX").string();
+    if (::mkdtemp(staging_name.data()) == nullptr) {
+      throw InputError("--out: cannot write into " + final_dir.string());
+    }
+    const std::filesystem::path out_dir(staging_name);
+    struct Cleanup {
+      std::filesystem::path staging, out;
+      bool remove_out, armed = true;
+      ~Cleanup() {
+        if (!armed) return;
+        std::error_code e;
+        std::filesystem::remove_all(staging, e);
+        if (remove_out) std::filesystem::remove(out, e);  // only if empty
+      }
+    } cleanup{out_dir, final_dir, created_out};
     for (const ImageJob& im : job.images) {
       std::filesystem::create_directories((out_dir / im.file).parent_path(), ec);
-      if (ec) throw InputError("--out: cannot create " + (out_dir / im.file).parent_path().string());
+      if (ec) throw InputError("--out: cannot create " + (final_dir / im.file).parent_path().string());
     }
 
     std::vector<double> seconds(job.images.size());
@@ -116,6 +139,24 @@ int RunMoundRender(const std::vector<std::string>& args, std::ostream& out, std:
     for (int t = 0; t < std::min<int>(threads, static_cast<int>(job.images.size())); ++t) pool.emplace_back(worker);
     for (std::thread& t : pool) t.join();
     if (error) std::rethrow_exception(error);
+    // Every image is written: move them (and their geometry) into place.
+    for (const ImageJob& im : job.images) {
+      std::vector<std::filesystem::path> files{im.file};
+      if (geometry) {
+        files.push_back(std::filesystem::path(im.file).replace_extension(".depth.npy"));
+        files.push_back(std::filesystem::path(im.file).replace_extension(".xyz.npy"));
+      }
+      for (const std::filesystem::path& f : files) {
+        std::filesystem::create_directories((final_dir / f).parent_path(), ec);
+        std::filesystem::rename(out_dir / f, final_dir / f, ec);
+        if (ec) {
+          throw std::runtime_error("cannot move " + f.string() + " into " + final_dir.string() +
+                                   " (" + ec.message() + ")");
+        }
+      }
+    }
+    std::filesystem::remove_all(out_dir, ec);
+    cleanup.armed = false;
 
     nlohmann::json images = nlohmann::json::array();
     for (size_t k = 0; k < job.images.size(); ++k) {

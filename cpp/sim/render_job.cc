@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <map>
 
 #include "common/atomic_file.h"
 #include "common/error.h"
@@ -176,11 +177,21 @@ RenderJob LoadRenderJob(const std::string& path) {
   if (doc.contains("seed")) job.seed = static_cast<uint64_t>(RequireInt(doc, "seed", "", 0, 2147483647));
   const json& images = RequireField(doc, "images", "");
   if (!images.is_array() || images.empty()) throw InputError("images: expected a non-empty array");
+  std::map<std::string, size_t> stems;  // output stem (no extension) -> first image with it
   for (size_t k = 0; k < images.size(); ++k) {
     const std::string p = "images[" + std::to_string(k) + "]";
     if (!images[k].is_object()) throw InputError(p + ": expected an object");
     ImageJob im;
     im.file = CheckImageFile(RequireString(images[k], "file", p), JoinPath(p, "file"));
+    // Two images with one output name (or one stem: their .depth.npy would collide) would
+    // overwrite each other: a job error, not a race.
+    const std::string stem =
+        std::filesystem::path(im.file).lexically_normal().replace_extension().string();
+    const auto [it, fresh] = stems.emplace(stem, k);
+    if (!fresh) {
+      throw InputError(JoinPath(p, "file") + ": '" + im.file + "' is the same output as images[" +
+                       std::to_string(it->second) + "]");
+    }
     const std::string pp = JoinPath(p, "cam_from_world");
     im.cam_from_world = LoadPose(RequireField(images[k], "cam_from_world", p), pp);
     const Eigen::Vector3d c = im.cam_from_world.Centre();

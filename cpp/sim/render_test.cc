@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <functional>
 
+#include "common/error.h"
 #include "sim/npy.h"
 #include "sim/render.h"
 
@@ -239,11 +240,60 @@ TEST(Npy, Float32RoundTripAndErrors) {
       ReadNpy(path);
       ADD_FAILURE() << "accepted a 2^34-element shape";
     } catch (const std::exception& e) {
-      EXPECT_NE(std::string(e.what()).find("2^32"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("2^31"), std::string::npos) << e.what();
     }
   }
   std::filesystem::remove(path);
   EXPECT_THROW(ReadNpy(path), std::exception);
+}
+
+// A version-2 header (4-byte length) holding `header`, then `data`.
+void WriteRawNpy(const std::string& path, const std::string& header, const std::string& data) {
+  std::string raw = std::string("\x93NUMPY\x02\x00", 8);
+  for (int k = 0; k < 4; ++k) raw += static_cast<char>((header.size() >> (8 * k)) & 0xff);
+  raw += header + data;
+  std::FILE* f = std::fopen(path.c_str(), "wb");
+  std::fwrite(raw.data(), 1, raw.size(), f);
+  std::fclose(f);
+}
+
+std::string NpyError(const std::string& path) {
+  try {
+    ReadNpy(path);
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "accepted";
+}
+
+// Fuzzer findings (issue 14): each is refused with an InputError naming the problem, with
+// no crash (a 30,000-character descr and a 10,000-entry shape overflowed the stack inside
+// std::regex) and no runaway read.
+TEST(Npy, HostileHeadersAreRefused) {
+  const std::string path = ::testing::TempDir() + "/mound_npy_hostile.npy";
+  WriteRawNpy(path, "{'descr': '" + std::string(30000, 'f') + "', 'fortran_order': False, "
+                    "'shape': (2,), }\n", std::string(8, '\0'));
+  EXPECT_NE(NpyError(path).find("dtype"), std::string::npos) << NpyError(path);
+  std::string dims;
+  for (int k = 0; k < 10000; ++k) dims += "1, ";
+  WriteRawNpy(path, "{'descr': '<f4', 'fortran_order': False, 'shape': (" + dims + "), }\n",
+              std::string(4, '\0'));
+  EXPECT_NE(NpyError(path).find("dimensions"), std::string::npos) << NpyError(path);
+  WriteRawNpy(path, std::string(70000, ' '), "");
+  EXPECT_NE(NpyError(path).find("header of 70000 bytes"), std::string::npos) << NpyError(path);
+  WriteRawNpy(path, "{'descr': '<f4', 'fortran_order': False, 'shape': (2,), }\n",
+              std::string(1 << 20, '\0'));
+  EXPECT_NE(NpyError(path).find("more data than the shape needs"), std::string::npos);
+  WriteRawNpy(path, "{'descr': '<f4', 'fortran_order': maybe, 'shape': (2,), }\n",
+              std::string(8, '\0'));
+  EXPECT_NE(NpyError(path).find("fortran_order"), std::string::npos);
+  WriteRawNpy(path, "{'descr': '<f4', 'fortran_order': False, 'shape': (2, x), }\n",
+              std::string(8, '\0'));
+  EXPECT_NE(NpyError(path).find("integers"), std::string::npos);
+  WriteRawNpy(path, "{'descr': '<f4', 'fortran_order': False, 'shape': (1000, 1000), }\n",
+              std::string(8, '\0'));
+  EXPECT_NE(NpyError(path).find("shape needs 4000000"), std::string::npos) << NpyError(path);
+  std::filesystem::remove(path);
 }
 
 }  // namespace

@@ -1,7 +1,9 @@
 #include "tsp/candidates.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <queue>
 
@@ -305,13 +307,31 @@ AscentResult Ascent(const CostCache& d, const AscentOptions& opt) {
 
   std::vector<int> last_v(n, 0);
   for (int i = 0; i < n; ++i) last_v[i] = tree.degree[i] - 2;
+  const auto started = std::chrono::steady_clock::now();
+  auto last_report = started;
+  bool stopped = false;
+  auto stop_now = [&]() {
+    if (opt.progress) {
+      const auto now = std::chrono::steady_clock::now();
+      if (now - last_report > std::chrono::seconds(2)) {
+        last_report = now;
+        char line[160];
+        std::snprintf(line, sizeof(line), "ascent: iteration %d, bound %.6g, %.1f s", res.iterations,
+                      static_cast<double>(best_w) / opt.precision,
+                      std::chrono::duration<double>(now - started).count());
+        opt.progress(line);
+      }
+    }
+    stopped = stopped || (opt.should_stop && opt.should_stop());
+    return stopped;
+  };
   const int initial_period = opt.initial_period > 0 ? opt.initial_period : std::max(n / 2, 100);
   Cost step = opt.precision;  // INITIAL_STEP_SIZE = 1, scaled by the precision
   bool initial_phase = true;
   for (int period = initial_period; period > 0 && step > 0 && norm != 0;
        period /= 2, step /= 2) {
     for (int p = 1; step > 0 && p <= period && norm != 0; ++p) {
-      if (res.iterations >= opt.max_iterations) break;
+      if (res.iterations >= opt.max_iterations || stop_now()) break;
       for (int i = 0; i < n; ++i) {
         const int v = tree.degree[i] - 2;
         if (v != 0) res.pi[i] += step * (7 * v + 3 * last_v[i]) / 10;
@@ -332,7 +352,7 @@ AscentResult Ascent(const CostCache& d, const AscentOptions& opt) {
         step = 3 * step / 4;
       }
     }
-    if (res.iterations >= opt.max_iterations) break;
+    if (res.iterations >= opt.max_iterations || stopped) break;
   }
   res.pi = best_pi;
   res.tour_found = norm == 0 && w == best_w;

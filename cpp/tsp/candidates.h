@@ -16,6 +16,8 @@
 // topological order of the tree.
 #pragma once
 
+#include <functional>
+#include <string>
 #include <vector>
 
 #include "tsp/problem.h"
@@ -37,6 +39,11 @@ struct AscentOptions {
   bool subgradient = true;      // false: pi = initial_pi (plain alpha of that 1-tree)
   // Warm start (LKH's PI_FILE): penalties from an earlier, similar instance. Empty: zeros.
   std::vector<Cost> initial_pi;
+  // Checked every iteration: true ends the ascent with the best penalties so far (the
+  // solver's time limit). Empty: never.
+  std::function<bool()> should_stop;
+  // Called about every 2 s with a one-line account of the ascent. Empty: silent.
+  std::function<void(const std::string&)> progress;
 };
 
 struct AscentResult {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <numeric>
 #include <random>
 
@@ -107,10 +108,29 @@ TspResult SolveTsp(const Problem& problem, const SolverOptions& opt) {
   if (n <= 8) return SolveExact(problem, fixed_partner);
 
   const auto t_start = Clock::now();
+  auto out_of_time = [&]() { return opt.time_limit_s > 0 && Seconds(t_start) > opt.time_limit_s; };
+  auto say = [&](const std::string& what) {
+    if (opt.progress) opt.progress(what);
+  };
   TspResult res;
   CostCache d(problem);
-  const AscentResult ascent = Ascent(d, opt.ascent);
+  AscentOptions ascent_opt = opt.ascent;
+  // The ascent gets at most half of a time limit, so that the search has the other half.
+  if (opt.time_limit_s > 0) {
+    ascent_opt.should_stop = [&]() { return Seconds(t_start) > 0.5 * opt.time_limit_s; };
+  }
+  if (opt.progress && !ascent_opt.progress) ascent_opt.progress = opt.progress;
+  say("ascent: " + std::to_string(n) + " nodes");
+  const AscentResult ascent = Ascent(d, ascent_opt);
   res.stats.ascent_s = Seconds(t_start);
+  {
+    char line[160];
+    std::snprintf(line, sizeof(line), "ascent done: %d iterations, bound %.6g, %.1f s%s",
+                  ascent.iterations, ascent.lower_bound, res.stats.ascent_s,
+                  opt.time_limit_s > 0 && res.stats.ascent_s > 0.5 * opt.time_limit_s
+                      ? " (stopped at half the time limit)" : "");
+    say(line);
+  }
   res.pi = ascent.pi;
   res.stats.lower_bound = ascent.lower_bound;
   res.stats.ascent_iterations = ascent.iterations;
@@ -118,6 +138,7 @@ TspResult SolveTsp(const Problem& problem, const SolverOptions& opt) {
   const CandidateSet cands = AlphaCandidates(d, ascent.pi, opt.ascent.precision,
                                              opt.max_candidates, problem.FixedEdges());
   res.stats.candidates_s = Seconds(t_cand);
+  say("candidates: " + std::to_string(opt.max_candidates) + " per node");
 
   const auto t_search = Clock::now();
   const Cost sum_pi = std::accumulate(ascent.pi.begin(), ascent.pi.end(), Cost{0});
@@ -127,7 +148,7 @@ TspResult SolveTsp(const Problem& problem, const SolverOptions& opt) {
   const int max_trials = opt.max_trials > 0 ? opt.max_trials : n;
   const int runs = std::max(1, opt.runs);
   LinKernighan lk(d, ascent.pi, opt.ascent.precision, cands, problem.FixedEdges(), opt.move_k);
-  auto out_of_time = [&]() { return opt.time_limit_s > 0 && Seconds(t_start) > opt.time_limit_s; };
+  auto last_report = Clock::now();
   auto length_of = [&](Cost transformed) { return (transformed - 2 * sum_pi) / precision; };
 
   Cost best_len = -1;
@@ -147,6 +168,12 @@ TspResult SolveTsp(const Problem& problem, const SolverOptions& opt) {
     const int kick_len = std::max(1, std::min(kick_max, (n - 2) / 3));
     for (int trial = 1; trial < max_trials; ++trial) {
       if (length_of(cur) <= target || out_of_time()) break;
+      if (opt.progress && Clock::now() - last_report > std::chrono::seconds(2)) {
+        last_report = Clock::now();
+        say("run " + std::to_string(run + 1) + ", trial " + std::to_string(trial) + " of " +
+            std::to_string(max_trials) + ": length " + std::to_string(length_of(cur)) +
+            " (bound " + std::to_string(bound) + ")");
+      }
       // Segment double bridge: a1 | B | C | D | e1  ->  a1 D C B e1.
       int a1 = -1, b1 = -1, b2 = -1, c1 = -1, c2 = -1, d1 = -1, d2 = -1, e1 = -1;
       bool ok = false;

@@ -7,11 +7,15 @@
 //                   move LK cannot undo), LK from the kicked nodes, keep the tour if it
 //                   is no longer, otherwise undo everything since the kick.
 //   keep the best tour over runs; stop early when it meets the 1-tree lower bound or a
-//   given optimum, or when the time limit is spent.
+//   given optimum, or when the time limit is spent (the limit covers the whole solve: the
+//   ascent stops at half of it with the best penalties so far, the search uses the rest;
+//   the first LK descent always completes, so a tour is always returned).
 // Instances of at most 8 nodes are solved exactly by enumeration.
 #pragma once
 
 #include <cstdint>
+#include <functional>
+#include <string>
 #include <vector>
 
 #include "tsp/candidates.h"
@@ -29,6 +33,8 @@ struct SolverOptions {
   double time_limit_s = 0;    // <= 0: none
   Cost optimum = -1;          // stop when a tour this short is found (benchmarks)
   AscentOptions ascent;
+  // One-line accounts of a long solve (ascent, candidates, runs, trials), about every 2 s.
+  std::function<void(const std::string&)> progress;
 };
 
 struct SolverStats {

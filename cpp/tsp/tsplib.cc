@@ -1,11 +1,13 @@
 #include "tsp/tsplib.h"
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <sstream>
 
 #include "common/atomic_file.h"
 #include "common/error.h"
+#include "common/json_util.h"
 
 namespace mound::tsp {
 namespace {
@@ -51,6 +53,34 @@ class NumberReader {
   std::istringstream ss_;
 };
 
+// Bounds checked before any allocation or arithmetic. Coordinates within 10^9 keep every
+// distance below 3 * 10^9 and a tour of 10^6 nodes, scaled by the ascent's precision
+// (100), below 10^18 < 2^63; explicit weights within 10^9 likewise. An explicit matrix of
+// 10^4 nodes is 800 MB of 64-bit costs: the most this reader builds.
+constexpr long kMaxDimension = 1000000;
+constexpr long kMaxExplicitDimension = 10000;
+constexpr double kMaxCoordinate = 1e9;
+constexpr double kMaxWeight = 1e9;
+constexpr double kMaxScore = 1e9;
+constexpr double kMaxCostLimit = 1e15;
+
+// A 1-based node id read as a number: an integer in 1..n, returned 0-based.
+int NodeIndex(double v, int n, const std::string& where, const char* what) {
+  if (!(v >= 1 && v <= n) || v != std::floor(v)) {
+    throw InputError(where + ": " + what + " " + FormatNumber(v) + " is not a node id in 1.." +
+                     std::to_string(n));
+  }
+  return static_cast<int>(v) - 1;
+}
+
+double Bounded(double v, double lo, double hi, const std::string& where, const char* what) {
+  if (v < lo || v > hi) {
+    throw InputError(where + ": " + what + " " + FormatNumber(v) + " outside [" +
+                     FormatNumber(lo) + ", " + FormatNumber(hi) + "]");
+  }
+  return v;
+}
+
 }  // namespace
 
 TsplibInstance ParseTsplib(const std::string& text, const std::string& source) {
@@ -94,9 +124,14 @@ TsplibInstance ParseTsplib(const std::string& text, const std::string& source) {
       }
     } else if (key == "DIMENSION") {
       char* end = nullptr;
+      errno = 0;
       const long d = std::strtol(value.c_str(), &end, 10);
-      if (end == value.c_str() || d < 1 || d > 10000000) {
-        throw InputError(source + ":" + std::to_string(lineno) + ": bad DIMENSION '" + value + "'");
+      if (end == value.c_str() || *end != '\0' || errno != 0 || d < 1 || d > kMaxDimension) {
+        throw InputError(source + ":" + std::to_string(lineno) + ": bad DIMENSION '" + value +
+                         "' (1.." + std::to_string(kMaxDimension) + ")");
+      }
+      if (inst.dimension > 0) {
+        throw InputError(source + ":" + std::to_string(lineno) + ": DIMENSION given twice");
       }
       inst.dimension = static_cast<int>(d);
     } else if (key == "EDGE_WEIGHT_TYPE") {
@@ -104,7 +139,13 @@ TsplibInstance ParseTsplib(const std::string& text, const std::string& source) {
     } else if (key == "EDGE_WEIGHT_FORMAT") {
       format = value;
     } else if (key == "COST_LIMIT") {
-      inst.cost_limit = std::strtod(value.c_str(), nullptr);
+      char* end = nullptr;
+      const double c = std::strtod(value.c_str(), &end);
+      if (end == value.c_str() || *end != '\0' || !(c >= 0 && c <= kMaxCostLimit)) {
+        throw InputError(source + ":" + std::to_string(lineno) + ": bad COST_LIMIT '" + value +
+                         "' (a number in [0, 1e15])");
+      }
+      inst.cost_limit = c;
     } else if (key == "NODE_COORD_SECTION") {
       need_dim(lineno);
       NumberReader r(lines, i, source);
@@ -112,14 +153,13 @@ TsplibInstance ParseTsplib(const std::string& text, const std::string& source) {
       y.assign(inst.dimension, 0);
       std::vector<bool> seen(inst.dimension, false);
       for (int k = 0; k < inst.dimension; ++k) {
-        const double id = r.Next("node id");
-        const int idx = static_cast<int>(id) - 1;
-        if (idx < 0 || idx >= inst.dimension || seen[idx]) {
-          throw InputError(r.Where() + ": bad or repeated node id " + std::to_string(idx + 1));
-        }
+        const int idx = NodeIndex(r.Next("node id"), inst.dimension, r.Where(), "node id");
+        if (seen[idx]) throw InputError(r.Where() + ": repeated node id " + std::to_string(idx + 1));
         seen[idx] = true;
-        x[idx] = r.Next("x coordinate");
-        y[idx] = r.Next("y coordinate");
+        x[idx] = Bounded(r.Next("x coordinate"), -kMaxCoordinate, kMaxCoordinate, r.Where(),
+                         "x coordinate");
+        y[idx] = Bounded(r.Next("y coordinate"), -kMaxCoordinate, kMaxCoordinate, r.Where(),
+                         "y coordinate");
       }
       i = r.line();
       have_coords = true;
@@ -131,26 +171,39 @@ TsplibInstance ParseTsplib(const std::string& text, const std::string& source) {
       else if (format == "UPPER_ROW" || format == "LOWER_ROW") count = n * (n - 1) / 2;
       else if (format == "UPPER_DIAG_ROW" || format == "LOWER_DIAG_ROW") count = n * (n + 1) / 2;
       else throw InputError(source + ": EDGE_WEIGHT_FORMAT " + format + " not supported");
+      if (n > kMaxExplicitDimension) {
+        throw InputError(source + ":" + std::to_string(lineno) + ": an explicit matrix of " +
+                         std::to_string(n) + " nodes is more than this reader builds (at most " +
+                         std::to_string(kMaxExplicitDimension) + ")");
+      }
       NumberReader r(lines, i, source);
-      weights.resize(count);
-      for (long long k = 0; k < count; ++k) weights[k] = static_cast<Cost>(r.Next("edge weight"));
+      weights.clear();
+      // Grown as the numbers come (not sized from DIMENSION): a short file fails at its end.
+      for (long long k = 0; k < count; ++k) {
+        const double w = Bounded(r.Next("edge weight"), 0, kMaxWeight, r.Where(), "edge weight");
+        weights.push_back(static_cast<Cost>(std::llround(w)));
+      }
       i = r.line();
       have_weights = true;
     } else if (key == "NODE_SCORE_SECTION") {
       need_dim(lineno);
       NumberReader r(lines, i, source);
       inst.scores.assign(inst.dimension, 0);
+      std::vector<bool> seen(inst.dimension, false);
       for (int k = 0; k < inst.dimension; ++k) {
-        const int idx = static_cast<int>(r.Next("node id")) - 1;
-        if (idx < 0 || idx >= inst.dimension) throw InputError(r.Where() + ": bad node id");
-        inst.scores[idx] = r.Next("score");
+        const int idx = NodeIndex(r.Next("node id"), inst.dimension, r.Where(), "node id");
+        if (seen[idx]) throw InputError(r.Where() + ": repeated node id " + std::to_string(idx + 1));
+        seen[idx] = true;
+        inst.scores[idx] = Bounded(r.Next("score"), 0, kMaxScore, r.Where(), "score");
       }
       i = r.line();
     } else if (key == "DEPOT_SECTION") {
+      need_dim(lineno);
       NumberReader r(lines, i, source);
-      inst.depot = static_cast<int>(r.Next("depot")) - 1;
-      // Consume the -1 terminator.
-      r.Next("depot terminator");
+      inst.depot = NodeIndex(r.Next("depot"), inst.dimension, r.Where(), "depot");
+      if (r.Next("depot terminator") != -1) {
+        throw InputError(r.Where() + ": DEPOT_SECTION: one depot then -1 expected");
+      }
       i = r.line();
     } else if (key == "DISPLAY_DATA_SECTION") {
       need_dim(lineno);

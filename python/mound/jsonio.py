@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import sys
 import tempfile
 from pathlib import Path
 from typing import Any
@@ -12,19 +13,61 @@ from typing import Any
 from mound.errors import InputError
 
 
-def write_atomic(path: str | Path, text: str) -> None:
-    """Writes `text` to `path` through a temporary file in the same folder and a rename."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=path.name + ".tmp.", dir=path.parent)
+def _stage(path: Path, text: str) -> Path:
+    """`text` in a fresh temporary file beside `path` (a unique name: mkstemp)."""
+    if path.is_dir():
+        raise InputError(f"{path}: is a folder, not a file to write")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=path.name + ".tmp.", dir=path.parent)
+    except OSError as e:
+        raise InputError(f"{path}: cannot write ({e.strerror})") from None
     try:
         with os.fdopen(fd, "w", encoding="utf-8") as f:
             f.write(text)
             f.flush()
             os.fsync(f.fileno())
-        os.replace(tmp, path)
+        os.chmod(tmp, 0o666 & ~_umask())
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
+        raise
+    return Path(tmp)
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def write_atomic(path: str | Path, text: str) -> None:
+    """Writes `text` to `path` through a temporary file in the same folder and a rename."""
+    write_all_atomic([(path, text)])
+
+
+def write_all_atomic(outputs: list[tuple[str | Path, str]]) -> None:
+    """Writes several files as one: every text is staged in a temporary file first, and
+    only when all are staged are they renamed into place. A failure removes the staged
+    files and any output this call had created, so a command that fails leaves nothing
+    behind (files that existed before keep their old contents unless their rename ran)."""
+    staged: list[tuple[Path, Path]] = []
+    placed: list[Path] = []
+    try:
+        for path, text in outputs:
+            staged.append((Path(path), _stage(Path(path), text)))
+        for path, tmp in staged:
+            existed = path.exists()
+            try:
+                os.replace(tmp, path)
+            except OSError as e:
+                raise InputError(f"{path}: cannot write ({e.strerror})") from None
+            if not existed:
+                placed.append(path)
+    except BaseException:
+        for _, tmp in staged:
+            tmp.unlink(missing_ok=True)
+        for path in placed:
+            path.unlink(missing_ok=True)
         raise
 
 
@@ -39,26 +82,116 @@ def _reject_non_finite(value: Any, where: str) -> None:
             _reject_non_finite(v, f"{where}[{i}]")
 
 
+def json_text(doc: dict[str, Any]) -> str:
+    """A document as the project writes JSON; NaN/Infinity are refused (they are not JSON)."""
+    _reject_non_finite(doc, "")
+    return json.dumps(doc, indent=1, allow_nan=False) + "\n"
+
+
 def write_json(path: str | Path, doc: dict[str, Any]) -> None:
     """Atomic JSON write; NaN/Infinity are refused (they are not JSON)."""
-    _reject_non_finite(doc, "")
-    write_atomic(path, json.dumps(doc, indent=1, allow_nan=False) + "\n")
+    write_atomic(path, json_text(doc))
 
 
-def read_text(path: str | Path) -> str:
-    """A UTF-8 text file; InputError naming the file if it cannot be read."""
+# Bounds of what the readers accept (issue 14): text files up to 256 MiB (a sites file of
+# a million sites is ~100 MB), integers up to 64 digits (10^400 overflowed float(); Python
+# refuses to convert more than 4,300 digits at all), nesting as deep as the interpreter's
+# recursion allows (about 1,000 levels; deeper is refused, not a crash).
+MAX_TEXT_BYTES = 256 << 20
+MAX_INT_DIGITS = 64
+
+
+class _Refused(ValueError):
+    pass
+
+
+def read_text(path: str | Path, max_bytes: int = MAX_TEXT_BYTES) -> str:
+    """A UTF-8 text file; InputError naming the file if it cannot be read, is larger than
+    `max_bytes` (an endless device, a runaway file) or is not UTF-8 (the line and offset of
+    the first bad byte, never the file's contents)."""
     try:
-        return Path(path).read_text(encoding="utf-8")
+        with open(path, "rb") as f:
+            data = f.read(max_bytes + 1)
     except OSError as e:
         raise InputError(f"{path}: cannot read ({e.strerror})") from e
+    if len(data) > max_bytes:
+        raise InputError(f"{path}: larger than {max_bytes} bytes, the most this reader accepts")
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as e:
+        line = data.count(b"\n", 0, e.start) + 1
+        raise InputError(f"{path}:{line}: not UTF-8 text (byte 0x{data[e.start]:02x} at offset "
+                         f"{e.start})") from None
+
+
+def _parse_int(s: str) -> int:
+    if len(s.lstrip("-")) > MAX_INT_DIGITS:
+        raise _Refused(f"an integer of {len(s.lstrip('-'))} digits (at most {MAX_INT_DIGITS})")
+    return int(s)
+
+
+def _parse_float(s: str) -> float:
+    v = float(s)
+    if not math.isfinite(v):
+        raise _Refused(f"{s[:24]} is beyond double precision")
+    return v
+
+
+def _parse_constant(s: str) -> Any:
+    raise _Refused(f"{s} is not valid JSON; values must be finite numbers")
 
 
 def parse_json(text: str, path: str | Path) -> Any:
-    """JSON text read from `path`; a syntax error names the file, line and column."""
+    """JSON text read from `path`; a syntax error names the file, line and column. NaN,
+    Infinity, numbers beyond double precision, integers of more than 64 digits and nesting
+    deeper than the interpreter's recursion limit are refused with an InputError."""
     try:
-        return json.loads(text)
+        return json.loads(text, parse_int=_parse_int, parse_float=_parse_float,
+                          parse_constant=_parse_constant)
     except json.JSONDecodeError as e:
-        raise InputError(f"{path}:{e.lineno}:{e.colno}: not valid JSON ({e.msg})") from e
+        raise InputError(f"{path}:{e.lineno}:{e.colno}: not valid JSON ({e.msg})") from None
+    except _Refused as e:
+        raise InputError(f"{path}: {e}") from None
+    except RecursionError:
+        raise InputError(f"{path}: nested too deeply (more than about "
+                         f"{sys.getrecursionlimit()} levels)") from None
+
+
+def require_number(obj: dict[str, Any], key: str, where: str, *, lo: float = -math.inf,
+                   hi: float = math.inf, default: float | None = None) -> float:
+    """obj[key] as a float: a finite number (not a bool) in [lo, hi]; `default` when the key
+    is absent or null and a default is given. InputError naming `where.key` otherwise."""
+    v = obj.get(key)
+    if v is None and default is not None:
+        return default
+    if isinstance(v, bool) or not isinstance(v, int | float):
+        raise InputError(f"{where}.{key}: expected a number, got {short_repr(v)}")
+    try:
+        f = float(v)
+    except OverflowError:
+        raise InputError(f"{where}.{key}: {short_repr(v)} is beyond double precision") from None
+    if not math.isfinite(f) or not lo <= f <= hi:
+        raise InputError(f"{where}.{key}: must be a number in [{lo:g}, {hi:g}], got {f:g}")
+    return f
+
+
+def require_id(value: Any, where: str) -> str:
+    """An identifier: a non-empty string of at most 256 characters, no control characters."""
+    if not isinstance(value, str) or not value:
+        raise InputError(f"{where}: expected a non-empty string id, got {short_repr(value)}")
+    if len(value) > 256 or any(ord(c) < 32 or ord(c) == 127 for c in value):
+        raise InputError(f"{where}: an id has at most 256 characters and no control characters")
+    return value
+
+
+def short_repr(v: Any) -> str:
+    """repr of a value for a one-line message, cut to 40 characters."""
+    if isinstance(v, int) and not isinstance(v, bool) and abs(v) >= 10**40:
+        return f"an integer of about {int(v.bit_length() * 0.30103) + 1} digits"
+    if isinstance(v, list | dict):
+        return f"a {'list' if isinstance(v, list) else 'object'} of {len(v)} entries"
+    r = repr(v)
+    return r if len(r) <= 40 else r[:37] + "..."
 
 
 def read_json(path: str | Path, schema: str, max_version: int) -> dict[str, Any]:

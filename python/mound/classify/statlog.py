@@ -45,14 +45,17 @@ def parse(text: str, source: str) -> Split:
             raise InputError(
                 f"{source}:{lineno}: expected {N_FEATURES + 1} columns, got {len(fields)}"
             )
-        try:
-            values = [int(v) for v in fields]
-        except ValueError:
-            bad = next(v for v in fields if not v.lstrip("-").isdigit())
-            raise InputError(f"{source}:{lineno}: non-numeric value {bad!r}") from None
-        if values[-1] not in CLASSES:
-            raise InputError(f"{source}:{lineno}: unknown class {values[-1]}")
-        rows.append(values)
+        # Digits only (no sign: "--5" and "-3" are not pixel values), at most 3 of them
+        # before int() sees them: a 20-digit value would overflow the int64 array.
+        bad = next((v for v in fields if not (v.isascii() and v.isdigit())), None)
+        if bad is not None:
+            raise InputError(f"{source}:{lineno}: non-numeric value {bad[:20]!r}")
+        big = next((v for v in fields[:N_FEATURES] if len(v) > 3 or int(v) > 255), None)
+        if big is not None:
+            raise InputError(f"{source}:{lineno}: value {big[:20]} outside the 8-bit range 0..255")
+        if len(fields[-1]) > 3 or int(fields[-1]) not in CLASSES:
+            raise InputError(f"{source}:{lineno}: unknown class {fields[-1][:20]}")
+        rows.append([int(v) for v in fields])
     if not rows:
         raise InputError(f"{source}: no data rows")
     arr = np.asarray(rows, dtype=np.int64)

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mound.errors import InputError
+from mound.jsonio import require_number
 
 A = 6378137.0                  # WGS84 semi-major axis, m
 F = 1 / 298.257223563          # flattening
@@ -38,10 +39,11 @@ class Origin:
 
     @classmethod
     def from_doc(cls, doc: dict, where: str = "origin") -> Origin:
-        try:
-            return cls(float(doc["lat"]), float(doc["lon"]), float(doc.get("alt_m", 0.0)))
-        except (KeyError, TypeError, ValueError) as e:
-            raise InputError(f"{where}: needs numbers lat, lon (and alt_m)") from e
+        if not isinstance(doc, dict):
+            raise InputError(f"{where}: expected an object with lat, lon (and alt_m)")
+        return cls(require_number(doc, "lat", where, lo=-90, hi=90),
+                   require_number(doc, "lon", where, lo=-180, hi=180),
+                   require_number(doc, "alt_m", where, lo=-1e5, hi=1e5, default=0.0))
 
     @classmethod
     def parse(cls, text: str) -> Origin:

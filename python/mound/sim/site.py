@@ -20,6 +20,9 @@ C++ z-buffer rasteriser `build/mound_render` and writes, all in the site's ENU f
 from __future__ import annotations
 
 import math
+import os
+import shutil
+import tempfile
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -118,18 +121,35 @@ def _check_above_ground(hf: terrain.Heightfield, labelled: list[tuple[str, fligh
 
 
 def _save_npy(path: Path, array: np.ndarray) -> None:
-    """np.save through a temporary file and a rename (np.save appends .npy to names
-    without it, hence the .tmp.npy suffix)."""
-    tmp = path.with_name(path.name + ".tmp.npy")
-    np.save(tmp, array)
-    tmp.replace(path)
+    """np.save through a uniquely named temporary file and a rename."""
+    fd, tmp = tempfile.mkstemp(prefix=path.name + ".tmp.", suffix=".npy", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as f:
+            np.save(f, array)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
 
 
 def simulate(spec: SimSpec, out_dir: str | Path, threads: int | None = None) -> dict[str, Any]:
-    """Renders the site into `out_dir`; returns the site.json document."""
+    """Renders the site into `out_dir`; returns the site.json document. Parameters are
+    refused before anything is written; if the simulation fails later, an `out_dir` this
+    call created is removed again, so a refused or failed run leaves nothing behind."""
     spec.validate()
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    if out.exists() and not out.is_dir():
+        raise InputError(f"--out: {out} exists and is not a folder")
+    created = not out.exists()
+    try:
+        return _simulate(spec, out, threads)
+    except BaseException:
+        if created:
+            shutil.rmtree(out, ignore_errors=True)
+        raise
+
+
+def _simulate(spec: SimSpec, out: Path, threads: int | None) -> dict[str, Any]:
     timings: dict[str, float] = {}
     t0 = time.perf_counter()
     hf = terrain.build(spec.terrain)
@@ -137,6 +157,7 @@ def simulate(spec: SimSpec, out_dir: str | Path, threads: int | None = None) -> 
     labelled = shots(spec)
     _check_above_ground(hf, labelled)
     cam = spec.camera()
+    out.mkdir(parents=True, exist_ok=True)
 
     t0 = time.perf_counter()
     spacing = float(hf.x_m[1] - hf.x_m[0])

@@ -8,7 +8,7 @@ from typing import Any
 
 from mound.errors import InputError
 from mound.geometry.geodesy import Origin
-from mound.jsonio import read_json
+from mound.jsonio import read_json, write_all_atomic
 
 
 def cmd_build(args: argparse.Namespace) -> int:
@@ -33,11 +33,13 @@ def cmd_build(args: argparse.Namespace) -> int:
     spec = mission_items.MissionSpec(scan=scan, cruise_speed_m_s=args.cruise_speed,
                                      scan_speed_m_s=args.scan_speed)
     m = mission_items.build(plan, origin, spec)
-    mission_files.write_plan(args.out, m, args.firmware)
+    # All files or none: every text is made and staged before any is put in place.
+    outputs = [(args.out, mission_files.plan_text(m, args.firmware))]
     if args.wpl:
-        mission_files.write_wpl(args.wpl, m)
+        outputs.append((args.wpl, mission_files.wpl_text(m)))
     if args.geojson:
-        mission_files.write_geojson(args.geojson, m)
+        outputs.append((args.geojson, mission_files.geojson_text(m)))
+    write_all_atomic(outputs)
     print(f"{len(m.items)} mission items for {len(m.sites)} sites, flight distance "
           f"{m.flight_distance_m:.1f} m of budget {m.budget_m:g} m -> {args.out}")
     for s in m.sites:

@@ -24,7 +24,7 @@ import numpy as np
 
 from mound.errors import InputError
 from mound.geometry.geodesy import Origin, enu_to_geodetic
-from mound.jsonio import parse_json, read_text, write_atomic, write_json
+from mound.jsonio import json_text, parse_json, read_text, short_repr, write_atomic
 from mound.uav.mission_items import (
     FRAME_GLOBAL_RELATIVE_ALT,
     FRAME_GLOBAL_RELATIVE_ALT_INT,
@@ -70,16 +70,55 @@ def plan_document(mission: Mission, firmware: str = "px4") -> dict[str, Any]:
     }
 
 
+def plan_text(mission: Mission, firmware: str = "px4") -> str:
+    return json_text(plan_document(mission, firmware))
+
+
 def write_plan(path: str | Path, mission: Mission, firmware: str = "px4") -> None:
-    write_json(path, plan_document(mission, firmware))
+    write_atomic(path, plan_text(mission, firmware))
 
 
-def _param(v: Any, where: str) -> float:
-    if v is None:
-        return float("nan")
+# MAVLink carries params p1-p4 and the altitude as float32: beyond its largest finite
+# value a number becomes infinity on the link, so it is refused here.
+F32_MAX = 3.4028234663852886e38
+MAX_ALT_M = 1e5
+
+
+def _param(v: Any, where: str, *, lo: float = -F32_MAX, hi: float = F32_MAX,
+           allow_nan: bool = True) -> float:
+    """A number of a mission item: null (NaN: "unset") where allowed, else finite in [lo, hi]."""
+    if v is None or (isinstance(v, float) and math.isnan(v)):
+        if allow_nan:
+            return float("nan")
+        raise InputError(f"{where}: expected a number, got {v!r}")
     if isinstance(v, bool) or not isinstance(v, int | float):
-        raise InputError(f"{where}: expected a number or null, got {v!r}")
-    return float(v)
+        raise InputError(f"{where}: expected a number or null, got {short_repr(v)}")
+    try:
+        f = float(v)
+    except OverflowError:
+        raise InputError(f"{where}: {short_repr(v)} is beyond double precision") from None
+    if not (math.isfinite(f) and lo <= f <= hi):
+        raise InputError(f"{where}: must be in [{lo:g}, {hi:g}], got {f:g}")
+    return f
+
+
+def _item_numbers(p: list[Any], where: str, command: int) -> list[float]:
+    """p1-p4 (float32 or unset), latitude, longitude (degrees), altitude (m). A navigation
+    command (MAV_CMD_NAV_*, ids below 100) needs its position; other commands may leave
+    latitude and longitude unset (NaN: sent as 0)."""
+    nav = command < 100
+    out = [_param(v, f"{where}[{i}]") for i, v in enumerate(p[:4])]
+    out.append(_param(p[4], f"{where}[4] (latitude)", lo=-90, hi=90, allow_nan=not nav))
+    out.append(_param(p[5], f"{where}[5] (longitude)", lo=-180, hi=180, allow_nan=not nav))
+    out.append(_param(p[6], f"{where}[6] (altitude)", lo=-MAX_ALT_M, hi=MAX_ALT_M))
+    out[4:6] = [0.0 if math.isnan(v) else v for v in out[4:6]]
+    return out
+
+
+def _int_field(v: Any, where: str, hi: int) -> int:
+    if isinstance(v, bool) or not isinstance(v, int) or not 0 <= v <= hi:
+        raise InputError(f"{where}: expected an integer in 0..{hi}, got {short_repr(v)}")
+    return v
 
 
 def _parse_plan(text: str, path: str | Path) -> tuple[list[MissionItem], Origin, str]:
@@ -92,7 +131,11 @@ def _parse_plan(text: str, path: str | Path) -> tuple[list[MissionItem], Origin,
     home = m.get("plannedHomePosition")
     if not (isinstance(home, list) and len(home) == 3):
         raise InputError(f"{path}: mission.plannedHomePosition: expected [lat, lon, alt]")
-    origin = Origin(*[_param(v, f"{path}: mission.plannedHomePosition") for v in home])
+    where = f"{path}: mission.plannedHomePosition"
+    origin = Origin(_param(home[0], f"{where}[0] (latitude)", lo=-90, hi=90, allow_nan=False),
+                    _param(home[1], f"{where}[1] (longitude)", lo=-180, hi=180, allow_nan=False),
+                    _param(home[2], f"{where}[2] (altitude)", lo=-MAX_ALT_M, hi=MAX_ALT_M,
+                           allow_nan=False))
     items = []
     for k, raw in enumerate(m["items"]):
         where = f"{path}: mission.items[{k}]"
@@ -102,14 +145,11 @@ def _parse_plan(text: str, path: str | Path) -> tuple[list[MissionItem], Origin,
         params = raw.get("params")
         if not isinstance(params, list) or len(params) != 7:
             raise InputError(f"{where}.params: expected 7 numbers")
-        p = [_param(v, f"{where}.params[{i}]") for i, v in enumerate(params)]
-        frame = raw.get("frame")
-        command = raw.get("command")
-        if not isinstance(frame, int) or not isinstance(command, int):
-            raise InputError(f"{where}: command and frame must be integers")
-        lat, lon = (0.0 if math.isnan(v) else v for v in p[4:6])
+        frame = _int_field(raw.get("frame"), f"{where}.frame", 255)
+        command = _int_field(raw.get("command"), f"{where}.command", 65535)
+        p = _item_numbers(params, f"{where}.params", command)
         items.append(MissionItem(command, _link_frame(frame), tuple(p[:4]),  # type: ignore[arg-type]
-                                 round(lat * 1e7), round(lon * 1e7),
+                                 round(p[4] * 1e7), round(p[5] * 1e7),
                                  0.0 if math.isnan(p[6]) else p[6],
                                  int(bool(raw.get("autoContinue", True)))))
     firmware = "ardupilot" if m.get("firmwareType") == FIRMWARE["ardupilot"] else "px4"
@@ -127,6 +167,10 @@ def _fmt(v: float) -> str:
 
 
 def write_wpl(path: str | Path, mission: Mission) -> None:
+    write_atomic(path, wpl_text(mission))
+
+
+def wpl_text(mission: Mission) -> str:
     o = mission.origin
     lines = [WPL_MAGIC,
              f"0\t1\t0\t16\t0\t0\t0\t0\t{o.lat_deg:.8f}\t{o.lon_deg:.8f}\t{o.alt_m:.6g}\t1"]
@@ -135,7 +179,7 @@ def write_wpl(path: str | Path, mission: Mission) -> None:
                   *(_fmt(p) for p in it.params), f"{it.lat_deg:.8f}", f"{it.lon_deg:.8f}",
                   _fmt(it.z), str(it.autocontinue)]
         lines.append("\t".join(fields))
-    write_atomic(path, "\n".join(lines) + "\n")
+    return "\n".join(lines) + "\n"
 
 
 def _parse_wpl(text: str, path: str | Path) -> tuple[list[MissionItem], Origin]:
@@ -147,11 +191,19 @@ def _parse_wpl(text: str, path: str | Path) -> tuple[list[MissionItem], Origin]:
         f = line.split("\t") if "\t" in line else line.split()
         if len(f) != 12:
             raise InputError(f"{path}:{n}: expected 12 fields, got {len(f)}")
+        ints = [f[0], f[2], f[3], f[11]]
+        if not all(v.isascii() and v.isdigit() and len(v) <= 9 for v in ints):
+            raise InputError(f"{path}:{n}: seq, frame, command and autocontinue must be "
+                             "non-negative integers")
+        seq, frame, command, auto = (int(v) for v in ints)
         try:
-            seq, frame, command, auto = int(f[0]), int(f[2]), int(f[3]), int(f[11])
             nums = [float(v) for v in f[4:11]]
-        except ValueError as e:
-            raise InputError(f"{path}:{n}: non-numeric field ({e})") from e
+        except ValueError:
+            raise InputError(f"{path}:{n}: non-numeric field among p1-p4, lat, lon, alt") from None
+        _int_field(frame, f"{path}:{n}: frame", 255)
+        _int_field(command, f"{path}:{n}: command", 65535)
+        nums = _item_numbers(nums, f"{path}:{n}: field", command)
+        _int_field(auto, f"{path}:{n}: autocontinue", 1)
         if seq != len(parsed):
             raise InputError(f"{path}:{n}: sequence number {seq}, expected {len(parsed)}")
         parsed.append((frame, command, nums, auto))
@@ -207,5 +259,9 @@ def geojson_document(mission: Mission) -> dict[str, Any]:
     return {"type": "FeatureCollection", "features": features}
 
 
+def geojson_text(mission: Mission) -> str:
+    return json.dumps(geojson_document(mission), allow_nan=False) + "\n"
+
+
 def write_geojson(path: str | Path, mission: Mission) -> None:
-    write_atomic(path, json.dumps(geojson_document(mission)) + "\n")
+    write_atomic(path, geojson_text(mission))

@@ -42,6 +42,7 @@ from mound.errors import InputError
 from mound.geometry.camera import Camera, Pose
 from mound.geometry.flight import PATTERNS, ScanSpec, path_length
 from mound.geometry.geodesy import Origin, enu_to_geodetic
+from mound.jsonio import require_id, require_number
 
 # MAV_CMD
 NAV_WAYPOINT = 16
@@ -187,11 +188,11 @@ class Mission:
                          "scan_speed_m_s": self.spec.scan_speed_m_s}}
 
 
-def _require_number(obj: dict, key: str, where: str) -> float:
-    v = obj.get(key)
-    if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
-        raise InputError(f"{where}.{key}: expected a finite number, got {v!r}")
-    return float(v)
+# Magnitudes a plan can have (the same bounds as mound_plan's reader): local coordinates
+# within 10^8 m, scan costs within 10^8 m, budgets within 10^12 m.
+MAX_COORD_M = 1e8
+MAX_COST_M = 1e8
+MAX_BUDGET_M = 1e12
 
 
 def _plan_nodes(plan: dict[str, Any]) -> tuple[list[dict[str, Any]], bool, float]:
@@ -207,18 +208,26 @@ def _plan_nodes(plan: dict[str, Any]) -> tuple[list[dict[str, Any]], bool, float
     for k, w in enumerate(wps):
         if not isinstance(w, dict) or "id" not in w:
             raise InputError(f"waypoints[{k}]: expected an object with an id")
-        by_id[w["id"]] = w
+        by_id[require_id(w["id"], f"waypoints[{k}].id")] = (k, w)
     nodes = []
     for k, node_id in enumerate(tour):
-        w = by_id.get(node_id)
-        if w is None:
+        found = by_id.get(require_id(node_id, f"tour[{k}]"))
+        if found is None:
             raise InputError(f"tour[{k}]: site {node_id!r} has no coordinates in waypoints")
-        x = _require_number(w, "x_m", f"waypoints[{node_id}]")
-        y = _require_number(w, "y_m", f"waypoints[{node_id}]")
-        nodes.append({"id": node_id, "x_m": x, "y_m": y, "kind": w.get("kind", "site"),
-                      "scan_cost_m": float(w.get("scan_cost_m", 0.0) or 0.0)})
-    closed = bool(plan.get("closed", tour[0] == tour[-1]))
-    budget = _require_number(plan, "budget_m", "plan")
+        i, w = found
+        where = f"waypoints[{i}]"
+        x = require_number(w, "x_m", where, lo=-MAX_COORD_M, hi=MAX_COORD_M)
+        y = require_number(w, "y_m", where, lo=-MAX_COORD_M, hi=MAX_COORD_M)
+        kind = w.get("kind", "site")
+        if kind not in ("home", "site", "end"):
+            raise InputError(f"{where}.kind: expected home, site or end, got {kind!r:.40}")
+        nodes.append({"id": node_id, "x_m": x, "y_m": y, "kind": kind,
+                      "scan_cost_m": require_number(w, "scan_cost_m", where, lo=0,
+                                                    hi=MAX_COST_M, default=0.0)})
+    closed = plan.get("closed", tour[0] == tour[-1])
+    if not isinstance(closed, bool):
+        raise InputError(f"plan.closed: expected true or false, got {closed!r:.40}")
+    budget = require_number(plan, "budget_m", "plan", lo=0, hi=MAX_BUDGET_M)
     return nodes, closed, budget
 
 
