@@ -12,7 +12,8 @@ ifeq ($(origin MOUND_DATA),undefined)
   endif
 endif
 
-.PHONY: all build setup test test-cpp test-python lint demo demo-stages figures bench clean
+.PHONY: all build setup test test-cpp test-python lint demo demo-stages figures bench clean \
+        fuzz fuzz-smoke test-asan
 
 all: build
 
@@ -36,6 +37,30 @@ test-python: build
 
 lint: setup
 	$(VENV)/bin/ruff check python tests tools
+
+# Fuzzing (tools/fuzz/run.sh): the libFuzzer targets (clang, ASan + UBSan) in build-fuzz/,
+# FUZZ_SECONDS per target (the sites target 2.5 times that), then the Python readers with
+# Hypothesis, FUZZ_EXAMPLES examples each. fuzz-smoke is CI's short version: every
+# regression and seed input once, then 10 s per target and the default examples.
+FUZZ_SECONDS  ?= 180
+FUZZ_EXAMPLES ?= 20000
+fuzz: setup
+	tools/fuzz/run.sh fuzz $(FUZZ_SECONDS)
+	MOUND_FUZZ_EXAMPLES=$(FUZZ_EXAMPLES) MOUND_FUZZ_FRESH=1 $(PY) -m pytest -q tests/python/test_fuzz_readers.py
+
+fuzz-smoke: setup
+	tools/fuzz/run.sh smoke 10
+
+# The whole test suite once more with every tool and test built under AddressSanitizer +
+# UndefinedBehaviorSanitizer (build-asan/; the Python tests run those tools).
+ASAN_BUILD ?= build-asan
+test-asan: setup
+	cmake -S . -B $(ASAN_BUILD) -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DMOUND_SANITIZE=ON
+	cmake --build $(ASAN_BUILD) -j $(JOBS)
+	cd $(ASAN_BUILD) && ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+	  ctest --output-on-failure -j $(JOBS)
+	MOUND_BUILD_DIR=$(abspath $(ASAN_BUILD)) ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 \
+	  UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 $(PY) -m pytest -q
 
 # The main job: the whole survey in one command (python/mission.py re-executes itself
 # under .venv): train the classifier, make standard field 0 at 250 m spacing, plan the tour,

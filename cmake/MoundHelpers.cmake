@@ -23,3 +23,17 @@ function(mound_add_test domain name)
   target_link_libraries(${target} PRIVATE ${ARG_DEPS} GTest::gtest GTest::gtest_main)
   add_test(NAME ${domain}/${name} COMMAND ${target})
 endfunction()
+
+# mound_add_fuzzer(NAME SRCS ... DEPS ...): a libFuzzer target `fuzz_NAME` (MOUND_FUZZ
+# builds only); its sources live beside the reader they fuzz (*_fuzz.cc).
+function(mound_add_fuzzer name)
+  if(NOT MOUND_FUZZ)
+    return()
+  endif()
+  cmake_parse_arguments(ARG "" "" "SRCS;DEPS" ${ARGN})
+  add_executable(fuzz_${name} ${ARG_SRCS})
+  target_compile_options(fuzz_${name} PRIVATE -Wall -Wextra)
+  target_link_libraries(fuzz_${name} PRIVATE ${ARG_DEPS})
+  target_link_options(fuzz_${name} PRIVATE -fsanitize=fuzzer)
+  set_target_properties(fuzz_${name} PROPERTIES RUNTIME_OUTPUT_DIRECTORY ${PROJECT_BINARY_DIR}/fuzz)
+endfunction()

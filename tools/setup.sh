@@ -13,6 +13,7 @@ APT_PACKAGES=(
   nlohmann-json3-dev libgtest-dev libeigen3-dev libopencv-dev libceres-dev
   libpcl-dev libopenmpi-dev
   chromium
+  clang libclang-rt-14-dev
   python3 python3-venv python3-dev
 )
 

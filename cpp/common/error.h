@@ -21,7 +21,25 @@ enum ExitCode : int { kExitOk = 0, kExitInternal = 1, kExitBadInput = 2, kExitNo
 // is one line and names the offending item, e.g. "sites[3].reward: must be >= 0, got -1".
 class InputError : public std::runtime_error {
  public:
-  explicit InputError(const std::string& what) : std::runtime_error(what) {}
+  explicit InputError(const std::string& what) : std::runtime_error(OneLine(what)) {}
+
+  // The message as one line: control characters that an input put into it (a newline in a
+  // dtype, a name) are written as \xNN, so stderr still gets exactly one line.
+  static std::string OneLine(const std::string& s) {
+    std::string out;
+    out.reserve(s.size());
+    for (const unsigned char c : s) {
+      if (c < 0x20 || c == 0x7f) {
+        static const char* kHex = "0123456789abcdef";
+        out += "\\x";
+        out += kHex[c >> 4];
+        out += kHex[c & 15];
+      } else {
+        out += static_cast<char>(c);
+      }
+    }
+    return out;
+  }
 };
 
 // Valid input that allowed no result, e.g. two views with fewer than 8 consistent matches.

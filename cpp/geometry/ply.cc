@@ -1,5 +1,6 @@
 #include "geometry/ply.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <fstream>
@@ -51,9 +52,17 @@ struct Element {
 
 }  // namespace
 
+namespace {
+constexpr long long kMaxElementCount = 500000000LL;  // 5 * 10^8: far above any cloud of ours
+}  // namespace
+
 PlyCloud ReadPly(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path + ": cannot open the file");
+  return ParsePly(in, path);
+}
+
+PlyCloud ParsePly(std::istream& in, const std::string& path) {
   auto fail = [&](int line, const std::string& what) {
     throw InputError(path + ":" + std::to_string(line) + ": " + what);
   };
@@ -84,7 +93,10 @@ PlyCloud ReadPly(const std::string& path) {
       ls >> e.name >> count;
       char* end = nullptr;
       e.count = std::strtoll(count.c_str(), &end, 10);
-      if (count.empty() || *end != '\0' || e.count < 0) fail(ln, "element " + e.name + ": bad count '" + count + "'");
+      if (count.empty() || *end != '\0' || e.count < 0 || e.count > kMaxElementCount) {
+        fail(ln, "element " + e.name + ": bad count '" + count + "' (0.." +
+                     std::to_string(kMaxElementCount) + ")");
+      }
       elements.push_back(e);
     } else if (word == "property") {
       if (elements.empty()) fail(ln, "property before any element");
@@ -139,20 +151,22 @@ PlyCloud ReadPly(const std::string& path) {
       for (const Property& p : e.props) bytes += p.size;
       in.seekg(bytes * e.count, std::ios::cur);
     } else {
-      for (long long k = 0; k < e.count; ++k) std::getline(in, line);
+      for (long long k = 0; k < e.count && in; ++k) std::getline(in, line);
     }
     if (!in) throw InputError(path + ": truncated in element " + e.name);
   }
   int record = 0;
   for (const Property& p : v.props) record += p.size;
-  if (v.count > 500000000LL) fail(ln, "element vertex: implausible count " + std::to_string(v.count));
-  cloud.xyz.reserve(static_cast<size_t>(v.count));
+  // Reserve no more than a million up front: the count is the file's claim, the data may
+  // not be there.
+  const size_t reserve = static_cast<size_t>(std::min<long long>(v.count, 1 << 20));
+  cloud.xyz.reserve(reserve);
   std::vector<std::vector<double>*> extra(v.props.size(), nullptr);
   for (size_t k = 0; k < v.props.size(); ++k) {
     const int kk = static_cast<int>(k);
     if (kk == ix || kk == iy || kk == iz || (colours && (kk == ir || kk == ig || kk == ib))) continue;
     extra[k] = &cloud.scalars[v.props[k].name];
-    extra[k]->reserve(static_cast<size_t>(v.count));
+    extra[k]->reserve(reserve);
   }
   std::vector<char> buf(static_cast<size_t>(record));
   std::vector<double> val(v.props.size());
@@ -186,7 +200,12 @@ PlyCloud ReadPly(const std::string& path) {
     if (!p.allFinite()) throw InputError(path + ": vertex " + std::to_string(n) + ": non-finite coordinate");
     cloud.xyz.push_back(p);
     if (colours) {
-      cloud.rgb.push_back({static_cast<uint8_t>(val[ir]), static_cast<uint8_t>(val[ig]), static_cast<uint8_t>(val[ib])});
+      // Colour values outside 0..255 (an ASCII file may say anything) are clamped; a cast
+      // of an out-of-range or NaN double to uint8_t would be undefined.
+      auto channel = [](double c) {
+        return static_cast<uint8_t>(std::isfinite(c) ? std::clamp(c, 0.0, 255.0) : 0.0);
+      };
+      cloud.rgb.push_back({channel(val[ir]), channel(val[ig]), channel(val[ib])});
     }
     for (size_t k = 0; k < v.props.size(); ++k)
       if (extra[k]) extra[k]->push_back(val[k]);

@@ -14,6 +14,7 @@
 #include <array>
 #include <cstdint>
 #include <map>
+#include <istream>
 #include <string>
 #include <vector>
 
@@ -27,6 +28,8 @@ struct PlyCloud {
 };
 
 PlyCloud ReadPly(const std::string& path);
+// The same from a stream; `path` names it in error messages (InputError "path:line: ...").
+PlyCloud ParsePly(std::istream& in, const std::string& path);
 
 // Binary little-endian: float x y z, uchar red green blue when `rgb` is not empty, then
 // one float per scalar field (in the map's order); comments as given. Atomic.

@@ -1,4 +1,4 @@
-// Files of the 3-D stage: the camera and GPS inputs, and the reconstruction's outputs
+// Files of the 3-D stage: the camera and GPS inputs (recon/inputs.h), and the reconstruction's outputs
 // (recon.json, points.ply, COLMAP's text model). Contract: ../shared/INTERFACES.md.
 #pragma once
 
@@ -11,23 +11,10 @@
 
 #include "geometry/camera_model.h"
 #include "geometry/geodesy.h"
+#include "recon/inputs.h"
 #include "sfm/reconstruction.h"
 
 namespace mound::recon {
-
-// A mound.camera v1 file (the simulator's) or a text file holding the 3 x 3 K (Strecha's
-// K.txt; no distortion). Width and height must equal the images' (InputError otherwise).
-geometry::CameraModel ReadCamera(const std::string& path, int width, int height);
-
-struct GpsPositions {
-  std::map<std::string, Eigen::Vector3d> enu_m;  // by image file name
-  std::optional<geometry::Geodetic> origin;
-  std::string source;  // "poses" or "exif"
-};
-
-// `images[].file` + `gps_enu_m` of a mound.poses v1 file, by the file's base name. A
-// position for an image not in `files` is an InputError naming it.
-GpsPositions ReadGpsPoses(const std::string& path, const std::vector<std::string>& files);
 
 // Writes points.ply: binary little-endian, float x y z, uchar red green blue, int
 // track_length.

@@ -30,6 +30,7 @@ size_t NpyArray::Count() const {
 std::vector<double> NpyArray::AsDouble() const {
   const size_t n = Count();
   std::vector<double> out(n);
+  if (n == 0) return out;  // a shape with a zero: no data (memcpy of a null pointer is UB)
   if (descr == "<f4") {
     for (size_t i = 0; i < n; ++i) {
       float f;
@@ -74,9 +75,13 @@ std::string ValueAfter(const std::string& header, const std::string& key, const 
 }  // namespace
 
 NpyArray ReadNpy(const std::string& path) {
-  auto bad = [&](const std::string& why) { return InputError(path + ": not a valid .npy: " + why); };
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path + ": cannot open (" + std::strerror(errno) + ")");
+  return ParseNpy(in, path);
+}
+
+NpyArray ParseNpy(std::istream& in, const std::string& path) {
+  auto bad = [&](const std::string& why) { return InputError(path + ": not a valid .npy: " + why); };
   char lead[12];
   in.read(lead, 10);
   if (in.gcount() < 10 || std::string(lead, 6) != "\x93NUMPY") throw bad("bad magic");

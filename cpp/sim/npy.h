@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstdint>
+#include <istream>
 #include <string>
 #include <vector>
 
@@ -23,6 +24,8 @@ struct NpyArray {
 // Reads `path`; throws InputError naming the file for a bad magic, header, dtype, Fortran
 // order or a size that does not match the shape.
 NpyArray ReadNpy(const std::string& path);
+// The same from a stream; `path` names it in error messages.
+NpyArray ParseNpy(std::istream& in, const std::string& path);
 
 // Writes a float32 array atomically.
 void WriteNpyFloat32(const std::string& path, const std::vector<size_t>& shape,

@@ -75,6 +75,13 @@ int RunMoundRender(const std::vector<std::string>& args, std::ostream& out, std:
     const RenderJob job = LoadRenderJob(a.positional[0]);
     const double load_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     const std::filesystem::path final_dir(a.options.at("--out"));
+    for (size_t k = 0; k < job.images.size(); ++k) {
+      std::error_code e;
+      if (std::filesystem::is_directory(final_dir / job.images[k].file, e)) {
+        throw InputError("images[" + std::to_string(k) + "].file: " +
+                         (final_dir / job.images[k].file).string() + " is a folder");
+      }
+    }
     // All or nothing: the images go to a staging folder inside --out and are moved into
     // place only when every one of them has been written; a failure removes the staging
     // folder (and --out itself if this run created it), so no earlier image is left behind.

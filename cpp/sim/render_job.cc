@@ -63,12 +63,19 @@ int RequireInt(const json& obj, const std::string& key, const std::string& path,
   return static_cast<int>(v.get<long long>());
 }
 
-std::string Resolve(const std::string& base, const std::string& rel) {
+// A data file named by the job: a relative path inside the job's folder (no "..", not
+// absolute), so that a job cannot make the renderer read a device or another user's file.
+std::string Resolve(const std::string& base, const std::string& rel, const std::string& where) {
+  const std::filesystem::path p(rel);
+  if (p.is_absolute() || rel.find("..") != std::string::npos) {
+    throw InputError(where + ": must be a relative path inside the job's folder, got '" +
+                     rel.substr(0, 80) + "'");
+  }
   return (std::filesystem::path(base) / rel).string();
 }
 
 Heightfield LoadHeightfield(const json& h, const std::string& dir) {
-  const std::string file = Resolve(dir, RequireString(h, "npy", "heightfield"));
+  const std::string file = Resolve(dir, RequireString(h, "npy", "heightfield"), "heightfield.npy");
   const NpyArray a = ReadNpy(file);
   if (a.descr == "|u1" || a.shape.size() != 2 || a.shape[0] < 2 || a.shape[1] < 2 ||
       a.shape[0] > 100000 || a.shape[1] > 100000) {
@@ -89,7 +96,7 @@ Heightfield LoadHeightfield(const json& h, const std::string& dir) {
 }
 
 Texture LoadTexture(const json& t, const std::string& dir) {
-  const std::string file = Resolve(dir, RequireString(t, "npy", "texture"));
+  const std::string file = Resolve(dir, RequireString(t, "npy", "texture"), "texture.npy");
   NpyArray a = ReadNpy(file);
   if (a.descr != "|u1" || a.shape.size() != 3 || a.shape[2] != 3 || a.shape[0] < 1 ||
       a.shape[1] < 1 || a.shape[0] > 100000 || a.shape[1] > 100000) {
@@ -157,9 +164,13 @@ std::string CheckImageFile(const std::string& file, const std::string& path) {
 }  // namespace
 
 RenderJob LoadRenderJob(const std::string& path) {
-  const json doc = ParseJson(ReadFile(path), path);
+  return ParseRenderJob(ReadFile(path), path,
+                        std::filesystem::path(path).parent_path().string());
+}
+
+RenderJob ParseRenderJob(const std::string& text, const std::string& path, const std::string& dir) {
+  const json doc = ParseJson(text, path);
   CheckSchema(doc, "mound.render", 1, path);
-  const std::string dir = std::filesystem::path(path).parent_path().string();
   RenderJob job;
   job.scene.terrain = LoadHeightfield(RequireField(doc, "heightfield", ""), dir);
   job.scene.texture = LoadTexture(RequireField(doc, "texture", ""), dir);

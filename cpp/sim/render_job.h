@@ -39,5 +39,7 @@ struct RenderJob {
 };
 
 RenderJob LoadRenderJob(const std::string& path);
+// The same from the job's text; `.npy` paths are relative to `dir`.
+RenderJob ParseRenderJob(const std::string& text, const std::string& path, const std::string& dir);
 
 }  // namespace mound::sim

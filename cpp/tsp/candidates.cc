@@ -384,8 +384,9 @@ CandidateSet AlphaCandidates(const CostCache& d, const std::vector<Cost>& pi, in
   for (const auto& [a, b] : fixed_edges) {
     for (auto [x, y] : {std::pair{a, b}, std::pair{b, a}}) {
       auto& list = cands[x];
+      const int partner = y;  // C++17: a structured binding cannot be captured
       const bool has = std::any_of(list.begin(), list.end(),
-                                   [&](const Candidate& c) { return c.node == y; });
+                                   [partner](const Candidate& c) { return c.node == partner; });
       if (!has) list.insert(list.begin(), Candidate{y, builder.C(x, y, pi), 0});
     }
   }

@@ -206,3 +206,51 @@ def test_sim_site_leaves_no_folder_when_it_refuses(tmp_path: Path,
                        "5", "--size", "64", "48", "--out", str(out)])
     expect_one_line_exit_2(code, capsys.readouterr().err, "ground")
     assert not out.exists()
+
+
+def _render_job(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> dict[str, Any]:
+    site = tmp_path / "site"
+    assert mound_main(["sim", "site", "--mound", "none", "--size", "64", "48", "--out",
+                       str(site)]) == 0
+    capsys.readouterr()
+    return json.loads((site / "render.json").read_text())
+
+
+def test_mound_render_is_all_or_nothing(tmp_path: Path,
+                                        capsys: pytest.CaptureFixture[str]) -> None:
+    """Two images with one name raced on one temporary file (3 failures in 5 under
+    --threads 2) and a failing image left the earlier ones behind."""
+    from mound import native
+    from mound.errors import ToolInputError
+
+    job = _render_job(tmp_path, capsys)
+    site = tmp_path / "site"
+    dup = dict(job, images=[*job["images"][:3], dict(job["images"][1])])
+    (site / "dup.json").write_text(json.dumps(dup))
+    out = tmp_path / "out"
+    with pytest.raises(ToolInputError, match=r"images\[3\].file: 'images/0001.png' is the same "
+                       r"output as images\[1\]"):
+        native.run_tool("mound_render", [str(site / "dup.json"), "--out", str(out),
+                                         "--threads", "2"])
+    assert not out.exists()
+    # A later image that cannot be written: nothing of this run is left in --out.
+    (out / "images" / "0005.png").mkdir(parents=True)
+    (out / "keep.txt").write_text("an earlier file")
+    with pytest.raises(ToolInputError, match=r"images\[5\].file: .*0005.png is a folder"):
+        native.run_tool("mound_render", [str(site / "render.json"), "--out", str(out),
+                                         "--threads", "2"])
+    assert sorted(p.relative_to(out).as_posix() for p in out.rglob("*")) == [
+        "images", "images/0005.png", "keep.txt"]
+    # The same job into a clean folder, twice at once with two threads each: every image
+    # whole, no temporary file left.
+    (out / "images" / "0005.png").rmdir()
+    import subprocess
+
+    tool = str(native.tool_path("mound_render"))
+    procs = [subprocess.Popen([tool, str(site / "render.json"), "--out", str(out), "--threads",
+                               "2"], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+             for _ in range(2)]
+    assert all(p.wait(timeout=300) == 0 for p in procs)
+    names = sorted(p.name for p in (out / "images").iterdir())
+    assert names == [f"{k:04d}.png" for k in range(len(job["images"]))]
+    assert not [p for p in out.rglob("*") if ".tmp." in p.name or ".mound_render" in p.name]

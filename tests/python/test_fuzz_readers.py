@@ -1,0 +1,230 @@
+"""Property-based fuzzing (Hypothesis) of the Python readers of outside files: the user's
+sites (mound.sites and GeoJSON), plans (mission build), QGroundControl .plan and WPL
+missions, the Statlog data. From a valid file, Hypothesis replaces or deletes a value
+anywhere in it (with huge or non-finite numbers, wrong types, deep nesting, control
+characters) or splices random bytes into its text; every reader must answer with a value
+or an InputError (the commands' exit 2), never another exception (exit 1).
+
+(The camera and GPS files of the 3-D stage are read by mound_recon, fuzzed with libFuzzer:
+cpp/recon/inputs_fuzz.cc.) CI runs MOUND_FUZZ_EXAMPLES (default 150) examples per reader
+with a fixed seed; `make fuzz` runs 20,000 each with fresh randomness.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from mound.classify import statlog
+from mound.errors import InputError
+from mound.geometry.geodesy import Origin
+from mound.survey.sites_input import load_user_sites
+from mound.uav import files as mission_files
+from mound.uav import mission_items
+
+EXAMPLES = int(os.environ.get("MOUND_FUZZ_EXAMPLES", "150"))
+FRESH = os.environ.get("MOUND_FUZZ_FRESH") == "1"  # make fuzz: new randomness each run
+FUZZ = settings(max_examples=EXAMPLES, deadline=None, derandomize=not FRESH,
+                suppress_health_check=list(HealthCheck), database=None)
+WORK = Path(tempfile.mkdtemp(prefix="mound_fuzz_readers."))
+ORIGIN = Origin(38.5705, 27.9862, 95.0)
+SCAN = mission_items.scan_for_site(60.0, "raster")
+
+NASTY_NUMBERS = st.sampled_from([0, -1, 1e155, -1e300, 10**30, 10**400, 2**63, 1e-320,
+                                 math.inf, -math.inf, math.nan, 3.5e38, 91, -181])
+LEAVES = (st.none() | st.booleans() | NASTY_NUMBERS | st.integers() | st.floats()
+          | st.text(max_size=12) | st.just("") | st.just("\x00\n\ud7ff") | st.just("a" * 300))
+VALUES = st.recursive(LEAVES, lambda inner: st.lists(inner, max_size=3)
+                      | st.dictionaries(st.text(max_size=8), inner, max_size=3), max_leaves=8)
+DEEP = st.integers(1, 5000).map(lambda n: json.loads("[" * min(n, 900) + "]" * min(n, 900)))
+
+
+def _paths(doc: Any, prefix: tuple = ()) -> list[tuple]:
+    out = [prefix]
+    if isinstance(doc, dict):
+        for k, v in doc.items():
+            out += _paths(v, (*prefix, k))
+    elif isinstance(doc, list):
+        for i, v in enumerate(doc):
+            out += _paths(v, (*prefix, i))
+    return out
+
+
+@st.composite
+def mutated_json(draw: st.DrawFn, base: dict[str, Any]) -> str:
+    """`base` with one to three values replaced or deleted, then maybe bytes spliced in."""
+    doc = json.loads(json.dumps(base))
+    for _ in range(draw(st.integers(1, 3))):
+        paths = [p for p in _paths(doc) if p]
+        if not paths:
+            break
+        path = draw(st.sampled_from(paths))
+        parent = doc
+        for key in path[:-1]:
+            parent = parent[key]
+        if draw(st.booleans()) and isinstance(parent, dict):
+            del parent[path[-1]]
+        else:
+            parent[path[-1]] = draw(VALUES | DEEP)
+    text = json.dumps(doc, allow_nan=True)
+    return draw(spliced(text))
+
+
+@st.composite
+def spliced(draw: st.DrawFn, text: str) -> str:
+    """The text, or the text with a random piece replaced by random characters or bytes."""
+    if draw(st.integers(0, 3)) != 0 or not text:
+        return text
+    at = draw(st.integers(0, len(text)))
+    cut = draw(st.integers(0, 8))
+    piece = draw(st.text(max_size=8) | st.binary(max_size=6).map(
+        lambda b: b.decode("latin-1")))
+    return text[:at] + piece + text[at + cut:]
+
+
+def _file(text: str | bytes, name: str) -> Path:
+    path = WORK / name
+    if isinstance(text, str):
+        text = text.encode("utf-8", "surrogatepass")
+    path.write_bytes(text)
+    return path
+
+
+def value_or_input_error(fn: Any, *args: Any) -> None:
+    try:
+        fn(*args)
+    except InputError as e:
+        assert str(e) and "\n" not in str(e), repr(str(e))
+
+
+SITES = {"schema": "mound.sites", "version": 1, "origin": ORIGIN.to_doc(),
+         "home": {"id": "home", "x_m": 0, "y_m": 0}, "budget_m": 9000,
+         "sites": [{"id": "a", "x_m": 300, "y_m": 0, "p_mound": 0.3, "reward": 0.88,
+                    "truth": {"mound": False}},
+                   {"id": "b", "x_m": 0, "y_m": 400, "p_mound": 0.7, "truth": True}]}
+GEOJSON = {"type": "FeatureCollection", "budget_m": 9000, "features": [
+    {"type": "Feature", "properties": {"kind": "home", "alt_m": 95},
+     "geometry": {"type": "Point", "coordinates": [27.9862, 38.5705]}},
+    {"type": "Feature", "id": "T17", "properties": {"p_mound": 0.62, "truth": True},
+     "geometry": {"type": "Point", "coordinates": [27.9919, 38.5711]}}]}
+
+
+@FUZZ
+@given(st.one_of(mutated_json(SITES), mutated_json(GEOJSON)))
+def test_sites_reader(text: str) -> None:
+    path = _file(text, "sites.json")
+    value_or_input_error(load_user_sites, path, SCAN, None, 14400.0, False)
+
+
+PLAN = {"schema": "mound.plan", "version": 1, "tour": ["home", "a", "b", "home"],
+        "closed": True, "budget_m": 1e7, "origin": ORIGIN.to_doc(),
+        "scan": SCAN.to_doc() if hasattr(SCAN, "to_doc") else None,
+        "waypoints": [{"id": "home", "x_m": 0.0, "y_m": 0.0, "kind": "home"},
+                      {"id": "a", "x_m": 300.0, "y_m": 0.0, "kind": "site", "scan_cost_m": 400},
+                      {"id": "b", "x_m": 300.0, "y_m": 300.0, "kind": "site"}]}
+
+
+def _mission_build(path: Path) -> None:
+    from mound.jsonio import read_json
+
+    plan = read_json(path, "mound.plan", 1)
+    origin = Origin.from_doc(plan.get("origin"), f"{path}: origin")
+    mission_items.build(plan, origin, mission_items.MissionSpec(scan=SCAN))
+
+
+@FUZZ
+@given(mutated_json(PLAN))
+def test_plan_reader_and_mission_build(text: str) -> None:
+    value_or_input_error(_mission_build, _file(text, "plan.json"))
+
+
+def _mission_texts() -> tuple[str, str]:
+    m = mission_items.build(json.loads(json.dumps({**PLAN, "scan": None})), ORIGIN,
+                            mission_items.MissionSpec(scan=SCAN))
+    return mission_files.plan_text(m), mission_files.wpl_text(m)
+
+
+QGC_PLAN, WPL = _mission_texts()
+
+
+@FUZZ
+@given(mutated_json(json.loads(QGC_PLAN)))
+def test_qgc_plan_reader(text: str) -> None:
+    value_or_input_error(mission_files.read_mission, _file(text, "m.plan"))
+
+
+@st.composite
+def mutated_lines(draw: st.DrawFn, text: str, sep: str) -> str:
+    """A line-and-field file with fields replaced by nasty tokens, lines dropped or
+    duplicated, then maybe bytes spliced in."""
+    lines = text.splitlines()
+    for _ in range(draw(st.integers(1, 3))):
+        k = draw(st.integers(0, len(lines) - 1))
+        fields = lines[k].split(sep)
+        op = draw(st.integers(0, 3))
+        if op == 0:
+            i = draw(st.integers(0, len(fields) - 1))
+            fields[i] = draw(st.sampled_from(["inf", "nan", "-5", "--5", "1e400", "1e20", "x",
+                                              "", "9" * 30, "9" * 5000, "0x10", "١٢"])
+                             | st.text(max_size=6))
+            lines[k] = sep.join(fields)
+        elif op == 1:
+            del lines[k]
+        elif op == 2:
+            lines.insert(k, lines[k])
+        else:
+            lines[k] = sep.join(fields[:draw(st.integers(0, len(fields)))])
+    return draw(spliced("\n".join(lines) + "\n"))
+
+
+@FUZZ
+@given(mutated_lines(WPL, "\t"))
+def test_wpl_reader(text: str) -> None:
+    value_or_input_error(mission_files.read_mission, _file(text, "m.waypoints"))
+
+
+STATLOG_ROWS = "\n".join(" ".join(str((7 * r + c) % 256) for c in range(36)) + f" {1 + r % 5}"
+                         for r in range(6)) + "\n"
+
+
+@FUZZ
+@given(mutated_lines(STATLOG_ROWS, " "))
+def test_statlog_reader(text: str) -> None:
+    value_or_input_error(statlog.parse, text, "sat.trn")
+
+
+@FUZZ
+@given(st.binary(max_size=64))
+def test_readers_on_random_bytes(data: bytes) -> None:
+    for name in ("sites.json", "m.plan", "m.waypoints"):
+        path = _file(data, name)
+        if name == "sites.json":
+            value_or_input_error(load_user_sites, path, SCAN, None, 14400.0, False)
+        else:
+            value_or_input_error(mission_files.read_mission, path)
+
+
+def test_the_fuzzed_seeds_are_valid() -> None:
+    """The starting points are well-formed (else the fuzzing would only test refusals)."""
+    load_user_sites(_file(json.dumps(SITES), "sites.json"), SCAN, None, 14400.0, False)
+    load_user_sites(_file(json.dumps(GEOJSON), "sites.json"), SCAN, None, 14400.0, True)
+    _mission_build(_file(json.dumps(PLAN), "plan.json"))
+    assert len(mission_files.read_mission(_file(QGC_PLAN, "m.plan"))[0]) > 5
+    assert len(mission_files.read_mission(_file(WPL, "m.waypoints"))[0]) > 5
+    assert len(statlog.parse(STATLOG_ROWS, "sat.trn").cls) == 6
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _cleanup() -> Any:
+    yield
+    for p in WORK.iterdir():
+        p.unlink()
+    WORK.rmdir()
