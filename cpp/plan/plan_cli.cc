@@ -14,6 +14,7 @@
 #include "common/error.h"
 #include "plan/baselines.h"
 #include "plan/exact_small.h"
+#include "plan/alns.h"
 #include "plan/newalg.h"
 #include "plan/sites_io.h"
 #include "tsp/solver.h"
@@ -37,11 +38,13 @@ constexpr const char* kUsage =
     "to the end node) collecting the most reward within the budget (metres).\n"
     "  BUDGET             overrides budget_m of SITES.json\n"
     "  --algo NAME        newalg (default, the paper's algorithm), newalg-ls (NewAlg plus an\n"
-    "                     iterated local search), greedy (BenAlg), tsiligirides (1984),\n"
+    "                     iterated local search), alns (alias best: adaptive large-\n"
+    "                     neighbourhood search, the state of the art here), greedy (BenAlg),\n"
+    "                     tsiligirides (1984),\n"
     "                     glv (Golden-Levy-Vohra 1987), exact (<= 16 sites, dynamic programme)\n"
     "  --seed N           random seed (default 1); equal seeds give equal plans\n"
-    "  --iterations N     newalg-ls iterations (default 300)\n"
-    "  --time-limit S     newalg-ls: stop after S seconds (default: none)\n"
+    "  --iterations N     newalg-ls iterations (default 300); alns: at most N iterations\n"
+    "  --time-limit S     newalg-ls: stop after S seconds (default: none); alns: (default 1)\n"
     "  --routes N         tsiligirides: routes built (default 3000, as in the original)\n"
     "  --out FILE         write the result there (atomically) instead of stdout\n"
     "The tsp command solves a TSPLIB instance with the built-in Lin-Kernighan-Helsgaun\n"
@@ -122,11 +125,12 @@ int RunTsp(const std::vector<std::string>& args, std::ostream& out, std::ostream
   return kExitOk;
 }
 
-const std::vector<std::string> kAlgos = {"newalg", "newalg-ls", "greedy", "tsiligirides",
-                                         "glv", "exact"};
+const std::vector<std::string> kAlgos = {"newalg", "newalg-ls", "alns", "best", "greedy",
+                                         "tsiligirides", "glv", "exact"};
 
 struct AlgoOptions {
   NewAlgOptions newalg;
+  AlnsOptions alns;
   BaselineOptions baseline;
 };
 
@@ -136,9 +140,13 @@ AlgoOptions ParseAlgoOptions(const Args& a) {
     o.newalg.seed = ParseInt(a.options.at("--seed"), "--seed", 0, 1LL << 62);
   if (a.options.count("--iterations"))
     o.newalg.ls_iterations = ParseInt(a.options.at("--iterations"), "--iterations", 0, 1 << 30);
-  if (a.options.count("--time-limit"))
-    o.newalg.ls_time_limit_s = ParseNumber(a.options.at("--time-limit"), "--time-limit");
-  o.baseline.seed = o.newalg.seed;
+  if (a.options.count("--time-limit")) {
+    const double t = ParseNumber(a.options.at("--time-limit"), "--time-limit");
+    if (!(t >= 0 && t <= 1e6)) throw InputError("--time-limit: expected seconds in [0, 1e6] (0: no limit), got " + a.options.at("--time-limit"));
+    o.newalg.ls_time_limit_s = o.alns.time_limit_s = t;
+  }
+  o.alns.seed = o.baseline.seed = o.newalg.seed;
+  if (a.options.count("--iterations")) o.alns.max_iterations = o.newalg.ls_iterations;
   if (a.options.count("--routes"))
     o.baseline.tsiligirides_routes = ParseInt(a.options.at("--routes"), "--routes", 1, 1 << 30);
   return o;
@@ -148,9 +156,9 @@ std::string ParseAlgo(const Args& a) {
   const std::string algo = a.options.count("--algo") ? a.options.at("--algo") : "newalg";
   if (std::find(kAlgos.begin(), kAlgos.end(), algo) == kAlgos.end()) {
     throw InputError("--algo: unknown algorithm '" + algo +
-                     "' (newalg, newalg-ls, greedy, tsiligirides, glv, exact)");
+                     "' (newalg, newalg-ls, alns, best, greedy, tsiligirides, glv, exact)");
   }
-  return algo;
+  return algo == "best" ? "alns" : algo;
 }
 
 PlanResult Solve(const std::string& algo, const OpInstance& inst, const AlgoOptions& o) {
@@ -160,6 +168,7 @@ PlanResult Solve(const std::string& algo, const OpInstance& inst, const AlgoOpti
   }
   PlanResult r = algo == "newalg"         ? SolveNewAlg(inst, o.newalg)
                  : algo == "newalg-ls"    ? SolveNewAlgLs(inst, o.newalg)
+                 : algo == "alns"         ? SolveAlns(inst, o.alns)
                  : algo == "greedy"       ? SolveGreedy(inst)
                  : algo == "tsiligirides" ? SolveTsiligirides(inst, o.baseline)
                  : algo == "glv"          ? SolveGlv(inst, o.baseline)

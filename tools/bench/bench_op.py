@@ -43,7 +43,7 @@ def reference(row: dict) -> float | None:
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--algos", nargs="+",
-                    default=["newalg", "newalg-ls", "greedy", "tsiligirides", "glv"])
+                    default=["newalg", "newalg-ls", "alns", "greedy", "tsiligirides", "glv"])
     ap.add_argument("--suite", nargs="+", default=["classic", "oplib"])
     ap.add_argument("--csv")
     args = ap.parse_args()

@@ -1,0 +1,595 @@
+#include "plan/alns.h"
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <random>
+#include <utility>
+#include <vector>
+
+#include "plan/route_ops.h"
+
+namespace mound::plan {
+namespace {
+
+// Expanded edge costs; a matrix up to this many nodes (32 MiB), computed on the fly above.
+constexpr int kMaxMatrixNodes = 2048;
+// 2-opt, Or-opt and replacements are O(m^2) per pass: beyond this route length only LKH.
+constexpr int kMaxLocalSearchRoute = 1000;
+// Neighbour lists of 2-opt and Or-opt.
+constexpr int kNear = 16;
+
+class Costs {
+ public:
+  explicit Costs(const OpInstance& inst) : inst_(inst), n_(inst.Size()) {
+    if (n_ <= kMaxMatrixNodes) {
+      m_.resize(static_cast<size_t>(n_) * n_);
+      for (int a = 0; a < n_; ++a)
+        for (int b = 0; b < n_; ++b) m_[static_cast<size_t>(a) * n_ + b] = inst.Cost(a, b);
+    }
+  }
+  double operator()(int a, int b) const {
+    return m_.empty() ? inst_.Cost(a, b) : m_[static_cast<size_t>(a) * n_ + b];
+  }
+
+ private:
+  const OpInstance& inst_;
+  int n_;
+  std::vector<double> m_;
+};
+
+struct Solution {
+  std::vector<int> route;  // home ... end
+  double cost = 0;
+  double reward = 0;
+};
+
+enum Ruin { kRandom = 0, kSegment, kWorst, kRelated, kNumRuins };
+const char* const kRuinNames[kNumRuins] = {"random", "segment", "worst", "related"};
+
+class Search {
+ public:
+  Search(const OpInstance& inst, uint64_t seed)
+      : inst_(inst), c_(inst), rng_(seed), limit_(inst.budget_m + BudgetSlack(inst.budget_m)),
+        eps_(1e-12 * (1.0 + inst.budget_m)), in_(inst.Size(), 0) {
+    for (int v = inst.FirstSite(); v < inst.Size(); ++v)
+      if (inst.nodes[v].reward > 0) rewarded_.push_back(v);
+    pos_.assign(inst.Size(), -1);
+    // The kNear nearest nodes of each node, nearest first.
+    const int n = inst.Size(), k = std::min(kNear, n - 1);
+    near_.resize(n);
+    std::vector<std::pair<double, int>> d;
+    for (int a = 0; a < n; ++a) {
+      d.clear();
+      for (int b = 0; b < n; ++b)
+        if (b != a) d.push_back({c_(a, b), b});
+      std::partial_sort(d.begin(), d.begin() + k, d.end());
+      for (int j = 0; j < k; ++j) near_[a].push_back(d[j].second);
+    }
+  }
+
+  Solution Make(std::vector<int> route) const {
+    Solution s;
+    s.route = std::move(route);
+    Evaluate(&s);
+    return s;
+  }
+  void Evaluate(Solution* s) const {
+    s->cost = 0;
+    s->reward = 0;
+    for (size_t i = 0; i + 1 < s->route.size(); ++i) s->cost += c_(s->route[i], s->route[i + 1]);
+    for (int v : s->route)
+      if (inst_.IsSite(v)) s->reward += inst_.nodes[v].reward;
+  }
+  bool Better(const Solution& a, const Solution& b) const {
+    const double eps = 1e-12 * (1.0 + std::abs(b.reward));
+    if (a.reward > b.reward + eps) return true;
+    return a.reward >= b.reward - eps && a.cost < b.cost - 1e-9;
+  }
+  bool AllRewardedVisited(const Solution& s) const {
+    int on = 0;
+    for (int v : s.route) on += inst_.IsSite(v) && inst_.nodes[v].reward > 0;
+    return on == static_cast<int>(rewarded_.size());
+  }
+
+  // The local search: shorten, fill, replace, until none applies.
+  void LocalSearch(Solution* s) {
+    Mark(s->route);
+    for (int guard = 0; guard < 1000; ++guard) {
+      Shorten(s);
+      Insert(s, nullptr, 0.0);
+      if (!Replace(s)) break;
+    }
+    Evaluate(s);  // drop accumulated rounding
+  }
+
+  // Re-orders the route with the LKH engine, then refills it.
+  void Polish(Solution* s, uint64_t seed) {
+    if (s->route.size() >= 6 && ReorderWithLkh(inst_, &s->route, seed, &ops_)) {
+      Evaluate(s);
+      LocalSearch(s);
+    }
+  }
+
+  // Removes k sites by operator `op`; the removed sites are marked in blocked_.
+  void Ruin(Solution* s, int op, int k) {
+    std::vector<int>& r = s->route;
+    const int sites = static_cast<int>(r.size()) - 2;
+    blocked_.assign(inst_.Size(), 0);
+    if (sites <= 0) return;
+    k = std::min(k, sites);
+    std::vector<int> positions;
+    switch (op) {
+      case kRandom: {
+        for (int p = 1; p <= sites; ++p) positions.push_back(p);
+        std::shuffle(positions.begin(), positions.end(), rng_);
+        positions.resize(k);
+        break;
+      }
+      case kSegment: {
+        const int first = 1 + static_cast<int>(rng_() % sites);
+        for (int p = first; p < std::min(first + k, sites + 1); ++p) positions.push_back(p);
+        break;
+      }
+      case kWorst: {
+        std::uniform_real_distribution<double> noise(0.7, 1.3);
+        std::vector<std::pair<double, int>> ratio;
+        for (int p = 1; p <= sites; ++p) {
+          const double save = c_(r[p - 1], r[p]) + c_(r[p], r[p + 1]) - c_(r[p - 1], r[p + 1]);
+          ratio.push_back({inst_.nodes[r[p]].reward / std::max(save, 1e-9) * noise(rng_), p});
+        }
+        std::partial_sort(ratio.begin(), ratio.begin() + k, ratio.end());
+        for (int j = 0; j < k; ++j) positions.push_back(ratio[j].second);
+        break;
+      }
+      default: {  // kRelated: a random site and the k - 1 sites of the route nearest to it
+        const int centre = r[1 + rng_() % sites];
+        std::vector<std::pair<double, int>> near;
+        for (int p = 1; p <= sites; ++p) near.push_back({c_(centre, r[p]), p});
+        std::partial_sort(near.begin(), near.begin() + k, near.end());
+        for (int j = 0; j < k; ++j) positions.push_back(near[j].second);
+        break;
+      }
+    }
+    std::sort(positions.rbegin(), positions.rend());
+    for (int p : positions) {
+      blocked_[r[p]] = 1;
+      r.erase(r.begin() + p);
+    }
+    Evaluate(s);
+  }
+
+  // A route from scratch: noisy ratio insertion into home -> (a random site) -> end, then
+  // the local search.
+  Solution Construct(double noise) {
+    Solution s = Make({OpInstance::kHome, inst_.end});
+    // Seeded by a random site that fits, so that restarts reach other parts of the field.
+    for (int tries = 0; tries < 20 && !rewarded_.empty(); ++tries) {
+      const int v = rewarded_[rng_() % rewarded_.size()];
+      if (c_(OpInstance::kHome, v) + c_(v, inst_.end) <= limit_) {
+        s = Make({OpInstance::kHome, v, inst_.end});
+        break;
+      }
+    }
+    blocked_.assign(inst_.Size(), 0);
+    Recreate(&s, noise);
+    LocalSearch(&s);
+    return s;
+  }
+
+  // Recreate: noisy ratio insertion without the removed sites, then with all of them.
+  void Recreate(Solution* s, double noise) {
+    Mark(s->route);
+    Insert(s, &blocked_, noise);
+    Insert(s, nullptr, noise);
+  }
+
+  std::mt19937_64& Rng() { return rng_; }
+  RouteOpsStats& Ops() { return ops_; }
+
+ private:
+  void Mark(const std::vector<int>& route) {
+    std::fill(in_.begin(), in_.end(), 0);
+    for (int v : route) in_[v] = 1;
+  }
+
+  void Shorten(Solution* s) {
+    if (s->route.size() > kMaxLocalSearchRoute + 2) return;
+    for (int pass = 0; pass < 100; ++pass) {
+      const bool a = TwoOpt(s);
+      const bool b = OrOpt(s);
+      if (!a && !b) break;
+    }
+  }
+
+  // pos_[v]: index of site v in the route (home and end are not tracked).
+  void Positions(const std::vector<int>& r) {
+    for (size_t i = 1; i + 1 < r.size(); ++i) pos_[r[i]] = static_cast<int>(i);
+  }
+
+  // 2-opt by neighbour lists: an improving reversal of r[p..q] has a new edge shorter than
+  // the old edge beside it, (r[p-1], r[q]) vs (r[p-1], r[p]) or (r[p], r[q+1]) vs
+  // (r[q], r[q+1]), so it is found from r[p-1] or r[q+1] and one of its nearest nodes.
+  bool TwoOpt(Solution* s) {
+    std::vector<int>& r = s->route;
+    const int L = static_cast<int>(r.size());
+    if (L < 4) return false;
+    Positions(r);
+    bool any = false;
+    for (bool improved = true; improved;) {
+      improved = false;
+      for (int pu = 0; pu < L; ++pu) {
+        const int u = r[pu];
+        if (pu + 2 < L) {  // u = r[p-1]: new edge (u, c = r[q]), q > p
+          const double old = c_(u, r[pu + 1]);
+          for (int c : near_[u]) {
+            const double cuc = c_(u, c);
+            if (cuc >= old - eps_) break;
+            if (!inst_.IsSite(c) || !in_[c]) continue;
+            const int q = pos_[c];
+            if (q <= pu + 1 || q + 1 >= L) continue;
+            const double delta = cuc + c_(r[pu + 1], r[q + 1]) - old - c_(c, r[q + 1]);
+            if (delta < -eps_) {
+              Reverse(&r, pu + 1, q);
+              s->cost += delta;
+              improved = any = true;
+              break;
+            }
+          }
+        }
+        if (pu >= 2 && r[pu] == u) {  // u = r[q+1]: new edge (c = r[p], u), p < q
+          const double old = c_(r[pu - 1], u);
+          for (int c : near_[u]) {
+            const double cuc = c_(u, c);
+            if (cuc >= old - eps_) break;
+            if (!inst_.IsSite(c) || !in_[c]) continue;
+            const int p = pos_[c];
+            if (p < 1 || p >= pu - 1) continue;
+            const double delta = cuc + c_(r[p - 1], r[pu - 1]) - old - c_(r[p - 1], c);
+            if (delta < -eps_) {
+              Reverse(&r, p, pu - 1);
+              s->cost += delta;
+              improved = any = true;
+              break;
+            }
+          }
+        }
+      }
+    }
+    return any;
+  }
+
+  void Reverse(std::vector<int>* r, int p, int q) {
+    std::reverse(r->begin() + p, r->begin() + q + 1);
+    for (int i = p; i <= q; ++i) pos_[(*r)[i]] = i;
+  }
+
+  // Moves runs of 1-3 consecutive sites next to one of the nearest nodes of either end,
+  // either orientation.
+  bool OrOpt(Solution* s) {
+    std::vector<int>& r = s->route;
+    bool any = false;
+    Positions(r);
+    for (int len = 1; len <= 3; ++len) {
+      for (int i = 1; i + len < static_cast<int>(r.size()); ++i) {
+        const int L = static_cast<int>(r.size());
+        const int p = r[i - 1], f = r[i], l = r[i + len - 1], q = r[i + len];
+        const double removal = c_(p, f) + c_(l, q) - c_(p, q);
+        if (removal <= eps_) continue;
+        double best = eps_;
+        int best_k = -1;
+        bool reversed = false;
+        auto consider = [&](int k) {  // the edge (r[k], r[k+1])
+          if (k < 0 || k + 1 >= L || (k >= i - 1 && k < i + len)) return;
+          const int x = r[k], y = r[k + 1];
+          const double base = c_(x, y);
+          const double fwd = c_(x, f) + c_(l, y) - base, rev = c_(x, l) + c_(f, y) - base;
+          const double gain = removal - std::min(fwd, rev);
+          if (gain > best) {
+            best = gain;
+            best_k = k;
+            reversed = rev < fwd;
+          }
+        };
+        for (int end : {f, l}) {
+          for (int x : near_[end]) {
+            if (c_(end, x) >= removal) break;  // an insertion beside x costs at least that
+            int at;
+            if (inst_.IsSite(x)) {
+              if (!in_[x]) continue;
+              at = pos_[x];
+            } else if (x == OpInstance::kHome) {
+              consider(0);
+              if (!inst_.Closed()) continue;
+              at = L - 1;
+            } else {  // the end node of a path
+              at = L - 1;
+            }
+            consider(at - 1);
+            consider(at);
+          }
+        }
+        if (best_k < 0) continue;
+        std::vector<int> seg(r.begin() + i, r.begin() + i + len);
+        if (reversed) std::reverse(seg.begin(), seg.end());
+        r.erase(r.begin() + i, r.begin() + i + len);
+        const int at = best_k < i ? best_k + 1 : best_k + 1 - len;
+        r.insert(r.begin() + at, seg.begin(), seg.end());
+        Positions(r);
+        s->cost -= best;
+        any = true;
+      }
+    }
+    return any;
+  }
+
+  // Ratio insertion (reward over cheapest insertion cost, times a per-call noise factor per
+  // site) while the budget allows; insertion costs are updated incrementally.
+  void Insert(Solution* s, const std::vector<char>* blocked, double noise) {
+    std::vector<int>& r = s->route;
+    const int n = inst_.Size();
+    const double inf = std::numeric_limits<double>::infinity();
+    cand_.clear();
+    for (int v : rewarded_)
+      if (!in_[v] && !(blocked && (*blocked)[v])) cand_.push_back(v);
+    if (cand_.empty()) return;
+    next_.assign(n, -1);
+    for (size_t i = 0; i + 1 < r.size(); ++i) next_[r[i]] = r[i + 1];
+    delta_.assign(n, inf);
+    after_.assign(n, -1);
+    factor_.assign(n, 1.0);
+    std::uniform_real_distribution<double> u(1.0 - noise, 1.0 + noise);
+    for (int v : cand_) {
+      Scan(v);
+      if (noise > 0) factor_[v] = u(rng_);
+    }
+    int inserted = 0;
+    for (;;) {
+      int best = -1;
+      double best_ratio = -1;
+      for (int v : cand_) {
+        if (in_[v] || s->cost + delta_[v] > limit_) continue;
+        const double ratio = inst_.nodes[v].reward / std::max(delta_[v], 1e-12) * factor_[v];
+        if (ratio > best_ratio) {
+          best_ratio = ratio;
+          best = v;
+        }
+      }
+      if (best < 0) break;
+      const int a = after_[best], b = next_[a];
+      next_[a] = best;
+      next_[best] = b;
+      in_[best] = 1;
+      s->cost += delta_[best];
+      s->reward += inst_.nodes[best].reward;
+      ++inserted;
+      for (int v : cand_) {
+        if (in_[v]) continue;
+        if (after_[v] == a) {
+          Scan(v);  // its best edge (a, b) was split
+          continue;
+        }
+        for (const auto& [x, y] : {std::pair{a, best}, std::pair{best, b}}) {
+          const double d = c_(x, v) + c_(v, y) - c_(x, y);
+          if (d < delta_[v]) {
+            delta_[v] = d;
+            after_[v] = x;
+          }
+        }
+      }
+    }
+    if (inserted > 0) {
+      const size_t length = r.size() + inserted;
+      const int head = r[0];
+      r.assign(1, head);
+      for (int v = next_[head]; r.size() < length; v = next_[v]) r.push_back(v);
+    }
+  }
+
+  // The cheapest insertion edge of v in the linked route next_.
+  void Scan(int v) {
+    const double inf = std::numeric_limits<double>::infinity();
+    delta_[v] = inf;
+    int a = inst_.kHome;
+    for (;;) {
+      const int b = next_[a];
+      if (b < 0) break;
+      const double d = c_(a, v) + c_(v, b) - c_(a, b);
+      if (d < delta_[v]) {
+        delta_[v] = d;
+        after_[v] = a;
+      }
+      a = b;
+      if (a == inst_.end) break;
+    }
+  }
+
+  // The best 1-1 replacement of a visited site by an unvisited one of more reward that
+  // keeps the route within the budget (the unvisited site goes to its cheapest place in
+  // the route without the visited one). Returns true if one was made.
+  bool Replace(Solution* s) {
+    std::vector<int>& r = s->route;
+    const int L = static_cast<int>(r.size());
+    if (L < 3 || L > kMaxLocalSearchRoute + 2) return false;
+    save_.assign(L, 0.0);
+    for (int p = 1; p + 1 < L; ++p) save_[p] = c_(r[p - 1], r[p]) + c_(r[p], r[p + 1]) - c_(r[p - 1], r[p + 1]);
+    double best_gain = 0, best_cost = 0;
+    int best_p = -1, best_v = -1;
+    const double inf = std::numeric_limits<double>::infinity();
+    for (int v : rewarded_) {
+      if (in_[v]) continue;
+      const double rv = inst_.nodes[v].reward;
+      // The three cheapest insertion edges (k: between r[k] and r[k+1]).
+      std::array<std::pair<double, int>, 3> top{{{inf, -1}, {inf, -1}, {inf, -1}}};
+      for (int k = 0; k + 1 < L; ++k) {
+        const double d = c_(r[k], v) + c_(v, r[k + 1]) - c_(r[k], r[k + 1]);
+        if (d < top[2].first) {
+          top[2] = {d, k};
+          if (top[2] < top[1]) std::swap(top[2], top[1]);
+          if (top[1] < top[0]) std::swap(top[1], top[0]);
+        }
+      }
+      for (int p = 1; p + 1 < L; ++p) {
+        const double gain = rv - inst_.nodes[r[p]].reward;
+        if (gain <= 1e-12 * (1.0 + rv) || gain < best_gain) continue;
+        double ins = c_(r[p - 1], v) + c_(v, r[p + 1]) - c_(r[p - 1], r[p + 1]);
+        for (const auto& [d, k] : top) {
+          if (k < 0) break;
+          if (k == p - 1 || k == p) continue;
+          ins = std::min(ins, d);
+          break;
+        }
+        const double cost = s->cost - save_[p] + ins;
+        if (cost > limit_) continue;
+        if (gain > best_gain || cost < best_cost) {
+          best_gain = gain;
+          best_cost = cost;
+          best_p = p;
+          best_v = v;
+        }
+      }
+    }
+    if (best_p < 0) return false;
+    in_[r[best_p]] = 0;
+    s->reward -= inst_.nodes[r[best_p]].reward;
+    s->cost -= save_[best_p];
+    r.erase(r.begin() + best_p);
+    double d_best = inf;
+    int at = 1;
+    for (int k = 0; k + 2 < L; ++k) {
+      const double d = c_(r[k], best_v) + c_(best_v, r[k + 1]) - c_(r[k], r[k + 1]);
+      if (d < d_best) {
+        d_best = d;
+        at = k + 1;
+      }
+    }
+    r.insert(r.begin() + at, best_v);
+    in_[best_v] = 1;
+    s->cost += d_best;
+    s->reward += inst_.nodes[best_v].reward;
+    return true;
+  }
+
+  const OpInstance& inst_;
+  Costs c_;
+  std::mt19937_64 rng_;
+  double limit_, eps_;
+  std::vector<char> in_, blocked_;
+  std::vector<int> rewarded_, cand_, next_, after_, pos_;
+  std::vector<std::vector<int>> near_;
+  std::vector<double> delta_, factor_, save_;
+  RouteOpsStats ops_;
+};
+
+}  // namespace
+
+PlanResult SolveAlns(const OpInstance& inst, const AlnsOptions& opt) {
+  const auto start = std::chrono::steady_clock::now();
+  auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
+  NewAlgOptions nopt;
+  nopt.seed = opt.seed;
+  const PlanResult init = SolveNewAlg(inst, nopt);
+
+  Search search(inst, opt.seed ^ 0x5DEECE66DULL);
+  std::mt19937_64& rng = search.Rng();
+  Solution best = search.Make(init.route);
+  search.LocalSearch(&best);
+  search.Polish(&best, opt.seed);
+  Solution cur = best;
+
+  const int sites = inst.Size() - inst.FirstSite();
+  const int stagnation = opt.stagnation > 0 ? opt.stagnation : std::max(5000, 50 * sites);
+  const int restart = std::max(100, stagnation / 10);
+  std::array<double, kNumRuins> weight{1, 1, 1, 1}, score{}, used{};
+  std::array<int, kNumRuins> bests{};
+  int it = 0, since_best = 0, new_bests = 0, last_polish = 0, polishes = 1, restarts = 0;
+  const int segment = 100;  // iterations between weight updates
+  for (; it < opt.max_iterations && since_best < stagnation; ++it) {
+    if (opt.time_limit_s > 0 && elapsed() >= opt.time_limit_s) break;
+    if (search.AllRewardedVisited(best)) break;
+    // Roulette on the ruin operators.
+    double total = 0;
+    for (double w : weight) total += w;
+    double pick = std::uniform_real_distribution<double>(0, total)(rng);
+    int op = 0;
+    while (op + 1 < kNumRuins && pick >= weight[op]) pick -= weight[op++];
+    const int m = static_cast<int>(cur.route.size()) - 2;
+    const int k_max = std::max(1, std::min(40, std::max(4, (2 * m) / 5)));
+    const int k = 1 + static_cast<int>(rng() % k_max);
+
+    Solution cand = cur;
+    search.Ruin(&cand, op, k);
+    static constexpr double kNoise[] = {0.1, 0.3, 0.6};
+    search.Recreate(&cand, kNoise[rng() % 3]);
+    search.LocalSearch(&cand);
+
+    // Record-to-record travel: the threshold shrinks from 5 % to 0 over the run.
+    const double progress =
+        opt.time_limit_s > 0 ? elapsed() / opt.time_limit_s
+                             : static_cast<double>(since_best) / stagnation;
+    const double threshold = 0.05 * std::max(0.0, 1.0 - progress);
+    used[op] += 1;
+    ++since_best;
+    if (search.Better(cand, best)) {
+      best = cand;
+      ++new_bests;
+      ++bests[op];
+      since_best = 0;
+      score[op] += 33;
+      if (it - last_polish >= 50) {
+        search.Polish(&best, opt.seed + static_cast<uint64_t>(it));
+        last_polish = it;
+        ++polishes;
+      }
+      cur = best;
+    } else if (search.Better(cand, cur)) {
+      score[op] += 9;
+      cur = std::move(cand);
+    } else if (cand.reward >= best.reward * (1.0 - threshold)) {
+      score[op] += 13;
+      cur = std::move(cand);
+    }
+    if (since_best > 0 && since_best % restart == 0) {
+      // Alternately back to the best route and to a new noisy construction from scratch.
+      if ((since_best / restart) % 2 == 1) {
+        cur = best;
+      } else {
+        cur = search.Construct(0.6);
+        ++restarts;
+      }
+    }
+    if ((it + 1) % segment == 0) {
+      for (int o = 0; o < kNumRuins; ++o) {
+        if (used[o] > 0) weight[o] = 0.8 * weight[o] + 0.2 * std::max(0.05, score[o] / used[o]);
+        score[o] = used[o] = 0;
+      }
+    }
+  }
+  search.Polish(&best, opt.seed + 0x9E3779B9ULL);
+  ++polishes;
+
+  PlanResult res;
+  res.route = best.route;
+  res.reward = inst.RouteReward(res.route);
+  res.cost = inst.RouteCost(res.route);
+  res.stats = nlohmann::json::object();
+  res.stats["name"] = "alns";
+  res.stats["newalg_reward"] = init.reward;
+  res.stats["iterations"] = it;
+  res.stats["new_bests"] = new_bests;
+  res.stats["lkh_polishes"] = polishes;
+  res.stats["restarts"] = restarts;
+  res.stats["stopped_by"] = it >= opt.max_iterations      ? "iterations"
+                            : since_best >= stagnation    ? "stagnation"
+                            : search.AllRewardedVisited(best) ? "all sites visited"
+                                                              : "time limit";
+  nlohmann::json w = nlohmann::json::object();
+  for (int o = 0; o < kNumRuins; ++o) w[kRuinNames[o]] = {{"weight", weight[o]}, {"new_bests", bests[o]}};
+  res.stats["ruins"] = w;
+  res.stats["elapsed_s"] = elapsed();
+  return res;
+}
+
+}  // namespace mound::plan

@@ -1,0 +1,43 @@
+// ALNS-OP: an adaptive large-neighbourhood search for the orienteering problem, the
+// planner's state-of-the-art heuristic (`mound_plan --algo alns`, alias `best`).
+//
+// After Ropke & Pisinger (2006) for the search frame, Kobeaga, Merino & Lozano (2018,
+// EA4OP) for the OP moves (add by ratio, drop, the budget kept as a hard constraint, route
+// lengths kept short by a Lin-Kernighan engine) and Vidal (2022, HGS) for cheap 2-opt /
+// Or-opt in between and restarts from an elite route:
+//
+//  1. Start from NewAlg (the paper's algorithm) and a local search.
+//  2. Each iteration ruins the current route (k sites removed by one of four operators:
+//     random, a run of consecutive sites, the worst reward per saved metre, the sites
+//     nearest a random one) and recreates it by noisy ratio insertion (first without the
+//     removed sites, then with all), followed by the local search: 2-opt and Or-opt (runs
+//     of 1-3 sites, both orientations) to shorten the route, insertion by ratio into the
+//     freed budget, and 1-1 replacements of a visited site by an unvisited one of more
+//     reward, until none applies.
+//  3. Operators are chosen by roulette on weights that adapt to their success (new best,
+//     better than current, accepted). Acceptance is record-to-record travel on reward
+//     (the threshold shrinks to zero over the run); after a stretch without a new best the
+//     search restarts from the best route.
+//  4. Every new best route is re-ordered by the project's LKH engine and refilled.
+//
+// Routes are always within the budget. Deterministic for a seed when stopped by
+// iterations or stagnation; a time limit stops it earlier on slower machines.
+#pragma once
+
+#include <cstdint>
+
+#include "plan/newalg.h"
+#include "plan/op_instance.h"
+
+namespace mound::plan {
+
+struct AlnsOptions {
+  uint64_t seed = 1;
+  int max_iterations = 1 << 30;  // ruin-and-recreate iterations
+  int stagnation = 0;            // stop after this many without a new best; 0: automatic
+  double time_limit_s = 1.0;     // <= 0: no limit
+};
+
+PlanResult SolveAlns(const OpInstance& inst, const AlnsOptions& opt);
+
+}  // namespace mound::plan

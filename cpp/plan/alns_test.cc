@@ -1,0 +1,72 @@
+#include "plan/alns.h"
+
+#include <gtest/gtest.h>
+
+#include <iostream>
+
+#include "plan/exact_small.h"
+#include "plan/test_instances.h"
+
+namespace mound::plan {
+namespace {
+
+using test_instances::RandomInstance;
+
+AlnsOptions Fixed(uint64_t seed, int iterations) {
+  AlnsOptions o;
+  o.seed = seed;
+  o.max_iterations = iterations;
+  o.time_limit_s = 0;  // stopped by iterations or stagnation only: deterministic
+  return o;
+}
+
+// On random closed and path instances of <= 16 sites: feasible (cost recomputed
+// independently), never above the Held-Karp optimum, and at it on every instance.
+TEST(AlnsTest, ReachesTheExactOptimumOnSmallInstances) {
+  int optimal = 0, count = 0;
+  for (unsigned seed = 0; seed < 120; ++seed) {
+    const bool closed = seed % 3 != 0;
+    const OpInstance inst = RandomInstance(6 + seed % 11, closed, 8 + seed % 30, 5000 + seed);
+    const PlanResult exact = SolveExactSmall(inst);
+    const PlanResult r = SolveAlns(inst, Fixed(seed, 2000));
+    test_instances::ExpectValidRoute(inst, r, "seed " + std::to_string(seed));
+    EXPECT_LE(r.reward, exact.reward + 1e-9) << "seed " << seed;
+    EXPECT_GE(r.reward, exact.reward - 1e-9) << "seed " << seed << " (optimum " << exact.reward << ")";
+    optimal += r.reward >= exact.reward - 1e-9;
+    ++count;
+  }
+  std::cout << "[ alns    ] optimal on " << optimal << " of " << count << " instances <= 16 sites\n";
+}
+
+// Never worse than NewAlg, which it starts from; equal seeds give equal routes.
+TEST(AlnsTest, AtLeastNewAlgAndDeterministic) {
+  for (bool closed : {true, false}) {
+    OpInstance inst = RandomInstance(150, closed, 0, 11);
+    test_instances::ScaleCoordinates(&inst, 10);
+    inst.budget_m = 250;
+    const PlanResult a = SolveAlns(inst, Fixed(4, 300));
+    const PlanResult b = SolveAlns(inst, Fixed(4, 300));
+    NewAlgOptions n;
+    n.seed = 4;
+    const PlanResult base = SolveNewAlg(inst, n);
+    test_instances::ExpectValidRoute(inst, a, closed ? "closed" : "path");
+    EXPECT_EQ(a.route, b.route);
+    EXPECT_GE(a.reward, base.reward - 1e-9);
+    EXPECT_EQ(a.stats["newalg_reward"].get<double>(), base.reward);
+  }
+}
+
+// Degenerate instances: nothing fits, or everything does.
+TEST(AlnsTest, EdgeCases) {
+  OpInstance tight = RandomInstance(20, true, 0.5, 3);
+  PlanResult r = SolveAlns(tight, Fixed(1, 50));
+  test_instances::ExpectValidRoute(tight, r, "tight");
+  OpInstance loose = RandomInstance(20, false, 1000, 3);
+  r = SolveAlns(loose, Fixed(1, 50));
+  test_instances::ExpectValidRoute(loose, r, "loose");
+  EXPECT_EQ(r.route.size(), 22u);  // every site visited
+  EXPECT_EQ(r.stats["stopped_by"], "all sites visited");
+}
+
+}  // namespace
+}  // namespace mound::plan
