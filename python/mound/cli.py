@@ -159,19 +159,32 @@ def cmd_field_standard(args: argparse.Namespace) -> int:
 
 
 def cmd_plan_exact(args: argparse.Namespace) -> int:
-    from mound.plan import exact as exact_op
     from mound.plan import sites
 
     prob = sites.load(args.sites, args.budget)
-    r = exact_op.solve(prob, time_limit_s=args.time_limit)
+    if args.solver == "scip":
+        from mound import native
+        from mound.plan import branch_cut
+
+        # The first solution: the heuristic's route (ALNS, 1 s).
+        heur = native.run_json("mound_plan", [args.sites, str(prob.budget), "--algo", "alns",
+                                              "--time-limit", "1"])
+        index = {sid: i for i, sid in enumerate(prob.ids)}
+        r = branch_cut.solve(prob, time_limit_s=args.time_limit,
+                             start_route=[index[sid] for sid in heur["tour"]])
+    else:
+        from mound.plan import exact as exact_op
+
+        r = exact_op.solve(prob, time_limit_s=args.time_limit)
     tour = [prob.ids[v] for v in r.route]
     doc = {
-        "schema": "mound.plan", "version": 1, "status": "ok", "algo": "exact-ip",
+        "schema": "mound.plan", "version": 1, "status": "ok",
+        "algo": "exact-bc" if args.solver == "scip" else "exact-ip",
         "sites_file": args.sites, "closed": prob.closed, "tour": tour, "reward": r.reward,
         "cost_m": r.cost, "budget_m": prob.budget, "budget_left_m": prob.budget - r.cost,
         "elapsed_s": r.seconds, "n_sites": len(prob.ids) - (1 if prob.closed else 2),
         "n_visited": len(set(r.route)) - (1 if prob.closed else 2),
-        "solver": {"name": "highs", "proof": r.status, "upper_bound": r.bound,
+        "solver": {"name": args.solver, "proof": r.status, "upper_bound": r.bound,
                    "gap": r.gap, "cuts": r.cuts, "rounds": r.rounds},
     }
     if args.out:
@@ -316,10 +329,13 @@ def build_parser() -> argparse.ArgumentParser:
         m.set_defaults(func=func)
     plan = sub.add_parser("plan", help="tour planning (Python side)").add_subparsers(
         dest="cmd", required=True, parser_class=Parser)
-    ex = plan.add_parser("exact", help="proven optimum by integer programming (HiGHS)")
+    ex = plan.add_parser("exact", help="proven optimum: branch-and-cut (SCIP) or HiGHS")
     ex.add_argument("sites")
     ex.add_argument("budget", nargs="?", type=float, help="overrides budget_m")
     ex.add_argument("--time-limit", type=float, default=60.0, help="seconds (default 60)")
+    ex.add_argument("--solver", choices=("scip", "highs"), default="scip",
+                    help="scip: branch-and-cut with GSECs separated in the search, started "
+                    "from the ALNS route (default); highs: cut loop around HiGHS's MIP")
     ex.add_argument("--out", help="plan.json (default: stdout)")
     ex.set_defaults(func=cmd_plan_exact)
 

@@ -1,4 +1,5 @@
-"""The HiGHS integer programme against the C++ dynamic programme on small instances."""
+"""The exact solvers (SCIP branch-and-cut, HiGHS cut loop) against the C++ dynamic
+programme (Held-Karp) on small instances."""
 
 from __future__ import annotations
 
@@ -9,8 +10,10 @@ import numpy as np
 import pytest
 
 from mound import native
+from mound.plan import branch_cut, sites
 from mound.plan import exact as exact_op
-from mound.plan import sites
+
+SOLVERS = {"highs": exact_op.solve, "scip": branch_cut.solve}
 
 
 def random_doc(seed: int, n_sites: int, closed: bool) -> dict:
@@ -28,14 +31,16 @@ def random_doc(seed: int, n_sites: int, closed: bool) -> dict:
     return doc
 
 
+@pytest.mark.parametrize("solver", sorted(SOLVERS))
 @pytest.mark.parametrize("seed", range(8))
-def test_integer_programme_agrees_with_dynamic_programme(tmp_path: Path, seed: int) -> None:
-    doc = random_doc(seed, 6 + seed % 5, closed=seed % 2 == 0)
+def test_integer_programme_agrees_with_dynamic_programme(tmp_path: Path, seed: int,
+                                                        solver: str) -> None:
+    doc = random_doc(seed, 6 + seed % (5 if solver == "highs" else 11), closed=seed % 2 == 0)
     path = tmp_path / "s.json"
     path.write_text(json.dumps(doc))
     dp = native.run_json("mound_plan", [str(path), "--algo", "exact"])
     p = sites.load(path)
-    r = exact_op.solve(p, time_limit_s=60)
+    r = SOLVERS[solver](p, time_limit_s=60)
     assert r.status == "optimal"
     assert r.reward == pytest.approx(dp["reward"], abs=1e-6)
     assert r.bound == pytest.approx(r.reward)
@@ -45,16 +50,17 @@ def test_integer_programme_agrees_with_dynamic_programme(tmp_path: Path, seed: i
     assert len(inner) == len(set(inner))
     assert p.route_cost(r.route) <= p.budget + 1e-6
     # No heuristic beats the proven optimum.
-    for algo in ("newalg", "newalg-ls", "greedy", "tsiligirides", "glv"):
+    for algo in ("newalg", "newalg-ls", "alns", "greedy", "tsiligirides", "glv"):
         plan = native.run_json("mound_plan", [str(path), "--algo", algo])
         assert plan["reward"] <= r.reward + 1e-9, algo
 
 
-def test_time_limit_returns_a_bound_and_a_feasible_route() -> None:
+@pytest.mark.parametrize("solver", sorted(SOLVERS))
+def test_time_limit_returns_a_bound_and_a_feasible_route(solver: str) -> None:
     doc = random_doc(42, 60, closed=True)
     doc["budget_m"] = 40.0
     p = sites.from_document(doc)
-    r = exact_op.solve(p, time_limit_s=0.5)
+    r = SOLVERS[solver](p, time_limit_s=0.5)
     assert r.bound >= r.reward - 1e-9
     assert p.route_cost(r.route) <= p.budget + 1e-6
 
@@ -70,6 +76,7 @@ def test_cli_writes_a_plan_with_proof_and_rejects_bad_input(tmp_path: Path, caps
     plan = json.loads(out.read_text())
     dp = native.run_json("mound_plan", [str(src), "--algo", "exact"])
     assert plan["schema"] == "mound.plan" and plan["solver"]["proof"] == "optimal"
+    assert plan["solver"]["name"] == "scip" and plan["algo"] == "exact-bc"
     assert plan["reward"] == pytest.approx(dp["reward"], abs=1e-6)
     assert plan["tour"][0] == "home" and plan["tour"][-1] == "end"
     del doc["sites"][2]["x_m"]
@@ -77,3 +84,25 @@ def test_cli_writes_a_plan_with_proof_and_rejects_bad_input(tmp_path: Path, caps
     assert mound_main(["plan", "exact", str(src), "--out", str(tmp_path / "no.json")]) == 2
     assert "x_m: missing" in capsys.readouterr().err
     assert not (tmp_path / "no.json").exists()
+
+
+def test_branch_and_cut_on_a_classic_path_and_unreachable_sites(shared_data: Path) -> None:
+    """A classic benchmark path (Tsiligirides 1, budget 40: 29 sites, proven optimum in
+    best_known.csv) is proven optimal (155); sites that no route within the budget reaches are
+    left out of the model, and with none reachable the route is home -> end."""
+    import csv
+
+    from mound.plan.sites import from_classic_op_file
+
+    name = "Tsiligirides_1/tsiligirides_problem_1_budget_40.txt"
+    doc = from_classic_op_file(shared_data / "op" / name)
+    with open(shared_data / "op" / "best_known.csv", newline="") as f:
+        known = {row["instance"]: row for row in csv.DictReader(f)}
+    p = sites.from_document(doc)
+    r = branch_cut.solve(p, time_limit_s=120)
+    assert r.status == "optimal"
+    assert r.reward == pytest.approx(float(known[name]["computed_optimum"]))
+    assert p.route_cost(r.route) <= p.budget + 1e-6
+    tiny = sites.from_document(doc, budget=p.route_cost([0, 1]) + 1e-3)
+    r = branch_cut.solve(tiny, time_limit_s=10)
+    assert r.status == "optimal" and r.route == [0, 1] and r.reward == 0.0

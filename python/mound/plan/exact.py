@@ -86,34 +86,46 @@ def _route_of(n: int, edges: list[tuple[int, int]], closed: bool, end: int) -> l
     return route
 
 
-def _min_cut_sets(n: int, edges: list[tuple[int, int]], x: np.ndarray, y: np.ndarray,
-                  closed: bool, tol: float = 1e-6) -> list[tuple[frozenset[int], int]]:
-    """Violated GSECs of a fractional point: (S, k) with x(delta(S)) < 2 y_k - tol.
+FLOW_SCALE = 1_000_000  # LP values as integer capacities for scipy's maximum flow
 
-    A path is a cycle with a virtual end->home edge of value 1; it is in the flow graph.
-    """
-    scale = 1_000_000
-    rows, cols, caps = ([0, 1], [1, 0], [scale, scale]) if not closed else ([], [], [])
+
+def flow_graph(n: int, edges: list[tuple[int, int]], x: np.ndarray,
+               closed: bool) -> csr_matrix:
+    """The support graph of an LP point with capacities x_e (scaled to integers). A path
+    is a cycle with a virtual end->home edge of value 1."""
+    rows, cols, caps = ([0, 1], [1, 0], [FLOW_SCALE, FLOW_SCALE]) if not closed else ([], [], [])
     for k, (a, b) in enumerate(edges):
-        cap = round(x[k] * scale)
+        cap = round(x[k] * FLOW_SCALE)
         if cap > 0:
             rows += [a, b]
             cols += [b, a]
             caps += [cap, cap]
-    graph = csr_matrix((np.array(caps, dtype=np.int32), (rows, cols)), shape=(n, n))
+    return csr_matrix((np.array(caps, dtype=np.int32), (rows, cols)), shape=(n, n))
+
+
+def min_cut_from_home(graph: csr_matrix, k: int) -> tuple[float, frozenset[int]]:
+    """The maximum flow value home -> k (in LP units) and the sink side S of a minimum cut."""
+    n = graph.shape[0]
+    flow = maximum_flow(graph, 0, k)
+    residual = (graph - flow.flow).tocsr()
+    residual.data = np.where(residual.data > 0, residual.data, 0)
+    residual.eliminate_zeros()
+    source_side = set(breadth_first_order(residual, 0, directed=True,
+                                          return_predecessors=False).tolist())
+    return flow.flow_value / FLOW_SCALE, frozenset(set(range(n)) - source_side)
+
+
+def _min_cut_sets(n: int, edges: list[tuple[int, int]], x: np.ndarray, y: np.ndarray,
+                  closed: bool, tol: float = 1e-6) -> list[tuple[frozenset[int], int]]:
+    """Violated GSECs of a fractional point: (S, k) with x(delta(S)) < 2 y_k - tol."""
+    graph = flow_graph(n, edges, x, closed)
     found: list[tuple[frozenset[int], int]] = []
     for k in range(1, n):
         if y[k] <= tol:
             continue
-        flow = maximum_flow(graph, 0, k)
-        if flow.flow_value >= 2 * y[k] * scale - tol * scale:
-            continue
-        residual = (graph - flow.flow).tocsr()
-        residual.data = np.where(residual.data > 0, residual.data, 0)
-        residual.eliminate_zeros()
-        source_side = set(breadth_first_order(residual, 0, directed=True,
-                                              return_predecessors=False).tolist())
-        found.append((frozenset(set(range(n)) - source_side), k))
+        value, s = min_cut_from_home(graph, k)
+        if value < 2 * y[k] - tol:
+            found.append((s, k))
     return found
 
 
