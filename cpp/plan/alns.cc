@@ -18,8 +18,11 @@ namespace {
 constexpr int kMaxMatrixNodes = 2048;
 // 2-opt, Or-opt and replacements are O(m^2) per pass: beyond this route length only LKH.
 constexpr int kMaxLocalSearchRoute = 1000;
-// Neighbour lists of 2-opt and Or-opt.
+// Neighbour lists of 2-opt, Or-opt and replacements.
 constexpr int kNear = 16;
+// Replacements scan every insertion edge up to this route length, beyond it only the
+// edges beside a site's nearest nodes (and only sites with a nearest node on the route).
+constexpr int kFullScanRoute = 64;
 
 class Costs {
  public:
@@ -341,8 +344,22 @@ class Search {
     after_.assign(n, -1);
     factor_.assign(n, 1.0);
     std::uniform_real_distribution<double> u(1.0 - noise, 1.0 + noise);
+    // First scan over the route as an array (row v of the matrix, edge costs once).
+    const int edges = static_cast<int>(r.size()) - 1;
+    save_.resize(edges);
+    for (int k = 0; k < edges; ++k) save_[k] = c_(r[k], r[k + 1]);
     for (int v : cand_) {
-      Scan(v);
+      double best = inf;
+      int at = -1;
+      for (int k = 0; k < edges; ++k) {
+        const double d = c_(v, r[k]) + c_(v, r[k + 1]) - save_[k];
+        if (d < best) {
+          best = d;
+          at = k;
+        }
+      }
+      delta_[v] = best;
+      after_[v] = r[at];
       if (noise > 0) factor_[v] = u(rng_);
     }
     int inserted = 0;
@@ -365,18 +382,22 @@ class Search {
       s->cost += delta_[best];
       s->reward += inst_.nodes[best].reward;
       ++inserted;
-      for (int v : cand_) {
+      const double c_ab = c_(a, best), c_bb = c_(best, b);
+      for (int v : cand_) {  // rows a, best and b read in order of v
         if (in_[v]) continue;
         if (after_[v] == a) {
           Scan(v);  // its best edge (a, b) was split
           continue;
         }
-        for (const auto& [x, y] : {std::pair{a, best}, std::pair{best, b}}) {
-          const double d = c_(x, v) + c_(v, y) - c_(x, y);
-          if (d < delta_[v]) {
-            delta_[v] = d;
-            after_[v] = x;
-          }
+        const double d1 = c_(a, v) + c_(best, v) - c_ab;
+        const double d2 = c_(best, v) + c_(b, v) - c_bb;
+        if (d1 < delta_[v]) {
+          delta_[v] = d1;
+          after_[v] = a;
+        }
+        if (d2 < delta_[v]) {
+          delta_[v] = d2;
+          after_[v] = best;
         }
       }
     }
@@ -396,7 +417,7 @@ class Search {
     for (;;) {
       const int b = next_[a];
       if (b < 0) break;
-      const double d = c_(a, v) + c_(v, b) - c_(a, b);
+      const double d = c_(v, a) + c_(v, b) - c_(a, b);
       if (d < delta_[v]) {
         delta_[v] = d;
         after_[v] = a;
@@ -406,35 +427,73 @@ class Search {
     }
   }
 
-  // The best 1-1 replacement of a visited site by an unvisited one of more reward that
-  // keeps the route within the budget (the unvisited site goes to its cheapest place in
-  // the route without the visited one). Returns true if one was made.
+  // 1-1 replacements: each unvisited site in turn takes the place of the visited site of
+  // less reward whose removal (with the unvisited site at its cheapest place in the route
+  // without it) gains the most reward within the budget; applied at once. Returns true if
+  // any was made.
   bool Replace(Solution* s) {
     std::vector<int>& r = s->route;
-    const int L = static_cast<int>(r.size());
-    if (L < 3 || L > kMaxLocalSearchRoute + 2) return false;
-    save_.assign(L, 0.0);
-    for (int p = 1; p + 1 < L; ++p) save_[p] = c_(r[p - 1], r[p]) + c_(r[p], r[p + 1]) - c_(r[p - 1], r[p + 1]);
-    double best_gain = 0, best_cost = 0;
-    int best_p = -1, best_v = -1;
+    if (r.size() < 3 || r.size() > kMaxLocalSearchRoute + 2) return false;
     const double inf = std::numeric_limits<double>::infinity();
+    double min_reward = inf;
+    auto refresh = [&] {
+      const int L = static_cast<int>(r.size());
+      save_.assign(L, 0.0);
+      edge_.resize(L - 1);
+      for (int k = 0; k + 1 < L; ++k) edge_[k] = c_(r[k], r[k + 1]);
+      min_reward = inf;
+      for (int p = 1; p + 1 < L; ++p) {
+        save_[p] = edge_[p - 1] + edge_[p] - c_(r[p - 1], r[p + 1]);
+        min_reward = std::min(min_reward, inst_.nodes[r[p]].reward);
+      }
+      Positions(r);
+    };
+    refresh();
+    bool any = false;
     for (int v : rewarded_) {
       if (in_[v]) continue;
       const double rv = inst_.nodes[v].reward;
-      // The three cheapest insertion edges (k: between r[k] and r[k+1]).
+      if (rv <= min_reward) continue;  // no visited site has less
+      const int L = static_cast<int>(r.size());
+      // The three cheapest insertion edges (k: between r[k] and r[k+1]): on long routes
+      // only the edges beside v's nearest nodes on the route (and v is left out when none
+      // of those is on it).
       std::array<std::pair<double, int>, 3> top{{{inf, -1}, {inf, -1}, {inf, -1}}};
-      for (int k = 0; k + 1 < L; ++k) {
-        const double d = c_(r[k], v) + c_(v, r[k + 1]) - c_(r[k], r[k + 1]);
+      auto consider = [&](int k) {
+        if (k < 0 || k + 1 >= L || k == top[0].second || k == top[1].second ||
+            k == top[2].second) {
+          return;
+        }
+        const double d = c_(v, r[k]) + c_(v, r[k + 1]) - edge_[k];
         if (d < top[2].first) {
           top[2] = {d, k};
           if (top[2] < top[1]) std::swap(top[2], top[1]);
           if (top[1] < top[0]) std::swap(top[1], top[0]);
         }
+      };
+      bool near_route = false;
+      if (L > kFullScanRoute) {
+        for (int x : near_[v]) {
+          if (inst_.IsSite(x)) {
+            if (!in_[x]) continue;
+            consider(pos_[x] - 1);
+            consider(pos_[x]);
+          } else {  // home (first edge; a closed tour's last too) or a path's end node
+            if (x == OpInstance::kHome) consider(0);
+            if (x == inst_.end) consider(L - 2);
+          }
+          near_route = true;
+        }
       }
+      if (L > kFullScanRoute && !near_route) continue;  // far from the route
+      if (!near_route)
+        for (int k = 0; k + 1 < L; ++k) consider(k);
+      double best_gain = 0, best_cost = 0;
+      int best_p = -1;
       for (int p = 1; p + 1 < L; ++p) {
         const double gain = rv - inst_.nodes[r[p]].reward;
         if (gain <= 1e-12 * (1.0 + rv) || gain < best_gain) continue;
-        double ins = c_(r[p - 1], v) + c_(v, r[p + 1]) - c_(r[p - 1], r[p + 1]);
+        double ins = c_(v, r[p - 1]) + c_(v, r[p + 1]) - (edge_[p - 1] + edge_[p] - save_[p]);
         for (const auto& [d, k] : top) {
           if (k < 0) break;
           if (k == p - 1 || k == p) continue;
@@ -447,29 +506,30 @@ class Search {
           best_gain = gain;
           best_cost = cost;
           best_p = p;
-          best_v = v;
         }
       }
-    }
-    if (best_p < 0) return false;
-    in_[r[best_p]] = 0;
-    s->reward -= inst_.nodes[r[best_p]].reward;
-    s->cost -= save_[best_p];
-    r.erase(r.begin() + best_p);
-    double d_best = inf;
-    int at = 1;
-    for (int k = 0; k + 2 < L; ++k) {
-      const double d = c_(r[k], best_v) + c_(best_v, r[k + 1]) - c_(r[k], r[k + 1]);
-      if (d < d_best) {
-        d_best = d;
-        at = k + 1;
+      if (best_p < 0) continue;
+      in_[r[best_p]] = 0;
+      s->reward -= inst_.nodes[r[best_p]].reward;
+      s->cost -= save_[best_p];
+      r.erase(r.begin() + best_p);
+      double d_best = inf;
+      int at = 1;
+      for (int k = 0; k + 1 < static_cast<int>(r.size()); ++k) {
+        const double d = c_(r[k], v) + c_(v, r[k + 1]) - c_(r[k], r[k + 1]);
+        if (d < d_best) {
+          d_best = d;
+          at = k + 1;
+        }
       }
+      r.insert(r.begin() + at, v);
+      in_[v] = 1;
+      s->cost += d_best;
+      s->reward += rv;
+      any = true;
+      refresh();
     }
-    r.insert(r.begin() + at, best_v);
-    in_[best_v] = 1;
-    s->cost += d_best;
-    s->reward += inst_.nodes[best_v].reward;
-    return true;
+    return any;
   }
 
   const OpInstance& inst_;
@@ -479,7 +539,7 @@ class Search {
   std::vector<char> in_, blocked_;
   std::vector<int> rewarded_, cand_, next_, after_, pos_;
   std::vector<std::vector<int>> near_;
-  std::vector<double> delta_, factor_, save_;
+  std::vector<double> delta_, factor_, save_, edge_;
   RouteOpsStats ops_;
 };
 
@@ -501,7 +561,7 @@ PlanResult SolveAlns(const OpInstance& inst, const AlnsOptions& opt) {
 
   const int sites = inst.Size() - inst.FirstSite();
   const int stagnation = opt.stagnation > 0 ? opt.stagnation : std::max(5000, 50 * sites);
-  const int restart = std::max(100, stagnation / 10);
+  const int restart = std::clamp(stagnation / 10, 100, 400);
   std::array<double, kNumRuins> weight{1, 1, 1, 1}, score{}, used{};
   std::array<int, kNumRuins> bests{};
   int it = 0, since_best = 0, new_bests = 0, last_polish = 0, polishes = 1, restarts = 0;
