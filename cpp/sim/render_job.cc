@@ -63,15 +63,22 @@ int RequireInt(const json& obj, const std::string& key, const std::string& path,
   return static_cast<int>(v.get<long long>());
 }
 
-// A data file named by the job: a relative path inside the job's folder (no "..", not
-// absolute), so that a job cannot make the renderer read a device or another user's file.
+// A data file named by the job: absolute, or relative to the job's folder; it must be a
+// regular file (not a device, a pipe or a folder), so that an endless input such as
+// /dev/zero is refused before it is read.
 std::string Resolve(const std::string& base, const std::string& rel, const std::string& where) {
+  if (rel.empty()) throw InputError(where + ": empty path");
   const std::filesystem::path p(rel);
-  if (p.is_absolute() || rel.find("..") != std::string::npos) {
-    throw InputError(where + ": must be a relative path inside the job's folder, got '" +
-                     rel.substr(0, 80) + "'");
+  const std::string file = p.is_absolute() ? rel : (std::filesystem::path(base) / rel).string();
+  std::error_code ec;
+  const auto status = std::filesystem::status(file, ec);
+  if (ec || !std::filesystem::exists(status)) {
+    throw InputError(where + ": " + file + ": no such file");
   }
-  return (std::filesystem::path(base) / rel).string();
+  if (!std::filesystem::is_regular_file(status)) {
+    throw InputError(where + ": " + file + ": not a regular file");
+  }
+  return file;
 }
 
 Heightfield LoadHeightfield(const json& h, const std::string& dir) {

@@ -254,3 +254,21 @@ def test_mound_render_is_all_or_nothing(tmp_path: Path,
     names = sorted(p.name for p in (out / "images").iterdir())
     assert names == [f"{k:04d}.png" for k in range(len(job["images"]))]
     assert not [p for p in out.rglob("*") if ".tmp." in p.name or ".mound_render" in p.name]
+
+
+def test_mound_render_refuses_an_endless_npy(tmp_path: Path,
+                                             capsys: pytest.CaptureFixture[str]) -> None:
+    """A render job whose .npy was an endless file (/dev/zero) read until memory ran out
+    (exit 1); a device, a pipe or a folder is now refused before it is read."""
+    from mound import native
+    from mound.errors import ToolInputError
+
+    job = _render_job(tmp_path, capsys)
+    site = tmp_path / "site"
+    for name, bad in (("zero", "/dev/zero"), ("folder", str(site))):
+        edited = dict(job, heightfield=dict(job["heightfield"], npy=bad))
+        (site / f"{name}.json").write_text(json.dumps(edited))
+        with pytest.raises(ToolInputError, match=r"heightfield.npy: .*not a regular file"):
+            native.run_tool("mound_render", [str(site / f"{name}.json"), "--out",
+                                             str(tmp_path / name)], timeout_s=60)
+        assert not (tmp_path / name).exists()
