@@ -429,8 +429,8 @@ class Search {
 
   // 1-1 replacements: each unvisited site in turn takes the place of the visited site of
   // less reward whose removal (with the unvisited site at its cheapest place in the route
-  // without it) gains the most reward within the budget; applied at once. Returns true if
-  // any was made.
+  // without it) gains the most reward within the budget, or of equal reward if that
+  // shortens the route; applied at once. Returns true if any was made.
   bool Replace(Solution* s) {
     std::vector<int>& r = s->route;
     if (r.size() < 3 || r.size() > kMaxLocalSearchRoute + 2) return false;
@@ -453,7 +453,7 @@ class Search {
     for (int v : rewarded_) {
       if (in_[v]) continue;
       const double rv = inst_.nodes[v].reward;
-      if (rv <= min_reward) continue;  // no visited site has less
+      if (rv < min_reward * (1.0 - 1e-12)) continue;  // every visited site has more
       const int L = static_cast<int>(r.size());
       // The three cheapest insertion edges (k: between r[k] and r[k+1]): on long routes
       // only the edges beside v's nearest nodes on the route (and v is left out when none
@@ -488,11 +488,13 @@ class Search {
       if (L > kFullScanRoute && !near_route) continue;  // far from the route
       if (!near_route)
         for (int k = 0; k + 1 < L; ++k) consider(k);
-      double best_gain = 0, best_cost = 0;
+      // A swap for a site of equal reward must shorten the route (it frees budget).
+      const double tie = 1e-12 * (1.0 + rv), shorter = s->cost - 1e-9 * (1.0 + s->cost);
+      double best_gain = -1, best_cost = 0;
       int best_p = -1;
       for (int p = 1; p + 1 < L; ++p) {
         const double gain = rv - inst_.nodes[r[p]].reward;
-        if (gain <= 1e-12 * (1.0 + rv) || gain < best_gain) continue;
+        if (gain < -tie || gain < best_gain - tie) continue;
         double ins = c_(v, r[p - 1]) + c_(v, r[p + 1]) - (edge_[p - 1] + edge_[p] - save_[p]);
         for (const auto& [d, k] : top) {
           if (k < 0) break;
@@ -501,8 +503,8 @@ class Search {
           break;
         }
         const double cost = s->cost - save_[p] + ins;
-        if (cost > limit_) continue;
-        if (gain > best_gain || cost < best_cost) {
+        if (cost > limit_ || (gain <= tie && cost >= shorter)) continue;
+        if (gain > best_gain + tie || cost < best_cost) {
           best_gain = gain;
           best_cost = cost;
           best_p = p;

@@ -55,7 +55,8 @@ constexpr const char* kUsage =
     "  --optimum L        stop as soon as a tour of length L is found\n"
     "  --kick-segment K   longest segment of a double-bridge kick (default max(50, n/4))\n"
     "The op command solves an OPLib instance (TSPLIB metric, closed tour at the depot,\n"
-    "COST_LIMIT) and prints {\"reward\", \"cost\", \"tour\" (1-based ids), ...}.\n"
+    "COST_LIMIT) and prints {\"reward\" (OPLib's: the depot's score included), \"cost\",\n"
+    "\"tour\" (1-based ids), ...}.\n"
     "--help anywhere on the command line prints this text.\n"
     "Exit codes: 0 ok, 1 internal error, 2 bad input or usage (one line naming it).\n";
 
@@ -215,7 +216,11 @@ int RunOp(const std::vector<std::string>& args, std::ostream& out, std::ostream&
   nlohmann::json tour = nlohmann::json::array();
   for (int v : r.route) tour.push_back(order[v] + 1);
   Emit({{"schema", "mound.op_result"}, {"version", 1}, {"name", t.name}, {"n", t.dimension},
-        {"algo", algo}, {"cost_limit", t.cost_limit}, {"reward", r.reward}, {"cost", r.cost},
+        {"algo", algo}, {"cost_limit", t.cost_limit},
+        // OPLib's objective: the scores of the nodes on the tour, the depot's included
+        // (a constant the planners leave out).
+        {"reward", r.reward + t.scores[t.depot]}, {"depot_score", t.scores[t.depot]},
+        {"cost", r.cost},
         {"tour", tour}, {"elapsed_s", elapsed}, {"solver", r.stats}},
        a.options, out);
   return kExitOk;

@@ -222,11 +222,13 @@ TEST(PlanCliTest, OpCommandSolvesOplibWithinTheCostLimit) {
   ASSERT_GE(tour.size(), 2u);
   EXPECT_EQ(tour.front(), 1);  // the depot
   EXPECT_EQ(tour.back(), 1);
-  double cost = 0, reward = 0;
+  // OPLib's objective counts every node on the tour once, the depot included.
+  double cost = 0, reward = inst.scores[inst.depot];
   for (size_t i = 0; i + 1 < tour.size(); ++i) {
     cost += static_cast<double>(inst.problem->Dist(tour[i] - 1, tour[i + 1] - 1));
     if (i > 0) reward += inst.scores[tour[i] - 1];
   }
+  EXPECT_EQ(j["depot_score"].get<double>(), inst.scores[inst.depot]);
   EXPECT_LE(cost, inst.cost_limit);
   EXPECT_DOUBLE_EQ(j["cost"].get<double>(), cost);
   EXPECT_DOUBLE_EQ(j["reward"].get<double>(), reward);
