@@ -87,9 +87,7 @@ class Search {
       if (inst_.IsSite(v)) s->reward += inst_.nodes[v].reward;
   }
   bool Better(const Solution& a, const Solution& b) const {
-    const double eps = 1e-12 * (1.0 + std::abs(b.reward));
-    if (a.reward > b.reward + eps) return true;
-    return a.reward >= b.reward - eps && a.cost < b.cost - 1e-9;
+    return inst_.Better(a.route, a.cost, b.route, b.cost);
   }
   bool AllRewardedVisited(const Solution& s) const {
     int on = 0;
@@ -190,7 +188,6 @@ class Search {
   }
 
   std::mt19937_64& Rng() { return rng_; }
-  RouteOpsStats& Ops() { return ops_; }
 
  private:
   void Mark(const std::vector<int>& route) {

@@ -164,14 +164,21 @@ def require_number(obj: dict[str, Any], key: str, where: str, *, lo: float = -ma
     v = obj.get(key)
     if v is None and default is not None:
         return default
+    return finite_number(v, f"{where}.{key}", lo=lo, hi=hi)
+
+
+def finite_number(v: Any, where: str, *, lo: float = -math.inf, hi: float = math.inf,
+                  expected: str = "a number") -> float:
+    """v as a float: a finite number (not a bool) in [lo, hi], else InputError naming
+    `where` (an integer beyond double precision included)."""
     if isinstance(v, bool) or not isinstance(v, int | float):
-        raise InputError(f"{where}.{key}: expected a number, got {short_repr(v)}")
+        raise InputError(f"{where}: expected {expected}, got {short_repr(v)}")
     try:
         f = float(v)
     except OverflowError:
-        raise InputError(f"{where}.{key}: {short_repr(v)} is beyond double precision") from None
+        raise InputError(f"{where}: {short_repr(v)} is beyond double precision") from None
     if not math.isfinite(f) or not lo <= f <= hi:
-        raise InputError(f"{where}.{key}: must be a number in [{lo:g}, {hi:g}], got {f:g}")
+        raise InputError(f"{where}: must be a number in [{lo:g}, {hi:g}], got {f:g}")
     return f
 
 

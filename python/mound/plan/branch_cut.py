@@ -42,12 +42,7 @@ class _Gsec(Conshdlr):
         self.bc = bc
 
     def _violated_integral(self, sol: Any) -> list[frozenset[int]]:
-        bc = self.bc
-        used = []
-        for k, e in enumerate(bc.edges):
-            times = round(self.model.getSolVal(sol, bc.x[k]))
-            used += [e] * max(0, times)
-        comps = _components(bc.n, used)
+        comps = _components(self.bc.n, self.bc.used_edges(sol))
         return [frozenset(c) for c in comps if 0 not in c]
 
     def conscheck(self, constraints: Any, solution: Any, checkintegrality: Any,
@@ -175,19 +170,25 @@ class _Model:
                 covered |= s
         return found
 
-    def _violation(self, s: frozenset[int], k: int, xs: np.ndarray, ys: np.ndarray) -> float:
+    def _crossing(self, s: frozenset[int]) -> np.ndarray:
+        """Which edges cross the cut delta(S)."""
         inside = np.zeros(self.n, dtype=bool)
         inside[list(s)] = True
-        crossing = float(xs[inside[self.ea] != inside[self.eb]].sum())
-        lhs = -1.0 if (not self.p.closed and 1 in s) else 0.0
-        return 2 * ys[k] + lhs - crossing
+        return inside[self.ea] != inside[self.eb]
+
+    def _lhs(self, s: frozenset[int]) -> float:
+        """The GSEC's constant: -1 when S holds the end node of a path."""
+        return -1.0 if (not self.p.closed and 1 in s) else 0.0
+
+    def _violation(self, s: frozenset[int], k: int, xs: np.ndarray, ys: np.ndarray) -> float:
+        return 2 * ys[k] + self._lhs(s) - float(xs[self._crossing(s)].sum())
 
     def add_gsec(self, s: frozenset[int], k: int, as_cut: bool) -> None:
         """x(delta(S)) >= 2 y_k, minus 1 when S holds the end node of a path."""
         self.seen.add((s, k))
         self.cuts += 1
-        delta = [i for i, (a, b) in enumerate(self.edges) if (a in s) != (b in s)]
-        lhs = -1.0 if (not self.p.closed and 1 in s) else 0.0
+        delta = np.flatnonzero(self._crossing(s)).tolist()
+        lhs = self._lhs(s)
         m = self.m
         if not as_cut:
             m.addCons(quicksum(self.x[i] for i in delta) - 2 * self.y[k] >= lhs)
@@ -218,10 +219,15 @@ class _Model:
             self.m.setSolVal(sol, var, 1.0 if v in visited else 0.0)
         return bool(self.m.addSol(sol, free=True))
 
-    def route_of(self, sol: Any) -> list[int]:
+    def used_edges(self, sol: Any) -> list[tuple[int, int]]:
+        """The edges of an integer solution (sol None: the LP's), each as often as used."""
         used = []
         for k, e in enumerate(self.edges):
             used += [e] * max(0, round(self.m.getSolVal(sol, self.x[k])))
+        return used
+
+    def route_of(self, sol: Any) -> list[int]:
+        used = self.used_edges(sol)
         home = next((comp for comp in _components(self.n, used) if 0 in comp), [0])
         return _route_of(self.n, [e for e in used if e[0] in home], self.p.closed, self.p.end)
 

@@ -24,7 +24,7 @@ import numpy as np
 
 from mound.errors import InputError
 from mound.geometry.geodesy import Origin, enu_to_geodetic
-from mound.jsonio import json_text, parse_json, read_text, short_repr, write_atomic
+from mound.jsonio import finite_number, json_text, parse_json, read_text, short_repr, write_atomic
 from mound.uav.mission_items import (
     FRAME_GLOBAL_RELATIVE_ALT,
     FRAME_GLOBAL_RELATIVE_ALT_INT,
@@ -91,15 +91,7 @@ def _param(v: Any, where: str, *, lo: float = -F32_MAX, hi: float = F32_MAX,
         if allow_nan:
             return float("nan")
         raise InputError(f"{where}: expected a number, got {v!r}")
-    if isinstance(v, bool) or not isinstance(v, int | float):
-        raise InputError(f"{where}: expected a number or null, got {short_repr(v)}")
-    try:
-        f = float(v)
-    except OverflowError:
-        raise InputError(f"{where}: {short_repr(v)} is beyond double precision") from None
-    if not (math.isfinite(f) and lo <= f <= hi):
-        raise InputError(f"{where}: must be in [{lo:g}, {hi:g}], got {f:g}")
-    return f
+    return finite_number(v, where, lo=lo, hi=hi, expected="a number or null")
 
 
 def _item_numbers(p: list[Any], where: str, command: int) -> list[float]:
