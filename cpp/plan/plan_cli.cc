@@ -143,7 +143,10 @@ AlgoOptions ParseAlgoOptions(const Args& a) {
     o.newalg.ls_iterations = ParseInt(a.options.at("--iterations"), "--iterations", 0, 1 << 30);
   if (a.options.count("--time-limit")) {
     const double t = ParseNumber(a.options.at("--time-limit"), "--time-limit");
-    if (!(t >= 0 && t <= 1e6)) throw InputError("--time-limit: expected seconds in [0, 1e6] (0: no limit), got " + a.options.at("--time-limit"));
+    if (!(t >= 0 && t <= 1e6)) {
+      throw InputError("--time-limit: expected seconds in [0, 1e6] (0: no limit), got " +
+                       a.options.at("--time-limit"));
+    }
     o.newalg.ls_time_limit_s = o.alns.time_limit_s = t;
   }
   o.alns.seed = o.baseline.seed = o.newalg.seed;

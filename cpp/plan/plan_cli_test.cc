@@ -128,6 +128,8 @@ TEST(PlanCliTest, BadInputExitsTwoWithOneLineNamingTheFieldAndWritesNothing) {
       {"not JSON", [] { return std::string("{\"schema\": \"mound.sites\", "); }, {}, "bad.json"},
       {"unknown algo", with([](auto&) {}), {"--algo", "magic"}, "--algo"},
       {"unknown option", with([](auto&) {}), {"--fast"}, "--fast"},
+      {"negative time limit", with([](auto&) {}), {"--algo", "alns", "--time-limit", "-1"},
+       "--time-limit"},
       {"negative take-off", with([](auto& j) { j["takeoff_landing_m"] = -1; }), {}, "takeoff_landing_m"},
       {"scan not an object", with([](auto& j) { j["scan"] = 3; }), {}, "scan"},
       // Fuzzer findings (issue 14): magnitudes that overflowed the cost scaling (x_m 1e155
