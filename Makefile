@@ -81,7 +81,8 @@ demo-stages: build
 	$(VENV)/bin/mound field make --seed 0 --model runs/demo/model.json --out runs/demo/sites.json
 	./$(BUILD)/mound_plan runs/demo/sites.json 120 --algo newalg --out runs/demo/plan_newalg.json
 	./$(BUILD)/mound_plan runs/demo/sites.json 120 --algo newalg-ls --out runs/demo/plan_newalg_ls.json
-	$(PY) tools/plan_summary.py runs/demo/plan_newalg.json runs/demo/plan_newalg_ls.json
+	./$(BUILD)/mound_plan runs/demo/sites.json 120 --out runs/demo/plan_default.json
+	$(PY) tools/plan_summary.py runs/demo/plan_newalg.json runs/demo/plan_newalg_ls.json runs/demo/plan_default.json
 	$(VENV)/bin/mound field make --seed 0 --model runs/demo/model.json --spacing 250 --scan-pattern raster --out runs/demo/sites_flight.json
 	./$(BUILD)/mound_plan runs/demo/sites_flight.json --out runs/demo/plan_flight.json
 	$(VENV)/bin/mound mission build runs/demo/plan_flight.json --out runs/demo/mission.plan --wpl runs/demo/mission.waypoints --geojson runs/demo/mission.geojson

@@ -37,12 +37,13 @@ constexpr const char* kUsage =
     "Plans a UAV tour over candidate sites (orienteering): from the home node back home (or\n"
     "to the end node) collecting the most reward within the budget (metres).\n"
     "  BUDGET             overrides budget_m of SITES.json\n"
-    "  --algo NAME        newalg (default, the paper's algorithm), newalg-ls (NewAlg plus an\n"
-    "                     iterated local search), alns (alias best: adaptive large-\n"
-    "                     neighbourhood search, the state of the art here), greedy (BenAlg),\n"
-    "                     tsiligirides (1984),\n"
-    "                     glv (Golden-Levy-Vohra 1987), exact (<= 16 sites, dynamic programme)\n"
-    "  --seed N           random seed (default 1); equal seeds give equal plans\n"
+    "  --algo NAME        alns (alias best: adaptive large-neighbourhood search, the state\n"
+    "                     of the art here), newalg (the paper's algorithm), newalg-ls (NewAlg\n"
+    "                     plus an iterated local search), greedy (BenAlg), tsiligirides\n"
+    "                     (1984), glv (Golden-Levy-Vohra 1987), exact (<= 16 sites, dynamic\n"
+    "                     programme). Default: alns up to 1000 sites, newalg above\n"
+    "  --seed N           random seed (default 1); equal seeds give equal plans (alns: when\n"
+    "                     it stops by stagnation or --iterations, not by the time limit)\n"
     "  --iterations N     newalg-ls iterations (default 300); alns: at most N iterations\n"
     "  --time-limit S     newalg-ls: stop after S seconds (default: none); alns: (default 1)\n"
     "  --routes N         tsiligirides: routes built (default 3000, as in the original)\n"
@@ -156,8 +157,19 @@ AlgoOptions ParseAlgoOptions(const Args& a) {
   return o;
 }
 
+// Without --algo: ALNS-OP up to this many sites (about 1 s), NewAlg above (ALNS-OP's
+// neighbour lists and cost matrix are built for instances of this size).
+constexpr int kDefaultAlnsMaxSites = 1000;
+constexpr const char* kDefaultRule = "default: alns up to 1000 sites, newalg above";
+
+std::string DefaultAlgo(int n_sites) {
+  return n_sites <= kDefaultAlnsMaxSites ? "alns" : "newalg";
+}
+
+// The --algo given ("best" read as "alns"), or "" when none was given (see DefaultAlgo).
 std::string ParseAlgo(const Args& a) {
-  const std::string algo = a.options.count("--algo") ? a.options.at("--algo") : "newalg";
+  if (!a.options.count("--algo")) return "";
+  const std::string algo = a.options.at("--algo");
   if (std::find(kAlgos.begin(), kAlgos.end(), algo) == kAlgos.end()) {
     throw InputError("--algo: unknown algorithm '" + algo +
                      "' (newalg, newalg-ls, alns, best, greedy, tsiligirides, glv, exact)");
@@ -187,7 +199,7 @@ int RunOp(const std::vector<std::string>& args, std::ostream& out, std::ostream&
                                      "--routes"});
   if (a.positional.size() != 1) throw InputError("op: expected exactly one FILE.oplib");
   const std::string& path = a.positional[0];
-  const std::string algo = ParseAlgo(a);
+  std::string algo = ParseAlgo(a);
   AlgoOptions o = ParseAlgoOptions(a);
   const auto t_read = std::chrono::steady_clock::now();
   const tsp::TsplibInstance t = tsp::ReadTsplib(path);
@@ -200,6 +212,8 @@ int RunOp(const std::vector<std::string>& args, std::ostream& out, std::ostream&
   }
   if (t.dimension >= kProgressSites) o.newalg.progress = Reporter(err, "mound_plan op", t_read);
   if (algo == "glv") throw InputError("--algo glv: needs planar coordinates, not " + path);
+  const bool by_default = algo.empty();
+  if (by_default) algo = DefaultAlgo(t.dimension - 1);
   // Node order: the depot (home) first, then the others in file order.
   std::vector<int> order{t.depot};
   for (int v = 0; v < t.dimension; ++v)
@@ -213,7 +227,8 @@ int RunOp(const std::vector<std::string>& args, std::ostream& out, std::ostream&
     for (size_t j = 0; j < n; ++j)
       inst.dist_matrix[i * n + j] = static_cast<double>(t.problem->Dist(order[i], order[j]));
   const auto t0 = std::chrono::steady_clock::now();
-  const PlanResult r = Solve(algo, inst, o);
+  PlanResult r = Solve(algo, inst, o);
+  if (by_default) r.stats["algo_chosen"] = kDefaultRule;
   const double elapsed =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   nlohmann::json tour = nlohmann::json::array();
@@ -237,17 +252,20 @@ int RunPlan(const std::vector<std::string>& args, std::ostream& out, std::ostrea
   }
   std::optional<double> budget;
   if (a.positional.size() == 2) budget = ParseNumber(a.positional[1], "BUDGET");
-  const std::string algo = ParseAlgo(a);
+  std::string algo = ParseAlgo(a);
   AlgoOptions o = ParseAlgoOptions(a);
   const auto t_read = std::chrono::steady_clock::now();
   const SitesFile sites = ReadSites(a.positional[0], budget);
   const int n_sites = sites.instance.Size() - sites.instance.FirstSite();
+  const bool by_default = algo.empty();
+  if (by_default) algo = DefaultAlgo(n_sites);
   if (n_sites >= kProgressSites) {
     o.newalg.progress = Reporter(err, "mound_plan", t_read);
     o.newalg.progress("read " + std::to_string(n_sites) + " sites; planning with " + algo);
   }
   const auto t0 = std::chrono::steady_clock::now();
-  const PlanResult r = Solve(algo, sites.instance, o);
+  PlanResult r = Solve(algo, sites.instance, o);
+  if (by_default) r.stats["algo_chosen"] = kDefaultRule;
   const double elapsed =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   PlanSummary summary{algo, r.route, elapsed, o.newalg.seed, r.stats};

@@ -197,23 +197,40 @@ def cmd_plan_exact(args: argparse.Namespace) -> int:
 
 
 def cmd_table1(args: argparse.Namespace) -> int:
+    from dataclasses import asdict
+
     from mound.plan import table1
 
+    for b in args.budgets or ():
+        if not (np.isfinite(b) and 0 < b <= 1e6):
+            raise InputError(f"--budgets: expected metres in (0, 1e6], got {b}")
     out = Path(args.out_dir)
     out.mkdir(parents=True, exist_ok=True)
     all_rows = []
+    exact: list[dict[str, Any]] = []
+    setting = None
     for c in args.scan_cost:
         rows, meta = table1.run(scan_cost=c, exact_time_limit_s=args.exact_time_limit,
-                                workdir=out / "fields")
+                                workdir=out / "fields", paper=args.paper,
+                                budgets=tuple(args.budgets or table1.BUDGETS))
         all_rows += rows
-        print(f"node (scan) cost {c:g} m; total reward per field "
+        exact += [{"scan_cost_m": c, **e} for e in meta["exact"]]
+        setting = meta["setting"]
+        how = (f"paper setting: gradient descent stopped at t = {setting.gd_iterations:.4f} "
+               "iterations" if args.paper else "converged classifier")
+        print(f"node (scan) cost {c:g} m; {how}; total reward per field "
               f"{meta['total_reward_per_field']:.2f} "
               f"(paper {table1.PAPER['total_reward_per_field']})")
         print(table1.format_table(rows))
         if c == args.scan_cost[0]:
             table1.plot(rows, meta, out)
     table1.write_csv(all_rows, out / "table1.csv")
-    print(f"-> {out / 'table1.csv'}, {out / 'reward_vs_budget.png'}, {out / 'field0_tours.png'}")
+    write_json(out / "table1.json", {
+        "schema": "mound.table1", "version": 1,
+        "setting": asdict(setting) if setting else None,
+        "rows": [asdict(r) for r in all_rows], "exact": exact})
+    print(f"-> {out / 'table1.csv'}, {out / 'table1.json'}, {out / 'reward_vs_budget.png'}, "
+          f"{out / 'field0_tours.png'}")
     return 0
 
 
@@ -392,7 +409,13 @@ def build_parser() -> argparse.ArgumentParser:
     t1.add_argument("--scan-cost", type=float, nargs="+", default=[1.0],
                     help="node cost(s) per site in m; the first is plotted")
     t1.add_argument("--exact-time-limit", type=float, default=0.0,
-                    help="seconds per field for the exact optimum (0: skip)")
+                    help="seconds per field and budget for the exact optimum (SCIP "
+                    "branch-and-cut; 0: skip)")
+    t1.add_argument("--paper", action="store_true",
+                    help="the paper's setting: the classifier stopped early where the ten "
+                    "fields' average total reward is the paper's 61.37 bits")
+    t1.add_argument("--budgets", type=float, nargs="+", default=None,
+                    help="budgets in m (default 40 80 120 160 200)")
     t1.add_argument("--out-dir", default="runs/table1")
     t1.set_defaults(func=cmd_table1)
     return p

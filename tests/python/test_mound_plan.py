@@ -49,7 +49,7 @@ def check_plan(sites: dict, plan: dict, budget: float) -> None:
     assert plan["budget_left_m"] == pytest.approx(budget - cost, abs=1e-9)
 
 
-@pytest.mark.parametrize("algo", ["newalg", "newalg-ls"])
+@pytest.mark.parametrize("algo", ["newalg", "newalg-ls", "alns"])
 def test_example_field_plan_is_valid(example_sites: Path, mound_plan: Path, algo: str) -> None:
     sites = json.loads(example_sites.read_text())
     plan = native.run_json("mound_plan", [str(example_sites), "120", "--algo", algo])
@@ -60,12 +60,34 @@ def test_example_field_plan_is_valid(example_sites: Path, mound_plan: Path, algo
 
 
 def test_out_file_is_written_and_seed_is_repeatable(example_sites: Path, tmp_path: Path) -> None:
+    """The default planner (ALNS-OP) repeats its plan for a seed when it stops by its
+    iteration count, not by the clock (--time-limit 0: none)."""
     out1, out2 = tmp_path / "a.json", tmp_path / "b.json"
-    native.run_tool("mound_plan", [str(example_sites), "80", "--seed", "5", "--out", str(out1)])
-    native.run_tool("mound_plan", [str(example_sites), "80", "--seed", "5", "--out", str(out2)])
+    args = [str(example_sites), "80", "--seed", "5", "--iterations", "3000", "--time-limit", "0"]
+    native.run_tool("mound_plan", [*args, "--out", str(out1)])
+    native.run_tool("mound_plan", [*args, "--out", str(out2)])
     a, b = json.loads(out1.read_text()), json.loads(out2.read_text())
-    assert a["tour"] == b["tour"]
+    assert a["algo"] == "alns" and a["solver"]["stopped_by"] == "iterations"
+    assert a["tour"] == b["tour"] and a["solver"]["iterations"] == 3000
     assert not list(tmp_path.glob("*.tmp.*"))
+
+
+def test_default_is_alns_up_to_1000_sites_newalg_above(example_sites: Path,
+                                                       tmp_path: Path) -> None:
+    small = native.run_json("mound_plan", [str(example_sites), "80"])
+    assert small["algo"] == "alns"
+    assert small["solver"]["algo_chosen"].startswith("default")
+    newalg = native.run_json("mound_plan", [str(example_sites), "80", "--algo", "newalg"])
+    assert small["reward"] >= newalg["reward"] - 1e-9  # ALNS-OP starts from NewAlg's plan
+    doc = json.loads(example_sites.read_text())
+    base = doc["sites"][0]
+    doc["sites"] = [{**base, "id": f"g{k}", "x_m": float(k % 40), "y_m": float(k // 40),
+                     "reward": 0.1 + (k % 7) / 10} for k in range(1001)]
+    big = tmp_path / "big.json"
+    big.write_text(json.dumps(doc))
+    plan = native.run_json("mound_plan", [str(big), "60"])
+    assert plan["algo"] == "newalg" and "algo_chosen" in plan["solver"]
+    check_plan(doc, plan, 60.0)
 
 
 @pytest.mark.parametrize(

@@ -16,8 +16,9 @@ DEFAULT_BAND = 1  # red: best held-out AUC on sat.trn (`mound classify bands`, R
 
 
 def train(data: Split, band: int | None, solver: str = "gd", l2: float = DEFAULT_L2,
-          tol: float = 1e-6, max_iter: int = 200_000) -> Model:
-    """Fits on `data`; `max_iter` < convergence gives an early-stopped (less confident) model."""
+          tol: float = 1e-6, max_iter: float = 200_000) -> Model:
+    """Fits on `data`; `max_iter` < convergence gives an early-stopped (less confident) model
+    (gd: fractional values stop part-way along the last step)."""
     x = data.x[:, band_columns(band)]
     scaler = Standardizer.fit(x)
     fit = logistic.fit(scaler.design(x), data.y, solver=solver, l2=l2, tol=tol,

@@ -77,9 +77,10 @@ def build_parser() -> argparse.ArgumentParser:
                    "renders it, the planner pays for it)")
     g.add_argument("--site-diameter", type=float, default=60.0,
                    help="size of the scan (and of a simulated tumulus), m")
-    g.add_argument("--algo", default="newalg",
-                   choices=("newalg", "newalg-ls", "greedy", "tsiligirides", "glv"),
-                   help="mound_plan's algorithm")
+    g.add_argument("--algo", default="alns",
+                   choices=("alns", "newalg", "newalg-ls", "greedy", "tsiligirides", "glv"),
+                   help="mound_plan's algorithm (default alns: ALNS-OP, 1 s at most; newalg: "
+                   "the paper's)")
     g.add_argument("--plan-seed", type=int, default=1, help="mound_plan's seed")
     g.add_argument("--connect", help="also upload the mission to this MAVLink vehicle and "
                    "read it back (udpout:HOST:PORT, udpin:HOST:PORT, tcp:HOST:PORT, serial)")
