@@ -20,6 +20,7 @@ constexpr int kMaxMatrixNodes = 2048;
 constexpr int kMaxLocalSearchRoute = 1000;
 // Neighbour lists of 2-opt, Or-opt and replacements.
 constexpr int kNear = 16;
+constexpr int kSpreadStarts = 8;  // multi-start constructions through spread-out sites
 // Replacements scan every insertion edge up to this route length, beyond it only the
 // edges beside a site's nearest nodes (and only sites with a nearest node on the route).
 constexpr int kFullScanRoute = 64;
@@ -165,20 +166,47 @@ class Search {
   // A route from scratch: noisy ratio insertion into home -> (a random site) -> end, then
   // the local search.
   Solution Construct(double noise) {
-    Solution s = Make({OpInstance::kHome, inst_.end});
     // Seeded by a random site that fits, so that restarts reach other parts of the field.
     for (int tries = 0; tries < 20 && !rewarded_.empty(); ++tries) {
       const int v = rewarded_[rng_() % rewarded_.size()];
-      if (c_(OpInstance::kHome, v) + c_(v, inst_.end) <= limit_) {
-        s = Make({OpInstance::kHome, v, inst_.end});
-        break;
-      }
+      if (Fits(v)) return ConstructFrom(v, noise);
     }
+    return ConstructFrom(-1, noise);
+  }
+
+  // The same through a given site (-1: none).
+  Solution ConstructFrom(int seed_site, double noise) {
+    Solution s = seed_site < 0 ? Make({OpInstance::kHome, inst_.end})
+                               : Make({OpInstance::kHome, seed_site, inst_.end});
     blocked_.assign(inst_.Size(), 0);
     Recreate(&s, noise);
     LocalSearch(&s);
     return s;
   }
+
+  // Up to k rewarded sites that fit, spread over the instance: farthest-point order from
+  // home in the expanded costs. Multi-start seeds, for fields whose reward lies in
+  // clusters away from where NewAlg's route went.
+  std::vector<int> SpreadSites(int k) const {
+    std::vector<int> out;
+    std::vector<double> gap;
+    std::vector<int> cand;
+    for (int v : rewarded_)
+      if (Fits(v)) {
+        cand.push_back(v);
+        gap.push_back(c_(OpInstance::kHome, v));
+      }
+    while (static_cast<int>(out.size()) < k && !cand.empty()) {
+      const size_t j = std::max_element(gap.begin(), gap.end()) - gap.begin();
+      if (gap[j] <= 0) break;
+      const int v = cand[j];
+      out.push_back(v);
+      for (size_t i = 0; i < cand.size(); ++i) gap[i] = std::min(gap[i], c_(v, cand[i]));
+    }
+    return out;
+  }
+
+  bool Fits(int v) const { return c_(OpInstance::kHome, v) + c_(v, inst_.end) <= limit_; }
 
   // Recreate: noisy ratio insertion without the removed sites, then with all of them.
   void Recreate(Solution* s, double noise) {
@@ -555,6 +583,16 @@ PlanResult SolveAlns(const OpInstance& inst, const AlnsOptions& opt) {
   std::mt19937_64& rng = search.Rng();
   Solution best = search.Make(init.route);
   search.LocalSearch(&best);
+  // Multi-start: constructions through sites spread over the field, the best one kept.
+  int starts_won = 0;
+  for (int v : search.SpreadSites(kSpreadStarts)) {
+    if (opt.time_limit_s > 0 && elapsed() >= 0.25 * opt.time_limit_s) break;
+    Solution s = search.ConstructFrom(v, 0.0);
+    if (search.Better(s, best)) {
+      best = std::move(s);
+      ++starts_won;
+    }
+  }
   search.Polish(&best, opt.seed);
   Solution cur = best;
 
@@ -640,6 +678,7 @@ PlanResult SolveAlns(const OpInstance& inst, const AlnsOptions& opt) {
   res.stats["new_bests"] = new_bests;
   res.stats["lkh_polishes"] = polishes;
   res.stats["restarts"] = restarts;
+  res.stats["spread_starts_won"] = starts_won;
   res.stats["stopped_by"] = it >= opt.max_iterations      ? "iterations"
                             : since_best >= stagnation    ? "stagnation"
                             : search.AllRewardedVisited(best) ? "all sites visited"

@@ -7,11 +7,12 @@ problem with one vehicle, `unit_distance_cost=0` and `max_distance` = the budget
 expanded edge costs c_ij = d_ij + (s_i + s_j)/2 rounded up to 0.1 mm (so its routes stay
 within the budget in exact arithmetic) and rewards scaled by 10^6. Every route is checked
 again here with the float costs. The reference of an instance is the best reward any
-method reached at any time budget (no proven optima at these sizes); reported: the mean and
-the worst percentage of it per method and budget, and how often each method is ahead.
+method reached at any time budget, or with --exact S the optimum that SCIP proves within
+S seconds (instances of <= 100 sites); reported: the mean and the worst percentage of it
+per method and budget, and how often each method is ahead.
 
     .venv/bin/python tools/bench/bench_op_sota.py [--sizes 50 100 ...] [--per-size 3]
-                                                  [--times 0.2 0.5 1] [--seed 1]
+                                                  [--times 0.2 0.5 1] [--seed 1] [--exact S]
 """
 
 from __future__ import annotations
@@ -68,11 +69,27 @@ def check(p: OpProblem, route: list[int]) -> float:
     return float(p.reward[inner].sum())
 
 
-def run_mound(path: Path, p: OpProblem, algo: str, seconds: float) -> tuple[float, float]:
+def run_mound(path: Path, p: OpProblem, algo: str, seconds: float,
+              routes: list[list[int]] | None = None) -> tuple[float, float]:
     plan = native.run_json("mound_plan", [str(path), "--algo", algo, "--time-limit",
                                           str(seconds), "--iterations", "1000000000"])
     index = {sid: i for i, sid in enumerate(p.ids)}
-    return check(p, [index[s] for s in plan["tour"]]), plan["elapsed_s"]
+    route = [index[s] for s in plan["tour"]]
+    if routes is not None:
+        routes.append(route)
+    return check(p, route), plan["elapsed_s"]
+
+
+def proven_optimum(p: OpProblem, routes: list[list[int]], seconds: float) -> float | None:
+    """SCIP branch-and-cut (mound.plan.branch_cut) warm-started from the best route found:
+    the optimum when proven within `seconds`, else None."""
+    from mound.plan import branch_cut
+
+    best = max(routes, key=lambda r: float(p.reward[r[1:-1]].sum()))
+    r = branch_cut.solve(p, seconds, start_route=best)
+    if r.status != "optimal":
+        return None
+    return check(p, r.route)
 
 
 class PyVrp:
@@ -125,10 +142,14 @@ def main() -> int:
     ap.add_argument("--per-size", type=int, default=3, help="instances per size and kind")
     ap.add_argument("--times", nargs="+", type=float, default=[0.2, 0.5, 1.0])
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--exact", type=float, default=0.0,
+                    help="seconds for SCIP to prove the optimum of each instance of <= 100 "
+                    "sites, which then is the reference (0: best known only)")
     args = ap.parse_args()
     rng = np.random.default_rng(args.seed)
     methods = ("alns", "newalg-ls", "pyvrp")
     rows: list[dict] = []
+    proven = 0
     with tempfile.TemporaryDirectory() as tmp:
         for n in args.sizes:
             for closed in (True, False):
@@ -139,12 +160,20 @@ def main() -> int:
                     p = from_document(doc)
                     vrp = PyVrp(p)
                     got: dict[tuple[str, float], tuple[float, float]] = {}
+                    routes: list[list[int]] = []
                     for t in args.times:
-                        got["alns", t] = run_mound(path, p, "alns", t)
-                        got["newalg-ls", t] = run_mound(path, p, "newalg-ls", t)
+                        got["alns", t] = run_mound(path, p, "alns", t, routes)
+                        got["newalg-ls", t] = run_mound(path, p, "newalg-ls", t, routes)
                         got["pyvrp", t] = vrp.solve(t, args.seed)
                     ref = max(r for r, _ in got.values())
-                    line = f"{path.stem:<18} ref {ref:9.4f}"
+                    kind = "best"
+                    if args.exact > 0 and n <= 100:
+                        opt = proven_optimum(p, routes, args.exact)
+                        if opt is not None:
+                            assert opt >= ref - 1e-9, (opt, ref)
+                            ref, kind = opt, "opt"
+                    proven += kind == "opt"
+                    line = f"{path.stem:<18} {kind} {ref:9.4f}"
                     for t in args.times:
                         line += f" | {t:g}s " + " ".join(
                             f"{100 * got[m, t][0] / ref:6.2f}" for m in methods)
@@ -155,7 +184,8 @@ def main() -> int:
                                          "ahead_of_pyvrp": got[m, t][0] > got["pyvrp", t][0] + 1e-9,
                                          "behind_pyvrp": got[m, t][0] < got["pyvrp", t][0] - 1e-9})
                     print(line + f"   ({', '.join(methods)} % of ref)", flush=True)
-    print()
+    print(f"\nreference: the proven optimum on {proven} instances (SCIP), else the best "
+          "reward any method reached")
     print(f"{'sites':>6} {'budget s':>8} {'method':<10} {'mean %':>7} {'min %':>7} "
           f"{'mean s':>7} {'> pyvrp':>8} {'< pyvrp':>8}")
     for n in args.sizes:
