@@ -29,7 +29,8 @@ constexpr const char* kUsage =
     "usage: mound_plan SITES.json [BUDGET] [--algo NAME] [--seed N] [--iterations N]\n"
     "                  [--time-limit S] [--routes N] [--out PLAN.json]\n"
     "       mound_plan tsp FILE.tsp [--seed N] [--runs N] [--trials N] [--time-limit S]\n"
-    "                  [--optimum L] [--kick-segment K] [--out FILE.json]\n"
+    "                  [--optimum L] [--kick-segment K] [--initial-period P]\n"
+    "                  [--ascent-candidates K] [--out FILE.json]\n"
     "       mound_plan op FILE.oplib [--algo NAME] [--seed N] [--iterations N]\n"
     "                  [--time-limit S] [--routes N] [--out FILE.json]\n"
     "       mound_plan --help | --version\n"
@@ -55,6 +56,10 @@ constexpr const char* kUsage =
     "  --time-limit S     stop after S seconds (the whole solve, the ascent included)\n"
     "  --optimum L        stop as soon as a tour of length L is found\n"
     "  --kick-segment K   longest segment of a double-bridge kick (default max(50, n/4))\n"
+    "  --initial-period P subgradient ascent: first period (default max(n/2, 100); 300\n"
+    "                     above 5000 nodes)\n"
+    "  --ascent-candidates K  ascent: sparse graph of the K alpha-nearest neighbours\n"
+    "                     (default 50; 15 above 5000 nodes)\n"
     "The op command solves an OPLib instance (TSPLIB metric, closed tour at the depot,\n"
     "COST_LIMIT) and prints {\"reward\" (OPLib's: the depot's score included), \"cost\",\n"
     "\"tour\" (1-based ids), ...}.\n"
@@ -90,7 +95,8 @@ std::function<void(const std::string&)> Reporter(std::ostream& err, const std::s
 
 int RunTsp(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
   const Args a = ParseArgs(args, 1, {"--seed", "--runs", "--trials", "--time-limit", "--out",
-                                     "--optimum", "--kick-segment"});
+                                     "--optimum", "--kick-segment", "--initial-period",
+                                     "--ascent-candidates"});
   if (a.positional.size() != 1) throw InputError("tsp: expected exactly one FILE.tsp");
   const std::string& path = a.positional[0];
   tsp::SolverOptions opt;
@@ -102,6 +108,12 @@ int RunTsp(const std::vector<std::string>& args, std::ostream& out, std::ostream
     opt.time_limit_s = ParseNumber(a.options.at("--time-limit"), "--time-limit");
   if (a.options.count("--kick-segment"))
     opt.kick_segment = ParseInt(a.options.at("--kick-segment"), "--kick-segment", 1, 1 << 30);
+  if (a.options.count("--initial-period"))
+    opt.ascent.initial_period =
+        ParseInt(a.options.at("--initial-period"), "--initial-period", 1, 1 << 30);
+  if (a.options.count("--ascent-candidates"))
+    opt.ascent.ascent_candidates =
+        ParseInt(a.options.at("--ascent-candidates"), "--ascent-candidates", 5, 1000);
   if (a.options.count("--optimum"))
     opt.optimum = ParseInt(a.options.at("--optimum"), "--optimum", 0, 1LL << 62);
   const auto t0 = std::chrono::steady_clock::now();

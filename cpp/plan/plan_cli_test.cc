@@ -195,7 +195,8 @@ TEST(PlanCliTest, HelpAnywhereOnTheCommandLinePrintsTheUsage) {
     EXPECT_NE(r.out.find("usage: mound_plan"), std::string::npos);
     // Every option any command accepts is in the usage text.
     for (const char* opt : {"--algo", "--seed", "--iterations", "--time-limit", "--routes", "--out",
-                            "--runs", "--trials", "--optimum", "--kick-segment", "--version"}) {
+                            "--runs", "--trials", "--optimum", "--kick-segment",
+                            "--initial-period", "--ascent-candidates", "--version"}) {
       EXPECT_NE(r.out.find(opt), std::string::npos) << opt;
     }
   }
@@ -211,6 +212,14 @@ TEST(PlanCliTest, TspCommandPrintsLengthAndOneBasedTour) {
   std::sort(ids.begin(), ids.end());
   for (int i = 0; i < 51; ++i) EXPECT_EQ(ids[i], i + 1);
   EXPECT_EQ(Call({"tsp", "/nonexistent.tsp"}).code, 2);
+  // The bounded ascent of large instances, asked for on a small one: still the optimum.
+  const std::string eil51 = std::string(MOUND_SHARED_DATA) + "/tsplib/eil51.tsp";
+  const CliRun b = Call({"tsp", eil51, "--initial-period", "20", "--ascent-candidates", "8"});
+  ASSERT_EQ(b.code, 0) << b.err;
+  EXPECT_EQ(nlohmann::json::parse(b.out)["length"], 426);
+  const CliRun bad = Call({"tsp", eil51, "--ascent-candidates", "2"});
+  EXPECT_EQ(bad.code, 2);
+  EXPECT_NE(bad.err.find("--ascent-candidates"), std::string::npos) << bad.err;
 }
 
 TEST(PlanCliTest, OpCommandSolvesOplibWithinTheCostLimit) {

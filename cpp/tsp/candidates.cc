@@ -12,6 +12,13 @@ namespace {
 
 constexpr Cost kInf = std::numeric_limits<Cost>::max() / 4;
 
+// A sparse symmetric graph in compressed rows: the neighbours of v are
+// node[first[v] .. first[v + 1]) with untransformed costs P*D in pc (same positions).
+struct SparseGraph {
+  std::vector<int> first, node;
+  std::vector<Cost> pc;
+};
+
 // A minimum 1-tree under transformed costs.
 struct OneTree {
   std::vector<int> dad;       // tree parent, -1 for the root
@@ -78,36 +85,40 @@ class OneTreeBuilder {
   }
 
   // Prim with a binary heap on a sparse symmetric graph; falls back to dense if the graph
-  // does not span.
-  void Sparse(const std::vector<std::vector<std::pair<int, Cost>>>& adj,
-              const std::vector<Cost>& pi, OneTree* t) const {
+  // does not span. The work arrays are kept between calls (the ascent calls it thousands
+  // of times).
+  void Sparse(const SparseGraph& g, const std::vector<Cost>& pi, OneTree* t) const {
     Init(t);
-    std::vector<Cost> key(n_, kInf);
-    std::vector<int> from(n_, -1);
-    std::vector<char> in(n_, 0);
-    using Item = std::pair<Cost, int>;
-    std::priority_queue<Item, std::vector<Item>, std::greater<Item>> heap;
-    key[0] = 0;
-    heap.emplace(0, 0);
+    key_.assign(n_, kInf);
+    from_.assign(n_, -1);
+    in_.assign(n_, 0);
+    heap_.clear();
+    auto greater = std::greater<Item>();
+    key_[0] = 0;
+    heap_.emplace_back(0, 0);
     int added = 0;
-    while (!heap.empty()) {
-      const auto [k, v] = heap.top();
-      heap.pop();
-      if (in[v] || k != key[v]) continue;
-      in[v] = 1;
+    while (!heap_.empty()) {
+      std::pop_heap(heap_.begin(), heap_.end(), greater);
+      const auto [k, v] = heap_.back();
+      heap_.pop_back();
+      if (in_[v] || k != key_[v]) continue;
+      in_[v] = 1;
       ++added;
       if (v == 0) {
         t->order.push_back(0);
       } else {
-        Attach(t, v, from[v], k);
+        Attach(t, v, from_[v], k);
       }
-      for (const auto& [u, pc] : adj[v]) {
-        if (in[u]) continue;
-        const Cost c = pc + pi[v] + pi[u];
-        if (c < key[u]) {
-          key[u] = c;
-          from[u] = v;
-          heap.emplace(c, u);
+      const Cost pv = pi[v];
+      for (int e = g.first[v], end = g.first[v + 1]; e < end; ++e) {
+        const int u = g.node[e];
+        if (in_[u]) continue;
+        const Cost c = g.pc[e] + pv + pi[u];
+        if (c < key_[u]) {
+          key_[u] = c;
+          from_[u] = v;
+          heap_.emplace_back(c, u);
+          std::push_heap(heap_.begin(), heap_.end(), greater);
         }
       }
     }
@@ -119,9 +130,10 @@ class OneTreeBuilder {
       if (t->degree[s] != 1) continue;
       Cost c2 = kInf;
       int to = -1;
-      for (const auto& [u, pc] : adj[s]) {
+      for (int e = g.first[s], end = g.first[s + 1]; e < end; ++e) {
+        const int u = g.node[e];
         if (u == t->dad[s] || t->dad[u] == s) continue;
-        const Cost c = pc + pi[s] + pi[u];
+        const Cost c = g.pc[e] + pi[s] + pi[u];
         if (c < c2) {
           c2 = c;
           to = u;
@@ -166,9 +178,14 @@ class OneTreeBuilder {
     }
   }
 
+  using Item = std::pair<Cost, int>;
   const CostCache& d_;
   const Cost p_;
   const int n_;
+  mutable std::vector<Cost> key_;
+  mutable std::vector<int> from_;
+  mutable std::vector<char> in_;
+  mutable std::vector<Item> heap_;
 };
 
 // Calls visit(a, b, alpha) for every pair a != b, in O(n^2) time and O(n) space.
@@ -266,10 +283,15 @@ AscentResult Ascent(const CostCache& d, const AscentOptions& opt) {
 
   // Sparse graph for the rest of the ascent: the alpha-nearest neighbours, symmetrised,
   // with untransformed costs P*D (penalties are added on the fly).
-  const int k = std::min(opt.ascent_candidates, n - 1);
-  std::vector<std::vector<std::pair<int, Cost>>> adj(n);
+  const bool large = n > kLargeAscentNodes;
+  const int k = std::min(opt.ascent_candidates > 0 ? opt.ascent_candidates
+                         : large                  ? kLargeAscentCandidates
+                                                  : 50,
+                         n - 1);
+  SparseGraph graph;
   const bool use_sparse = n > 2 * k + 2;
   if (use_sparse) {
+    std::vector<std::vector<std::pair<int, Cost>>> adj(n);
     std::vector<std::pair<Cost, int>> row;
     row.reserve(n);
     int current = -1;
@@ -292,14 +314,22 @@ AscentResult Ascent(const CostCache& d, const AscentOptions& opt) {
       row.emplace_back(alpha, c);
     });
     if (current >= 0) flush(current);
-    for (auto& list : adj) {
+    graph.first.assign(n + 1, 0);
+    for (int a = 0; a < n; ++a) {
+      auto& list = adj[a];
       std::sort(list.begin(), list.end());
       list.erase(std::unique(list.begin(), list.end()), list.end());
+      graph.first[a + 1] = graph.first[a] + static_cast<int>(list.size());
+      for (const auto& [c, pc] : list) {
+        graph.node.push_back(c);
+        graph.pc.push_back(pc);
+      }
+      std::vector<std::pair<int, Cost>>().swap(list);
     }
   }
   auto compute = [&](const std::vector<Cost>& pi) {
     if (use_sparse) {
-      builder.Sparse(adj, pi, &tree);
+      builder.Sparse(graph, pi, &tree);
     } else {
       builder.Dense(pi, &tree);
     }
@@ -325,7 +355,9 @@ AscentResult Ascent(const CostCache& d, const AscentOptions& opt) {
     stopped = stopped || (opt.should_stop && opt.should_stop());
     return stopped;
   };
-  const int initial_period = opt.initial_period > 0 ? opt.initial_period : std::max(n / 2, 100);
+  const int initial_period = opt.initial_period > 0 ? opt.initial_period
+                             : large                ? kLargeAscentPeriod
+                                                    : std::max(n / 2, 100);
   Cost step = opt.precision;  // INITIAL_STEP_SIZE = 1, scaled by the precision
   bool initial_phase = true;
   for (int period = initial_period; period > 0 && step > 0 && norm != 0;
@@ -357,6 +389,13 @@ AscentResult Ascent(const CostCache& d, const AscentOptions& opt) {
   res.pi = best_pi;
   res.tour_found = norm == 0 && w == best_w;
   res.lower_bound = static_cast<double>(best_w) / opt.precision;
+  if (use_sparse) {
+    // A 1-tree of the sparse graph may cost more than the true minimum 1-tree, so the bound
+    // is taken from one 1-tree of the complete graph under the best penalties (O(n^2)).
+    builder.Dense(best_pi, &tree);
+    res.tour_found = Norm(tree) == 0;
+    res.lower_bound = static_cast<double>(tree.cost - 2 * SumPi(best_pi)) / opt.precision;
+  }
   return res;
 }
 

@@ -35,6 +35,26 @@ TEST(CandidatesTest, AscentRaisesTheBoundAndStaysBelowAKnownTour) {
   EXPECT_GT(r1.iterations, 10);
 }
 
+TEST(CandidatesTest, SparseAscentReportsTheCompleteGraphBoundOfItsPenalties) {
+  // A small ascent graph (5 alpha-nearest) and a short first period, as for large
+  // instances: the bound is that of a 1-tree of the complete graph under the penalties
+  // found (a 1-tree of the sparse graph may cost more), and close to the full ascent's.
+  const CoordProblem p = RandomProblem(300, 3);
+  CostCache d(p);
+  AscentOptions bounded;
+  bounded.ascent_candidates = 5;
+  bounded.initial_period = 30;
+  const AscentResult sparse = Ascent(d, bounded);
+  AscentOptions recheck;
+  recheck.subgradient = false;
+  recheck.initial_pi = sparse.pi;
+  EXPECT_DOUBLE_EQ(sparse.lower_bound, Ascent(d, recheck).lower_bound);
+  const AscentResult full = Ascent(d, AscentOptions{});
+  EXPECT_LE(sparse.lower_bound, full.lower_bound * 1.0001);
+  EXPECT_GT(sparse.lower_bound, full.lower_bound * 0.99);
+  EXPECT_LT(sparse.iterations, full.iterations);
+}
+
 TEST(CandidatesTest, FiveAlphaNearestSortedWithZeroAlphaTreeEdges) {
   const CoordProblem p = RandomProblem(80, 2);
   CostCache d(p);
