@@ -56,6 +56,27 @@ TEST(AlnsTest, AtLeastNewAlgAndDeterministic) {
   }
 }
 
+// Reward in a far cluster to the east, a trail of cheap rewards to the west: NewAlg's
+// ratio-driven tree follows the trail and no local move from there reaches the cluster; ALNS's spread-out
+// starts find it at once (one iteration), as on OPLib's clustered fl417.
+TEST(AlnsTest, SpreadStartsReachAFarCluster) {
+  OpInstance inst;
+  inst.nodes.push_back({"home", 0, 0, 0, 0});
+  for (int i = 1; i <= 20; ++i) inst.nodes.push_back({"t" + std::to_string(i), -1.0 * i, 0, 3, 0});
+  for (int i = 0; i < 16; ++i) {
+    inst.nodes.push_back({"c" + std::to_string(i), 50.0 + i % 4, 1.0 * (i / 4), 10, 0});
+  }
+  inst.budget_m = 130;  // the cluster (2 x 50 m there and back, ~16 m inside), not more
+  const PlanResult trail_only = SolveNewAlg(inst, NewAlgOptions{});
+  const PlanResult r = SolveAlns(inst, Fixed(1, 1));
+  test_instances::ExpectValidRoute(inst, r, "cluster");
+  std::cout << "[ alns    ] far cluster: NewAlg " << trail_only.reward << ", ALNS after one "
+            << "iteration " << r.reward << "\n";
+  EXPECT_LT(trail_only.reward, 160);
+  EXPECT_GE(r.reward, 160);  // all 16 cluster sites of 10
+  EXPECT_GE(r.stats["spread_starts_won"].get<int>(), 1);
+}
+
 // Degenerate instances: nothing fits, or everything does.
 TEST(AlnsTest, EdgeCases) {
   OpInstance tight = RandomInstance(20, true, 0.5, 3);
