@@ -39,11 +39,7 @@ bool ReorderWithLkh(const OpInstance& inst, std::vector<int>* route, uint64_t se
   opt.max_trials = std::max(options.min_trials, m / std::max(1, options.trials_divisor));
   opt.ascent.initial_period = std::max(10, m / std::max(1, options.initial_period_divisor));
   opt.ascent.max_iterations = options.max_ascent_iterations;
-  opt.move_k = options.move_k;
-  // The first trial starts from the route itself (already short: the previous re-order
-  // plus cheap insertions), not from a greedy tour.
-  opt.initial_tour.resize(m);
-  for (int i = 0; i < m; ++i) opt.initial_tour[i] = i;
+  opt.move_k = m <= options.small_route_nodes ? options.small_route_move_k : options.move_k;
   if (stats->pi.empty()) stats->pi.assign(inst.Size(), 0);
   opt.ascent.initial_pi.resize(m);
   for (int i = 0; i < m; ++i) opt.ascent.initial_pi[i] = stats->pi[nodes[i]];

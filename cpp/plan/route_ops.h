@@ -16,10 +16,14 @@ struct ReorderOptions {
   int min_trials = 5;
   int initial_period_divisor = 2;  // ascent INITIAL_PERIOD = max(10, m / divisor)
   int max_ascent_iterations = 30;  // per call; the penalties carry over between calls
-  // Basis move of the LK search (LKH's MOVE_TYPE). 3, not LKH's default 5: on the paper's
-  // unit-grid fields at B = 200 (~100 nodes per re-order, many equal costs) sequential
-  // 5-opt spends 3x longer for the same routes (README, "NewAlg speed").
-  int move_k = 3;
+  // Basis move of the LK search (LKH's MOVE_TYPE): 3 for routes of up to small_route_nodes
+  // nodes, else LKH's default 5. On the paper's unit-grid fields at B = 200 (~100 nodes per
+  // re-order, many equal costs) sequential 5-opt spends 3x longer for routes of the same
+  // reward; on random fields of 1,000 and 10,000 sites (routes of 200-600 nodes) 3-opt
+  // loses 0.4-0.6 % of NewAlg's reward (README, "NewAlg speed").
+  int move_k = 5;
+  int small_route_move_k = 3;
+  int small_route_nodes = 128;
 };
 
 struct RouteOpsStats {

@@ -96,25 +96,6 @@ std::vector<int> InitialTour(const CandidateSet& cands, const std::vector<int>& 
   return order;
 }
 
-// A permutation of 0..n-1 in which every fixed edge joins neighbours.
-bool UsableTour(const std::vector<int>& tour, const std::vector<int>& fixed_partner) {
-  const int n = static_cast<int>(fixed_partner.size());
-  if (static_cast<int>(tour.size()) != n) return false;
-  std::vector<int> pos(n, -1);
-  for (int i = 0; i < n; ++i) {
-    const int v = tour[i];
-    if (v < 0 || v >= n || pos[v] >= 0) return false;
-    pos[v] = i;
-  }
-  for (int v = 0; v < n; ++v) {
-    const int w = fixed_partner[v];
-    if (w < 0) continue;
-    const int gap = std::abs(pos[v] - pos[w]);
-    if (gap != 1 && gap != n - 1) return false;
-  }
-  return true;
-}
-
 }  // namespace
 
 TspResult SolveTsp(const Problem& problem, const SolverOptions& opt) {
@@ -173,9 +154,7 @@ TspResult SolveTsp(const Problem& problem, const SolverOptions& opt) {
   Cost best_len = -1;
   for (int run = 0; run < runs; ++run) {
     std::mt19937_64 rng(opt.seed * 0x9E3779B97F4A7C15ULL + static_cast<uint64_t>(run));
-    std::vector<int> order = run == 0 && UsableTour(opt.initial_tour, fixed_partner)
-                                 ? opt.initial_tour
-                                 : InitialTour(cands, fixed_partner, rng);
+    std::vector<int> order = InitialTour(cands, fixed_partner, rng);
     Tour tour(order);
     tour.SetJournaling(true);
     Cost cur = 0;

@@ -32,10 +32,6 @@ struct SolverOptions {
   int kick_segment = 0;       // longest segment of a double-bridge kick; <= 0: max(50, n/4)
   double time_limit_s = 0;    // <= 0: none
   Cost optimum = -1;          // stop when a tour this short is found (benchmarks)
-  // The first run starts from this tour (LKH's INITIAL_TOUR_FILE) when it is a permutation
-  // of 0..n-1 that keeps the fixed edges; otherwise, and in later runs, from the greedy
-  // tour on the candidates.
-  std::vector<int> initial_tour;
   AscentOptions ascent;
   // One-line accounts of a long solve (ascent, candidates, runs, trials), about every 2 s.
   std::function<void(const std::string&)> progress;
