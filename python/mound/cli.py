@@ -212,7 +212,9 @@ def cmd_table1(args: argparse.Namespace) -> int:
     for c in args.scan_cost:
         rows, meta = table1.run(scan_cost=c, exact_time_limit_s=args.exact_time_limit,
                                 workdir=out / "fields", paper=args.paper,
-                                budgets=tuple(args.budgets or table1.BUDGETS))
+                                budgets=tuple(args.budgets or table1.BUDGETS),
+                                progress=lambda line: print(f"table1: {line}", file=sys.stderr,
+                                                            flush=True))
         all_rows += rows
         exact += [{"scan_cost_m": c, **e} for e in meta["exact"]]
         setting = meta["setting"]

@@ -17,6 +17,7 @@ import csv
 import io
 import json
 import tempfile
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -125,11 +126,14 @@ def make_documents(scan_cost: float, paper: bool, budget: float
 
 def run(scan_cost: float = 1.0, budgets: tuple[float, ...] = BUDGETS,
         algos: tuple[str, ...] = ALGOS, exact_time_limit_s: float = 0.0,
-        workdir: Path | None = None, paper: bool = False
+        workdir: Path | None = None, paper: bool = False,
+        progress: Callable[[str], None] | None = None
         ) -> tuple[list[Row], dict[str, Any]]:
     """Every algorithm on the ten fields at every budget; with exact_time_limit_s > 0 also
     the SCIP branch-and-cut optimum of every field (warm-started from the best plan of the
-    algorithms), per field in meta["exact"]."""
+    algorithms), per field in meta["exact"]. `progress` gets a line per budget and per
+    exact solve."""
+    say = progress or (lambda _line: None)
     docs, setting = make_documents(scan_cost, paper, budgets[0])
     tmp = Path(workdir or tempfile.mkdtemp(prefix="table1."))
     tmp.mkdir(parents=True, exist_ok=True)
@@ -142,6 +146,7 @@ def run(scan_cost: float = 1.0, budgets: tuple[float, ...] = BUDGETS,
     tours: dict[str, Any] = {}
     exact_runs: list[dict[str, Any]] = []
     for budget in budgets:
+        say(f"B = {budget:g} m: {', '.join(algos)} on {len(paths)} fields")
         plans_by_algo: dict[str, list[dict[str, Any]]] = {}
         for algo in algos:
             plans = [native.run_json("mound_plan", [str(p), f"{budget:g}", "--algo", algo])
@@ -165,6 +170,8 @@ def run(scan_cost: float = 1.0, budgets: tuple[float, ...] = BUDGETS,
                 warm = [index[t] for t in best["tour"]] if best else None
                 r = branch_cut.solve(prob, exact_time_limit_s, start_route=warm)
                 results.append((r, prob))
+                say(f"B = {budget:g} m, field {STANDARD_SEEDS[k]}: {r.status}, reward "
+                    f"{r.reward:.4f}, bound {r.bound:.4f}, {r.seconds:.1f} s")
                 exact_runs.append({
                     "seed": STANDARD_SEEDS[k], "budget_m": budget, "status": r.status,
                     "reward": r.reward, "bound": r.bound, "seconds": r.seconds,
