@@ -27,17 +27,19 @@ def _stage(path: Path, text: str) -> Path:
             f.write(text)
             f.flush()
             os.fsync(f.fileno())
-        os.chmod(tmp, 0o666 & ~_umask())
+        os.chmod(tmp, new_file_mode())
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
     return Path(tmp)
 
 
-def _umask() -> int:
+def new_file_mode() -> int:
+    """The mode a newly created file gets (0666 less the umask), for files staged with
+    mkstemp (which makes them 0600)."""
     mask = os.umask(0)
     os.umask(mask)
-    return mask
+    return 0o666 & ~mask
 
 
 def write_atomic(path: str | Path, text: str) -> None:

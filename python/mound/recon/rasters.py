@@ -1,0 +1,292 @@
+"""Rasters of a site from its point cloud, as GeoTIFFs in the UTM zone of the site's origin.
+
+The cloud lies in the site's local ENU frame (metres, WGS84 origin stated in recon.json).
+Each point is taken to geodetic coordinates exactly (mound.geometry.geodesy) and then to
+UTM (PROJ through pyproj), so the rasters are north-up grids in a projected CRS that QGIS
+places correctly; heights are metres above the WGS84 ellipsoid, on the origin's datum.
+
+- DSM (digital surface model): the highest point of each cell; empty cells are nodata.
+- DTM (terrain): a progressive morphological ground filter (Zhang et al. 2003) on the cell
+  minima less their plane trend (fitted to the low half) — openings with windows doubling up
+  to `ground_window_m`; a cell is off-ground when one opening lowers it by more than
+  dh0 + s * (the window's growth), dh0 = 0.2 m, s = 0.02 (relief steeper than 2 % beyond the
+  trend is thinned; a tumulus's flanks, 10-30 %, are removed) — then the ground cells
+  interpolated linearly over the grid (nearest value outside their hull).
+- LRM (local relief model, after Hesse 2010): DSM minus the DTM smoothed by a Gaussian of
+  `relief_sigma_m`, so the broad terrain trend is removed and a mound stands out as a
+  positive anomaly of its own height.
+- Hillshade of the DSM (Horn's gradient, sun azimuth 315 deg, altitude 45 deg), 0-255.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from scipy import ndimage
+from scipy.interpolate import griddata
+
+from mound.errors import InputError
+from mound.geometry.geodesy import Origin, enu_to_geodetic
+from mound.jsonio import new_file_mode
+
+NODATA = -9999.0
+
+
+def utm_epsg(lat_deg: float, lon_deg: float) -> int:
+    """The EPSG code of the WGS84 / UTM zone holding (lat, lon): 326zz north, 327zz south
+    (the standard 6-degree zones; the Norway and Svalbard exceptions are not applied)."""
+    if not (-80 <= lat_deg <= 84):
+        raise InputError(f"origin: latitude {lat_deg} is outside UTM's -80..84 degrees")
+    zone = min(60, int((lon_deg + 180) // 6) + 1)
+    return (32600 if lat_deg >= 0 else 32700) + zone
+
+
+def enu_to_utm(origin: Origin, enu: np.ndarray, epsg: int) -> np.ndarray:
+    """(n, 3) ENU metres -> (n, 3) UTM easting, northing, ellipsoidal height (metres)."""
+    from pyproj import Transformer
+
+    llh = enu_to_geodetic(origin, enu)
+    to_utm = Transformer.from_crs("EPSG:4326", f"EPSG:{epsg}", always_xy=True)
+    e, n = to_utm.transform(llh[:, 1], llh[:, 0])
+    return np.stack([np.asarray(e), np.asarray(n), llh[:, 2]], axis=-1)
+
+
+@dataclass(frozen=True)
+class Grid:
+    """A north-up grid: cell (row, col) covers easting west + res*[col, col+1) and
+    northing north - res*[row, row+1)."""
+    epsg: int
+    west: float
+    north: float
+    res: float
+    width: int
+    height: int
+
+    @classmethod
+    def covering(cls, epsg: int, e: np.ndarray, n: np.ndarray, res: float) -> Grid:
+        west = math.floor(float(e.min()) / res) * res
+        north = math.ceil(float(n.max()) / res) * res
+        if north == float(n.max()):
+            north += res
+        width = int(math.floor((float(e.max()) - west) / res)) + 1
+        height = int(math.floor((north - float(n.min())) / res)) + 1
+        if width * height > 50_000_000:
+            raise InputError(f"--resolution-m: {res} m gives a {width} x {height} raster "
+                             "(more than 5e7 cells)")
+        return cls(epsg, west, north, res, width, height)
+
+    def cell(self, e: np.ndarray, n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        col = np.floor((e - self.west) / self.res).astype(np.int64)
+        row = np.floor((self.north - n) / self.res).astype(np.int64)
+        return row, col
+
+    def transform(self) -> Any:
+        from rasterio.transform import from_origin
+
+        return from_origin(self.west, self.north, self.res, self.res)
+
+
+def surface(grid: Grid, e: np.ndarray, n: np.ndarray, z: np.ndarray,
+            highest: bool = True) -> np.ndarray:
+    """Per-cell maximum (or minimum) of z; NaN where no point falls."""
+    row, col = grid.cell(e, n)
+    flat = row * grid.width + col
+    fill = -np.inf if highest else np.inf
+    out = np.full(grid.width * grid.height, fill)
+    (np.maximum if highest else np.minimum).at(out, flat, z)
+    out[~np.isfinite(out)] = np.nan
+    return out.reshape(grid.height, grid.width)
+
+
+def _filled(a: np.ndarray) -> np.ndarray:
+    """NaN cells take the value of the nearest observed cell."""
+    missing = np.isnan(a)
+    if not missing.any():
+        return a
+    idx = ndimage.distance_transform_edt(missing, return_distances=False, return_indices=True)
+    return a[tuple(idx)]
+
+
+def _plane_trend(z: np.ndarray, observed: np.ndarray) -> np.ndarray:
+    """A plane through the low half of the observed cells (two least-squares passes, the
+    second on the cells at or below the first plane), evaluated on the whole grid."""
+    rr, cc = np.mgrid[0:z.shape[0], 0:z.shape[1]]
+    keep = observed.copy()
+    coef = np.zeros(3)
+    for _ in range(2):
+        a = np.stack([np.ones(keep.sum()), rr[keep], cc[keep]], axis=1).astype(float)
+        coef, *_ = np.linalg.lstsq(a, z[keep], rcond=None)
+        plane = coef[0] + coef[1] * rr + coef[2] * cc
+        low = observed & (z <= plane)
+        if low.sum() < 3:
+            break
+        keep = low
+    return coef[0] + coef[1] * rr + coef[2] * cc
+
+
+def ground_model(zmin: np.ndarray, res: float, window_m: float = 80.0, slope: float = 0.02,
+                 dh0: float = 0.2, dh_max: float = 2.5) -> tuple[np.ndarray, np.ndarray]:
+    """Progressive morphological filter on the cell minima, less their plane trend;
+    returns (DTM, ground mask)."""
+    observed = ~np.isnan(zmin)
+    if observed.sum() < 3:
+        raise InputError("cloud: too few cells with points to model the terrain")
+    trend = _plane_trend(zmin, observed)
+    surface_ = _filled(zmin) - trend
+    ground = observed.copy()
+    half, prev = 1, 0
+    while True:
+        size = 2 * half + 1
+        opened = ndimage.grey_opening(surface_, size=(size, size))
+        dh = min(dh_max, dh0 + slope * 2 * (half - prev) * res)
+        ground &= ~(surface_ - opened > dh)
+        surface_ = opened
+        if half * res * 2 >= window_m:
+            break
+        prev, half = half, half * 2
+    rows, cols = np.nonzero(ground)
+    if rows.size < 3:
+        raise InputError("cloud: too few ground cells to model the terrain")
+    rr, cc = np.mgrid[0:zmin.shape[0], 0:zmin.shape[1]]
+    pts = np.stack([rows, cols], axis=1).astype(float)
+    vals = zmin[rows, cols]
+    dtm = griddata(pts, vals, (rr, cc), method="linear")
+    near = griddata(pts, vals, (rr, cc), method="nearest")
+    dtm = np.where(np.isnan(dtm), near, dtm)
+    return dtm, ground
+
+
+def local_relief(dsm: np.ndarray, dtm: np.ndarray, res: float,
+                 sigma_m: float = 30.0) -> np.ndarray:
+    """Hesse's local relief model: the surface minus the low-pass filtered terrain."""
+    trend = ndimage.gaussian_filter(dtm, sigma=sigma_m / res, mode="nearest")
+    return dsm - trend
+
+
+def hillshade(z: np.ndarray, res: float, azimuth_deg: float = 315.0,
+              altitude_deg: float = 45.0) -> np.ndarray:
+    """0-255 shading of a north-up surface (Horn's gradients); NaN stays NaN."""
+    f = _filled(z) if np.isnan(z).any() else z
+    dz_dn, dz_de = np.gradient(f, res)  # rows run south: d/d(row) = -d/d(north)
+    dz_dn = -dz_dn
+    slope = np.arctan(np.hypot(dz_de, dz_dn))
+    aspect = np.arctan2(-dz_de, -dz_dn)  # direction the slope faces, from north clockwise
+    az, alt = np.radians(azimuth_deg), np.radians(altitude_deg)
+    shade = (np.sin(alt) * np.cos(slope)
+             + np.cos(alt) * np.sin(slope) * np.cos(az - aspect))
+    out = np.clip(255 * shade, 0, 255)
+    out[np.isnan(z)] = np.nan
+    return out
+
+
+def write_geotiff(path: Path, a: np.ndarray, grid: Grid, description: str) -> None:
+    """Float32 GeoTIFF (deflate), NaN written as NODATA; atomically (temporary + rename)."""
+    import rasterio
+
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tif", dir=path.parent)
+    os.close(fd)
+    try:
+        data = np.where(np.isnan(a), NODATA, a).astype(np.float32)
+        with rasterio.open(tmp, "w", driver="GTiff", width=grid.width, height=grid.height,
+                           count=1, dtype="float32", crs=f"EPSG:{grid.epsg}",
+                           transform=grid.transform(), nodata=NODATA,
+                           compress="deflate") as ds:
+            ds.write(data, 1)
+            ds.set_band_description(1, description)
+            ds.update_tags(1, units="m" if "shade" not in description else "0-255")
+        os.chmod(tmp, new_file_mode())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+@dataclass
+class Rasters:
+    grid: Grid
+    dsm: np.ndarray
+    dtm: np.ndarray
+    lrm: np.ndarray
+    shade: np.ndarray
+    ground: np.ndarray
+
+
+def from_cloud(origin: Origin, enu: np.ndarray, resolution_m: float = 0.25,
+               ground_window_m: float = 80.0, relief_sigma_m: float = 30.0) -> Rasters:
+    """The rasters of an ENU cloud (n, 3)."""
+    if not (np.isfinite(resolution_m) and 0.01 <= resolution_m <= 100):
+        raise InputError(f"--resolution-m: expected 0.01..100 m, got {resolution_m}")
+    if not (np.isfinite(ground_window_m) and 2 * resolution_m <= ground_window_m <= 1e4):
+        raise InputError("--ground-window-m: expected 2 cells .. 10 km, got "
+                         f"{ground_window_m}")
+    if not (np.isfinite(relief_sigma_m) and 0 < relief_sigma_m <= 1e4):
+        raise InputError(f"--relief-sigma-m: expected (0, 1e4] m, got {relief_sigma_m}")
+    enu = np.asarray(enu, dtype=float)
+    if enu.ndim != 2 or enu.shape[1] != 3 or len(enu) == 0:
+        raise InputError("cloud: no points")
+    enu = enu[np.isfinite(enu).all(axis=1)]
+    if len(enu) == 0:
+        raise InputError("cloud: no finite points")
+    epsg = utm_epsg(origin.lat_deg, origin.lon_deg)
+    utm = enu_to_utm(origin, enu, epsg)
+    grid = Grid.covering(epsg, utm[:, 0], utm[:, 1], resolution_m)
+    dsm = surface(grid, utm[:, 0], utm[:, 1], utm[:, 2], highest=True)
+    zmin = surface(grid, utm[:, 0], utm[:, 1], utm[:, 2], highest=False)
+    dtm, ground = ground_model(zmin, resolution_m, window_m=ground_window_m)
+    lrm = local_relief(dsm, dtm, resolution_m, sigma_m=relief_sigma_m)
+    return Rasters(grid, dsm, dtm, lrm, hillshade(dsm, resolution_m), ground)
+
+
+def write_all(r: Rasters, out_dir: Path) -> dict[str, Any]:
+    """dsm.tif, dtm.tif, lrm.tif, hillshade.tif in out_dir; returns their description."""
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    files = {"dsm": (r.dsm, "digital surface model, m above the WGS84 ellipsoid"),
+             "dtm": (r.dtm, "terrain model (ground filter), m above the WGS84 ellipsoid"),
+             "lrm": (r.lrm, "local relief model (surface - smoothed terrain), m"),
+             "hillshade": (r.shade, "hillshade of the surface model, 0-255")}
+    for name, (a, desc) in files.items():
+        write_geotiff(out_dir / f"{name}.tif", a, r.grid, desc)
+    g = r.grid
+    return {"crs": f"EPSG:{g.epsg}", "resolution_m": g.res, "width": g.width,
+            "height": g.height, "west": g.west, "north": g.north, "nodata": NODATA,
+            "files": {k: f"{k}.tif" for k in files},
+            "coverage": float(np.mean(~np.isnan(r.dsm))),
+            "ground_fraction": float(np.mean(r.ground))}
+
+
+def from_recon(recon_dir: Path, out_dir: Path, resolution_m: float = 0.25,
+               cloud: Path | None = None, ground_window_m: float = 80.0,
+               relief_sigma_m: float = 30.0) -> dict[str, Any]:
+    """The rasters of a mound_recon output (recon.json + points.ply, or `cloud` in the same
+    frame), written to out_dir with rasters.json (mound.rasters v1)."""
+    from mound.jsonio import read_json, write_json
+    from mound.ply import read_ply
+
+    recon_dir = Path(recon_dir)
+    doc = read_json(recon_dir / "recon.json", "mound.recon", 1)
+    where = str(recon_dir / "recon.json")
+    if doc.get("status") != "ok":
+        raise InputError(f"{where}: status is {doc.get('status')!r} "
+                         f"({doc.get('reason', 'no reason given')}): no model to rasterise")
+    if doc.get("frame") != "enu" or doc.get("scale") != "metric":
+        raise InputError(f"{where}: frame {doc.get('frame')!r}, scale {doc.get('scale')!r}: "
+                         "rasters need a metric ENU model (reconstruct with --gps)")
+    origin = Origin.from_doc(doc.get("origin"), f"{where}: origin")
+    cloud_path = Path(cloud) if cloud else recon_dir / "points.ply"
+    xyz, _ = read_ply(cloud_path)
+    if len(xyz) == 0:
+        raise InputError(f"{cloud_path}: the cloud is empty")
+    r = from_cloud(origin, xyz, resolution_m, ground_window_m, relief_sigma_m)
+    summary = write_all(r, out_dir)
+    out = {"schema": "mound.rasters", "version": 1, "origin": origin.to_doc(),
+           "cloud": str(cloud_path), "points": int(len(xyz)), **summary}
+    write_json(Path(out_dir) / "rasters.json", out)
+    return out
