@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+import rasterio
 from PIL import Image
 
 from mound.classify.metrics import detection_error_rates
@@ -159,8 +160,14 @@ def test_every_artefact_of_the_run(survey: dict[str, Any]) -> None:
         verdict = json.loads((out / "sites" / sid / "recon" / "verdict.json").read_text())
         assert verdict["schema"] == "mound.verdict" and verdict["label"] == row["verdict"]
         assert row["verdict"] == ("mound" if row["truth"] else "no_mound")
-        for key in ("thumbnails", "cloud", "relief"):
+        for key in ("thumbnails", "cloud", "relief", "terrain"):
             assert (out / row["files"][key]).is_file()
+        # The site's GeoTIFFs: UTM zone 35 north at Bin Tepe; a simulated tumulus (4-12 m)
+        # stands out in the local relief model, flat ground does not.
+        with rasterio.open(out / row["files"]["rasters"] / "lrm.tif") as ds:
+            assert ds.crs.to_epsg() == 32635 and ds.res == (2.0, 2.0)
+            relief = np.percentile(ds.read(1, masked=True).compressed(), 99)
+        assert relief > 2.0 if row["truth"] else relief < 1.0, (sid, relief)
     assert {r["id"] for r in summary["sites"] if r["visited"]} == visited
     assert len(summary["sites"]) == 100
     # The metrics recompute from the rows.

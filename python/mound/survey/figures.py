@@ -1,5 +1,6 @@
 """The survey report's pictures: the field map with the tour, the mission in local metres,
-and per site a strip of its images and the relief map with the verdict (PNG files)."""
+and per site a strip of its images, the relief map with the verdict and the hillshade and
+local relief model of its GeoTIFFs (PNG files)."""
 
 from __future__ import annotations
 
@@ -93,6 +94,35 @@ def relief_map(recon_dir: Path, verdict_json: Path, out_png: Path, title: str = 
     ax.set_xlabel("east of site centre (m)")
     ax.set_ylabel("north (m)")
     ax.set_title(title or verdict.get("label", ""), fontsize=9)
+    return save_figure(fig, out_png, dpi)
+
+
+def terrain_map(rasters_dir: Path, out_png: Path, title: str = "", dpi: int = 70) -> Path:
+    """The site's hillshade and local relief model (GeoTIFFs of mound.recon.rasters) side by
+    side, in UTM metres."""
+    import rasterio
+
+    panels = []
+    for name in ("hillshade", "lrm"):
+        with rasterio.open(Path(rasters_dir) / f"{name}.tif") as ds:
+            a = ds.read(1, masked=True).filled(np.nan)
+            b = ds.bounds
+            panels.append((a, (b.left, b.right, b.bottom, b.top), ds.crs.to_string()))
+    fig, axes = plt.subplots(1, 2, figsize=(7.6, 3.4))
+    shade, extent, crs = panels[0]
+    axes[0].imshow(shade, cmap="gray", extent=extent, vmin=0, vmax=255)
+    axes[0].set_title("hillshade (315°/45°)", fontsize=9)
+    lrm = panels[1][0]
+    lim = max(0.5, float(np.nanpercentile(np.abs(lrm), 99.5))) if np.isfinite(lrm).any() else 1
+    im = axes[1].imshow(lrm, cmap="RdBu_r", extent=extent, vmin=-lim, vmax=lim)
+    fig.colorbar(im, ax=axes[1], label="local relief (m)")
+    axes[1].set_title("local relief model", fontsize=9)
+    for ax in axes:
+        ax.set_xlabel(f"easting ({crs}, m)", fontsize=7)
+        ax.ticklabel_format(useOffset=False, style="plain")
+        ax.tick_params(labelsize=6)
+    axes[0].set_ylabel("northing (m)", fontsize=7)
+    fig.suptitle(title, fontsize=9)
     return save_figure(fig, out_png, dpi)
 
 

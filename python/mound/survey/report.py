@@ -190,7 +190,8 @@ def _site_card(r: dict[str, Any]) -> str:
     files = r.get("files", {})
     if "thumbnails" in files:
         parts.append(_img(files["thumbnails"], f"images of {r['id']}"))
-    pics = [_img(files[k], f"{k} of {r['id']}") for k in ("cloud", "relief") if k in files]
+    pics = [_img(files[k], f"{k} of {r['id']}") for k in ("cloud", "relief", "terrain")
+            if k in files]
     if pics:
         parts.append('<div class="row">' + "".join(pics) + "</div>")
     rec = r.get("recon")

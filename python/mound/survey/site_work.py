@@ -28,6 +28,7 @@ SCHEMA = "mound.survey_site"
 VERSION = 1
 MOUND_HEIGHTS_M = (4.0, 12.0)  # simulated tumuli: heights drawn uniformly from this range
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff")
+RASTER_CELL_M = 2.0    # the GeoTIFFs of each visited site (sparse cloud: ~1 point per m²)
 
 
 @dataclass(frozen=True)
@@ -171,6 +172,7 @@ def _process_site(job: SiteJob) -> dict[str, Any]:
         row["status"] = "ok"
         row["files"] = {"images": _rel(images, root), "recon": _rel(t.recon, root),
                         "verdict": _rel(t.verdict, root)}
+        _rasters(job, row)
     except (InputError, NoResultError) as e:
         # The site's input allowed no result: the same input will fail the same way.
         row.update(reason=f"{stage}: {_reason(e, t)}", retry=False)
@@ -188,6 +190,27 @@ def _process_site(job: SiteJob) -> dict[str, Any]:
     timings["total"] = time.perf_counter() - start
     write_json(t.result, row)
     return row
+
+
+def _rasters(job: SiteJob, row: dict[str, Any]) -> None:
+    """DSM, DTM, relief model and hillshade GeoTIFFs of a metric model in sites/ID/rasters/
+    (mound.recon.rasters); the verdict stands without them, the row says why they are
+    missing."""
+    from mound.recon import rasters
+
+    t = job.tree
+    if row.get("recon", {}).get("frame") != "enu":
+        row["rasters_error"] = "the model is not in a metric ENU frame"
+        return
+    t0 = time.perf_counter()
+    try:
+        doc = rasters.from_recon(t.recon, t.rasters, resolution_m=RASTER_CELL_M)
+        row["rasters"] = {k: doc[k] for k in ("crs", "resolution_m", "width", "height",
+                                               "coverage")}
+        row["files"]["rasters"] = _rel(t.rasters, Path(job.run_root))
+    except (InputError, OSError, ValueError) as e:
+        row["rasters_error"] = str(e)
+    row["timings_s"]["rasters"] = time.perf_counter() - t0
 
 
 def _reason(e: Exception, t: SiteTree) -> str:
@@ -218,5 +241,10 @@ def site_figures(job: SiteJob, images: Path, row: dict[str, Any]) -> dict[str, s
     recon_figures.cloud_and_cameras(t.recon, t.cloud_png, max_points=15000, dpi=60)
     figures.relief_map(t.recon, t.verdict, t.relief_png, title=f"{job.site['id']}: "
                        f"{row.get('verdict', '?')}")
-    return {"thumbnails": _rel(t.thumbnails, root), "cloud": _rel(t.cloud_png, root),
-            "relief": _rel(t.relief_png, root)}
+    out = {"thumbnails": _rel(t.thumbnails, root), "cloud": _rel(t.cloud_png, root),
+           "relief": _rel(t.relief_png, root)}
+    if "rasters" in row:
+        figures.terrain_map(t.rasters, t.terrain_png, title=f"{job.site['id']}: GeoTIFFs, "
+                            f"{row['rasters']['crs']}")
+        out["terrain"] = _rel(t.terrain_png, root)
+    return out

@@ -116,3 +116,11 @@ class SiteTree:
     @property
     def relief_png(self) -> Path:
         return self.root / "relief.png"
+
+    @property
+    def rasters(self) -> Path:
+        return self.root / "rasters"
+
+    @property
+    def terrain_png(self) -> Path:
+        return self.root / "terrain.png"
