@@ -57,8 +57,8 @@ TEST(AlnsTest, AtLeastNewAlgAndDeterministic) {
 }
 
 // Reward in a far cluster to the east, a trail of cheap rewards to the west: NewAlg's
-// ratio-driven tree follows the trail and no local move from there reaches the cluster; ALNS's spread-out
-// starts find it at once (one iteration), as on OPLib's clustered fl417.
+// ratio-driven tree follows the trail and no local move from there reaches the cluster;
+// ALNS's spread-out starts find it at once (one iteration), as on OPLib's clustered fl417.
 TEST(AlnsTest, SpreadStartsReachAFarCluster) {
   OpInstance inst;
   inst.nodes.push_back({"home", 0, 0, 0, 0});

@@ -5,7 +5,6 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
-#include <queue>
 
 namespace mound::tsp {
 namespace {

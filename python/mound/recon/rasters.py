@@ -92,16 +92,18 @@ class Grid:
         return from_origin(self.west, self.north, self.res, self.res)
 
 
-def surface(grid: Grid, e: np.ndarray, n: np.ndarray, z: np.ndarray,
-            highest: bool = True) -> np.ndarray:
-    """Per-cell maximum (or minimum) of z; NaN where no point falls."""
+def surfaces(grid: Grid, e: np.ndarray, n: np.ndarray,
+             z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per-cell maximum and minimum of z; NaN where no point falls."""
     row, col = grid.cell(e, n)
     flat = row * grid.width + col
-    fill = -np.inf if highest else np.inf
-    out = np.full(grid.width * grid.height, fill)
-    (np.maximum if highest else np.minimum).at(out, flat, z)
-    out[~np.isfinite(out)] = np.nan
-    return out.reshape(grid.height, grid.width)
+    out = []
+    for fill, reduce in ((-np.inf, np.maximum), (np.inf, np.minimum)):
+        a = np.full(grid.width * grid.height, fill)
+        reduce.at(a, flat, z)
+        a[~np.isfinite(a)] = np.nan
+        out.append(a.reshape(grid.height, grid.width))
+    return out[0], out[1]
 
 
 def _filled(a: np.ndarray) -> np.ndarray:
@@ -172,8 +174,7 @@ def local_relief(dsm: np.ndarray, dtm: np.ndarray, res: float,
 def hillshade(z: np.ndarray, res: float, azimuth_deg: float = 315.0,
               altitude_deg: float = 45.0) -> np.ndarray:
     """0-255 shading of a north-up surface (Horn's gradients); NaN stays NaN."""
-    f = _filled(z) if np.isnan(z).any() else z
-    dz_dn, dz_de = np.gradient(f, res)  # rows run south: d/d(row) = -d/d(north)
+    dz_dn, dz_de = np.gradient(_filled(z), res)  # rows run south: d/d(row) = -d/d(north)
     dz_dn = -dz_dn
     slope = np.arctan(np.hypot(dz_de, dz_dn))
     aspect = np.arctan2(-dz_de, -dz_dn)  # direction the slope faces, from north clockwise
@@ -237,8 +238,7 @@ def from_cloud(origin: Origin, enu: np.ndarray, resolution_m: float = 0.25,
     epsg = utm_epsg(origin.lat_deg, origin.lon_deg)
     utm = enu_to_utm(origin, enu, epsg)
     grid = Grid.covering(epsg, utm[:, 0], utm[:, 1], resolution_m)
-    dsm = surface(grid, utm[:, 0], utm[:, 1], utm[:, 2], highest=True)
-    zmin = surface(grid, utm[:, 0], utm[:, 1], utm[:, 2], highest=False)
+    dsm, zmin = surfaces(grid, utm[:, 0], utm[:, 1], utm[:, 2])
     dtm, ground = ground_model(zmin, resolution_m, window_m=ground_window_m)
     lrm = local_relief(dsm, dtm, resolution_m, sigma_m=relief_sigma_m)
     return Rasters(grid, dsm, dtm, lrm, hillshade(dsm, resolution_m), ground)

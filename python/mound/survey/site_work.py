@@ -194,14 +194,11 @@ def _process_site(job: SiteJob) -> dict[str, Any]:
 
 def _rasters(job: SiteJob, row: dict[str, Any]) -> None:
     """DSM, DTM, relief model and hillshade GeoTIFFs of a metric model in sites/ID/rasters/
-    (mound.recon.rasters); the verdict stands without them, the row says why they are
-    missing."""
+    (mound.recon.rasters, which refuses a model without a metric ENU frame); the verdict
+    stands without them, the row says why they are missing."""
     from mound.recon import rasters
 
     t = job.tree
-    if row.get("recon", {}).get("frame") != "enu":
-        row["rasters_error"] = "the model is not in a metric ENU frame"
-        return
     t0 = time.perf_counter()
     try:
         doc = rasters.from_recon(t.recon, t.rasters, resolution_m=RASTER_CELL_M)
