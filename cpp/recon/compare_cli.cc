@@ -16,6 +16,7 @@
 #include "common/stats.h"
 #include "geometry/ply.h"
 #include "icp/icp.h"
+#include "recon/recon_io.h"
 #include "terrain/mound_detector.h"
 
 namespace mound::recon {
@@ -94,12 +95,6 @@ nlohmann::json ComparisonJson(const Comparison& c) {
           {"inlier_fraction", c.fit.inlier_fraction}, {"distance_m", DistanceJson(c.distance)}};
 }
 
-PlyCloud ReadCloud(const std::string& path, const std::string& what) {
-  PlyCloud c = ReadPly(path);
-  if (c.xyz.size() < 10) throw InputError(what + ": " + path + " has " + std::to_string(c.xyz.size()) + " points (need >= 10)");
-  return c;
-}
-
 icp::Options IcpOptions(const Args& a) {
   icp::Options o;
   o.estimate_scale = !a.Has("--no-scale");
@@ -108,12 +103,6 @@ icp::Options IcpOptions(const Args& a) {
   if (a.Has("--max-points")) o.max_source_points = static_cast<int>(ParseInt(a.options.at("--max-points"), "--max-points", 100, 100000000));
   if (a.Has("--seed")) o.seed = static_cast<uint64_t>(ParseInt(a.options.at("--seed"), "--seed", 0, 1LL << 62));
   return o;
-}
-
-nlohmann::json LoadRecon(const std::string& path) {
-  nlohmann::json doc = ParseJson(ReadFile(path), path);
-  CheckSchema(doc, "mound.recon", 1, path);
-  return doc;
 }
 
 // The horizontal centre of the registered cameras (validated fields).

@@ -1,22 +1,20 @@
 #include "recon/recon_cli.h"
 
 #include <algorithm>
-#include <atomic>
 #include <cctype>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
-#include <functional>
 #include <iostream>
-#include <mutex>
 #include <set>
-#include <thread>
 
 #include "common/atomic_file.h"
 #include "common/cli_args.h"
 #include "common/error.h"
 #include "common/json_util.h"
+#include "common/parallel.h"
 #include "recon/compare_cli.h"
+#include "recon/densify_cli.h"
 #include "recon/exif.h"
 #include "recon/recon_io.h"
 #include "sfm/features.h"
@@ -33,6 +31,9 @@ constexpr const char* kUsage =
     "                   [--features sift|klt] [--matching auto|exhaustive|sequential]\n"
     "                   [--window N] [--align level|full]\n"
     "                   [--threads N] [--seed N]\n"
+    "       mound_recon densify RECON_DIR --out OUT_DIR [--resolution-m R] [--threads N]\n"
+    "                   [--max-image-size PX] [--source-views N] [--window PX] [--min-ncc C]\n"
+    "                   [--min-consistent N] [--max-step-px PX] [--images DIR]\n"
     "       mound_recon compare CLOUD.ply REFERENCE.ply --out OUT_DIR [--no-scale]\n"
     "                   [--init auto|none|pca] [--max-points N] [--seed N]\n"
     "       mound_recon verdict RECON_DIR --out verdict.json [--reference REFERENCE.ply]\n"
@@ -62,6 +63,20 @@ constexpr const char* kUsage =
     "  --threads N          (default: the number of cores)\n"
     "  --seed N             RANSAC seed (default 1)\n"
     "\n"
+    "densify: multi-view stereo on a georeferenced model: per-image depth maps by plane\n"
+    "sweeping (horizontal planes; NCC over the best of the source views the sparse model\n"
+    "picks), fused where the neighbours' depth maps agree, merged on a voxel grid.\n"
+    "  --out DIR            dense.ply (x y z, colour, nx ny nz, support), dense.json\n"
+    "                       (mound.dense v1)\n"
+    "  --resolution-m R     voxel of the fused cloud (default 0.1)\n"
+    "  --max-image-size PX  longer side of the depth maps (default 640)\n"
+    "  --source-views N     source images per depth map (default 4)\n"
+    "  --window PX          NCC window side, odd (default 7)\n"
+    "  --min-ncc C          lowest accepted score (default 0.4)\n"
+    "  --min-consistent N   depth maps that must confirm a point (default 2)\n"
+    "  --max-step-px PX     plane spacing: the most a source pixel moves (default 2)\n"
+    "  --images DIR         the images (default: recon.json's images_dir)\n"
+    "\n"
     "compare: ICP with scale (PCL; correspondences beyond 3x their median rejected) of the\n"
     "cloud onto the reference, then each point's distance to the reference surface.\n"
     "  --out DIR            compare.json (mound.compare v1), aligned.ply (+ distance)\n"
@@ -85,28 +100,6 @@ constexpr const char* kUsage =
 using Clock = std::chrono::steady_clock;
 
 double Since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
-
-void ParallelFor(int n, int threads, const std::function<void(int)>& body) {
-  std::atomic<int> next{0};
-  std::exception_ptr error;
-  std::mutex mu;
-  std::vector<std::thread> pool;
-  for (int t = 0; t < std::max(1, std::min(threads, n)); ++t) {
-    pool.emplace_back([&] {
-      for (int i = next++; i < n; i = next++) {
-        try {
-          body(i);
-        } catch (...) {
-          std::lock_guard<std::mutex> lock(mu);
-          if (!error) error = std::current_exception();
-          next = n;
-        }
-      }
-    });
-  }
-  for (auto& th : pool) th.join();
-  if (error) std::rethrow_exception(error);
-}
 
 std::vector<std::string> ListImages(const std::string& dir) {
   namespace fs = std::filesystem;
@@ -147,7 +140,7 @@ int RunReconstruct(const std::vector<std::string>& args) {
   if (a.Has("--max-image-size")) fo.max_image_size = static_cast<int>(ParseInt(a.options.at("--max-image-size"), "--max-image-size", 100, 100000));
   if (a.Has("--max-features")) fo.max_features = static_cast<int>(ParseInt(a.options.at("--max-features"), "--max-features", 100, 1000000));
   const int threads = a.Has("--threads") ? static_cast<int>(ParseInt(a.options.at("--threads"), "--threads", 1, 256))
-                                         : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+                                         : DefaultThreads();
   const uint64_t seed = a.Has("--seed") ? static_cast<uint64_t>(ParseInt(a.options.at("--seed"), "--seed", 0, 1LL << 62)) : 1;
   const std::string matching = a.Has("--matching") ? a.options.at("--matching") : "auto";
   if (matching != "auto" && matching != "exhaustive" && matching != "sequential") {
@@ -373,12 +366,13 @@ int RunMoundRecon(const std::vector<std::string>& args, std::ostream& out, std::
       out << kUsage;
       return static_cast<int>(kExitOk);
     }
-    if (args.empty()) throw InputError("missing a command: reconstruct, compare or verdict (see --help)");
+    if (args.empty()) throw InputError("missing a command: reconstruct, densify, compare or verdict (see --help)");
     if (args[0] == "--version") {
       out << kVersion << "\n";
       return static_cast<int>(kExitOk);
     }
     if (args[0] == "reconstruct") return RunReconstruct(args);
+    if (args[0] == "densify") return RunDensify(args);
     if (args[0] == "compare") return RunCompare(args);
     if (args[0] == "verdict") return RunVerdict(args);
     throw InputError("unknown command '" + args[0] + "' (see --help)");

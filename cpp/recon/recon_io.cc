@@ -100,4 +100,16 @@ void WriteColmapText(const std::string& dir, const sfm::Reconstruction& r,
   WriteFileAtomic(dir + "/points3D.txt", pts.str());
 }
 
+PlyCloud ReadCloud(const std::string& path, const std::string& what) {
+  PlyCloud c = ReadPly(path);
+  if (c.xyz.size() < 10) throw InputError(what + ": " + path + " has " + std::to_string(c.xyz.size()) + " points (need >= 10)");
+  return c;
+}
+
+nlohmann::json LoadRecon(const std::string& path) {
+  nlohmann::json doc = ParseJson(ReadFile(path), path);
+  CheckSchema(doc, "mound.recon", 1, path);
+  return doc;
+}
+
 }  // namespace mound::recon

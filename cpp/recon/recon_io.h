@@ -11,6 +11,7 @@
 
 #include "geometry/camera_model.h"
 #include "geometry/geodesy.h"
+#include "geometry/ply.h"
 #include "recon/inputs.h"
 #include "sfm/reconstruction.h"
 
@@ -26,5 +27,11 @@ void WriteColmapText(const std::string& dir, const sfm::Reconstruction& r,
                      const std::vector<sfm::ImageFeatures>& features);
 
 nlohmann::json CameraJson(const geometry::CameraModel& c);
+
+// A point cloud of at least 10 points; `what` names it in the error ("--reference").
+PlyCloud ReadCloud(const std::string& path, const std::string& what);
+
+// recon.json, its schema checked (mound.recon v1).
+nlohmann::json LoadRecon(const std::string& path);
 
 }  // namespace mound::recon

@@ -68,35 +68,6 @@ TEST(StackedEpipolarDepths, ExactDataGivesTheTrueDepths) {
 
 // --- rendered images -------------------------------------------------------------------
 
-// A multi-octave random texture (bilinear value noise, 4 octaves) as features to track.
-sim::Texture NoiseTexture(double half_m, double texel_m, uint32_t seed) {
-  const int n = static_cast<int>(std::lround(2 * half_m / texel_m)) + 1;
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<float> u(0, 1);
-  std::vector<float> acc(static_cast<size_t>(n) * n, 0.f);
-  for (int cell : {64, 16, 4, 2}) {
-    const int m = n / cell + 2;
-    std::vector<float> lattice(static_cast<size_t>(m) * m);
-    for (float& v : lattice) v = u(rng);
-    for (int i = 0; i < n; ++i) {
-      for (int j = 0; j < n; ++j) {
-        const float fy = static_cast<float>(i) / cell, fx = static_cast<float>(j) / cell;
-        const int i0 = static_cast<int>(fy), j0 = static_cast<int>(fx);
-        const float a = fy - i0, b = fx - j0;
-        const float v = (1 - a) * ((1 - b) * lattice[i0 * m + j0] + b * lattice[i0 * m + j0 + 1]) +
-                        a * ((1 - b) * lattice[(i0 + 1) * m + j0] + b * lattice[(i0 + 1) * m + j0 + 1]);
-        acc[static_cast<size_t>(i) * n + j] += v;
-      }
-    }
-  }
-  std::vector<unsigned char> rgb;
-  for (float v : acc) {
-    const auto c = static_cast<unsigned char>(std::clamp(v * 64.f, 0.f, 255.f));
-    rgb.insert(rgb.end(), {c, c, c});
-  }
-  return sim::Texture(-half_m, -half_m, texel_m, n, n, std::move(rgb));
-}
-
 struct PairResult {
   size_t matches = 0;
   TwoViewResult r;
@@ -110,14 +81,7 @@ struct PairResult {
 PairResult RenderedPair(const std::function<double(double, double)>& height,
                         const Eigen::Vector3d& c1, const Eigen::Vector3d& look1,
                         const Eigen::Vector3d& c2, const Eigen::Vector3d& look2) {
-  sim::Scene scene;
-  sim::Heightfield& hf = scene.terrain;
-  hf.x0_m = hf.y0_m = -40;
-  hf.spacing_m = 0.25;
-  hf.nx = hf.ny = 321;
-  for (int i = 0; i < hf.ny; ++i)
-    for (int j = 0; j < hf.nx; ++j) hf.z_m.push_back(static_cast<float>(height(hf.X(j), hf.Y(i))));
-  scene.texture = NoiseTexture(40, 0.05, 11);
+  const sim::Scene scene = sim::NoiseScene(height, 40, 0.25, 11);
   geometry::CameraModel cam;
   cam.width = 800;
   cam.height = 600;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <random>
 
 namespace mound::sim {
 
@@ -78,6 +79,47 @@ std::array<float, 3> Texture::Sample(double x, double y, double footprint_m) con
     for (int c = 0; c < 3; ++c) c0[c] = static_cast<float>((1 - f) * c0[c] + f * c1[c]);
   }
   return c0;
+}
+
+Texture ValueNoiseTexture(double half_m, double texel_m, uint32_t seed) {
+  const int n = static_cast<int>(std::lround(2 * half_m / texel_m)) + 1;
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(0, 1);
+  std::vector<float> acc(static_cast<size_t>(n) * n, 0.f);
+  for (int cell : {64, 16, 4, 2}) {
+    const int m = n / cell + 2;
+    std::vector<float> lattice(static_cast<size_t>(m) * m);
+    for (float& v : lattice) v = u(rng);
+    for (int i = 0; i < n; ++i) {
+      for (int j = 0; j < n; ++j) {
+        const float fy = static_cast<float>(i) / cell, fx = static_cast<float>(j) / cell;
+        const int i0 = static_cast<int>(fy), j0 = static_cast<int>(fx);
+        const float a = fy - i0, b = fx - j0;
+        const float v = (1 - a) * ((1 - b) * lattice[i0 * m + j0] + b * lattice[i0 * m + j0 + 1]) +
+                        a * ((1 - b) * lattice[(i0 + 1) * m + j0] + b * lattice[(i0 + 1) * m + j0 + 1]);
+        acc[static_cast<size_t>(i) * n + j] += v;
+      }
+    }
+  }
+  std::vector<unsigned char> rgb;
+  for (float v : acc) {
+    const auto c = static_cast<unsigned char>(std::clamp(v * 64.f, 0.f, 255.f));
+    rgb.insert(rgb.end(), {c, c, c});
+  }
+  return Texture(-half_m, -half_m, texel_m, n, n, std::move(rgb));
+}
+
+Scene NoiseScene(const std::function<double(double, double)>& height, double half_m, double spacing_m,
+                 uint32_t texture_seed) {
+  Scene scene;
+  Heightfield& hf = scene.terrain;
+  hf.x0_m = hf.y0_m = -half_m;
+  hf.spacing_m = spacing_m;
+  hf.nx = hf.ny = static_cast<int>(std::lround(2 * half_m / spacing_m)) + 1;
+  for (int i = 0; i < hf.ny; ++i)
+    for (int j = 0; j < hf.nx; ++j) hf.z_m.push_back(static_cast<float>(height(hf.X(j), hf.Y(i))));
+  scene.texture = ValueNoiseTexture(half_m, 0.05, texture_seed);
+  return scene;
 }
 
 }  // namespace mound::sim

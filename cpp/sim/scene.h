@@ -8,6 +8,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -49,10 +50,19 @@ class Texture {
   std::vector<Level> levels_;
 };
 
+// A grey multi-octave value-noise texture (bilinear lattices of 64, 16, 4 and 2 texels)
+// over the square [-half_m, half_m]^2: the tests' stand-in for ground with features.
+Texture ValueNoiseTexture(double half_m, double texel_m, uint32_t seed);
+
 struct Scene {
   Heightfield terrain;
   Texture texture;
   std::array<double, 3> background_rgb{200, 210, 225};  // sky / outside the site
 };
+
+// A square scene [-half_m, half_m]^2 of height(x, y) sampled every `spacing_m`, draped with
+// ValueNoiseTexture (5 cm texels): the tests' rendered sites.
+Scene NoiseScene(const std::function<double(double, double)>& height, double half_m, double spacing_m,
+                 uint32_t texture_seed);
 
 }  // namespace mound::sim

@@ -45,18 +45,25 @@ def centre_errors(est: dict[str, np.ndarray], truth: dict[str, np.ndarray]) -> n
     return np.linalg.norm(apply(s, r, t, a) - b, axis=1)
 
 
-def cloud_error_aligned(xyz: np.ndarray, est: dict[str, np.ndarray],
-                        truth: dict[str, np.ndarray], site: Path) -> str:
-    """Median and 90th percentile of |z - heightfield| (bilinear) after mapping the cloud
-    by the similarity that takes the estimated camera centres onto the true ones."""
+def aligned_height_errors(xyz: np.ndarray, est: dict[str, np.ndarray],
+                          truth: dict[str, np.ndarray], site: Path
+                          ) -> tuple[np.ndarray, np.ndarray]:
+    """The cloud mapped by the similarity that takes the estimated camera centres onto the
+    true ones, and |z - heightfield| (bilinear) of its points over the grid."""
     names = sorted(set(est) & set(truth))
     s, r, t = umeyama(np.array([est[n] for n in names]), np.array([truth[n] for n in names]))
     p = apply(s, r, t, xyz)
     hf = load_site_heightfield(site)
     ok = hf.covers(p[:, 0], p[:, 1])
-    e = np.abs(p[ok, 2] - hf.height_at(p[ok, 0], p[ok, 1]))
+    return p, np.abs(p[ok, 2] - hf.height_at(p[ok, 0], p[ok, 1]))
+
+
+def cloud_error_aligned(xyz: np.ndarray, est: dict[str, np.ndarray],
+                        truth: dict[str, np.ndarray], site: Path) -> str:
+    """Median and 90th percentile of aligned_height_errors."""
+    p, e = aligned_height_errors(xyz, est, truth, site)
     return (f"median {np.median(e):.3f} m, 90th percentile {np.percentile(e, 90):.3f} m "
-            f"({ok.mean():.1%} of the points over the grid)")
+            f"({len(e) / len(p):.1%} of the points over the grid)")
 
 
 def strecha_centres(folder: Path) -> dict[str, np.ndarray]:

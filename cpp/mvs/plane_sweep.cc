@@ -1,0 +1,358 @@
+// Plane-sweep depth maps (see dense.h for the method and its sources).
+#include <Eigen/Dense>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "common/error.h"
+#include "common/parallel.h"
+#include "mvs/dense.h"
+
+namespace mound::mvs {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// An image at the depth-map scale: distortion removed, downscaled, grey 0..1 and colour.
+struct ScaledImage {
+  cv::Mat grey;    // CV_32F
+  cv::Mat colour;  // CV_8UC3, BGR
+  geometry::CameraModel camera;
+};
+
+ScaledImage LoadScaled(const std::string& path, const geometry::CameraModel& cam, int max_size) {
+  cv::Mat img = cv::imread(path, cv::IMREAD_COLOR);
+  if (img.empty()) throw InputError(path + ": cannot read the image");
+  if (img.cols != cam.width || img.rows != cam.height) {
+    throw InputError(path + ": " + std::to_string(img.cols) + "x" + std::to_string(img.rows) +
+                     " pixels, but the model's camera is " + std::to_string(cam.width) + "x" +
+                     std::to_string(cam.height));
+  }
+  cv::Mat K = (cv::Mat_<double>(3, 3) << cam.fx, 0, cam.cx, 0, cam.fy, cam.cy, 0, 0, 1);
+  if (cam.HasDistortion()) {
+    cv::Mat dist = (cv::Mat_<double>(1, 5) << cam.dist[0], cam.dist[1], cam.dist[2], cam.dist[3], cam.dist[4]);
+    cv::Mat u;
+    cv::undistort(img, u, K, dist, K);
+    img = u;
+  }
+  ScaledImage s;
+  const double scale = std::min(1.0, static_cast<double>(max_size) / std::max(img.cols, img.rows));
+  const int w = std::max(1, static_cast<int>(std::lround(img.cols * scale)));
+  const int h = std::max(1, static_cast<int>(std::lround(img.rows * scale)));
+  if (w != img.cols || h != img.rows) {
+    cv::resize(img, s.colour, cv::Size(w, h), 0, 0, cv::INTER_AREA);
+  } else {
+    s.colour = img;
+  }
+  cv::Mat grey8;
+  cv::cvtColor(s.colour, grey8, cv::COLOR_BGR2GRAY);
+  grey8.convertTo(s.grey, CV_32F, 1.0 / 255.0);
+  const double sx = static_cast<double>(w) / cam.width, sy = static_cast<double>(h) / cam.height;
+  s.camera.width = w;
+  s.camera.height = h;
+  s.camera.fx = cam.fx * sx;
+  s.camera.fy = cam.fy * sy;
+  // Pixel centres: (0, 0) is the centre of the top-left pixel at both scales.
+  s.camera.cx = (cam.cx + 0.5) * sx - 0.5;
+  s.camera.cy = (cam.cy + 0.5) * sy - 0.5;
+  return s;
+}
+
+bool Project(const geometry::CameraModel& c, const geometry::Rigid3d& cam_from_world, const Eigen::Vector3d& X,
+             Eigen::Vector2d* uv) {
+  const Eigen::Vector3d p = cam_from_world * X;
+  if (p.z() <= 0) return false;
+  *uv = {c.fx * p.x() / p.z() + c.cx, c.fy * p.y() / p.z() + c.cy};
+  return true;
+}
+
+bool Inside(const Eigen::Vector2d& uv, int w, int h) {
+  return uv.x() >= -0.5 && uv.y() >= -0.5 && uv.x() < w - 0.5 && uv.y() < h - 0.5;
+}
+
+// The ray of pixel (x, y) in the world, from the camera centre.
+Eigen::Vector3d RayInWorld(const geometry::CameraModel& c, const geometry::Rigid3d& cam_from_world, double x,
+                           double y) {
+  return cam_from_world.rotation.conjugate() * Eigen::Vector3d((x - c.cx) / c.fx, (y - c.cy) / c.fy, 1.0);
+}
+
+double Quantile(std::vector<double> v, double q) {
+  if (v.empty()) return 0;
+  const size_t k = std::min(v.size() - 1, static_cast<size_t>(q * (v.size() - 1) + 0.5));
+  std::nth_element(v.begin(), v.begin() + static_cast<long>(k), v.end());
+  return v[k];
+}
+
+}  // namespace
+
+std::string DenseOptions::Check() const {
+  if (max_image_size < 32) return "--max-image-size: must be >= 32";
+  if (source_views < 1) return "--source-views: must be >= 1";
+  if (best_views < 1 || best_views > source_views) return "--best-views: must be in [1, --source-views]";
+  if (window < 3 || window % 2 == 0) return "--window: must be odd and >= 3";
+  if (!(max_step_px > 0)) return "--max-step-px: must be > 0";
+  if (min_planes < 2 || max_planes < min_planes) return "--max-planes: must be >= the minimum (2)";
+  if (!(min_ncc >= -1 && min_ncc < 1)) return "--min-ncc: must be in [-1, 1)";
+  if (min_consistent < 1) return "--min-consistent: must be >= 1";
+  if (!(max_reprojection_px > 0)) return "--max-reprojection-px: must be > 0";
+  if (!(max_relative_depth > 0)) return "--max-relative-depth: must be > 0";
+  if (!(resolution_m > 0) || !std::isfinite(resolution_m)) return "--resolution-m: must be > 0";
+  if (!(up.norm() > 0.5)) return "up: must be a unit vector";
+  if (threads < 1) return "--threads: must be >= 1";
+  return "";
+}
+
+Eigen::Vector3d DepthMap::Unproject(double x, double y, double d) const {
+  const Eigen::Vector3d p((x - camera.cx) / camera.fx * d, (y - camera.cy) / camera.fy * d, d);
+  return world_from_cam * p;
+}
+
+std::vector<std::vector<int>> SelectSourceViews(const DenseInput& in, int count) {
+  const int n = static_cast<int>(in.image_paths.size());
+  // Which sparse points each image sees (projection inside the frame, in front).
+  std::vector<std::vector<int>> sees(n);
+  std::vector<Eigen::Vector3d> centre(n);
+  for (int i = 0; i < n; ++i) {
+    centre[i] = in.cam_from_world[i].Centre();
+    for (int p = 0; p < static_cast<int>(in.sparse_points.size()); ++p) {
+      Eigen::Vector2d uv;
+      if (Project(in.camera, in.cam_from_world[i], in.sparse_points[p], &uv) &&
+          Inside(uv, in.camera.width, in.camera.height)) {
+        sees[i].push_back(p);
+      }
+    }
+  }
+  std::vector<std::vector<int>> out(n);
+  for (int r = 0; r < n; ++r) {
+    std::vector<char> mine(in.sparse_points.size(), 0);
+    for (int p : sees[r]) mine[p] = 1;
+    std::vector<std::pair<double, int>> scored;
+    for (int j = 0; j < n; ++j) {
+      if (j == r) continue;
+      double score = 0;
+      for (int p : sees[j]) {
+        if (!mine[p]) continue;
+        const Eigen::Vector3d a = centre[r] - in.sparse_points[p], b = centre[j] - in.sparse_points[p];
+        const double theta = std::acos(std::clamp(a.dot(b) / (a.norm() * b.norm()), -1.0, 1.0)) * 180 / kPi;
+        const double sigma = theta <= 5 ? 1.0 : 10.0;  // MVSNet's G: theta0 5 deg, sigma 1 / 10
+        score += std::exp(-(theta - 5) * (theta - 5) / (2 * sigma * sigma));
+      }
+      if (score > 0) scored.emplace_back(-score, j);
+    }
+    std::sort(scored.begin(), scored.end());
+    for (int k = 0; k < std::min<int>(count, static_cast<int>(scored.size())); ++k) out[r].push_back(scored[k].second);
+  }
+  return out;
+}
+
+DepthMap PlaneSweepDepthMap(const DenseInput& in, int ref, const std::vector<int>& sources, const DenseOptions& o) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const ScaledImage R = LoadScaled(in.image_paths[ref], in.camera, o.max_image_size);
+  const int W = R.camera.width, H = R.camera.height;
+  const size_t npx = static_cast<size_t>(W) * H;
+  DepthMap m;
+  m.width = W;
+  m.height = H;
+  m.camera = R.camera;
+  m.cam_from_world = in.cam_from_world[ref];
+  m.world_from_cam = m.cam_from_world.Inverse();
+  m.sources = sources;
+  m.depth.assign(npx, 0.f);
+  m.score.assign(npx, -1.f);
+  m.rgb.resize(npx);
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const cv::Vec3b c = R.colour.at<cv::Vec3b>(y, x);
+      m.rgb[static_cast<size_t>(y) * W + x] = {c[2], c[1], c[0]};
+    }
+  const Eigen::Vector3d up = o.up.normalized();
+  const geometry::Rigid3d& Tr = in.cam_from_world[ref];
+
+  // The swept heights: those of the sparse points this image sees.
+  std::vector<double> heights;
+  for (const Eigen::Vector3d& X : in.sparse_points) {
+    Eigen::Vector2d uv;
+    if (Project(R.camera, Tr, X, &uv) && Inside(uv, W, H)) heights.push_back(up.dot(X));
+  }
+  const int min_sources = std::min<int>(o.best_views, static_cast<int>(sources.size()));
+  if (heights.size() < 10 || sources.empty()) {
+    m.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return m;
+  }
+  const double lo0 = Quantile(heights, 0.01), hi0 = Quantile(heights, 0.99);
+  const Eigen::Vector3d Cr = Tr.Centre();
+  const double pad = std::max(0.1 * (hi0 - lo0), 0.01 * std::fabs(up.dot(Cr) - 0.5 * (lo0 + hi0)));
+  const double lo = lo0 - pad, hi = hi0 + pad;
+
+  std::vector<ScaledImage> S;
+  std::vector<geometry::Rigid3d> rel;  // source_from_ref
+  for (int j : sources) {
+    S.push_back(LoadScaled(in.image_paths[j], in.camera, o.max_image_size));
+    rel.push_back(in.cam_from_world[j] * Tr.Inverse());
+  }
+  // Plane spacing: the shift of sample pixels between the lowest and highest plane in each
+  // source image (the 75th percentile over 8 x 6 samples of the largest over the sources).
+  std::vector<double> shifts;
+  for (int sy = 0; sy < 6; ++sy)
+    for (int sx = 0; sx < 8; ++sx) {
+      const double x = (sx + 0.5) * W / 8.0, y = (sy + 0.5) * H / 6.0;
+      const Eigen::Vector3d ray = RayInWorld(R.camera, Tr, x, y);
+      const double ur = up.dot(ray);
+      if (std::fabs(ur) < 1e-9) continue;
+      const double l_lo = (lo - up.dot(Cr)) / ur, l_hi = (hi - up.dot(Cr)) / ur;
+      if (l_lo <= 0 || l_hi <= 0) continue;
+      double most = 0;
+      for (size_t k = 0; k < S.size(); ++k) {
+        Eigen::Vector2d a, b;
+        if (Project(S[k].camera, in.cam_from_world[sources[k]], Cr + l_lo * ray, &a) &&
+            Project(S[k].camera, in.cam_from_world[sources[k]], Cr + l_hi * ray, &b)) {
+          most = std::max(most, (a - b).norm());
+        }
+      }
+      if (most > 0) shifts.push_back(most);
+    }
+  const int planes = std::clamp(static_cast<int>(std::ceil(Quantile(shifts, 0.75) / o.max_step_px)) + 1,
+                                o.min_planes, o.max_planes);
+  const double step = (hi - lo) / (planes - 1);
+  m.height_min = lo;
+  m.height_max = hi;
+  m.planes = planes;
+
+  // Reference window statistics and each pixel's n_c . x^ (the plane's depth is d_c / it).
+  cv::Mat mean_i, mean_ii, grey_sq;
+  const cv::Size win(o.window, o.window);
+  cv::boxFilter(R.grey, mean_i, CV_32F, win);
+  cv::multiply(R.grey, R.grey, grey_sq);
+  cv::boxFilter(grey_sq, mean_ii, CV_32F, win);
+  const Eigen::Vector3d n_c = Tr.rotation * up;  // the planes' normal in the reference camera
+  std::vector<float> nd(npx), std_i(npx);
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const size_t p = static_cast<size_t>(y) * W + x;
+      nd[p] = static_cast<float>(n_c.dot(Eigen::Vector3d((x - R.camera.cx) / R.camera.fx,
+                                                          (y - R.camera.cy) / R.camera.fy, 1.0)));
+      const float mi = mean_i.at<float>(y, x);
+      std_i[p] = std::sqrt(std::max(0.f, mean_ii.at<float>(y, x) - mi * mi));
+    }
+  const Eigen::Matrix3d Kr_inv = R.camera.K().inverse();
+  // The sweep's inner loops run over flat arrays without branches (so that the compiler
+  // vectorises them): -2 marks "no score".
+  const float kNone = -2.f;
+  const int kb = min_sources;
+  std::vector<float> prev(npx, kNone), best(npx, kNone), s_minus(npx, kNone), s_plus(npx, kNone), ncc(npx);
+  std::vector<std::vector<float>> top(kb, std::vector<float>(npx));  // the best kb NCCs, descending
+  std::vector<float> best_k(npx, -1.f);  // float: the loop below mixes no types
+  std::vector<float> inv_std_i(npx), nd_sign(npx);
+  for (size_t p = 0; p < npx; ++p) {
+    inv_std_i[p] = std_i[p] > 1e-4f ? 1.f / std_i[p] : 0.f;
+    nd_sign[p] = nd[p] > 0 ? 1.f : (nd[p] < 0 ? -1.f : 0.f);
+  }
+  const float* mi = mean_i.ptr<float>(0);  // continuous, row-major like p
+  cv::Mat warped, prod[3] = {cv::Mat(), cv::Mat(H, W, CV_32F), cv::Mat(H, W, CV_32F)}, boxed[3];
+  for (int k = 0; k < planes; ++k) {
+    const double h = lo + k * step;
+    const double d_c = h + n_c.dot(Tr.translation);  // plane n_c . X_cam = d_c
+    if (std::fabs(d_c) < 1e-9) continue;
+    const float plane_sign = d_c > 0 ? 1.f : -1.f;
+    for (auto& t : top) std::fill(t.begin(), t.end(), kNone);
+    for (size_t j = 0; j < S.size(); ++j) {
+      const Eigen::Matrix3d Hm = S[j].camera.K() *
+                                 (rel[j].RotationMatrix() + rel[j].translation * n_c.transpose() / d_c) * Kr_inv;
+      cv::Mat Hcv(3, 3, CV_64F);
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) Hcv.at<double>(r, c) = Hm(r, c);
+      // Outside the source image reads -1 (grey values are 0..1): a pixel whose bilinear
+      // sample touches it comes out negative and is skipped.
+      cv::warpPerspective(S[j].grey, warped, Hcv, R.grey.size(), cv::INTER_LINEAR | cv::WARP_INVERSE_MAP,
+                          cv::BORDER_CONSTANT, cv::Scalar(-1));
+      const float* w = warped.ptr<float>(0);
+      const float* g = R.grey.ptr<float>(0);
+      float* q1 = prod[1].ptr<float>(0);
+      float* q2 = prod[2].ptr<float>(0);
+      for (size_t p = 0; p < npx; ++p) {
+        q1[p] = w[p] * w[p];
+        q2[p] = g[p] * w[p];
+      }
+      // Box means of J, J^2 and I J (separate planes: contiguous loads below).
+      cv::boxFilter(warped, boxed[0], CV_32F, win);
+      cv::boxFilter(prod[1], boxed[1], CV_32F, win);
+      cv::boxFilter(prod[2], boxed[2], CV_32F, win);
+      const float* b0 = boxed[0].ptr<float>(0);
+      const float* b1 = boxed[1].ptr<float>(0);
+      const float* b2 = boxed[2].ptr<float>(0);
+      for (size_t p = 0; p < npx; ++p) {
+        const float mean_j = b0[p], var_j = std::max(b1[p] - mean_j * mean_j, 0.f);
+        const float inv = inv_std_i[p] / std::sqrt(var_j + 1e-12f);
+        const float c = std::min(std::max((b2[p] - mi[p] * mean_j) * inv, -1.f), 1.f);
+        // Inside the source, the plane in front of the camera, texture in both windows.
+        const bool ok = (w[p] >= 0) & (nd_sign[p] == plane_sign) & (var_j > 1e-8f) & (inv_std_i[p] > 0);
+        ncc[p] = ok ? c : kNone;
+      }
+      for (int i = 0; i < kb; ++i) {
+        float* t = top[i].data();
+        for (size_t p = 0; p < npx; ++p) {
+          const float hi = std::max(t[p], ncc[p]), lo_ = std::min(t[p], ncc[p]);
+          t[p] = hi;
+          ncc[p] = lo_;
+        }
+      }
+    }
+    // A hypothesis's score: the mean of its best kb NCCs (none when fewer views saw it).
+    std::copy(top[0].begin(), top[0].end(), ncc.begin());  // ncc now holds the sums
+    for (int i = 1; i < kb; ++i)
+      for (size_t p = 0; p < npx; ++p) ncc[p] += top[i][p];
+    const float* last = top[kb - 1].data();
+    const float inv_kb = 1.f / kb, kf = static_cast<float>(k);
+    for (size_t p = 0; p < npx; ++p) {
+      const float s = last[p] > kNone ? ncc[p] * inv_kb : kNone;
+      const bool better = s > best[p];
+      s_plus[p] = better ? kNone : (best_k[p] == kf - 1 ? s : s_plus[p]);
+      s_minus[p] = better ? prev[p] : s_minus[p];
+      best_k[p] = better ? kf : best_k[p];
+      best[p] = better ? s : best[p];
+      prev[p] = s;
+    }
+  }
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const size_t p = static_cast<size_t>(y) * W + x;
+      m.score[p] = best[p];
+      if (best[p] < o.min_ncc || std_i[p] < o.min_texture || best_k[p] <= 0 || best_k[p] >= planes - 1) continue;
+      double delta = 0;
+      if (s_minus[p] > kNone && s_plus[p] > kNone) {
+        const double den = s_minus[p] - 2.0 * best[p] + s_plus[p];
+        if (den < 0) delta = std::clamp(0.5 * (s_minus[p] - s_plus[p]) / den, -0.5, 0.5);
+      }
+      const double h = lo + (best_k[p] + delta) * step;
+      const double depth = (h + n_c.dot(Tr.translation)) / nd[p];
+      if (depth > 0) {
+        m.depth[p] = static_cast<float>(depth);
+        ++m.valid;
+      }
+    }
+  m.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return m;
+}
+
+std::vector<DepthMap> ComputeDepthMaps(const DenseInput& in, const std::vector<std::vector<int>>& sources,
+                                       const DenseOptions& o) {
+  std::vector<DepthMap> maps(in.image_paths.size());
+  const int cv_threads = cv::getNumThreads();
+  cv::setNumThreads(1);  // one image per thread already
+  try {
+    ParallelFor(static_cast<int>(maps.size()), o.threads,
+                [&](int i) { maps[i] = PlaneSweepDepthMap(in, i, sources[i], o); });
+  } catch (...) {
+    cv::setNumThreads(cv_threads);
+    throw;
+  }
+  cv::setNumThreads(cv_threads);
+  return maps;
+}
+
+}  // namespace mound::mvs

@@ -1,0 +1,217 @@
+#include "recon/densify_cli.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <iostream>
+
+#include "common/atomic_file.h"
+#include "common/cli_args.h"
+#include "common/error.h"
+#include "common/json_util.h"
+#include "common/parallel.h"
+#include "geometry/ply.h"
+#include "mvs/dense.h"
+#include "recon/recon_io.h"
+
+namespace mound::recon {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double Since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+Eigen::Matrix3d Matrix3(const nlohmann::json& j, const std::string& path) {
+  if (!j.is_array() || j.size() != 3) throw InputError(path + ": expected a 3 x 3 array");
+  Eigen::Matrix3d m;
+  for (int r = 0; r < 3; ++r) {
+    if (!j[r].is_array() || j[r].size() != 3) throw InputError(path + ": expected a 3 x 3 array");
+    for (int c = 0; c < 3; ++c) {
+      if (!j[r][c].is_number() || !std::isfinite(j[r][c].get<double>())) {
+        throw InputError(path + "[" + std::to_string(r) + "][" + std::to_string(c) + "]: expected a finite number");
+      }
+      m(r, c) = j[r][c].get<double>();
+    }
+  }
+  return m;
+}
+
+Eigen::VectorXd Numbers(const nlohmann::json& j, size_t n, const std::string& path) {
+  if (!j.is_array() || j.size() != n) throw InputError(path + ": expected " + std::to_string(n) + " numbers");
+  Eigen::VectorXd v(n);
+  for (size_t k = 0; k < n; ++k) {
+    if (!j[k].is_number() || !std::isfinite(j[k].get<double>())) {
+      throw InputError(path + "[" + std::to_string(k) + "]: expected a finite number");
+    }
+    v(static_cast<long>(k)) = j[k].get<double>();
+  }
+  return v;
+}
+
+// The model's camera, registered images and sparse points (validated).
+mvs::DenseInput ReadModel(const std::string& dir, const nlohmann::json& recon, const std::string& images_dir,
+                          std::vector<std::string>* files) {
+  const std::string path = dir + "/recon.json";
+  mvs::DenseInput in;
+  const nlohmann::json& cam = RequireField(recon, "camera", "");
+  const Eigen::Matrix3d K = Matrix3(RequireField(cam, "K", "camera"), path + ": camera.K");
+  in.camera.width = static_cast<int>(RequireInRange(cam, "width", "camera", 1, 100000));
+  in.camera.height = static_cast<int>(RequireInRange(cam, "height", "camera", 1, 100000));
+  in.camera.fx = K(0, 0);
+  in.camera.fy = K(1, 1);
+  in.camera.cx = K(0, 2);
+  in.camera.cy = K(1, 2);
+  if (!(in.camera.fx > 0 && in.camera.fy > 0)) throw InputError(path + ": camera.K: focal lengths must be > 0");
+  if (cam.contains("dist_k1k2p1p2k3")) {
+    const Eigen::VectorXd d = Numbers(cam["dist_k1k2p1p2k3"], 5, path + ": camera.dist_k1k2p1p2k3");
+    for (int k = 0; k < 5; ++k) in.camera.dist[k] = d(k);
+  }
+  const nlohmann::json& images = RequireField(recon, "images", "");
+  if (!images.is_array()) throw InputError(path + ": images: expected an array");
+  for (size_t k = 0; k < images.size(); ++k) {
+    const std::string at = "images[" + std::to_string(k) + "]";
+    if (!images[k].is_object()) throw InputError(path + ": " + at + ": expected an object");
+    if (!images[k].value("registered", false)) continue;
+    const std::string file = RequireString(images[k], "file", at);
+    const nlohmann::json& pose = RequireField(images[k], "cam_from_world", at);
+    const Eigen::Matrix3d R = Matrix3(RequireField(pose, "R", at + ".cam_from_world"), path + ": " + at + ".cam_from_world.R");
+    if (!(R.transpose() * R).isApprox(Eigen::Matrix3d::Identity(), 1e-6) || R.determinant() < 0) {
+      throw InputError(path + ": " + at + ".cam_from_world.R: not a rotation");
+    }
+    const Eigen::Vector3d t = Numbers(RequireField(pose, "t", at + ".cam_from_world"), 3, path + ": " + at + ".cam_from_world.t");
+    in.cam_from_world.emplace_back(R, t);
+    in.image_paths.push_back(images_dir + "/" + file);
+    files->push_back(file);
+  }
+  if (in.image_paths.size() < 2) {
+    throw InputError(path + ": images: " + std::to_string(in.image_paths.size()) +
+                     " registered image(s); dense stereo needs at least 2");
+  }
+  const PlyCloud sparse = ReadCloud(dir + "/points.ply", "RECON_DIR/points.ply");
+  in.sparse_points = sparse.xyz;
+  return in;
+}
+
+double Quantile(std::vector<double> v, double q) {
+  const size_t k = std::min(v.size() - 1, static_cast<size_t>(q * (v.size() - 1) + 0.5));
+  std::nth_element(v.begin(), v.begin() + static_cast<long>(k), v.end());
+  return v[k];
+}
+
+}  // namespace
+
+int RunDensify(const std::vector<std::string>& args) {
+  const Args a = ParseArgs(args, 1, {"--out", "--resolution-m", "--threads", "--max-image-size", "--images",
+                                     "--source-views", "--window", "--min-ncc", "--min-consistent", "--max-step-px"});
+  if (a.positional.size() != 1) throw InputError("densify: expected exactly one RECON_DIR (see --help)");
+  if (!a.Has("--out")) throw InputError("--out: the output directory is required");
+  const std::string dir = a.positional[0], out = a.options.at("--out");
+  mvs::DenseOptions o;
+  o.threads = a.Has("--threads") ? static_cast<int>(ParseInt(a.options.at("--threads"), "--threads", 1, 256)) : DefaultThreads();
+  if (a.Has("--resolution-m")) o.resolution_m = ParseNumber(a.options.at("--resolution-m"), "--resolution-m");
+  if (a.Has("--max-image-size")) o.max_image_size = static_cast<int>(ParseInt(a.options.at("--max-image-size"), "--max-image-size", 32, 100000));
+  if (a.Has("--source-views")) o.source_views = static_cast<int>(ParseInt(a.options.at("--source-views"), "--source-views", 1, 64));
+  o.best_views = std::min(o.best_views, o.source_views);
+  if (a.Has("--window")) o.window = static_cast<int>(ParseInt(a.options.at("--window"), "--window", 3, 99));
+  if (a.Has("--max-step-px")) o.max_step_px = ParseNumber(a.options.at("--max-step-px"), "--max-step-px");
+  if (a.Has("--min-ncc")) o.min_ncc = ParseNumber(a.options.at("--min-ncc"), "--min-ncc");
+  if (a.Has("--min-consistent")) o.min_consistent = static_cast<int>(ParseInt(a.options.at("--min-consistent"), "--min-consistent", 1, 64));
+  if (const std::string why = o.Check(); !why.empty()) throw InputError(why);
+
+  const std::string recon_path = dir + "/recon.json";
+  const nlohmann::json recon = LoadRecon(recon_path);
+  const std::string status = RequireString(recon, "status", "");
+  if (status != "ok") {
+    throw InputError(recon_path + ": status: the reconstruction " + status + " (" +
+                     recon.value("reason", std::string("no reason given")) + "); nothing to densify");
+  }
+  if (recon.value("frame", std::string()) != "enu" || recon.value("scale", std::string()) != "metric") {
+    throw InputError(recon_path + ": frame: densify needs a georeferenced model (frame enu, metric scale: "
+                     "run reconstruct with --gps)");
+  }
+  const std::string images_dir = a.Has("--images") ? a.options.at("--images") : RequireString(recon, "images_dir", "");
+  std::error_code ec;
+  if (!std::filesystem::is_directory(images_dir, ec)) {
+    throw InputError((a.Has("--images") ? "--images: " : recon_path + ": images_dir: ") + images_dir +
+                     " is not a directory (give the images with --images)");
+  }
+  std::vector<std::string> files;
+  const mvs::DenseInput in = ReadModel(dir, recon, images_dir, &files);
+  std::filesystem::create_directories(out, ec);
+  if (ec) throw InputError("--out: cannot create " + out + ": " + ec.message());
+
+  nlohmann::json doc = {{"schema", "mound.dense"}, {"version", 1}, {"tool", "mound_recon densify"},
+                        {"recon_dir", dir}, {"images_dir", images_dir}, {"status", "ok"}, {"frame", "enu"}};
+  if (recon.contains("origin")) doc["origin"] = recon["origin"];
+  doc["method"] = "plane sweep along the vertical, NCC over the best views, forward-backward consistency, voxel fusion";
+  doc["options"] = {{"resolution_m", o.resolution_m}, {"max_image_size", o.max_image_size},
+                    {"source_views", o.source_views}, {"best_views", o.best_views}, {"window", o.window},
+                    {"min_ncc", o.min_ncc}, {"min_texture", o.min_texture}, {"min_consistent", o.min_consistent},
+                    {"max_reprojection_px", o.max_reprojection_px}, {"max_relative_depth", o.max_relative_depth},
+                    {"max_step_px", o.max_step_px}, {"threads", o.threads}};
+  const int n = static_cast<int>(in.image_paths.size());
+  auto t0 = Clock::now();
+  const std::vector<std::vector<int>> sources = mvs::SelectSourceViews(in, o.source_views);
+  const double select_s = Since(t0);
+  t0 = Clock::now();
+  const std::vector<mvs::DepthMap> maps = mvs::ComputeDepthMaps(in, sources, o);
+  const double depth_s = Since(t0);
+  t0 = Clock::now();
+  mvs::DenseCloud cloud = mvs::FuseDepthMaps(maps, o);
+  // The site: the horizontal extent of the sparse model (its 1st to 99th percentiles);
+  // oblique views also see far ground at grazing angles, which the sparse model leaves out.
+  std::vector<double> xs, ys;
+  for (const Eigen::Vector3d& p : in.sparse_points) {
+    xs.push_back(p.x());
+    ys.push_back(p.y());
+  }
+  const double x0 = Quantile(xs, 0.01), x1 = Quantile(xs, 0.99), y0 = Quantile(ys, 0.01), y1 = Quantile(ys, 0.99);
+  PlyCloud ply;
+  ply.comments = {"mound.dense v1: fused multi-view stereo points, ENU metres; nx ny nz: unit normal; support: "
+                  "depth-map pixels merged"};
+  for (const char* f : {"nx", "ny", "nz", "support"}) ply.scalars[f];
+  for (size_t k = 0; k < cloud.xyz.size(); ++k) {
+    const Eigen::Vector3d& p = cloud.xyz[k];
+    if (p.x() < x0 || p.x() > x1 || p.y() < y0 || p.y() > y1) continue;
+    ply.xyz.push_back(p);
+    ply.rgb.push_back(cloud.rgb[k]);
+    ply.scalars["nx"].push_back(cloud.normal[k].x());
+    ply.scalars["ny"].push_back(cloud.normal[k].y());
+    ply.scalars["nz"].push_back(cloud.normal[k].z());
+    ply.scalars["support"].push_back(cloud.support[k]);
+  }
+  const double fuse_s = Since(t0);
+  nlohmann::json per = nlohmann::json::array();
+  int depth_pixels = 0;
+  for (int i = 0; i < n; ++i) {
+    const mvs::DepthMap& m = maps[i];
+    nlohmann::json src = nlohmann::json::array();
+    for (int j : m.sources) src.push_back(files[j]);
+    per.push_back({{"file", files[i]}, {"sources", src}, {"size", {m.width, m.height}}, {"planes", m.planes},
+                   {"height_range_m", {m.height_min, m.height_max}}, {"depth_pixels", m.valid},
+                   {"consistent_pixels", cloud.consistent_pixels[i]}, {"seconds", m.seconds}});
+    depth_pixels += m.valid;
+  }
+  doc["images"] = per;
+  doc["site_bounds_enu_m"] = {{"x", {x0, x1}}, {"y", {y0, y1}}};
+  doc["points"] = ply.xyz.size();
+  doc["depth_pixels"] = depth_pixels;
+  doc["timings_s"] = {{"select_views", select_s}, {"depth_maps", depth_s}, {"fusion", fuse_s}};
+  if (ply.xyz.empty()) {
+    doc["status"] = "failed";
+    doc["reason"] = "no depth survived the consistency check (too little texture or overlap)";
+    WriteFileAtomic(out + "/dense.json", doc.dump(1) + "\n");
+    throw NoResultError(doc["reason"].get<std::string>());
+  }
+  t0 = Clock::now();
+  WritePly(out + "/dense.ply", ply);
+  doc["timings_s"]["write"] = Since(t0);
+  doc["cloud"] = "dense.ply";
+  WriteFileAtomic(out + "/dense.json", doc.dump(1) + "\n");
+  std::cerr << "mound_recon densify: " << n << " depth maps, " << ply.xyz.size() << " points at "
+            << o.resolution_m << " m, " << depth_s + fuse_s << " s\n";
+  return kExitOk;
+}
+
+}  // namespace mound::recon
