@@ -173,7 +173,7 @@ int RunCompare(const std::vector<std::string>& args) {
 
 int RunVerdict(const std::vector<std::string>& args) {
   const Args a = ParseArgs(args, 1, {"--out", "--reference", "--radius", "--threshold-ratio", "--min-height",
-                                     "--min-diameter", "--relief-threshold", "--init", "--max-points", "--seed"},
+                                     "--min-diameter", "--relief-threshold", "--init", "--max-points", "--seed", "--cloud"},
                            {"--no-scale"});
   if (a.positional.size() != 1) throw InputError("verdict: expected exactly one RECON_DIR (see --help)");
   if (!a.Has("--out")) throw InputError("--out: the verdict file is required");
@@ -189,7 +189,10 @@ int RunVerdict(const std::vector<std::string>& args) {
   };
   if (!recon.contains("status") || !recon["status"].is_string()) throw InputError(dir + "/recon.json: status: missing");
   if (recon["status"] != "ok") fail("the reconstruction failed: " + recon.value("reason", std::string("?")));
-  const PlyCloud cloud = ReadCloud(dir + "/points.ply", "RECON_DIR/points.ply");
+  // The sparse cloud, or another cloud of the same model (densify's dense.ply).
+  const std::string cloud_path = a.Has("--cloud") ? a.options.at("--cloud") : dir + "/points.ply";
+  const PlyCloud cloud = ReadCloud(cloud_path, a.Has("--cloud") ? "--cloud" : "RECON_DIR/points.ply");
+  doc["cloud"] = cloud_path;
   if (a.Has("--reference")) {
     // The paper's test: ICP with scale onto the reference, the distances fitted by N(mu,
     // sigma), mound when mu <= threshold_ratio x the reference's relief.

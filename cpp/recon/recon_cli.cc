@@ -38,7 +38,7 @@ constexpr const char* kUsage =
     "                   [--init auto|none|pca] [--max-points N] [--seed N]\n"
     "       mound_recon verdict RECON_DIR --out verdict.json [--reference REFERENCE.ply]\n"
     "                   [--threshold-ratio R] [--radius M] [--min-height M] [--min-diameter M]\n"
-    "                   [--relief-threshold M]\n"
+    "                   [--relief-threshold M] [--cloud CLOUD.ply]\n"
     "       mound_recon --help | --version\n"
     "\n"
     "reconstruct: incremental structure from motion of one site's UAV images (SIFT,\n"
@@ -93,6 +93,8 @@ constexpr const char* kUsage =
     "  --reference PLY      the paper's test: compare, N(mu, sigma) fitted to the distances\n"
     "                       below their 99th percentile, mound when mu <= R x the\n"
     "                       reference's relief (--threshold-ratio, default 0.05)\n"
+    "  --cloud PLY          judge this cloud of the model instead of points.ply (e.g.\n"
+    "                       densify's dense.ply)\n"
     "--help anywhere on the command line prints this text.\n"
     "Exit codes: 0 ok, 1 internal error, 2 bad input (one line naming it), 3 valid input\n"
     "that allowed no result (recon.json says \"status\": \"failed\" and why).\n";

@@ -11,7 +11,7 @@
     mound sim site [--preset bin_tepe|lab] [--mound tumulus|none] --seed S --out DIR [...]
     mound sim figures DIR [--out-dir DIR] [--dpi-scale X]
     mound recon figure RECON_DIR --out PNG
-    mound recon rasters RECON_DIR --out DIR [--resolution-m 0.25]
+    mound recon rasters RECON_DIR --out DIR [--resolution-m 0.25] [--cloud dense.ply]
     mound mission build PLAN.json [--origin LAT,LON[,ALT]] --out MISSION.plan [...]
     mound mission upload MISSION.plan --connect udpout:HOST:PORT [--verify] [...]
 
@@ -287,10 +287,12 @@ def cmd_recon_rasters(args: argparse.Namespace) -> int:
 
     doc = rasters.from_recon(Path(args.recon_dir), Path(args.out), args.resolution_m,
                              Path(args.cloud) if args.cloud else None,
-                             args.ground_window_m, args.relief_sigma_m)
+                             args.ground_window_m, args.relief_sigma_m,
+                             ortho=not args.no_orthophoto,
+                             images_dir=Path(args.images) if args.images else None)
     print(f"{doc['crs']}, {doc['width']} x {doc['height']} cells of {doc['resolution_m']:g} m, "
           f"{100 * doc['coverage']:.1f} % covered -> {args.out}/"
-          f"{{dsm,dtm,lrm,hillshade}}.tif, rasters.json")
+          f"{{{','.join(doc['files'])}}}.tif, rasters.json")
     return 0
 
 
@@ -410,8 +412,8 @@ def build_parser() -> argparse.ArgumentParser:
     rf.add_argument("recon_dir")
     rf.add_argument("--out", required=True, help="PNG file")
     rf.set_defaults(func=cmd_recon_figure)
-    rr = rc.add_parser("rasters", help="DSM, DTM, local relief model and hillshade GeoTIFFs "
-                       "(UTM) of a metric mound_recon model")
+    rr = rc.add_parser("rasters", help="DSM, DTM, local relief model, hillshade and "
+                       "orthophoto GeoTIFFs (UTM) of a metric mound_recon model")
     rr.add_argument("recon_dir")
     rr.add_argument("--out", required=True, help="output folder")
     rr.add_argument("--resolution-m", type=float, default=0.25, help="cell size, m")
@@ -420,6 +422,8 @@ def build_parser() -> argparse.ArgumentParser:
                     help="largest window of the ground filter (> the mounds' diameter), m")
     rr.add_argument("--relief-sigma-m", type=float, default=30.0,
                     help="Gaussian smoothing of the terrain for the relief model, m")
+    rr.add_argument("--images", help="the model's images (default: recon.json's images_dir)")
+    rr.add_argument("--no-orthophoto", action="store_true", help="skip orthophoto.tif")
     rr.set_defaults(func=cmd_recon_rasters)
     sf = simp.add_parser("figures", help="contact sheet and 3-D plot of a simulated site")
     sf.add_argument("site")

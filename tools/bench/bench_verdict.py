@@ -3,7 +3,7 @@ detector's detection limit, on simulated sites reconstructed by mound_recon.
 
     .venv/bin/python tools/bench/bench_verdict.py --paper [--seeds 1,2,3,4,5]
     .venv/bin/python tools/bench/bench_verdict.py --grid [--heights 0.5,1,2,4,8]
-        [--diameters 15,30,60] [--grid-seeds 1]
+        [--diameters 15,30,60] [--grid-seeds 1] [--dense]
     options: [--size 640 480] [--out runs/bench_verdict] [--threads 2]
 
 --paper: for each seed the bin_tepe tumulus site (60 m, 12 m) and its flat control (same
@@ -13,7 +13,9 @@ fitted by N(mu, sigma), threshold 0.05 x the reference's relief) and judged with
 (the reference-free verdict). Writes paper.json and paper.png (the distance histograms).
 --grid: mounds of every height x diameter (spherical caps, the flight scaled to the
 diameter as the simulator does) and the flat control of each flight; the reference-free
-verdict of each. Writes grid.json and grid.png.
+verdict of each; with --dense also `mound_recon densify` of each site and the verdict on
+its dense cloud (`--cloud dense.ply`), the sparse and dense detection limits side by side.
+Writes grid.json and grid.png.
 Images are 640 x 480 by default (the 40-image flight), to keep a run to minutes.
 """
 
@@ -55,10 +57,13 @@ def site_and_recon(out: Path, name: str, mound: str, seed: int, size: list[int],
     return site
 
 
-def verdict(recon: Path, out: Path, reference: Path | None = None) -> dict:
+def verdict(recon: Path, out: Path, reference: Path | None = None,
+            cloud: Path | None = None) -> dict:
     args = ["verdict", str(recon), "--out", str(out)]
     if reference is not None:
         args += ["--reference", str(reference)]
+    if cloud is not None:
+        args += ["--cloud", str(cloud)]
     p = recon_tool(args)
     if p.returncode not in (0, 3):
         raise SystemExit(p.stderr)
@@ -123,13 +128,29 @@ def grid(args: argparse.Namespace, out: Path) -> None:
                 extra = ["--diameter", str(d), "--height", str(h if h > 0 else 1.0)]
                 site = site_and_recon(out, name, "tumulus" if h > 0 else "none", seed, args.size,
                                       args.threads, extra)
-                v = verdict(site.parent / "recon", site.parent / "verdict_free.json")
+                recon = site.parent / "recon"
+                v = verdict(recon, site.parent / "verdict_free.json")
                 rise = v.get("measurements", {}).get("rise", {})
                 rows.append({"seed": seed, "diameter_m": d, "height_m": h, "truth": h > 0,
                              "label": v.get("label"), "status": v["status"],
                              "correct": (v.get("label") == "mound") == (h > 0),
                              "rise_height_m": rise.get("height_m"),
                              "rise_diameter_m": rise.get("base_diameter_m")})
+                if args.dense:
+                    dense = site.parent / "dense"
+                    if v["status"] == "ok" and not (dense / "dense.ply").exists():
+                        p = recon_tool(["densify", str(recon), "--out", str(dense),
+                                        "--threads", str(args.threads)])
+                        if p.returncode not in (0, 3):
+                            raise SystemExit(p.stderr)
+                    dv = verdict(recon, site.parent / "verdict_dense.json",
+                                 cloud=dense / "dense.ply") \
+                        if (dense / "dense.ply").exists() else {"status": "failed"}
+                    drise = dv.get("measurements", {}).get("rise", {})
+                    rows[-1].update(dense_label=dv.get("label"), dense_status=dv["status"],
+                                    dense_correct=(dv.get("label") == "mound") == (h > 0),
+                                    dense_rise_height_m=drise.get("height_m"),
+                                    dense_rise_diameter_m=drise.get("base_diameter_m"))
                 print(json.dumps(rows[-1]))
     (out / "grid.json").write_text(json.dumps(rows, indent=1))
     import matplotlib
@@ -138,19 +159,23 @@ def grid(args: argparse.Namespace, out: Path) -> None:
     import matplotlib.pyplot as plt
 
     hs = [0.0, *args.heights]
-    acc = np.array([[np.mean([r["correct"] for r in rows
-                              if r["diameter_m"] == d and r["height_m"] == h]) for h in hs]
-                    for d in args.diameters])
-    fig, ax = plt.subplots(figsize=(7, 3.2))
-    ax.imshow(acc, cmap="RdYlGn", vmin=0, vmax=1, aspect="auto")
-    ax.set_xticks(range(len(hs)), ["flat" if h == 0 else f"{h:g}" for h in hs])
-    ax.set_yticks(range(len(args.diameters)), [f"{d:g}" for d in args.diameters])
-    ax.set_xlabel("mound height (m)")
-    ax.set_ylabel("diameter (m)")
-    for i in range(acc.shape[0]):
-        for j in range(acc.shape[1]):
-            ax.text(j, i, f"{acc[i, j]:.0%}", ha="center", va="center")
-    ax.set_title("reference-free verdict correct (mound, or no mound on the flat control)")
+    panels = [("sparse cloud", "correct")]
+    if args.dense:
+        panels.append(("dense cloud", "dense_correct"))
+    fig, axes = plt.subplots(len(panels), 1, figsize=(7, 3.2 * len(panels)), squeeze=False)
+    for ax, (title, key) in zip(axes[:, 0], panels, strict=True):
+        acc = np.array([[np.mean([r[key] for r in rows
+                                  if r["diameter_m"] == d and r["height_m"] == h]) for h in hs]
+                        for d in args.diameters])
+        ax.imshow(acc, cmap="RdYlGn", vmin=0, vmax=1, aspect="auto")
+        ax.set_xticks(range(len(hs)), ["flat" if h == 0 else f"{h:g}" for h in hs])
+        ax.set_yticks(range(len(args.diameters)), [f"{d:g}" for d in args.diameters])
+        ax.set_xlabel("mound height (m)")
+        ax.set_ylabel("diameter (m)")
+        for i in range(acc.shape[0]):
+            for j in range(acc.shape[1]):
+                ax.text(j, i, f"{acc[i, j]:.0%}", ha="center", va="center")
+        ax.set_title(f"reference-free verdict correct, {title}")
     fig.tight_layout()
     fig.savefig(out / "grid.png", dpi=110)
 
@@ -169,6 +194,8 @@ def main() -> int:
     ap.add_argument("--grid", action="store_true")
     ap.add_argument("--seeds", type=ints, default=[1, 2, 3, 4, 5])
     ap.add_argument("--grid-seeds", type=ints, default=[1])
+    ap.add_argument("--dense", action="store_true",
+                    help="--grid: also densify each site and judge the dense cloud")
     ap.add_argument("--heights", type=floats, default=[0.5, 1, 2, 4, 8])
     ap.add_argument("--diameters", type=floats, default=[15, 30, 60])
     ap.add_argument("--size", type=int, nargs=2, default=[640, 480])

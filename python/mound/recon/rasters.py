@@ -16,6 +16,11 @@ places correctly; heights are metres above the WGS84 ellipsoid, on the origin's 
   `relief_sigma_m`, so the broad terrain trend is removed and a mound stands out as a
   positive anomaly of its own height.
 - Hillshade of the DSM (Horn's gradient, sun azimuth 315 deg, altitude 45 deg), 0-255.
+- Orthophoto (RGBA, uint8): every cell's centre at the surface height (the DSM, the DTM in
+  its gaps) projected into the registered images with the model's poses and camera
+  (distortion included); the cell takes the bilinear colour of the image that sees it most
+  nearly from above (the smallest angle between its ray and the vertical). Occlusion is
+  not tested: with the nadir raster chosen first this matters only at steep relief.
 """
 
 from __future__ import annotations
@@ -32,7 +37,8 @@ from scipy import ndimage
 from scipy.interpolate import griddata
 
 from mound.errors import InputError
-from mound.geometry.geodesy import Origin, enu_to_geodetic
+from mound.geometry.camera import Camera, Pose, project
+from mound.geometry.geodesy import Origin, enu_to_geodetic, geodetic_to_enu
 from mound.jsonio import new_file_mode
 
 NODATA = -9999.0
@@ -55,6 +61,16 @@ def enu_to_utm(origin: Origin, enu: np.ndarray, epsg: int) -> np.ndarray:
     to_utm = Transformer.from_crs("EPSG:4326", f"EPSG:{epsg}", always_xy=True)
     e, n = to_utm.transform(llh[:, 1], llh[:, 0])
     return np.stack([np.asarray(e), np.asarray(n), llh[:, 2]], axis=-1)
+
+
+def utm_to_enu(origin: Origin, e: np.ndarray, n: np.ndarray, h: np.ndarray,
+               epsg: int) -> np.ndarray:
+    """UTM easting, northing and ellipsoidal height -> (n, 3) ENU metres."""
+    from pyproj import Transformer
+
+    to_geo = Transformer.from_crs(f"EPSG:{epsg}", "EPSG:4326", always_xy=True)
+    lon, lat = to_geo.transform(e, n)
+    return geodetic_to_enu(origin, np.stack([np.asarray(lat), np.asarray(lon), h], axis=-1))
 
 
 @dataclass(frozen=True)
@@ -209,6 +225,94 @@ def write_geotiff(path: Path, a: np.ndarray, grid: Grid, description: str) -> No
         raise
 
 
+def orthophoto(r: Rasters, origin: Origin, camera: Camera,
+               views: list[tuple[Pose, Path]]) -> np.ndarray:
+    """(height, width, 4) uint8 RGBA: each cell coloured from the image that sees its surface
+    point most nearly from above (alpha 0 where no image sees it or no height is known)."""
+    from PIL import Image
+
+    g = r.grid
+    z = np.where(np.isnan(r.dsm), r.dtm, r.dsm)
+    rows, cols = np.nonzero(~np.isnan(z))
+    e = g.west + (cols + 0.5) * g.res
+    n = g.north - (rows + 0.5) * g.res
+    enu = utm_to_enu(origin, e, n, z[rows, cols], g.epsg)
+    best = np.full(len(enu), -np.inf)
+    which = np.full(len(enu), -1)
+    uv_best = np.zeros((len(enu), 2))
+    for k, (pose, _) in enumerate(views):
+        uv, depth = project(camera, pose, enu)
+        inside = (depth > 0) & (uv[:, 0] >= 0) & (uv[:, 1] >= 0) & \
+            (uv[:, 0] <= camera.width_px - 1) & (uv[:, 1] <= camera.height_px - 1)
+        ray = pose.centre - enu
+        score = np.where(inside, ray[:, 2] / np.maximum(np.linalg.norm(ray, axis=1), 1e-9),
+                         -np.inf)
+        take = score > best
+        best[take], which[take], uv_best[take] = score[take], k, uv[take]
+    out = np.zeros((g.height, g.width, 4), dtype=np.uint8)
+    for k, (_, path) in enumerate(views):
+        sel = np.nonzero(which == k)[0]
+        if len(sel) == 0:
+            continue
+        try:
+            with Image.open(path) as im:
+                img = np.asarray(im.convert("RGB"), dtype=np.float32)
+        except OSError as err:
+            raise InputError(f"{path}: cannot read the image ({err})") from err
+        if img.shape[:2] != (camera.height_px, camera.width_px):
+            raise InputError(f"{path}: {img.shape[1]}x{img.shape[0]} pixels, the model's camera "
+                             f"is {camera.width_px}x{camera.height_px}")
+        coords = [uv_best[sel, 1], uv_best[sel, 0]]
+        for c in range(3):
+            out[rows[sel], cols[sel], c] = np.clip(np.round(ndimage.map_coordinates(
+                img[:, :, c], coords, order=1)), 0, 255).astype(np.uint8)
+        out[rows[sel], cols[sel], 3] = 255
+    return out
+
+
+def write_rgba_geotiff(path: Path, rgba: np.ndarray, grid: Grid) -> None:
+    """A 4-band uint8 RGBA GeoTIFF (deflate), atomically."""
+    import rasterio
+    from rasterio.enums import ColorInterp
+
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tif", dir=path.parent)
+    os.close(fd)
+    try:
+        with rasterio.open(tmp, "w", driver="GTiff", width=grid.width, height=grid.height,
+                           count=4, dtype="uint8", crs=f"EPSG:{grid.epsg}",
+                           transform=grid.transform(), photometric="RGB",
+                           compress="deflate") as ds:
+            ds.write(np.moveaxis(rgba, 2, 0))
+            ds.colorinterp = [ColorInterp.red, ColorInterp.green, ColorInterp.blue,
+                              ColorInterp.alpha]
+        os.chmod(tmp, new_file_mode())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def model_views(doc: dict[str, Any], where: str, images_dir: Path
+                ) -> tuple[Camera, list[tuple[Pose, Path]]]:
+    """The camera and the registered images' poses and paths of a recon.json document."""
+    try:
+        cam = doc["camera"]
+        K = np.asarray(cam["K"], dtype=float)
+        camera = Camera(int(cam["width"]), int(cam["height"]), float(K[0, 0]), float(K[1, 1]),
+                        float(K[0, 2]), float(K[1, 2]),
+                        tuple(float(v) for v in cam.get("dist_k1k2p1p2k3", [0.0] * 5)))
+        views = []
+        for im in doc["images"]:
+            if im.get("registered"):
+                T = im["cam_from_world"]
+                views.append((Pose(np.asarray(T["R"], dtype=float),
+                                   np.asarray(T["t"], dtype=float)), images_dir / im["file"]))
+    except (KeyError, TypeError, ValueError, IndexError) as err:
+        raise InputError(f"{where}: camera or images: {err!r}") from err
+    return camera, views
+
+
 @dataclass
 class Rasters:
     grid: Grid
@@ -264,9 +368,11 @@ def write_all(r: Rasters, out_dir: Path) -> dict[str, Any]:
 
 def from_recon(recon_dir: Path, out_dir: Path, resolution_m: float = 0.25,
                cloud: Path | None = None, ground_window_m: float = 80.0,
-               relief_sigma_m: float = 30.0) -> dict[str, Any]:
+               relief_sigma_m: float = 30.0, ortho: bool = True,
+               images_dir: Path | None = None) -> dict[str, Any]:
     """The rasters of a mound_recon output (recon.json + points.ply, or `cloud` in the same
-    frame), written to out_dir with rasters.json (mound.rasters v1)."""
+    frame), written to out_dir with rasters.json (mound.rasters v1); with `ortho` also
+    orthophoto.tif from the images (recon.json's images_dir unless `images_dir`)."""
     from mound.jsonio import read_json, write_json
     from mound.ply import read_ply
 
@@ -284,8 +390,25 @@ def from_recon(recon_dir: Path, out_dir: Path, resolution_m: float = 0.25,
     xyz, _ = read_ply(cloud_path)
     if len(xyz) == 0:
         raise InputError(f"{cloud_path}: the cloud is empty")
+    views, ortho_note = None, "not asked for"
+    if ortho:
+        named = images_dir or doc.get("images_dir")
+        if images_dir and not Path(images_dir).is_dir():
+            raise InputError(f"--images: {images_dir} is not a directory")
+        if named and Path(str(named)).is_dir():
+            camera, found = model_views(doc, where, Path(str(named)))
+            views = (camera, found) if found else None
+            ortho_note = "no registered image"
+        else:
+            ortho_note = f"images_dir {named!r} not found (give --images)"
     r = from_cloud(origin, xyz, resolution_m, ground_window_m, relief_sigma_m)
     summary = write_all(r, out_dir)
+    if views is not None:
+        write_rgba_geotiff(Path(out_dir) / "orthophoto.tif",
+                           orthophoto(r, origin, views[0], views[1]), r.grid)
+        summary["files"]["orthophoto"] = "orthophoto.tif"
+    else:
+        summary["orthophoto_skipped"] = ortho_note
     out = {"schema": "mound.rasters", "version": 1, "origin": origin.to_doc(),
            "cloud": str(cloud_path), "points": int(len(xyz)), **summary}
     write_json(Path(out_dir) / "rasters.json", out)

@@ -98,25 +98,34 @@ def relief_map(recon_dir: Path, verdict_json: Path, out_png: Path, title: str = 
 
 
 def terrain_map(rasters_dir: Path, out_png: Path, title: str = "", dpi: int = 70) -> Path:
-    """The site's hillshade and local relief model (GeoTIFFs of mound.recon.rasters) side by
-    side, in UTM metres."""
+    """The site's orthophoto (when written), hillshade and local relief model (GeoTIFFs of
+    mound.recon.rasters) side by side, in UTM metres."""
     import rasterio
 
+    rasters_dir = Path(rasters_dir)
+    ortho = None
+    if (rasters_dir / "orthophoto.tif").is_file():
+        with rasterio.open(rasters_dir / "orthophoto.tif") as ds:
+            ortho = np.moveaxis(ds.read(), 0, 2)
     panels = []
     for name in ("hillshade", "lrm"):
-        with rasterio.open(Path(rasters_dir) / f"{name}.tif") as ds:
+        with rasterio.open(rasters_dir / f"{name}.tif") as ds:
             a = ds.read(1, masked=True).filled(np.nan)
             b = ds.bounds
             panels.append((a, (b.left, b.right, b.bottom, b.top), ds.crs.to_string()))
-    fig, axes = plt.subplots(1, 2, figsize=(7.6, 3.4))
+    n = 3 if ortho is not None else 2
+    fig, axes = plt.subplots(1, n, figsize=(3.8 * n, 3.4))
     shade, extent, crs = panels[0]
-    axes[0].imshow(shade, cmap="gray", extent=extent, vmin=0, vmax=255)
-    axes[0].set_title("hillshade (315°/45°)", fontsize=9)
+    if ortho is not None:
+        axes[0].imshow(ortho, extent=extent)
+        axes[0].set_title("orthophoto", fontsize=9)
+    axes[n - 2].imshow(shade, cmap="gray", extent=extent, vmin=0, vmax=255)
+    axes[n - 2].set_title("hillshade (315°/45°)", fontsize=9)
     lrm = panels[1][0]
     lim = max(0.5, float(np.nanpercentile(np.abs(lrm), 99.5))) if np.isfinite(lrm).any() else 1
-    im = axes[1].imshow(lrm, cmap="RdBu_r", extent=extent, vmin=-lim, vmax=lim)
-    fig.colorbar(im, ax=axes[1], label="local relief (m)")
-    axes[1].set_title("local relief model", fontsize=9)
+    im = axes[n - 1].imshow(lrm, cmap="RdBu_r", extent=extent, vmin=-lim, vmax=lim)
+    fig.colorbar(im, ax=axes[n - 1], label="local relief (m)")
+    axes[n - 1].set_title("local relief model", fontsize=9)
     for ax in axes:
         ax.set_xlabel(f"easting ({crs}, m)", fontsize=7)
         ax.ticklabel_format(useOffset=False, style="plain")
