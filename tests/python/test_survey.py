@@ -162,12 +162,18 @@ def test_every_artefact_of_the_run(survey: dict[str, Any]) -> None:
         assert row["verdict"] == ("mound" if row["truth"] else "no_mound")
         for key in ("thumbnails", "cloud", "relief", "terrain"):
             assert (out / row["files"][key]).is_file()
-        # The site's GeoTIFFs: UTM zone 35 north at Bin Tepe; a simulated tumulus (4-12 m)
-        # stands out in the local relief model, flat ground does not.
+        # The dense cloud and the site's GeoTIFFs from it: UTM zone 35 north at Bin Tepe,
+        # 0.5 m cells; a simulated tumulus (4-12 m) stands out in the local relief model,
+        # flat ground does not; the orthophoto covers the site.
+        dense, _ = read_ply(out / row["files"]["dense"] / "dense.ply")
+        result = json.loads((out / "sites" / sid / "site_result.json").read_text())
+        assert len(dense) > 20 * len(xyz) and result["rasters"]["cloud"] == "dense"
         with rasterio.open(out / row["files"]["rasters"] / "lrm.tif") as ds:
-            assert ds.crs.to_epsg() == 32635 and ds.res == (2.0, 2.0)
+            assert ds.crs.to_epsg() == 32635 and ds.res == (0.5, 0.5)
             relief = np.percentile(ds.read(1, masked=True).compressed(), 99)
         assert relief > 2.0 if row["truth"] else relief < 1.0, (sid, relief)
+        with rasterio.open(out / row["files"]["rasters"] / "orthophoto.tif") as ds:
+            assert ds.count == 4 and (ds.read(4) == 255).mean() > 0.5
     assert {r["id"] for r in summary["sites"] if r["visited"]} == visited
     assert len(summary["sites"]) == 100
     # The metrics recompute from the rows.

@@ -95,6 +95,9 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--sim-seed", type=int, default=1, help="seed of the simulated sites")
     g.add_argument("--max-features", type=int, default=4000,
                    help="SIFT features per image (mound_recon reconstruct)")
+    g.add_argument("--dense-size", type=int, default=320, metavar="PX",
+                   help="depth maps of mound_recon densify, longer side px (0: no dense "
+                   "cloud; the site's GeoTIFFs then come from the sparse one)")
     g.add_argument("--reference", help="judge by the paper's test against this reference "
                    "mound (PLY) instead of the reference-free dome detector")
     g.add_argument("--site-timeout", type=float, default=1800.0,
@@ -298,7 +301,7 @@ def _folder_digest(folder: Path) -> str:
 
 
 def site_jobs(ctx: Context) -> list[Any]:
-    from mound.survey.site_work import SiteJob
+    from mound.survey.site_work import DENSE_RESOLUTION_M, SiteJob
 
     a = ctx.args
     sites_doc = read_json(ctx.tree.sites, "mound.sites", 1)
@@ -308,6 +311,8 @@ def site_jobs(ctx: Context) -> list[Any]:
     options = {"image_size": tuple(a.image_size), "pattern": a.scan_pattern,
                "site_diameter_m": a.site_diameter, "sim_seed": a.sim_seed,
                "recon_args": ("--max-features", str(a.max_features)),
+               "dense_args": ("--max-image-size", str(a.dense_size), "--resolution-m",
+                              str(DENSE_RESOLUTION_M)) if a.dense_size > 0 else (),
                "verdict_args": ("--reference", str(Path(a.reference).resolve()))
                if a.reference else (), "threads": a.site_threads,
                "timeout_s": a.site_timeout}
@@ -417,6 +422,8 @@ def check_args(a: argparse.Namespace) -> None:
         raise UsageError("--image-size: at least 64 x 64 px")
     if a.max_features < 100:
         raise UsageError("--max-features: at least 100")
+    if a.dense_size != 0 and a.dense_size < 32:
+        raise UsageError("--dense-size: 0 (no dense cloud) or at least 32 px")
     if a.site_timeout <= 0 or a.site_threads < 1 or (a.workers is not None and a.workers < 1):
         raise UsageError("--site-timeout, --site-threads, --workers: must be positive")
     if a.images_root and not Path(a.images_root).is_dir():

@@ -29,6 +29,8 @@ VERSION = 1
 MOUND_HEIGHTS_M = (4.0, 12.0)  # simulated tumuli: heights drawn uniformly from this range
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff")
 RASTER_CELL_M = 2.0    # the GeoTIFFs of each visited site (sparse cloud: ~1 point per m²)
+DENSE_RESOLUTION_M = 0.25  # mound_recon densify's voxel in the survey
+DENSE_CELL_M = 0.5     # the GeoTIFFs from the dense cloud
 
 
 @dataclass(frozen=True)
@@ -47,6 +49,7 @@ class SiteJob:
     site_diameter_m: float = 60.0
     sim_seed: int = 1
     recon_args: tuple[str, ...] = ()
+    dense_args: tuple[str, ...] = ()  # mound_recon densify options; empty: no dense cloud
     verdict_args: tuple[str, ...] = ()
     threads: int = 1
     timeout_s: float = 1800.0
@@ -193,17 +196,34 @@ def _process_site(job: SiteJob) -> dict[str, Any]:
 
 
 def _rasters(job: SiteJob, row: dict[str, Any]) -> None:
-    """DSM, DTM, relief model and hillshade GeoTIFFs of a metric model in sites/ID/rasters/
-    (mound.recon.rasters, which refuses a model without a metric ENU frame); the verdict
-    stands without them, the row says why they are missing."""
+    """The dense cloud (mound_recon densify, when job.dense_args) and the DSM, DTM, relief
+    model, hillshade and orthophoto GeoTIFFs of a metric model in sites/ID/rasters/
+    (mound.recon.rasters, which refuses a model without a metric ENU frame): from the dense
+    cloud at DENSE_CELL_M, else from the sparse one at RASTER_CELL_M. The verdict stands
+    without them; the row says why they are missing."""
     from mound.recon import rasters
 
     t = job.tree
+    cloud, cell = None, RASTER_CELL_M
+    if job.dense_args:
+        t0 = time.perf_counter()
+        try:
+            native.run_tool("mound_recon", ["densify", str(t.recon), "--out", str(t.dense),
+                                            "--threads", str(job.threads), *job.dense_args],
+                            job.timeout_s, log=t.log)
+            doc = read_json(t.dense / "dense.json", "mound.dense", 1)
+            row["dense"] = {"points": doc["points"], "options": doc["options"]}
+            row["files"]["dense"] = _rel(t.dense, Path(job.run_root))
+            cloud, cell = t.dense / "dense.ply", DENSE_CELL_M
+        except (InputError, NoResultError, ToolError, ToolTimeout, OSError) as e:
+            row["dense_error"] = _reason(e, t)
+        row["timings_s"]["densify"] = time.perf_counter() - t0
     t0 = time.perf_counter()
     try:
-        doc = rasters.from_recon(t.recon, t.rasters, resolution_m=RASTER_CELL_M)
+        doc = rasters.from_recon(t.recon, t.rasters, resolution_m=cell, cloud=cloud)
         row["rasters"] = {k: doc[k] for k in ("crs", "resolution_m", "width", "height",
                                                "coverage")}
+        row["rasters"]["cloud"] = "dense" if cloud else "sparse"
         row["files"]["rasters"] = _rel(t.rasters, Path(job.run_root))
     except (InputError, OSError, ValueError) as e:
         row["rasters_error"] = str(e)
@@ -241,7 +261,8 @@ def site_figures(job: SiteJob, images: Path, row: dict[str, Any]) -> dict[str, s
     out = {"thumbnails": _rel(t.thumbnails, root), "cloud": _rel(t.cloud_png, root),
            "relief": _rel(t.relief_png, root)}
     if "rasters" in row:
-        figures.terrain_map(t.rasters, t.terrain_png, title=f"{job.site['id']}: GeoTIFFs, "
+        figures.terrain_map(t.rasters, t.terrain_png, title=f"{job.site['id']}: GeoTIFFs "
+                            f"({row['rasters'].get('cloud', 'sparse')} cloud), "
                             f"{row['rasters']['crs']}")
         out["terrain"] = _rel(t.terrain_png, root)
     return out

@@ -8,7 +8,8 @@
     DIR/mission.plan         the MAVLink mission (QGroundControl .plan), .waypoints, .geojson
     DIR/mission.json         the mission's summary (mound.mission v1)
     DIR/sites/<id>/          per visited site: sim/ (simulated flight), recon/ (mound_recon
-                             reconstruct + verdict.json), figures, site_result.json, log.txt
+                             reconstruct + verdict.json), dense/ (densify), rasters/
+                             (GeoTIFFs), figures, site_result.json, log.txt
     DIR/summary.json         mound.survey v1
     DIR/report.html, report.md, report/ (the report's pictures)
 """
@@ -116,6 +117,10 @@ class SiteTree:
     @property
     def relief_png(self) -> Path:
         return self.root / "relief.png"
+
+    @property
+    def dense(self) -> Path:
+        return self.root / "dense"
 
     @property
     def rasters(self) -> Path:
