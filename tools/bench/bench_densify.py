@@ -3,7 +3,8 @@
 heightfield, with the sparse cloud of `mound_recon reconstruct` beside it.
 
     .venv/bin/python tools/bench/bench_densify.py [--reps 3] [--threads 2]
-        [--sets tumulus,flat] [--out runs/bench_densify] [densify options after --]
+        [--sets tumulus,flat] [--out runs/bench_densify] [--figure PNG]
+        [densify options after --]
 
 For each cloud: the height error |z - heightfield(x, y)| (bilinear) after the similarity
 that takes the reconstruction's camera centres onto the true ones (the GPS frame's own
@@ -11,7 +12,10 @@ error is the reconstruction's, not the dense stage's), its median and 90th perce
 completeness: the share of 0.25 m cells (the heightfield's spacing) of the mound's
 footprint (r < D/2; the same disc on the flat control) holding at least one point, and
 of 1 m cells over the whole nadir raster area. Prints min and median densify wall time
-over --reps; the reference system is the sparse cloud of the same run.
+over --reps; the reference system is the sparse cloud of the same run. With --figure: the
+GeoTIFFs of each dense cloud (`mound recon rasters --cloud`, 0.25 m cells) drawn side by
+side (orthophoto, hillshade, local relief model; one row a site), and the facts of one
+GeoTIFF as gdalinfo gives them (driver, size, CRS, origin, pixel size, bands, nodata).
 """
 
 from __future__ import annotations
@@ -79,6 +83,7 @@ def main() -> int:
     ap.add_argument("--reps", type=int, default=3)
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--out", default="runs/bench_densify")
+    ap.add_argument("--figure", help="write the README's figure of the rasters here")
     ap.add_argument("densify_args", nargs="*", help="extra mound_recon densify options (after --)")
     a = ap.parse_args()
     out = REPO_ROOT / a.out
@@ -124,7 +129,51 @@ def main() -> int:
               f"{d['median_m'] / sp['median_m']:.2f}x, footprint coverage "
               f"{d['footprint_covered'] / sp['footprint_covered']:.2f}x")
     (out / "bench_densify.json").write_text(json.dumps(results, indent=1) + "\n")
+    if a.figure:
+        figure(out, a.sets.split(","), Path(a.figure))
     return 0
+
+
+def figure(out: Path, names: list[str], png: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import rasterio
+
+    fig, axes = plt.subplots(len(names), 3, figsize=(11, 3.4 * len(names)), squeeze=False)
+    for row, name in zip(axes, names, strict=True):
+        rdir = out / name / "rasters"
+        assert mound_main(["recon", "rasters", str(out / name / "recon"), "--cloud",
+                           str(out / name / "dense" / "dense.ply"), "--resolution-m", "0.25",
+                           "--out", str(rdir)]) == 0
+        with rasterio.open(rdir / "orthophoto.tif") as ds:
+            b = ds.bounds
+            extent = (b.left, b.right, b.bottom, b.top)
+            row[0].imshow(np.moveaxis(ds.read(), 0, 2), extent=extent)
+        with rasterio.open(rdir / "hillshade.tif") as ds:
+            row[1].imshow(ds.read(1, masked=True).filled(np.nan), cmap="gray", vmin=0, vmax=255,
+                          extent=extent)
+        with rasterio.open(rdir / "lrm.tif") as ds:
+            im = row[2].imshow(ds.read(1, masked=True).filled(np.nan), cmap="RdBu_r", vmin=-4,
+                               vmax=4, extent=extent)
+        fig.colorbar(im, ax=row[2], label="local relief (m)")
+        for ax, what in zip(row, ("orthophoto", "hillshade of the DSM", "local relief model"),
+                            strict=True):
+            ax.set_title(f"{name}: {what}", fontsize=9)
+            ax.ticklabel_format(useOffset=False, style="plain")
+            ax.tick_params(labelsize=6)
+            ax.set_xlabel("easting (EPSG:32635, m)", fontsize=7)
+        row[0].set_ylabel("northing (m)", fontsize=7)
+    fig.tight_layout()
+    fig.savefig(png, dpi=80)
+    with rasterio.open(out / names[0] / "rasters" / "dsm.tif") as ds:
+        t = ds.transform
+        print(f"{names[0]}/rasters/dsm.tif: driver {ds.driver}, size {ds.width} x {ds.height}, "
+              f"{ds.count} band {ds.dtypes[0]}, CRS {ds.crs} ({ds.crs.to_wkt()[:40]}...), "
+              f"origin ({t.c:.3f}, {t.f:.3f}), pixel size ({t.a}, {t.e}), nodata {ds.nodata}, "
+              f"band 1 '{ds.descriptions[0]}', compression {ds.compression}")
+    print(f"-> {png}")
 
 
 if __name__ == "__main__":
