@@ -50,7 +50,7 @@ struct DenseOptions {
   int min_consistent = 2;           // source depth maps that must confirm a point
   double max_reprojection_px = 1.0; // forward-backward, depth-map pixels
   double max_relative_depth = 0.01;
-  double resolution_m = 0.1;        // voxel of the fused cloud
+  double resolution_m = 0.1;        // voxel of the fused cloud (>= 1 mm)
   Eigen::Vector3d up = Eigen::Vector3d::UnitZ();  // sweep-plane normal (the ground's)
   int threads = 1;
   // Returns an empty string when the options are usable, else what is wrong (naming the

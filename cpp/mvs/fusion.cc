@@ -91,15 +91,23 @@ DenseCloud FuseDepthMaps(const std::vector<DepthMap>& maps, const DenseOptions& 
     Eigen::Vector3d xyz = Eigen::Vector3d::Zero(), normal = Eigen::Vector3d::Zero(), rgb = Eigen::Vector3d::Zero();
     int count = 0;
   };
-  std::unordered_map<int64_t, int> index;
+  struct Voxel {
+    int64_t x, y, z;
+    bool operator==(const Voxel& o) const { return x == o.x && y == o.y && z == o.z; }
+  };
+  struct VoxelHash {
+    size_t operator()(const Voxel& v) const {
+      return static_cast<size_t>(v.x * 73856093) ^ static_cast<size_t>(v.y * 19349663) ^
+             static_cast<size_t>(v.z * 83492791);
+    }
+  };
+  std::unordered_map<Voxel, int, VoxelHash> index;
   std::vector<Acc> acc;
   const double inv = 1.0 / o.resolution_m;
   for (const auto& points : per)
     for (const Fused& f : points) {
-      const int64_t ix = static_cast<int64_t>(std::floor(f.xyz.x() * inv)) & 0x1FFFFF;
-      const int64_t iy = static_cast<int64_t>(std::floor(f.xyz.y() * inv)) & 0x1FFFFF;
-      const int64_t iz = static_cast<int64_t>(std::floor(f.xyz.z() * inv)) & 0x1FFFFF;
-      const int64_t key = (ix << 42) | (iy << 21) | iz;
+      const Voxel key{static_cast<int64_t>(std::floor(f.xyz.x() * inv)), static_cast<int64_t>(std::floor(f.xyz.y() * inv)),
+                      static_cast<int64_t>(std::floor(f.xyz.z() * inv))};
       auto [it, fresh] = index.emplace(key, static_cast<int>(acc.size()));
       if (fresh) acc.emplace_back();
       Acc& a = acc[it->second];

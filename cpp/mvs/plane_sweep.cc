@@ -10,6 +10,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "common/error.h"
+#include "common/stats.h"
 #include "common/parallel.h"
 #include "mvs/dense.h"
 
@@ -81,12 +82,6 @@ Eigen::Vector3d RayInWorld(const geometry::CameraModel& c, const geometry::Rigid
   return cam_from_world.rotation.conjugate() * Eigen::Vector3d((x - c.cx) / c.fx, (y - c.cy) / c.fy, 1.0);
 }
 
-double Quantile(std::vector<double> v, double q) {
-  if (v.empty()) return 0;
-  const size_t k = std::min(v.size() - 1, static_cast<size_t>(q * (v.size() - 1) + 0.5));
-  std::nth_element(v.begin(), v.begin() + static_cast<long>(k), v.end());
-  return v[k];
-}
 
 }  // namespace
 
@@ -101,7 +96,7 @@ std::string DenseOptions::Check() const {
   if (min_consistent < 1) return "--min-consistent: must be >= 1";
   if (!(max_reprojection_px > 0)) return "--max-reprojection-px: must be > 0";
   if (!(max_relative_depth > 0)) return "--max-relative-depth: must be > 0";
-  if (!(resolution_m > 0) || !std::isfinite(resolution_m)) return "--resolution-m: must be > 0";
+  if (!(resolution_m >= 1e-3) || !std::isfinite(resolution_m)) return "--resolution-m: must be >= 0.001 m";
   if (!(up.norm() > 0.5)) return "up: must be a unit vector";
   if (threads < 1) return "--threads: must be >= 1";
   return "";
@@ -216,7 +211,8 @@ DepthMap PlaneSweepDepthMap(const DenseInput& in, int ref, const std::vector<int
       }
       if (most > 0) shifts.push_back(most);
     }
-  const int planes = std::clamp(static_cast<int>(std::ceil(Quantile(shifts, 0.75) / o.max_step_px)) + 1,
+  const double shift = shifts.empty() ? 0.0 : Quantile(shifts, 0.75);
+  const int planes = std::clamp(static_cast<int>(std::ceil(shift / o.max_step_px)) + 1,
                                 o.min_planes, o.max_planes);
   const double step = (hi - lo) / (planes - 1);
   m.height_min = lo;

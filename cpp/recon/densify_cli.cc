@@ -9,6 +9,7 @@
 #include "common/atomic_file.h"
 #include "common/cli_args.h"
 #include "common/error.h"
+#include "common/stats.h"
 #include "common/json_util.h"
 #include "common/parallel.h"
 #include "geometry/ply.h"
@@ -93,11 +94,6 @@ mvs::DenseInput ReadModel(const std::string& dir, const nlohmann::json& recon, c
   return in;
 }
 
-double Quantile(std::vector<double> v, double q) {
-  const size_t k = std::min(v.size() - 1, static_cast<size_t>(q * (v.size() - 1) + 0.5));
-  std::nth_element(v.begin(), v.begin() + static_cast<long>(k), v.end());
-  return v[k];
-}
 
 }  // namespace
 
@@ -121,12 +117,17 @@ int RunDensify(const std::vector<std::string>& args) {
 
   const std::string recon_path = dir + "/recon.json";
   const nlohmann::json recon = LoadRecon(recon_path);
+  // A field's text, or "" when it is absent or not a string.
+  auto text = [&](const char* key) {
+    return recon.contains(key) && recon[key].is_string() ? recon[key].get<std::string>() : std::string();
+  };
   const std::string status = RequireString(recon, "status", "");
   if (status != "ok") {
+    const std::string reason = text("reason");
     throw InputError(recon_path + ": status: the reconstruction " + status + " (" +
-                     recon.value("reason", std::string("no reason given")) + "); nothing to densify");
+                     (reason.empty() ? "no reason given" : reason) + "); nothing to densify");
   }
-  if (recon.value("frame", std::string()) != "enu" || recon.value("scale", std::string()) != "metric") {
+  if (text("frame") != "enu" || text("scale") != "metric") {
     throw InputError(recon_path + ": frame: densify needs a georeferenced model (frame enu, metric scale: "
                      "run reconstruct with --gps)");
   }

@@ -131,6 +131,8 @@ def test_bad_input_is_refused_with_one_line(site: Path, tmp_path: Path) -> None:
     cases = [
         (copy(status="failed", reason="too little motion"), [], "too little motion"),
         (copy(frame="arbitrary", scale="unknown"), [], "georeferenced"),
+        (copy(frame=3, reason=None), [], "georeferenced"),
+        (copy(status="failed", reason=7), [], "no reason given"),
         (copy(images_dir=str(tmp_path / "nowhere")), [], "images_dir"),
         (site / "recon", ["--resolution-m", "0"], "--resolution-m"),
         (site / "recon", ["--window", "4"], "--window"),
