@@ -70,9 +70,12 @@ def test_ctrl_c_during_a_long_call_leaves_no_child_behind(tmp_path: Path,
               f"native.run_tool('mound_plan', ['tsp', {str(tsp)!r}], log={str(log)!r})\n")
     # The driver in its own process group, as a terminal's foreground job: Ctrl-C is a
     # SIGINT to that group, which the tool (in a session of its own) never sees.
+    # SIGINT restored to its default in the driver: a run of the tests started in the
+    # background (`make test &`) would otherwise pass on an ignored SIGINT.
     driver = subprocess.Popen([sys.executable, "-c", script], start_new_session=True,
                               stderr=subprocess.PIPE, text=True,
-                              env={**os.environ, "PYTHONPATH": str(REPO_ROOT / "python")})
+                              env={**os.environ, "PYTHONPATH": str(REPO_ROOT / "python")},
+                              preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     deadline = time.monotonic() + 30
     while time.monotonic() < deadline and not (log.exists() and "pid" in log.read_text()):
         time.sleep(0.05)

@@ -84,9 +84,12 @@ def survey(tmp_path_factory: pytest.TempPathFactory, vehicle: MavsdkVehicle
     out = tmp_path_factory.mktemp("survey") / "run"
     args = ["--out", str(out), *SMALL, "--workers", "1", "--connect",
             vehicle.connect_string]
+    # SIGINT restored to its default in the driver: a run of the tests started in the
+    # background (`make test &`) would otherwise pass on an ignored SIGINT.
     proc = subprocess.Popen([system_python(), str(MISSION_PY), *args], cwd=REPO_ROOT,
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                            start_new_session=True)
+                            start_new_session=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     deadline = time.monotonic() + 300
     first = None
     while time.monotonic() < deadline and proc.poll() is None:
