@@ -26,8 +26,6 @@ places correctly; heights are metres above the WGS84 ellipsoid, on the origin's 
 from __future__ import annotations
 
 import math
-import os
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -39,7 +37,7 @@ from scipy.interpolate import griddata
 from mound.errors import InputError
 from mound.geometry.camera import Camera, Pose, project
 from mound.geometry.geodesy import Origin, enu_to_geodetic, geodetic_to_enu
-from mound.jsonio import new_file_mode
+from mound.jsonio import staged_file
 
 NODATA = -9999.0
 
@@ -206,23 +204,14 @@ def write_geotiff(path: Path, a: np.ndarray, grid: Grid, description: str) -> No
     """Float32 GeoTIFF (deflate), NaN written as NODATA; atomically (temporary + rename)."""
     import rasterio
 
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tif", dir=path.parent)
-    os.close(fd)
-    try:
-        data = np.where(np.isnan(a), NODATA, a).astype(np.float32)
-        with rasterio.open(tmp, "w", driver="GTiff", width=grid.width, height=grid.height,
-                           count=1, dtype="float32", crs=f"EPSG:{grid.epsg}",
-                           transform=grid.transform(), nodata=NODATA,
-                           compress="deflate") as ds:
-            ds.write(data, 1)
-            ds.set_band_description(1, description)
-            ds.update_tags(1, units="m" if "shade" not in description else "0-255")
-        os.chmod(tmp, new_file_mode())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    data = np.where(np.isnan(a), NODATA, a).astype(np.float32)
+    with staged_file(path, ".tif") as tmp, rasterio.open(
+            tmp, "w", driver="GTiff", width=grid.width, height=grid.height, count=1,
+            dtype="float32", crs=f"EPSG:{grid.epsg}", transform=grid.transform(),
+            nodata=NODATA, compress="deflate") as ds:
+        ds.write(data, 1)
+        ds.set_band_description(1, description)
+        ds.update_tags(1, units="m" if "shade" not in description else "0-255")
 
 
 def orthophoto(r: Rasters, origin: Origin, camera: Camera,
@@ -275,22 +264,13 @@ def write_rgba_geotiff(path: Path, rgba: np.ndarray, grid: Grid) -> None:
     import rasterio
     from rasterio.enums import ColorInterp
 
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tif", dir=path.parent)
-    os.close(fd)
-    try:
-        with rasterio.open(tmp, "w", driver="GTiff", width=grid.width, height=grid.height,
-                           count=4, dtype="uint8", crs=f"EPSG:{grid.epsg}",
-                           transform=grid.transform(), photometric="RGB",
-                           compress="deflate") as ds:
-            ds.write(np.moveaxis(rgba, 2, 0))
-            ds.colorinterp = [ColorInterp.red, ColorInterp.green, ColorInterp.blue,
-                              ColorInterp.alpha]
-        os.chmod(tmp, new_file_mode())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    with staged_file(path, ".tif") as tmp, rasterio.open(
+            tmp, "w", driver="GTiff", width=grid.width, height=grid.height, count=4,
+            dtype="uint8", crs=f"EPSG:{grid.epsg}", transform=grid.transform(),
+            photometric="RGB", compress="deflate") as ds:
+        ds.write(np.moveaxis(rgba, 2, 0))
+        ds.colorinterp = [ColorInterp.red, ColorInterp.green, ColorInterp.blue,
+                          ColorInterp.alpha]
 
 
 def model_views(doc: dict[str, Any], where: str, images_dir: Path
