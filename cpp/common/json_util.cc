@@ -165,4 +165,47 @@ std::string RequireId(const nlohmann::json& obj, const std::string& key, const s
   return s;
 }
 
+// The array `a` found at `path`: exactly `count` finite numbers.
+std::vector<double> FiniteNumbers(const nlohmann::json& a, const std::string& path, size_t count) {
+  if (!a.is_array() || a.size() != count) {
+    throw InputError(path + ": expected an array of " + std::to_string(count) + " numbers");
+  }
+  std::vector<double> out;
+  for (size_t i = 0; i < count; ++i) {
+    if (!a[i].is_number() || !std::isfinite(a[i].get<double>())) {
+      throw InputError(path + "[" + std::to_string(i) + "]: expected a finite number");
+    }
+    out.push_back(a[i].get<double>());
+  }
+  return out;
+}
+
+std::vector<double> RequireNumbers(const nlohmann::json& obj, const std::string& key, const std::string& path,
+                                   size_t count) {
+  return FiniteNumbers(RequireField(obj, key, path), JoinPath(path, key), count);
+}
+
+// A 3x3 matrix as nested arrays, row-major.
+std::vector<double> RequireMatrix3(const nlohmann::json& obj, const std::string& key, const std::string& path) {
+  const nlohmann::json& m = RequireField(obj, key, path);
+  const std::string p = JoinPath(path, key);
+  if (!m.is_array() || m.size() != 3) throw InputError(p + ": expected a 3x3 array of numbers");
+  std::vector<double> out;
+  for (size_t r = 0; r < 3; ++r) {
+    const std::vector<double> row = FiniteNumbers(m[r], p + "[" + std::to_string(r) + "]", 3);
+    out.insert(out.end(), row.begin(), row.end());
+  }
+  return out;
+}
+
+int RequireInt(const nlohmann::json& obj, const std::string& key, const std::string& path, long long lo,
+               long long hi) {
+  const nlohmann::json& v = RequireField(obj, key, path);
+  if (!v.is_number_integer() || v.get<long long>() < lo || v.get<long long>() > hi) {
+    throw InputError(JoinPath(path, key) + ": expected an integer in [" + std::to_string(lo) +
+                     ", " + std::to_string(hi) + "]");
+  }
+  return static_cast<int>(v.get<long long>());
+}
+
 }  // namespace mound

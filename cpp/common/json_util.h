@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace mound {
 
@@ -36,6 +37,16 @@ double RequireInRange(const nlohmann::json& obj, const std::string& key, const s
                       double lo, double hi);
 std::optional<double> OptionalInRange(const nlohmann::json& obj, const std::string& key,
                                       const std::string& path, double lo, double hi);
+// Exactly `count` finite numbers: the array `a` found at `path`, or the field `key`.
+std::vector<double> FiniteNumbers(const nlohmann::json& a, const std::string& path, size_t count);
+std::vector<double> RequireNumbers(const nlohmann::json& obj, const std::string& key,
+                                   const std::string& path, size_t count);
+// A 3x3 matrix as nested arrays of finite numbers, row-major.
+std::vector<double> RequireMatrix3(const nlohmann::json& obj, const std::string& key,
+                                   const std::string& path);
+// An integer in [lo, hi].
+int RequireInt(const nlohmann::json& obj, const std::string& key, const std::string& path,
+               long long lo, long long hi);
 // An identifier: a non-empty string of at most kMaxIdBytes without control characters.
 constexpr size_t kMaxIdBytes = 256;
 std::string RequireId(const nlohmann::json& obj, const std::string& key, const std::string& path);

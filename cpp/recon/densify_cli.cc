@@ -12,6 +12,7 @@
 #include "common/stats.h"
 #include "common/json_util.h"
 #include "common/parallel.h"
+#include "geometry/json_io.h"
 #include "geometry/ply.h"
 #include "mvs/dense.h"
 #include "recon/recon_io.h"
@@ -23,67 +24,27 @@ using Clock = std::chrono::steady_clock;
 
 double Since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
-Eigen::Matrix3d Matrix3(const nlohmann::json& j, const std::string& path) {
-  if (!j.is_array() || j.size() != 3) throw InputError(path + ": expected a 3 x 3 array");
-  Eigen::Matrix3d m;
-  for (int r = 0; r < 3; ++r) {
-    if (!j[r].is_array() || j[r].size() != 3) throw InputError(path + ": expected a 3 x 3 array");
-    for (int c = 0; c < 3; ++c) {
-      if (!j[r][c].is_number() || !std::isfinite(j[r][c].get<double>())) {
-        throw InputError(path + "[" + std::to_string(r) + "][" + std::to_string(c) + "]: expected a finite number");
-      }
-      m(r, c) = j[r][c].get<double>();
-    }
-  }
-  return m;
-}
-
-Eigen::VectorXd Numbers(const nlohmann::json& j, size_t n, const std::string& path) {
-  if (!j.is_array() || j.size() != n) throw InputError(path + ": expected " + std::to_string(n) + " numbers");
-  Eigen::VectorXd v(n);
-  for (size_t k = 0; k < n; ++k) {
-    if (!j[k].is_number() || !std::isfinite(j[k].get<double>())) {
-      throw InputError(path + "[" + std::to_string(k) + "]: expected a finite number");
-    }
-    v(static_cast<long>(k)) = j[k].get<double>();
-  }
-  return v;
-}
-
 // The model's camera, registered images and sparse points (validated).
 mvs::DenseInput ReadModel(const std::string& dir, const nlohmann::json& recon, const std::string& images_dir,
                           std::vector<std::string>* files) {
   const std::string path = dir + "/recon.json";
   mvs::DenseInput in;
-  const nlohmann::json& cam = RequireField(recon, "camera", "");
-  const Eigen::Matrix3d K = Matrix3(RequireField(cam, "K", "camera"), path + ": camera.K");
-  in.camera.width = static_cast<int>(RequireInRange(cam, "width", "camera", 1, 100000));
-  in.camera.height = static_cast<int>(RequireInRange(cam, "height", "camera", 1, 100000));
-  in.camera.fx = K(0, 0);
-  in.camera.fy = K(1, 1);
-  in.camera.cx = K(0, 2);
-  in.camera.cy = K(1, 2);
-  if (!(in.camera.fx > 0 && in.camera.fy > 0)) throw InputError(path + ": camera.K: focal lengths must be > 0");
-  if (cam.contains("dist_k1k2p1p2k3")) {
-    const Eigen::VectorXd d = Numbers(cam["dist_k1k2p1p2k3"], 5, path + ": camera.dist_k1k2p1p2k3");
-    for (int k = 0; k < 5; ++k) in.camera.dist[k] = d(k);
-  }
-  const nlohmann::json& images = RequireField(recon, "images", "");
-  if (!images.is_array()) throw InputError(path + ": images: expected an array");
-  for (size_t k = 0; k < images.size(); ++k) {
-    const std::string at = "images[" + std::to_string(k) + "]";
-    if (!images[k].is_object()) throw InputError(path + ": " + at + ": expected an object");
-    if (!images[k].value("registered", false)) continue;
-    const std::string file = RequireString(images[k], "file", at);
-    const nlohmann::json& pose = RequireField(images[k], "cam_from_world", at);
-    const Eigen::Matrix3d R = Matrix3(RequireField(pose, "R", at + ".cam_from_world"), path + ": " + at + ".cam_from_world.R");
-    if (!(R.transpose() * R).isApprox(Eigen::Matrix3d::Identity(), 1e-6) || R.determinant() < 0) {
-      throw InputError(path + ": " + at + ".cam_from_world.R: not a rotation");
+  try {
+    in.camera = geometry::CameraFromJson(RequireField(recon, "camera", ""), "camera");
+    const nlohmann::json& images = RequireField(recon, "images", "");
+    if (!images.is_array()) throw InputError("images: expected an array");
+    for (size_t k = 0; k < images.size(); ++k) {
+      const std::string at = "images[" + std::to_string(k) + "]";
+      if (!images[k].is_object()) throw InputError(at + ": expected an object");
+      if (!images[k].value("registered", false)) continue;
+      const std::string file = RequireString(images[k], "file", at);
+      in.cam_from_world.push_back(
+          geometry::PoseFromJson(RequireField(images[k], "cam_from_world", at), at + ".cam_from_world"));
+      in.image_paths.push_back(images_dir + "/" + file);
+      files->push_back(file);
     }
-    const Eigen::Vector3d t = Numbers(RequireField(pose, "t", at + ".cam_from_world"), 3, path + ": " + at + ".cam_from_world.t");
-    in.cam_from_world.emplace_back(R, t);
-    in.image_paths.push_back(images_dir + "/" + file);
-    files->push_back(file);
+  } catch (const InputError& e) {
+    throw InputError(path + ": " + e.what());
   }
   if (in.image_paths.size() < 2) {
     throw InputError(path + ": images: " + std::to_string(in.image_paths.size()) +

@@ -7,6 +7,7 @@
 #include "common/atomic_file.h"
 #include "common/error.h"
 #include "common/json_util.h"
+#include "geometry/json_io.h"
 #include "sim/npy.h"
 
 namespace mound::sim {
@@ -14,53 +15,10 @@ namespace {
 
 using nlohmann::json;
 
-// The array `a` found at `path`: exactly `count` finite numbers.
-std::vector<double> FiniteNumbers(const json& a, const std::string& path, size_t count) {
-  if (!a.is_array() || a.size() != count) {
-    throw InputError(path + ": expected an array of " + std::to_string(count) + " numbers");
-  }
-  std::vector<double> out;
-  for (size_t i = 0; i < count; ++i) {
-    if (!a[i].is_number() || !std::isfinite(a[i].get<double>())) {
-      throw InputError(path + "[" + std::to_string(i) + "]: expected a finite number");
-    }
-    out.push_back(a[i].get<double>());
-  }
-  return out;
-}
-
-std::vector<double> RequireNumbers(const json& obj, const std::string& key, const std::string& path,
-                                   size_t count) {
-  return FiniteNumbers(RequireField(obj, key, path), JoinPath(path, key), count);
-}
-
-// A 3x3 matrix as nested arrays, row-major.
-std::vector<double> RequireMatrix3(const json& obj, const std::string& key, const std::string& path) {
-  const json& m = RequireField(obj, key, path);
-  const std::string p = JoinPath(path, key);
-  if (!m.is_array() || m.size() != 3) throw InputError(p + ": expected a 3x3 array of numbers");
-  std::vector<double> out;
-  for (size_t r = 0; r < 3; ++r) {
-    const std::vector<double> row = FiniteNumbers(m[r], p + "[" + std::to_string(r) + "]", 3);
-    out.insert(out.end(), row.begin(), row.end());
-  }
-  return out;
-}
-
 double RequirePositive(const json& obj, const std::string& key, const std::string& path) {
   const double v = RequireFinite(obj, key, path);
   if (v <= 0) throw InputError(JoinPath(path, key) + ": must be > 0, got " + FormatNumber(v));
   return v;
-}
-
-int RequireInt(const json& obj, const std::string& key, const std::string& path, long long lo,
-               long long hi) {
-  const json& v = RequireField(obj, key, path);
-  if (!v.is_number_integer() || v.get<long long>() < lo || v.get<long long>() > hi) {
-    throw InputError(JoinPath(path, key) + ": expected an integer in [" + std::to_string(lo) +
-                     ", " + std::to_string(hi) + "]");
-  }
-  return static_cast<int>(v.get<long long>());
 }
 
 // A data file named by the job: absolute, or relative to the job's folder; it must be a
@@ -114,48 +72,6 @@ Texture LoadTexture(const json& t, const std::string& dir) {
                  static_cast<int>(a.shape[0]), std::move(a.data));
 }
 
-geometry::CameraModel LoadCamera(const json& c) {
-  geometry::CameraModel cam;
-  cam.width = RequireInt(c, "width", "camera", 1, 20000);
-  cam.height = RequireInt(c, "height", "camera", 1, 20000);
-  const std::vector<double> K = RequireMatrix3(c, "K", "camera");
-  if (K[1] != 0 || K[3] != 0 || K[6] != 0 || K[7] != 0 || K[8] != 1) {
-    throw InputError("camera.K: expected [[fx, 0, cx], [0, fy, cy], [0, 0, 1]]");
-  }
-  if (K[0] <= 0 || K[4] <= 0) throw InputError("camera.K: fx and fy must be > 0");
-  if (static_cast<long long>(cam.width) * cam.height > 64LL * 1000 * 1000) {
-    throw InputError("camera: width x height must be at most 64 megapixels");
-  }
-  cam.fx = K[0];
-  cam.fy = K[4];
-  cam.cx = K[2];
-  cam.cy = K[5];
-  if (c.contains("dist_k1k2p1p2k3")) {
-    const std::vector<double> d = RequireNumbers(c, "dist_k1k2p1p2k3", "camera", 5);
-    std::copy(d.begin(), d.end(), cam.dist.begin());
-  }
-  return cam;
-}
-
-geometry::Rigid3d LoadPose(const json& p, const std::string& path) {
-  const std::vector<double> R = RequireMatrix3(p, "R", path);
-  const std::vector<double> t = RequireNumbers(p, "t", path, 3);
-  for (int r = 0; r < 3; ++r) {
-    for (int c = 0; c < 3; ++c) {
-      double dot = 0;
-      for (int k = 0; k < 3; ++k) dot += R[3 * r + k] * R[3 * c + k];
-      if (std::fabs(dot - (r == c)) > 1e-6) {
-        throw InputError(path + ".R: not a rotation matrix (R R^T != I)");
-      }
-    }
-  }
-  const double det = R[0] * (R[4] * R[8] - R[5] * R[7]) - R[1] * (R[3] * R[8] - R[5] * R[6]) +
-                     R[2] * (R[3] * R[7] - R[4] * R[6]);
-  if (det < 0) throw InputError(path + ".R: a reflection (det -1), not a rotation");
-  return {Eigen::Matrix3d(Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(R.data())),
-          Eigen::Vector3d(t[0], t[1], t[2])};
-}
-
 std::string CheckImageFile(const std::string& file, const std::string& path) {
   const std::filesystem::path p(file);
   const std::string ext = p.extension().string();
@@ -181,7 +97,10 @@ RenderJob ParseRenderJob(const std::string& text, const std::string& path, const
   RenderJob job;
   job.scene.terrain = LoadHeightfield(RequireField(doc, "heightfield", ""), dir);
   job.scene.texture = LoadTexture(RequireField(doc, "texture", ""), dir);
-  job.camera = LoadCamera(RequireField(doc, "camera", ""));
+  job.camera = geometry::CameraFromJson(RequireField(doc, "camera", ""), "camera");
+  if (static_cast<long long>(job.camera.width) * job.camera.height > 64LL * 1000 * 1000) {
+    throw InputError("camera: width x height must be at most 64 megapixels");  // the frame buffers
+  }
   if (doc.contains("background_rgb")) {
     const std::vector<double> bg = RequireNumbers(doc, "background_rgb", "", 3);
     for (int c = 0; c < 3; ++c) {
@@ -211,7 +130,7 @@ RenderJob ParseRenderJob(const std::string& text, const std::string& path, const
                        std::to_string(it->second) + "]");
     }
     const std::string pp = JoinPath(p, "cam_from_world");
-    im.cam_from_world = LoadPose(RequireField(images[k], "cam_from_world", p), pp);
+    im.cam_from_world = geometry::PoseFromJson(RequireField(images[k], "cam_from_world", p), pp);
     const Eigen::Vector3d c = im.cam_from_world.Centre();
     double ground = 0;
     if (job.scene.terrain.HeightAt(c[0], c[1], &ground) && c[2] <= ground) {

@@ -46,6 +46,15 @@ class Camera:
         return {"model": "opencv_pinhole", "width": self.width_px, "height": self.height_px,
                 "K": self.K.tolist(), "dist_k1k2p1p2k3": list(self.dist)}
 
+    @classmethod
+    def from_doc(cls, doc: dict) -> Camera:
+        """The inverse of to_doc (mound.camera, recon.json's camera); KeyError, TypeError,
+        ValueError or IndexError on a malformed one."""
+        K = np.asarray(doc["K"], dtype=float)
+        return cls(int(doc["width"]), int(doc["height"]), float(K[0, 0]), float(K[1, 1]),
+                   float(K[0, 2]), float(K[1, 2]),
+                   tuple(float(v) for v in doc.get("dist_k1k2p1p2k3", [0.0] * 5)))
+
 
 @dataclass(frozen=True)
 class Pose:

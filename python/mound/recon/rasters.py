@@ -277,11 +277,7 @@ def model_views(doc: dict[str, Any], where: str, images_dir: Path
                 ) -> tuple[Camera, list[tuple[Pose, Path]]]:
     """The camera and the registered images' poses and paths of a recon.json document."""
     try:
-        cam = doc["camera"]
-        K = np.asarray(cam["K"], dtype=float)
-        camera = Camera(int(cam["width"]), int(cam["height"]), float(K[0, 0]), float(K[1, 1]),
-                        float(K[0, 2]), float(K[1, 2]),
-                        tuple(float(v) for v in cam.get("dist_k1k2p1p2k3", [0.0] * 5)))
+        camera = Camera.from_doc(doc["camera"])
         views = []
         for im in doc["images"]:
             if im.get("registered"):
