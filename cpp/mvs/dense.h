@@ -70,7 +70,7 @@ struct DepthMap {
   int width = 0, height = 0;
   geometry::CameraModel camera;           // pinhole (distortion removed), at this scale
   geometry::Rigid3d cam_from_world, world_from_cam;
-  std::vector<float> depth, score;        // row-major
+  std::vector<float> depth;               // row-major
   std::vector<std::array<uint8_t, 3>> rgb;
   std::vector<int> sources;               // indices of the source images
   double height_min = 0, height_max = 0;  // swept range along `up`

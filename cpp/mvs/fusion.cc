@@ -26,18 +26,16 @@ bool ProjectInto(const DepthMap& m, const Eigen::Vector3d& X, double* x, double*
 }
 
 // The depth map's point at the nearest pixel to (x, y); false outside or without depth.
-bool PointAt(const DepthMap& m, double x, double y, Eigen::Vector3d* X, int* px, int* py) {
+bool PointAt(const DepthMap& m, double x, double y, Eigen::Vector3d* X) {
   const int ix = static_cast<int>(std::lround(x)), iy = static_cast<int>(std::lround(y));
   if (ix < 0 || iy < 0 || ix >= m.width || iy >= m.height) return false;
   const float d = m.At(ix, iy);
   if (!(d > 0)) return false;
   *X = m.Unproject(ix, iy, d);
-  *px = ix;
-  *py = iy;
   return true;
 }
 
-std::vector<Fused> FuseOne(const std::vector<DepthMap>& maps, int r, const DenseOptions& o, int* consistent) {
+std::vector<Fused> FuseOne(const std::vector<DepthMap>& maps, int r, const DenseOptions& o) {
   const DepthMap& m = maps[r];
   std::vector<Fused> out;
   const Eigen::Vector3d centre = m.cam_from_world.Centre();
@@ -52,8 +50,7 @@ std::vector<Fused> FuseOne(const std::vector<DepthMap>& maps, int r, const Dense
         const DepthMap& s = maps[j];
         double sx, sy, sd, bx, by, bd;
         Eigen::Vector3d Xs;
-        int ix, iy;
-        if (!ProjectInto(s, X, &sx, &sy, &sd) || !PointAt(s, sx, sy, &Xs, &ix, &iy)) continue;
+        if (!ProjectInto(s, X, &sx, &sy, &sd) || !PointAt(s, sx, sy, &Xs)) continue;
         if (!ProjectInto(m, Xs, &bx, &by, &bd)) continue;
         if (std::hypot(bx - x, by - y) > o.max_reprojection_px) continue;
         if (std::fabs(bd - d) > o.max_relative_depth * d) continue;
@@ -71,7 +68,6 @@ std::vector<Fused> FuseOne(const std::vector<DepthMap>& maps, int r, const Dense
         if (n.norm() > 0) n.normalize();
         if (n.dot(centre - X) < 0) n = -n;
       }
-      ++*consistent;
       out.push_back({sum / (agree + 1), n, m.rgb[static_cast<size_t>(y) * m.width + x]});
     }
   return out;
@@ -83,8 +79,8 @@ DenseCloud FuseDepthMaps(const std::vector<DepthMap>& maps, const DenseOptions& 
   const int n = static_cast<int>(maps.size());
   std::vector<std::vector<Fused>> per(n);
   DenseCloud cloud;
-  cloud.consistent_pixels.assign(n, 0);
-  ParallelFor(n, o.threads, [&](int r) { per[r] = FuseOne(maps, r, o, &cloud.consistent_pixels[r]); });
+  ParallelFor(n, o.threads, [&](int r) { per[r] = FuseOne(maps, r, o); });
+  for (const auto& points : per) cloud.consistent_pixels.push_back(static_cast<int>(points.size()));
 
   // Voxel merge: the mean position, normal and colour of the points in each voxel.
   struct Acc {

@@ -64,12 +64,11 @@ ScaledImage LoadScaled(const std::string& path, const geometry::CameraModel& cam
   return s;
 }
 
+// The pixel of world point X in camera c at pose cam_from_world (the project's camera
+// model, distortion included); false behind the camera.
 bool Project(const geometry::CameraModel& c, const geometry::Rigid3d& cam_from_world, const Eigen::Vector3d& X,
              Eigen::Vector2d* uv) {
-  const Eigen::Vector3d p = cam_from_world * X;
-  if (p.z() <= 0) return false;
-  *uv = {c.fx * p.x() / p.z() + c.cx, c.fy * p.y() / p.z() + c.cy};
-  return true;
+  return c.ImageFromCamera(cam_from_world * X, uv);
 }
 
 bool Inside(const Eigen::Vector2d& uv, int w, int h) {
@@ -158,7 +157,6 @@ DepthMap PlaneSweepDepthMap(const DenseInput& in, int ref, const std::vector<int
   m.world_from_cam = m.cam_from_world.Inverse();
   m.sources = sources;
   m.depth.assign(npx, 0.f);
-  m.score.assign(npx, -1.f);
   m.rgb.resize(npx);
   for (int y = 0; y < H; ++y)
     for (int x = 0; x < W; ++x) {
@@ -317,7 +315,6 @@ DepthMap PlaneSweepDepthMap(const DenseInput& in, int ref, const std::vector<int
   for (int y = 0; y < H; ++y)
     for (int x = 0; x < W; ++x) {
       const size_t p = static_cast<size_t>(y) * W + x;
-      m.score[p] = best[p];
       if (best[p] < o.min_ncc || std_i[p] < o.min_texture || best_k[p] <= 0 || best_k[p] >= planes - 1) continue;
       double delta = 0;
       if (s_minus[p] > kNone && s_plus[p] > kNone) {
