@@ -14,6 +14,9 @@
     mound recon rasters RECON_DIR --out DIR [--resolution-m 0.25] [--cloud dense.ply]
     mound mission build PLAN.json [--origin LAT,LON[,ALT]] --out MISSION.plan [...]
     mound mission upload MISSION.plan --connect udpout:HOST:PORT [--verify] [...]
+    mound scene train SCENE.tif [...] --labels KNOWN.geojson --out MODEL.json [...]
+    mound scene score SCENE.tif --model MODEL.json --out DIR [--stride-m S] [...]
+    mound scene eval SCENE.tif [...] --labels KNOWN.geojson [--figure PNG] [...]
 
 Exit codes: 0 ok, 1 internal error, 2 bad input or usage (one line on stderr), 3 valid
 input that allowed no result.
@@ -39,6 +42,7 @@ from mound.errors import InputError, exit_for
 from mound.geometry.flight import ScanSpec
 from mound.jsonio import read_json, write_json
 from mound.plan.field import STANDARD_SEEDS, make_field, sites_document
+from mound.scene import cli as scene_cli
 from mound.uav import cli as uav_cli
 from mound.uav import mission_items
 
@@ -432,6 +436,7 @@ def build_parser() -> argparse.ArgumentParser:
     sf.set_defaults(func=cmd_sim_figures)
 
     uav_cli.add_parser(sub, Parser)
+    scene_cli.add_parser(sub, Parser)
 
     bench = sub.add_parser("bench", help="benchmarks and reproductions").add_subparsers(
         dest="cmd", required=True, parser_class=Parser)

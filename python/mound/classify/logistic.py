@@ -32,13 +32,18 @@ class Fit:
     solver: str
 
 
-def loss_and_grad(w: np.ndarray, x: np.ndarray, y: np.ndarray, l2: float = 0.0
-                  ) -> tuple[float, np.ndarray]:
+def loss_and_grad(w: np.ndarray, x: np.ndarray, y: np.ndarray, l2: float = 0.0,
+                  weight: np.ndarray | None = None) -> tuple[float, np.ndarray]:
     """Paper (coarse search): the mean logistic loss (1/n) sum log(1 + exp(-y w^T x)),
-    the negative log-likelihood of the model below, and its gradient."""
+    the negative log-likelihood of the model below, and its gradient. `weight`: per-row
+    weights (class balance), the loss becoming (1/n) sum weight_i log(...)."""
     z = y * (x @ w)
-    loss = float(np.mean(np.logaddexp(0.0, -z)))
-    grad = -(x.T @ (y * expit(-z))) / x.shape[0]
+    if weight is None:
+        loss = float(np.mean(np.logaddexp(0.0, -z)))
+        grad = -(x.T @ (y * expit(-z))) / x.shape[0]
+    else:
+        loss = float(np.mean(weight * np.logaddexp(0.0, -z)))
+        grad = -(x.T @ (weight * y * expit(-z))) / x.shape[0]
     if l2 > 0:
         reg = w.copy()
         reg[-1] = 0.0
@@ -47,45 +52,49 @@ def loss_and_grad(w: np.ndarray, x: np.ndarray, y: np.ndarray, l2: float = 0.0
     return loss, grad
 
 
-def lipschitz(x: np.ndarray, l2: float) -> float:
-    return float(np.linalg.eigvalsh(x.T @ x / x.shape[0])[-1]) / 4.0 + l2
+def lipschitz(x: np.ndarray, l2: float, weight: np.ndarray | None = None) -> float:
+    xw = x if weight is None else x * np.sqrt(weight)[:, None]
+    return float(np.linalg.eigvalsh(xw.T @ xw / x.shape[0])[-1]) / 4.0 + l2
 
 
 def fit_gd(x: np.ndarray, y: np.ndarray, l2: float = 0.0, tol: float = 1e-6,
-           max_iter: float = 200_000) -> Fit:
+           max_iter: float = 200_000, weight: np.ndarray | None = None) -> Fit:
     """Paper (coarse search): gradient descent w <- w - (1/L) grad from w = 0 until
     |grad| <= tol, L the Lipschitz constant of the gradient. A fractional `max_iter`
     stops part-way along the last step (t = 13.4: 13 steps and 0.4 of the 14th), so that
     early stopping can be set continuously."""
     start = time.perf_counter()
-    step = 1.0 / lipschitz(x, l2)
+    step = 1.0 / lipschitz(x, l2, weight)
     w = np.zeros(x.shape[1])
-    loss, grad = loss_and_grad(w, x, y, l2)
+    loss, grad = loss_and_grad(w, x, y, l2, weight)
     it = 0
     while it < max_iter and np.linalg.norm(grad) > tol:
         w = w - min(1.0, max_iter - it) * step * grad
-        loss, grad = loss_and_grad(w, x, y, l2)
+        loss, grad = loss_and_grad(w, x, y, l2, weight)
         it += 1
     gn = float(np.linalg.norm(grad))
     return Fit(w, it, gn <= tol, loss, gn, time.perf_counter() - start, "gd")
 
 
 def fit_lbfgs(x: np.ndarray, y: np.ndarray, l2: float = 0.0, tol: float = 1e-6,
-              max_iter: int = 10_000) -> Fit:
+              max_iter: int = 10_000, weight: np.ndarray | None = None,
+              w0: np.ndarray | None = None) -> Fit:
     start = time.perf_counter()
-    res = minimize(loss_and_grad, np.zeros(x.shape[1]), args=(x, y, l2), jac=True,
+    res = minimize(loss_and_grad, np.zeros(x.shape[1]) if w0 is None else w0,
+                   args=(x, y, l2, weight), jac=True,
                    method="L-BFGS-B", options={"gtol": tol, "maxiter": max_iter, "ftol": 0.0})
-    loss, grad = loss_and_grad(res.x, x, y, l2)
+    loss, grad = loss_and_grad(res.x, x, y, l2, weight)
     gn = float(np.linalg.norm(grad))
     return Fit(res.x, int(res.nit), gn <= tol, loss, gn, time.perf_counter() - start, "lbfgs")
 
 
 def fit(x: np.ndarray, y: np.ndarray, solver: str = "gd", l2: float = 0.0,
-        tol: float = 1e-6, max_iter: float = 200_000) -> Fit:
+        tol: float = 1e-6, max_iter: float = 200_000,
+        weight: np.ndarray | None = None) -> Fit:
     if solver == "gd":
-        return fit_gd(x, y, l2, tol, max_iter)
+        return fit_gd(x, y, l2, tol, max_iter, weight)
     if solver == "lbfgs":
-        return fit_lbfgs(x, y, l2, tol)
+        return fit_lbfgs(x, y, l2, tol, weight=weight)
     raise ValueError(f"unknown solver {solver!r} (gd, lbfgs)")
 
 

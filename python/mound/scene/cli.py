@@ -1,0 +1,238 @@
+"""`mound scene train | score | eval`: the coarse search on satellite scenes (GeoTIFF).
+
+    mound scene train SCENE.tif [...] --labels KNOWN.geojson --out MODEL.json
+          [--bands B,...] [--band-names N,...] [--features multiscale|paper]
+          [--resample-m M] [--basis hinge|none] [--negative-distance-m 40]
+          [--negatives-per-scene 1500] [--folds 5] [--l2 X] [--solver gd|lbfgs] [--seed 0]
+    mound scene score SCENE.tif --model MODEL.json --out DIR [--stride-m S]
+          [--candidates N] [--min-separation-m D] [--aoi AOI.geojson] [--home LAT,LON]
+          [--band-names N,...] [--threads T] [--block CELLS] [--scheduler ADDRESS]
+    mound scene eval SCENE.tif [...] --labels KNOWN.geojson [--band-names N,...]
+          [--figure PNG] [--json OUT.json] [--paper-resample-m M]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from pathlib import Path
+from typing import Any
+
+from mound.errors import InputError
+
+
+def _names(text: str | None) -> list[str] | None:
+    if text is None:
+        return None
+    names = [t.strip() for t in text.split(",")]
+    if not all(names):
+        raise InputError(f"expected a comma-separated list, got {text!r}")
+    return names
+
+
+def _say(text: str) -> None:
+    print(f"scene: {text}", file=sys.stderr, flush=True)
+
+
+def _home(text: str | None) -> tuple[float, float] | None:
+    if text is None:
+        return None
+    try:
+        lat, lon = (float(v) for v in text.split(","))
+    except ValueError:
+        raise InputError(f"--home: expected LAT,LON in degrees, got {text!r}") from None
+    if not (-90 <= lat <= 90 and -180 <= lon <= 180):
+        raise InputError(f"--home: {text} is not a WGS84 latitude, longitude")
+    return lat, lon
+
+
+def train_model(scenes: list[str], labels_path: str, out: str | None, *,
+                bands: list[str] | None = None, band_names: list[str] | None = None,
+                features: str = "multiscale", resample_m: float = 8.0, basis: str = "hinge",
+                negative_distance_m: float = 40.0, negatives_per_scene: int = 1500,
+                folds: int = 5, l2: float | None = None, solver: str = "gd", seed: int = 0,
+                min_sep_m: float = 30.0, threads: int = 1) -> Any:
+    """Learns a scene model (and writes it when `out` is given); the survey calls it too."""
+    from mound.datasets import sha256_of
+    from mound.jsonio import write_json
+    from mound.scene import train
+    from mound.scene.features import FeatureSpec
+    from mound.scene.vector import read_labels
+
+    if not 0 < negative_distance_m < 1e5:
+        raise InputError("--negative-distance-m: must be > 0 m")
+    if not 10 <= negatives_per_scene <= 1_000_000:
+        raise InputError("--negatives-per-scene: must be 10 .. 1,000,000")
+    if l2 is not None and not 0 <= l2 < 1e6:
+        raise InputError("--l2: must be >= 0")
+    labels = read_labels(labels_path)
+    prep = train.prepare(scenes, labels, bands, band_names, labels_path)
+    spec = FeatureSpec(features, resample_m=resample_m,
+                       band_labels=[b["name"] or f"band{b['index']}" for b in prep.band_doc])
+    basis = "none" if features == "paper" else basis
+    samples = train.sample(prep, spec, negatives_per_scene, negative_distance_m, seed)
+    n_pos, n_neg = int((samples.y > 0).sum()), int((samples.y < 0).sum())
+    _say(f"{len(scenes)} scenes, {sum(len(s.mound_ids) for s in prep.scenes)} known mounds "
+         f"inside, {n_pos} mound and {n_neg} background windows, {len(spec.names())} features")
+    cv = None
+    if len(scenes) >= 2:
+        grid = (l2,) if l2 is not None else train.L2_GRID
+        cv = train.cross_validate(prep, spec, basis, samples, solver="lbfgs", folds=folds,
+                                  seed=seed, min_sep_m=min_sep_m, l2_grid=grid,
+                                  threads=threads, progress=_say)
+        chosen = cv.l2
+    else:
+        _say("one scene: no cross-validation (folds are whole scenes); l2 = 0.01, "
+             "calibration: none")
+        chosen = 0.01 if l2 is None else l2
+    model = train.fit(samples.x, samples.y, spec, basis, chosen, solver, prep.band_doc,
+                      prep.res_m)
+    fit_info = model.info["fit"]
+    if cv is not None:
+        model.calibration, model.threshold = cv.calibration, cv.threshold
+    model.info = {
+        "fit": fit_info, "band_count": prep.scenes[0].scene.count,
+        "training": {
+            "scenes": [{"file": Path(s).name, "sha256": sha256_of(Path(s))} for s in scenes],
+            "labels": {"file": Path(labels_path).name, "sha256": sha256_of(Path(labels_path)),
+                       "points": len(labels),
+                       "mounds_inside": sum(len(s.mound_ids) for s in prep.scenes)},
+            "windows": {"mound": n_pos, "background": n_neg,
+                        "positive_radius_m": train.POSITIVE_RADIUS_M,
+                        "negative_distance_m": negative_distance_m,
+                        "negatives_per_scene": negatives_per_scene, "seed": seed,
+                        "class_weights": "balanced"}},
+        "cross_validation": cv.summary() if cv is not None else None,
+        "calibration_method": ("Platt scaling of out-of-fold candidates (true: a known mound "
+                               f"within {train.FOUND_RADIUS_M:g} m)") if cv else "none",
+        "threshold_method": ("highest balanced accuracy of the out-of-fold candidates"
+                             if cv else "0.5 (no cross-validation)")}
+    if out:
+        write_json(out, model.to_doc())
+    return model
+
+
+def cmd_train(args: argparse.Namespace) -> int:
+    model = train_model(args.scenes, args.labels, args.out, bands=_names(args.bands),
+                        band_names=_names(args.band_names), features=args.features,
+                        resample_m=args.resample_m, basis=args.basis,
+                        negative_distance_m=args.negative_distance_m,
+                        negatives_per_scene=args.negatives_per_scene, folds=args.folds,
+                        l2=args.l2, solver=args.solver, seed=args.seed, threads=args.threads)
+    cv = model.info.get("cross_validation")
+    f = model.info["fit"]
+    print(f"{model.spec.kind} features ({len(model.spec.names())}), basis {model.basis}, "
+          f"l2 {f['l2']:g}, {f['solver']} {f['iterations']} iterations "
+          f"({'converged' if f['converged'] else 'not converged'}) -> {args.out}")
+    if cv:
+        print(f"leave-scenes-out: AUC {cv['auc_mean']:.3f} (median {cv['auc_median']:.3f}), "
+              f"AP {cv['ap_mean']:.3f}, recall@5 {cv['recall_at_5']:.3f} of {cv['mounds']} "
+              f"mounds in {cv['scenes']} scenes; threshold {model.threshold:.3f}")
+    return 0
+
+
+def cmd_score(args: argparse.Namespace) -> int:
+    from mound.datasets import sha256_of
+    from mound.jsonio import read_json
+    from mound.scene import score
+    from mound.scene.model import SCHEMA, VERSION, SceneModel
+    from mound.scene.raster import open_scene
+    from mound.scene.vector import read_aoi
+
+    model = SceneModel.from_doc(read_json(args.model, SCHEMA, VERSION), args.model)
+    scene = open_scene(args.scene, _names(args.band_names))
+    aoi = (score.aoi_in_scene(read_aoi(args.aoi), scene, f"--aoi {args.aoi}")
+           if args.aoi else None)
+    if args.threads < 1:
+        raise InputError("--threads: must be >= 1")
+
+    def progress(done: int, total: int) -> None:
+        if done == total or done % max(1, total // 10) == 0:
+            _say(f"{done}/{total} blocks")
+
+    doc = score.score_to_dir(scene, model, args.out, model_path=args.model,
+                             model_sha256=sha256_of(Path(args.model)), stride_m=args.stride_m,
+                             limit=args.candidates, min_sep_m=args.min_separation_m, aoi=aoi,
+                             aoi_path=args.aoi, home=_home(args.home), block=args.block,
+                             threads=args.threads, scheduler=args.scheduler,
+                             progress=progress)
+    t = doc["timings"]
+    print(f"{doc['counts']['scored']} of {doc['counts']['cells']} cells scored, "
+          f"{doc['counts']['candidates']} candidates, {t['wall_s']:.2f} s "
+          f"({t['mpx_per_s']:.2f} Mpx/s) -> {args.out}/")
+    return 0
+
+
+def cmd_eval(args: argparse.Namespace) -> int:
+    from mound.scene import evaluate
+
+    doc = evaluate.run(args.scenes, args.labels, band_names=_names(args.band_names),
+                       bands=_names(args.bands), folds=args.folds, seed=args.seed,
+                       paper_resample_m=args.paper_resample_m, figure=args.figure,
+                       json_out=args.json, threads=args.threads, progress=_say)
+    print(evaluate.format_table(doc))
+    return 0
+
+
+def add_parser(sub: Any, parser_class: Any) -> None:
+    sc = sub.add_parser("scene", help="coarse search on satellite scenes (GeoTIFF)"
+                        ).add_subparsers(dest="cmd", required=True, parser_class=parser_class)
+    threads = min(2, os.cpu_count() or 1)
+
+    def common(p: argparse.ArgumentParser) -> None:
+        p.add_argument("--band-names", help="names of all the file's bands in order, e.g. "
+                       "blue,green,red,nir (default: the file's band descriptions)")
+        p.add_argument("--threads", type=int, default=threads, help="scoring threads")
+
+    t = sc.add_parser("train", help="learn p(mound) from scenes and known mounds")
+    t.add_argument("scenes", nargs="+", help="GeoTIFF scenes (one or more)")
+    t.add_argument("--labels", required=True, help="GeoJSON points (WGS84), properties.kind "
+                   "mound | not_mound")
+    t.add_argument("--out", required=True, help="model JSON")
+    t.add_argument("--bands", help="bands by 1-based index or name, e.g. red,nir "
+                   "(default: all)")
+    t.add_argument("--features", choices=("multiscale", "paper"), default="multiscale")
+    t.add_argument("--resample-m", type=float, default=8.0,
+                   help="paper features: the ground resolution of the 3 x 3 pixels, m")
+    t.add_argument("--basis", choices=("hinge", "none"), default="hinge",
+                   help="multiscale: per-feature piecewise-linear basis (hinge) or linear")
+    t.add_argument("--negative-distance-m", type=float, default=40.0)
+    t.add_argument("--negatives-per-scene", type=int, default=1500)
+    t.add_argument("--folds", type=int, default=5, help="cross-validation folds of scenes")
+    t.add_argument("--l2", type=float, help="fix the regularisation (default: chosen by "
+                   "cross-validation over scenes)")
+    t.add_argument("--solver", choices=("gd", "lbfgs"), default="gd",
+                   help="final fit: the paper's gradient descent, or L-BFGS (same objective)")
+    t.add_argument("--seed", type=int, default=0)
+    common(t)
+    t.set_defaults(func=cmd_train)
+
+    s = sc.add_parser("score", help="p(mound), reward and candidate sites of a scene")
+    s.add_argument("scene")
+    s.add_argument("--model", required=True)
+    s.add_argument("--out", required=True, help="output folder")
+    s.add_argument("--stride-m", type=float, help="score every S metres (default: every pixel)")
+    s.add_argument("--candidates", type=int, default=20, help="how many candidate sites")
+    s.add_argument("--min-separation-m", type=float, default=30.0,
+                   help="candidates are local maxima of p at least this far apart, m")
+    s.add_argument("--aoi", help="GeoJSON polygon(s), WGS84: score only inside")
+    s.add_argument("--home", help="LAT,LON: add the take-off point as a 'home' feature")
+    s.add_argument("--block", type=int, default=256, help="block side, output cells")
+    s.add_argument("--scheduler", help="Dask scheduler address (default: local threads)")
+    common(s)
+    s.set_defaults(func=cmd_score)
+
+    e = sc.add_parser("eval", help="leave-scenes-out evaluation: paper vs multiscale vs "
+                      "chance")
+    e.add_argument("scenes", nargs="+")
+    e.add_argument("--labels", required=True)
+    e.add_argument("--bands", help="bands by index or name (default: all)")
+    e.add_argument("--folds", type=int, default=5)
+    e.add_argument("--seed", type=int, default=0)
+    e.add_argument("--paper-resample-m", type=float, default=8.0,
+                   help="the paper's 3 x 3 pixels at this ground resolution, m")
+    e.add_argument("--figure", help="PNG: p over a few held-out scenes, known mounds marked")
+    e.add_argument("--json", help="all figures as JSON")
+    common(e)
+    e.set_defaults(func=cmd_eval)

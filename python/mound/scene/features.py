@@ -1,0 +1,269 @@
+"""Features of a scene window around each scored position (pure numpy; no file I/O).
+
+Two kinds, named in the model (`features.kind`):
+
+- `paper`: the paper's (and Statlog's) 3 x 3 pixels of the chosen bands at a coarse ground
+  resolution. The scene is first averaged over f x f pixel blocks, f = round(resample_m /
+  pixel size) (area averaging, nodata left out); a position is one coarse cell, and its
+  features are the 9 cells around it in row-major order, each with its bands in the chosen
+  order: column n_bands * k + b, as Statlog's column 4k + b. Raw values: a model of these
+  features is tied to the units it was trained on (digital numbers or reflectance).
+- `multiscale` (default): rotation-invariant centre-surround descriptors for mounds that
+  are 10-60 pixels across. For every chosen band (and NDVI when red and near-infrared are
+  among them), at radii r = `radii_m` (square windows of half-side r, box sums from
+  summed-area tables) against a background window of half-side `background_m`:
+    contrast_r  = (mean of the centre window - mean of the ring out to 2r) / sigma_bg
+    |contrast_r|  (a mound may be lighter or darker than its field)
+    texture_r   = std of the centre window / sigma_bg
+    dipole_r    = |(east half - west half, north half - south half)| / sigma_bg
+                  (the lit and shaded flanks under an oblique sun, in any direction)
+  sigma_bg being the band's standard deviation over the background window; plus the mean
+  NDVI at the smallest radius and over the background, and each band's share of the
+  bands' sum at the smallest radius (colour). Dividing by the local sigma makes every
+  texture/contrast feature independent of a band's gain and offset, so digital numbers
+  and reflectance give the same values (NDVI and the colour shares are ratios: offsets
+  matter there, gains do not).
+
+Positions lie on a grid of `stride` pixels: output cell (k, l) of a block whose core
+starts at scene pixel (R0, C0) is evaluated at pixel (R0 + k stride + stride // 2, C0 + l
+stride + stride // 2) (for `paper`, stride = f and the cell is the coarse cell). A position
+whose centre pixel is nodata, or whose windows hold too few valid pixels, gets NaN features
+(and no probability).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from mound.errors import InputError
+
+DEFAULT_RADII_M = (3.0, 6.0, 12.0, 24.0)
+DEFAULT_BACKGROUND_M = 48.0
+MIN_VALID = 0.95  # share of the background window that must hold valid pixels
+
+
+def _sat(a: np.ndarray) -> np.ndarray:
+    """Summed-area table with a zero first row and column: P[i, j] = a[:i, :j].sum()."""
+    p = np.zeros((a.shape[0] + 1, a.shape[1] + 1))
+    np.cumsum(a, axis=0, out=p[1:, 1:])
+    np.cumsum(p[1:, 1:], axis=1, out=p[1:, 1:])
+    return p
+
+
+@dataclass
+class _Grid:
+    """Positions i0 + k*st (k < n) by j0 + l*st (l < m) of a padded block."""
+    i0: int
+    j0: int
+    n: int
+    m: int
+    st: int
+
+    def box(self, p: np.ndarray, top: int, bottom: int, left: int, right: int) -> np.ndarray:
+        """Sum over rows i-top..i+bottom, columns j-left..j+right at every position."""
+        n, m, st = self.n, self.m, self.st
+
+        def at(r: int, c: int) -> np.ndarray:
+            return p[r:r + (n - 1) * st + 1:st, c:c + (m - 1) * st + 1:st]
+
+        i, j = self.i0, self.j0
+        return (at(i + bottom + 1, j + right + 1) - at(i - top, j + right + 1)
+                - at(i + bottom + 1, j - left) + at(i - top, j - left))
+
+
+@dataclass
+class FeatureSpec:
+    kind: str                                   # "multiscale" | "paper"
+    radii_m: tuple[float, ...] = DEFAULT_RADII_M
+    background_m: float = DEFAULT_BACKGROUND_M
+    resample_m: float = 30.0                    # paper: the coarse ground resolution
+    band_labels: list[str] = field(default_factory=list)  # names of the chosen bands
+
+    def __post_init__(self) -> None:
+        if self.kind not in ("multiscale", "paper"):
+            raise InputError(f"features: unknown kind {self.kind!r} (multiscale, paper)")
+        if self.kind == "multiscale":
+            r = self.radii_m
+            if not r or any(not (0 < x < 1e4) for x in r) or list(r) != sorted(set(r)):
+                raise InputError("features.radii_m: increasing positive radii in metres")
+            if not r[-1] < self.background_m < 1e4:
+                raise InputError("features.background_m: must exceed the largest radius")
+        elif not 0 < self.resample_m < 1e5:
+            raise InputError("--resample-m: must be > 0 m")
+
+    @property
+    def has_ndvi(self) -> bool:
+        return "red" in self.band_labels and "nir" in self.band_labels
+
+    def factor(self, res_m: float) -> int:
+        """paper: pixels per coarse cell."""
+        return max(1, round(self.resample_m / res_m))
+
+    def _px(self, metres: float, res_m: float) -> int:
+        return max(1, round(metres / res_m))
+
+    def halo_px(self, res_m: float, stride: int) -> int:
+        """Pixels of context needed on each side of a block's core."""
+        if self.kind == "paper":
+            return self.factor(res_m)
+        return self._px(self.background_m, res_m) + stride + 1
+
+    def cell_px(self, res_m: float, stride: int) -> int:
+        """The output grid's step in pixels."""
+        return self.factor(res_m) if self.kind == "paper" else stride
+
+    def names(self) -> list[str]:
+        labels = self.band_labels
+        if self.kind == "paper":
+            return [f"p{k}_{b}" for k in range(9) for b in labels]
+        chans = [*labels, "ndvi"] if self.has_ndvi else list(labels)
+        out = []
+        for c in chans:
+            for r in self.radii_m:
+                out += [f"{c}_contrast_{r:g}", f"{c}_abscontrast_{r:g}",
+                        f"{c}_texture_{r:g}", f"{c}_dipole_{r:g}"]
+        if self.has_ndvi:
+            out += [f"ndvi_mean_{self.radii_m[0]:g}", f"ndvi_mean_bg{self.background_m:g}"]
+        if len(labels) > 1:
+            out += [f"{b}_share" for b in labels]
+        return out
+
+    def to_doc(self) -> dict[str, Any]:
+        if self.kind == "paper":
+            return {"kind": "paper", "resample_m": self.resample_m, "pixels": "3x3"}
+        return {"kind": "multiscale", "radii_m": list(self.radii_m),
+                "background_m": self.background_m, "ndvi": self.has_ndvi}
+
+    @classmethod
+    def from_doc(cls, doc: dict[str, Any], band_labels: list[str]) -> FeatureSpec:
+        kind = doc.get("kind")
+        if kind == "paper":
+            return cls("paper", resample_m=float(doc["resample_m"]), band_labels=band_labels)
+        return cls(str(kind), radii_m=tuple(float(r) for r in doc["radii_m"]),
+                   background_m=float(doc["background_m"]), band_labels=band_labels)
+
+    # ------------------------------------------------------------------ computing
+
+    def compute(self, block: np.ndarray, res_m: float, halo: int, stride: int, n: int,
+                m: int) -> np.ndarray:
+        """Features (n * m, F) of the n x m output cells of `block` (bands, rows, cols),
+        whose core starts `halo` pixels in; rows with NaN where a position has none."""
+        if self.kind == "paper":
+            return self._paper(block, res_m, halo, n, m)
+        return self._multiscale(block, res_m, halo, stride, n, m)
+
+    def _paper(self, block: np.ndarray, res_m: float, halo: int, n: int, m: int
+               ) -> np.ndarray:
+        f = self.factor(res_m)
+        nb = block.shape[0]
+        rows, cols = (n + 2) * f, (m + 2) * f
+        a = block[:, halo - f:halo - f + rows, halo - f:halo - f + cols]
+        with np.errstate(invalid="ignore"), _quiet_nanmean():
+            coarse = np.nanmean(a.reshape(nb, n + 2, f, m + 2, f), axis=(2, 4))
+        cols_out = []
+        for dr in (0, 1, 2):
+            for dc in (0, 1, 2):
+                for b in range(nb):
+                    cols_out.append(coarse[b, dr:dr + n, dc:dc + m].ravel())
+        return np.stack(cols_out, axis=1)
+
+    def _multiscale(self, block: np.ndarray, res_m: float, halo: int, stride: int, n: int,
+                    m: int) -> np.ndarray:
+        labels = self.band_labels
+        valid = np.isfinite(block).all(axis=0)
+        chans = [np.where(valid, block[b], 0.0) for b in range(block.shape[0])]
+        if self.has_ndvi:
+            red, nir = chans[labels.index("red")], chans[labels.index("nir")]
+            den = nir + red
+            ok = valid & (np.abs(den) > 1e-9)
+            chans.append(np.where(ok, (nir - red) / np.where(ok, den, 1.0), 0.0))
+            valid = ok
+            chans = [np.where(valid, c, 0.0) for c in chans]
+        off = stride // 2
+        g = _Grid(halo + off, halo + off, n, m, stride)
+        cnt_p = _sat(valid.astype(np.float64))
+        hs = [self._px(r, res_m) for r in self.radii_m]
+        hbg = self._px(self.background_m, res_m)
+        sym = {h: g.box(cnt_p, h, h, h, h) for h in {*hs, *(2 * h for h in hs), hbg}}
+        half = {}
+        for h in hs:
+            half[h] = (g.box(cnt_p, h, h, -1, h), g.box(cnt_p, h, h, h, -1),
+                       g.box(cnt_p, h, -1, h, h), g.box(cnt_p, -1, h, h, h))
+        centre_ok = valid[g.i0:g.i0 + (n - 1) * stride + 1:stride,
+                          g.j0:g.j0 + (m - 1) * stride + 1:stride]
+        # Complete enough windows: a position near the scene's edge or a nodata hole would
+        # get its background statistics from a truncated window (a bias that, on stamps
+        # cut around known mounds, tells the centre from the edge).
+        enough = centre_ok & (sym[hbg] >= MIN_VALID * (2 * hbg + 1) ** 2)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            feats: list[np.ndarray] = []
+            small_means = []
+            bg_means = []
+            for c in chans:
+                p1 = _sat(c)
+                p2 = _sat(c * c)
+                s_bg, q_bg = g.box(p1, hbg, hbg, hbg, hbg), g.box(p2, hbg, hbg, hbg, hbg)
+                mean_bg = s_bg / sym[hbg]
+                sd_bg = np.sqrt(np.maximum(q_bg / sym[hbg] - mean_bg ** 2, 0.0))
+                scale = sd_bg + 1e-3 * np.abs(mean_bg) + 1e-9
+                sums = {h: g.box(p1, h, h, h, h) for h in sym}
+                for h in hs:
+                    mean = sums[h] / sym[h]
+                    outer = 2 * h if 2 * h in sums else hbg
+                    ring = (sums[outer] - sums[h]) / np.maximum(sym[outer] - sym[h], 1.0)
+                    contrast = (mean - ring) / scale
+                    var = np.maximum(g.box(p2, h, h, h, h) / sym[h] - mean ** 2, 0.0)
+                    e, w, no, so = half[h]
+                    de = (g.box(p1, h, h, -1, h) / e - g.box(p1, h, h, h, -1) / w)
+                    dn = (g.box(p1, h, -1, h, h) / no - g.box(p1, -1, h, h, h) / so)
+                    feats += [contrast, np.abs(contrast), np.sqrt(var) / scale,
+                              np.hypot(de, dn) / scale]
+                small_means.append(sums[hs[0]] / sym[hs[0]])
+                bg_means.append(mean_bg)
+            if self.has_ndvi:
+                feats += [small_means[-1], bg_means[-1]]
+            nb = len(labels)
+            if nb > 1:
+                total = sum(small_means[:nb])
+                feats += [sm / total for sm in small_means[:nb]]
+            out = np.stack([f.ravel() for f in feats], axis=1)
+        bad = ~enough.ravel() | ~np.isfinite(out).all(axis=1)
+        out[bad] = np.nan
+        return out
+
+
+class _quiet_nanmean:
+    """np.nanmean warns on all-NaN slices (nodata cells); those rightly give NaN."""
+
+    def __enter__(self) -> None:
+        import warnings
+
+        self._ctx = warnings.catch_warnings()
+        self._ctx.__enter__()
+        warnings.simplefilter("ignore", RuntimeWarning)
+
+    def __exit__(self, *exc: object) -> None:
+        self._ctx.__exit__(*exc)
+
+
+def features_at(spec: FeatureSpec, read: Any, res_m: float, rows: np.ndarray,
+                cols: np.ndarray) -> np.ndarray:
+    """Features at individual scene pixels (rows, cols) — training windows: each point's
+    own small block (read(row0, col0, nrows, ncols) -> bands x rows x cols) scored as a
+    one-cell output at stride 1 (paper: the coarse cell holding the pixel)."""
+    out = []
+    for r, c in zip(rows.tolist(), cols.tolist(), strict=True):
+        if spec.kind == "paper":
+            f = spec.factor(res_m)
+            r0, c0 = (r // f) * f, (c // f) * f
+            halo = spec.halo_px(res_m, f)
+            block = read(r0 - halo, c0 - halo, f + 2 * halo, f + 2 * halo)
+            out.append(spec.compute(block, res_m, halo, f, 1, 1)[0])
+        else:
+            halo = spec.halo_px(res_m, 1)
+            block = read(r - halo, c - halo, 1 + 2 * halo, 1 + 2 * halo)
+            out.append(spec.compute(block, res_m, halo, 1, 1, 1)[0])
+    return np.asarray(out).reshape(len(out), len(spec.names()))

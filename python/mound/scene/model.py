@@ -1,0 +1,167 @@
+"""A coarse-search model of scenes and its JSON form (`mound.scene_model` v1).
+
+p(mound | x) = sigma(a * w^T phi(z(x)) + b), where x are a position's features
+(features.py), z their standardisation (training mean and standard deviation, clipped to
++-6), phi the basis (`none`: z itself, the paper's linear model; `hinge`: z, max(z - 1, 0)
+and max(-z - 1, 0), a piecewise-linear response per feature that is still a logistic
+regression, eqs. (2)-(3), on a fixed basis), w the weights with the bias last, and (a, b)
+the Platt calibration fitted on out-of-fold candidates (identity when none was fitted).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from scipy.special import expit
+
+from mound.classify.features import Standardizer
+from mound.errors import InputError
+from mound.scene.features import FeatureSpec
+from mound.scene.raster import SceneInfo
+
+SCHEMA = "mound.scene_model"
+VERSION = 1
+CLIP = 6.0
+
+
+def expand(z: np.ndarray, basis: str) -> np.ndarray:
+    if basis == "none":
+        return z
+    if basis == "hinge":
+        return np.hstack([z, np.maximum(z - 1.0, 0.0), np.maximum(-z - 1.0, 0.0)])
+    raise InputError(f"model: unknown basis {basis!r} (none, hinge)")
+
+
+@dataclass
+class SceneModel:
+    bands: list[dict[str, Any]]        # [{"index": 1-based, "name": "red" or ""}]
+    spec: FeatureSpec
+    basis: str
+    scaler: Standardizer
+    w: np.ndarray
+    res_m: float
+    calibration: dict[str, float] = field(default_factory=lambda: {"a": 1.0, "b": 0.0})
+    threshold: float = 0.5
+    info: dict[str, Any] = field(default_factory=dict)
+    clip: bool = True
+
+    def design(self, x: np.ndarray) -> np.ndarray:
+        """phi(z(x)) with the bias column last."""
+        z = (x - self.scaler.mean) / self.scaler.std
+        if self.clip:
+            z = np.clip(z, -CLIP, CLIP)
+        return np.hstack([expand(z, self.basis), np.ones((x.shape[0], 1))])
+
+    def logit(self, x: np.ndarray, chunk: int = 16_384) -> np.ndarray:
+        """Uncalibrated w^T phi(z(x)) (NaN where a row has no features), in chunks of rows
+        so that the expanded design never takes more than a few tens of MB."""
+        out = np.empty(x.shape[0])
+        for k in range(0, x.shape[0], chunk):
+            out[k:k + chunk] = self.design(x[k:k + chunk]) @ self.w
+        return out
+
+    def calibrate(self, logit: np.ndarray) -> np.ndarray:
+        return expit(self.calibration["a"] * logit + self.calibration["b"])
+
+    def predict(self, x: np.ndarray) -> np.ndarray:
+        return self.calibrate(self.logit(x))
+
+    def band_indices(self, scene: SceneInfo) -> list[int]:
+        """The scene's 1-based bands for this model's bands: by name where the model and
+        the scene both name them, else by index; InputError when they do not match."""
+        out = []
+        named = any(scene.band_names)
+        for b in self.bands:
+            if b["name"] and named:
+                if b["name"] not in scene.band_names:
+                    raise InputError(f"{scene.path}: has no band {b['name']!r}, which the model "
+                                     f"needs (its bands: {', '.join(scene.band_names)})")
+                out.append(scene.band_names.index(b["name"]) + 1)
+            else:
+                if b["index"] > scene.count:
+                    raise InputError(f"{scene.path}: has {scene.count} bands; the model needs "
+                                     f"band {b['index']} ({b['name'] or 'unnamed'})")
+                out.append(b["index"])
+        want = self.info.get("band_count")
+        if not named and want is not None and want != scene.count:
+            raise InputError(f"{scene.path}: {scene.count} bands, the model was trained on "
+                             f"{want}-band scenes; name the bands (--band-names) so that they "
+                             "can be matched")
+        if not 2 / 3 <= scene.res_m / self.res_m <= 1.5:
+            raise InputError(f"{scene.path}: pixels of {scene.res_m:g} m; the model was trained "
+                             f"at {self.res_m:g} m (resample the scene to within 2/3-1.5x)")
+        return out
+
+    def to_doc(self) -> dict[str, Any]:
+        return {"schema": SCHEMA, "version": VERSION, "bands": self.bands,
+                "features": {**self.spec.to_doc(), "names": self.spec.names()},
+                "basis": self.basis, "resolution_m": self.res_m,
+                "mean": self.scaler.mean.tolist(), "std": self.scaler.std.tolist(),
+                "weights": self.w.tolist(), "clip": self.clip,
+                "calibration": self.calibration, "threshold": self.threshold, **self.info}
+
+    @classmethod
+    def from_doc(cls, doc: dict[str, Any], source: str) -> SceneModel:
+        try:
+            bands = doc["bands"]
+            if (not isinstance(bands, list) or not bands or not all(
+                    isinstance(b, dict) and isinstance(b.get("index"), int)
+                    and not isinstance(b.get("index"), bool) and 1 <= b["index"] <= 10_000
+                    and isinstance(b.get("name", ""), str) for b in bands)):
+                raise InputError(f"{source}: bands: expected [{{index, name}}] with 1-based "
+                                 "indices")
+            labels = [b.get("name") or f"band{b['index']}" for b in bands]
+            feats = doc["features"]
+            if not isinstance(feats, dict):
+                raise InputError(f"{source}: features: expected an object")
+            spec = FeatureSpec.from_doc(feats, labels)
+            basis = doc.get("basis", "none")
+            if basis not in ("none", "hinge"):
+                raise InputError(f"{source}: basis: expected 'none' or 'hinge'")
+            n = len(spec.names())
+            width = n * (3 if basis == "hinge" else 1) + 1
+            arrays = {}
+            for key, size in (("mean", n), ("std", n), ("weights", width)):
+                a = np.asarray(doc[key], dtype=np.float64)
+                if a.shape != (size,) or not np.all(np.isfinite(a)):
+                    raise InputError(f"{source}: {key} must be {size} finite numbers")
+                arrays[key] = a
+            if np.any(arrays["std"] <= 0):
+                raise InputError(f"{source}: std must be > 0")
+            res = float(doc["resolution_m"])
+            if not 0 < res < 1e4:
+                raise InputError(f"{source}: resolution_m must be > 0")
+            cal = doc.get("calibration", {"a": 1.0, "b": 0.0})
+            cal = {"a": float(cal["a"]), "b": float(cal["b"])}
+            thr = float(doc.get("threshold", 0.5))
+            if not all(np.isfinite([cal["a"], cal["b"], thr])) or not 0 <= thr <= 1:
+                raise InputError(f"{source}: calibration and threshold must be finite, "
+                                 "threshold in [0, 1]")
+            keep = {k: v for k, v in doc.items() if k not in (
+                "schema", "version", "bands", "features", "basis", "resolution_m", "mean",
+                "std", "weights", "calibration", "threshold", "clip")}
+            return cls(bands=[{"index": b["index"], "name": b.get("name", "")} for b in bands],
+                       spec=spec, basis=basis,
+                       scaler=Standardizer(arrays["mean"], arrays["std"]),
+                       w=arrays["weights"], res_m=res, calibration=cal, threshold=thr,
+                       info=keep, clip=bool(doc.get("clip", True)))
+        except KeyError as e:
+            raise InputError(f"{source}: {e.args[0]}: missing required field") from None
+        except (TypeError, ValueError, AttributeError) as e:
+            if isinstance(e, InputError):
+                raise
+            raise InputError(f"{source}: malformed scene model ({str(e)[:100]})") from None
+
+
+def from_classifier(model: Any, band_indices: list[int], res_m: float,
+                    resample_m: float) -> SceneModel:
+    """A Statlog classifier (mound.classify.model.Model) as a scene model of the paper's
+    3 x 3 features: its bands (all four, or its one band) taken from `band_indices`."""
+    bands = band_indices if model.band is None else [band_indices[model.band]]
+    labels = [f"band{k}" for k in bands]
+    spec = FeatureSpec("paper", resample_m=resample_m, band_labels=labels)
+    return SceneModel(bands=[{"index": k, "name": ""} for k in bands], spec=spec,
+                      basis="none", scaler=model.scaler, w=model.w, res_m=res_m, clip=False,
+                      info={"source": "mound.classifier (Statlog)"})

@@ -1,0 +1,197 @@
+"""The one reader of satellite scenes (GeoTIFF or any raster GDAL reads, through rasterio).
+
+A scene must be north-up (no rotation terms in its geotransform), in a projected CRS whose
+unit is the metre (UTM, a national grid): the features are measured in metres. Bands are
+chosen by 1-based index (GDAL's numbering) or by name: the names come from the file's band
+descriptions, or from `band_names` given by the user for the whole file (IKONOS stamps, as
+most GeoTIFFs, carry none). Values are read as they are stored (digital numbers or
+reflectance) into float64; a pixel is nodata where any chosen band equals the file's nodata
+value or is not finite (NaN in the arrays handed on). Nothing here writes.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from mound.errors import InputError
+
+BAND_ALIASES = {"nir": ("nir", "near-infrared", "near_infrared", "nir1", "b8", "near infrared"),
+                "red": ("red", "r", "b4"), "green": ("green", "g", "b3"),
+                "blue": ("blue", "b", "b2")}
+
+
+def _canonical(name: str) -> str:
+    n = name.strip().lower()
+    for canon, aliases in BAND_ALIASES.items():
+        if n in aliases:
+            return canon
+    return n
+
+
+@dataclass(frozen=True)
+class SceneInfo:
+    path: Path
+    crs_wkt: str
+    epsg: int | None
+    transform: tuple[float, float, float, float, float, float]  # a, b, c, d, e, f (GDAL order)
+    width: int
+    height: int
+    count: int
+    dtype: str
+    nodata: float | None
+    band_names: tuple[str, ...]       # canonical names, "" where unknown
+
+    @property
+    def res_m(self) -> float:
+        return abs(self.transform[0])
+
+    @property
+    def west(self) -> float:
+        return self.transform[2]
+
+    @property
+    def north(self) -> float:
+        return self.transform[5]
+
+    def bounds(self) -> tuple[float, float, float, float]:
+        """(west, south, east, north) in the scene's CRS."""
+        return (self.west, self.north - self.height * self.res_m,
+                self.west + self.width * self.res_m, self.north)
+
+    def pixel_of(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(row, col) as floats (pixel centres at .5) of CRS coordinates."""
+        return (self.north - y) / self.res_m, (x - self.west) / self.res_m
+
+    def resolve_bands(self, bands: list[str] | None) -> list[int]:
+        """1-based band indices of `bands` (indices or names); all bands for None."""
+        if not bands:
+            return list(range(1, self.count + 1))
+        out = []
+        for b in bands:
+            b = b.strip()
+            if b.isdigit():
+                k = int(b)
+                if not 1 <= k <= self.count:
+                    raise InputError(f"--bands: band {k} does not exist in {self.path} "
+                                     f"(bands 1..{self.count})")
+            else:
+                name = _canonical(b)
+                if name not in self.band_names:
+                    known = ", ".join(n or "?" for n in self.band_names)
+                    raise InputError(f"--bands: no band named {b!r} in {self.path} (its bands: "
+                                     f"{known}; name them with --band-names)")
+                k = self.band_names.index(name) + 1
+            if k in out:
+                raise InputError(f"--bands: band {b!r} named twice")
+            out.append(k)
+        return out
+
+    def crs(self) -> Any:
+        from rasterio.crs import CRS
+
+        return CRS.from_wkt(self.crs_wkt)
+
+    def digest(self) -> str:
+        from mound.datasets import sha256_of
+
+        return sha256_of(self.path)
+
+
+def open_scene(path: str | Path, band_names: list[str] | None = None) -> SceneInfo:
+    """Validates a scene file and returns its facts; InputError naming the file for a
+    missing/non-raster file, no CRS, a geographic or non-metre CRS, a rotated or south-up
+    geotransform, or `band_names` of the wrong length."""
+    import rasterio
+    from rasterio.errors import RasterioIOError
+
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{path}: no such file")
+    try:
+        with rasterio.open(path) as ds:
+            crs, tf = ds.crs, ds.transform
+            info: dict[str, Any] = {"width": ds.width, "height": ds.height, "count": ds.count,
+                                    "dtype": ds.dtypes[0] if ds.count else "",
+                                    "nodata": ds.nodata, "descriptions": ds.descriptions}
+    except RasterioIOError as e:
+        raise InputError(f"{path}: not a raster GDAL can read ({str(e).splitlines()[0][:120]})"
+                         ) from None
+    if info["count"] < 1 or info["width"] < 1 or info["height"] < 1:
+        raise InputError(f"{path}: no pixels or no bands")
+    if crs is None:
+        raise InputError(f"{path}: no CRS (georeference the scene, e.g. gdal_translate -a_srs)")
+    if tf.is_identity:
+        raise InputError(f"{path}: no geotransform (pixel positions unknown)")
+    if tf.b != 0 or tf.d != 0 or tf.e >= 0 or tf.a <= 0:
+        raise InputError(f"{path}: geotransform is rotated or not north-up ({tuple(tf)[:6]}); "
+                         "warp it north-up first (gdalwarp)")
+    if not math.isclose(tf.a, -tf.e, rel_tol=0.01):
+        raise InputError(f"{path}: pixels are not square ({tf.a} x {-tf.e})")
+    if not crs.is_projected:
+        raise InputError(f"{path}: CRS {crs.to_string()} is not projected; the features are "
+                         "in metres: warp the scene to a UTM zone (gdalwarp -t_srs EPSG:326zz)")
+    unit = (crs.linear_units or "").lower()
+    if unit not in ("metre", "meter", "m", "metres", "meters"):
+        raise InputError(f"{path}: CRS unit is {crs.linear_units!r}, not metres")
+    if info["dtype"] not in ("uint8", "int8", "uint16", "int16", "uint32", "int32",
+                             "float32", "float64"):
+        raise InputError(f"{path}: pixel type {info['dtype']} is not supported")
+    if band_names:
+        if len(band_names) != info["count"]:
+            raise InputError(f"--band-names: {len(band_names)} names for the {info['count']} "
+                             f"bands of {path}")
+        names = tuple(_canonical(n) for n in band_names)
+    else:
+        names = tuple(_canonical(d) if d else "" for d in info["descriptions"])
+    named = [n for n in names if n]
+    if len(set(named)) != len(named):
+        raise InputError(f"{path}: band names are not unique ({', '.join(names)})")
+    epsg = crs.to_epsg()
+    return SceneInfo(path=path, crs_wkt=crs.to_wkt(), epsg=epsg,
+                     transform=(tf.a, tf.b, tf.c, tf.d, tf.e, tf.f), width=info["width"],
+                     height=info["height"], count=info["count"], dtype=info["dtype"],
+                     nodata=info["nodata"], band_names=names)
+
+
+def read_window(scene: SceneInfo, bands: list[int], row0: int, col0: int, rows: int,
+                cols: int) -> np.ndarray:
+    """(len(bands), rows, cols) float64 of the window whose top-left pixel is (row0, col0);
+    parts outside the scene and nodata pixels are NaN (in every band where one is)."""
+    import rasterio
+    from rasterio.windows import Window
+
+    out = np.full((len(bands), rows, cols), np.nan)
+    r0, c0 = max(row0, 0), max(col0, 0)
+    r1, c1 = min(row0 + rows, scene.height), min(col0 + cols, scene.width)
+    if r1 <= r0 or c1 <= c0:
+        return out
+    try:
+        with rasterio.open(scene.path) as ds:
+            a = ds.read(bands, window=Window(c0, r0, c1 - c0, r1 - r0)).astype(np.float64)
+    except Exception as e:  # a truncated or corrupt file fails only when its blocks are read
+        raise InputError(f"{scene.path}: cannot read pixels ({str(e).splitlines()[0][:120]})"
+                         ) from None
+    bad = ~np.isfinite(a)
+    if scene.nodata is not None and math.isfinite(scene.nodata):
+        bad |= a == np.float64(np.dtype(scene.dtype).type(scene.nodata))
+    a[:, bad.any(axis=0)] = np.nan
+    out[:, r0 - row0:r1 - row0, c0 - col0:c1 - col0] = a
+    return out
+
+
+def transformer_to_scene(scene: SceneInfo) -> Any:
+    """pyproj Transformer WGS84 (lon, lat) -> the scene's CRS (x, y)."""
+    from pyproj import CRS, Transformer
+
+    return Transformer.from_crs("EPSG:4326", CRS.from_wkt(scene.crs_wkt), always_xy=True)
+
+
+def transformer_from_scene(scene: SceneInfo) -> Any:
+    from pyproj import CRS, Transformer
+
+    return Transformer.from_crs(CRS.from_wkt(scene.crs_wkt), "EPSG:4326", always_xy=True)

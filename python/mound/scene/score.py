@@ -1,0 +1,416 @@
+"""Scoring a scene block by block: p(mound) and reward rasters and the candidate sites.
+
+The output grid has cells of `cell` scene pixels (1, or the stride; the paper's features:
+their coarse cell), north-up in the scene's CRS. The scene is read in blocks of
+`block` x `block` output cells (rasterio windows) with the halo the features need, so
+memory stays bounded whatever the scene's size; blocks run on a local thread pool or, with
+a scheduler address, as Dask tasks on that cluster (each worker reads its own window).
+
+Candidates are the local maxima of p within `min_separation_m` (a disc), over the whole
+scene: each block is scored with an extra margin of that radius so that a maximum at a
+block's edge sees its neighbours in the next block; the maxima of all blocks are then
+thinned greedily in order of p (highest first, ties by position) so that no two lie closer
+than `min_separation_m`. Block-wise and whole-scene scoring therefore give the same
+candidates (and the same p up to the summed-area tables' rounding, ~1e-12).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Iterator
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from scipy import ndimage
+
+from mound.errors import InputError
+from mound.scene.features import FeatureSpec
+from mound.scene.model import SceneModel
+from mound.scene.raster import SceneInfo, read_window
+
+NODATA = -9999.0
+
+
+@dataclass(frozen=True)
+class OutGrid:
+    cell: int          # scene pixels per output cell
+    rows: int
+    cols: int
+    res_m: float       # output cell size, m
+    west: float
+    north: float
+
+    @classmethod
+    def of(cls, scene: SceneInfo, model: SceneModel, stride_m: float | None) -> OutGrid:
+        stride = 1 if stride_m is None else max(1, round(stride_m / scene.res_m))
+        if stride_m is not None and not 0 < stride_m < 1e5:
+            raise InputError("--stride-m: must be > 0 m")
+        cell = model.spec.cell_px(scene.res_m, stride)
+        return cls(cell, math.ceil(scene.height / cell), math.ceil(scene.width / cell),
+                   cell * scene.res_m, scene.west, scene.north)
+
+    def centre(self, row: np.ndarray, col: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """CRS coordinates of the centres of output cells."""
+        return (self.west + (col + 0.5) * self.res_m, self.north - (row + 0.5) * self.res_m)
+
+    def transform(self) -> Any:
+        from rasterio.transform import from_origin
+
+        return from_origin(self.west, self.north, self.res_m, self.res_m)
+
+
+def _disc(radius_cells: float) -> np.ndarray:
+    r = max(1, int(math.floor(radius_cells)))
+    yy, xx = np.mgrid[-r:r + 1, -r:r + 1]
+    return (xx * xx + yy * yy) <= radius_cells * radius_cells + 1e-9
+
+
+def features_block(scene: SceneInfo, bands: list[int], spec: FeatureSpec, cell: int,
+                   r0: int, c0: int, n: int, m: int) -> np.ndarray:
+    """Features (n * m, F) of output cells [r0, r0 + n) x [c0, c0 + m)."""
+    halo = spec.halo_px(scene.res_m, cell)
+    block = read_window(scene, bands, r0 * cell - halo, c0 * cell - halo, n * cell + 2 * halo,
+                        m * cell + 2 * halo)
+    return spec.compute(block, scene.res_m, halo, cell, n, m)
+
+
+def score_block(scene: SceneInfo, bands: list[int], model: SceneModel, grid: OutGrid,
+                r0: int, c0: int, nr: int, nc: int, margin: int,
+                aoi: list[Any] | None = None) -> np.ndarray:
+    """Logits of output cells [r0 - margin, r0 + nr + margin) x [c0 - margin, ...);
+    NaN outside the scene, at nodata and outside the AOI."""
+    n, m = nr + 2 * margin, nc + 2 * margin
+    feats = features_block(scene, bands, model.spec, grid.cell, r0 - margin, c0 - margin, n, m)
+    logit = model.logit(feats).reshape(n, m)
+    if aoi is not None:
+        logit[~_aoi_mask(aoi, grid, r0 - margin, c0 - margin, n, m)] = np.nan
+    return logit
+
+
+def _aoi_mask(polys: list[Any], grid: OutGrid, r0: int, c0: int, n: int, m: int
+              ) -> np.ndarray:
+    from rasterio.features import geometry_mask
+    from rasterio.transform import from_origin
+
+    tf = from_origin(grid.west + c0 * grid.res_m, grid.north - r0 * grid.res_m, grid.res_m,
+                     grid.res_m)
+    return geometry_mask(polys, out_shape=(n, m), transform=tf, invert=True, all_touched=False)
+
+
+def aoi_in_scene(polys_lonlat: list[Any], scene: SceneInfo, where: str) -> list[Any]:
+    """The AOI polygons as GeoJSON geometries in the scene's CRS; InputError when they miss
+    the scene."""
+    from mound.scene.raster import transformer_to_scene
+
+    tr = transformer_to_scene(scene)
+    geoms = []
+    w, s, e, n = scene.bounds()
+    hit = False
+    for poly in polys_lonlat:
+        rings = []
+        for ring in poly:
+            lon = np.array([c[0] for c in ring])
+            lat = np.array([c[1] for c in ring])
+            x, y = tr.transform(lon, lat)
+            x, y = np.asarray(x), np.asarray(y)
+            if not (np.all(np.isfinite(x)) and np.all(np.isfinite(y))):
+                raise InputError(f"{where}: a position cannot be taken to the scene's CRS")
+            rings.append(list(zip(x.tolist(), y.tolist(), strict=True)))
+            if x.max() > w and x.min() < e and y.max() > s and y.min() < n:
+                hit = True
+        geoms.append({"type": "Polygon", "coordinates": rings})
+    if not hit:
+        raise InputError(f"{where}: the area of interest misses the scene {scene.path}")
+    return geoms
+
+
+def peaks(p: np.ndarray, margin: int, radius_cells: float, r0: int, c0: int
+          ) -> list[tuple[float, int, int]]:
+    """Local maxima (p, row, col) of the core of a block scored with `margin` extra cells;
+    row/col in the output grid."""
+    q = np.where(np.isfinite(p), p, -np.inf)
+    mx = ndimage.maximum_filter(q, footprint=_disc(radius_cells), mode="constant",
+                                cval=-np.inf)
+    core = np.zeros_like(q, dtype=bool)
+    core[margin:q.shape[0] - margin, margin:q.shape[1] - margin] = True
+    rr, cc = np.nonzero((q == mx) & np.isfinite(q) & core)
+    return [(float(p[r, c]), int(r - margin + r0), int(c - margin + c0))
+            for r, c in zip(rr.tolist(), cc.tolist(), strict=True)]
+
+
+def thin(found: list[tuple[float, int, int]], grid: OutGrid, min_sep_m: float,
+         limit: int) -> list[tuple[float, int, int]]:
+    """Greedy: highest p first (ties: lower row, then column), none within min_sep_m of one
+    kept; at most `limit`."""
+    order = sorted(found, key=lambda t: (-t[0], t[1], t[2]))
+    sep = min_sep_m / grid.res_m
+    size = max(sep, 1.0)
+    buckets: dict[tuple[int, int], list[tuple[int, int]]] = {}
+    kept = []
+    for p, r, c in order:
+        if len(kept) >= limit:
+            break
+        br, bc = int(r // size), int(c // size)
+        near = False
+        for dr in (-1, 0, 1):
+            for dc in (-1, 0, 1):
+                for (qr, qc) in buckets.get((br + dr, bc + dc), ()):
+                    if (qr - r) ** 2 + (qc - c) ** 2 < sep * sep:
+                        near = True
+                        break
+        if not near:
+            kept.append((p, r, c))
+            buckets.setdefault((br, bc), []).append((r, c))
+    return kept
+
+
+def block_origins(grid: OutGrid, block: int) -> list[tuple[int, int, int, int]]:
+    return [(r, c, min(block, grid.rows - r), min(block, grid.cols - c))
+            for r in range(0, grid.rows, block) for c in range(0, grid.cols, block)]
+
+
+@dataclass
+class BlockResult:
+    r0: int
+    c0: int
+    logit: np.ndarray          # core only
+    p: np.ndarray              # calibrated, core only
+    peaks: list[tuple[float, int, int]]
+    seconds: float
+
+
+def run_block(scene: SceneInfo, bands: list[int], model: SceneModel, grid: OutGrid,
+              r0: int, c0: int, nr: int, nc: int, margin: int, radius_cells: float,
+              aoi: list[Any] | None) -> BlockResult:
+    start = time.perf_counter()
+    logit = score_block(scene, bands, model, grid, r0, c0, nr, nc, margin, aoi)
+    p = model.calibrate(logit)
+    core = (slice(margin, margin + nr), slice(margin, margin + nc))
+    return BlockResult(r0, c0, logit[core], p[core], peaks(p, margin, radius_cells, r0, c0),
+                       time.perf_counter() - start)
+
+
+def run_blocks(scene: SceneInfo, bands: list[int], model: SceneModel, grid: OutGrid,
+               block: int, min_sep_m: float, aoi: list[Any] | None = None,
+               threads: int = 1, scheduler: str | None = None) -> Iterator[BlockResult]:
+    """Every block's result, in completion order; at most 2 x workers blocks in flight."""
+    radius = min_sep_m / grid.res_m
+    margin = int(math.ceil(radius))
+    jobs = block_origins(grid, block)
+    args = [(scene, bands, model, grid, r, c, nr, nc, margin, radius, aoi)
+            for r, c, nr, nc in jobs]
+    if scheduler:
+        yield from _run_dask(scheduler, args)
+        return
+    if threads <= 1:
+        for a in args:
+            yield run_block(*a)
+        return
+    with ThreadPoolExecutor(max_workers=threads) as pool:
+        pending: list[Any] = []
+        it = iter(args)
+        for a in it:
+            pending.append(pool.submit(run_block, *a))
+            if len(pending) >= 2 * threads:
+                break
+        while pending:
+            done = pending.pop(0)
+            nxt = next(it, None)
+            if nxt is not None:
+                pending.append(pool.submit(run_block, *nxt))
+            yield done.result()
+
+
+def _run_dask(address: str, args: list[tuple[Any, ...]]) -> Iterator[BlockResult]:
+    from distributed import Client, as_completed
+
+    try:
+        client = Client(address, timeout="20s")
+    except (OSError, TimeoutError) as e:
+        raise InputError(f"--scheduler: cannot reach {address} ({e})") from None
+    try:
+        width = max(2, 2 * sum(client.nthreads().values()))
+        it = iter(args)
+        futures = as_completed([client.submit(run_block, *a, pure=False)
+                                for a in _take(it, width)])
+        for fut in futures:
+            res = fut.result()
+            nxt = next(it, None)
+            if nxt is not None:
+                futures.add(client.submit(run_block, *nxt, pure=False))
+            fut.release()
+            yield res
+    finally:
+        client.close()
+
+
+def _take(it: Iterator[Any], n: int) -> list[Any]:
+    out = []
+    for _ in range(n):
+        nxt = next(it, None)
+        if nxt is None:
+            break
+        out.append(nxt)
+    return out
+
+
+def logit_map(scene: SceneInfo, model: SceneModel, stride_m: float | None = None,
+              block: int = 256, threads: int = 1) -> tuple[np.ndarray, OutGrid]:
+    """The whole scene's logits in memory (training and evaluation on modest scenes)."""
+    grid = OutGrid.of(scene, model, stride_m)
+    bands = model.band_indices(scene)
+    out = np.full((grid.rows, grid.cols), np.nan)
+    for res in run_blocks(scene, bands, model, grid, block, 0.0, threads=threads):
+        out[res.r0:res.r0 + res.logit.shape[0], res.c0:res.c0 + res.logit.shape[1]] = res.logit
+    return out, grid
+
+
+def candidates_of_map(p: np.ndarray, grid: OutGrid, min_sep_m: float, limit: int
+                      ) -> list[tuple[float, int, int]]:
+    """Candidates of an in-memory p map (the same rule as the block-wise scoring)."""
+    radius = min_sep_m / grid.res_m
+    return thin(peaks(p, 0, radius, 0, 0), grid, min_sep_m, limit)
+
+
+ProgressFn = Callable[[int, int], None]
+
+
+def _candidate_features(kept: list[tuple[float, int, int]], grid: OutGrid, scene: SceneInfo,
+                        logits: dict[tuple[int, int], float]) -> list[dict[str, Any]]:
+    from mound.classify.reward import binary_entropy_bits
+    from mound.scene.raster import transformer_from_scene
+
+    if not kept:
+        return []
+    rows = np.array([r for _, r, _ in kept])
+    cols = np.array([c for _, _, c in kept])
+    x, y = grid.centre(rows, cols)
+    lon, lat = transformer_from_scene(scene).transform(x, y)
+    width = max(3, len(str(len(kept))))
+    out = []
+    for k, (p, r, c) in enumerate(kept):
+        p = float(min(max(p, 0.0), 1.0))
+        out.append({"type": "Feature", "id": f"c{k + 1:0{width}d}",
+                    "geometry": {"type": "Point", "coordinates": [round(float(lon[k]), 8),
+                                                                  round(float(lat[k]), 8)]},
+                    "properties": {"id": f"c{k + 1:0{width}d}", "rank": k + 1,
+                                   "p_mound": p, "reward": float(binary_entropy_bits(p)),
+                                   "logit": logits[(r, c)],
+                                   "x": float(x[k]), "y": float(y[k]), "row": r, "col": c,
+                                   "scene": scene.path.name}})
+    return out
+
+
+def score_to_dir(scene: SceneInfo, model: SceneModel, out_dir: Any, *, model_path: str,
+                 model_sha256: str, stride_m: float | None = None, limit: int = 20,
+                 min_sep_m: float = 30.0, aoi: list[Any] | None = None,
+                 aoi_path: str | None = None, home: tuple[float, float] | None = None,
+                 block: int = 256, threads: int = 1, scheduler: str | None = None,
+                 progress: Callable[[int, int], None] | None = None) -> dict[str, Any]:
+    """Scores `scene` into out_dir: p_mound.tif, reward.tif (float32, NODATA where there is
+    no score), candidates.geojson and scene.json, all staged and renamed into place
+    together once every block is done."""
+    from contextlib import ExitStack
+    from pathlib import Path
+
+    import rasterio
+    from rasterio.windows import Window
+
+    from mound.classify.reward import binary_entropy_bits
+    from mound.jsonio import json_text, write_all_atomic
+
+    if not 0 <= min_sep_m < 1e5:
+        raise InputError("--min-separation-m: must be >= 0 m")
+    if not 1 <= limit <= 1_000_000:
+        raise InputError("--candidates: must be 1 .. 1,000,000")
+    if not 16 <= block <= 8192:
+        raise InputError("--block: must be 16 .. 8192 cells")
+    start = time.perf_counter()
+    bands = model.band_indices(scene)
+    grid = OutGrid.of(scene, model, stride_m)
+    out = Path(out_dir)
+    if out.exists() and not out.is_dir():
+        raise InputError(f"--out: {out} is a file, not a folder")
+    out.mkdir(parents=True, exist_ok=True)
+    profile = {"driver": "GTiff", "width": grid.cols, "height": grid.rows, "count": 1,
+               "dtype": "float32", "crs": scene.crs(), "transform": grid.transform(),
+               "nodata": NODATA, "tiled": True, "blockxsize": 256, "blockysize": 256,
+               "compress": "deflate", "BIGTIFF": "IF_SAFER"}
+    found: list[tuple[float, int, int]] = []
+    logits: dict[tuple[int, int], float] = {}
+    cells = valid = 0
+    p_sum = 0.0
+    block_s: list[float] = []
+    from mound.jsonio import staged_file
+
+    with ExitStack() as stack:
+        p_tmp = stack.enter_context(staged_file(out / "p_mound.tif", ".tif"))
+        r_tmp = stack.enter_context(staged_file(out / "reward.tif", ".tif"))
+        p_ds = stack.enter_context(rasterio.open(p_tmp, "w", **profile))
+        r_ds = stack.enter_context(rasterio.open(r_tmp, "w", **profile))
+        p_ds.set_band_description(1, "p(mound), calibrated")
+        r_ds.set_band_description(1, "reward: binary entropy of p(mound), bits")
+        total = len(block_origins(grid, block))
+        for done, res in enumerate(run_blocks(scene, bands, model, grid, block, min_sep_m,
+                                              aoi, threads, scheduler), start=1):
+            ok = np.isfinite(res.p)
+            nr, nc = res.p.shape
+            win = Window(res.c0, res.r0, nc, nr)
+            p_ds.write(np.where(ok, res.p, NODATA).astype(np.float32), 1, window=win)
+            h = np.where(ok, binary_entropy_bits(np.where(ok, res.p, 0.0)), NODATA)
+            r_ds.write(h.astype(np.float32), 1, window=win)
+            cells += res.p.size
+            valid += int(ok.sum())
+            p_sum += float(res.p[ok].sum())
+            block_s.append(res.seconds)
+            for pk in res.peaks:
+                found.append(pk)
+                logits[(pk[1], pk[2])] = float(res.logit[pk[1] - res.r0, pk[2] - res.c0])
+            if progress:
+                progress(done, total)
+        p_ds.close()
+        r_ds.close()
+        if valid == 0:
+            from mound.errors import NoResultError
+            from mound.jsonio import write_json
+
+            write_json(out / "scene.json", {
+                "schema": "mound.scene", "version": 1, "status": "failed",
+                "reason": "no position of the scene could be scored (nodata, outside the "
+                "AOI, or the scene smaller than the features' windows)",
+                "scene": {"file": str(scene.path)}, "model": {"file": model_path}})
+            raise NoResultError(f"{scene.path}: no position could be scored (nodata, the AOI, "
+                                "or a scene smaller than the features' windows)")
+        kept = thin(found, grid, min_sep_m, limit)
+        feats = _candidate_features(kept, grid, scene, logits)
+        if home is not None:
+            feats.insert(0, {"type": "Feature", "id": "home",
+                             "geometry": {"type": "Point", "coordinates": [home[1], home[0]]},
+                             "properties": {"kind": "home", "id": "home"}})
+        wall = time.perf_counter() - start
+        px = scene.width * scene.height
+        doc = {"schema": "mound.scene", "version": 1, "status": "ok",
+               "scene": {"file": str(scene.path), "width": scene.width,
+                         "height": scene.height, "bands_used": bands,
+                         "resolution_m": scene.res_m, "crs": scene.crs().to_string()},
+               "model": {"file": model_path, "sha256": model_sha256,
+                         "features": model.spec.kind},
+               "aoi": aoi_path, "grid": {"cell_px": grid.cell, "resolution_m": grid.res_m,
+                                         "width": grid.cols, "height": grid.rows},
+               "counts": {"cells": cells, "scored": valid, "nodata": cells - valid,
+                          "local_maxima": len(found), "candidates": len(kept)},
+               "p_mean": p_sum / valid if valid else None, "threshold": model.threshold,
+               "min_separation_m": min_sep_m,
+               "timings": {"wall_s": wall, "blocks": len(block_s),
+                           "block_s_median": float(np.median(block_s)) if block_s else 0.0,
+                           "mpx_per_s": px / wall / 1e6 if wall > 0 else None,
+                           "threads": threads, "scheduler": scheduler or "local threads"},
+               "files": ["p_mound.tif", "reward.tif", "candidates.geojson"]}
+        gj = {"type": "FeatureCollection", "name": f"candidates of {scene.path.name}",
+              "features": feats}
+        write_all_atomic([(out / "candidates.geojson", json_text(gj)),
+                          (out / "scene.json", json_text(doc))])
+    return doc
