@@ -28,10 +28,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from mound import native
 from mound.cli import Parser, UsageError
 from mound.datasets import sha256_of
-from mound.errors import EXIT_NO_RESULT, exit_for
+from mound.errors import EXIT_NO_RESULT, InputError, exit_for
 from mound.jsonio import read_json, write_json
 from mound.survey.ledger import Ledger, StageRecord, digest
 from mound.survey.tree import RunTree
@@ -71,6 +73,18 @@ def build_parser() -> argparse.ArgumentParser:
                    "optional reward and truth); see README")
     g.add_argument("--budget", type=float, help="flight distance budget, m (default: the "
                    "sites file's budget_m, else the aircraft's range, 14,400 m)")
+    g = p.add_argument_group("satellite scene (instead of the field or --sites)")
+    g.add_argument("--scene", nargs="+", help="GeoTIFF scene(s): the candidate sites are the "
+                   "local maxima of p(mound) (mound scene score)")
+    g.add_argument("--labels", help="known mounds (GeoJSON points, WGS84): the scene model is "
+                   "learned from them, and they give the truth of the candidates near them")
+    g.add_argument("--scene-model", help="a model of mound scene train instead of --labels")
+    g.add_argument("--home", help="LAT,LON of the take-off point (needed with --scene)")
+    g.add_argument("--aoi", help="GeoJSON polygon(s): candidates only inside")
+    g.add_argument("--band-names", help="names of the scene's bands, e.g. blue,green,red,nir")
+    g.add_argument("--candidates", type=int, default=20, help="candidate sites from the scene")
+    g.add_argument("--min-separation-m", type=float, default=30.0,
+                   help="candidates at least this far apart, m")
     g = p.add_argument_group("flight")
     g.add_argument("--scan-pattern", choices=("raster", "orbit", "both"), default="raster",
                    help="how each site is scanned (the mission flies it, the simulator "
@@ -162,6 +176,8 @@ def stage_classify(ctx: Context) -> str:
     from mound import datasets
     from mound.classify import coarse, statlog
 
+    if ctx.args.scene:
+        return stage_classify_scene(ctx)
     if ctx.args.sites:
         ctx.stages.append({"name": "classify", "wall_s": 0.0, "skipped": True,
                            "note": "not needed: --sites gives each site's p_mound"})
@@ -186,6 +202,131 @@ def stage_classify(ctx: Context) -> str:
                      work)
 
 
+def _digest_files(paths: list[str]) -> list[str]:
+    return [sha256_of(Path(p)) for p in paths]
+
+
+def stage_classify_scene(ctx: Context) -> str:
+    """The scene model: learned on the scene(s) from --labels, or the user's --scene-model."""
+    from mound.jsonio import read_json as read_doc
+    from mound.scene.cli import _names, train_model
+    from mound.scene.model import SCHEMA as SCENE_SCHEMA
+    from mound.scene.model import VERSION as SCENE_VERSION
+    from mound.scene.model import SceneModel
+
+    a = ctx.args
+    path = ctx.tree.root / "scene_model.json"
+
+    def work() -> tuple[list[str], str, bool]:
+        if a.scene_model:
+            doc = read_doc(a.scene_model, SCENE_SCHEMA, SCENE_VERSION)
+            SceneModel.from_doc(doc, a.scene_model)
+            write_json(path, doc)
+            return ["scene_model.json"], f"scene model {a.scene_model}", True
+        model = train_model(a.scene, a.labels, str(path), band_names=_names(a.band_names))
+        cv = model.info.get("cross_validation") or {}
+        note = (f"{model.spec.kind} scene model on {len(a.scene)} scene(s)"
+                + (f", leave-scenes-out AUC {cv['auc_mean']:.3f}, recall@5 "
+                   f"{cv['recall_at_5']:.3f}" if cv.get("auc_mean") is not None else ""))
+        return ["scene_model.json"], note, True
+
+    material = {"scenes": _digest_files(a.scene), "band_names": a.band_names,
+                "labels": _digest_files([a.labels]) if a.labels else None,
+                "model": _digest_files([a.scene_model]) if a.scene_model else None}
+    return run_stage(ctx, "classify", material, work)
+
+
+def scene_sites(ctx: Context, scan: Any) -> dict[str, Any]:
+    """Scores each scene, merges their candidates (best first), gives each the truth of the
+    labels within 15 m (a known mound, with its height_m; an explicit not_mound), and reads
+    them as the run's sites; the others are simulated as flat ground, truth unknown."""
+    from scipy.spatial import cKDTree
+
+    from mound.datasets import sha256_of as digest_of
+    from mound.jsonio import read_json as read_doc
+    from mound.scene import score
+    from mound.scene.cli import _home, _names
+    from mound.scene.model import SCHEMA as SCENE_SCHEMA
+    from mound.scene.model import VERSION as SCENE_VERSION
+    from mound.scene.model import SceneModel
+    from mound.scene.raster import open_scene, transformer_to_scene
+    from mound.scene.train import FOUND_RADIUS_M
+    from mound.scene.vector import read_aoi, read_labels
+    from mound.survey.sites_input import load_user_sites
+    from mound.uav.mission_items import flight_budget_m
+
+    a = ctx.args
+    model_path = ctx.tree.root / "scene_model.json"
+    model = SceneModel.from_doc(read_doc(model_path, SCENE_SCHEMA, SCENE_VERSION),
+                                str(model_path))
+    home = _home(a.home)
+    labels = read_labels(a.labels) if a.labels else []
+    feats: list[dict[str, Any]] = []
+    for k, scene_path in enumerate(a.scene):
+        scene = open_scene(scene_path, _names(a.band_names))
+        aoi = None
+        if a.aoi:
+            try:
+                aoi = score.aoi_in_scene(read_aoi(a.aoi), scene, f"--aoi {a.aoi}")
+            except InputError:
+                if len(a.scene) == 1:
+                    raise
+                continue
+        out = ctx.tree.root / "scene" / f"{k:02d}_{Path(scene_path).stem}"
+        score.score_to_dir(scene, model, out, model_path=str(model_path),
+                           model_sha256=digest_of(model_path), limit=a.candidates,
+                           min_sep_m=a.min_separation_m, aoi=aoi, aoi_path=a.aoi)
+        cands = json.loads((out / "candidates.geojson").read_text())["features"]
+        if labels:
+            tr = transformer_to_scene(scene)
+            lx, ly = tr.transform([lb.lon for lb in labels], [lb.lat for lb in labels])
+            tree = cKDTree(np.stack([lx, ly], 1))
+        for c in cands:
+            pr = c["properties"]
+            pr["id"] = f"{Path(scene_path).stem}-{pr['id']}"
+            pr["scene_dir"] = str(out.relative_to(ctx.tree.root))
+            if labels:
+                d, j = tree.query([pr["x"], pr["y"]])
+                if d <= FOUND_RADIUS_M:
+                    lb = labels[int(j)]
+                    pr["truth"] = {"mound": lb.mound}
+                    if lb.mound and isinstance(lb.props.get("height_m"), int | float):
+                        pr["truth"]["height_m"] = float(lb.props["height_m"])
+                    pr["label_id"] = lb.id
+            feats.append(c)
+    if not feats:
+        raise InputError("--scene: no candidate site in the scene(s) (nodata or the AOI)")
+    feats.sort(key=lambda f: (-f["properties"]["p_mound"], f["properties"]["id"]))
+    # Overlapping scenes find the same place twice: keep the better of candidates closer
+    # than the separation (local metres of an equirectangular projection at home).
+    kept: list[dict[str, Any]] = []
+    k_lat = 111_320.0
+    k_lon = k_lat * np.cos(np.radians(home[0])) if home else k_lat
+    for f in feats:
+        lon, lat = f["geometry"]["coordinates"]
+        if all(np.hypot((lon - g["geometry"]["coordinates"][0]) * k_lon,
+                        (lat - g["geometry"]["coordinates"][1]) * k_lat) >= a.min_separation_m
+               for g in kept):
+            kept.append(f)
+    feats = kept[:a.candidates]
+    assert home is not None
+    gj = {"type": "FeatureCollection", "features": [
+        {"type": "Feature", "geometry": {"type": "Point", "coordinates": [home[1], home[0]]},
+         "properties": {"kind": "home"}}, *feats]}
+    path = ctx.tree.root / "scene" / "candidates.geojson"
+    write_json(path, gj)
+    doc = load_user_sites(path, scan, a.budget, flight_budget_m(), need_truth=False)
+    by_id = {f["properties"]["id"]: f["properties"] for f in feats}
+    for s in doc["sites"]:
+        pr = by_id[s["id"]]
+        s["scene"] = {k: pr[k] for k in ("scene", "scene_dir", "x", "y", "rank")}
+        if "truth" not in s:
+            s["simulate"] = "flat"  # truth unknown: flown over flat ground, not counted
+    doc["provenance"]["tool"] = "python/mission.py --scene"
+    doc["provenance"]["scenes"] = list(a.scene)
+    return doc
+
+
 def scan_spec(args: argparse.Namespace) -> Any:
     from mound.uav import mission_items
 
@@ -207,7 +348,13 @@ def stage_field(ctx: Context) -> str:
 
     a = ctx.args
     scan = scan_spec(a)
-    if a.sites:
+    if a.scene:
+        material: dict[str, Any] = {
+            "classify": ctx.keys["classify"], "scan": scan.to_doc(), "budget": a.budget,
+            "labels": _digest_files([a.labels]) if a.labels else None, "home": a.home,
+            "aoi": _digest_files([a.aoi]) if a.aoi else None, "n": a.candidates,
+            "sep": a.min_separation_m}
+    elif a.sites:
         # Validated now, before anything is planned or flown, even when the stage is
         # skipped: a bad file must stop the run here.
         doc = load_user_sites(a.sites, scan, a.budget, flight_budget_m(),
@@ -218,7 +365,9 @@ def stage_field(ctx: Context) -> str:
                     "spacing": a.spacing, "scan": scan.to_doc(), "budget": a.budget}
 
     def work() -> tuple[list[str], str, bool]:
-        if a.sites:
+        if a.scene:
+            out = scene_sites(ctx, scan)
+        elif a.sites:
             out = doc
         else:
             test = statlog.load("sat.tst")
@@ -229,7 +378,8 @@ def stage_field(ctx: Context) -> str:
                                  spacing_m=a.spacing, scan=scan)
         write_json(ctx.tree.sites, out)
         prov = out["provenance"]
-        what = f"field seed {a.field_seed}" if not a.sites else f"{a.sites}"
+        what = (f"field seed {a.field_seed}" if not (a.sites or a.scene) else
+                f"{a.sites}" if a.sites else f"{len(a.scene)} scene(s)")
         return (["sites.json"], f"{what}: {len(out['sites'])} sites, {prov['positives']} "
                 f"true mounds, total reward {prov['total_reward']:.2f} bits, scan cost "
                 f"{scan.site_cost_m():.0f} m per site, budget {out['budget_m']:.0f} m", True)
@@ -245,6 +395,12 @@ def stage_plan(ctx: Context) -> str:
                                        str(a.plan_seed), "--out", str(ctx.tree.plan)],
                         timeout_s=600, log=ctx.tree.root / "log.txt")
         plan = read_json(ctx.tree.plan, "mound.plan", 1)
+        if a.scene:
+            from mound.survey import figures
+
+            ctx.tree.report_dir.mkdir(parents=True, exist_ok=True)
+            figures.scene_map(ctx.tree.root, read_json(ctx.tree.sites, "mound.sites", 1), plan,
+                              ctx.tree.report_dir / "scene.png")
         return (["plan.json"], f"{a.algo}: {plan['n_visited']} of {plan['n_sites']} sites, "
                 f"reward {plan['reward']:.2f} bits, {plan['cost_m']:.0f} m of "
                 f"{plan['budget_m']:.0f} m", True)
@@ -321,7 +477,7 @@ def site_jobs(ctx: Context) -> list[Any]:
         if s["id"] not in tour:
             continue
         images = str((Path(a.images_root) / s["id"]).resolve()) if a.images_root else None
-        key = digest({"site": {k: s.get(k) for k in ("id", "x_m", "y_m", "truth")},
+        key = digest({"site": {k: s.get(k) for k in ("id", "x_m", "y_m", "truth", "simulate")},
                       "index": index, "options": options, "images": images,
                       "images_digest": _folder_digest(Path(images)) if images else None,
                       "reference": sha256_of(Path(a.reference)) if a.reference else None})
@@ -432,6 +588,26 @@ def check_args(a: argparse.Namespace) -> None:
         raise UsageError(f"--reference: {a.reference} not found")
     if a.sites and not Path(a.sites).is_file():
         raise UsageError(f"--sites: {a.sites} not found")
+    if a.scene:
+        if a.sites:
+            raise UsageError("--scene and --sites: give one source of candidate sites")
+        if not a.home:
+            raise UsageError("--home: LAT,LON of the take-off point is needed with --scene")
+        if bool(a.labels) == bool(a.scene_model):
+            raise UsageError("--scene needs --labels (to learn the model) or --scene-model")
+        for opt in ("labels", "scene_model", "aoi"):
+            if getattr(a, opt) and not Path(getattr(a, opt)).is_file():
+                raise UsageError(f"--{opt.replace('_', '-')}: {getattr(a, opt)} not found")
+        if not 1 <= a.candidates <= 10_000:
+            raise UsageError("--candidates: 1 .. 10,000")
+        from mound.scene.cli import _home
+        from mound.scene.raster import open_scene
+
+        _home(a.home)
+        for sp in a.scene:
+            open_scene(sp)
+    elif a.labels or a.scene_model or a.home or a.aoi:
+        raise UsageError("--labels, --scene-model, --home and --aoi go with --scene")
     for tool in ("mound_plan", "mound_recon", "mound_render"):
         try:
             native.tool_path(tool)

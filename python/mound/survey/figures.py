@@ -193,3 +193,53 @@ def mission_map(nav_enu: np.ndarray, footprints: list[dict[str, Any]],
     ax.set_ylabel("north of home (m)")
     ax.set_title("MAVLink mission: path and image footprints", fontsize=10)
     return save_figure(fig, out_png, dpi)
+
+
+def scene_map(run_root: Path, sites_doc: dict[str, Any], plan: dict[str, Any],
+              out_png: Path, dpi: int = 80) -> Path:
+    """p(mound) of each scored scene (its scene's CRS, metres from the scene's corner) with
+    the candidate sites (ring: truth known to be a mound; cross: known not to be), and the
+    tour's legs between the candidates of that scene."""
+    import rasterio
+
+    from mound.jsonio import staged_file
+
+    by_dir: dict[str, list[dict[str, Any]]] = {}
+    for s in sites_doc["sites"]:
+        if "scene" in s:
+            by_dir.setdefault(s["scene"]["scene_dir"], []).append(s)
+    dirs = sorted(by_dir)[:4]
+    fig, axes = plt.subplots(1, max(1, len(dirs)), figsize=(4.2 * max(1, len(dirs)), 4.2),
+                             squeeze=False)
+    order = {sid: k for k, sid in enumerate(plan.get("tour", []))}
+    im = None
+    for ax, d in zip(axes[0], dirs, strict=False):
+        with rasterio.open(run_root / d / "p_mound.tif") as ds:
+            p = ds.read(1, masked=True)
+            w, s_, e, n = ds.bounds
+        im = ax.imshow(p, extent=(0, e - w, 0, n - s_), cmap="magma", vmin=0, vmax=1)
+        sites = by_dir[d]
+        for site in sites:
+            x, y = site["scene"]["x"] - w, site["scene"]["y"] - s_
+            truth = site.get("truth", {}).get("mound")
+            mark = "o" if truth else "x" if truth is False else "+"
+            ax.plot(x, y, mark, color="cyan" if site["id"] in order else "0.7", ms=9,
+                    mfc="none", mew=1.5)
+            ax.annotate(str(site["scene"]["rank"]), (x, y), color="white", fontsize=7,
+                        xytext=(4, 4), textcoords="offset points")
+        visited = sorted((s for s in sites if s["id"] in order), key=lambda s: order[s["id"]])
+        if len(visited) > 1:
+            ax.plot([s["scene"]["x"] - w for s in visited], [s["scene"]["y"] - s_ for s in visited],
+                    "-", color="cyan", lw=1)
+        ax.set_title(d.split("/")[-1], fontsize=9)
+        ax.set_xlabel("m east")
+    axes[0][0].set_ylabel("m north")
+    if im is not None:
+        fig.colorbar(im, ax=axes[0].tolist(), shrink=0.8, label="p(mound)")
+    fig.suptitle("Candidates (rank; o known mound, x known not, + unknown) and the tour "
+                 "(cyan)", fontsize=9)
+    out_png.parent.mkdir(parents=True, exist_ok=True)
+    with staged_file(out_png, ".png") as tmp:
+        fig.savefig(tmp, dpi=dpi, format="png")
+    plt.close(fig)
+    return out_png

@@ -73,10 +73,14 @@ def _simulate(job: SiteJob, row: dict[str, Any]) -> tuple[Path, Path | None, str
     from mound.sim import terrain
 
     truth = job.site.get("truth", {}).get("mound")
+    if truth is None and job.site.get("simulate") == "flat":
+        truth = False  # a scene's candidate of unknown truth: flown over flat ground
     if truth is None:
         raise InputError(f"sites: {job.site['id']}.truth: needed to simulate its flight")
     rng = np.random.default_rng([job.sim_seed, job.index])
     height = float(rng.uniform(*MOUND_HEIGHTS_M))
+    if truth and job.site["truth"].get("height_m") is not None:  # the inventory's height
+        height = float(job.site["truth"]["height_m"])
     seed = 1000 * job.sim_seed + job.index + 1
     origin = Origin.from_doc(job.origin)
     lat, lon, alt = enu_to_geodetic(origin, np.array([[job.site["x_m"], job.site["y_m"], 0.0]]))[0]
@@ -89,6 +93,7 @@ def _simulate(job: SiteJob, row: dict[str, Any]) -> tuple[Path, Path | None, str
     t = job.tree
     doc = sim.simulate(spec, t.sim, threads=job.threads)
     row["simulated"] = {"mound": bool(truth), "height_m": height if truth else 0.0,
+                        "truth": "known" if "truth" in job.site else "unknown",
                         "diameter_m": job.site_diameter_m, "seed": seed,
                         "images": doc["stats"]["images"]}
     return t.sim / "images", t.sim / "camera.json", str(t.sim / "poses.json")

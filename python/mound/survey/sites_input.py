@@ -65,6 +65,10 @@ def _site(props: dict[str, Any], site_id: Any, x: float, y: float, where: str
     truth = _truth(props.get("truth"), where)
     if truth is not None:
         site["truth"] = {"mound": truth}
+        raw = props.get("truth")
+        if truth and isinstance(raw, dict) and raw.get("height_m") is not None:
+            site["truth"]["height_m"] = _number(raw, "height_m", f"{where}.truth", lo=0.5,
+                                                hi=60.0)
     return site
 
 
