@@ -233,3 +233,70 @@ def _cleanup() -> Any:
     for p in WORK.iterdir():
         p.unlink()
     WORK.rmdir()
+
+
+# ------------------------------------------------------------------ the scene workflow
+
+LABELS = {"type": "FeatureCollection", "features": [
+    {"type": "Feature", "id": "1001", "properties": {"kind": "mound", "height_m": 4.0,
+                                                     "visibility": "visible"},
+     "geometry": {"type": "Point", "coordinates": [25.2466, 42.6271]}},
+    {"type": "Feature", "properties": {"kind": "not_mound"},
+     "geometry": {"type": "Point", "coordinates": [25.2503, 42.6266]}},
+    {"type": "Feature", "properties": {},
+     "geometry": {"type": "Point", "coordinates": [25.2495, 42.6259]}}]}
+AOI = {"type": "FeatureCollection", "features": [
+    {"type": "Feature", "properties": {}, "geometry": {"type": "Polygon", "coordinates": [
+        [[25.24, 42.62], [25.26, 42.62], [25.26, 42.63], [25.24, 42.63], [25.24, 42.62]]]}}]}
+
+
+@FUZZ
+@given(mutated_json(LABELS))
+def test_scene_labels_reader(text: str) -> None:
+    from mound.scene.vector import read_labels
+
+    value_or_input_error(read_labels, _file(text, "labels.geojson"))
+
+
+@FUZZ
+@given(mutated_json(AOI))
+def test_scene_aoi_reader(text: str) -> None:
+    from mound.scene.vector import read_aoi
+
+    value_or_input_error(read_aoi, _file(text, "aoi.geojson"))
+
+
+def _scene_bytes() -> bytes:
+    import numpy as np
+    import rasterio
+    from rasterio.transform import from_origin
+
+    path = WORK / "valid_scene.tif"
+    with rasterio.open(path, "w", driver="GTiff", width=24, height=20, count=2,
+                       dtype="uint16", nodata=0, crs="EPSG:32635",
+                       transform=from_origin(366000, 4727000, 1, 1)) as ds:
+        ds.write(np.arange(2 * 24 * 20, dtype=np.uint16).reshape(2, 20, 24) + 1)
+        ds.set_band_description(1, "red")
+        ds.set_band_description(2, "nir")
+    return path.read_bytes()
+
+
+SCENE = _scene_bytes()
+
+
+def _read_scene(path: Path) -> None:
+    from mound.scene.raster import open_scene, read_window
+
+    scene = open_scene(path)
+    bands = scene.resolve_bands(["red", "nir"] if "red" in scene.band_names else None)
+    read_window(scene, bands, -3, -3, 30, 30)
+
+
+@FUZZ
+@given(st.integers(0, len(SCENE) - 1), st.binary(min_size=1, max_size=16),
+       st.integers(0, 16), st.booleans())
+def test_scene_geotiff_reader(at: int, piece: bytes, cut: int, truncate: bool) -> None:
+    """A valid GeoTIFF with bytes overwritten (header, tags, geokeys, pixel strips) or cut
+    short: open_scene and read_window answer with a scene or an InputError."""
+    data = SCENE[:at] if truncate else SCENE[:at] + piece + SCENE[at + cut:]
+    value_or_input_error(_read_scene, _file(data, "scene.tif"))

@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from mound.errors import InputError
-from mound.jsonio import parse_json, read_text
+from mound.jsonio import parse_json, read_text, short_repr
 
 WGS84_NAMES = ("urn:ogc:def:crs:OGC:1.3:CRS84", "urn:ogc:def:crs:OGC::CRS84", "CRS84",
                "EPSG:4326", "urn:ogc:def:crs:EPSG::4326", "urn:ogc:def:crs:EPSG:6.6:4326",
@@ -45,7 +45,7 @@ def _load(path: str | Path) -> dict[str, Any]:
     if crs is not None:
         name = crs.get("properties", {}).get("name") if isinstance(crs, dict) else None
         if not isinstance(name, str) or name.strip() not in WGS84_NAMES:
-            raise InputError(f"{path}: crs: {str(name)[:60]!r} is not WGS84; GeoJSON "
+            raise InputError(f"{path}: crs: {short_repr(name)} is not WGS84; GeoJSON "
                              "coordinates must be WGS84 longitude, latitude (RFC 7946)")
     return doc
 
@@ -56,7 +56,7 @@ def _lonlat(c: Any, where: str) -> tuple[float, float]:
     lon, lat = c[0], c[1]
     for v, name, lim in ((lon, "longitude", 180.0), (lat, "latitude", 90.0)):
         if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
-            raise InputError(f"{where}: {name} must be a finite number, got {str(v)[:30]}")
+            raise InputError(f"{where}: {name} must be a finite number, got {short_repr(v)}")
         if abs(v) > lim:
             raise InputError(f"{where}: {name} {v} outside +-{lim:g} (coordinates must be "
                              "WGS84 [lon, lat], not projected)")
@@ -75,7 +75,7 @@ def _features(doc: dict[str, Any], path: Path) -> list[dict[str, Any]]:
     if t in ("Point", "Polygon", "MultiPolygon", "MultiPoint"):
         return [{"type": "Feature", "geometry": doc, "properties": {}}]
     raise InputError(f"{path}: type: expected a GeoJSON FeatureCollection, Feature or "
-                     f"geometry, got {str(t)[:40]!r}")
+                     f"geometry, got {short_repr(t)}")
 
 
 def read_labels(path: str | Path) -> list[Label]:
@@ -96,7 +96,7 @@ def read_labels(path: str | Path) -> list[Label]:
         kind = props.get("kind", "mound")
         if kind not in ("mound", "not_mound"):
             raise InputError(f"{where}.properties.kind: expected 'mound' or 'not_mound', got "
-                             f"{str(kind)[:30]!r}")
+                             f"{short_repr(kind)}")
         fid = props.get("id", f.get("id", props.get("trap_code", k)))
         h = props.get("height_m")
         if h is not None and (isinstance(h, bool) or not isinstance(h, int | float)
