@@ -6,10 +6,9 @@ their coarse cell), north-up in the scene's CRS. The scene is read in blocks of
 memory stays bounded whatever the scene's size; blocks run on a local thread pool or, with
 a scheduler address, as Dask tasks on that cluster (each worker reads its own window).
 
-Candidates are the local maxima of p within `min_separation_m` (a disc), over the whole
-scene: each block is scored with an extra margin of that radius so that a maximum at a
-block's edge sees its neighbours in the next block; the maxima of all blocks are then
-thinned greedily in order of p (highest first, ties by position) so that no two lie closer
+Candidates are the local maxima of p (3 x 3 cells) over the whole scene: each block is
+scored with an extra margin of one cell so that a maximum at a block's edge sees its
+neighbours in the next block; the maxima of all blocks are then thinned greedily in order of p (highest first, ties by position) so that no two lie closer
 than `min_separation_m`. Block-wise and whole-scene scoring therefore give the same
 candidates (and the same p up to the summed-area tables' rounding, ~1e-12).
 """
@@ -60,12 +59,6 @@ class OutGrid:
         from rasterio.transform import from_origin
 
         return from_origin(self.west, self.north, self.res_m, self.res_m)
-
-
-def _disc(radius_cells: float) -> np.ndarray:
-    r = max(1, int(math.floor(radius_cells)))
-    yy, xx = np.mgrid[-r:r + 1, -r:r + 1]
-    return (xx * xx + yy * yy) <= radius_cells * radius_cells + 1e-9
 
 
 def features_block(scene: SceneInfo, bands: list[int], spec: FeatureSpec, cell: int,
@@ -132,8 +125,9 @@ def peaks(p: np.ndarray, margin: int, radius_cells: float, r0: int, c0: int
     """Local maxima (p, row, col) of the core of a block scored with `margin` extra cells;
     row/col in the output grid."""
     q = np.where(np.isfinite(p), p, -np.inf)
-    mx = ndimage.maximum_filter(q, footprint=_disc(radius_cells), mode="constant",
-                                cval=-np.inf)
+    # 3 x 3 local maxima; `thin` then enforces the separation (a disc footprint of the
+    # separation's radius cost O(r^2) per cell: 60x slower at 30 m).
+    mx = ndimage.maximum_filter(q, size=3, mode="constant", cval=-np.inf)
     core = np.zeros_like(q, dtype=bool)
     core[margin:q.shape[0] - margin, margin:q.shape[1] - margin] = True
     rr, cc = np.nonzero((q == mx) & np.isfinite(q) & core)
@@ -198,7 +192,7 @@ def run_blocks(scene: SceneInfo, bands: list[int], model: SceneModel, grid: OutG
                threads: int = 1, scheduler: str | None = None) -> Iterator[BlockResult]:
     """Every block's result, in completion order; at most 2 x workers blocks in flight."""
     radius = min_sep_m / grid.res_m
-    margin = int(math.ceil(radius))
+    margin = 1
     jobs = block_origins(grid, block)
     args = [(scene, bands, model, grid, r, c, nr, nc, margin, radius, aoi)
             for r, c, nr, nc in jobs]

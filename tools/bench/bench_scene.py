@@ -1,0 +1,151 @@
+#!/usr/bin/env python3
+"""Speed and memory of `mound scene score` on a large scene (not a test).
+
+Tiles the 40 Kazanlak IKONOS stamps (each flipped/transposed at random) into one
+SIZE x SIZE 4-band float32 GeoTIFF (tiled, DEFLATE), learns a model on the stamps, then
+scores the big scene (a) on local threads and (b) on a separately started Dask scheduler
+with 2 workers (one thread each), REPS times each: wall time min / median, peak RSS of the
+scoring process (and of the workers), Mpx/s. The reference in the same script is the local
+run: the Dask line prints its ratio to it.
+
+    .venv/bin/python tools/bench/bench_scene.py [--size 10000] [--reps 2] [--stride-m 1]
+"""
+
+from __future__ import annotations
+
+import argparse
+import glob
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+import rasterio
+from rasterio.transform import from_origin
+from rasterio.windows import Window
+
+ROOT = Path(__file__).resolve().parents[2]
+VENV = ROOT / ".venv" / "bin"
+
+
+def data_dir() -> Path:
+    return Path(os.environ.get("MOUND_DATA", ROOT.parent / "shared" / "data")) / "kazanlak"
+
+
+def build_scene(path: Path, size: int, seed: int = 0) -> None:
+    stamps = []
+    for p in sorted(glob.glob(str(data_dir() / "stamps" / "*.tif"))):
+        with rasterio.open(p) as ds:
+            stamps.append(ds.read()[:, :250, :250])
+    rng = np.random.default_rng(seed)
+    profile = {"driver": "GTiff", "width": size, "height": size, "count": 4,
+               "dtype": "float32", "crs": "EPSG:32635", "nodata": -9999.0,
+               "transform": from_origin(366000.0, 4760000.0, 1.0, 1.0), "tiled": True,
+               "blockxsize": 512, "blockysize": 512, "compress": "deflate",
+               "BIGTIFF": "YES"}
+    with rasterio.open(path, "w", **profile) as ds:
+        for k, d in enumerate(("blue", "green", "red", "nir"), start=1):
+            ds.set_band_description(k, d)
+        for r0 in range(0, size, 250):
+            row = []
+            for _ in range(0, size, 250):
+                s = stamps[rng.integers(len(stamps))]
+                if rng.integers(2):
+                    s = s[:, ::-1, :]
+                if rng.integers(2):
+                    s = s[:, :, ::-1]
+                if rng.integers(2):
+                    s = s.transpose(0, 2, 1)
+                row.append(s)
+            strip = np.concatenate(row, axis=2)[:, :, :size]
+            h = min(250, size - r0)
+            ds.write(strip[:, :h], window=Window(0, r0, size, h))
+
+
+def run(cmd: list[str]) -> tuple[float, float]:
+    """Wall seconds and peak RSS (GB) of one command."""
+    t = time.perf_counter()
+    with tempfile.TemporaryFile() as err:
+        p = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=err)
+        _, status, usage = os.wait4(p.pid, 0)   # this child's own peak RSS (KB)
+        p.returncode = os.waitstatus_to_exitcode(status)
+        wall = time.perf_counter() - t
+        if p.returncode != 0:
+            err.seek(0)
+            sys.exit(f"failed: {' '.join(cmd)}\n{err.read().decode()[-2000:]}")
+    return wall, usage.ru_maxrss / 1e6
+
+
+def rss_gb(pid: int) -> float:
+    try:
+        for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+            if line.startswith("VmHWM:"):
+                return int(line.split()[1]) / 1e6
+    except OSError:
+        pass
+    return float("nan")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--size", type=int, default=10_000)
+    ap.add_argument("--reps", type=int, default=2)
+    ap.add_argument("--stride-m", type=float, default=1.0)
+    ap.add_argument("--work", default=None)
+    a = ap.parse_args()
+    work = Path(a.work or tempfile.mkdtemp(prefix="bench_scene."))
+    work.mkdir(parents=True, exist_ok=True)
+    scene = work / f"tiled_{a.size}.tif"
+    if not scene.exists():
+        t = time.perf_counter()
+        build_scene(scene, a.size)
+        print(f"scene {a.size} x {a.size} x 4 float32 ({4 * 4 * a.size ** 2 / 1e9:.2f} GB "
+              f"of pixels) built in {time.perf_counter() - t:.0f} s -> {scene}")
+    model = work / "model.json"
+    if not model.exists():
+        stamps = sorted(glob.glob(str(data_dir() / "stamps" / "*.tif")))
+        subprocess.run([str(VENV / "mound"), "scene", "train", *stamps, "--labels",
+                        str(data_dir() / "mounds.geojson"), "--band-names",
+                        "blue,green,red,nir", "--out", str(model)], check=True,
+                       capture_output=True)
+    mpx = a.size * a.size / 1e6
+    base = [str(VENV / "mound"), "scene", "score", str(scene), "--model", str(model),
+            "--stride-m", str(a.stride_m), "--candidates", "200"]
+    rows = {}
+    local = [run([*base, "--out", str(work / f"local{k}"), "--threads", "2"])
+             for k in range(a.reps)]
+    rows["local, 2 threads"] = local
+    sched = subprocess.Popen([str(VENV / "dask"), "scheduler", "--port", "8799",
+                              "--dashboard-address", ":0", "--no-show"],
+                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    workers = [subprocess.Popen([str(VENV / "dask"), "worker", "tcp://127.0.0.1:8799",
+                                 "--nthreads", "1", "--memory-limit", "1.5GB",
+                                 "--dashboard-address", ":0", "--no-nanny"],
+                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+               for _ in range(2)]
+    time.sleep(6)
+    try:
+        rows["Dask scheduler + 2 workers"] = [
+            run([*base, "--out", str(work / f"dask{k}"), "--scheduler",
+                 "tcp://127.0.0.1:8799"]) for k in range(a.reps)]
+        worker_rss = max(rss_gb(w.pid) for w in workers)
+    finally:
+        for p in (*workers, sched):
+            p.terminate()
+    ref = float(np.median([w for w, _ in local]))
+    print(f"scoring {a.size} x {a.size} px ({mpx:.0f} Mpx), stride {a.stride_m:g} m, "
+          f"{os.cpu_count()} cores, {a.reps} runs each")
+    for name, rs in rows.items():
+        walls = [w for w, _ in rs]
+        med = float(np.median(walls))
+        print(f"  {name:<28} wall min {min(walls):7.1f} s, median {med:7.1f} s; "
+              f"{mpx / med:5.2f} Mpx/s (median); peak RSS {max(r for _, r in rs):.2f} GB; "
+              f"{ref / med:.2f} x the local run")
+    print(f"  Dask workers' peak RSS {worker_rss:.2f} GB each")
+
+
+if __name__ == "__main__":
+    main()
