@@ -8,7 +8,8 @@ a scheduler address, as Dask tasks on that cluster (each worker reads its own wi
 
 Candidates are the local maxima of p (3 x 3 cells) over the whole scene: each block is
 scored with an extra margin of one cell so that a maximum at a block's edge sees its
-neighbours in the next block; the maxima of all blocks are then thinned greedily in order of p (highest first, ties by position) so that no two lie closer
+neighbours in the next block; the maxima of all blocks are then thinned greedily in
+order of p (highest first, ties by position) so that no two lie closer
 than `min_separation_m`. Block-wise and whole-scene scoring therefore give the same
 candidates (and the same p up to the summed-area tables' rounding, ~1e-12).
 """
