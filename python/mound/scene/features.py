@@ -33,6 +33,7 @@ whose centre pixel is nodata, or whose windows hold too few valid pixels, gets N
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -161,7 +162,8 @@ class FeatureSpec:
         nb = block.shape[0]
         rows, cols = (n + 2) * f, (m + 2) * f
         a = block[:, halo - f:halo - f + rows, halo - f:halo - f + cols]
-        with np.errstate(invalid="ignore"), _quiet_nanmean():
+        with warnings.catch_warnings():  # all-NaN (nodata) cells rightly give NaN
+            warnings.simplefilter("ignore", RuntimeWarning)
             coarse = np.nanmean(a.reshape(nb, n + 2, f, m + 2, f), axis=(2, 4))
         cols_out = []
         for dr in (0, 1, 2):
@@ -233,37 +235,3 @@ class FeatureSpec:
         bad = ~enough.ravel() | ~np.isfinite(out).all(axis=1)
         out[bad] = np.nan
         return out
-
-
-class _quiet_nanmean:
-    """np.nanmean warns on all-NaN slices (nodata cells); those rightly give NaN."""
-
-    def __enter__(self) -> None:
-        import warnings
-
-        self._ctx = warnings.catch_warnings()
-        self._ctx.__enter__()
-        warnings.simplefilter("ignore", RuntimeWarning)
-
-    def __exit__(self, *exc: object) -> None:
-        self._ctx.__exit__(*exc)
-
-
-def features_at(spec: FeatureSpec, read: Any, res_m: float, rows: np.ndarray,
-                cols: np.ndarray) -> np.ndarray:
-    """Features at individual scene pixels (rows, cols) — training windows: each point's
-    own small block (read(row0, col0, nrows, ncols) -> bands x rows x cols) scored as a
-    one-cell output at stride 1 (paper: the coarse cell holding the pixel)."""
-    out = []
-    for r, c in zip(rows.tolist(), cols.tolist(), strict=True):
-        if spec.kind == "paper":
-            f = spec.factor(res_m)
-            r0, c0 = (r // f) * f, (c // f) * f
-            halo = spec.halo_px(res_m, f)
-            block = read(r0 - halo, c0 - halo, f + 2 * halo, f + 2 * halo)
-            out.append(spec.compute(block, res_m, halo, f, 1, 1)[0])
-        else:
-            halo = spec.halo_px(res_m, 1)
-            block = read(r - halo, c - halo, 1 + 2 * halo, 1 + 2 * halo)
-            out.append(spec.compute(block, res_m, halo, 1, 1, 1)[0])
-    return np.asarray(out).reshape(len(out), len(spec.names()))

@@ -121,8 +121,7 @@ def aoi_in_scene(polys_lonlat: list[Any], scene: SceneInfo, where: str) -> list[
     return geoms
 
 
-def peaks(p: np.ndarray, margin: int, radius_cells: float, r0: int, c0: int
-          ) -> list[tuple[float, int, int]]:
+def peaks(p: np.ndarray, margin: int, r0: int, c0: int) -> list[tuple[float, int, int]]:
     """Local maxima (p, row, col) of the core of a block scored with `margin` extra cells;
     row/col in the output grid."""
     q = np.where(np.isfinite(p), p, -np.inf)
@@ -178,24 +177,23 @@ class BlockResult:
 
 
 def run_block(scene: SceneInfo, bands: list[int], model: SceneModel, grid: OutGrid,
-              r0: int, c0: int, nr: int, nc: int, margin: int, radius_cells: float,
+              r0: int, c0: int, nr: int, nc: int, margin: int,
               aoi: list[Any] | None) -> BlockResult:
     start = time.perf_counter()
     logit = score_block(scene, bands, model, grid, r0, c0, nr, nc, margin, aoi)
     p = model.calibrate(logit)
     core = (slice(margin, margin + nr), slice(margin, margin + nc))
-    return BlockResult(r0, c0, logit[core], p[core], peaks(p, margin, radius_cells, r0, c0),
+    return BlockResult(r0, c0, logit[core], p[core], peaks(p, margin, r0, c0),
                        time.perf_counter() - start)
 
 
 def run_blocks(scene: SceneInfo, bands: list[int], model: SceneModel, grid: OutGrid,
-               block: int, min_sep_m: float, aoi: list[Any] | None = None,
+               block: int, aoi: list[Any] | None = None,
                threads: int = 1, scheduler: str | None = None) -> Iterator[BlockResult]:
     """Every block's result, in completion order; at most 2 x workers blocks in flight."""
-    radius = min_sep_m / grid.res_m
-    margin = 1
+    margin = 1  # the 3 x 3 maxima at a block's edge see the next block's cells
     jobs = block_origins(grid, block)
-    args = [(scene, bands, model, grid, r, c, nr, nc, margin, radius, aoi)
+    args = [(scene, bands, model, grid, r, c, nr, nc, margin, aoi)
             for r, c, nr, nc in jobs]
     if scheduler:
         yield from _run_dask(scheduler, args)
@@ -258,7 +256,7 @@ def logit_map(scene: SceneInfo, model: SceneModel, stride_m: float | None = None
     grid = OutGrid.of(scene, model, stride_m)
     bands = model.band_indices(scene)
     out = np.full((grid.rows, grid.cols), np.nan)
-    for res in run_blocks(scene, bands, model, grid, block, 0.0, threads=threads):
+    for res in run_blocks(scene, bands, model, grid, block, threads=threads):
         out[res.r0:res.r0 + res.logit.shape[0], res.c0:res.c0 + res.logit.shape[1]] = res.logit
     return out, grid
 
@@ -266,11 +264,8 @@ def logit_map(scene: SceneInfo, model: SceneModel, stride_m: float | None = None
 def candidates_of_map(p: np.ndarray, grid: OutGrid, min_sep_m: float, limit: int
                       ) -> list[tuple[float, int, int]]:
     """Candidates of an in-memory p map (the same rule as the block-wise scoring)."""
-    radius = min_sep_m / grid.res_m
-    return thin(peaks(p, 0, radius, 0, 0), grid, min_sep_m, limit)
+    return thin(peaks(p, 0, 0, 0), grid, min_sep_m, limit)
 
-
-ProgressFn = Callable[[int, int], None]
 
 
 def _candidate_features(kept: list[tuple[float, int, int]], grid: OutGrid, scene: SceneInfo,
@@ -349,8 +344,8 @@ def score_to_dir(scene: SceneInfo, model: SceneModel, out_dir: Any, *, model_pat
         p_ds.set_band_description(1, "p(mound), calibrated")
         r_ds.set_band_description(1, "reward: binary entropy of p(mound), bits")
         total = len(block_origins(grid, block))
-        for done, res in enumerate(run_blocks(scene, bands, model, grid, block, min_sep_m,
-                                              aoi, threads, scheduler), start=1):
+        for done, res in enumerate(run_blocks(scene, bands, model, grid, block, aoi,
+                                              threads, scheduler), start=1):
             ok = np.isfinite(res.p)
             nr, nc = res.p.shape
             win = Window(res.c0, res.r0, nc, nr)

@@ -35,7 +35,7 @@ from mound.classify.features import Standardizer
 from mound.errors import InputError
 from mound.scene import score as scoring
 from mound.scene.features import FeatureSpec
-from mound.scene.model import CLIP, SceneModel, expand
+from mound.scene.model import SceneModel, expand
 from mound.scene.raster import SceneInfo, open_scene
 from mound.scene.vector import Label, labels_in_scene
 
@@ -429,6 +429,3 @@ def chance(prep: Prepared, spec: FeatureSpec, basis: str, min_sep_m: float, seed
 
 def expanded_width(spec: FeatureSpec, basis: str) -> int:
     return len(expand(np.zeros((1, len(spec.names()))), basis)[0]) + 1
-
-
-__all__ = ["CLIP", "prepare", "sample", "fit", "cross_validate", "chance"]
