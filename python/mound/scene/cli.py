@@ -218,7 +218,8 @@ def add_parser(sub: Any, parser_class: Any) -> None:
                    help="candidates are local maxima of p at least this far apart, m")
     s.add_argument("--aoi", help="GeoJSON polygon(s), WGS84: score only inside")
     s.add_argument("--home", help="LAT,LON: add the take-off point as a 'home' feature")
-    s.add_argument("--block", type=int, default=256, help="block side, output cells")
+    s.add_argument("--block", type=int,
+                   help="block side, output cells (default: 1024 scene pixels' worth)")
     s.add_argument("--scheduler", help="Dask scheduler address (default: local threads)")
     common(s)
     s.set_defaults(func=cmd_score)

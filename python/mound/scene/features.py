@@ -174,64 +174,112 @@ class FeatureSpec:
 
     def _multiscale(self, block: np.ndarray, res_m: float, halo: int, stride: int, n: int,
                     m: int) -> np.ndarray:
-        labels = self.band_labels
+        tables = self.tables(block, res_m, halo, stride, m)
+        return np.concatenate([tables.rows(k, min(n, k + 64)) for k in range(0, n, 64)],
+                              axis=1).T
+
+    def tables(self, block: np.ndarray, res_m: float, halo: int, stride: int, m: int
+               ) -> MultiscaleTables:
+        """The summed-area tables of a block (multiscale), from which `rows` evaluates the
+        features of any range of output rows (the scorer goes a few rows at a time, so that
+        the intermediate arrays stay in the processor's cache)."""
+        return MultiscaleTables(self, block, res_m, halo, stride, m)
+
+
+class MultiscaleTables:
+    """A block's summed-area tables (float64: box sums are differences of large sums) of
+    each channel and its square, and of the valid pixels unless every pixel is valid (then
+    every window's count is its area)."""
+
+    def __init__(self, spec: FeatureSpec, block: np.ndarray, res_m: float, halo: int,
+                 stride: int, m: int) -> None:
+        labels = spec.band_labels
         valid = np.isfinite(block).all(axis=0)
         chans = [np.where(valid, block[b], 0.0) for b in range(block.shape[0])]
-        if self.has_ndvi:
+        if spec.has_ndvi:
             red, nir = chans[labels.index("red")], chans[labels.index("nir")]
             den = nir + red
             ok = valid & (np.abs(den) > 1e-9)
             chans.append(np.where(ok, (nir - red) / np.where(ok, den, 1.0), 0.0))
             valid = ok
             chans = [np.where(valid, c, 0.0) for c in chans]
-        off = stride // 2
-        g = _Grid(halo + off, halo + off, n, m, stride)
-        cnt_p = _sat(valid.astype(np.float64))
-        hs = [self._px(r, res_m) for r in self.radii_m]
-        hbg = self._px(self.background_m, res_m)
-        sym = {h: g.box(cnt_p, h, h, h, h) for h in {*hs, *(2 * h for h in hs), hbg}}
-        half = {}
-        for h in hs:
-            half[h] = (g.box(cnt_p, h, h, -1, h), g.box(cnt_p, h, h, h, -1),
-                       g.box(cnt_p, h, -1, h, h), g.box(cnt_p, -1, h, h, h))
-        centre_ok = valid[g.i0:g.i0 + (n - 1) * stride + 1:stride,
-                          g.j0:g.j0 + (m - 1) * stride + 1:stride]
-        # Complete enough windows: a position near the scene's edge or a nodata hole would
-        # get its background statistics from a truncated window (a bias that, on stamps
-        # cut around known mounds, tells the centre from the edge).
-        enough = centre_ok & (sym[hbg] >= MIN_VALID * (2 * hbg + 1) ** 2)
+        self.n_bands = len(labels)
+        self.has_ndvi = spec.has_ndvi
+        self.valid = valid
+        self.uniform = bool(valid.all())
+        self.cnt_p = None if self.uniform else _sat(valid.astype(np.float64))
+        self.p1 = [_sat(c) for c in chans]
+        self.p2 = [_sat(c * c) for c in chans]
+        self.hs = [spec._px(r, res_m) for r in spec.radii_m]
+        self.hbg = spec._px(spec.background_m, res_m)
+        self.i0 = self.j0 = halo + stride // 2
+        self.stride = stride
+        self.m = m
+        self.n_features = len(spec.names())
+
+    def _count(self, g: _Grid, top: int, bottom: int, left: int, right: int
+               ) -> np.ndarray | float:
+        if self.cnt_p is None:
+            return float((top + bottom + 1) * (left + right + 1))
+        return g.box(self.cnt_p, top, bottom, left, right)
+
+    def rows(self, k0: int, k1: int) -> np.ndarray:
+        """Features (F, (k1 - k0) * m) of output rows [k0, k1), NaN where a position has
+        none."""
+        st, m = self.stride, self.m
+        g = _Grid(self.i0 + k0 * st, self.j0, k1 - k0, m, st)
+        hs, hbg = self.hs, self.hbg
+        sym = {h: self._count(g, h, h, h, h) for h in {*hs, *(2 * h for h in hs), hbg}}
+        half = {h: (self._count(g, h, h, -1, h), self._count(g, h, h, h, -1),
+                    self._count(g, h, -1, h, h), self._count(g, -1, h, h, h)) for h in hs}
+        out = np.empty((self.n_features, g.n, m))
+        k = 0
         with np.errstate(invalid="ignore", divide="ignore"):
-            feats: list[np.ndarray] = []
             small_means = []
-            bg_means = []
-            for c in chans:
-                p1 = _sat(c)
-                p2 = _sat(c * c)
-                s_bg, q_bg = g.box(p1, hbg, hbg, hbg, hbg), g.box(p2, hbg, hbg, hbg, hbg)
-                mean_bg = s_bg / sym[hbg]
-                sd_bg = np.sqrt(np.maximum(q_bg / sym[hbg] - mean_bg ** 2, 0.0))
-                scale = sd_bg + 1e-3 * np.abs(mean_bg) + 1e-9
+            bg_mean = None
+            for p1, p2 in zip(self.p1, self.p2, strict=True):
                 sums = {h: g.box(p1, h, h, h, h) for h in sym}
+                n_bg = sym[hbg]
+                mean_bg = sums[hbg] / n_bg
+                var_bg = g.box(p2, hbg, hbg, hbg, hbg) / n_bg - mean_bg * mean_bg
+                scale = np.sqrt(np.maximum(var_bg, 0.0, out=var_bg), out=var_bg)
+                scale += 1e-3 * np.abs(mean_bg) + 1e-9
+                inv = 1.0 / scale
                 for h in hs:
                     mean = sums[h] / sym[h]
                     outer = 2 * h if 2 * h in sums else hbg
                     ring = (sums[outer] - sums[h]) / np.maximum(sym[outer] - sym[h], 1.0)
-                    contrast = (mean - ring) / scale
-                    var = np.maximum(g.box(p2, h, h, h, h) / sym[h] - mean ** 2, 0.0)
+                    c = out[k]
+                    np.subtract(mean, ring, out=c)
+                    c *= inv
+                    np.abs(c, out=out[k + 1])
+                    var = g.box(p2, h, h, h, h) / sym[h] - mean * mean
+                    np.sqrt(np.maximum(var, 0.0, out=var), out=out[k + 2])
+                    out[k + 2] *= inv
                     e, w, no, so = half[h]
-                    de = (g.box(p1, h, h, -1, h) / e - g.box(p1, h, h, h, -1) / w)
-                    dn = (g.box(p1, h, -1, h, h) / no - g.box(p1, -1, h, h, h) / so)
-                    feats += [contrast, np.abs(contrast), np.sqrt(var) / scale,
-                              np.hypot(de, dn) / scale]
+                    de = g.box(p1, h, h, -1, h) / e - g.box(p1, h, h, h, -1) / w
+                    dn = g.box(p1, h, -1, h, h) / no - g.box(p1, -1, h, h, h) / so
+                    np.hypot(de, dn, out=out[k + 3])
+                    out[k + 3] *= inv
+                    k += 4
                 small_means.append(sums[hs[0]] / sym[hs[0]])
-                bg_means.append(mean_bg)
+                bg_mean = mean_bg
             if self.has_ndvi:
-                feats += [small_means[-1], bg_means[-1]]
-            nb = len(labels)
+                out[k], out[k + 1] = small_means[-1], bg_mean
+                k += 2
+            nb = self.n_bands
             if nb > 1:
                 total = sum(small_means[:nb])
-                feats += [sm / total for sm in small_means[:nb]]
-            out = np.stack([f.ravel() for f in feats], axis=1)
-        bad = ~enough.ravel() | ~np.isfinite(out).all(axis=1)
-        out[bad] = np.nan
+                for b in range(nb):
+                    np.divide(small_means[b], total, out=out[k])
+                    k += 1
+        out = out.reshape(self.n_features, -1)
+        # Complete enough windows: a position near the scene's edge or a nodata hole would
+        # get its background statistics from a truncated window (a bias that, on stamps
+        # cut around known mounds, tells the centre from the edge).
+        centre_ok = self.valid[g.i0:g.i0 + (g.n - 1) * st + 1:st,
+                               g.j0:g.j0 + (m - 1) * st + 1:st]
+        enough = centre_ok & (sym[hbg] >= MIN_VALID * (2 * hbg + 1) ** 2)
+        bad = ~enough.ravel() | ~np.isfinite(out).all(axis=0)
+        out[:, bad] = np.nan
         return out

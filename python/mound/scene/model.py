@@ -10,6 +10,7 @@ the Platt calibration fitted on out-of-fold candidates (identity when none was f
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -55,12 +56,51 @@ class SceneModel:
         return np.hstack([expand(z, self.basis), np.ones((x.shape[0], 1))])
 
     def logit(self, x: np.ndarray, chunk: int = 16_384) -> np.ndarray:
-        """Uncalibrated w^T phi(z(x)) (NaN where a row has no features), in chunks of rows
-        so that the expanded design never takes more than a few tens of MB."""
+        """Uncalibrated w^T phi(z(x)) (NaN where a row has no features), in chunks of rows."""
         out = np.empty(x.shape[0])
         for k in range(0, x.shape[0], chunk):
-            out[k:k + chunk] = self.design(x[k:k + chunk]) @ self.w
+            out[k:k + chunk] = self.logit_fm(x[k:k + chunk].T)
         return out
+
+    def logit_fm(self, xt: np.ndarray) -> np.ndarray:
+        """The logits of features given feature-major, xt (F, N): design(xt.T) @ w up to
+        rounding, without building the expanded design. With a = (w2 - w3) / 2 and
+        b = (w2 + w3) / 2 for the hinge weights, w2 . max(z - 1, 0) + w3 . max(-z - 1, 0) =
+        a . (z - clip(z, -1, 1)) + b . (max(|z|, 1) - 1), and z, clip(z, -1, 1) and |z| are
+        affine in x clipped at mean +- 6 std and +- 1 std: five passes over the features
+        instead of eleven (the logit was half of the scoring time)."""
+        f = self._folded
+        mean, std = f["mean"], f["std"]
+        x = np.clip(xt, f["lo"], f["hi"]) if self.clip else np.array(xt)
+        # einsum, not BLAS: OpenBLAS's own threads spin against the scorer's (2 scoring
+        # threads took as long as one)
+        out = np.einsum("f,fn->n", f["w_x"], x)
+        out += f["const"]
+        if self.basis == "hinge":
+            out -= np.einsum("f,fn->n", f["w_c"], np.clip(x, mean - std, mean + std))
+            np.subtract(x, mean, out=x)
+            np.abs(x, out=x)
+            out += np.einsum("f,fn->n", f["w_m"], np.maximum(x, std, out=x))
+        return out
+
+    @functools.cached_property
+    def _folded(self) -> dict[str, Any]:
+        n = self.scaler.mean.shape[0]
+        mean, std = self.scaler.mean, self.scaler.std
+        w1 = self.w[:n]
+        const = float(self.w[-1])
+        if self.basis == "hinge":
+            a = (self.w[n:2 * n] - self.w[2 * n:3 * n]) / 2
+            b = (self.w[n:2 * n] + self.w[2 * n:3 * n]) / 2
+            w1 = w1 + a
+            # - a . clip(z, -1, 1) = - (a / std) . clip(x, ...) + (a / std) . mean
+            const += float((a / std) @ mean) - float(b.sum())
+        else:
+            a = b = np.zeros(n)
+        return {"mean": mean[:, None], "std": std[:, None],
+                "lo": (mean - CLIP * std)[:, None], "hi": (mean + CLIP * std)[:, None],
+                "w_x": w1 / std, "w_c": a / std, "w_m": b / std,
+                "const": const - float((w1 / std) @ mean)}
 
     def calibrate(self, logit: np.ndarray) -> np.ndarray:
         return expit(self.calibration["a"] * logit + self.calibration["b"])
