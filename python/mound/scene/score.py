@@ -142,9 +142,14 @@ def aoi_in_scene(polys_lonlat: list[Any], scene: SceneInfo, where: str) -> list[
     return geoms
 
 
-def peaks(p: np.ndarray, margin: int, r0: int, c0: int) -> list[tuple[float, int, int]]:
-    """Local maxima (p, row, col) of the core of a block scored with `margin` extra cells;
-    row/col in the output grid."""
+Peaks = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]  # p, row, col, logit (1-D)
+
+
+def peaks(p: np.ndarray, margin: int, r0: int, c0: int, logit: np.ndarray | None = None
+          ) -> Peaks:
+    """Local maxima (p, row, col, logit or NaN) of the core of a block scored with `margin`
+    extra cells; row/col in the output grid. Arrays, not tuples: a 100 Mpx scene at stride 1 has
+    millions of 3 x 3 maxima (as Python tuples they took a gigabyte)."""
     q = np.where(np.isfinite(p), p, -np.inf)
     # 3 x 3 local maxima; `thin` then enforces the separation (a disc footprint of the
     # separation's radius cost O(r^2) per cell: 60x slower at 30 m).
@@ -152,22 +157,31 @@ def peaks(p: np.ndarray, margin: int, r0: int, c0: int) -> list[tuple[float, int
     core = np.zeros_like(q, dtype=bool)
     core[margin:q.shape[0] - margin, margin:q.shape[1] - margin] = True
     rr, cc = np.nonzero((q == mx) & np.isfinite(q) & core)
-    return [(float(p[r, c]), int(r - margin + r0), int(c - margin + c0))
-            for r, c in zip(rr.tolist(), cc.tolist(), strict=True)]
+    return (p[rr, cc], (rr - margin + r0).astype(np.int64), (cc - margin + c0).astype(np.int64),
+            logit[rr, cc] if logit is not None else np.full(len(rr), np.nan))
 
 
-def thin(found: list[tuple[float, int, int]], grid: OutGrid, min_sep_m: float,
-         limit: int) -> list[tuple[float, int, int]]:
+def thin(found: Peaks, grid: OutGrid, min_sep_m: float, limit: int
+         ) -> list[tuple[float, int, int]]:
     """Greedy: highest p first (ties: lower row, then column), none within min_sep_m of one
     kept; at most `limit`."""
-    order = sorted(found, key=lambda t: (-t[0], t[1], t[2]))
+    pv, rows, cols = found[:3]
+    return [(float(pv[k]), int(rows[k]), int(cols[k]))
+            for k in thin_indices(found, grid, min_sep_m, limit)]
+
+
+def thin_indices(found: Peaks, grid: OutGrid, min_sep_m: float, limit: int) -> list[int]:
+    """`thin`, as indices into the peak arrays."""
+    pv, rows, cols = found[:3]
+    order = np.lexsort((cols, rows, -pv))
     sep = min_sep_m / grid.res_m
     size = max(sep, 1.0)
     buckets: dict[tuple[int, int], list[tuple[int, int]]] = {}
-    kept = []
-    for p, r, c in order:
+    kept: list[int] = []
+    for k in order.tolist():
         if len(kept) >= limit:
             break
+        r, c = int(rows[k]), int(cols[k])
         br, bc = int(r // size), int(c // size)
         near = False
         for dr in (-1, 0, 1):
@@ -177,9 +191,16 @@ def thin(found: list[tuple[float, int, int]], grid: OutGrid, min_sep_m: float,
                         near = True
                         break
         if not near:
-            kept.append((p, r, c))
+            kept.append(k)
             buckets.setdefault((br, bc), []).append((r, c))
     return kept
+
+
+def _concat(parts: list[Peaks]) -> Peaks:
+    if not parts:
+        return np.zeros(0), np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
+    return (np.concatenate([x[0] for x in parts]), np.concatenate([x[1] for x in parts]),
+            np.concatenate([x[2] for x in parts]), np.concatenate([x[3] for x in parts]))
 
 
 def block_origins(grid: OutGrid, block: int) -> list[tuple[int, int, int, int]]:
@@ -193,7 +214,7 @@ class BlockResult:
     c0: int
     logit: np.ndarray          # core only
     p: np.ndarray              # calibrated, core only
-    peaks: list[tuple[float, int, int]]
+    peaks: Peaks
     seconds: float
 
 
@@ -204,7 +225,7 @@ def run_block(scene: SceneInfo, bands: list[int], model: SceneModel, grid: OutGr
     logit = score_block(scene, bands, model, grid, r0, c0, nr, nc, margin, aoi)
     p = model.calibrate(logit)
     core = (slice(margin, margin + nr), slice(margin, margin + nc))
-    return BlockResult(r0, c0, logit[core], p[core], peaks(p, margin, r0, c0),
+    return BlockResult(r0, c0, logit[core], p[core], peaks(p, margin, r0, c0, logit),
                        time.perf_counter() - start)
 
 
@@ -354,8 +375,8 @@ def score_to_dir(scene: SceneInfo, model: SceneModel, out_dir: Any, *, model_pat
                "dtype": "float32", "crs": scene.crs(), "transform": grid.transform(),
                "nodata": NODATA, "tiled": True, "blockxsize": 256, "blockysize": 256,
                "compress": "deflate", "BIGTIFF": "IF_SAFER"}
-    found: list[tuple[float, int, int]] = []
-    logits: dict[tuple[int, int], float] = {}
+    found: list[Peaks] = []
+    n_found = 0
     cells = valid = 0
     p_sum = 0.0
     block_s: list[float] = []
@@ -381,9 +402,8 @@ def score_to_dir(scene: SceneInfo, model: SceneModel, out_dir: Any, *, model_pat
             valid += int(ok.sum())
             p_sum += float(res.p[ok].sum())
             block_s.append(res.seconds)
-            for pk in res.peaks:
-                found.append(pk)
-                logits[(pk[1], pk[2])] = float(res.logit[pk[1] - res.r0, pk[2] - res.c0])
+            found.append(res.peaks)
+            n_found += len(res.peaks[0])
             if progress:
                 progress(done, total)
         p_ds.close()
@@ -399,7 +419,11 @@ def score_to_dir(scene: SceneInfo, model: SceneModel, out_dir: Any, *, model_pat
                 "scene": {"file": str(scene.path)}, "model": {"file": model_path}})
             raise NoResultError(f"{scene.path}: no position could be scored (nodata, the AOI, "
                                 "or a scene smaller than the features' windows)")
-        kept = thin(found, grid, min_sep_m, limit)
+        allp = _concat(found)
+        del found
+        idx = thin_indices(allp, grid, min_sep_m, limit)
+        kept = [(float(allp[0][k]), int(allp[1][k]), int(allp[2][k])) for k in idx]
+        logits = {(int(allp[1][k]), int(allp[2][k])): float(allp[3][k]) for k in idx}
         feats = _candidate_features(kept, grid, scene, logits)
         if home is not None:
             feats.insert(0, {"type": "Feature", "id": "home",
@@ -416,7 +440,7 @@ def score_to_dir(scene: SceneInfo, model: SceneModel, out_dir: Any, *, model_pat
                "aoi": aoi_path, "grid": {"cell_px": grid.cell, "resolution_m": grid.res_m,
                                          "width": grid.cols, "height": grid.rows},
                "counts": {"cells": cells, "scored": valid, "nodata": cells - valid,
-                          "local_maxima": len(found), "candidates": len(kept)},
+                          "local_maxima": n_found, "candidates": len(kept)},
                "p_mean": p_sum / valid if valid else None, "threshold": model.threshold,
                "min_separation_m": min_sep_m,
                "timings": {"wall_s": wall, "blocks": len(block_s),
