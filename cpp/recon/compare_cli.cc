@@ -8,6 +8,7 @@
 #include <iostream>
 #include <numeric>
 #include <optional>
+#include <sstream>
 
 #include "common/atomic_file.h"
 #include "common/cli_args.h"
@@ -18,6 +19,7 @@
 #include "icp/icp.h"
 #include "recon/recon_io.h"
 #include "terrain/mound_detector.h"
+#include "terrain/verdict_model.h"
 
 namespace mound::recon {
 namespace {
@@ -172,8 +174,8 @@ int RunCompare(const std::vector<std::string>& args) {
 }
 
 int RunVerdict(const std::vector<std::string>& args) {
-  const Args a = ParseArgs(args, 1, {"--out", "--reference", "--radius", "--threshold-ratio", "--min-height",
-                                     "--min-diameter", "--relief-threshold", "--init", "--max-points", "--seed", "--cloud"},
+  const Args a = ParseArgs(args, 1, {"--out", "--reference", "--radius", "--threshold-ratio", "--model", "--ground-order",
+                                     "--relief-threshold", "--init", "--max-points", "--seed", "--cloud"},
                            {"--no-scale"});
   if (a.positional.size() != 1) throw InputError("verdict: expected exactly one RECON_DIR (see --help)");
   if (!a.Has("--out")) throw InputError("--out: the verdict file is required");
@@ -239,34 +241,93 @@ int RunVerdict(const std::vector<std::string>& args) {
       radius = Quantile(r, 0.8);
     }
     terrain::DetectorOptions o;
-    if (a.Has("--min-height")) o.min_height_m = ParseNumber(a.options.at("--min-height"), "--min-height");
-    if (a.Has("--min-diameter")) o.min_diameter_m = ParseNumber(a.options.at("--min-diameter"), "--min-diameter");
     if (a.Has("--relief-threshold")) o.relief_threshold_m = ParseNumber(a.options.at("--relief-threshold"), "--relief-threshold");
+    if (a.Has("--ground-order")) {
+      const double g = ParseNumber(a.options.at("--ground-order"), "--ground-order");
+      if (g != 1 && g != 2) throw InputError("--ground-order: 1 (a plane) or 2 (a quadratic)");
+      o.ground_order = static_cast<int>(g);
+    }
+    const terrain::VerdictModel model =
+        a.Has("--model") ? terrain::LoadVerdictModel(a.options.at("--model")) : terrain::DefaultVerdictModel();
     terrain::Detection d;
     try {
       d = terrain::DetectMound(cloud.xyz, centre, radius, o);
     } catch (const NoResultError& e) {
       fail(e.what());
     }
-    doc["method"] = "reference_free_dome";
-    doc["label"] = d.mound ? "mound" : "no_mound";
-    doc["confidence"] = d.confidence;
-    doc["reason"] = d.reason;
+    size_t best = 0;
+    const double p = model.Probability(d, &best);
+    const bool mound = p >= model.threshold;
+    const terrain::Rise* judged = d.judged.empty() ? nullptr : &d.judged[best];
+    doc["method"] = "reference_free_model";
+    doc["p_mound"] = p;
+    doc["label"] = mound ? "mound" : "no_mound";
+    doc["confidence"] = mound ? p : 1 - p;
+    std::ostringstream why;
+    why.precision(3);
     nlohmann::json m = {{"site_centre_enu_m", {centre.x(), centre.y()}}, {"site_radius_m", radius},
                         {"cell_m", d.cell_m}, {"grid", {d.grid_width, d.grid_height}},
-                        {"cells_with_points", d.cells_with_points}, {"ground_noise_m", d.ground_noise_m},
-                        {"ground_coefficients", d.ground_coefficients}, {"rises", d.rises}};
-    if (d.tallest) {
-      const terrain::Rise& t = *d.tallest;
-      m["rise"] = {{"centre_enu_m", {t.centre.x(), t.centre.y()}}, {"height_m", t.height_m},
-                   {"base_diameter_m", t.base_diameter_m}, {"dome_height_m", t.dome_height_m},
-                   {"dome_r2", t.dome_r2}, {"area_m2", t.area_m2}, {"volume_m3", t.volume_m3},
-                   {"roundness", t.roundness}};
+                        {"cells_with_points", d.cells_with_points}, {"cells_inside", d.cells_inside},
+                        {"ground_noise_m", d.ground_noise_m}, {"ground_coefficients", d.ground_coefficients},
+                        {"rises", d.rises}, {"site_sag_m", d.site_sag_m}, {"site_ridge_m", d.site_ridge_m}};
+    auto rise_json = [&](const terrain::Rise& t) {
+      nlohmann::json r = {{"centre_enu_m", {t.centre.x(), t.centre.y()}}, {"height_m", t.height_m},
+                          {"base_diameter_m", t.base_diameter_m}, {"dome_height_m", t.dome_height_m},
+                          {"dome_r2", t.dome_r2}, {"area_m2", t.area_m2}, {"volume_m3", t.volume_m3},
+                          {"roundness", t.roundness}, {"symmetry", t.symmetry}, {"fill", t.fill},
+                          {"flank_slope_rad", t.flank_slope_rad}, {"clipped", t.clipped}, {"offset_m", t.offset_m},
+                          {"extent_m", t.extent_m}};
+      const std::vector<double> f = terrain::VerdictFeatures(d, t);
+      nlohmann::json feats = nlohmann::json::object();
+      for (size_t k = 0; k < f.size(); ++k) feats[terrain::VerdictFeatureNames()[k]] = f[k];
+      r["features"] = feats;
+      r["p_mound"] = model.Probability(f);
+      return r;
+    };
+    // Every judged rise (the training data of `mound recon train-verdict`), the one that
+    // decided the site as `rise` with its `features`.
+    nlohmann::json all = nlohmann::json::array();
+    for (const terrain::Rise& r : d.judged) all.push_back(rise_json(r));
+    m["judged_rises"] = all;
+    if (judged) {
+      const terrain::Rise& t = *judged;
+      m["rise"] = rise_json(t);
+      m["features"] = m["rise"]["features"];
+      why << "the rise judged most likely a mound (of " << d.judged.size() << "): height " << t.height_m << " m, base diameter " << t.base_diameter_m
+          << " m, roundness " << t.roundness << ", dome fit R^2 " << t.dome_r2 << ", flank slope "
+          << t.flank_slope_rad * 180 / M_PI << " deg, " << 100 * t.clipped << " % of its outline on the scan's edge";
+    } else {
+      why << "no rise above " << o.relief_threshold_m << " m over the ground";
     }
+    // A rise cut by the edge of the cloud, or a site domed all over (a mound wider than the
+    // scan: no ground in sight): the scan did not see the whole rise.
+    const bool cut = judged && judged->clipped > 0.1;
+    const bool domed = d.site_sag_m >= 1.0;
+    if (cut || domed) {
+      const double extent = judged ? judged->extent_m : radius;
+      const double need = 10 * std::ceil((domed ? std::max(4 * radius, 2.5 * extent) : 2.5 * extent) / 10);
+      std::ostringstream w;
+      w.precision(3);
+      if (cut) {
+        w << "the rise runs off the scanned site (" << 100 * judged->clipped << " % of its outline on the edge of the "
+          << 2 * radius << " m site)";
+      } else {
+        w << "the whole " << 2 * radius << " m site is domed (it falls " << d.site_sag_m
+          << " m or more from its centre to its edge in every direction): no ground around the rise was seen";
+      }
+      w << "; a scan " << (domed ? "at least " : "about ") << need << " m across would see it whole";
+      doc["coverage"] = {{"status", "clipped"}, {"scan_needed_m", need}, {"message", w.str()},
+                         {"rise_clipped", judged ? judged->clipped : 0.0}, {"site_sag_m", d.site_sag_m}};
+    } else {
+      doc["coverage"] = {{"status", judged ? "whole" : "no_rise"},
+                         {"rise_clipped", judged ? judged->clipped : 0.0}, {"site_sag_m", d.site_sag_m}};
+    }
+    why << "; p(mound) " << p << " (threshold " << model.threshold << ")";
+    doc["reason"] = why.str();
     doc["measurements"] = m;
-    doc["thresholds"] = {{"relief_m", o.relief_threshold_m}, {"min_height_m", o.min_height_m},
-                         {"min_diameter_m", o.min_diameter_m}, {"min_roundness", o.min_roundness},
-                         {"min_dome_r2", o.min_dome_r2}};
+    doc["model"] = {{"file", a.Has("--model") ? a.options.at("--model") : std::string("default (data/verdict_model.json)")},
+                    {"threshold", model.threshold}, {"relief_threshold_m", o.relief_threshold_m}};
+    if (model.doc.contains("trained")) doc["model"]["trained"] = model.doc["trained"];
   }
   WriteFileAtomic(out, doc.dump(1) + "\n");
   std::cerr << "mound_recon verdict: " << doc["label"].get<std::string>() << " (confidence "

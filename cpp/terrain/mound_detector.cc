@@ -14,7 +14,7 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-double Logistic(double x) { return 1 / (1 + std::exp(-x)); }
+double SignedLog(double x) { return std::copysign(std::log1p(std::fabs(x)), x); }
 
 Eigen::Matrix<double, 6, 1> Basis(double x, double y) {
   Eigen::Matrix<double, 6, 1> b;
@@ -45,6 +45,7 @@ Detection DetectMound(const std::vector<Eigen::Vector3d>& points, const Eigen::V
                         " m of the site centre; a terrain model needs at least 100");
   }
   Detection d;
+  d.radius_m = radius_m;
   const double area = M_PI * radius_m * radius_m;
   d.cell_m = o.cell_m > 0 ? o.cell_m
                           : std::clamp(std::sqrt(area / (site.size() / 4.0)), 0.25, std::max(0.25, radius_m / 25));
@@ -66,6 +67,7 @@ Detection DetectMound(const std::vector<Eigen::Vector3d>& points, const Eigen::V
     for (int i = 0; i < g.w; ++i) {
       const size_t k = static_cast<size_t>(j) * g.w + i;
       inside[k] = g.Centre(i, j).norm() <= radius_m;
+      d.cells_inside += inside[k] ? 1 : 0;
       if (!bins[k].empty() && inside[k]) {
         g.z[k] = Median(bins[k]);
         measured[k] = true;
@@ -179,6 +181,24 @@ Detection DetectMound(const std::vector<Eigen::Vector3d>& points, const Eigen::V
     if (!changed) break;
   }
   d.ground_noise_m = sigma;
+  {  // The whole site's quadratic (see the header): its Hessian in units of the radius.
+    Eigen::Matrix<double, 6, 6> A = Eigen::Matrix<double, 6, 6>::Zero();
+    Eigen::Matrix<double, 6, 1> b = Eigen::Matrix<double, 6, 1>::Zero();
+    for (size_t k : cells) {
+      const Eigen::Vector2d p = xy(k);
+      const Eigen::Matrix<double, 6, 1> f = Basis(p.x(), p.y());
+      A += f * f.transpose();
+      b += f * g.z[k];
+    }
+    const Eigen::Matrix<double, 6, 1> q = A.ldlt().solve(b);
+    Eigen::Matrix2d H;
+    H << 2 * q[3], q[4], q[4], 2 * q[5];
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es(H);
+    if (q.allFinite()) {
+      d.site_sag_m = -es.eigenvalues()[1] / 2;   // the least falling direction
+      d.site_ridge_m = -es.eigenvalues()[0] / 2;  // the most
+    }
+  }
   // Coefficients in metres of x, y from the centre.
   const double s = radius_m;
   d.ground_coefficients = {coef[0], coef[1] / s, coef[2] / s, coef[3] / (s * s), coef[4] / (s * s), coef[5] / (s * s)};
@@ -280,36 +300,91 @@ Detection DetectMound(const std::vector<Eigen::Vector3d>& points, const Eigen::V
       }
     }
     r.dome_r2 = best_r2;
+    // Radial symmetry: the relief about its mean in rings of one cell (or R/20) around c.
+    {
+      const double ring = std::max(g.cell, r_eq / 20);
+      std::vector<double> sum(static_cast<size_t>(1.5 * r_eq / ring) + 2, 0.0), cnt(sum.size(), 0.0);
+      for (const auto& [rad, rel] : prof) {
+        const size_t b = std::min(sum.size() - 1, static_cast<size_t>(rad / ring));
+        sum[b] += rel;
+        cnt[b] += 1;
+      }
+      double sse = 0;
+      for (const auto& [rad, rel] : prof) {
+        const size_t b = std::min(sum.size() - 1, static_cast<size_t>(rad / ring));
+        const double e = rel - sum[b] / cnt[b];
+        sse += e * e;
+      }
+      r.symmetry = tot > 0 ? 1 - sse / tot : 0;
+    }
+    r.fill = r.base_diameter_m > 0 ? r.area_m2 / (M_PI * r.base_diameter_m * r.base_diameter_m / 4) : 0;
+    // Flank slope, outline on the site's edge, extent.
+    std::vector<double> slopes;
+    int outline = 0, on_edge = 0;
+    for (size_t k : comp) {
+      const int i = static_cast<int>(k % g.w), j = static_cast<int>(k / g.w);
+      auto rel = [&](int a, int b) {
+        return (a < 0 || b < 0 || a >= g.w || b >= g.h) ? kNaN : relief[static_cast<size_t>(b) * g.w + a];
+      };
+      const double gx = (rel(i + 1, j) - rel(i - 1, j)) / (2 * g.cell);
+      const double gy = (rel(i, j + 1) - rel(i, j - 1)) / (2 * g.cell);
+      if (std::isfinite(gx) && std::isfinite(gy)) slopes.push_back(std::hypot(gx, gy));
+      bool boundary = false, edge = false;
+      for (const auto& [di, dj] : {std::pair{1, 0}, {-1, 0}, {0, 1}, {0, -1}}) {
+        const int a = i + di, b = j + dj;
+        const bool out = a < 0 || b < 0 || a >= g.w || b >= g.h || !inside[static_cast<size_t>(b) * g.w + a];
+        if (out || label[static_cast<size_t>(b) * g.w + a] != label[k]) boundary = true;
+        if (out) edge = true;
+      }
+      outline += boundary ? 1 : 0;
+      on_edge += edge ? 1 : 0;
+      r.extent_m = std::max(r.extent_m, g.Centre(i, j).norm());
+    }
+    r.flank_slope_rad = slopes.empty() ? 0 : std::atan(Quantile(slopes, 0.9));
+    r.clipped = outline > 0 ? static_cast<double>(on_edge) / outline : 0;
+    r.offset_m = c.norm();
     r.centre = centre + c;
     rises.push_back(r);
   }
   d.rises = static_cast<int>(rises.size());
-  std::ostringstream why;
-  if (rises.empty()) {
-    d.mound = false;
-    d.confidence = Logistic(8.0 * (1.0 - 0.0));  // nothing above the threshold at all
-    why << "no rise above " << o.relief_threshold_m << " m over the ground";
-    d.reason = why.str();
-    return d;
-  }
-  const Rise& t = *std::max_element(rises.begin(), rises.end(), [](const Rise& a, const Rise& b) {
-    return a.height_m * a.area_m2 < b.height_m * b.area_m2;  // the most prominent
+  std::sort(rises.begin(), rises.end(), [](const Rise& a, const Rise& b) {
+    return a.height_m * a.area_m2 > b.height_m * b.area_m2;  // the most prominent first
   });
-  d.tallest = t;
-  const double ph = Logistic((t.height_m - o.min_height_m) / (0.15 * o.min_height_m));
-  const double pd = Logistic((t.base_diameter_m - o.min_diameter_m) / (0.15 * o.min_diameter_m));
-  const double pr = Logistic((t.roundness - o.min_roundness) / 0.05);
-  const double pf = Logistic((t.dome_r2 - o.min_dome_r2) / 0.05);
-  const double p = ph * pd * pr * pf;
-  d.mound = t.height_m >= o.min_height_m && t.base_diameter_m >= o.min_diameter_m &&
-            t.roundness >= o.min_roundness && t.dome_r2 >= o.min_dome_r2;
-  d.confidence = d.mound ? p : 1 - p;
-  why.precision(3);
-  why << "most prominent rise: height " << t.height_m << " m (min " << o.min_height_m << "), base diameter "
-      << t.base_diameter_m << " m (min " << o.min_diameter_m << "), roundness " << t.roundness << " (min "
-      << o.min_roundness << "), dome fit R^2 " << t.dome_r2 << " (min " << o.min_dome_r2 << ")";
-  d.reason = why.str();
+  if (!rises.empty()) d.tallest = rises.front();
+  if (rises.size() > kMaxJudgedRises) rises.resize(kMaxJudgedRises);
+  d.judged = std::move(rises);
   return d;
+}
+
+const std::vector<std::string>& VerdictFeatureNames() {
+  static const std::vector<std::string> names = {
+      "log_height", "log_diameter", "log_aspect", "dome_r2", "roundness", "symmetry", "fill",
+      "flank_slope", "clipped", "offset", "log_snr", "coverage", "log_rises", "site_sag", "site_ridge"};
+  return names;
+}
+
+std::vector<double> VerdictFeatures(const Detection& d) {
+  if (!d.tallest) throw InternalError("VerdictFeatures: no rise");
+  return VerdictFeatures(d, *d.tallest);
+}
+
+std::vector<double> VerdictFeatures(const Detection& d, const Rise& t) {
+  const double h = std::max(t.height_m, 0.05), dia = std::max(t.base_diameter_m, 0.5);
+  return {std::log(h),
+          std::log(dia),
+          std::log(h / dia),
+          std::clamp(t.dome_r2, -1.0, 1.0),
+          t.roundness,
+          std::clamp(t.symmetry, -1.0, 1.0),
+          std::clamp(t.fill, 0.0, 4.0),
+          t.flank_slope_rad,
+          t.clipped,
+          t.offset_m / d.radius_m,
+          std::log(h / std::max(d.ground_noise_m, 0.01)),
+          d.cells_inside > 0 ? static_cast<double>(d.cells_with_points) / d.cells_inside : 0,
+          std::log1p(static_cast<double>(d.rises)),
+          SignedLog(d.site_sag_m),
+          SignedLog(d.site_ridge_m)};
 }
 
 }  // namespace mound::terrain

@@ -1,10 +1,14 @@
 // The reference-free mound detector on constructed clouds: a dome on undulating, sloping
-// ground is found and measured; the same ground without it, an elongated ridge and a
-// sparse cloud are not mounds or are reported.
+// ground is found and measured; the same ground without it has no rise, an elongated ridge
+// is measured elongated, a dome wider than the site is measured clipped, and a sparse
+// cloud is reported. The verdict model: read, applied, and refused when malformed.
 #include "terrain/mound_detector.h"
+
+#include "terrain/verdict_model.h"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -32,11 +36,14 @@ std::vector<Eigen::Vector3d> Site(double dome_h, double dome_d, bool ridge, uint
 TEST(DetectMound, FindsAndMeasuresADome) {
   const Detection d = DetectMound(Site(6.0, 40.0, false, 1), {0, 0}, 58, DetectorOptions{});
   ASSERT_TRUE(d.tallest.has_value());
-  EXPECT_TRUE(d.mound) << d.reason;
-  EXPECT_GT(d.confidence, 0.9);
   const Rise& r = *d.tallest;
-  EXPECT_NEAR(r.height_m, 6.0, 0.5) << d.reason;
-  EXPECT_NEAR(r.base_diameter_m, 40.0, 4.0) << d.reason;
+  EXPECT_NEAR(r.height_m, 6.0, 0.5);
+  EXPECT_NEAR(r.base_diameter_m, 40.0, 4.0);
+  EXPECT_GT(r.symmetry, 0.9);
+  EXPECT_LT(r.clipped, 0.05);
+  EXPECT_NEAR(r.offset_m, std::hypot(5, 3), 1.0);
+  // steepest flank of the paraboloid 2 H / R = 0.6: atan 31 degrees
+  EXPECT_NEAR(r.flank_slope_rad, std::atan(0.6), 0.1);
   EXPECT_LT((r.centre - Eigen::Vector2d(5, -3)).norm(), 1.0);
   // Paraboloid volume pi R^2 H / 2 = 3770 m^3; the rise above 0.3 m holds most of it.
   EXPECT_NEAR(r.volume_m3, M_PI * 400 * 6 / 2, 500);
@@ -45,13 +52,120 @@ TEST(DetectMound, FindsAndMeasuresADome) {
   EXPECT_LT(d.ground_noise_m, 0.2);
 }
 
-TEST(DetectMound, FlatGroundAndARidgeAreNoMound) {
+TEST(DetectMound, FlatGroundHasNoRiseAndARidgeIsElongated) {
   const Detection flat = DetectMound(Site(0, 0, false, 2), {0, 0}, 58, DetectorOptions{});
-  EXPECT_FALSE(flat.mound) << flat.reason;
+  EXPECT_FALSE(flat.tallest.has_value() && flat.tallest->height_m > 0.6);
   const Detection ridge = DetectMound(Site(0, 0, true, 3), {0, 0}, 58, DetectorOptions{});
-  EXPECT_FALSE(ridge.mound) << ridge.reason;
   ASSERT_TRUE(ridge.tallest.has_value());
   EXPECT_LT(ridge.tallest->roundness, 0.3);  // 80 m long, 6 m wide
+}
+
+TEST(DetectMound, ADomeWiderThanTheSiteIsClippedNotElongated) {
+  // 140 m across, centred (5, -3) m from a 40 m site: it fills the site beyond its edge
+  const Detection d = DetectMound(Site(8.0, 140.0, false, 4), {0, 0}, 40, DetectorOptions{});
+  // no ground in sight: the ground fit follows the flanks, but the site is domed: it falls
+  // 8 x 4 x 40^2 / 140^2 = 2.6 m from the centre to the edge in every direction
+  EXPECT_NEAR(d.site_sag_m, 2.6, 0.5);
+  EXPECT_NEAR(d.site_ridge_m, 2.6, 0.5);
+  const Detection flat = DetectMound(Site(0, 0, false, 2), {0, 0}, 40, DetectorOptions{});
+  EXPECT_LT(std::fabs(flat.site_sag_m), 0.5);
+  // a dome 60 m across, 20 m east of a 40 m site's centre: cut by the edge
+  const Detection off = DetectMound(Site(6.0, 60.0, false, 5), {-15, 3}, 40, DetectorOptions{});
+  ASSERT_TRUE(off.tallest.has_value());
+  EXPECT_GT(off.tallest->clipped, 0.2);
+  EXPECT_GT(off.tallest->extent_m, 38);
+  const std::vector<double> f = VerdictFeatures(off);
+  ASSERT_EQ(f.size(), VerdictFeatureNames().size());
+  EXPECT_EQ(f[8], off.tallest->clipped);
+}
+
+nlohmann::json ModelDoc() {
+  const size_t n = VerdictFeatureNames().size();
+  nlohmann::json w = std::vector<double>(n, 0.0);
+  w[0] = 2.0;  // log_height
+  return {{"schema", "mound.verdict_model"}, {"version", 1}, {"features", VerdictFeatureNames()},
+          {"mean", std::vector<double>(n, 0.0)}, {"std", std::vector<double>(n, 1.0)}, {"weights", w},
+          {"bias", -1.0}, {"threshold", 0.5}, {"p_no_rise", 0.01}};
+}
+
+TEST(VerdictModel, AppliesTheLogisticRegression) {
+  const VerdictModel m = ParseVerdictModel(ModelDoc(), "m.json");
+  const Detection dome = DetectMound(Site(6.0, 40.0, false, 1), {0, 0}, 58, DetectorOptions{});
+  const double h = dome.tallest->height_m;
+  EXPECT_NEAR(m.Probability(dome), 1 / (1 + std::exp(-(-1.0 + 2.0 * std::log(h)))), 1e-12);
+  Detection none;
+  EXPECT_EQ(m.Probability(none), 0.01);
+  // the same model with its features in another order (JSON objects have none)
+  nlohmann::json rev = ModelDoc();
+  std::vector<std::string> names = VerdictFeatureNames();
+  std::reverse(names.begin(), names.end());
+  rev["features"] = names;
+  std::vector<double> w(names.size(), 0.0);
+  w.back() = 2.0;
+  rev["weights"] = w;
+  EXPECT_NEAR(ParseVerdictModel(rev, "r.json").Probability(dome), m.Probability(dome), 1e-15);
+  EXPECT_NO_THROW(DefaultVerdictModel());
+}
+
+TEST(VerdictModel, HingeBasisAndTheHighestRiseDecide) {
+  const size_t n = VerdictFeatureNames().size();
+  nlohmann::json doc = ModelDoc();
+  std::vector<double> w(3 * n, 0.0);
+  w[n + 0] = 1.5;  // max(z - 1, 0) of log_height
+  doc["basis"] = "hinge";
+  doc["weights"] = w;
+  doc["bias"] = -2.0;
+  const VerdictModel m = ParseVerdictModel(doc, "m.json");
+  const Detection dome = DetectMound(Site(6.0, 40.0, false, 1), {0, 0}, 58, DetectorOptions{});
+  ASSERT_FALSE(dome.judged.empty());
+  double top = -1e9;
+  for (const Rise& r : dome.judged) {
+    const double z = std::log(std::max(r.height_m, 0.05));
+    top = std::max(top, -2.0 + 1.5 * std::max(z - 1, 0.0));
+  }
+  size_t best = 99;
+  EXPECT_NEAR(m.Probability(dome, &best), 1 / (1 + std::exp(-top)), 1e-12);
+  EXPECT_LT(best, dome.judged.size());
+  doc["weights"] = std::vector<double>(n, 0.0);  // a hinge model needs 3 x the weights
+  EXPECT_THROW(ParseVerdictModel(doc, "m.json"), InputError);
+  doc["basis"] = "spline";
+  EXPECT_THROW(ParseVerdictModel(doc, "m.json"), InputError);
+}
+
+TEST(VerdictModel, RefusesMalformedModelsNamingTheField) {
+  auto refused = [](nlohmann::json doc, const std::string& field) {
+    try {
+      ParseVerdictModel(doc, "m.json");
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();
+      return;
+    }
+    ADD_FAILURE() << "accepted a model with a bad " << field;
+  };
+  nlohmann::json d = ModelDoc();
+  d["schema"] = "mound.scene_model";
+  refused(d, "schema");
+  d = ModelDoc();
+  d["features"][0] = "log_width";
+  refused(d, "features");  // made for other features
+  d = ModelDoc();
+  d["features"][1] = d["features"][0];
+  refused(d, "features");  // one twice, another missing
+  d = ModelDoc();
+  d["weights"].erase(0);
+  refused(d, "weights");
+  d = ModelDoc();
+  d["std"][2] = 0.0;
+  refused(d, "std");
+  d = ModelDoc();
+  d.erase("bias");
+  refused(d, "bias");
+  d = ModelDoc();
+  d["threshold"] = 1.5;
+  refused(d, "threshold");
+  d = ModelDoc();
+  d["mean"][1] = "x";
+  refused(d, "mean");
 }
 
 TEST(DetectMound, TooFewPointsOrBadRadius) {

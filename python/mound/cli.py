@@ -255,6 +255,27 @@ def cmd_sim_site(args: argparse.Namespace) -> int:
     if args.pit:
         overrides.update(pit_radius_m=args.pit[0], pit_depth_m=args.pit[1],
                          pit_offset_m=args.pit[2])
+    if args.offset:
+        overrides.update(mound_x_m=args.offset[0], mound_y_m=args.offset[1])
+    if args.trench:
+        overrides.update(trench_width_m=args.trench[0], trench_depth_m=args.trench[1],
+                         trench_azimuth_deg=args.trench[2])
+    if args.slope:
+        overrides.update(slope_deg=args.slope[0], slope_azimuth_deg=args.slope[1])
+    if args.dem:
+        try:
+            x, y = float(args.dem[1]), float(args.dem[2])
+        except ValueError:
+            raise InputError("--dem: expected PATH X Y (the patch's centre in the DEM's CRS)"
+                             ) from None
+        overrides.update(dem_path=args.dem[0], dem_x_m=x, dem_y_m=y)
+    if args.confuser:
+        if args.mound != "none":
+            raise InputError("--confuser: only on a site without a mound (--mound none)")
+        length, width, height, az = args.confuser_size
+        overrides["confusers"] = (terrain.Confuser(args.confuser, 0.0, 0.0, length, width,
+                                                   height, az, count=args.trees,
+                                                   seed=args.seed),)
     spec = sim.SimSpec(
         terrain=terrain.preset(args.preset, **overrides),
         lighting=Lighting(np.deg2rad(args.sun[0]), np.deg2rad(args.sun[1])),
@@ -266,6 +287,8 @@ def cmd_sim_site(args: argparse.Namespace) -> int:
         spec = replace(spec, raster_altitude_m=args.altitude)
     if args.orbit_images is not None:
         spec = replace(spec, orbit_images=args.orbit_images)
+    if args.scan_diameter is not None:
+        spec = replace(spec, scan_diameter_m=args.scan_diameter)
     site = sim.simulate(spec, args.out, threads=args.threads)
     t = site["timings"]
     print(f"{'tumulus' if spec.terrain.mound else 'flat control'} ({args.preset}, seed "
@@ -275,6 +298,107 @@ def cmd_sim_site(args: argparse.Namespace) -> int:
           f"{t['render_s']:.2f} s ({site['stats']['render_threads']} threads)")
     if args.figures:
         cmd_sim_figures(argparse.Namespace(site=args.out, out_dir=args.out, dpi_scale=1.0))
+    return 0
+
+
+def terrain_confusers() -> tuple[str, ...]:
+    from mound.sim.terrain import CONFUSERS
+
+    return CONFUSERS
+
+
+def cmd_sim_grid(args: argparse.Namespace) -> int:
+    from mound.sim import grid
+
+    if args.workers < 1 or args.threads < 1:
+        raise InputError("--workers, --threads: must be >= 1")
+
+    def progress(k: int, row: dict[str, Any]) -> None:
+        t = row.get("times") or {}
+        print(f"{row['dir']}: {row['truth']['kind']:<9} {row.get('status')} "
+              f"({sum(t.values()):.1f} s)", flush=True)
+
+    dem = args.dem
+    if dem is None:
+        shared = datasets.cache_dir() / "dem" / "TM1_564_146.tif"
+        dem = str(shared) if shared.is_file() else None
+    doc = grid.make_grid(args.out, args.sites, args.seed, tuple(args.size), dem,
+                         args.threads, args.workers, args.remeasure, progress)
+    ok = sum(1 for r in doc["rows"] if r.get("status") == "ok")
+    print(f"{ok} of {doc['sites']} sites measured in {doc['wall_s']:.0f} s -> "
+          f"{args.out}/grid.json")
+    return 0
+
+
+def cmd_recon_train_verdict(args: argparse.Namespace) -> int:
+    from mound.jsonio import write_json
+    from mound.recon import verdict_model as vm
+
+    rows = [r for g in args.grids for r in vm.load_grid(g)]
+    names = vm.feature_names_of(rows)
+    model = vm.train(rows, names, [str(Path(g)) for g in args.grids])
+    t = model["trained"]
+    print(f"trained on {t['sites']} sites ({t['with_rise']} with a rise, {t['mounds']} mounds): "
+          f"l2 {t['l2']:g}, out-of-fold AUC {t['out_of_fold']['auc']:.3f}, ECE "
+          f"{t['out_of_fold']['ece']:.3f}; threshold {model['threshold']:.2f}")
+    if args.heldout:
+        held = [r for g in args.heldout for r in vm.load_grid(g)]
+        report = vm.evaluate(model, held)
+        model["heldout"] = {k: report[k] for k in (
+            "sites", "measured", "accuracy", "false_alarm_rate", "missed_rate", "auc",
+            "brier", "ece", "goal_mounds_2m_15m", "goal_no_mound", "old_rule_accuracy")}
+        model["heldout"]["grids"] = [str(Path(g)) for g in args.heldout]
+        _print_verdict_report(report)
+        if args.report:
+            write_json(Path(args.report), report)
+        if args.figure:
+            vm.figure(report, args.figure)
+    write_json(Path(args.out), model)
+    print(f"-> {args.out}")
+    return 0
+
+
+def _print_verdict_report(r: dict[str, Any]) -> None:
+    g, n = r["goal_mounds_2m_15m"], r["goal_no_mound"]
+    print(f"held-out: {r['measured']} of {r['sites']} sites measured; accuracy "
+          f"{r['accuracy']:.3f} (old rule {r['old_rule_accuracy']:.3f}); AUC {r['auc']:.3f}, "
+          f"Brier {r['brier']:.3f}, ECE {r['ece']:.3f}")
+    print(f"  mounds >= 2 m high and >= 15 m across: {g['right']}/{g['sites']} right; "
+          f"no mound: {n['false_alarms']}/{n['sites']} false alarms")
+    for key, c in r["per_group"].items():
+        print(f"  {key:<24} {c['right']:>3}/{c['sites']:<3} right (old rule "
+              f"{c['old_rule_right']})")
+    lim = r["detection_limit"]["limit"] or []
+    print("  detection limit (>= 95 % of the mounds at least this high and wide detected): "
+          + ("; ".join(f"{c['height_m_at_least']:g} m x {c['diameter_m_at_least']:g} m "
+                       f"({c['detected']}/{c['mounds']})" for c in lim) or "none"))
+
+
+def cmd_recon_eval_verdict(args: argparse.Namespace) -> int:
+    from mound.jsonio import read_json, write_json
+    from mound.recon import verdict_model as vm
+
+    model = read_json(args.model, vm.SCHEMA, vm.VERSION)
+    report = vm.evaluate(model, [r for g in args.grids for r in vm.load_grid(g)])
+    _print_verdict_report(report)
+    if args.paper:
+        import tempfile
+
+        with tempfile.TemporaryDirectory() as tmp:
+            agree = [vm.paper_agreement(g, model, Path(tmp) / str(k), args.paper_sites)
+                     for k, g in enumerate(args.grids)]
+        tot = {k: sum(a[k] for a in agree) for k in (
+            "sites", "judged", "agree", "paper_right", "learned_right", "paper_false_alarms",
+            "paper_missed", "paper_failed")}
+        report["paper_agreement"] = {**tot, "rows": [r for a in agree for r in a["rows"]]}
+        print(f"  the paper's test (--reference) on {tot['judged']} sites: agrees with the "
+              f"learned verdict on {tot['agree']}; right on {tot['paper_right']} (learned: "
+              f"{tot['learned_right']}); {tot['paper_false_alarms']} false alarms, "
+              f"{tot['paper_missed']} missed; {tot['paper_failed']} failed (ICP)")
+    if args.report:
+        write_json(Path(args.report), report)
+    if args.figure:
+        vm.figure(report, args.figure)
     return 0
 
 
@@ -383,7 +507,7 @@ def build_parser() -> argparse.ArgumentParser:
     st.add_argument("--preset", choices=("bin_tepe", "lab"), default="bin_tepe")
     st.add_argument("--mound", choices=("tumulus", "none"), default="tumulus",
                     help="none: the flat control (same ground, texture and flight)")
-    st.add_argument("--profile", choices=("conical", "spherical_cap", "drum"))
+    st.add_argument("--profile", choices=("conical", "spherical_cap", "drum", "ploughed"))
     st.add_argument("--diameter", dest="diameter_m", type=float, help="m")
     st.add_argument("--height", dest="height_m", type=float, help="m")
     st.add_argument("--erosion", dest="erosion_m", type=float, help="m")
@@ -391,6 +515,21 @@ def build_parser() -> argparse.ArgumentParser:
     st.add_argument("--resolution", dest="resolution_m", type=float, help="grid spacing, m")
     st.add_argument("--pit", type=float, nargs=3, metavar=("RADIUS", "DEPTH", "OFFSET"),
                     help="a looters' pit, m")
+    st.add_argument("--trench", type=float, nargs=3, metavar=("WIDTH", "DEPTH", "AZIMUTH_DEG"),
+                    help="a looters' trench through the top, m")
+    st.add_argument("--offset", type=float, nargs=2, metavar=("EAST_M", "NORTH_M"),
+                    help="the mound's centre off the site centre")
+    st.add_argument("--slope", type=float, nargs=2, metavar=("DEG", "AZIMUTH_DEG"),
+                    help="ground rising towards the azimuth")
+    st.add_argument("--dem", nargs=3, metavar=("DEM.tif", "X", "Y"),
+                    help="real ground: the DEM's patch centred on X, Y (its CRS)")
+    st.add_argument("--confuser", choices=terrain_confusers(),
+                    help="something that is not a tumulus, at the site centre (--mound none)")
+    st.add_argument("--confuser-size", type=float, nargs=4, default=(40.0, 10.0, 3.0, 0.0),
+                    metavar=("LENGTH", "WIDTH", "HEIGHT", "AZIMUTH_DEG"))
+    st.add_argument("--trees", type=int, default=6, help="crowns in a group of trees")
+    st.add_argument("--scan-diameter", type=float,
+                    help="the flight's own scale, m (default: the mound's diameter)")
     st.add_argument("--seed", type=int, default=1)
     st.add_argument("--out", required=True)
     st.add_argument("--pattern", choices=("raster", "orbit", "both"), default="both")
@@ -416,6 +555,24 @@ def build_parser() -> argparse.ArgumentParser:
     rf.add_argument("recon_dir")
     rf.add_argument("--out", required=True, help="PNG file")
     rf.set_defaults(func=cmd_recon_figure)
+    tv = rc.add_parser("train-verdict", help="learn the verdict model (mound.verdict_model v1) "
+                       "from grids of measured sites (mound sim grid)")
+    tv.add_argument("grids", nargs="+", help="training grid folders")
+    tv.add_argument("--out", required=True, help="verdict_model.json")
+    tv.add_argument("--heldout", nargs="*", default=[], help="held-out grid folders")
+    tv.add_argument("--report", help="held-out report (JSON)")
+    tv.add_argument("--figure", help="reliability diagram and detection limit (PNG)")
+    tv.set_defaults(func=cmd_recon_train_verdict)
+    ev = rc.add_parser("eval-verdict", help="judge a verdict model on grids of measured sites")
+    ev.add_argument("grids", nargs="+")
+    ev.add_argument("--model", required=True)
+    ev.add_argument("--report", help="report (JSON)")
+    ev.add_argument("--figure", help="reliability diagram and detection limit (PNG)")
+    ev.add_argument("--paper", action="store_true",
+                    help="also run the paper's test (--reference) on every site and count "
+                    "how often it agrees")
+    ev.add_argument("--paper-sites", type=int, help="at most this many sites for --paper")
+    ev.set_defaults(func=cmd_recon_eval_verdict)
     rr = rc.add_parser("rasters", help="DSM, DTM, local relief model, hillshade and "
                        "orthophoto GeoTIFFs (UTM) of a metric mound_recon model")
     rr.add_argument("recon_dir")
@@ -429,6 +586,20 @@ def build_parser() -> argparse.ArgumentParser:
     rr.add_argument("--images", help="the model's images (default: recon.json's images_dir)")
     rr.add_argument("--no-orthophoto", action="store_true", help="skip orthophoto.tif")
     rr.set_defaults(func=cmd_recon_rasters)
+    sg = simp.add_parser("grid", help="sites that look like the field (tumuli of every shape, "
+                         "confusers), flown, reconstructed and measured: the verdict's data")
+    sg.add_argument("--out", required=True, help="the grid's folder (resumable)")
+    sg.add_argument("--sites", type=int, default=200)
+    sg.add_argument("--seed", type=int, default=1, help="another seed: another grid")
+    sg.add_argument("--size", type=int, nargs=2, default=(320, 240), metavar=("W", "H"),
+                    help="image size (small: the grid runs in minutes)")
+    sg.add_argument("--dem", help="a DEM for real terrain patches (default: the shared 1 m "
+                    "laser DEM when present)")
+    sg.add_argument("--workers", type=int, default=2, help="sites at once")
+    sg.add_argument("--threads", type=int, default=1, help="threads per site")
+    sg.add_argument("--remeasure", action="store_true",
+                    help="rerun only the verdicts (after a change of the detector)")
+    sg.set_defaults(func=cmd_sim_grid)
     sf = simp.add_parser("figures", help="contact sheet and 3-D plot of a simulated site")
     sf.add_argument("site")
     sf.add_argument("--out-dir", help="default: the site directory")

@@ -300,3 +300,38 @@ def test_scene_geotiff_reader(at: int, piece: bytes, cut: int, truncate: bool) -
     short: open_scene and read_window answer with a scene or an InputError."""
     data = SCENE[:at] if truncate else SCENE[:at] + piece + SCENE[at + cut:]
     value_or_input_error(_read_scene, _file(data, "scene.tif"))
+
+
+def _dem_bytes() -> bytes:
+    import numpy as np
+    import rasterio
+    from rasterio.transform import from_origin
+
+    path = WORK / "valid_dem.tif"
+    with rasterio.open(path, "w", driver="GTiff", width=40, height=40, count=1,
+                       dtype="float32", crs="EPSG:3794",
+                       transform=from_origin(564000, 147000, 1, 1)) as ds:
+        ds.write(np.linspace(250, 320, 1600, dtype=np.float32).reshape(1, 40, 40))
+    return path.read_bytes()
+
+
+DEM_TIF = _dem_bytes()
+
+
+def _read_dem(path: Path) -> None:
+    import numpy as np
+
+    from mound.sim.terrain import dem_patch
+
+    z = dem_patch(str(path), 564020.0, 146980.0, np.linspace(-10, 10, 21))
+    assert z.shape == (21, 21) and np.isfinite(z).all()
+
+
+@FUZZ
+@given(st.integers(0, len(DEM_TIF) - 1), st.binary(min_size=1, max_size=16),
+       st.integers(0, 16), st.booleans())
+def test_dem_patch_reader(at: int, piece: bytes, cut: int, truncate: bool) -> None:
+    """The simulator's DEM reader (a terrain patch for `mound sim site --dem`, the grid) on
+    a valid DEM with bytes overwritten or cut short: a finite patch or an InputError."""
+    data = DEM_TIF[:at] if truncate else DEM_TIF[:at] + piece + DEM_TIF[at + cut:]
+    value_or_input_error(_read_dem, _file(data, "dem.tif"))

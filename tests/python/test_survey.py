@@ -163,6 +163,10 @@ def test_every_artefact_of_the_run(survey: dict[str, Any]) -> None:
         verdict = json.loads((out / "sites" / sid / "recon" / "verdict.json").read_text())
         assert verdict["schema"] == "mound.verdict" and verdict["label"] == row["verdict"]
         assert row["verdict"] == ("mound" if row["truth"] else "no_mound")
+        # the calibrated p of the learned verdict travels into the summary
+        assert row["verdict_p_mound"] == verdict["p_mound"]
+        assert (row["verdict_p_mound"] >= verdict["model"]["threshold"]) == (
+            row["verdict"] == "mound")
         for key in ("thumbnails", "cloud", "relief", "terrain"):
             assert (out / row["files"][key]).is_file()
         # The dense cloud and the site's GeoTIFFs from it: UTM zone 35 north at Bin Tepe,

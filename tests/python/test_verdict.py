@@ -8,6 +8,7 @@ import math
 import struct
 import subprocess
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -50,9 +51,10 @@ def test_reference_free_verdicts(tumulus: tuple[Path, Path], flat: tuple[Path, P
     r = run_recon(["verdict", str(recon), "--out", str(tmp_path / "v.json")])
     assert r.returncode == 0, r.stderr
     v = json.loads((tmp_path / "v.json").read_text())
-    assert v["schema"] == "mound.verdict" and v["method"] == "reference_free_dome"
+    assert v["schema"] == "mound.verdict" and v["method"] == "reference_free_model"
     assert v["label"] == "mound", v["reason"]
-    assert 0.5 < v["confidence"] <= 1
+    assert v["p_mound"] >= v["model"]["threshold"] and v["confidence"] == v["p_mound"]
+    assert set(v["measurements"]["features"]) == set(DEFAULT_MODEL["features"])
     spec = json.loads((site / "site.json").read_text())["terrain"]
     rise = v["measurements"]["rise"]
     # The bin_tepe preset: 60 m across, 12 m high (eroded edges): measured within 20 %.
@@ -64,6 +66,56 @@ def test_reference_free_verdicts(tumulus: tuple[Path, Path], flat: tuple[Path, P
     assert r.returncode == 0, r.stderr
     f = json.loads((tmp_path / "f.json").read_text())
     assert f["label"] == "no_mound", f["reason"]
+    assert f["p_mound"] < f["model"]["threshold"]
+
+
+DEFAULT_MODEL = json.loads((Path(__file__).resolve().parents[2] / "data" /
+                            "verdict_model.json").read_text())
+
+
+def test_the_verdict_model_file_round_trips(tumulus: tuple[Path, Path], tmp_path: Path) -> None:
+    """The shipped model, written out and read back by mound_recon, gives the p that the
+    Python side computes from the detector's features; a changed weight changes it as
+    predicted; models for other features or with bad fields are refused naming the field."""
+    from mound.recon.verdict_model import probability
+
+    _, recon = tumulus
+    r = run_recon(["verdict", str(recon), "--out", str(tmp_path / "d.json")])
+    assert r.returncode == 0, r.stderr
+    default = json.loads((tmp_path / "d.json").read_text())
+    row = {"rises": default["measurements"]["judged_rises"], "measured": True}
+    assert default["p_mound"] == pytest.approx(probability(DEFAULT_MODEL, [row])[0], abs=1e-12)
+    changed = json.loads(json.dumps(DEFAULT_MODEL))
+    changed["weights"][0] += 0.5
+    changed["bias"] -= 0.25
+    (tmp_path / "m.json").write_text(json.dumps(changed))
+    r = run_recon(["verdict", str(recon), "--out", str(tmp_path / "c.json"), "--model",
+                   str(tmp_path / "m.json")])
+    assert r.returncode == 0, r.stderr
+    c = json.loads((tmp_path / "c.json").read_text())
+    assert c["p_mound"] == pytest.approx(probability(changed, [row])[0], abs=1e-12)
+    assert c["p_mound"] != pytest.approx(default["p_mound"], abs=1e-6)
+    bad: dict[str, tuple[Any, str]] = {
+        "other features": (lambda d: d["features"].__setitem__(0, "log_width"), "features"),
+        "no bias": (lambda d: d.pop("bias"), "bias"),
+        "std 0": (lambda d: d["std"].__setitem__(3, 0.0), "std"),
+        "short weights": (lambda d: d["weights"].pop(), "weights"),
+        "threshold": (lambda d: d.__setitem__("threshold", 2.0), "threshold"),
+        "schema": (lambda d: d.__setitem__("schema", "mound.scene_model"), "schema"),
+        "nan": (lambda d: d["mean"].__setitem__(0, "nan"), "mean"),
+    }
+    for name, (edit, field) in bad.items():
+        doc = json.loads(json.dumps(DEFAULT_MODEL))
+        edit(doc)
+        (tmp_path / "bad.json").write_text(json.dumps(doc))
+        r = run_recon(["verdict", str(recon), "--out", str(tmp_path / "b.json"), "--model",
+                       str(tmp_path / "bad.json")])
+        assert r.returncode == 2, (name, r.stderr)
+        assert field in r.stderr and r.stderr.count("\n") == 1, (name, r.stderr)
+    (tmp_path / "bad.json").write_text("{not json")
+    r = run_recon(["verdict", str(recon), "--out", str(tmp_path / "b.json"), "--model",
+                   str(tmp_path / "bad.json")])
+    assert r.returncode == 2 and "not JSON" in r.stderr, r.stderr
 
 
 def test_paper_test_and_compare(tumulus: tuple[Path, Path], flat: tuple[Path, Path],

@@ -15,6 +15,8 @@ C++ z-buffer rasteriser `build/mound_render` and writes, all in the site's ENU f
     texture.npy       the shaded texture the renderer drapes over it (uint8 RGB)
     render.json       the render job (mound.render v1), to re-render with mound_render
     site.json         mound.sim_site v1: every parameter, the file list, timings
+    truth.json        mound.sim_truth v1: mound or not, what stands there (tumulus and its
+                      profile, a confuser's kind, or flat), height, diameter, centre (ENU m)
 """
 
 from __future__ import annotations
@@ -69,10 +71,14 @@ class SimSpec:
     gps_sigma_v_m: float = 2.0
     seed: int = 1
     origin: dict[str, float] = field(default_factory=lambda: dict(DEFAULT_ORIGIN))
+    # The flight's own scale (a survey flies the same scan over every candidate, whatever
+    # stands there); None: scaled to the mound's diameter (and the orbit aimed at a third of
+    # its height), as in the paper's experiment.
+    scan_diameter_m: float | None = None
 
     @property
     def scale_m(self) -> float:
-        return self.terrain.diameter_m
+        return self.scan_diameter_m if self.scan_diameter_m is not None else self.terrain.diameter_m
 
     def scan(self) -> ScanSpec:
         """The flight over the site (the same ScanSpec a mission flies): the layout scaled
@@ -84,7 +90,8 @@ class SimSpec:
             raster_altitude_m=self.raster_altitude_m, raster_area_m=self.raster_area_m,
             front_overlap=self.front_overlap, side_overlap=self.side_overlap,
             orbit_radius_m=self.orbit_radius_m, orbit_altitude_m=self.orbit_altitude_m,
-            orbit_images=self.orbit_images, target_height_m=self.terrain.height_m / 3)
+            orbit_images=self.orbit_images,
+            target_height_m=self.terrain.height_m / 3 if self.scan_diameter_m is None else 0.0)
 
     def camera(self) -> Camera:
         return self.scan().camera()
@@ -103,6 +110,8 @@ class SimSpec:
             raise InputError("sim: vignetting must be in [0, 1)")
         if self.texel_m is not None and self.texel_m <= 0:
             raise InputError("sim: texel_m must be > 0")
+        if self.scan_diameter_m is not None and not 0 < self.scan_diameter_m < 1e4:
+            raise InputError("sim: scan_diameter_m must be > 0")
 
 
 def shots(spec: SimSpec) -> list[tuple[str, flight.Shot]]:
@@ -229,5 +238,7 @@ def _simulate(spec: SimSpec, out: Path, threads: int | None) -> dict[str, Any]:
                   "reference_points": int(len(xyz)), "render_threads": result["threads"]},
         "timings": timings,
     }
+    write_json(out / "truth.json", {"schema": "mound.sim_truth", "version": 1, "frame": "enu",
+                                     "origin": spec.origin, **spec.terrain.truth()})
     write_json(out / "site.json", site)
     return site

@@ -9,6 +9,19 @@ blur of the radial profile), and an optional looters' pit is a conical depressio
 `pit_radius_m` and `pit_depth_m` at `pit_offset_m` from the centre. The flat control is
 the same ground without the mound (same seed, so the same ground).
 
+Field conditions (issue 26): the mound may stand off the site centre (`mound_x_m`,
+`mound_y_m`) and be wider than the flight's scan; a "ploughed" profile (a cap whose top is
+flattened at 60 % of its height, then scaled back to its height; the plough's spreading is
+the erosion, which the grid makes at least a tenth of the diameter); a looters'
+trench (`trench_width_m`, `trench_depth_m`, `trench_azimuth_deg`: a V-shaped cut through
+the centre, across the whole mound); ground on a slope (`slope_deg` rising towards
+`slope_azimuth_deg`, clockwise from north) or a patch of a real DEM (`dem_path`, centred
+on `dem_x_m`, `dem_y_m` in the DEM's CRS; its heights less the patch's median, so the
+site's datum stays near 0); and confusers (`Confuser`), alone on a site without a mound:
+an elongated natural hillock, a ridge or a ditch across the site, a terrace edge (a step),
+a group of trees (steep crowns), a building (a box with vertical walls) or a haystack (a
+small steep dome). `truth()` says what stands on the site.
+
 Presets: "bin_tepe" (a Lydian tumulus: 60 m across, 12 m high, on a 160 m square site) and
 "lab" (a scale model about 1 m across, as in the paper's experiment, on a 2.6 m square).
 """
@@ -22,7 +35,34 @@ import numpy as np
 
 from mound.errors import InputError
 
-PROFILES = ("conical", "spherical_cap", "drum")
+PROFILES = ("conical", "spherical_cap", "drum", "ploughed")
+CONFUSERS = ("hillock", "ridge", "ditch", "terrace", "trees", "building", "haystack")
+
+
+@dataclass(frozen=True)
+class Confuser:
+    """Something on a site that is not a tumulus: `kind` (CONFUSERS) centred at (x_m, y_m),
+    `length_m` along `azimuth_deg` (clockwise from north), `width_m` across it, `height_m`
+    (a ditch's depth; a terrace's step). Trees: `count` crowns of diameter `width_m` within
+    a group `length_m` across."""
+    kind: str
+    x_m: float = 0.0
+    y_m: float = 0.0
+    length_m: float = 40.0
+    width_m: float = 10.0
+    height_m: float = 2.0
+    azimuth_deg: float = 0.0
+    count: int = 1
+    seed: int = 0
+
+    def validate(self) -> None:
+        if self.kind not in CONFUSERS:
+            raise InputError(f"terrain: confuser kind must be one of {CONFUSERS}, got "
+                             f"{self.kind!r}")
+        if not (self.length_m > 0 and self.width_m > 0 and self.height_m > 0
+                and self.count >= 1):
+            raise InputError(f"terrain: confuser {self.kind}: length, width, height and "
+                             "count must be > 0")
 
 
 @dataclass(frozen=True)
@@ -39,6 +79,17 @@ class TerrainSpec:
     pit_radius_m: float = 0.0      # 0: no looters' pit
     pit_depth_m: float = 0.0
     pit_offset_m: float = 0.0
+    mound_x_m: float = 0.0         # the mound's centre, m east / north of the site centre
+    mound_y_m: float = 0.0
+    trench_width_m: float = 0.0    # 0: no looters' trench
+    trench_depth_m: float = 0.0
+    trench_azimuth_deg: float = 0.0
+    slope_deg: float = 0.0         # the ground rises towards slope_azimuth_deg
+    slope_azimuth_deg: float = 0.0
+    dem_path: str | None = None    # a real terrain patch in place of the undulation
+    dem_x_m: float = 0.0
+    dem_y_m: float = 0.0
+    confusers: tuple[Confuser, ...] = ()
     seed: int = 0
 
     def validate(self) -> None:
@@ -62,6 +113,33 @@ class TerrainSpec:
             need(self.pit_radius_m >= 0 and self.pit_depth_m >= 0, "pit sizes must be >= 0")
             need(self.pit_offset_m + self.pit_radius_m <= self.diameter_m / 2 or
                  self.pit_radius_m == 0, "the looters' pit must lie on the mound")
+            need(self.trench_width_m >= 0 and self.trench_depth_m >= 0,
+                 "trench sizes must be >= 0")
+            need(max(abs(self.mound_x_m), abs(self.mound_y_m)) + self.diameter_m / 2
+                 <= self.size_m / 2, "the mound (offset included) must fit on the site")
+        need(0 <= self.slope_deg < 45, f"slope_deg must be in [0, 45), got {self.slope_deg}")
+        for c in self.confusers:
+            c.validate()
+
+    def truth(self) -> dict[str, object]:
+        """What stands on the site (truth.json): a tumulus with its size and centre, or the
+        most prominent confuser, or bare ground."""
+        if self.mound:
+            return {"mound": True, "kind": "tumulus", "profile": self.profile,
+                    "height_m": self.height_m, "diameter_m": self.diameter_m,
+                    "centre_enu_m": [self.mound_x_m, self.mound_y_m],
+                    "pit": self.pit_radius_m > 0 and self.pit_depth_m > 0,
+                    "trench": self.trench_width_m > 0 and self.trench_depth_m > 0,
+                    "slope_deg": self.slope_deg, "dem": self.dem_path is not None}
+        if self.confusers:
+            c = self.confusers[0]
+            return {"mound": False, "kind": c.kind, "height_m": c.height_m,
+                    "diameter_m": c.width_m, "length_m": c.length_m,
+                    "centre_enu_m": [c.x_m, c.y_m], "slope_deg": self.slope_deg,
+                    "dem": self.dem_path is not None}
+        return {"mound": False, "kind": "flat", "height_m": 0.0, "diameter_m": 0.0,
+                "centre_enu_m": [0.0, 0.0], "slope_deg": self.slope_deg,
+                "dem": self.dem_path is not None}
 
 
 PRESETS = {
@@ -116,12 +194,101 @@ def _radial_profile(spec: TerrainSpec, r: np.ndarray) -> np.ndarray:
     elif spec.profile == "spherical_cap":
         big_r = (radius ** 2 + h ** 2) / (2 * h)  # sphere radius of a cap of height h
         z = np.where(r < radius, np.sqrt(np.clip(big_r ** 2 - r ** 2, 0, None)) - (big_r - h), 0)
+    elif spec.profile == "ploughed":  # a cap flattened at 60 % of its height
+        big_r = (radius ** 2 + h ** 2) / (2 * h)
+        cap = np.where(r < radius, np.sqrt(np.clip(big_r ** 2 - r ** 2, 0, None))
+                       - (big_r - h), 0)
+        z = np.minimum(cap, 0.6 * h) / 0.6
     else:  # drum: vertical-sided drum, then a cap of the remaining height
         cap = h - spec.drum_height_m
         big_r = (radius ** 2 + cap ** 2) / (2 * cap)
         z = np.where(r < radius, spec.drum_height_m +
                      np.sqrt(np.clip(big_r ** 2 - r ** 2, 0, None)) - (big_r - cap), 0)
     return np.clip(z, 0, None)
+
+
+def _along_across(xx: np.ndarray, yy: np.ndarray, x0: float, y0: float, azimuth_deg: float
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """Coordinates along the azimuth (clockwise from north) and across it (to the right)."""
+    a = np.deg2rad(azimuth_deg)
+    dx, dy = xx - x0, yy - y0
+    return dx * np.sin(a) + dy * np.cos(a), dx * np.cos(a) - dy * np.sin(a)
+
+
+def _confuser(c: Confuser, xx: np.ndarray, yy: np.ndarray, ground: np.ndarray
+              ) -> tuple[np.ndarray, np.ndarray | None]:
+    """(added relief, or None; a raised top that replaces the ground where it is higher)."""
+    u, v = _along_across(xx, yy, c.x_m, c.y_m, c.azimuth_deg)
+    if c.kind == "hillock":  # elongated, smooth: a Gaussian of sigma L/4 x W/4
+        return c.height_m * np.exp(-0.5 * ((4 * u / c.length_m) ** 2 + (4 * v / c.width_m) ** 2)
+                                   ), None
+    if c.kind == "ridge":   # across the whole site
+        return c.height_m * np.exp(-0.5 * (4 * v / c.width_m) ** 2), None
+    if c.kind == "ditch":
+        return -c.height_m * np.exp(-0.5 * (4 * v / c.width_m) ** 2), None
+    if c.kind == "terrace":  # the ground steps up by height_m across a bank width_m wide
+        return c.height_m * 0.5 * (1 + np.tanh(4 * v / c.width_m)), None
+    if c.kind == "building":  # a box on the ground under its centre, vertical walls
+        i = int(np.argmin(np.abs(yy[:, 0] - c.y_m)))
+        j = int(np.argmin(np.abs(xx[0, :] - c.x_m)))
+        base = float(ground[i, j])
+        inside = (np.abs(u) <= c.length_m / 2) & (np.abs(v) <= c.width_m / 2)
+        top = np.where(inside, base + c.height_m, -np.inf)
+        return np.zeros_like(xx), top
+    rng = np.random.default_rng([c.seed, 17])
+    if c.kind == "haystack":
+        centres = [(c.x_m, c.y_m, c.width_m / 2, c.height_m)]
+    else:  # trees: crowns within a group length_m across, heights 70-100 % of height_m
+        centres = []
+        for _ in range(c.count):
+            rad, ang = c.length_m / 2 * np.sqrt(rng.random()), 2 * np.pi * rng.random()
+            centres.append((c.x_m + rad * np.sin(ang), c.y_m + rad * np.cos(ang),
+                            c.width_m / 2 * rng.uniform(0.8, 1.2),
+                            c.height_m * rng.uniform(0.7, 1.0)))
+    top = np.full_like(xx, -np.inf)
+    for cx, cy, a, h in centres:
+        r = np.hypot(xx - cx, yy - cy)
+        # a crown / stack: an ellipsoid of radius a and height h standing on the ground
+        dome = ground + h * np.sqrt(np.clip(1 - (r / a) ** 2, 0, None))
+        top = np.where(r < a, np.maximum(top, dome), top)
+    return np.zeros_like(xx), top
+
+
+def dem_patch(path: str, x0: float, y0: float, axis: np.ndarray) -> np.ndarray:
+    """Heights of a DEM (any projected CRS in metres) on the site's grid, the patch centred
+    on (x0, y0) in the DEM's CRS, north up; less the patch's median height."""
+    import rasterio
+    from rasterio.errors import RasterioError
+    from rasterio.windows import Window
+    from scipy.ndimage import map_coordinates
+
+    try:
+        with rasterio.open(path) as ds:
+            if ds.crs is None or not ds.crs.is_projected:
+                raise InputError(f"{path}: a DEM in a projected CRS (metres) is needed")
+            tf = ds.transform
+            if tf.b != 0 or tf.d != 0 or not (tf.a > 0 and tf.e < 0):
+                raise InputError(f"{path}: the DEM must be north-up")
+            col = (x0 + axis - tf.c) / tf.a - 0.5
+            row = (y0 + axis - tf.f) / tf.e - 0.5
+            if not (col.min() >= 0 and row.min() >= 0 and col.max() <= ds.width - 1
+                    and row.max() <= ds.height - 1):
+                raise InputError(f"{path}: a site {axis[-1] - axis[0]:g} m across at ({x0:g}, "
+                                 f"{y0:g}) does not fit on the DEM")
+            r0, r1 = int(np.floor(row.min())), int(np.ceil(row.max())) + 1
+            c0, c1 = int(np.floor(col.min())), int(np.ceil(col.max())) + 1
+            z = ds.read(1, window=Window(c0, r0, c1 - c0 + 1, r1 - r0 + 1),
+                        boundless=False).astype(np.float64)
+            nod = ds.nodata
+    except RasterioError as e:
+        msg = " ".join(str(e).split())[:160]
+        raise InputError(f"{path}: not a readable DEM ({msg})") from None
+    if nod is not None and np.any(z == nod) or not np.all(np.isfinite(z)):
+        raise InputError(f"{path}: the patch at ({x0:g}, {y0:g}) has nodata")
+    # grid row i is y = y0 + axis[i] (north-going), which DEM row `row[i]` holds
+    rr, cc = np.meshgrid(row - r0, col - c0, indexing="ij")
+    patch = map_coordinates(z, [rr, cc], order=1)
+    return patch - np.median(patch)
 
 
 def build(spec: TerrainSpec) -> Heightfield:
@@ -137,22 +304,41 @@ def build(spec: TerrainSpec) -> Heightfield:
         ground += np.sin(2 * np.pi * (xx * np.cos(theta) + yy * np.sin(theta)) / wavelength
                          + phase)
     z = spec.ground_relief_m / 4 * ground
+    if spec.dem_path is not None:
+        z = dem_patch(spec.dem_path, spec.dem_x_m, spec.dem_y_m, axis)
+    if spec.slope_deg > 0:
+        u, _ = _along_across(xx, yy, 0.0, 0.0, spec.slope_azimuth_deg)
+        z = z + np.tan(np.deg2rad(spec.slope_deg)) * u
     if spec.mound:
-        r = np.hypot(xx, yy)
+        r = np.hypot(xx - spec.mound_x_m, yy - spec.mound_y_m)
         # Erosion: the radial profile blurred with a Gaussian of sigma erosion_m.
         rs = np.linspace(0, spec.size_m, 4096)
         prof = _radial_profile(spec, rs)
-        if spec.erosion_m > 0:
+        erosion = spec.erosion_m
+        if erosion > 0:
             step = rs[1] - rs[0]
-            k = np.arange(-int(4 * spec.erosion_m / step), int(4 * spec.erosion_m / step) + 1)
-            w = np.exp(-0.5 * (k * step / spec.erosion_m) ** 2)
+            k = np.arange(-int(4 * erosion / step), int(4 * erosion / step) + 1)
+            w = np.exp(-0.5 * (k * step / erosion) ** 2)
             padded = np.concatenate([prof[len(k) // 2:0:-1], prof, np.zeros(len(k))])
             prof = np.convolve(padded, w / w.sum(), mode="same")[len(k) // 2:len(k) // 2 + len(rs)]
         mound = np.interp(r, rs, prof)
         if spec.pit_radius_m > 0 and spec.pit_depth_m > 0:
-            rp = np.hypot(xx - spec.pit_offset_m, yy)
+            rp = np.hypot(xx - spec.mound_x_m - spec.pit_offset_m, yy - spec.mound_y_m)
             mound -= spec.pit_depth_m * np.clip(1 - rp / spec.pit_radius_m, 0, None)
+        if spec.trench_width_m > 0 and spec.trench_depth_m > 0:
+            u, v = _along_across(xx, yy, spec.mound_x_m, spec.mound_y_m,
+                                 spec.trench_azimuth_deg)
+            cut = spec.trench_depth_m * np.clip(1 - 2 * np.abs(v) / spec.trench_width_m, 0, None)
+            # across the mound, no deeper than the mound stands
+            mound = np.where(np.abs(u) < spec.diameter_m / 2, np.maximum(mound - cut,
+                                                                         np.minimum(mound, 0)),
+                             mound)
         z = z + mound
+    for c in spec.confusers:
+        add, top = _confuser(c, xx, yy, z)
+        z = z + add
+        if top is not None:
+            z = np.maximum(z, top)
     return Heightfield(axis, axis.copy(), z)
 
 

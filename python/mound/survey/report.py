@@ -54,7 +54,8 @@ def site_rows(tree: RunTree, sites_doc: dict[str, Any], plan: dict[str, Any] | N
                 row["verdict"] = result["verdict"]
                 row["final_label"] = result["verdict"]
                 row["label_source"] = "3-D verdict"
-                for k in ("confidence", "method", "reason", "rise", "distance_m"):
+                for k in ("confidence", "verdict_p_mound", "coverage", "method", "reason",
+                          "rise", "distance_m"):
                     if k in result:
                         row[k] = result[k]
             else:
@@ -185,8 +186,13 @@ def _site_card(r: dict[str, Any]) -> str:
                      f'<p class="muted">final label from the classifier: '
                      f'{_label(r["final_label"])}</p>')
     else:
-        parts.append(f'<p>{e(str(r.get("reason", "")))} (confidence '
-                     f'{_fmt(r.get("confidence"))}, method {e(str(r.get("method", "")))})</p>')
+        prob = (f'p(mound) {_fmt(r["verdict_p_mound"])}, calibrated'
+                if "verdict_p_mound" in r else f'confidence {_fmt(r.get("confidence"))}')
+        parts.append(f'<p>{e(str(r.get("reason", "")))} ({prob}, method '
+                     f'{e(str(r.get("method", "")))})</p>')
+        cov = r.get("coverage")
+        if isinstance(cov, dict) and cov.get("status") == "clipped":
+            parts.append(f'<p class="failed">coverage: {e(str(cov.get("message", "")))}</p>')
     files = r.get("files", {})
     if "thumbnails" in files:
         parts.append(_img(files["thumbnails"], f"images of {r['id']}"))
@@ -246,9 +252,11 @@ def _sites_table(rows: list[dict[str, Any]]) -> str:
                  f'<td>{r["p_mound"]:.3f}</td><td>{r["reward"]:.3f}</td>'
                  f'<td>{"yes" if r["visited"] else ""}</td>'
                  f'<td class="l">{_label(r["verdict"]) if "verdict" in r else ""}</td>'
+                 f'<td>{_fmt(r["verdict_p_mound"]) if "verdict_p_mound" in r else ""}</td>'
                  f'<td class="l">{_label(r["final_label"])}</td><td class="l">{truth}</td></tr>')
     return ('<table><tr><th class="l">site</th><th>x (m)</th><th>y (m)</th><th>p(mound)</th>'
             '<th>reward (bits)</th><th>visited</th><th class="l">3-D verdict</th>'
+            '<th>verdict p(mound)</th>'
             f'<th class="l">final label</th><th class="l">truth</th></tr>{body}</table>')
 
 

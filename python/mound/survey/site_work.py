@@ -125,6 +125,10 @@ def _recon_summary(recon_dir: Path) -> dict[str, Any]:
 def _verdict_summary(doc: dict[str, Any]) -> dict[str, Any]:
     out: dict[str, Any] = {"verdict": doc["label"], "confidence": doc.get("confidence"),
                            "method": doc.get("method"), "reason": doc.get("reason", "")}
+    if "p_mound" in doc:  # the reference-free verdict's calibrated probability
+        out["verdict_p_mound"] = doc["p_mound"]
+    if isinstance(doc.get("coverage"), dict):
+        out["coverage"] = doc["coverage"]
     m = doc.get("measurements", {})
     rise = m.get("rise") if isinstance(m, dict) else None
     if isinstance(rise, dict):

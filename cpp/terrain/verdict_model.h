@@ -1,0 +1,48 @@
+// The verdict's decision: p(mound) of a site from the detector's measurements of its most
+// prominent rise, by a logistic regression learned on a grid of simulated sites and
+// calibrated on another (`mound recon train-verdict`), read from a `mound.verdict_model` v1
+// file:
+//   {"schema": "mound.verdict_model", "version": 1, "features": [the names of
+//    VerdictFeatureNames(), each once, in any order: mean, std and weights follow it],
+//    "mean": [...], "std": [...] (the standardisation),
+//    "weights": [...], "bias": b, "threshold": t (label mound when p >= t),
+//    "p_no_rise": p (a site with no rise above the relief threshold), ...}
+//   s(rise) = b + w . phi(z), z_k = (f_k - mean_k) / std_k, phi the "basis": "linear" (z)
+//   or "hinge" (z, max(z - 1, 0), max(-z - 1, 0); 3 x the weights);
+//   p(site) = 1 / (1 + exp(-max over the judged rises of s)) (the Platt calibration of the
+//   site's highest score folded into w and b)
+// The default model ships in the repository (data/verdict_model.json) and is compiled into
+// the tool; --model replaces it.
+#pragma once
+
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "terrain/mound_detector.h"
+
+namespace mound::terrain {
+
+struct VerdictModel {
+  std::vector<std::string> features;
+  std::vector<double> mean, std, weights;
+  std::vector<size_t> index;  // the detector's position of each of the model's features
+  bool hinge = false;
+  double bias = 0, threshold = 0.5, p_no_rise = 0;
+  nlohmann::json doc;  // the whole file (its figures travel into verdict.json)
+
+  double Score(const std::vector<double>& f) const;  // s of one rise's features
+  double Probability(const std::vector<double>& f) const;
+  // p(mound) of a detection: the highest over its judged rises, or p_no_rise without one;
+  // `best` (if given) the index in d.judged of the rise that gave it.
+  double Probability(const Detection& d, size_t* best = nullptr) const;
+};
+
+// Throws InputError naming `source` and the field: a wrong schema or version, missing or
+// non-finite numbers, arrays of the wrong length, std <= 0, or features other than the
+// detector's (a model made for another detector).
+VerdictModel ParseVerdictModel(const nlohmann::json& doc, const std::string& source);
+VerdictModel LoadVerdictModel(const std::string& path);
+const VerdictModel& DefaultVerdictModel();
+
+}  // namespace mound::terrain

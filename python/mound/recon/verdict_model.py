@@ -1,0 +1,428 @@
+"""The verdict model (`mound.verdict_model` v1): learned on one grid of simulated sites
+(`mound sim grid`), judged on another.
+
+Model: the paper's own tool, a logistic regression (eqs. (2)-(3), mound.classify.logistic)
+on the standardised detector features that `mound_recon verdict` writes for each judged
+rise of a site (measurements.judged_rises[].features: the most prominent rises, since a
+scan of real ground holds natural rises, often larger than the tumulus; the names and
+their order are the detector's, VerdictFeatureNames() in cpp/terrain), on a linear or
+hinge basis. A rise is a positive when it is the tumulus's own (`mound_rise`: the nearest
+to the true centre, within max(8 m, the radius)); every other rise is a negative. A site's
+score is its highest rise's; that score is Platt-calibrated on the sites (folded into the
+weights: the file stays one logistic regression and a max). Sites without a rise get
+`p_no_rise`, the share of mounds among the training sites without one (Laplace-smoothed).
+Basis and L2 penalty are chosen by 5-fold cross-validation over sites (the sites' log loss
+after calibration). The threshold is the lowest p >= 0.5 whose out-of-fold false-alarm
+rate is <= 1 %.
+
+Evaluation on a held-out grid (other seeds: other sites, sun and lens): accuracy, false
+alarms and missed detections per class, kind and profile; reliability table, Brier score
+and ECE; the goal's subsets (mounds >= 2 m high and >= 15 m across; no-mound sites); the
+old hand-set rule (height >= 1 m, base >= 8 m, roundness >= 0.6, dome R^2 >= 0.6) on the
+same sites; and the detection limit, the detection rate over height x diameter.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from scipy.special import expit
+
+from mound.classify import logistic
+from mound.classify.metrics import expected_calibration_error, reliability, roc_auc
+from mound.errors import InputError
+
+SCHEMA = "mound.verdict_model"
+VERSION = 1
+L2_GRID = (1e-4, 1e-3, 1e-2, 1e-1)
+BASES = ("linear", "hinge")
+MAX_FA = 0.01
+
+
+def load_grid(folder: str | Path) -> list[dict[str, Any]]:
+    """The measured sites of a grid: truth, features (None without a rise), the verdict."""
+    root = Path(folder)
+    gpath = root / "grid.json"
+    if gpath.is_file():
+        try:
+            grid = json.loads(gpath.read_text())
+        except json.JSONDecodeError as e:
+            raise InputError(f"{gpath}: not JSON ({e})") from None
+        if grid.get("schema") != "mound.verdict_grid":
+            raise InputError(f"{gpath}: schema: expected mound.verdict_grid")
+    elif root.is_dir():  # a grid still running or interrupted: its finished sites
+        grid = {"rows": []}
+        for t in sorted(root.glob("*/sim/truth.json")):
+            site = t.parent.parent
+            truth = {k: v for k, v in json.loads(t.read_text()).items()
+                     if k not in ("schema", "version", "frame", "origin")}
+            done = (site / "verdict.json").is_file()
+            grid["rows"].append({"dir": site.name, "truth": truth,
+                                 "status": "ok" if done else "running"})
+    else:
+        raise InputError(f"{root}: no grid (make one with `mound sim grid`)")
+    out = []
+    for row in grid["rows"]:
+        vpath = root / row["dir"] / "verdict.json"
+        if row.get("status") != "ok" or not vpath.is_file():
+            out.append({**row, "features": None, "rises": [], "measured": False})
+            continue
+        v = json.loads(vpath.read_text())
+        m = v.get("measurements", {})
+        out.append({**row, "measured": v.get("status") == "ok", "features": m.get("features"),
+                    "rises": m.get("judged_rises", []), "verdict": v, "rise": m.get("rise"),
+                    "grid": str(root)})
+    return out
+
+
+def mound_rise(row: dict[str, Any]) -> int | None:
+    """Which judged rise of a tumulus site is the tumulus: the nearest to its true centre,
+    within max(8 m, its radius); None when no rise is (too low, or not seen)."""
+    t = row["truth"]
+    if not t["mound"]:
+        return None
+    best, dist = None, max(8.0, t["diameter_m"] / 2)
+    for k, r in enumerate(row["rises"]):
+        d = math.hypot(r["centre_enu_m"][0] - t["centre_enu_m"][0],
+                       r["centre_enu_m"][1] - t["centre_enu_m"][1])
+        if d <= dist:
+            best, dist = k, d
+    return best
+
+
+def expand(z: np.ndarray, basis: str) -> np.ndarray:
+    """The basis on standardised features: `linear` z itself; `hinge` z, max(z - 1, 0) and
+    max(-z - 1, 0) per feature (a piecewise-linear response, still a logistic regression)."""
+    if basis == "linear":
+        return z
+    return np.hstack([z, np.maximum(z - 1.0, 0.0), np.maximum(-z - 1.0, 0.0)])
+
+
+def _fit(z: np.ndarray, y: np.ndarray, l2: float, basis: str) -> np.ndarray:
+    d = np.hstack([expand(z, basis), np.ones((len(z), 1))])
+    f = logistic.fit(d, np.where(y, 1.0, -1.0), solver="lbfgs", l2=l2, tol=1e-7)
+    return np.asarray(f.w)
+
+
+def _logit(w: np.ndarray, z: np.ndarray, basis: str) -> np.ndarray:
+    return expand(z, basis) @ w[:-1] + w[-1]
+
+
+def _folds(n: int, k: int, seed: int) -> np.ndarray:
+    return np.random.default_rng(seed).permutation(n) % k
+
+
+def _platt(s: np.ndarray, y: np.ndarray) -> tuple[float, float]:
+    f = logistic.fit(np.stack([s, np.ones_like(s)], axis=1), np.where(y, 1.0, -1.0),
+                     solver="lbfgs", l2=0.0, tol=1e-8)
+    return float(f.w[0]), float(f.w[1])
+
+
+def _site_scores(z: np.ndarray, site_of: np.ndarray, n_sites: int, w: np.ndarray,
+                 basis: str) -> np.ndarray:
+    """Each site's highest rise score (-inf for a site without a rise)."""
+    s = _logit(w, z, basis)
+    out = np.full(n_sites, -np.inf)
+    np.maximum.at(out, site_of, s)
+    return out
+
+
+def train(rows: list[dict[str, Any]], names: list[str], sources: list[str],
+          seed: int = 0) -> dict[str, Any]:
+    """The model document from measured training sites (see the module text): a logistic
+    regression on the judged rises (the tumulus's own rise a positive, every other rise a
+    negative), the site's score its highest rise's, Platt-calibrated on the sites."""
+    measured = [r for r in rows if r["measured"]]
+    sites = [r for r in measured if r["rises"]]
+    no_rise = [r for r in measured if not r["rises"]]
+    y_site = np.array([bool(r["truth"]["mound"]) for r in sites])
+    if len(sites) < 20 or y_site.all() or not y_site.any():
+        raise InputError("train-verdict: needs >= 20 measured sites with a rise, of both "
+                         f"classes (got {len(sites)}, {int(y_site.sum())} mounds)")
+    feats, site_of, y = [], [], []
+    for i, r in enumerate(sites):
+        pos = mound_rise(r)
+        for k, rise in enumerate(r["rises"]):
+            missing = [n for n in names if n not in rise["features"]]
+            if missing:
+                raise InputError(f"{r['grid']}/{r['dir']}/verdict.json: features: no "
+                                 f"{missing[0]!r} (remeasure the grid with this detector: "
+                                 "mound sim grid --remeasure)")
+            feats.append([float(rise["features"][n]) for n in names])
+            site_of.append(i)
+            y.append(k == pos)
+    x, site_idx, y_rise = np.array(feats), np.array(site_of), np.array(y)
+    mean = x.mean(axis=0)
+    std = np.where(x.std(axis=0) > 0, x.std(axis=0), 1.0)
+    z = (x - mean) / std
+    fold_of_site = _folds(len(sites), 5, seed)
+    folds = fold_of_site[site_idx]
+    cv = {}
+    oof_by: dict[tuple[str, float], np.ndarray] = {}
+    for basis in BASES:
+        for l2 in L2_GRID:
+            oof = np.full(len(sites), -np.inf)
+            for k in range(5):
+                tr = folds != k
+                w = _fit(z[tr], y_rise[tr], l2, basis)
+                sc = _site_scores(z[~tr], site_idx[~tr], len(sites), w, basis)
+                oof = np.where(fold_of_site == k, sc, oof)
+            a, b = _platt(oof, y_site)
+            p = expit(a * oof + b)
+            cv[(basis, l2)] = float(-np.mean(np.where(y_site, np.log(np.clip(p, 1e-12, 1)),
+                                                      np.log(np.clip(1 - p, 1e-12, 1)))))
+            oof_by[(basis, l2)] = oof
+    basis, l2 = min(cv, key=lambda k: cv[k])
+    a, b = _platt(oof_by[(basis, l2)], y_site)
+    if not a > 0:
+        raise InputError("train-verdict: the rises' scores do not rank the sites (Platt slope "
+                         f"{a:.3g} <= 0): more or other training sites are needed")
+    p_oof = expit(a * oof_by[(basis, l2)] + b)
+    w = _fit(z, y_rise, l2, basis)
+    # threshold: the lowest p >= 0.5 with an out-of-fold false-alarm rate <= MAX_FA
+    neg = p_oof[~y_site]
+    thr = 0.5
+    while thr < 0.99 and np.mean(neg >= thr) > MAX_FA:
+        thr = round(thr + 0.01, 2)
+    n_nr = len(no_rise)
+    m_nr = sum(1 for r in no_rise if r["truth"]["mound"])
+    return {
+        "schema": SCHEMA, "version": VERSION, "features": names,
+        "mean": mean.tolist(), "std": std.tolist(), "basis": basis,
+        "weights": (a * w[:-1]).tolist(), "bias": float(a * w[-1] + b),
+        "threshold": thr, "p_no_rise": (m_nr + 1) / (n_nr + 2),
+        "trained": {"grids": sources, "sites": len(measured), "with_rise": len(sites),
+                    "rises": len(x), "mound_rises": int(y_rise.sum()),
+                    "mounds": int(y_site.sum()), "no_rise": n_nr, "no_rise_mounds": m_nr,
+                    "basis": basis, "l2": l2,
+                    "cv_log_loss": {f"{k[0]} {k[1]:g}": v for k, v in cv.items()},
+                    "platt": {"a": a, "b": b},
+                    "out_of_fold": {"auc": roc_auc(p_oof, y_site.astype(float)),
+                                    "ece": expected_calibration_error(p_oof,
+                                                                      y_site.astype(float)),
+                                    "false_alarm_rate": float(np.mean(neg >= thr)),
+                                    "detection_rate": float(np.mean(p_oof[y_site] >= thr))},
+                    "method": "logistic regression on the judged rises (L-BFGS, basis and L2 "
+                              "by 5-fold CV over sites), the site's highest rise score "
+                              "Platt-calibrated on out-of-fold predictions"},
+    }
+
+
+def probability(model: dict[str, Any], rows: list[dict[str, Any]]) -> np.ndarray:
+    """p(mound) of each measured row: the same formula as the C++ VerdictModel (the highest
+    over its judged rises; p_no_rise without one)."""
+    names = model["features"]
+    mean, std = np.array(model["mean"]), np.array(model["std"])
+    w = np.array(model["weights"])
+    basis = model.get("basis", "linear")
+    out = np.empty(len(rows))
+    for k, r in enumerate(rows):
+        rises = r.get("rises") or []
+        if not rises:
+            out[k] = model["p_no_rise"]
+            continue
+        f = np.array([[float(q["features"][n]) for n in names] for q in rises])
+        out[k] = expit(model["bias"] + float(np.max(expand((f - mean) / std, basis) @ w)))
+    return out
+
+
+def _old_rule(r: dict[str, Any]) -> bool:
+    rise = r.get("rise")
+    return bool(rise and rise["height_m"] >= 1.0 and rise["base_diameter_m"] >= 8.0
+                and rise["roundness"] >= 0.6 and rise["dome_r2"] >= 0.6)
+
+
+def _rate(flags: list[bool]) -> float | None:
+    return float(np.mean(flags)) if flags else None
+
+
+def evaluate(model: dict[str, Any], rows: list[dict[str, Any]]) -> dict[str, Any]:
+    measured = [r for r in rows if r["measured"]]
+    p = probability(model, measured)
+    thr = model["threshold"]
+    y = np.array([bool(r["truth"]["mound"]) for r in measured])
+    lab = p >= thr
+    old = np.array([_old_rule(r) for r in measured])
+    groups: dict[str, list[int]] = {}
+    for k, r in enumerate(measured):
+        t = r["truth"]
+        key = f"tumulus/{t['profile']}" if t["mound"] else f"no mound/{t['kind']}"
+        groups.setdefault(key, []).append(k)
+    per = {}
+    for key, idx in sorted(groups.items()):
+        per[key] = {"sites": len(idx), "right": int(sum(lab[i] == y[i] for i in idx)),
+                    "old_rule_right": int(sum(old[i] == y[i] for i in idx))}
+    big = [k for k, r in enumerate(measured) if r["truth"]["mound"]
+           and r["truth"]["height_m"] >= 2 and r["truth"]["diameter_m"] >= 15]
+    neg = [k for k in range(len(measured)) if not y[k]]
+    clipped = [k for k in big if measured[k]["verdict"].get("coverage", {}).get("status")
+               == "clipped"]
+    wider = [k for k in big if measured[k]["truth"]["diameter_m"] > 60]
+    return {
+        "sites": len(rows), "measured": len(measured),
+        "failed": [r["dir"] for r in rows if not r["measured"]],
+        "threshold": thr,
+        "accuracy": float(np.mean(lab == y)), "old_rule_accuracy": float(np.mean(old == y)),
+        "false_alarm_rate": _rate([bool(lab[k]) for k in neg]),
+        "missed_rate": _rate([not lab[k] for k in range(len(y)) if y[k]]),
+        "old_rule_false_alarm_rate": _rate([bool(old[k]) for k in neg]),
+        "old_rule_missed_rate": _rate([not old[k] for k in range(len(y)) if y[k]]),
+        "goal_mounds_2m_15m": {"sites": len(big), "right": int(sum(lab[k] for k in big)),
+                               "rate": _rate([bool(lab[k]) for k in big]),
+                               "old_rule_rate": _rate([bool(old[k]) for k in big])},
+        "goal_no_mound": {"sites": len(neg), "false_alarms": int(sum(lab[k] for k in neg)),
+                          "rate": _rate([bool(lab[k]) for k in neg])},
+        "wider_than_scan": {"sites": len(wider), "right": int(sum(lab[k] for k in wider)),
+                            "coverage_warned": int(sum(1 for k in wider if k in clipped))},
+        "auc": roc_auc(p, y.astype(float)),
+        "brier": float(np.mean((p - y) ** 2)),
+        "ece": expected_calibration_error(p, y.astype(float)),
+        "reliability": [{k: (None if isinstance(v, float) and not math.isfinite(v) else v)
+                         for k, v in r.items()} for r in reliability(p, y.astype(float))],
+        "per_group": per,
+        "detection_limit": detection_limit(measured, lab),
+        "errors": [{"dir": measured[k]["dir"], "truth": measured[k]["truth"],
+                    "p_mound": float(p[k])} for k in range(len(y)) if lab[k] != y[k]],
+    }
+
+
+def paper_agreement(folder: str | Path, model: dict[str, Any], work: str | Path,
+                    limit: int | None = None) -> dict[str, Any]:
+    """The paper's test (`mound_recon verdict --reference`) beside the learned verdict on the
+    sites of a grid. The reference is what a tumulus there should look like: the site's own
+    ground (same seed, slope or DEM patch; no confuser) with its own tumulus, or, on a site
+    without one, a 40 m x 6 m spherical cap at the centre (the paper compared its flat
+    control with the tumulus's reference). Returns both labels per site and their
+    agreement."""
+    from dataclasses import replace
+
+    from mound import native
+    from mound.errors import ToolNoResultError
+    from mound.ply import write_ply
+    from mound.sim import terrain
+
+    root, out = Path(folder), Path(work)
+    out.mkdir(parents=True, exist_ok=True)
+    grid = json.loads((root / "grid.json").read_text())
+    rows = load_grid(root)
+    p = probability(model, rows)
+    sites = []
+    for row, spec_doc, q in zip(rows, grid["rows"], p, strict=True):
+        if not row["measured"] or (limit is not None and len(sites) >= limit):
+            continue
+        t = dict(spec_doc["spec"]["terrain"])
+        t["confusers"] = ()
+        spec = terrain.TerrainSpec(**t)
+        if not spec.mound:
+            spec = replace(spec, mound=True, profile="spherical_cap", diameter_m=40.0,
+                           height_m=6.0, mound_x_m=0.0, mound_y_m=0.0, erosion_m=2.0)
+        hf = terrain.build(replace(spec, resolution_m=1.0))
+        ref = out / f"{row['dir']}_reference.ply"
+        write_ply(ref, hf.points(), None, comment="mound.reference v1 (grid paper test)")
+        res = out / f"{row['dir']}_paper.json"
+        try:
+            native.run_tool("mound_recon", ["verdict", str(root / row["dir"] / "recon"),
+                                            "--reference", str(ref), "--out", str(res)], 600)
+        except ToolNoResultError:
+            pass
+        doc = json.loads(res.read_text())
+        paper = doc.get("label") if doc.get("status") == "ok" else "failed"
+        sites.append({"dir": row["dir"], "truth": bool(row["truth"]["mound"]),
+                      "kind": row["truth"]["kind"], "paper": paper,
+                      "learned": "mound" if q >= model["threshold"] else "no_mound"})
+        ref.unlink()
+    judged = [s for s in sites if s["paper"] != "failed"]
+    return {
+        "sites": len(sites), "paper_failed": len(sites) - len(judged),
+        "agree": sum(1 for s in judged if s["paper"] == s["learned"]),
+        "paper_right": sum(1 for s in judged if (s["paper"] == "mound") == s["truth"]),
+        "learned_right": sum(1 for s in judged if (s["learned"] == "mound") == s["truth"]),
+        "judged": len(judged),
+        "paper_false_alarms": sum(1 for s in judged if s["paper"] == "mound" and not s["truth"]),
+        "paper_missed": sum(1 for s in judged if s["paper"] != "mound" and s["truth"]),
+        "rows": sites}
+
+
+HEIGHT_BINS = (0.5, 1.0, 2.0, 4.0, 8.0, 30.0)
+DIAMETER_BINS = (10.0, 15.0, 30.0, 60.0, 150.0)
+
+
+def detection_limit(rows: list[dict[str, Any]], lab: np.ndarray) -> dict[str, Any]:
+    """Detection rate of the mounds per height x diameter bin, and the detection limit: the
+    smallest (height, diameter) from which on the mounds are detected at >= 95 %."""
+    table = []
+    for i in range(len(HEIGHT_BINS) - 1):
+        for j in range(len(DIAMETER_BINS) - 1):
+            idx = [k for k, r in enumerate(rows) if r["truth"]["mound"]
+                   and HEIGHT_BINS[i] <= r["truth"]["height_m"] < HEIGHT_BINS[i + 1]
+                   and DIAMETER_BINS[j] <= r["truth"]["diameter_m"] < DIAMETER_BINS[j + 1]]
+            table.append({"height_m": [HEIGHT_BINS[i], HEIGHT_BINS[i + 1]],
+                          "diameter_m": [DIAMETER_BINS[j], DIAMETER_BINS[j + 1]],
+                          "mounds": len(idx), "detected": int(sum(lab[k] for k in idx))})
+    # corners (h, d): the mounds at least h high and d across; those detected at >= 95 %
+    # (at least 5 mounds), and of them the ones no other such corner lies below and left of
+    corners = []
+    for h in HEIGHT_BINS[:-1]:
+        for d in DIAMETER_BINS[:-1]:
+            idx = [k for k, r in enumerate(rows) if r["truth"]["mound"]
+                   and r["truth"]["height_m"] >= h and r["truth"]["diameter_m"] >= d]
+            if len(idx) >= 5 and sum(lab[k] for k in idx) / len(idx) >= 0.95:
+                corners.append({"height_m_at_least": h, "diameter_m_at_least": d,
+                                "mounds": len(idx), "detected": int(sum(lab[k] for k in idx))})
+    limit = [c for c in corners if not any(
+        o is not c and o["height_m_at_least"] <= c["height_m_at_least"]
+        and o["diameter_m_at_least"] <= c["diameter_m_at_least"] for o in corners)] or None
+    return {"table": table, "limit": limit}
+
+
+def figure(report: dict[str, Any], out: str | Path) -> None:
+    """Reliability diagram and the detection rate over height x diameter."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (a, b) = plt.subplots(1, 2, figsize=(11, 4.6))
+    rel = [r for r in report["reliability"] if r["count"]]
+    a.plot([0, 1], [0, 1], color="0.6", lw=1)
+    a.plot([r["mean_p"] for r in rel], [r["observed"] for r in rel], "o-", color="C0")
+    for r in rel:
+        a.annotate(str(r["count"]), (r["mean_p"], r["observed"]), fontsize=7,
+                   xytext=(3, -9), textcoords="offset points")
+    a.set_xlabel("predicted p(mound)")
+    a.set_ylabel("observed share of mounds")
+    a.set_title(f"held-out reliability: ECE {report['ece']:.3f}, Brier {report['brier']:.3f}")
+    tab = report["detection_limit"]["table"]
+    nh, nd = len(HEIGHT_BINS) - 1, len(DIAMETER_BINS) - 1
+    rate = np.full((nh, nd), np.nan)
+    for k, c in enumerate(tab):
+        if c["mounds"]:
+            rate[k // nd, k % nd] = c["detected"] / c["mounds"]
+    im = b.imshow(rate, origin="lower", cmap="RdYlGn", vmin=0, vmax=1, aspect="auto")
+    for k, c in enumerate(tab):
+        if c["mounds"]:
+            b.text(k % nd, k // nd, f"{c['detected']}/{c['mounds']}", ha="center",
+                   va="center", fontsize=8)
+    b.set_xticks(range(nd), [f"{DIAMETER_BINS[j]:g}-{DIAMETER_BINS[j + 1]:g}"
+                             for j in range(nd)])
+    b.set_yticks(range(nh), [f"{HEIGHT_BINS[i]:g}-{HEIGHT_BINS[i + 1]:g}" for i in range(nh)])
+    b.set_xlabel("diameter, m")
+    b.set_ylabel("height, m")
+    fa = report["goal_no_mound"]
+    b.set_title(f"detected (held-out mounds); false alarms {fa['false_alarms']}/{fa['sites']}")
+    fig.colorbar(im, ax=b, fraction=0.046)
+    fig.tight_layout()
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+
+
+def feature_names_of(rows: list[dict[str, Any]]) -> list[str]:
+    for r in rows:
+        if r["measured"] and r.get("rises"):
+            return list(r["rises"][0]["features"].keys())
+    raise InputError("train-verdict: no measured site with a rise in the grid")
+

@@ -1,0 +1,222 @@
+"""A grid of simulated sites that look like the field, each flown, reconstructed and measured:
+the data the 3-D verdict is learned from (`mound recon train-verdict`) and judged on.
+
+`make_grid(out, sites, seed, ...)` draws `sites` sites from the field's distributions
+(seeded: another seed is another grid), and for each one, in GRID/NNNN/:
+    sim/       mound sim site's output (images, poses, truth.json, ...)
+    recon/     mound_recon reconstruct (sparse cloud, georeferenced by the noisy GPS)
+    verdict.json  mound_recon verdict (the detector's measurements and its p_mound)
+and GRID/grid.json (`mound.verdict_grid` v1): the draws, the truth and the status of every
+site, the flight and the time it took. Resumable: a site whose verdict exists is not
+redone; `remeasure=True` reruns only the verdicts (after a change of the detector).
+
+The draws (half of the sites carry a tumulus):
+- tumulus: profile conical / spherical cap / drum / ploughed; height log-uniform in
+  0.5-25 m, diameter log-uniform in 10-150 m (height at most 0.45 x diameter); centre off
+  the scan centre by up to half the scan's radius; erosion 0.5-5 m; a looters' pit (20 %)
+  or trench (15 %);
+- no mound: bare ground (25 %) or one confuser (75 %): an elongated hillock, a ridge, a
+  ditch, a terrace edge, a group of trees, a building or a haystack, within 15 m of the
+  centre;
+- ground (either class): undulating (45 %), on a slope of 2-15 degrees (30 %) or a patch of
+  the 1 m laser DEM (25 %, `dem`; skipped when no DEM is given);
+- flight: the survey's (a raster scan of `scan_m`, 60 m, at 60 m), sun azimuth 0-360
+  degrees at 25-70 degrees elevation, lens of 60-84 degrees horizontal field of view.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from dataclasses import asdict
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from mound import native
+from mound.errors import InputError, NoResultError, ToolNoResultError
+from mound.jsonio import write_json
+from mound.sim import site as sim
+from mound.sim import terrain
+from mound.sim.appearance import Lighting
+
+SCHEMA = "mound.verdict_grid"
+VERSION = 1
+SCAN_M = 60.0
+
+
+def _log_uniform(rng: np.random.Generator, lo: float, hi: float) -> float:
+    return float(math.exp(rng.uniform(math.log(lo), math.log(hi))))
+
+
+def _in_disc(rng: np.random.Generator, radius: float) -> tuple[float, float]:
+    r, a = radius * math.sqrt(rng.random()), 2 * math.pi * rng.random()
+    return r * math.sin(a), r * math.cos(a)
+
+
+def _confuser(rng: np.random.Generator, kind: str, seed: int) -> terrain.Confuser:
+    x, y = _in_disc(rng, 15.0)
+    az = float(rng.uniform(0, 180))
+    u = rng.uniform
+    if kind == "hillock":
+        length = float(u(30, 120))
+        return terrain.Confuser(kind, x, y, length, length / float(u(2.5, 5)), float(u(1, 8)),
+                                az, seed=seed)
+    if kind == "ridge":
+        return terrain.Confuser(kind, x, y, 200.0, float(u(15, 40)), float(u(2, 10)), az,
+                                seed=seed)
+    if kind == "ditch":
+        return terrain.Confuser(kind, x, y, 200.0, float(u(3, 8)), float(u(1, 3)), az,
+                                seed=seed)
+    if kind == "terrace":
+        return terrain.Confuser(kind, x, y, 200.0, float(u(2, 8)), float(u(1, 4)), az,
+                                seed=seed)
+    if kind == "trees":
+        return terrain.Confuser(kind, x, y, float(u(15, 40)), float(u(4, 9)), float(u(6, 18)),
+                                az, count=int(rng.integers(3, 13)), seed=seed)
+    if kind == "building":
+        return terrain.Confuser(kind, x, y, float(u(8, 25)), float(u(6, 12)), float(u(3, 10)),
+                                az, seed=seed)
+    return terrain.Confuser("haystack", x, y, 6.0, float(u(4, 8)), float(u(2.5, 5)), az,
+                            seed=seed)
+
+
+def draw(rng: np.random.Generator, seed: int, dem: str | None, size: tuple[int, int],
+         scan_m: float = SCAN_M, texel_m: float = 0.1) -> sim.SimSpec:
+    """One site of the grid (see the module text)."""
+    over: dict[str, Any] = {"seed": seed, "resolution_m": 0.5}
+    mound = bool(rng.random() < 0.5)
+    over["mound"] = mound
+    extent = 0.0
+    if mound:
+        d = _log_uniform(rng, 10, 150)
+        h = min(_log_uniform(rng, 0.5, 25), 0.45 * d)
+        x, y = _in_disc(rng, scan_m / 4)
+        over.update(profile=str(rng.choice(terrain.PROFILES)), diameter_m=d, height_m=h,
+                    mound_x_m=x, mound_y_m=y, erosion_m=float(rng.uniform(0.5, 5)))
+        if over["profile"] == "ploughed":  # spread by the plough: at least a tenth of D
+            over["erosion_m"] = max(over["erosion_m"], d / 10)
+        if over["profile"] == "drum":
+            over["drum_height_m"] = float(rng.uniform(0.2, 0.5)) * h
+        k = rng.random()
+        if k < 0.2 and d > 12:
+            pr = float(rng.uniform(0.1, 0.25)) * d
+            over.update(pit_radius_m=pr, pit_depth_m=float(rng.uniform(0.2, 0.6)) * h,
+                        pit_offset_m=float(rng.uniform(0, d / 2 - pr)))
+        elif k < 0.35:
+            over.update(trench_width_m=float(rng.uniform(2, 6)),
+                        trench_depth_m=float(rng.uniform(0.2, 0.6)) * h,
+                        trench_azimuth_deg=float(rng.uniform(0, 180)))
+        extent = d + 2 * max(abs(x), abs(y))
+    elif rng.random() < 0.75:
+        kind = str(rng.choice(terrain.CONFUSERS))
+        over["confusers"] = (_confuser(rng, kind, seed),)
+    g = rng.random()
+    size_m = max(160.0, extent + 40.0)
+    size_m = math.ceil(size_m / 4) * 4
+    over["size_m"] = size_m
+    if g < 0.30:
+        over.update(slope_deg=float(rng.uniform(2, 15)),
+                    slope_azimuth_deg=float(rng.uniform(0, 360)))
+    elif g < 0.55 and dem is not None:
+        m = size_m / 2 + 2
+        over.update(dem_path=dem, dem_x_m=float(rng.uniform(564000 + m, 565000 - m)),
+                    dem_y_m=float(rng.uniform(146000 + m, 147000 - m)))
+    spec = terrain.preset("bin_tepe", **over)
+    return sim.SimSpec(
+        terrain=spec,
+        lighting=Lighting(math.radians(float(rng.uniform(0, 360))),
+                          math.radians(float(rng.uniform(25, 70)))),
+        width_px=size[0], height_px=size[1],
+        hfov_rad=math.radians(float(rng.uniform(60, 84))), pattern="raster",
+        scan_diameter_m=scan_m, seed=seed, texel_m=texel_m)
+
+
+def _site(out: Path, spec: sim.SimSpec, threads: int, remeasure: bool,
+          verdict_args: tuple[str, ...] = ()) -> dict[str, Any]:
+    simdir, recon, verdict = out / "sim", out / "recon", out / "verdict.json"
+    row: dict[str, Any] = {"dir": out.name, "truth": spec.terrain.truth()}
+    times: dict[str, float] = {}
+    if verdict.exists() and not remeasure:
+        doc = json.loads(verdict.read_text())
+        row.update(status=doc.get("status"), times=doc.get("grid_times_s", {}))
+        return row
+    if verdict.exists():  # remeasuring: keep the times of the flight and reconstruction
+        try:
+            times.update({k: v for k, v in json.loads(verdict.read_text()).get(
+                "grid_times_s", {}).items() if k != "verdict"})
+        except (OSError, json.JSONDecodeError):
+            pass
+    try:
+        if not (recon / "recon.json").exists():
+            t = time.perf_counter()
+            sim.simulate(spec, simdir, threads=threads)
+            times["simulate"] = time.perf_counter() - t
+            t = time.perf_counter()
+            try:
+                native.run_tool("mound_recon", [
+                    "reconstruct", str(simdir / "images"), "--out", str(recon), "--camera",
+                    str(simdir / "camera.json"), "--gps", str(simdir / "poses.json"),
+                    "--threads", str(threads)], 1800, log=out / "log.txt")
+            except ToolNoResultError:
+                pass  # recon.json says why; the verdict then says status failed
+            times["reconstruct"] = time.perf_counter() - t
+        t = time.perf_counter()
+        try:
+            native.run_tool("mound_recon", ["verdict", str(recon), "--out", str(verdict),
+                                            *verdict_args], 600, log=out / "log.txt")
+        except ToolNoResultError:
+            pass  # verdict.json says status failed and why
+        times["verdict"] = time.perf_counter() - t
+        doc = json.loads(verdict.read_text())
+        doc["grid_times_s"] = times
+        write_json(verdict, doc)
+        row.update(status=doc.get("status"), times=times)
+    except (InputError, NoResultError) as e:
+        row.update(status="failed", reason=str(e))
+    return row
+
+
+def make_grid(out: str | Path, sites: int, seed: int, size: tuple[int, int] = (640, 480),
+              dem: str | None = None, threads: int = 1, workers: int = 1,
+              remeasure: bool = False, progress: Any = None) -> dict[str, Any]:
+    """Draws and runs the grid (see the module text); returns grid.json's document."""
+    if not 1 <= sites <= 100_000:
+        raise InputError("--sites: must be 1 .. 100,000")
+    if dem is not None and not Path(dem).is_file():
+        raise InputError(f"--dem: no file {dem}")
+    root = Path(out)
+    root.mkdir(parents=True, exist_ok=True)
+    rng = np.random.default_rng([seed, 2026])
+    specs = [draw(rng, 100_000 * seed + k, dem, size) for k in range(sites)]
+    start = time.perf_counter()
+    rows: list[dict[str, Any]] = [{}] * sites
+
+    def one(k: int) -> None:
+        rows[k] = _site(root / f"{k:04d}", specs[k], threads, remeasure)
+        if progress:
+            progress(k, rows[k])
+
+    if workers > 1:
+        from concurrent.futures import ThreadPoolExecutor
+
+        with ThreadPoolExecutor(max_workers=workers) as pool:
+            list(pool.map(one, range(sites)))
+    else:
+        for k in range(sites):
+            one(k)
+    doc = {"schema": SCHEMA, "version": VERSION, "seed": seed, "sites": sites,
+           "flight": {"pattern": "raster", "scan_m": SCAN_M, "image_size": list(size)},
+           "dem": dem, "wall_s": time.perf_counter() - start,
+           "rows": [{**r, "spec": _spec_doc(s)} for r, s in zip(rows, specs, strict=True)]}
+    write_json(root / "grid.json", doc)
+    return doc
+
+
+def _spec_doc(spec: sim.SimSpec) -> dict[str, Any]:
+    d = asdict(spec)
+    return {"terrain": d["terrain"], "sun_deg": [math.degrees(spec.lighting.sun_azimuth_rad),
+                                                  math.degrees(spec.lighting.sun_elevation_rad)],
+            "hfov_deg": math.degrees(spec.hfov_rad), "seed": spec.seed}

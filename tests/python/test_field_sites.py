@@ -1,0 +1,125 @@
+"""Sites that look like the field (issue 26): tumuli off centre, ploughed, trenched, on a
+slope or on the real 1 m laser DEM; confusers; their ground truth; the grid's draws."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mound.errors import InputError
+from mound.sim import grid, terrain
+
+DEM = "dem/TM1_564_146.tif"
+
+
+def flat(**kw: object) -> terrain.TerrainSpec:
+    return terrain.preset("bin_tepe", **{"resolution_m": 0.5, "ground_relief_m": 0.0, **kw})
+
+
+def test_an_offset_mound_stands_where_its_truth_says() -> None:
+    spec = flat(diameter_m=40.0, height_m=6.0, mound_x_m=12.0, mound_y_m=-7.0)
+    hf = terrain.build(spec)
+    i, j = np.unravel_index(np.argmax(hf.z_m), hf.z_m.shape)
+    assert (hf.x_m[j], hf.y_m[i]) == pytest.approx((12.0, -7.0), abs=0.5)
+    t = spec.truth()
+    assert t["mound"] and t["kind"] == "tumulus" and t["centre_enu_m"] == [12.0, -7.0]
+    with pytest.raises(InputError, match="fit on the site"):
+        flat(diameter_m=150.0, mound_x_m=20.0)
+
+
+def test_ploughed_top_is_flat_and_a_trench_cuts_through_the_top() -> None:
+    hf = terrain.build(flat(profile="ploughed", diameter_m=60.0, height_m=5.0, erosion_m=0.0))
+    near_top = hf.z_m[np.hypot(*np.meshgrid(hf.x_m, hf.y_m)) < 5]
+    assert near_top.max() - near_top.min() < 0.3  # spread by the plough, flattened
+    spec = flat(diameter_m=40.0, height_m=6.0, erosion_m=0.0, trench_width_m=4.0,
+                trench_depth_m=3.0, trench_azimuth_deg=0.0)  # runs north-south
+    hf = terrain.build(spec)
+    whole = terrain.build(replace(spec, trench_depth_m=0.0))
+    cut = whole.z_m - hf.z_m
+    assert float(whole.height_at(0.0, 0.0) - hf.height_at(0.0, 0.0)) == pytest.approx(3.0, 0.01)
+    assert float(whole.height_at(0.0, 15.0) - hf.height_at(0.0, 15.0)) > 0.5  # along it
+    assert float(whole.height_at(5.0, 0.0) - hf.height_at(5.0, 0.0)) == 0.0  # beside it
+    assert cut.min() >= 0 and (hf.z_m >= -1e-9).all()  # never below the ground
+
+
+def test_slope_rises_towards_its_azimuth() -> None:
+    hf = terrain.build(flat(mound=False, slope_deg=10.0, slope_azimuth_deg=90.0))
+    east, west = float(hf.height_at(50.0, 0.0)), float(hf.height_at(-50.0, 0.0))
+    assert east - west == pytest.approx(100 * np.tan(np.radians(10)), rel=1e-6)
+    assert float(hf.height_at(0.0, 50.0)) == pytest.approx(0.0, abs=1e-9)
+
+
+@pytest.mark.parametrize("kind", terrain.CONFUSERS)
+def test_confusers_stand_where_and_how_they_are_said(kind: str) -> None:
+    c = terrain.Confuser(kind, x_m=10.0, y_m=5.0, length_m=30.0, width_m=8.0, height_m=4.0,
+                         azimuth_deg=0.0, count=6, seed=3)
+    spec = flat(mound=False, confusers=(c,))
+    hf = terrain.build(spec)
+    t = spec.truth()
+    assert not t["mound"] and t["kind"] == kind and t["centre_enu_m"] == [10.0, 5.0]
+    z = hf.z_m
+    if kind == "ditch":
+        assert z.min() == pytest.approx(-4.0, abs=0.01) and z.max() < 1e-9
+        assert float(hf.height_at(10.0, -70.0)) == pytest.approx(-4.0, abs=0.01)  # whole site
+    elif kind == "terrace":  # a step of 4 m across the line x = 10
+        assert float(hf.height_at(30.0, 0.0) - hf.height_at(-10.0, 0.0)) == pytest.approx(4, 0.01)
+    elif kind == "ridge":
+        assert float(hf.height_at(10.0, -70.0)) == pytest.approx(4.0, abs=0.01)
+    elif kind == "hillock":  # elongated north-south: 30 m long, 8 m wide
+        assert float(hf.height_at(10.0, 5.0)) == pytest.approx(4.0, abs=0.01)
+        assert float(hf.height_at(10.0, 13.0)) > 2 * float(hf.height_at(18.0, 5.0))
+    elif kind == "building":  # vertical walls: full height 0.5 m inside, ground 0.5 m out
+        assert float(hf.height_at(10.0, 5.0)) == pytest.approx(4.0)
+        assert float(hf.height_at(13.5, 5.0)) == pytest.approx(4.0)
+        assert float(hf.height_at(14.5, 5.0)) == pytest.approx(0.0)
+    else:  # haystack, trees: steep crowns, nothing outside them
+        assert 2.8 <= z.max() <= 4.0 + 1e-9
+        assert z.min() >= -1e-9
+        assert (z > 0.1).mean() < 0.05
+
+
+def test_a_dem_patch_is_the_real_ground(shared_data: Path) -> None:
+    """The patch holds the DEM's heights (less its median) at the DEM's own cell centres,
+    read independently with rasterio: north is up, east is right."""
+    import rasterio
+
+    path = str(shared_data / DEM)
+    spec = flat(mound=False, dem_path=path, dem_x_m=564500.0, dem_y_m=146500.0,
+                resolution_m=1.0)
+    hf = terrain.build(spec)
+    shifts = []
+    with rasterio.open(path) as ds:
+        dem = ds.read(1).astype(float)
+        for dx, dy in ((30.0, 20.0), (-40.0, -50.0), (55.0, -61.0)):
+            row, col = ds.index(564500.0 + dx, 146500.0 + dy)
+            x, y = ds.xy(row, col)  # that cell's centre
+            patch = float(hf.height_at(np.array([x - 564500.0]), np.array([y - 146500.0]))[0])
+            shifts.append(patch - dem[row, col])
+    assert abs(float(np.median(hf.z_m))) < 1e-6
+    # the same shift everywhere (the patch's median): north up, east right, no flip
+    assert max(shifts) - min(shifts) < 1e-3, shifts
+    assert hf.z_m.max() - hf.z_m.min() > 5  # real relief
+    with pytest.raises(InputError, match="does not fit on the DEM"):
+        terrain.build(replace(spec, dem_x_m=564050.0))
+
+
+def test_grid_draws_are_seeded_and_span_the_field(shared_data: Path) -> None:
+    dem = str(shared_data / DEM)
+    rng = np.random.default_rng([1, 2026])
+    a = [grid.draw(rng, k, dem, (320, 240)) for k in range(300)]
+    rng = np.random.default_rng([1, 2026])
+    assert [grid.draw(rng, k, dem, (320, 240)) for k in range(3)] == a[:3]
+    mounds = [s.terrain for s in a if s.terrain.mound]
+    assert 0.4 < len(mounds) / len(a) < 0.6
+    assert {m.profile for m in mounds} == set(terrain.PROFILES)
+    assert min(m.height_m for m in mounds) < 1 and max(m.height_m for m in mounds) > 15
+    assert any(m.diameter_m > 60 for m in mounds)  # wider than the 60 m scan
+    assert max(np.hypot(m.mound_x_m, m.mound_y_m) for m in mounds) > 10
+    assert all(np.hypot(m.mound_x_m, m.mound_y_m) <= grid.SCAN_M / 4 + 1e-9 for m in mounds)
+    kinds = {s.terrain.confusers[0].kind for s in a if s.terrain.confusers}
+    assert kinds == set(terrain.CONFUSERS)
+    assert any(s.terrain.dem_path for s in a) and any(s.terrain.slope_deg > 0 for s in a)
+    assert all(s.scan_diameter_m == grid.SCAN_M and s.pattern == "raster" for s in a)
