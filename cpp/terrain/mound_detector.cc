@@ -350,7 +350,6 @@ Detection DetectMound(const std::vector<Eigen::Vector3d>& points, const Eigen::V
   std::sort(rises.begin(), rises.end(), [](const Rise& a, const Rise& b) {
     return a.height_m * a.area_m2 > b.height_m * b.area_m2;  // the most prominent first
   });
-  if (!rises.empty()) d.tallest = rises.front();
   if (rises.size() > kMaxJudgedRises) rises.resize(kMaxJudgedRises);
   d.judged = std::move(rises);
   return d;
@@ -364,8 +363,8 @@ const std::vector<std::string>& VerdictFeatureNames() {
 }
 
 std::vector<double> VerdictFeatures(const Detection& d) {
-  if (!d.tallest) throw InternalError("VerdictFeatures: no rise");
-  return VerdictFeatures(d, *d.tallest);
+  if (!d.Tallest()) throw InternalError("VerdictFeatures: no rise");
+  return VerdictFeatures(d, *d.Tallest());
 }
 
 std::vector<double> VerdictFeatures(const Detection& d, const Rise& t) {

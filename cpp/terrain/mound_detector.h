@@ -27,7 +27,6 @@
 #pragma once
 
 #include <Eigen/Core>
-#include <optional>
 #include <string>
 #include <vector>
 
@@ -61,8 +60,9 @@ struct Rise {
 inline constexpr size_t kMaxJudgedRises = 8;
 
 struct Detection {
-  std::optional<Rise> tallest;  // the most prominent rise (height x area)
-  std::vector<Rise> judged;     // the kMaxJudgedRises most prominent, that one first
+  std::vector<Rise> judged;  // the kMaxJudgedRises most prominent (height x area), in order
+  // The most prominent rise, or nullptr when none rose above the relief threshold.
+  const Rise* Tallest() const { return judged.empty() ? nullptr : &judged.front(); }
   int rises = 0;                // components above the relief threshold
   double cell_m = 0;
   int grid_width = 0, grid_height = 0, cells_with_points = 0, cells_inside = 0;

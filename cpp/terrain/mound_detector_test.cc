@@ -35,8 +35,8 @@ std::vector<Eigen::Vector3d> Site(double dome_h, double dome_d, bool ridge, uint
 
 TEST(DetectMound, FindsAndMeasuresADome) {
   const Detection d = DetectMound(Site(6.0, 40.0, false, 1), {0, 0}, 58, DetectorOptions{});
-  ASSERT_TRUE(d.tallest.has_value());
-  const Rise& r = *d.tallest;
+  ASSERT_TRUE(d.Tallest() != nullptr);
+  const Rise& r = *d.Tallest();
   EXPECT_NEAR(r.height_m, 6.0, 0.5);
   EXPECT_NEAR(r.base_diameter_m, 40.0, 4.0);
   EXPECT_GT(r.symmetry, 0.9);
@@ -54,10 +54,10 @@ TEST(DetectMound, FindsAndMeasuresADome) {
 
 TEST(DetectMound, FlatGroundHasNoRiseAndARidgeIsElongated) {
   const Detection flat = DetectMound(Site(0, 0, false, 2), {0, 0}, 58, DetectorOptions{});
-  EXPECT_FALSE(flat.tallest.has_value() && flat.tallest->height_m > 0.6);
+  EXPECT_FALSE(flat.Tallest() != nullptr && flat.Tallest()->height_m > 0.6);
   const Detection ridge = DetectMound(Site(0, 0, true, 3), {0, 0}, 58, DetectorOptions{});
-  ASSERT_TRUE(ridge.tallest.has_value());
-  EXPECT_LT(ridge.tallest->roundness, 0.3);  // 80 m long, 6 m wide
+  ASSERT_TRUE(ridge.Tallest() != nullptr);
+  EXPECT_LT(ridge.Tallest()->roundness, 0.3);  // 80 m long, 6 m wide
 }
 
 TEST(DetectMound, ADomeWiderThanTheSiteIsClippedNotElongated) {
@@ -71,12 +71,12 @@ TEST(DetectMound, ADomeWiderThanTheSiteIsClippedNotElongated) {
   EXPECT_LT(std::fabs(flat.site_sag_m), 0.5);
   // a dome 60 m across, 20 m east of a 40 m site's centre: cut by the edge
   const Detection off = DetectMound(Site(6.0, 60.0, false, 5), {-15, 3}, 40, DetectorOptions{});
-  ASSERT_TRUE(off.tallest.has_value());
-  EXPECT_GT(off.tallest->clipped, 0.2);
-  EXPECT_GT(off.tallest->extent_m, 38);
+  ASSERT_TRUE(off.Tallest() != nullptr);
+  EXPECT_GT(off.Tallest()->clipped, 0.2);
+  EXPECT_GT(off.Tallest()->extent_m, 38);
   const std::vector<double> f = VerdictFeatures(off);
   ASSERT_EQ(f.size(), VerdictFeatureNames().size());
-  EXPECT_EQ(f[8], off.tallest->clipped);
+  EXPECT_EQ(f[8], off.Tallest()->clipped);
 }
 
 nlohmann::json ModelDoc() {
@@ -91,7 +91,7 @@ nlohmann::json ModelDoc() {
 TEST(VerdictModel, AppliesTheLogisticRegression) {
   const VerdictModel m = ParseVerdictModel(ModelDoc(), "m.json");
   const Detection dome = DetectMound(Site(6.0, 40.0, false, 1), {0, 0}, 58, DetectorOptions{});
-  const double h = dome.tallest->height_m;
+  const double h = dome.Tallest()->height_m;
   EXPECT_NEAR(m.Probability(dome), 1 / (1 + std::exp(-(-1.0 + 2.0 * std::log(h)))), 1e-12);
   Detection none;
   EXPECT_EQ(m.Probability(none), 0.01);

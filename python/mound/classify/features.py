@@ -34,3 +34,10 @@ class Standardizer:
         """Standardised features with a trailing bias column of ones: rows are x for w^T x."""
         z = (x - self.mean) / self.std
         return np.hstack([z, np.ones((x.shape[0], 1))])
+
+
+def hinge_basis(z: np.ndarray) -> np.ndarray:
+    """z, max(z - 1, 0) and max(-z - 1, 0) side by side (standardised features z, rows are
+    samples): a piecewise-linear response per feature that keeps a logistic regression
+    linear in its weights (the scene model's and the verdict model's `hinge` basis)."""
+    return np.hstack([z, np.maximum(z - 1.0, 0.0), np.maximum(-z - 1.0, 0.0)])

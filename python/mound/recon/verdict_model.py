@@ -33,6 +33,7 @@ import numpy as np
 from scipy.special import expit
 
 from mound.classify import logistic
+from mound.classify.features import hinge_basis
 from mound.classify.metrics import expected_calibration_error, reliability, roc_auc
 from mound.errors import InputError
 
@@ -97,9 +98,7 @@ def mound_rise(row: dict[str, Any]) -> int | None:
 def expand(z: np.ndarray, basis: str) -> np.ndarray:
     """The basis on standardised features: `linear` z itself; `hinge` z, max(z - 1, 0) and
     max(-z - 1, 0) per feature (a piecewise-linear response, still a logistic regression)."""
-    if basis == "linear":
-        return z
-    return np.hstack([z, np.maximum(z - 1.0, 0.0), np.maximum(-z - 1.0, 0.0)])
+    return z if basis == "linear" else hinge_basis(z)
 
 
 def _fit(z: np.ndarray, y: np.ndarray, l2: float, basis: str) -> np.ndarray:

@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 from scipy.special import expit
 
-from mound.classify.features import Standardizer
+from mound.classify.features import Standardizer, hinge_basis
 from mound.errors import InputError
 from mound.scene.features import FeatureSpec
 from mound.scene.raster import SceneInfo
@@ -31,7 +31,7 @@ def expand(z: np.ndarray, basis: str) -> np.ndarray:
     if basis == "none":
         return z
     if basis == "hinge":
-        return np.hstack([z, np.maximum(z - 1.0, 0.0), np.maximum(-z - 1.0, 0.0)])
+        return hinge_basis(z)
     raise InputError(f"model: unknown basis {basis!r} (none, hinge)")
 
 

@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from mound.errors import InputError
+from mound.geojson import lonlat, point_feature
 from mound.jsonio import parse_json, read_text, short_repr
 
 WGS84_NAMES = ("urn:ogc:def:crs:OGC:1.3:CRS84", "urn:ogc:def:crs:OGC::CRS84", "CRS84",
@@ -50,19 +51,6 @@ def _load(path: str | Path) -> dict[str, Any]:
     return doc
 
 
-def _lonlat(c: Any, where: str) -> tuple[float, float]:
-    if not isinstance(c, list) or len(c) < 2:
-        raise InputError(f"{where}: expected [lon, lat]")
-    lon, lat = c[0], c[1]
-    for v, name, lim in ((lon, "longitude", 180.0), (lat, "latitude", 90.0)):
-        if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
-            raise InputError(f"{where}: {name} must be a finite number, got {short_repr(v)}")
-        if abs(v) > lim:
-            raise InputError(f"{where}: {name} {v} outside +-{lim:g} (coordinates must be "
-                             "WGS84 [lon, lat], not projected)")
-    return float(lon), float(lat)
-
-
 def _features(doc: dict[str, Any], path: Path) -> list[dict[str, Any]]:
     t = doc.get("type")
     if t == "FeatureCollection":
@@ -84,15 +72,7 @@ def read_labels(path: str | Path) -> list[Label]:
     out = []
     for k, f in enumerate(_features(doc, path)):
         where = f"{path}: features[{k}]"
-        if not isinstance(f, dict) or f.get("type") != "Feature":
-            raise InputError(f"{where}: expected a GeoJSON Feature")
-        geom = f.get("geometry")
-        if not isinstance(geom, dict) or geom.get("type") != "Point":
-            raise InputError(f"{where}.geometry: expected a Point (labels are points)")
-        lon, lat = _lonlat(geom.get("coordinates"), f"{where}.geometry.coordinates")
-        props = f.get("properties") or {}
-        if not isinstance(props, dict):
-            raise InputError(f"{where}.properties: expected an object")
+        lon, lat, props = point_feature(f, where, " (labels are points)")
         kind = props.get("kind", "mound")
         if kind not in ("mound", "not_mound"):
             raise InputError(f"{where}.properties.kind: expected 'mound' or 'not_mound', got "
@@ -134,7 +114,7 @@ def read_aoi(path: str | Path) -> list[list[list[tuple[float, float]]]]:
                     raise InputError(f"{w}: a ring needs at least 4 positions")
                 if len(ring) > 1_000_000:
                     raise InputError(f"{w}: more than 1,000,000 positions")
-                poly.append([_lonlat(c, w) for c in ring])
+                poly.append([lonlat(c, w) for c in ring])
             polys.append(poly)
     if not polys:
         raise InputError(f"{path}: no polygon")

@@ -23,6 +23,7 @@ import numpy as np
 
 from mound.classify.reward import binary_entropy_bits
 from mound.errors import InputError
+from mound.geojson import point_feature
 from mound.geometry.flight import ScanSpec
 from mound.geometry.geodesy import Origin, geodetic_to_enu
 from mound.jsonio import parse_json, read_text
@@ -119,25 +120,12 @@ def _from_geojson(doc: dict[str, Any], path: Path) -> tuple[dict[str, Any], list
     points = []
     for k, f in enumerate(features):
         where = f"{path}: features[{k}]"
-        if not isinstance(f, dict) or f.get("type") != "Feature":
-            raise InputError(f"{where}: expected a GeoJSON Feature")
-        geom = f.get("geometry")
-        if not isinstance(geom, dict) or geom.get("type") != "Point":
-            raise InputError(f"{where}.geometry: expected a Point")
-        c = geom.get("coordinates")
-        if not isinstance(c, list) or len(c) < 2:
-            raise InputError(f"{where}.geometry.coordinates: expected [lon, lat]")
-        lonlat = {"lon": c[0], "lat": c[1]}
-        lon = _number(lonlat, "lon", f"{where}.geometry.coordinates", lo=-180, hi=180)
-        lat = _number(lonlat, "lat", f"{where}.geometry.coordinates", lo=-90, hi=90)
-        props = f.get("properties") or {}
-        if not isinstance(props, dict):
-            raise InputError(f"{where}.properties: expected an object")
+        lon, lat, props = point_feature(f, where)
         if props.get("kind") == "home":
             if home is not None:
                 raise InputError(f"{where}: a second feature with kind 'home'")
             alt = _number(props, "alt_m", f"{where}.properties", required=False) or 0.0
-            home = Origin(lat, lon, alt)  # type: ignore[arg-type]
+            home = Origin(lat, lon, alt)
         else:
             points.append((k, lat, lon, props, props.get("id", f.get("id"))))
     if home is None:
