@@ -34,14 +34,19 @@ class Costs {
         for (int b = 0; b < n_; ++b) m_[static_cast<size_t>(a) * n_ + b] = inst.Cost(a, b);
     }
   }
+  // Every lookup counts one tick of work: the search's deterministic clock.
   double operator()(int a, int b) const {
+    ++ticks_;
     return m_.empty() ? inst_.Cost(a, b) : m_[static_cast<size_t>(a) * n_ + b];
   }
+  uint64_t Ticks() const { return ticks_; }
+  void Charge(uint64_t ticks) const { ticks_ += ticks; }
 
  private:
   const OpInstance& inst_;
   int n_;
   std::vector<double> m_;
+  mutable uint64_t ticks_ = 0;
 };
 
 struct Solution {
@@ -109,6 +114,9 @@ class Search {
 
   // Re-orders the route with the LKH engine, then refills it.
   void Polish(Solution* s, uint64_t seed) {
+    // LKH's work, charged as its pairwise cost matrix times a few trials' worth.
+    const uint64_t m = s->route.size();
+    c_.Charge(20 * m * m);
     if (s->route.size() >= 6 && ReorderWithLkh(inst_, &s->route, seed, &ops_)) {
       Evaluate(s);
       LocalSearch(s);
@@ -216,6 +224,7 @@ class Search {
   }
 
   std::mt19937_64& Rng() { return rng_; }
+  uint64_t Ticks() const { return c_.Ticks(); }
 
  private:
   void Mark(const std::vector<int>& route) {
@@ -575,6 +584,11 @@ class Search {
 PlanResult SolveAlns(const OpInstance& inst, const AlnsOptions& opt) {
   const auto start = std::chrono::steady_clock::now();
   auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
+  // The search runs on its own clock: work ticks (cost lookups, LKH charged by its size),
+  // so that a time limit gives the same plan on any machine load. The wall clock only
+  // guards against a machine far slower than the reference one.
+  const double work_limit = opt.time_limit_s > 0 ? opt.time_limit_s * kAlnsTicksPerSecond : 0;
+  const double wall_limit = opt.time_limit_s > 0 ? opt.time_limit_s * opt.wall_factor : 0;
   NewAlgOptions nopt;
   nopt.seed = opt.seed;
   const PlanResult init = SolveNewAlg(inst, nopt);
@@ -586,7 +600,7 @@ PlanResult SolveAlns(const OpInstance& inst, const AlnsOptions& opt) {
   // Multi-start: constructions through sites spread over the field, the best one kept.
   int starts_won = 0;
   for (int v : search.SpreadSites(kSpreadStarts)) {
-    if (opt.time_limit_s > 0 && elapsed() >= 0.25 * opt.time_limit_s) break;
+    if (work_limit > 0 && search.Ticks() >= 0.25 * work_limit) break;
     Solution s = search.ConstructFrom(v, 0.0);
     if (search.Better(s, best)) {
       best = std::move(s);
@@ -602,9 +616,17 @@ PlanResult SolveAlns(const OpInstance& inst, const AlnsOptions& opt) {
   std::array<double, kNumRuins> weight{1, 1, 1, 1}, score{}, used{};
   std::array<int, kNumRuins> bests{};
   int it = 0, since_best = 0, new_bests = 0, last_polish = 0, polishes = 1, restarts = 0;
+  bool out_of_work = false, out_of_wall = false;
   const int segment = 100;  // iterations between weight updates
   for (; it < opt.max_iterations && since_best < stagnation; ++it) {
-    if (opt.time_limit_s > 0 && elapsed() >= opt.time_limit_s) break;
+    if (work_limit > 0 && search.Ticks() >= work_limit) {
+      out_of_work = true;
+      break;
+    }
+    if (wall_limit > 0 && elapsed() >= wall_limit) {
+      out_of_wall = true;
+      break;
+    }
     if (search.AllRewardedVisited(best)) break;
     // Roulette on the ruin operators.
     double total = 0;
@@ -622,10 +644,10 @@ PlanResult SolveAlns(const OpInstance& inst, const AlnsOptions& opt) {
     search.Recreate(&cand, kNoise[rng() % 3]);
     search.LocalSearch(&cand);
 
-    // Record-to-record travel: the threshold shrinks from 5 % to 0 over the run.
-    const double progress =
-        opt.time_limit_s > 0 ? elapsed() / opt.time_limit_s
-                             : static_cast<double>(since_best) / stagnation;
+    // Record-to-record travel: the threshold shrinks from 5 % to 0 over the run (the work
+    // limit's ticks), or over a stretch without a new best when there is no limit.
+    const double progress = work_limit > 0 ? search.Ticks() / work_limit
+                                           : static_cast<double>(since_best) / stagnation;
     const double threshold = 0.05 * std::max(0.0, 1.0 - progress);
     used[op] += 1;
     ++since_best;
@@ -679,10 +701,13 @@ PlanResult SolveAlns(const OpInstance& inst, const AlnsOptions& opt) {
   res.stats["lkh_polishes"] = polishes;
   res.stats["restarts"] = restarts;
   res.stats["spread_starts_won"] = starts_won;
-  res.stats["stopped_by"] = it >= opt.max_iterations      ? "iterations"
-                            : since_best >= stagnation    ? "stagnation"
+  res.stats["stopped_by"] = out_of_work                       ? "time limit (work ticks)"
+                            : out_of_wall                     ? "wall clock (not repeatable)"
+                            : it >= opt.max_iterations        ? "iterations"
+                            : since_best >= stagnation        ? "stagnation"
                             : search.AllRewardedVisited(best) ? "all sites visited"
-                                                              : "time limit";
+                                                              : "stopped";
+  res.stats["work_ticks"] = search.Ticks();
   nlohmann::json w = nlohmann::json::object();
   for (int o = 0; o < kNumRuins; ++o) w[kRuinNames[o]] = {{"weight", weight[o]}, {"new_bests", bests[o]}};
   res.stats["ruins"] = w;

@@ -20,8 +20,11 @@
 //     search restarts from the best route.
 //  4. Every new best route is re-ordered by the project's LKH engine and refilled.
 //
-// Routes are always within the budget. Deterministic for a seed when stopped by
-// iterations or stagnation; a time limit stops it earlier on slower machines.
+// Routes are always within the budget. Deterministic for a seed and limits on any machine
+// load: the acceptance schedule, the restarts and the time limit all run on work ticks
+// (cost lookups, LKH charged by its size; kAlnsTicksPerSecond of them make a second on the
+// reference machine). The wall clock only stops a search that runs kAlnsWallFactor times
+// over its limit (a machine far slower than the reference); stats say so when it did.
 #pragma once
 
 #include <cstdint>
@@ -31,11 +34,17 @@
 
 namespace mound::plan {
 
+// Work ticks per second of the time limit, measured on the reference machine (2 cores of
+// the CI runner) over the standard fields and OPLib: about 1 s of search per second.
+constexpr double kAlnsTicksPerSecond = 5.0e8;
+constexpr double kAlnsWallFactor = 10.0;
+
 struct AlnsOptions {
   uint64_t seed = 1;
   int max_iterations = 1 << 30;  // ruin-and-recreate iterations
   int stagnation = 0;            // stop after this many without a new best; 0: automatic
-  double time_limit_s = 1.0;     // <= 0: no limit
+  double time_limit_s = 1.0;     // in work ticks (see above); <= 0: no limit
+  double wall_factor = kAlnsWallFactor;  // wall-clock guard: time_limit_s * wall_factor
 };
 
 PlanResult SolveAlns(const OpInstance& inst, const AlnsOptions& opt);

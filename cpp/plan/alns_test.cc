@@ -2,7 +2,11 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
+#include <chrono>
 #include <iostream>
+#include <thread>
+#include <vector>
 
 #include "plan/exact_small.h"
 #include "plan/test_instances.h"
@@ -75,6 +79,40 @@ TEST(AlnsTest, SpreadStartsReachAFarCluster) {
   EXPECT_LT(trail_only.reward, 160);
   EXPECT_GE(r.reward, 160);  // all 16 cluster sites of 10
   EXPECT_GE(r.stats["spread_starts_won"].get<int>(), 1);
+}
+
+// Repeatable under the default time limit on any machine load: a search that the limit
+// stops (400 sites, ~1 s) run alone, then again while busy threads load every core; both
+// routes equal (the schedule and the limit count work ticks, not seconds).
+TEST(AlnsTest, RepeatableUnderLoadAtTheDefaultTimeLimit) {
+  OpInstance inst = RandomInstance(400, true, 0, 29);
+  test_instances::ScaleCoordinates(&inst, 30);
+  inst.budget_m = 900;
+  AlnsOptions o;  // the defaults: seed 1, 1 s of work ticks
+  // The wall-clock guard (10x the limit) is for machines far slower than the reference;
+  // under the sanitizers and the load below this one can be, so it is widened here.
+  o.wall_factor = 100;
+  const PlanResult alone = SolveAlns(inst, o);
+  ASSERT_EQ(alone.stats["stopped_by"], "time limit (work ticks)") << alone.stats.dump();
+  std::atomic<bool> stop{false};
+  std::vector<std::thread> load;
+  const unsigned threads = std::max(2u, 2 * std::thread::hardware_concurrency());
+  for (unsigned i = 0; i < threads; ++i) {
+    load.emplace_back([&stop] {
+      volatile double x = 1;
+      while (!stop.load(std::memory_order_relaxed)) x = x * 1.0000001 + 1e-9;
+    });
+  }
+  const PlanResult loaded = SolveAlns(inst, o);
+  stop = true;
+  for (auto& t : load) t.join();
+  std::cout << "[ alns    ] 400 sites, default limit: alone " << alone.stats["elapsed_s"]
+            << " s, under load " << loaded.stats["elapsed_s"] << " s, reward "
+            << alone.reward << " / " << loaded.reward << "\n";
+  test_instances::ExpectValidRoute(inst, loaded, "loaded");
+  EXPECT_EQ(alone.route, loaded.route);
+  EXPECT_EQ(alone.stats["iterations"], loaded.stats["iterations"]);
+  EXPECT_EQ(loaded.stats["stopped_by"], "time limit (work ticks)");
 }
 
 // Degenerate instances: nothing fits, or everything does.
