@@ -8,6 +8,7 @@
 #include <thread>
 #include <vector>
 
+#include "plan/baselines.h"
 #include "plan/exact_small.h"
 #include "plan/test_instances.h"
 
@@ -113,6 +114,38 @@ TEST(AlnsTest, RepeatableUnderLoadAtTheDefaultTimeLimit) {
   EXPECT_EQ(alone.route, loaded.route);
   EXPECT_EQ(alone.stats["iterations"], loaded.stats["iterations"]);
   EXPECT_EQ(loaded.stats["stopped_by"], "time limit (work ticks)");
+}
+
+// Costs over terrain (climbs round ridges, no triangle inequality): every planner's route
+// is feasible by an independent recomputation, and ALNS reaches the Held-Karp optimum.
+TEST(AlnsTest, TerrainCostsWithoutTriangleInequality) {
+  int optimal = 0, count = 0;
+  for (unsigned seed = 0; seed < 60; ++seed) {
+    const bool closed = seed % 3 != 0;
+    OpInstance inst = RandomInstance(6 + seed % 9, closed, 0, 7000 + seed);
+    test_instances::AddRandomTerrain(&inst, seed, 2.0);
+    inst.budget_m = std::max(inst.budget_m, 15.0 + seed % 25) + (closed ? 0 : inst.Cost(0, 1));
+    const std::string what = "seed " + std::to_string(seed);
+    const PlanResult exact = SolveExactSmall(inst);
+    test_instances::ExpectValidRoute(inst, exact, what + " exact");
+    const PlanResult a = SolveAlns(inst, Fixed(seed, 500));
+    test_instances::ExpectValidRoute(inst, a, what + " alns");
+    NewAlgOptions n;
+    n.seed = seed;
+    n.ls_iterations = 30;
+    test_instances::ExpectValidRoute(inst, SolveNewAlg(inst, n), what + " newalg");
+    test_instances::ExpectValidRoute(inst, SolveNewAlgLs(inst, n), what + " newalg-ls");
+    test_instances::ExpectValidRoute(inst, SolveGreedy(inst), what + " greedy");
+    BaselineOptions b;
+    b.tsiligirides_routes = 50;
+    test_instances::ExpectValidRoute(inst, SolveTsiligirides(inst, b), what + " tsiligirides");
+    test_instances::ExpectValidRoute(inst, SolveGlv(inst, b), what + " glv");
+    EXPECT_LE(a.reward, exact.reward + 1e-9) << what;
+    optimal += a.reward >= exact.reward - 1e-9;
+    ++count;
+  }
+  std::cout << "[ alns    ] terrain costs: optimal on " << optimal << " of " << count << "\n";
+  EXPECT_EQ(optimal, count);
 }
 
 // Degenerate instances: nothing fits, or everything does.

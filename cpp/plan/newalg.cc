@@ -134,6 +134,22 @@ std::vector<int> GrowTree(const OpInstance& inst, nlohmann::json* stats,
   const double limit2 = inst.budget_m + BudgetSlack(inst.budget_m);
   std::vector<char> rejected(n, 0);
   std::vector<int> route = DfsRoute(inst, t, toward_end);
+  // Round 1's bound (route <= 2 x tree) needs the triangle inequality, which costs over
+  // terrain (climbs round a ridge) need not satisfy: then the tree starts again and every
+  // site joins it through round 2's check.
+  if (inst.RouteCost(route) > limit2) {
+    for (auto& c : t.children) c.clear();
+    std::fill(t.parent.begin(), t.parent.end(), -1);
+    std::fill(conn.begin(), conn.end(), inf);
+    std::fill(conn_to.begin(), conn_to.end(), -1);
+    t.cost = 0;
+    t.in.assign(n, 0);
+    add(OpInstance::kHome, -1, 0);
+    if (!inst.Closed()) add(inst.end, OpInstance::kHome, inst.Cost(OpInstance::kHome, inst.end));
+    round1 = 0;
+    route = DfsRoute(inst, t, toward_end);
+    (*stats)["tree_round1_undone"] = true;
+  }
   int round2 = 0, rejections = 0;
   for (;;) {
     report("round 2", round2, rejections);

@@ -28,6 +28,9 @@ class OpInstance {
   // Optional n*n distances replacing the planar ones (TSPLIB metrics of OPLib files:
   // rounded, ATT, GEO, explicit). Empty: Euclidean from x_m, y_m.
   std::vector<double> dist_matrix;
+  // Optional n*n symmetric costs added to every expanded edge: the climbs over the terrain
+  // (sites.json `terrain.extra_m`, ../shared/INTERFACES.md). Empty: none.
+  std::vector<double> extra_m;
 
   static constexpr int kHome = 0;
   bool Closed() const { return end == kHome; }
@@ -38,7 +41,8 @@ class OpInstance {
   double Dist(int i, int j) const;
   // Paper: the expanded edge cost c_ij = d(i,j) + (c_i + c_j) / 2.
   double Cost(int i, int j) const {
-    return Dist(i, j) + 0.5 * (nodes[i].scan_cost_m + nodes[j].scan_cost_m);
+    const double c = Dist(i, j) + 0.5 * (nodes[i].scan_cost_m + nodes[j].scan_cost_m);
+    return extra_m.empty() ? c : c + extra_m[static_cast<size_t>(i) * nodes.size() + j];
   }
   // A route runs from home to the end node inclusive (closed: home ... home).
   double RouteCost(const std::vector<int>& route) const;

@@ -186,6 +186,73 @@ TEST(PlanCliTest, TakeoffLandingIsPaidOnceAndTheScanIsCarriedAlong) {
   EXPECT_EQ(Call({in, "14"}).code, 2);
 }
 
+// sites.json `terrain`: the climb costs of extra_m are added to every leg (the planner
+// goes round a costly pair), a path pays path_offset_m once, the block (without its
+// matrix) rides into plan.json, and a malformed matrix is refused naming the entry.
+TEST(PlanCliTest, TerrainClimbCostsAreAddedToEveryLeg) {
+  auto j = GoodSites();
+  j["sites"] = nlohmann::json::array(
+      {{{"id", "a"}, {"x_m", 3}, {"y_m", 4}, {"reward", 1.0}},
+       {{"id", "b"}, {"x_m", -3}, {"y_m", 4}, {"reward", 1.0}}});
+  // Nodes: home, a, b. home-a 10 m of climbs, home-b 1 m, a-b 50 m.
+  j["terrain"] = {{"version", 1},
+                  {"nodes", {{{"id", "home"}}, {{"id", "a"}}, {{"id", "b"}}}},
+                  {"extra_m", {{0, 10, 1}, {10, 0, 50}, {1, 50, 0}}}};
+  const std::string in = WriteTemp("terrain.json", j.dump());
+  CliRun r = Call({in, "100", "--algo", "exact"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  auto plan = nlohmann::json::parse(r.out);
+  // Both sites: home-a-b-home = 5 + 6 + 5 planar + 10 + 50 + 1 = 77.
+  EXPECT_NEAR(plan["cost_m"].get<double>(), 77.0, 1e-9);
+  EXPECT_TRUE(plan["terrain"].is_object());
+  EXPECT_FALSE(plan["terrain"].contains("extra_m"));
+  // At 70 m only one site fits: b (5 + 5 + 1 + 1 = 12 m) rather than a (5 + 5 + 20 = 30 m),
+  // same reward, less cost.
+  r = Call({in, "70", "--algo", "exact"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  plan = nlohmann::json::parse(r.out);
+  EXPECT_EQ(plan["tour"], nlohmann::json({"home", "b", "home"}));
+  EXPECT_NEAR(plan["cost_m"].get<double>(), 12.0, 1e-9);
+  // The default planner agrees.
+  r = Call({in, "70"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NEAR(nlohmann::json::parse(r.out)["cost_m"].get<double>(), 12.0, 1e-9);
+  // A path home -> e pays the offset once; the budget left accounts for it.
+  auto path = j;
+  path["end"] = {{"id", "e"}, {"x_m", 0}, {"y_m", 8}};
+  path["terrain"]["nodes"] = {{{"id", "home"}}, {{"id", "e"}}, {{"id", "a"}}, {{"id", "b"}}};
+  path["terrain"]["extra_m"] = {{0, 0, 10, 1}, {0, 0, 2, 2}, {10, 2, 0, 50}, {1, 2, 50, 0}};
+  path["terrain"]["path_offset_m"] = 7.5;
+  r = Call({WriteTemp("terrain_path.json", path.dump()), "40", "--algo", "exact"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  plan = nlohmann::json::parse(r.out);
+  // home-b-e: 5 + 1 + 5 + 2 = 13, plus 7.5; home-a-e: 5 + 10 + 5 + 2 + 7.5 = 29.5.
+  EXPECT_EQ(plan["tour"], nlohmann::json({"home", "b", "e"}));
+  EXPECT_NEAR(plan["cost_m"].get<double>(), 20.5, 1e-9);
+  EXPECT_NEAR(plan["budget_m"].get<double>(), 40.0, 1e-9);
+  EXPECT_NEAR(plan["budget_left_m"].get<double>(), 19.5, 1e-9);
+  struct Bad {
+    std::function<void(nlohmann::json&)> edit;
+    std::string field;
+  };
+  const std::vector<Bad> bad = {
+      {[](nlohmann::json& d) { d["terrain"]["extra_m"][1][2] = 49; }, "terrain.extra_m[2][1]"},
+      {[](nlohmann::json& d) { d["terrain"]["extra_m"][0][0] = 1; }, "terrain.extra_m[0][0]"},
+      {[](nlohmann::json& d) { d["terrain"]["extra_m"][2][0] = -1; }, "terrain.extra_m[2][0]"},
+      {[](nlohmann::json& d) { d["terrain"]["extra_m"].erase(2); }, "terrain.extra_m"},
+      {[](nlohmann::json& d) { d["terrain"]["nodes"][1]["id"] = "b"; }, "terrain.nodes[1].id"},
+      {[](nlohmann::json& d) { d["terrain"]["version"] = 2; }, "terrain.version"},
+      {[](nlohmann::json& d) { d["terrain"]["path_offset_m"] = 3; }, "terrain.path_offset_m"},
+  };
+  for (const auto& c : bad) {
+    auto d = j;
+    c.edit(d);
+    const CliRun e = Call({WriteTemp("terrain_bad.json", d.dump()), "100"});
+    EXPECT_EQ(e.code, 2) << c.field;
+    EXPECT_NE(e.err.find(c.field), std::string::npos) << c.field << ": " << e.err;
+  }
+}
+
 TEST(PlanCliTest, HelpAnywhereOnTheCommandLinePrintsTheUsage) {
   for (const std::vector<std::string>& args :
        {std::vector<std::string>{"--help"}, {"sites.json", "--help"}, {"tsp", "x.tsp", "-h"},

@@ -20,6 +20,73 @@ constexpr double kMaxCostM = 1e8;
 constexpr double kMaxBudgetM = 1e12;
 constexpr double kMaxReward = 1e12;
 
+// `terrain` (written by mound field make --dem): extra_m, an n x n symmetric matrix of
+// non-negative climb costs in the planner's node order (home, the end of a path, the sites
+// in file order; `nodes[].id` in that order when given), and path_offset_m.
+void ReadTerrain(const nlohmann::json& t, SitesFile* out) {
+  OpInstance& inst = out->instance;
+  if (!t.is_object()) throw InputError("terrain: must be an object");
+  if (t.contains("version")) {
+    const auto& v = t["version"];
+    if (!v.is_number_integer() || v.get<int64_t>() != 1) {
+      throw InputError("terrain.version: this mound_plan reads version 1");
+    }
+  }
+  const size_t n = inst.nodes.size();
+  if (t.contains("nodes")) {
+    const auto& ns = t["nodes"];
+    if (!ns.is_array() || ns.size() != n) {
+      throw InputError("terrain.nodes: expected " + std::to_string(n) +
+                       " entries (home, end, sites in file order)");
+    }
+    for (size_t i = 0; i < n; ++i) {
+      const std::string p = "terrain.nodes[" + std::to_string(i) + "]";
+      if (!ns[i].is_object()) throw InputError(p + ": must be an object");
+      if (RequireId(ns[i], "id", p) != inst.nodes[i].id) {
+        throw InputError(p + ".id: expected \"" + inst.nodes[i].id + "\" (the planner's node order)");
+      }
+    }
+  }
+  const auto& m = RequireField(t, "extra_m", "terrain");
+  if (!m.is_array() || m.size() != n) {
+    throw InputError("terrain.extra_m: expected " + std::to_string(n) + " rows of " +
+                     std::to_string(n) + " numbers");
+  }
+  inst.extra_m.assign(n * n, 0.0);
+  for (size_t i = 0; i < n; ++i) {
+    const std::string p = "terrain.extra_m[" + std::to_string(i) + "]";
+    if (!m[i].is_array() || m[i].size() != n) {
+      throw InputError(p + ": expected " + std::to_string(n) + " numbers");
+    }
+    for (size_t j = 0; j < n; ++j) {
+      const auto& v = m[i][j];
+      if (!v.is_number() || !std::isfinite(v.get<double>()) || v.get<double>() < 0 ||
+          v.get<double>() > kMaxCostM) {
+        throw InputError(p + "[" + std::to_string(j) + "]: expected a number in [0, 1e8]");
+      }
+      inst.extra_m[i * n + j] = v.get<double>();
+    }
+  }
+  for (size_t i = 0; i < n; ++i) {
+    if (inst.extra_m[i * n + i] != 0) {
+      throw InputError("terrain.extra_m[" + std::to_string(i) + "][" + std::to_string(i) +
+                       "]: the diagonal must be 0");
+    }
+    for (size_t j = 0; j < i; ++j) {
+      const double a = inst.extra_m[i * n + j], b = inst.extra_m[j * n + i];
+      if (std::abs(a - b) > 1e-6 * (1.0 + std::abs(a))) {
+        throw InputError("terrain.extra_m[" + std::to_string(i) + "][" + std::to_string(j) +
+                         "]: not symmetric (" + FormatNumber(a) + " vs " + FormatNumber(b) + ")");
+      }
+      inst.extra_m[i * n + j] = inst.extra_m[j * n + i] = std::max(a, b);
+    }
+  }
+  out->path_offset_m =
+      OptionalInRange(t, "path_offset_m", "terrain", -kMaxCostM, kMaxCostM).value_or(0.0);
+  out->terrain = t;
+  out->terrain.erase("extra_m");
+}
+
 }  // namespace
 
 SitesFile ParseSites(const std::string& text, const std::string& path,
@@ -89,6 +156,8 @@ SitesFile ParseSites(const std::string& text, const std::string& path,
     inst.nodes.push_back(n);
   }
 
+  if (doc.contains("terrain") && !doc["terrain"].is_null()) ReadTerrain(doc["terrain"], &out);
+
   if (budget_override) {
     if (!std::isfinite(*budget_override) || *budget_override < 0 ||
         *budget_override > kMaxBudgetM) {
@@ -102,6 +171,16 @@ SitesFile ParseSites(const std::string& text, const std::string& path,
     }
     inst.budget_m = RequireInRange(doc, "budget_m", "", 0, kMaxBudgetM);
     out.budget_in_file = true;
+  }
+
+  if (out.path_offset_m != 0) {
+    if (inst.Closed()) throw InputError("terrain.path_offset_m: must be 0 for a closed tour");
+    if (inst.budget_m - out.path_offset_m < 0) {
+      throw InputError("budget_m: " + FormatNumber(inst.budget_m) + " m is less than the "
+                       "climb from home to the end node (terrain.path_offset_m " +
+                       FormatNumber(out.path_offset_m) + " m)");
+    }
+    inst.budget_m -= out.path_offset_m;
   }
 
   // A budget that cannot even leave home is an input error, not an empty plan.
@@ -132,7 +211,7 @@ SitesFile ReadSites(const std::string& path, std::optional<double> budget_overri
 
 nlohmann::json PlanToJson(const SitesFile& sites, const PlanSummary& plan) {
   const OpInstance& inst = sites.instance;
-  const double cost = inst.RouteCost(plan.route);
+  const double cost = inst.RouteCost(plan.route) + sites.path_offset_m;
   nlohmann::json j;
   j["schema"] = "mound.plan";
   j["version"] = 1;
@@ -158,9 +237,9 @@ nlohmann::json PlanToJson(const SitesFile& sites, const PlanSummary& plan) {
   j["tour"] = tour;
   j["reward"] = inst.RouteReward(plan.route);
   j["cost_m"] = cost;
-  j["budget_m"] = inst.budget_m;
+  j["budget_m"] = inst.budget_m + sites.path_offset_m;
   j["budget_source"] = sites.budget_in_file ? "file" : "command line";
-  j["budget_left_m"] = inst.budget_m - cost;
+  j["budget_left_m"] = inst.budget_m + sites.path_offset_m - cost;
   j["elapsed_s"] = plan.elapsed_s;
   j["n_sites"] = inst.Size() - inst.FirstSite();
   j["n_visited"] = visited;
@@ -170,6 +249,7 @@ nlohmann::json PlanToJson(const SitesFile& sites, const PlanSummary& plan) {
   if (!sites.origin.is_null()) j["origin"] = sites.origin;
   if (!sites.scan.is_null()) j["scan"] = sites.scan;
   j["takeoff_landing_m"] = sites.takeoff_landing_m;
+  if (!sites.terrain.is_null()) j["terrain"] = sites.terrain;
   return j;
 }
 

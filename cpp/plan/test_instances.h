@@ -44,6 +44,23 @@ inline void ScaleCoordinates(OpInstance* inst, double factor) {
   }
 }
 
+// Symmetric climb costs over a random terrain (terrain.extra_m): a height per node and
+// per pair a ridge between them, so that the costs break the triangle inequality.
+inline void AddRandomTerrain(OpInstance* inst, unsigned seed, double scale) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(0, 1);
+  const size_t n = inst->nodes.size();
+  std::vector<double> h(n);
+  for (auto& v : h) v = scale * u(rng);
+  inst->extra_m.assign(n * n, 0.0);
+  for (size_t i = 0; i < n; ++i)
+    for (size_t j = 0; j < i; ++j) {
+      const double ridge = u(rng) < 0.2 ? 3 * scale * u(rng) : 0.0;
+      const double top = std::max(std::max(h[i], h[j]), ridge);
+      inst->extra_m[i * n + j] = inst->extra_m[j * n + i] = 2.5 * (2 * top - h[i] - h[j]);
+    }
+}
+
 // The cost formula of INTERFACES.md written out again, independent of OpInstance::Cost.
 inline double IndependentCost(const OpInstance& inst, const std::vector<int>& route) {
   double c = 0;
@@ -54,6 +71,7 @@ inline double IndependentCost(const OpInstance& inst, const std::vector<int>& ro
     const double sb = inst.IsSite(route[i + 1]) ? b.scan_cost_m : 0.0;
     c += std::sqrt((a.x_m - b.x_m) * (a.x_m - b.x_m) + (a.y_m - b.y_m) * (a.y_m - b.y_m)) +
          (sa + sb) / 2;
+    if (!inst.extra_m.empty()) c += inst.extra_m[route[i] * inst.nodes.size() + route[i + 1]];
   }
   return c;
 }

@@ -40,6 +40,7 @@ from mound.classify.model import VERSION as MODEL_VERSION
 from mound.classify.model import Model
 from mound.errors import InputError, exit_for
 from mound.geometry.flight import ScanSpec
+from mound.geometry.geodesy import Origin
 from mound.jsonio import read_json, write_json
 from mound.plan.field import STANDARD_SEEDS, make_field, sites_document
 from mound.scene import cli as scene_cli
@@ -139,6 +140,15 @@ def cmd_field_make(args: argparse.Namespace) -> int:
     scan, scan_cost, budget = field_costs(args)
     doc = sites_document(make_field(test, args.seed), test, model, scan_cost, budget,
                          spacing_m=args.spacing, scan=scan)
+    if args.origin:
+        doc["origin"] = Origin.parse(args.origin).to_doc()
+    if args.dem:
+        from mound.uav import terrain
+
+        if scan is None:
+            raise UsageError("--dem needs --scan-pattern (the heights follow the scan)")
+        doc = terrain.attach(doc, args.dem, terrain.spec_from_args(args), args.dem_vertical,
+                             Origin.from_doc(doc["origin"]))
     write_json(args.out, doc)
     prov = doc["provenance"]
     print(f"field seed {args.seed}: 100 sites, {prov['positives']} positives, "
@@ -472,6 +482,11 @@ def build_parser() -> argparse.ArgumentParser:
             m.add_argument("--out", required=True)
             m.add_argument("--spacing", type=float, default=1.0,
                            help="grid spacing of the sites, m (1: the paper's field)")
+            m.add_argument("--origin", help="LAT,LON[,ALT] of home (default: Bin Tepe, "
+                           "38.5705,27.9862)")
+            from mound.uav.terrain import add_arguments as add_terrain_arguments
+
+            add_terrain_arguments(m)
         else:
             m.add_argument("--out-dir", required=True)
         m.add_argument("--model", help="classifier JSON (default: train the default band)")

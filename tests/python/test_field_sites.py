@@ -102,7 +102,7 @@ def test_a_dem_patch_is_the_real_ground(shared_data: Path) -> None:
     # the same shift everywhere (the patch's median): north up, east right, no flip
     assert max(shifts) - min(shifts) < 1e-3, shifts
     assert hf.z_m.max() - hf.z_m.min() > 5  # real relief
-    with pytest.raises(InputError, match="does not fit on the DEM"):
+    with pytest.raises(InputError, match="lies off the DEM"):
         terrain.build(replace(spec, dem_x_m=564050.0))
 
 

@@ -335,3 +335,24 @@ def test_dem_patch_reader(at: int, piece: bytes, cut: int, truncate: bool) -> No
     a valid DEM with bytes overwritten or cut short: a finite patch or an InputError."""
     data = DEM_TIF[:at] if truncate else DEM_TIF[:at] + piece + DEM_TIF[at + cut:]
     value_or_input_error(_read_dem, _file(data, "dem.tif"))
+
+
+def _read_dem_for_flight(path: Path) -> None:
+    import numpy as np
+
+    from mound.geometry.dem import Dem
+
+    dem = Dem.at(str(path), 564020.0, 146980.0, "egm96", margin_m=15)
+    h = dem.height(np.array([[0.0, 0.0], [5.0, -5.0]]))
+    top, _ = dem.corridor_max(np.array([[-5.0, 5.0]]), np.array([[5.0, -5.0]]), 3.0)
+    assert np.isfinite(h).all() and np.isfinite(top).all()
+
+
+@FUZZ
+@given(st.integers(0, len(DEM_TIF) - 1), st.binary(min_size=1, max_size=16),
+       st.integers(0, 16), st.booleans())
+def test_dem_flight_reader(at: int, piece: bytes, cut: int, truncate: bool) -> None:
+    """The flight's DEM reader (geometry/dem.py: heights, corridor maxima over ENU points)
+    on a valid DEM with bytes overwritten or cut short: finite heights or an InputError."""
+    data = DEM_TIF[:at] if truncate else DEM_TIF[:at] + piece + DEM_TIF[at + cut:]
+    value_or_input_error(_read_dem_for_flight, _file(data, "dem.tif"))

@@ -255,39 +255,16 @@ def _confuser(c: Confuser, xx: np.ndarray, yy: np.ndarray, ground: np.ndarray
 
 
 def dem_patch(path: str, x0: float, y0: float, axis: np.ndarray) -> np.ndarray:
-    """Heights of a DEM (any projected CRS in metres) on the site's grid, the patch centred
-    on (x0, y0) in the DEM's CRS, north up; less the patch's median height."""
-    import rasterio
-    from rasterio.errors import RasterioError
-    from rasterio.windows import Window
-    from scipy.ndimage import map_coordinates
+    """Heights of a DEM (any CRS; geometry/dem.py, the project's one DEM reader) on the
+    site's grid, the patch centred on (x0, y0) in the DEM's CRS, its axes along the DEM's
+    (north up); less the patch's median height (so what the heights are above does not
+    matter)."""
+    from mound.geometry.dem import Dem
 
-    try:
-        with rasterio.open(path) as ds:
-            if ds.crs is None or not ds.crs.is_projected:
-                raise InputError(f"{path}: a DEM in a projected CRS (metres) is needed")
-            tf = ds.transform
-            if tf.b != 0 or tf.d != 0 or not (tf.a > 0 and tf.e < 0):
-                raise InputError(f"{path}: the DEM must be north-up")
-            col = (x0 + axis - tf.c) / tf.a - 0.5
-            row = (y0 + axis - tf.f) / tf.e - 0.5
-            if not (col.min() >= 0 and row.min() >= 0 and col.max() <= ds.width - 1
-                    and row.max() <= ds.height - 1):
-                raise InputError(f"{path}: a site {axis[-1] - axis[0]:g} m across at ({x0:g}, "
-                                 f"{y0:g}) does not fit on the DEM")
-            r0, r1 = int(np.floor(row.min())), int(np.ceil(row.max())) + 1
-            c0, c1 = int(np.floor(col.min())), int(np.ceil(col.max())) + 1
-            z = ds.read(1, window=Window(c0, r0, c1 - c0 + 1, r1 - r0 + 1),
-                        boundless=False).astype(np.float64)
-            nod = ds.nodata
-    except RasterioError as e:
-        msg = " ".join(str(e).split())[:160]
-        raise InputError(f"{path}: not a readable DEM ({msg})") from None
-    if nod is not None and np.any(z == nod) or not np.all(np.isfinite(z)):
-        raise InputError(f"{path}: the patch at ({x0:g}, {y0:g}) has nodata")
-    # grid row i is y = y0 + axis[i] (north-going), which DEM row `row[i]` holds
-    rr, cc = np.meshgrid(row - r0, col - c0, indexing="ij")
-    patch = map_coordinates(z, [rr, cc], order=1)
+    dem = Dem.at(path, x0, y0, "egm96", margin_m=float(np.abs(axis).max()) * 1.5 + 10)
+    xx, yy = np.meshgrid(x0 + axis, y0 + axis)  # grid row i is y = y0 + axis[i]
+    patch = dem.height_crs(xx, yy, f"a site {axis[-1] - axis[0]:g} m across at ({x0:g}, "
+                           f"{y0:g})").reshape(len(axis), len(axis))
     return patch - np.median(patch)
 
 

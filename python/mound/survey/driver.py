@@ -79,7 +79,8 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--labels", help="known mounds (GeoJSON points, WGS84): the scene model is "
                    "learned from them, and they give the truth of the candidates near them")
     g.add_argument("--scene-model", help="a model of mound scene train instead of --labels")
-    g.add_argument("--home", help="LAT,LON of the take-off point (needed with --scene)")
+    g.add_argument("--home", help="LAT,LON of the take-off point (needed with --scene; "
+                   "with the field: where the field's home is, default Bin Tepe)")
     g.add_argument("--aoi", help="GeoJSON polygon(s): candidates only inside")
     g.add_argument("--band-names", help="names of the scene's bands, e.g. blue,green,red,nir")
     g.add_argument("--candidates", type=int, default=20, help="candidate sites from the scene")
@@ -96,6 +97,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="mound_plan's algorithm (default alns: ALNS-OP, 1 s at most; newalg: "
                    "the paper's)")
     g.add_argument("--plan-seed", type=int, default=1, help="mound_plan's seed")
+    from mound.uav.terrain import add_arguments as add_terrain_arguments
+
+    add_terrain_arguments(p)
     g.add_argument("--connect", help="also upload the mission to this MAVLink vehicle and "
                    "read it back (udpout:HOST:PORT, udpin:HOST:PORT, tcp:HOST:PORT, serial)")
     g.add_argument("--firmware", choices=("px4", "ardupilot"), default="px4",
@@ -362,7 +366,9 @@ def stage_field(ctx: Context) -> str:
         material: dict[str, Any] = {"sites": doc}
     else:
         material = {"classify": ctx.keys["classify"], "seed": a.field_seed,
-                    "spacing": a.spacing, "scan": scan.to_doc(), "budget": a.budget}
+                    "spacing": a.spacing, "scan": scan.to_doc(), "budget": a.budget,
+                    "home": a.home}
+    material["terrain"] = terrain_material(a)
 
     def work() -> tuple[list[str], str, bool]:
         if a.scene:
@@ -376,15 +382,37 @@ def stage_field(ctx: Context) -> str:
             out = sites_document(make_field(test, a.field_seed), test, model, None,
                                  a.budget if a.budget is not None else flight_budget_m(),
                                  spacing_m=a.spacing, scan=scan)
+            if a.home:
+                from mound.scene.cli import _home
+
+                lat, lon = _home(a.home)
+                out["origin"] = {"lat": lat, "lon": lon, "alt_m": 0.0}
+        if a.dem:
+            from mound.geometry.geodesy import Origin
+            from mound.uav import terrain
+
+            out = terrain.attach(out, a.dem, terrain.spec_from_args(a), a.dem_vertical,
+                                 Origin.from_doc(out["origin"], "sites: origin"))
         write_json(ctx.tree.sites, out)
         prov = out["provenance"]
         what = (f"field seed {a.field_seed}" if not (a.sites or a.scene) else
                 f"{a.sites}" if a.sites else f"{len(a.scene)} scene(s)")
         return (["sites.json"], f"{what}: {len(out['sites'])} sites, {prov['positives']} "
                 f"true mounds, total reward {prov['total_reward']:.2f} bits, scan cost "
-                f"{scan.site_cost_m():.0f} m per site, budget {out['budget_m']:.0f} m", True)
+                f"{out['sites'][0]['scan_cost_m']:.0f} m per site"
+                f"{' (energy, over the DEM)' if a.dem else ''}, budget "
+                f"{out['budget_m']:.0f} m", True)
 
     return run_stage(ctx, "field", material, work)
+
+
+def terrain_material(a: argparse.Namespace) -> dict[str, Any] | None:
+    """What the terrain makes of a stage (the DEM's bytes and every terrain option)."""
+    if not a.dem:
+        return None
+    return {"dem": _digest_files([a.dem]), "vertical": a.dem_vertical,
+            "clearance": a.clearance_m, "scan_clearance": a.scan_clearance_m,
+            "footprint": a.footprint_m, "climb": a.climb_factor, "descent": a.descent_factor}
 
 
 def stage_plan(ctx: Context) -> str:
@@ -425,7 +453,12 @@ def stage_mission(ctx: Context) -> str:
             return [], "nothing to fly: no site fits the budget", True
         origin = Origin.from_doc(plan["origin"], f"{t.plan}: origin")
         scan = mission_items.plan_scan(plan, str(t.plan))
-        m = mission_items.build(plan, origin, mission_items.MissionSpec(scan=scan))
+        terrain = None
+        if a.dem:
+            from mound.uav.terrain import spec_from_args
+
+            terrain = mission_items.TerrainInput(a.dem, a.dem_vertical, spec_from_args(a))
+        m = mission_items.build(plan, origin, mission_items.MissionSpec(scan=scan), terrain)
         mission_files.write_plan(t.mission_plan, m, a.firmware)
         mission_files.write_wpl(t.mission_wpl, m)
         mission_files.write_geojson(t.mission_geojson, m)
@@ -442,11 +475,20 @@ def stage_mission(ctx: Context) -> str:
         write_json(t.mission_summary, summary)
         t.report_dir.mkdir(parents=True, exist_ok=True)
         figures.mission_map(m.nav_enu, m.footprints, m.sites, t.report_dir / "mission.png")
-        return (["mission.plan", "mission.waypoints", "mission.geojson", "mission.json",
-                 "report/mission.png"], note, True)
+        made = ["mission.plan", "mission.waypoints", "mission.geojson", "mission.json",
+                "report/mission.png"]
+        if m.terrain is not None:
+            figures.leg_profiles(m.terrain, t.report_dir / "legs.png")
+            made.append("report/legs.png")
+            note += (f"; over the DEM: energy {m.terrain['energy_m']:.0f} m, lowest transit "
+                     f"clearance {m.terrain['lowest_clearance_m']:.1f} m")
+        else:
+            note += "; terrain not checked (no --dem)"
+        return (made, note, True)
 
     return run_stage(ctx, "mission", {"plan": ctx.keys["plan"], "connect": a.connect,
-                                      "firmware": a.firmware}, work)
+                                      "firmware": a.firmware,
+                                      "terrain": terrain_material(a)}, work)
 
 
 def _folder_digest(folder: Path) -> str:
@@ -606,8 +648,20 @@ def check_args(a: argparse.Namespace) -> None:
         _home(a.home)
         for sp in a.scene:
             open_scene(sp)
-    elif a.labels or a.scene_model or a.home or a.aoi:
-        raise UsageError("--labels, --scene-model, --home and --aoi go with --scene")
+    elif a.labels or a.scene_model or a.aoi:
+        raise UsageError("--labels, --scene-model and --aoi go with --scene")
+    elif a.home:
+        if a.sites:
+            raise UsageError("--home: the sites file has its own home and origin")
+        from mound.scene.cli import _home
+
+        _home(a.home)
+    if a.dem:
+        if not Path(a.dem).is_file():
+            raise UsageError(f"--dem: {a.dem} not found")
+        from mound.uav.terrain import spec_from_args
+
+        spec_from_args(a)
     for tool in ("mound_plan", "mound_recon", "mound_render"):
         try:
             native.tool_path(tool)

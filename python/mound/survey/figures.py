@@ -195,6 +195,35 @@ def mission_map(nav_enu: np.ndarray, footprints: list[dict[str, Any]],
     return save_figure(fig, out_png, dpi)
 
 
+def leg_profiles(terrain: dict[str, Any], out_png: Path, dpi: int = 80) -> Path:
+    """Each transit leg of a mission flown over a DEM, end to end: the terrain under the
+    leg (AMSL), the height flown, and the clearance asked for, so that a crew sees where a
+    ridge forced a climb."""
+    legs = terrain["legs"]
+    fig, ax = plt.subplots(figsize=(8.0, 3.4))
+    x0 = 0.0
+    for k, leg in enumerate(legs):
+        prof = leg["profile"]
+        d = np.asarray(prof["distance_m"], dtype=float) + x0
+        g = np.asarray(prof["terrain_amsl_m"], dtype=float)
+        ax.fill_between(d, g.min() - 5, g, color="0.75", lw=0)
+        ax.plot(d, g, color="0.35", lw=0.8, label="terrain" if k == 0 else None)
+        ax.plot(d, np.full_like(d, prof["flight_amsl_m"]), color="tab:blue", lw=1.2,
+                label="flight" if k == 0 else None)
+        ax.plot(d, g + terrain["clearance_m"], ":", color="tab:red", lw=0.8,
+                label=f"terrain + {terrain['clearance_m']:g} m" if k == 0 else None)
+        ax.annotate(f"{leg['from']}→{leg['to']}", (d[0], prof["flight_amsl_m"]),
+                    fontsize=6, xytext=(2, 3), textcoords="offset points")
+        x0 = float(d[-1]) + 20.0
+    ax.set_xlabel("distance along the transit legs (m, legs end to end)")
+    ax.set_ylabel("height AMSL (m)")
+    ax.set_title(f"Transit legs over the DEM: lowest clearance "
+                 f"{terrain['lowest_clearance_m']:.1f} m, energy {terrain['energy_m']:.0f} m",
+                 fontsize=10)
+    ax.legend(fontsize=7, loc="upper right")
+    return save_figure(fig, out_png, dpi)
+
+
 def scene_map(run_root: Path, sites_doc: dict[str, Any], plan: dict[str, Any],
               out_png: Path, dpi: int = 80) -> Path:
     """p(mound) of each scored scene (its scene's CRS, metres from the scene's corner) with

@@ -305,6 +305,8 @@ def render_html(tree: RunTree, s: dict[str, Any]) -> str:
     maps = _img("report/field.png", "field map")
     if mission_png.is_file():
         maps += _img("report/mission.png", "mission map")
+    if (tree.report_dir / "legs.png").is_file():
+        maps += _img("report/legs.png", "transit legs over the DEM")
     if (tree.report_dir / "scene.png").is_file():
         maps += _img("report/scene.png", "p(mound) over the scene, candidates and tour")
     cards = "".join(_site_card(r) for r in visited)

@@ -32,7 +32,13 @@ def cmd_build(args: argparse.Namespace) -> int:
             args.pattern or "raster", args.altitude, args.transit_altitude)
     spec = mission_items.MissionSpec(scan=scan, cruise_speed_m_s=args.cruise_speed,
                                      scan_speed_m_s=args.scan_speed)
-    m = mission_items.build(plan, origin, spec)
+    terrain = None
+    if args.dem:
+        from mound.uav import terrain as terrain_mod
+
+        terrain = mission_items.TerrainInput(args.dem, args.dem_vertical,
+                                             terrain_mod.spec_from_args(args))
+    m = mission_items.build(plan, origin, spec, terrain)
     # All files or none: every text is made and staged before any is put in place.
     outputs = [(args.out, mission_files.plan_text(m, args.firmware))]
     if args.wpl:
@@ -42,6 +48,14 @@ def cmd_build(args: argparse.Namespace) -> int:
     write_all_atomic(outputs)
     print(f"{len(m.items)} mission items for {len(m.sites)} sites, flight distance "
           f"{m.flight_distance_m:.1f} m of budget {m.budget_m:g} m -> {args.out}")
+    if m.terrain is None:
+        print("  terrain not checked (no --dem): heights above home")
+    else:
+        t = m.terrain
+        print(f"  over {t['dem']}: home ground {t['home_amsl_m']:.1f} m AMSL, energy "
+              f"{t['energy_m']:.1f} m (climbed {t['climbed_m']:.0f} m, descended "
+              f"{t['descended_m']:.0f} m), lowest transit clearance "
+              f"{t['lowest_clearance_m']:.1f} m")
     for s in m.sites:
         print(f"  {s['id']}: scan {s['scan_length_m']:.0f} m, {s['images']} images "
               f"(plan's scan_cost_m {s['scan_cost_m']:g})")
@@ -115,6 +129,9 @@ def add_parser(sub: Any, parser_class: type) -> None:
     b.add_argument("--cruise-speed", type=float, default=12.0, help="m/s")
     b.add_argument("--scan-speed", type=float, default=5.0, help="m/s")
     b.add_argument("--firmware", choices=("px4", "ardupilot"), default="px4")
+    from mound.uav.terrain import add_arguments as add_terrain_arguments
+
+    add_terrain_arguments(b)
     b.set_defaults(func=cmd_build)
     u = grp.add_parser("upload", help="upload a .plan or WPL mission over MAVLink")
     u.add_argument("mission")

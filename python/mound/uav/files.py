@@ -48,6 +48,12 @@ def _json_number(v: float) -> float | None:
     return None if math.isnan(v) else v
 
 
+def home_altitude(mission: Mission) -> float:
+    """Home's AMSL altitude: the DEM's ground there when the mission was built over one,
+    else the origin's stated altitude."""
+    return float(mission.terrain["home_amsl_m"]) if mission.terrain else mission.origin.alt_m
+
+
 def plan_document(mission: Mission, firmware: str = "px4") -> dict[str, Any]:
     items = []
     for k, it in enumerate(mission.items):
@@ -63,7 +69,8 @@ def plan_document(mission: Mission, firmware: str = "px4") -> dict[str, Any]:
         "mission": {"version": 2, "firmwareType": FIRMWARE[firmware], "vehicleType": 2,
                     "cruiseSpeed": mission.spec.cruise_speed_m_s,
                     "hoverSpeed": mission.spec.scan_speed_m_s,
-                    "plannedHomePosition": [o.lat_deg, o.lon_deg, o.alt_m], "items": items},
+                    "plannedHomePosition": [o.lat_deg, o.lon_deg, home_altitude(mission)],
+                    "items": items},
         "geoFence": {"circles": [], "polygons": [], "version": 2},
         "rallyPoints": {"points": [], "version": 2},
         "mound": mission.summary(),
@@ -165,7 +172,8 @@ def write_wpl(path: str | Path, mission: Mission) -> None:
 def wpl_text(mission: Mission) -> str:
     o = mission.origin
     lines = [WPL_MAGIC,
-             f"0\t1\t0\t16\t0\t0\t0\t0\t{o.lat_deg:.8f}\t{o.lon_deg:.8f}\t{o.alt_m:.6g}\t1"]
+             f"0\t1\t0\t16\t0\t0\t0\t0\t{o.lat_deg:.8f}\t{o.lon_deg:.8f}\t"
+             f"{home_altitude(mission):.6g}\t1"]
     for k, it in enumerate(mission.items, start=1):
         fields = [str(k), "0", str(_file_frame(it.frame)), str(it.command),
                   *(_fmt(p) for p in it.params), f"{it.lat_deg:.8f}", f"{it.lon_deg:.8f}",
@@ -233,9 +241,20 @@ def geojson_document(mission: Mission) -> dict[str, Any]:
     features: list[dict[str, Any]] = [{
         "type": "Feature", "properties": {"kind": "flight_path",
                                           "length_m": mission.flight_distance_m,
-                                          "budget_m": mission.budget_m},
+                                          "budget_m": mission.budget_m,
+                                          "altitude": "metres above home" + (
+                                              "'s ground" if mission.terrain else ""),
+                                          "home_amsl_m": home_altitude(mission)},
         "geometry": {"type": "LineString", "coordinates": _lonlat(o, np.array(mission.nav_enu))},
     }]
+    for leg in (mission.terrain or {}).get("legs", []):
+        # The leg's profile (distance vs terrain vs flight height, AMSL) on its straight line.
+        ends = np.array([[*leg["profile_start_enu_m"], 0.0], [*leg["profile_end_enu_m"], 0.0]])
+        features.append({"type": "Feature", "properties": {"kind": "leg_profile", **{
+            k: v for k, v in leg.items() if not k.startswith("profile_")},
+            **leg["profile"]},
+            "geometry": {"type": "LineString",
+                         "coordinates": [c[:2] for c in _lonlat(o, ends)]}})
     for s in mission.sites:
         features.append({"type": "Feature", "properties": {"kind": "site", **s},
                          "geometry": {"type": "Point",

@@ -17,17 +17,29 @@ The mission, in order (MAVLink command numbers from common.xml):
     node of a path.
 Navigation items use MAV_FRAME_GLOBAL_RELATIVE_ALT_INT (6): x, y are latitude and
 longitude in 1e-7 degrees, z metres above home; commands use MAV_FRAME_MISSION (2).
-Heights are above home: the sites' ground is taken to be at home's height (no terrain
-following). Parameters are stored as float32 values, as they travel on the link, so a
-mission read back from a vehicle compares equal item by item.
+Without a DEM the sites' ground is taken to be at home's height, and the summary says
+"terrain not checked". With one (`terrain`, see uav/terrain.py) every height is planned in
+metres above mean sea level and written relative to home's ground (the DEM's height at the
+take-off point): the autopilot's relative altitude is zeroed there by its barometer at
+take-off, which is steadier than GNSS altitude (metres of vertical error) and free of the
+vehicle's geoid model, so the relative frame puts the aircraft where the DEM says; the
+offset (home's AMSL height) is in the summary. Each leg climbs in place to a height that
+clears the terrain by the clearance, flies level and descends in place over the next site;
+the flight ends with an explicit landing at home instead of NAV_RETURN_TO_LAUNCH, whose
+height is a vehicle parameter the mission cannot vouch for. Parameters are stored as
+float32 values, as they travel on the link, so a mission read back from a vehicle compares
+equal item by item.
 
-The flight distance (3-D length of home on the ground -> take-off height -> every
+Without a DEM, the flight distance (3-D length of home on the ground -> take-off height -> every
 navigation waypoint -> home (or the end node) -> the ground) is checked against the plan's
 budget before anything is written or uploaded. A plan made from a sites document whose
 scan costs came from the same ScanSpec (`mound field make --scan-pattern`, which also
 records the spec and the take-off/landing climb in the document, carried into plan.json by
 mound_plan) always passes: the flight is at most the plan's cost (see
-ScanSpec.site_cost_m).
+ScanSpec.site_cost_m). With a DEM the check is on the flight's energy (horizontal metres
+plus the climb and descent factors times the metres climbed and descended), and a flight
+over the budget is refused naming the leg whose climb costs most and the terrain point
+that forces it; so is a scan that passes too close to the ground.
 """
 
 from __future__ import annotations
@@ -127,6 +139,15 @@ def flight_budget_m(endurance_s: float = 25 * 60, cruise_speed_m_s: float = 12.0
 
 
 @dataclass(frozen=True)
+class TerrainInput:
+    """The DEM a mission is flown over and how (uav/terrain.py)."""
+
+    dem_path: str
+    vertical: str | None = None       # None: what the DEM's CRS says
+    spec: Any = None                  # terrain.TerrainSpec; None: the defaults
+
+
+@dataclass(frozen=True)
 class MissionSpec:
     """How each site is scanned (the ScanSpec, shared with the simulator and the planner's
     scan costs) and how fast the aircraft flies."""
@@ -174,14 +195,25 @@ class Mission:
     budget_m: float
     closed: bool
     sites: list[dict[str, Any]]
-    nav_enu: list[np.ndarray]  # the 3-D flight path, ENU, for exports
+    nav_enu: list[np.ndarray]  # the 3-D flight path, ENU, z above home, for exports
     footprints: list[dict[str, Any]]
     spec: MissionSpec
+    # With a DEM: home_amsl_m, energy_m, the legs' heights and terrain profiles.
+    terrain: dict[str, Any] | None = None
 
     def summary(self) -> dict[str, Any]:
+        terrain: dict[str, Any] = (
+            {"checked": False, "note": "terrain not checked: heights above home, the sites' "
+             "ground taken to be at home's height"} if self.terrain is None
+            else {"checked": True, **{k: v for k, v in self.terrain.items() if k != "legs"},
+                  "legs": [{k: v for k, v in leg.items() if not k.startswith("profile")}
+                           for leg in self.terrain["legs"]]})
         return {"schema": "mound.mission", "version": 1, "origin": self.origin.to_doc(),
                 "items": len(self.items), "flight_distance_m": self.flight_distance_m,
                 "budget_m": self.budget_m, "closed": self.closed, "sites": self.sites,
+                "altitude_frame": "MAV_FRAME_GLOBAL_RELATIVE_ALT: metres above home"
+                + ("'s ground (the DEM's height there)" if self.terrain else ""),
+                "terrain": terrain,
                 "scan": {"pattern": self.spec.scan.pattern,
                          "site_diameter_m": self.spec.scan.scale_m,
                          "cruise_speed_m_s": self.spec.cruise_speed_m_s,
@@ -238,9 +270,11 @@ def plan_scan(plan: dict[str, Any], where: str = "plan") -> ScanSpec | None:
     return None if doc is None else ScanSpec.from_doc(doc, f"{where}: scan")
 
 
-def build(plan: dict[str, Any], origin: Origin, spec: MissionSpec | None = None) -> Mission:
+def build(plan: dict[str, Any], origin: Origin, spec: MissionSpec | None = None,
+          terrain: TerrainInput | None = None) -> Mission:
     """The mission for a mound.plan document; InputError if it breaks the budget. Without
-    `spec`, the plan's own scan (plan_scan) or the default one is flown."""
+    `spec`, the plan's own scan (plan_scan) or the default one is flown. With `terrain`
+    (a DEM) the heights follow the ground (see the module docstring)."""
     if spec is None:
         scan = plan_scan(plan)
         spec = MissionSpec(scan=scan) if scan is not None else MissionSpec()
@@ -248,6 +282,10 @@ def build(plan: dict[str, Any], origin: Origin, spec: MissionSpec | None = None)
     nodes, closed, budget = _plan_nodes(plan)
     if len(nodes) <= 2 and (closed or len(nodes) < 2):
         raise InputError("tour: the plan visits no site, there is nothing to fly")
+    if terrain is not None:
+        from mound.uav.terrain_mission import build_over_terrain
+
+        return build_over_terrain(plan, origin, spec, terrain, nodes, closed, budget)
     legs = spec.scan.legs()
     transit = spec.scan.transit_m(legs)
     home = np.array([nodes[0]["x_m"], nodes[0]["y_m"], 0.0])

@@ -1,0 +1,336 @@
+"""The project's one reader of terrain models: a single-band GeoTIFF DEM/DSM in any CRS.
+
+Positions come in the survey's local ENU frame (metres east/north of a WGS84 origin); PROJ
+(pyproj) takes them to the DEM's CRS, the file's own, never an assumption. Heights come
+out in metres above mean sea level as the autopilot's AMSL knows it (EGM96): a DEM whose
+heights are above the ellipsoid or EGM2008 is converted with PROJ's geoid grids, and
+refused with a clear message where those grids are not installed (a guess of the geoid
+would put the aircraft tens of metres off).
+
+- `height(xy)`: bilinear heights at points (InputError for a point off the DEM or on
+  nodata).
+- `corridor_max(a, b, radius)`: the highest terrain within `radius` metres (a box, which
+  holds the disk) of any point of the straight segments a -> b, conservatively: the DEM is
+  max-filtered by the radius plus a sampling margin and sampled every half pixel along the
+  segment; the 2 x 2 pixels around each sample count.
+
+Only the window around the points of interest (`around`, plus a margin) is read.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from mound.errors import InputError
+from mound.geometry.geodesy import Origin, enu_to_geodetic
+
+VERTICALS = ("ellipsoid", "egm96", "egm2008")
+# PROJ CRSs of each vertical reference (3-D geographic for the ellipsoid).
+_VERTICAL_CRS = {"ellipsoid": "EPSG:4979", "egm96": "EPSG:4326+5773",
+                 "egm2008": "EPSG:4326+3855"}
+MAX_WINDOW_PX = 64_000_000  # 512 MB of float64
+
+
+def _file_vertical(crs: Any) -> str | None:
+    """The vertical reference a compound CRS states, if it is one we know."""
+    try:
+        from pyproj import CRS
+
+        c = CRS.from_user_input(crs.to_wkt())
+    except Exception:
+        return None
+    if c.is_geographic and len(c.axis_info) == 3:
+        return "ellipsoid"
+    for sub in c.sub_crs_list:
+        if sub.is_vertical:
+            name = sub.name.upper()
+            if "EGM96" in name:
+                return "egm96"
+            if "EGM2008" in name:
+                return "egm2008"
+            return "other:" + sub.name
+    return None
+
+
+def vertical_shift(vertical: str, lon: np.ndarray, lat: np.ndarray, h: np.ndarray,
+                   path: str) -> np.ndarray:
+    """Heights of `vertical` at (lon, lat) as EGM96 heights (AMSL), through PROJ grids;
+    InputError if PROJ lacks them."""
+    if vertical == "egm96":
+        return h
+    import warnings
+
+    from pyproj.transformer import TransformerGroup
+
+    with warnings.catch_warnings():  # the missing grid is reported below, as an error
+        warnings.simplefilter("ignore", UserWarning)
+        group = TransformerGroup(_VERTICAL_CRS[vertical], _VERTICAL_CRS["egm96"],
+                                 always_xy=True)
+    if not group.transformers or not group.best_available:
+        grids = sorted({g.short_name for op in group.unavailable_operations for g in op.grids
+                        if not g.available}) or ["us_nga_egm96_15.tif"]
+        raise InputError(
+            f"{path}: heights above the {vertical} need PROJ's geoid grid ({', '.join(grids)}) "
+            f"to become AMSL, and it is not installed (projsync --file {grids[0]}); or give a "
+            "DEM in EGM96 heights (--dem-vertical egm96)")
+    _, _, out = group.transformers[0].transform(lon, lat, h)
+    out = np.asarray(out, dtype=float)
+    if not np.all(np.isfinite(out)):
+        raise InputError(f"{path}: PROJ could not convert the {vertical} heights to EGM96")
+    return out
+
+
+@dataclass
+class Dem:
+    path: str
+    origin: Origin
+    vertical: str
+    z: np.ndarray                   # the window's heights, AMSL (EGM96), float64
+    col0: int                       # the window's first column and row in the file
+    row0: int
+    inverse: Any                    # affine: DEM CRS -> file (col, row), pixel corners
+    forward: Any                    # affine: file (col, row) -> DEM CRS
+    to_dem: Any                     # pyproj Transformer lon/lat -> DEM CRS
+    to_lonlat: Any                  # and back
+    pixel_m: tuple[float, float]    # a pixel's size on the ground, east and north, m
+    crs_name: str
+    _filtered: dict[float, np.ndarray] = field(default_factory=dict, repr=False)
+
+    # ---- opening ------------------------------------------------------------------------
+    @classmethod
+    def open(cls, path: str, origin: Origin, vertical: str | None = None,
+             around: np.ndarray | None = None, margin_m: float = 200.0) -> Dem:
+        """Reads the DEM window holding the ENU points `around` (n, 2) plus `margin_m`
+        (the whole file when None). `vertical` (ellipsoid, egm96, egm2008) says what the
+        heights are above; None: what the file's compound CRS says, else InputError."""
+        import rasterio
+        from pyproj import CRS, Transformer
+        from rasterio.errors import RasterioError
+        from rasterio.windows import Window
+
+        if vertical is not None and vertical not in VERTICALS:
+            raise InputError(f"--dem-vertical: expected one of {', '.join(VERTICALS)}, "
+                             f"got {vertical!r}")
+        try:
+            with rasterio.open(path) as ds:
+                if ds.count != 1:
+                    raise InputError(f"{path}: a DEM has one band, this file has {ds.count}")
+                if ds.crs is None:
+                    raise InputError(f"{path}: the DEM states no CRS")
+                crs = CRS.from_user_input(ds.crs.to_wkt())
+                stated = _file_vertical(ds.crs)
+                if vertical is None:
+                    if stated is None or stated.startswith("other:"):
+                        what = stated[6:] if stated else "no vertical datum"
+                        raise InputError(
+                            f"{path}: the DEM's CRS states {what}; say what its heights are "
+                            "above with --dem-vertical ellipsoid|egm96|egm2008")
+                    vertical = stated
+                elif stated in VERTICALS and stated != vertical:
+                    raise InputError(f"{path}: the file says its heights are {stated} heights, "
+                                     f"--dem-vertical says {vertical}")
+                tf = ds.transform
+                if abs(tf.a * tf.e - tf.b * tf.d) < 1e-18:
+                    raise InputError(f"{path}: degenerate geotransform")
+                to_dem = Transformer.from_crs(CRS("EPSG:4326"), crs.to_2d() if crs.is_compound
+                                              else crs, always_xy=True)
+                to_lonlat = Transformer.from_crs(crs.to_2d() if crs.is_compound else crs,
+                                                 CRS("EPSG:4326"), always_xy=True)
+                inverse = ~tf
+                c0, r0, c1, r1 = 0, 0, ds.width, ds.height
+                if around is not None:
+                    pts = np.asarray(around, dtype=float).reshape(-1, 2)
+                    ext = np.array([[-1, -1], [-1, 1], [1, -1], [1, 1]]) * margin_m
+                    corners = (pts[:, None, :] + ext[None]).reshape(-1, 2)
+                    col, row = _to_pixel(corners, origin, to_dem, inverse, path)
+                    c0 = max(0, int(math.floor(col.min())) - 2)
+                    r0 = max(0, int(math.floor(row.min())) - 2)
+                    c1 = min(ds.width, int(math.ceil(col.max())) + 3)
+                    r1 = min(ds.height, int(math.ceil(row.max())) + 3)
+                    if c0 >= c1 or r0 >= r1:
+                        raise InputError(f"{path}: the sites lie off the DEM")
+                if (c1 - c0) * (r1 - r0) > MAX_WINDOW_PX:
+                    raise InputError(f"{path}: the area needed is {c1 - c0} x {r1 - r0} px, "
+                                     f"more than {MAX_WINDOW_PX:,} (a coarser DEM, please)")
+                with np.errstate(invalid="ignore", over="ignore"):  # checked below
+                    z = ds.read(1, window=Window(c0, r0, c1 - c0, r1 - r0)).astype(np.float64)
+                nodata = ds.nodata
+                mid_c, mid_r = (c0 + c1) / 2, (r0 + r1) / 2
+                pixel_m = _pixel_size_m(tf, mid_c, mid_r, to_lonlat, origin)
+                name = crs.name
+        except RasterioError as e:
+            msg = " ".join(str(e).split())[:160]
+            raise InputError(f"{path}: not a readable DEM ({msg})") from None
+        bad = ~np.isfinite(z)
+        if nodata is not None and math.isfinite(nodata):
+            bad |= z == nodata
+        z[bad] = np.nan
+        if vertical != "egm96" and z.size:
+            rr, cc = np.mgrid[0:z.shape[0], 0:z.shape[1]]
+            xs, ys = tf @ (cc.ravel() + c0 + 0.5, rr.ravel() + r0 + 0.5)
+            lon, lat = to_lonlat.transform(np.asarray(xs), np.asarray(ys))
+            ok = np.isfinite(z.ravel())
+            flat = z.ravel().copy()
+            flat[ok] = vertical_shift(vertical, np.asarray(lon)[ok], np.asarray(lat)[ok],
+                                      flat[ok], path)
+            z = flat.reshape(z.shape)
+        return cls(path, origin, vertical, z, c0, r0, inverse, tf, to_dem, to_lonlat, pixel_m,
+                   name)
+
+    @classmethod
+    def at(cls, path: str, x: float, y: float, vertical: str | None = None,
+           margin_m: float = 200.0) -> Dem:
+        """The DEM around (x, y) given in its own CRS, with the ENU origin there."""
+        import rasterio
+        from pyproj import CRS, Transformer
+        from rasterio.errors import RasterioError
+
+        try:
+            with rasterio.open(path) as ds:
+                if ds.crs is None:
+                    raise InputError(f"{path}: the DEM states no CRS")
+                crs = CRS.from_user_input(ds.crs.to_wkt())
+        except RasterioError as e:
+            msg = " ".join(str(e).split())[:160]
+            raise InputError(f"{path}: not a readable DEM ({msg})") from None
+        to_ll = Transformer.from_crs(crs.to_2d() if crs.is_compound else crs, CRS("EPSG:4326"),
+                                     always_xy=True)
+        lon, lat = to_ll.transform(x, y)
+        if not (math.isfinite(lon) and math.isfinite(lat) and abs(lat) <= 90):
+            raise InputError(f"{path}: ({x:g}, {y:g}) is not a place in the DEM's CRS")
+        return cls.open(path, Origin(float(lat), float(lon)), vertical,
+                        around=np.zeros((1, 2)), margin_m=margin_m)
+
+    # ---- queries -------------------------------------------------------------------------
+    def height_crs(self, x: np.ndarray, y: np.ndarray, what: str = "a point") -> np.ndarray:
+        """Bilinear AMSL heights at points given in the DEM's own CRS."""
+        col, row = self.inverse @ (np.asarray(x, dtype=float), np.asarray(y, dtype=float))
+        col = np.asarray(col, dtype=float).ravel() - self.col0 - 0.5
+        row = np.asarray(row, dtype=float).ravel() - self.row0 - 0.5
+        return self._bilinear(col, row, np.column_stack([np.ravel(x), np.ravel(y)]), what)
+
+    def pixel(self, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(col, row) in the window, pixel centres at integers, of ENU points (n, 2)."""
+        col, row = _to_pixel(np.asarray(xy, dtype=float).reshape(-1, 2), self.origin,
+                             self.to_dem, self.inverse, self.path)
+        return col - self.col0 - 0.5, row - self.row0 - 0.5
+
+    def _check_inside(self, col: np.ndarray, row: np.ndarray, xy: np.ndarray,
+                      what: str) -> None:
+        h, w = self.z.shape
+        out = (col < 0) | (row < 0) | (col > w - 1) | (row > h - 1)
+        if np.any(out):
+            k = int(np.flatnonzero(out)[0])
+            p = np.asarray(xy).reshape(-1, 2)[min(k, len(np.asarray(xy).reshape(-1, 2)) - 1)]
+            raise InputError(f"{self.path}: {what} at ({p[0]:.1f}, {p[1]:.1f}) m lies off "
+                             "the DEM")
+
+    def height(self, xy: np.ndarray, what: str = "a point") -> np.ndarray:
+        """Bilinear AMSL heights at ENU points (n, 2)."""
+        xy = np.asarray(xy, dtype=float).reshape(-1, 2)
+        col, row = self.pixel(xy)
+        return self._bilinear(col, row, xy, what)
+
+    def _bilinear(self, col: np.ndarray, row: np.ndarray, xy: np.ndarray,
+                  what: str) -> np.ndarray:
+        self._check_inside(col, row, xy, what)
+        h, w = self.z.shape
+        c0 = np.clip(np.floor(col).astype(int), 0, max(w - 2, 0))
+        r0 = np.clip(np.floor(row).astype(int), 0, max(h - 2, 0))
+        c1, r1 = np.minimum(c0 + 1, w - 1), np.minimum(r0 + 1, h - 1)
+        fc, fr = col - c0, row - r0
+        z = self.z
+        out = ((z[r0, c0] * (1 - fc) + z[r0, c1] * fc) * (1 - fr)
+               + (z[r1, c0] * (1 - fc) + z[r1, c1] * fc) * fr)
+        if not np.all(np.isfinite(out)):
+            k = int(np.flatnonzero(~np.isfinite(out))[0])
+            raise InputError(f"{self.path}: {what} at ({xy[k, 0]:.1f}, {xy[k, 1]:.1f}) m "
+                             "falls on nodata")
+        return out
+
+    def filtered(self, radius_m: float) -> np.ndarray:
+        """The window max-filtered over a box of +-radius (plus one pixel) around each
+        pixel (nodata counts as +inf: never flown over blind)."""
+        key = round(float(radius_m), 6)
+        if key not in self._filtered:
+            from scipy.ndimage import maximum_filter
+
+            rx = int(math.ceil(radius_m / self.pixel_m[0])) + 1
+            ry = int(math.ceil(radius_m / self.pixel_m[1])) + 1
+            z = np.where(np.isfinite(self.z), self.z, np.inf)
+            self._filtered[key] = maximum_filter(z, size=(2 * ry + 1, 2 * rx + 1),
+                                                 mode="nearest")
+        return self._filtered[key]
+
+    def corridor_max(self, a: np.ndarray, b: np.ndarray, radius_m: float,
+                     what: str = "a leg") -> tuple[np.ndarray, np.ndarray]:
+        """(highest terrain, ENU point where it is) within radius_m of each segment
+        a[k] -> b[k] (ENU, (n, 2) each)."""
+        a = np.asarray(a, dtype=float).reshape(-1, 2)
+        b = np.asarray(b, dtype=float).reshape(-1, 2)
+        ca, ra = self.pixel(a)
+        cb, rb = self.pixel(b)
+        self._check_inside(ca, ra, a, what)
+        self._check_inside(cb, rb, b, what)
+        f = self.filtered(radius_m)
+        h, w = f.shape
+        best = np.full(len(a), -np.inf)
+        where = np.zeros((len(a), 2))
+        span = np.maximum(np.abs(cb - ca), np.abs(rb - ra))
+        chunk = 256
+        for s in range(0, len(a), chunk):
+            sl = slice(s, s + chunk)
+            k = int(np.ceil(2 * span[sl].max())) + 1 if len(span[sl]) else 1
+            t = np.linspace(0.0, 1.0, k + 1)
+            cc = ca[sl, None] + (cb - ca)[sl, None] * t[None]
+            rr = ra[sl, None] + (rb - ra)[sl, None] * t[None]
+            c0 = np.clip(np.floor(cc).astype(int), 0, w - 1)
+            r0 = np.clip(np.floor(rr).astype(int), 0, h - 1)
+            c1, r1 = np.minimum(c0 + 1, w - 1), np.minimum(r0 + 1, h - 1)
+            v = np.maximum(np.maximum(f[r0, c0], f[r0, c1]), np.maximum(f[r1, c0], f[r1, c1]))
+            j = np.argmax(v, axis=1)
+            rows = np.arange(len(j))
+            best[sl] = v[rows, j]
+            tj = t[j]
+            where[sl] = a[sl] + (b[sl] - a[sl]) * tj[:, None]
+        if not np.all(np.isfinite(best)):
+            k = int(np.flatnonzero(~np.isfinite(best))[0])
+            raise InputError(f"{self.path}: {what} near ENU ({where[k, 0]:.1f}, "
+                             f"{where[k, 1]:.1f}) m passes over nodata")
+        return best, where
+
+
+def _to_pixel(xy: np.ndarray, origin: Origin, to_dem: Any, inverse: Any,
+              path: str) -> tuple[np.ndarray, np.ndarray]:
+    """File (col, row) (pixel corners at integers) of ENU points on the ellipsoid."""
+    enu = np.column_stack([xy, np.zeros(len(xy))])
+    llh = enu_to_geodetic(origin, enu)
+    if len(llh) == 1:  # pyproj takes a one-element array for a point, with a warning
+        x, y = to_dem.transform(float(llh[0, 1]), float(llh[0, 0]))
+    else:
+        x, y = to_dem.transform(llh[:, 1], llh[:, 0])
+    x, y = np.atleast_1d(np.asarray(x, dtype=float)), np.atleast_1d(np.asarray(y, dtype=float))
+    if not (np.all(np.isfinite(x)) and np.all(np.isfinite(y))):
+        raise InputError(f"{path}: PROJ cannot place the sites in the DEM's CRS")
+    col, row = inverse @ (x, y)
+    return np.asarray(col, dtype=float), np.asarray(row, dtype=float)
+
+
+def _pixel_size_m(tf: Any, col: float, row: float, to_lonlat: Any,
+                  origin: Origin) -> tuple[float, float]:
+    """A pixel's extent on the ground along columns and rows, metres (through PROJ and
+    the ENU frame, so geographic DEMs in degrees are measured too)."""
+    from mound.geometry.geodesy import geodetic_to_enu
+
+    pts = [tf @ (col, row), tf @ (col + 1, row), tf @ (col, row + 1)]
+    lon, lat = to_lonlat.transform(np.array([p[0] for p in pts]), np.array([p[1] for p in pts]))
+    enu = geodetic_to_enu(origin, np.column_stack([lat, lon, np.zeros(3)]))
+    dx = float(np.linalg.norm(enu[1, :2] - enu[0, :2]))
+    dy = float(np.linalg.norm(enu[2, :2] - enu[0, :2]))
+    if not (dx > 0 and dy > 0):
+        raise InputError("DEM: zero pixel size")
+    return dx, dy

@@ -1,0 +1,348 @@
+"""Real terrain under the flight (issue 27, part 1), on the 1 m laser DEM of ../shared/data/dem
+(1 km², 70 m of relief, EPSG:3794): home in the valley, ten sites on the ridges around it.
+
+Every check of the flown heights samples the DEM independently of the mission code:
+rasterio's raw array, pyproj from the mission file's latitudes and longitudes to the DEM's
+CRS, and the footprint as a box of raw pixels."""
+
+from __future__ import annotations
+
+import itertools
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import rasterio
+from pyproj import Transformer
+from scipy.ndimage import maximum_filter
+
+from mound import native
+from mound.errors import InputError
+from mound.geometry.dem import Dem
+from mound.geometry.geodesy import Origin, geodetic_to_enu
+from mound.paths import REPO_ROOT
+from mound.uav import files as mission_files
+from mound.uav import mission_items, terrain
+
+TO_LL = Transformer.from_crs("EPSG:3794", "EPSG:4326", always_xy=True)
+TO_TM = Transformer.from_crs("EPSG:4326", "EPSG:3794", always_xy=True)
+HOME_TM = (564550.0, 146250.0)  # the valley floor, 258 m
+
+
+@pytest.fixture(scope="module")
+def dem_path(shared_data: Path) -> Path:
+    return shared_data / "dem" / "TM1_564_146.tif"
+
+
+@pytest.fixture(scope="module")
+def raw(dem_path: Path) -> tuple[np.ndarray, object]:
+    with rasterio.open(dem_path) as ds:
+        return ds.read(1).astype(np.float64), ds.transform
+
+
+def raw_height(raw: tuple[np.ndarray, object], x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Bilinear height at DEM-CRS points, straight from the array."""
+    z, tf = raw
+    col, row = ~tf @ (np.asarray(x), np.asarray(y))
+    col, row = np.asarray(col) - 0.5, np.asarray(row) - 0.5
+    c0, r0 = np.floor(col).astype(int), np.floor(row).astype(int)
+    fc, fr = col - c0, row - r0
+    return ((z[r0, c0] * (1 - fc) + z[r0, c0 + 1] * fc) * (1 - fr)
+            + (z[r0 + 1, c0] * (1 - fc) + z[r0 + 1, c0 + 1] * fc) * fr)
+
+
+def home_origin(raw: tuple[np.ndarray, object]) -> Origin:
+    lon, lat = TO_LL.transform(*HOME_TM)
+    return Origin(lat, lon, float(raw_height(raw, HOME_TM[0], HOME_TM[1])))
+
+
+def ridge_sites(raw: tuple[np.ndarray, object], n: int = 10) -> list[tuple[float, float]]:
+    """n points of high ground (above 285 m, 27 m over home) spread by farthest-point order
+    from the highest one, kept 150 m inside the DEM, in the DEM's CRS (>= 94 m apart)."""
+    z, tf = raw
+    grid = z[150:-150:10, 150:-150:10]
+    rows, cols = np.nonzero(grid > 285)
+    xs, ys = tf @ ((cols * 10 + 150 + 0.5), (rows * 10 + 150 + 0.5))
+    pts = np.column_stack([xs, ys])
+    chosen = [int(np.argmax(grid[rows, cols]))]
+    gap = np.linalg.norm(pts - pts[chosen[0]], axis=1)
+    while len(chosen) < n:
+        k = int(np.argmax(gap))
+        chosen.append(k)
+        gap = np.minimum(gap, np.linalg.norm(pts - pts[k], axis=1))
+    return [(float(pts[k, 0]), float(pts[k, 1])) for k in chosen]
+
+
+def sites_doc(raw: tuple[np.ndarray, object], budget: float) -> dict:
+    origin = home_origin(raw)
+    scan = mission_items.scan_for_site(60.0, "raster")
+    sites = []
+    for k, (x, y) in enumerate(ridge_sites(raw)):
+        lon, lat = TO_LL.transform(x, y)
+        e, nn, _ = geodetic_to_enu(origin, np.array([[lat, lon, 0.0]]))[0]
+        sites.append({"id": f"r{k:02d}", "x_m": float(e), "y_m": float(nn),
+                      "reward": 1.0 + 0.1 * k, "scan_cost_m": scan.site_cost_m()})
+    return {"schema": "mound.sites", "version": 1, "origin": origin.to_doc(),
+            "home": {"id": "home", "x_m": 0.0, "y_m": 0.0}, "end": {"id": "home"},
+            "budget_m": budget, "scan": scan.to_doc(),
+            "takeoff_landing_m": scan.takeoff_landing_m(), "sites": sites}
+
+
+def plan(doc: dict, tmp: Path, name: str, *args: str) -> dict:
+    path = tmp / f"{name}.json"
+    path.write_text(json.dumps(doc))
+    return native.run_json("mound_plan", [str(path), *args])
+
+
+def flown_points(mission_path: Path) -> tuple[np.ndarray, float]:
+    """The navigation items of a mission file as DEM-CRS x, y and AMSL z (home's AMSL from
+    the file), in flight order, starting on the ground at home."""
+    items, home, _ = mission_files.read_mission(mission_path)
+    pts = [(*TO_TM.transform(home.lon_deg, home.lat_deg), home.alt_m)]
+    for it in items:
+        if it.command in mission_items.NAV_COMMANDS:
+            x, y = TO_TM.transform(it.lon_deg, it.lat_deg)
+            pts.append((x, y, it.z + home.alt_m))
+    return np.array(pts), home.alt_m
+
+
+def clearance_along(raw: tuple[np.ndarray, object], a: np.ndarray, b: np.ndarray,
+                    footprint_m: float, highest: np.ndarray) -> float:
+    """Lowest height above the highest terrain within the footprint (a box of raw pixels)
+    along the segment a -> b sampled every 0.25 m."""
+    _, tf = raw
+    n = max(2, int(np.hypot(*(b[:2] - a[:2])) / 0.25) + 2)
+    t = np.linspace(0, 1, n)
+    p = a[None] + (b - a)[None] * t[:, None]
+    col, row = ~tf @ (p[:, 0], p[:, 1])
+    col = np.floor(np.asarray(col)).astype(int)
+    row = np.floor(np.asarray(row)).astype(int)
+    return float(np.min(p[:, 2] - highest[row, col]))
+
+
+@pytest.fixture(scope="module")
+def flown(raw, dem_path, tmp_path_factory) -> dict:
+    """Sites with the terrain attached, the plan (mound_plan, default ALNS), the mission
+    built over the DEM and written as a .plan file."""
+    tmp = tmp_path_factory.mktemp("terrain")
+    doc = sites_doc(raw, 5000.0)
+    spec = terrain.TerrainSpec()
+    with_terrain = terrain.attach(doc, str(dem_path), spec, "egm96",
+                                  Origin.from_doc(doc["origin"]))
+    p = plan(with_terrain, tmp, "sites_dem")
+    m = mission_items.build(p, Origin.from_doc(doc["origin"]), None,
+                            mission_items.TerrainInput(str(dem_path), "egm96", spec))
+    out = tmp / "mission.plan"
+    mission_files.write_plan(out, m)
+    return {"doc": doc, "terrain_doc": with_terrain, "plan": p, "mission": m, "file": out,
+            "spec": spec, "tmp": tmp}
+
+
+def test_dem_heights_match_the_raw_array(raw, dem_path) -> None:
+    origin = home_origin(raw)
+    dem = Dem.open(str(dem_path), origin, "egm96")
+    rng = np.random.default_rng(0)
+    tm = np.column_stack([rng.uniform(564010, 564990, 50), rng.uniform(146010, 146990, 50)])
+    lon, lat = TO_LL.transform(tm[:, 0], tm[:, 1])
+    enu = geodetic_to_enu(origin, np.column_stack([lat, lon, np.zeros(50)]))
+    # PROJ takes the file's WKT one way and EPSG:3794 the other: millimetres apart.
+    assert np.allclose(dem.height(enu[:, :2]), raw_height(raw, tm[:, 0], tm[:, 1]), atol=0.02)
+    assert dem.pixel_m == pytest.approx((1.0, 1.0), abs=1e-3)
+
+
+def test_dem_refusals(raw, dem_path, tmp_path) -> None:
+    origin = home_origin(raw)
+    with pytest.raises(InputError, match="--dem-vertical"):
+        Dem.open(str(dem_path), origin)  # the file states no vertical datum
+    with pytest.raises(InputError, match="geoid grid.*projsync"):
+        Dem.open(str(dem_path), origin, "ellipsoid")
+    dem = Dem.open(str(dem_path), origin, "egm96")
+    with pytest.raises(InputError, match="off the DEM"):
+        dem.height(np.array([[5000.0, 0.0]]))
+    with rasterio.open(dem_path) as ds:
+        profile = ds.profile
+        z = ds.read(1)
+    two = tmp_path / "two.tif"
+    with rasterio.open(two, "w", **{**profile, "count": 2}) as ds:
+        ds.write(np.stack([z, z]))
+    with pytest.raises(InputError, match="one band"):
+        Dem.open(str(two), origin, "egm96")
+    holes = tmp_path / "holes.tif"
+    z2 = z.copy()
+    z2[700:760, 520:580] = -9999  # around home
+    with rasterio.open(holes, "w", **{**profile, "nodata": -9999}) as ds:
+        ds.write(z2, 1)
+    with pytest.raises(InputError, match="nodata"):
+        Dem.open(str(holes), origin, "egm96").height(np.array([[0.0, 0.0]]))
+    (tmp_path / "junk.tif").write_bytes(b"II*\x00junk")
+    with pytest.raises(InputError, match="not a readable DEM"):
+        Dem.open(str(tmp_path / "junk.tif"), origin, "egm96")
+
+
+def test_every_leg_clears_the_terrain_by_the_clearance(flown, raw) -> None:
+    spec = flown["spec"]
+    m = flown["mission"]
+    pts, home_amsl = flown_points(flown["file"])
+    assert home_amsl == pytest.approx(float(raw_height(raw, *HOME_TM)), abs=0.01)
+    fp = int(np.ceil(spec.footprint_m))
+    highest = maximum_filter(raw[0], size=2 * fp + 1, mode="nearest")
+    centres = []
+    for s in m.sites:
+        lat, lon, _ = mission_items.enu_to_geodetic(m.origin, np.array([[s["x_m"], s["y_m"],
+                                                                         0.0]]))[0]
+        centres.append(TO_TM.transform(float(lon), float(lat)))
+    centres = np.array(centres)
+
+    def site_of(p: np.ndarray) -> int:
+        d = np.hypot(centres[:, 0] - p[0], centres[:, 1] - p[1])
+        return int(np.argmin(d)) if d.min() <= 47 else -1  # scans reach 46 m
+
+    n_transit = 0
+    worst_transit = worst_scan = np.inf
+    for a, b in itertools.pairwise(pts):
+        if np.hypot(*(b[:2] - a[:2])) < 0.5:
+            continue  # climbs and descents in place (checked as the ends of level legs)
+        gap = clearance_along(raw, a, b, spec.footprint_m, highest)
+        if site_of(a) >= 0 and site_of(a) == site_of(b):  # within one site's scan
+            worst_scan = min(worst_scan, gap)
+        else:  # between sites, or from or to home
+            n_transit += 1
+            worst_transit = min(worst_transit, gap)
+    assert n_transit == len(m.terrain["legs"]) == len(m.sites) + 1
+    # float32 altitudes on the link: a few centimetres
+    assert worst_transit >= spec.clearance_m - 0.05
+    assert worst_scan >= spec.scan_clearance_m - 0.05
+    assert min(leg["clearance_m"] for leg in m.terrain["legs"]) >= spec.clearance_m - 1e-9
+
+
+def test_scan_heights_above_each_sites_ground(flown, raw) -> None:
+    m = flown["mission"]
+    origin = m.origin
+    scan = m.spec.scan
+    want = float(scan.legs()[0].points_enu[0, 2])
+    # The scan waypoints: the navigation items while the camera triggers.
+    items, home, _ = mission_files.read_mission(flown["file"])
+    scans: list[list[tuple[float, float, float]]] = []
+    on = False
+    for it in items:
+        if it.command == mission_items.DO_SET_CAM_TRIGG_DIST:
+            on = it.params[0] > 0
+            if on:
+                scans.append([])
+        elif on and it.command in mission_items.NAV_COMMANDS:
+            scans[-1].append((*TO_TM.transform(it.lon_deg, it.lat_deg), it.z + home.alt_m))
+    assert len(scans) == len(m.sites)
+    for s, pts in zip(m.sites, scans, strict=True):
+        # The site's ground independently: the median of the ring D/2..D, on a polar grid.
+        lat, lon, _ = mission_items.enu_to_geodetic(origin, np.array([[s["x_m"], s["y_m"],
+                                                                       0.0]]))[0]
+        cx, cy = TO_TM.transform(float(lon), float(lat))
+        r, a = np.meshgrid(np.linspace(30, 60, 31), np.linspace(0, 2 * np.pi, 360,
+                                                                 endpoint=False))
+        ground = float(np.median(raw_height(raw, cx + r * np.cos(a), cy + r * np.sin(a))))
+        p = np.array(pts)
+        assert np.all(np.hypot(p[:, 0] - cx, p[:, 1] - cy) <= 47), s["id"]
+        assert np.all(np.abs(p[:, 2] - (ground + want)) <= 1.0), (s["id"], p[:, 2] - ground)
+
+
+def test_climbs_are_counted_and_the_flight_fits_the_plan(flown, raw) -> None:
+    spec = flown["spec"]
+    m = flown["mission"]
+    p = flown["plan"]
+    pts, _ = flown_points(flown["file"])
+    pts = np.vstack([pts, pts[:1]])  # lands at home (NAV_LAND's own point is on the ground)
+    d = np.diff(pts, axis=0)
+    horizontal = float(np.hypot(d[:, 0], d[:, 1]).sum())
+    up = float(np.clip(d[:, 2], 0, None).sum())
+    down = float(np.clip(-d[:, 2], 0, None).sum())
+    energy = horizontal + spec.climb_factor * up + spec.descent_factor * down
+    assert up > 50  # the ridges are climbed
+    assert energy == pytest.approx(m.terrain["energy_m"], rel=1e-3)
+    assert energy <= p["cost_m"] + 0.5 <= p["budget_m"] + 0.5
+    # The plan's cost, recomputed from the sites document: planar + scans + the climbs.
+    doc = flown["terrain_doc"]
+    ids = [n["id"] for n in doc["terrain"]["nodes"]]
+    xy = {"home": (0.0, 0.0), **{s["id"]: (s["x_m"], s["y_m"]) for s in doc["sites"]}}
+    scan_cost = {"home": 0.0, **{s["id"]: s["scan_cost_m"] for s in doc["sites"]}}
+    extra = np.array(doc["terrain"]["extra_m"])
+    cost = 0.0
+    for a, b in zip(p["tour"][:-1], p["tour"][1:], strict=True):
+        cost += (np.hypot(xy[a][0] - xy[b][0], xy[a][1] - xy[b][1])
+                 + (scan_cost[a] + scan_cost[b]) / 2 + extra[ids.index(a), ids.index(b)])
+    assert cost == pytest.approx(p["cost_m"], abs=1e-3)
+    assert m.items[-1].command == mission_items.NAV_LAND  # no RTL at an unknown height
+
+
+def flat_clearance(doc: dict, raw, tmp_path: Path, name: str) -> tuple[float, list]:
+    """Lowest height over the ground of the mission planned and flown as before (heights
+    above home, home in the valley), and its items."""
+    p = plan(doc, tmp_path, name)
+    m = mission_items.build(p, Origin.from_doc(doc["origin"]))
+    assert m.summary()["terrain"]["checked"] is False
+    out = tmp_path / f"{name}.plan"
+    mission_files.write_plan(out, m)
+    items, home, _ = mission_files.read_mission(out)
+    pts, _ = flown_points(out)
+    pts[:, 2] += float(raw_height(raw, *HOME_TM)) - home.alt_m  # as flown from the valley
+    flown_part = pts[1:-1]  # from the take-off height to the last waypoint (then RTL)
+    worst = min(clearance_along(raw, a, b, 0, raw[0])
+                for a, b in itertools.pairwise(flown_part))
+    return worst, items
+
+
+def test_todays_mission_without_the_dem_flies_into_the_ridges(flown, raw, tmp_path) -> None:
+    """The same sites planned and flown as before (heights above home): at the default
+    60 m the raster passes a few metres over the highest site, far inside the clearance;
+    at 40 m (a sharper scan) it flies into the ridge. It says the terrain was not checked."""
+    worst, items = flat_clearance(flown["doc"], raw, tmp_path, "flat60")
+    assert 0 < worst < 10, worst
+    assert items[-1].command == mission_items.NAV_RETURN_TO_LAUNCH
+    low = {**flown["doc"], "scan": mission_items.scan_for_site(60.0, "raster", 40.0).to_doc()}
+    worst40, _ = flat_clearance(low, raw, tmp_path, "flat40")
+    assert worst40 < -10, worst40
+
+
+def test_a_plan_through_the_ridges_without_the_terrain_is_refused(flown, dem_path,
+                                                                 tmp_path) -> None:
+    """Planned without the DEM to the last metre of its budget: over the DEM, with a
+    clearance of 120 m (a ridge the aircraft must climb far above), its climbs do not fit,
+    and the mission is refused naming the leg and the terrain point; nothing is written."""
+    doc = dict(flown["doc"])
+    flat = plan(doc, tmp_path, "flat")
+    doc["budget_m"] = flat["cost_m"] + 1.0
+    tight = plan(doc, tmp_path, "tight")
+    with pytest.raises(InputError, match=r"leg \S+ -> \S+ climbs to .* terrain at ENU"):
+        mission_items.build(tight, Origin.from_doc(doc["origin"]), None,
+                            mission_items.TerrainInput(str(dem_path), "egm96",
+                                                       terrain.TerrainSpec(clearance_m=120)))
+    plan_file = tmp_path / "tight_plan.json"
+    plan_file.write_text(json.dumps(tight))
+    out = tmp_path / "m.plan"
+    r = subprocess.run([sys.executable, "-m", "mound", "mission", "build", str(plan_file),
+                        "--out", str(out), "--dem", str(dem_path), "--dem-vertical", "egm96",
+                        "--clearance-m", "120"],
+                       capture_output=True, text=True, cwd=REPO_ROOT, check=False)
+    assert r.returncode == 2, r.stderr
+    assert "terrain at ENU" in r.stderr and len(r.stderr.strip().splitlines()) == 1
+    assert not out.exists()
+
+
+def test_zero_climbs_leave_the_plan_unchanged(flown, tmp_path) -> None:
+    doc = flown["doc"]
+    base = plan(doc, tmp_path, "base")
+    nodes, _ = terrain.sites_nodes(doc)
+    flat = {**doc, "terrain": {"version": 1, "nodes": [{"id": n.id} for n in nodes],
+                               "extra_m": np.zeros((len(nodes), len(nodes))).tolist()}}
+    same = plan(flat, tmp_path, "zero")
+    assert same["tour"] == base["tour"] and same["cost_m"] == pytest.approx(base["cost_m"])
+
+
+def test_scan_too_close_to_the_ground_is_refused(flown, dem_path) -> None:
+    doc = flown["doc"]
+    low = {**doc, "scan": mission_items.scan_for_site(60.0, "raster", 8.0).to_doc()}
+    with pytest.raises(InputError, match=r"site r\d\d: its scan .* scan clearance"):
+        terrain.attach(low, str(dem_path), terrain.TerrainSpec(), "egm96",
+                       Origin.from_doc(doc["origin"]))
