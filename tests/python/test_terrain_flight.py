@@ -213,6 +213,11 @@ def test_every_leg_clears_the_terrain_by_the_clearance(flown, raw) -> None:
             worst_transit = min(worst_transit, gap)
     assert n_transit == len(m.terrain["legs"]) == len(m.sites) + 1
     # float32 altitudes on the link: a few centimetres
+    print(f"[terrain] {len(m.sites)} ridge sites: lowest transit clearance {worst_transit:.2f} m "
+          f"(asked {spec.clearance_m:g}), lowest scan clearance {worst_scan:.2f} m "
+          f"(asked {spec.scan_clearance_m:g}), energy {m.terrain['energy_m']:.0f} m, plan cost "
+          f"{flown['plan']['cost_m']:.0f} m, budget {flown['plan']['budget_m']:.0f} m, climbed "
+          f"{m.terrain['climbed_m']:.0f} m")
     assert worst_transit >= spec.clearance_m - 0.05
     assert worst_scan >= spec.scan_clearance_m - 0.05
     assert min(leg["clearance_m"] for leg in m.terrain["legs"]) >= spec.clearance_m - 1e-9
@@ -235,6 +240,7 @@ def test_scan_heights_above_each_sites_ground(flown, raw) -> None:
         elif on and it.command in mission_items.NAV_COMMANDS:
             scans[-1].append((*TO_TM.transform(it.lon_deg, it.lat_deg), it.z + home.alt_m))
     assert len(scans) == len(m.sites)
+    worst = 0.0
     for s, pts in zip(m.sites, scans, strict=True):
         # The site's ground independently: the median of the ring D/2..D, on a polar grid.
         lat, lon, _ = mission_items.enu_to_geodetic(origin, np.array([[s["x_m"], s["y_m"],
@@ -246,6 +252,8 @@ def test_scan_heights_above_each_sites_ground(flown, raw) -> None:
         p = np.array(pts)
         assert np.all(np.hypot(p[:, 0] - cx, p[:, 1] - cy) <= 47), s["id"]
         assert np.all(np.abs(p[:, 2] - (ground + want)) <= 1.0), (s["id"], p[:, 2] - ground)
+        worst = max(worst, float(np.abs(p[:, 2] - (ground + want)).max()))
+    print(f"[terrain] scan heights above each site's own ground: largest error {worst:.3f} m")
 
 
 def test_climbs_are_counted_and_the_flight_fits_the_plan(flown, raw) -> None:
@@ -302,6 +310,8 @@ def test_todays_mission_without_the_dem_flies_into_the_ridges(flown, raw, tmp_pa
     assert items[-1].command == mission_items.NAV_RETURN_TO_LAUNCH
     low = {**flown["doc"], "scan": mission_items.scan_for_site(60.0, "raster", 40.0).to_doc()}
     worst40, _ = flat_clearance(low, raw, tmp_path, "flat40")
+    print(f"[terrain] without the DEM: lowest height over the ground {worst:.1f} m (scan at "
+          f"60 m above home), {worst40:.1f} m (at 40 m)")
     assert worst40 < -10, worst40
 
 
@@ -346,3 +356,38 @@ def test_scan_too_close_to_the_ground_is_refused(flown, dem_path) -> None:
     with pytest.raises(InputError, match=r"site r\d\d: its scan .* scan clearance"):
         terrain.attach(low, str(dem_path), terrain.TerrainSpec(), "egm96",
                        Origin.from_doc(doc["origin"]))
+
+
+def test_the_simulator_flies_the_missions_heights_over_the_same_terrain(flown, raw,
+                                                                       dem_path) -> None:
+    """A visited site on a slope, as the survey simulates it: the DEM patch around it with
+    z = 0 at the mission's ground of the site, so the scan (the same ScanSpec, heights above
+    z = 0) is at the mission's heights; the patch is the DEM's own relief."""
+    from mound.geometry.dem import lonlat_to_crs
+    from mound.sim import terrain as sim_terrain
+
+    m = flown["mission"]
+    nodes = {n["id"]: n for n in flown["terrain_doc"]["terrain"]["nodes"]}
+    # the most sloped visited site: the largest spread of the ring's heights
+    slope = {}
+    for s in m.sites:
+        lat, lon, _ = mission_items.enu_to_geodetic(m.origin, np.array([[s["x_m"], s["y_m"],
+                                                                         0.0]]))[0]
+        x, y = lonlat_to_crs(str(dem_path), float(lon), float(lat))
+        a = np.linspace(0, 2 * np.pi, 72, endpoint=False)
+        ring = raw_height(raw, x + 45 * np.cos(a), y + 45 * np.sin(a))
+        slope[s["id"]] = (float(ring.max() - ring.min()), x, y, s)
+    spread, x, y, s = max(slope.values(), key=lambda v: v[0])
+    assert spread > 5  # a site on a slope
+    g = nodes[s["id"]]["ground_amsl_m"]
+    assert g == pytest.approx(s["ground_amsl_m"])
+    spec = sim_terrain.preset("bin_tepe", mound=False, size_m=160.0, dem_path=str(dem_path),
+                              dem_x_m=x, dem_y_m=y, dem_ground_m=g, dem_vertical="egm96")
+    hf = sim_terrain.build(spec)
+    xs = np.array([30.0, -41.0, 12.0])
+    ys = np.array([-22.0, 17.0, 50.0])
+    assert np.allclose(hf.height_at(xs, ys), raw_height(raw, x + xs, y + ys) - g, atol=0.05)
+    want = [float(leg.points_enu[0, 2]) for leg in m.spec.scan.legs()]
+    assert s["scan_height_above_ground_m"] == want  # the mission flies these above g
+    for p in np.vstack([leg.points_enu for leg in m.spec.scan.legs()]):
+        assert p[2] - float(hf.height_at(np.array([p[0]]), np.array([p[1]]))[0]) >= 10

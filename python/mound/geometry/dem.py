@@ -304,6 +304,26 @@ class Dem:
         return best, where
 
 
+def lonlat_to_crs(path: str, lon: float, lat: float) -> tuple[float, float]:
+    """A WGS84 point in the DEM's own CRS."""
+    import rasterio
+    from pyproj import CRS, Transformer
+    from rasterio.errors import RasterioError
+
+    try:
+        with rasterio.open(path) as ds:
+            if ds.crs is None:
+                raise InputError(f"{path}: the DEM states no CRS")
+            crs = CRS.from_user_input(ds.crs.to_wkt())
+    except RasterioError as e:
+        msg = " ".join(str(e).split())[:160]
+        raise InputError(f"{path}: not a readable DEM ({msg})") from None
+    t = Transformer.from_crs(CRS("EPSG:4326"), crs.to_2d() if crs.is_compound else crs,
+                             always_xy=True)
+    x, y = t.transform(float(lon), float(lat))
+    return float(x), float(y)
+
+
 def _to_pixel(xy: np.ndarray, origin: Origin, to_dem: Any, inverse: Any,
               path: str) -> tuple[np.ndarray, np.ndarray]:
     """File (col, row) (pixel corners at integers) of ENU points on the ellipsoid."""

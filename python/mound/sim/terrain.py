@@ -89,6 +89,11 @@ class TerrainSpec:
     dem_path: str | None = None    # a real terrain patch in place of the undulation
     dem_x_m: float = 0.0
     dem_y_m: float = 0.0
+    # With a DEM: z = 0 at this height of the DEM (the mission's ground of the site, so that
+    # the simulator flies the mission's heights); None: the patch's median. The heights
+    # are then read as dem_vertical ones (None: as they are).
+    dem_ground_m: float | None = None
+    dem_vertical: str | None = None
     confusers: tuple[Confuser, ...] = ()
     seed: int = 0
 
@@ -254,18 +259,20 @@ def _confuser(c: Confuser, xx: np.ndarray, yy: np.ndarray, ground: np.ndarray
     return np.zeros_like(xx), top
 
 
-def dem_patch(path: str, x0: float, y0: float, axis: np.ndarray) -> np.ndarray:
+def dem_patch(path: str, x0: float, y0: float, axis: np.ndarray,
+              ground_m: float | None = None, vertical: str | None = None) -> np.ndarray:
     """Heights of a DEM (any CRS; geometry/dem.py, the project's one DEM reader) on the
     site's grid, the patch centred on (x0, y0) in the DEM's CRS, its axes along the DEM's
-    (north up); less the patch's median height (so what the heights are above does not
-    matter)."""
+    (north up); less `ground_m` (AMSL, with the heights read as `vertical` ones), or less
+    the patch's median height (then what the heights are above does not matter)."""
     from mound.geometry.dem import Dem
 
-    dem = Dem.at(path, x0, y0, "egm96", margin_m=float(np.abs(axis).max()) * 1.5 + 10)
+    dem = Dem.at(path, x0, y0, vertical or "egm96",
+                 margin_m=float(np.abs(axis).max()) * 1.5 + 10)
     xx, yy = np.meshgrid(x0 + axis, y0 + axis)  # grid row i is y = y0 + axis[i]
     patch = dem.height_crs(xx, yy, f"a site {axis[-1] - axis[0]:g} m across at ({x0:g}, "
                            f"{y0:g})").reshape(len(axis), len(axis))
-    return patch - np.median(patch)
+    return patch - (np.median(patch) if ground_m is None else ground_m)
 
 
 def build(spec: TerrainSpec) -> Heightfield:
@@ -282,7 +289,8 @@ def build(spec: TerrainSpec) -> Heightfield:
                          + phase)
     z = spec.ground_relief_m / 4 * ground
     if spec.dem_path is not None:
-        z = dem_patch(spec.dem_path, spec.dem_x_m, spec.dem_y_m, axis)
+        z = dem_patch(spec.dem_path, spec.dem_x_m, spec.dem_y_m, axis, spec.dem_ground_m,
+                      spec.dem_vertical)
     if spec.slope_deg > 0:
         u, _ = _along_across(xx, yy, 0.0, 0.0, spec.slope_azimuth_deg)
         z = z + np.tan(np.deg2rad(spec.slope_deg)) * u

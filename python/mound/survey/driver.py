@@ -515,17 +515,22 @@ def site_jobs(ctx: Context) -> list[Any]:
                if a.reference else (), "threads": a.site_threads,
                "timeout_s": a.site_timeout}
     jobs = []
+    grounds = {n["id"]: n["ground_amsl_m"]
+               for n in (sites_doc.get("terrain") or {}).get("nodes", [])}
     for index, s in enumerate(sites_doc["sites"]):
         if s["id"] not in tour:
             continue
+        ter = ({"dem": str(Path(a.dem).resolve()), "vertical": sites_doc["terrain"]["vertical"],
+                "ground_amsl_m": grounds[s["id"]]} if a.dem and s["id"] in grounds else None)
         images = str((Path(a.images_root) / s["id"]).resolve()) if a.images_root else None
         key = digest({"site": {k: s.get(k) for k in ("id", "x_m", "y_m", "truth", "simulate")},
                       "index": index, "options": options, "images": images,
                       "images_digest": _folder_digest(Path(images)) if images else None,
-                      "reference": sha256_of(Path(a.reference)) if a.reference else None})
+                      "reference": sha256_of(Path(a.reference)) if a.reference else None,
+                      "terrain": ter and {**ter, "dem": terrain_material(a)}})
         jobs.append(SiteJob(site=s, index=index, run_root=str(root), run_id=ctx.run_id,
                             origin=sites_doc["origin"], key=key, images_dir=images,
-                            **options))  # type: ignore[arg-type]
+                            terrain=ter, **options))  # type: ignore[arg-type]
     return jobs
 
 

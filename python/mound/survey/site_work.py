@@ -55,6 +55,8 @@ class SiteJob:
     timeout_s: float = 1800.0
     figures: bool = True
     extra: dict[str, Any] = field(default_factory=dict)
+    # Flown over a DEM: {dem, vertical, ground_amsl_m} of this site (None: no DEM).
+    terrain: dict[str, Any] | None = None
 
     @property
     def tree(self) -> SiteTree:
@@ -84,10 +86,20 @@ def _simulate(job: SiteJob, row: dict[str, Any]) -> tuple[Path, Path | None, str
     seed = 1000 * job.sim_seed + job.index + 1
     origin = Origin.from_doc(job.origin)
     lat, lon, alt = enu_to_geodetic(origin, np.array([[job.site["x_m"], job.site["y_m"], 0.0]]))[0]
+    ground: dict[str, Any] = {}
+    if job.terrain:
+        # Over the survey's DEM: the site's own terrain, z = 0 at the mission's ground of
+        # the site, so the simulated flight has the mission's heights above it.
+        from mound.geometry.dem import lonlat_to_crs
+
+        x, y = lonlat_to_crs(job.terrain["dem"], float(lon), float(lat))
+        ground = {"dem_path": job.terrain["dem"], "dem_x_m": x, "dem_y_m": y,
+                  "dem_ground_m": float(job.terrain["ground_amsl_m"]),
+                  "dem_vertical": job.terrain["vertical"]}
     spec = sim.SimSpec(
         terrain=terrain.preset("bin_tepe", mound=bool(truth), seed=seed,
                                diameter_m=job.site_diameter_m, height_m=height,
-                               size_m=max(160.0, 8 * job.site_diameter_m / 3)),
+                               size_m=max(160.0, 8 * job.site_diameter_m / 3), **ground),
         width_px=job.image_size[0], height_px=job.image_size[1], pattern=job.pattern,
         seed=seed, origin={"lat": float(lat), "lon": float(lon), "alt_m": float(alt)})
     t = job.tree
