@@ -62,7 +62,7 @@ class Search {
  public:
   Search(const OpInstance& inst, uint64_t seed)
       : inst_(inst), c_(inst), rng_(seed), limit_(inst.budget_m + BudgetSlack(inst.budget_m)),
-        eps_(1e-12 * (1.0 + inst.budget_m)), in_(inst.Size(), 0) {
+        eps_(1e-12 * (1.0 + inst.budget_m)), in_(inst.Size(), 0), taken_(inst.Size(), 0) {
     for (int v = inst.FirstSite(); v < inst.Size(); ++v)
       if (inst.nodes[v].reward > 0) rewarded_.push_back(v);
     pos_.assign(inst.Size(), -1);
@@ -177,7 +177,7 @@ class Search {
     // Seeded by a random site that fits, so that restarts reach other parts of the field.
     for (int tries = 0; tries < 20 && !rewarded_.empty(); ++tries) {
       const int v = rewarded_[rng_() % rewarded_.size()];
-      if (Fits(v)) return ConstructFrom(v, noise);
+      if (Fits(v) && !taken_[v]) return ConstructFrom(v, noise);
     }
     return ConstructFrom(-1, noise);
   }
@@ -200,7 +200,7 @@ class Search {
     std::vector<double> gap;
     std::vector<int> cand;
     for (int v : rewarded_)
-      if (Fits(v)) {
+      if (Fits(v) && !taken_[v]) {
         cand.push_back(v);
         gap.push_back(c_(OpInstance::kHome, v));
       }
@@ -225,6 +225,28 @@ class Search {
 
   std::mt19937_64& Rng() { return rng_; }
   uint64_t Ticks() const { return c_.Ticks(); }
+  double Limit() const { return limit_; }
+  // Sites flown by the other flights of a multi-flight plan: never inserted into this one.
+  void SetTaken(const std::vector<char>& taken) { taken_ = taken; }
+  void ClearTaken() { std::fill(taken_.begin(), taken_.end(), 0); }
+  std::vector<char>& Blocked() { return blocked_; }
+
+  // Moves between two flights that keep both within the budget and shorten them together
+  // (rewards unchanged; the freed budget is refilled afterwards): relocate a site of a
+  // into b, exchange a site of a with one of b, and cross (a's head with b's tail and b's
+  // head with a's tail; both end at the same node). Returns true if any was made.
+  bool BetweenRoutes(Solution* a, Solution* b) {
+    bool any = false;
+    for (int round = 0; round < 50; ++round) {
+      if (!(Relocate(a, b) || Relocate(b, a) || Exchange(a, b) || Cross(a, b))) break;
+      any = true;
+    }
+    if (any) {
+      Evaluate(a);
+      Evaluate(b);
+    }
+    return any;
+  }
 
  private:
   void Mark(const std::vector<int>& route) {
@@ -370,7 +392,7 @@ class Search {
     const double inf = std::numeric_limits<double>::infinity();
     cand_.clear();
     for (int v : rewarded_)
-      if (!in_[v] && !(blocked && (*blocked)[v])) cand_.push_back(v);
+      if (!in_[v] && !taken_[v] && !(blocked && (*blocked)[v])) cand_.push_back(v);
     if (cand_.empty()) return;
     next_.assign(n, -1);
     for (size_t i = 0; i + 1 < r.size(); ++i) next_[r[i]] = r[i + 1];
@@ -485,7 +507,7 @@ class Search {
     refresh();
     bool any = false;
     for (int v : rewarded_) {
-      if (in_[v]) continue;
+      if (in_[v] || taken_[v]) continue;
       const double rv = inst_.nodes[v].reward;
       if (rv < min_reward * (1.0 - 1e-12)) continue;  // every visited site has more
       const int L = static_cast<int>(r.size());
@@ -568,11 +590,107 @@ class Search {
     return any;
   }
 
+  // Cost of leaving out r[p] (the edge that replaces it counted).
+  double Saving(const std::vector<int>& r, int p) const {
+    return c_(r[p - 1], r[p]) + c_(r[p], r[p + 1]) - c_(r[p - 1], r[p + 1]);
+  }
+
+  // The cheapest place for v in r: (extra cost, insert before index).
+  std::pair<double, int> CheapestInsertion(const std::vector<int>& r, int v) const {
+    double best = std::numeric_limits<double>::infinity();
+    int at = 1;
+    for (size_t k = 0; k + 1 < r.size(); ++k) {
+      const double d = c_(r[k], v) + c_(v, r[k + 1]) - c_(r[k], r[k + 1]);
+      if (d < best) {
+        best = d;
+        at = static_cast<int>(k) + 1;
+      }
+    }
+    return {best, at};
+  }
+
+  // A site of a moved into b where that costs less than it saves in a.
+  bool Relocate(Solution* a, Solution* b) {
+    std::vector<int>& ra = a->route;
+    for (int p = 1; p + 1 < static_cast<int>(ra.size()); ++p) {
+      const int v = ra[p];
+      const double save = Saving(ra, p);
+      const auto [add, at] = CheapestInsertion(b->route, v);
+      if (b->cost + add <= limit_ && add < save - 1e-9 * (1.0 + save)) {
+        ra.erase(ra.begin() + p);
+        b->route.insert(b->route.begin() + at, v);
+        a->cost -= save;
+        b->cost += add;
+        a->reward -= inst_.nodes[v].reward;
+        b->reward += inst_.nodes[v].reward;
+        return true;
+      }
+    }
+    return false;
+  }
+
+  // A site of a and a site of b swapped, each at the other's place.
+  bool Exchange(Solution* a, Solution* b) {
+    std::vector<int>& ra = a->route;
+    std::vector<int>& rb = b->route;
+    for (int p = 1; p + 1 < static_cast<int>(ra.size()); ++p) {
+      const int v = ra[p];
+      const double out_a = c_(ra[p - 1], v) + c_(v, ra[p + 1]);
+      for (int q = 1; q + 1 < static_cast<int>(rb.size()); ++q) {
+        const int w = rb[q];
+        const double da = c_(ra[p - 1], w) + c_(w, ra[p + 1]) - out_a;
+        const double db = c_(rb[q - 1], v) + c_(v, rb[q + 1]) - c_(rb[q - 1], w) - c_(w, rb[q + 1]);
+        if (da + db < -1e-9 * (1.0 + a->cost + b->cost) && a->cost + da <= limit_ &&
+            b->cost + db <= limit_) {
+          std::swap(ra[p], rb[q]);
+          a->cost += da;
+          b->cost += db;
+          const double rv = inst_.nodes[v].reward, rw = inst_.nodes[w].reward;
+          a->reward += rw - rv;
+          b->reward += rv - rw;
+          return true;
+        }
+      }
+    }
+    return false;
+  }
+
+  // 2-opt*: a[0..i] + b[j+1..] and b[0..j] + a[i+1..].
+  bool Cross(Solution* a, Solution* b) {
+    std::vector<int>& ra = a->route;
+    std::vector<int>& rb = b->route;
+    const int la = static_cast<int>(ra.size()), lb = static_cast<int>(rb.size());
+    if (la < 3 && lb < 3) return false;
+    std::vector<double> pa(la, 0.0), pb(lb, 0.0);  // prefix costs
+    for (int k = 1; k < la; ++k) pa[k] = pa[k - 1] + c_(ra[k - 1], ra[k]);
+    for (int k = 1; k < lb; ++k) pb[k] = pb[k - 1] + c_(rb[k - 1], rb[k]);
+    const double old = a->cost + b->cost, tol = 1e-9 * (1.0 + old);
+    for (int i = 0; i + 1 < la; ++i) {
+      for (int j = 0; j + 1 < lb; ++j) {
+        if ((i == 0 && j == 0) || (i == la - 2 && j == lb - 2)) continue;  // a swap of whole routes
+        const double na = pa[i] + c_(ra[i], rb[j + 1]) + (pb[lb - 1] - pb[j + 1]);
+        const double nb = pb[j] + c_(rb[j], ra[i + 1]) + (pa[la - 1] - pa[i + 1]);
+        if (na + nb < old - tol && na <= limit_ && nb <= limit_) {
+          std::vector<int> new_a(ra.begin(), ra.begin() + i + 1);
+          new_a.insert(new_a.end(), rb.begin() + j + 1, rb.end());
+          std::vector<int> new_b(rb.begin(), rb.begin() + j + 1);
+          new_b.insert(new_b.end(), ra.begin() + i + 1, ra.end());
+          ra = std::move(new_a);
+          rb = std::move(new_b);
+          Evaluate(a);
+          Evaluate(b);
+          return true;
+        }
+      }
+    }
+    return false;
+  }
+
   const OpInstance& inst_;
   Costs c_;
   std::mt19937_64 rng_;
   double limit_, eps_;
-  std::vector<char> in_, blocked_;
+  std::vector<char> in_, blocked_, taken_;
   std::vector<int> rewarded_, cand_, next_, after_, pos_;
   std::vector<std::vector<int>> near_;
   std::vector<double> delta_, factor_, save_, edge_;
@@ -711,6 +829,207 @@ PlanResult SolveAlns(const OpInstance& inst, const AlnsOptions& opt) {
   nlohmann::json w = nlohmann::json::object();
   for (int o = 0; o < kNumRuins; ++o) w[kRuinNames[o]] = {{"weight", weight[o]}, {"new_bests", bests[o]}};
   res.stats["ruins"] = w;
+  res.stats["elapsed_s"] = elapsed();
+  return res;
+}
+
+}  // namespace mound::plan
+
+namespace mound::plan {
+
+FlightsResult SolveAlnsFlights(const OpInstance& inst, int flights, const AlnsOptions& opt) {
+  if (flights == 1) {
+    FlightsResult one;
+    const PlanResult r = SolveAlns(inst, opt);
+    one.routes = {r.route};
+    one.stats = r.stats;
+    OrderFlights(inst, &one);
+    return one;
+  }
+  const auto start = std::chrono::steady_clock::now();
+  auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
+  const double work_limit = opt.time_limit_s > 0 ? opt.time_limit_s * kAlnsTicksPerSecond : 0;
+  const double wall_limit = opt.time_limit_s > 0 ? opt.time_limit_s * opt.wall_factor : 0;
+
+  // The start: ALNS-OP flight by flight on the sites the earlier flights left, a quarter of
+  // the work shared among them.
+  uint64_t start_ticks = 0;
+  FlightsResult seq = SequentialFlights(inst, flights, [&](const OpInstance& sub, int k) {
+    AlnsOptions o = opt;
+    o.seed = opt.seed + 7919 * static_cast<uint64_t>(k);
+    o.time_limit_s = opt.time_limit_s > 0 ? 0.25 * opt.time_limit_s / flights : 0;
+    if (opt.time_limit_s <= 0) o.max_iterations = std::min(opt.max_iterations, 2000);
+    PlanResult r = SolveAlns(sub, o);
+    start_ticks += r.stats.value("work_ticks", uint64_t{0});
+    return r;
+  });
+
+  Search search(inst, opt.seed ^ 0xA5A5A5A5ULL);
+  std::mt19937_64& rng = search.Rng();
+  const int n = inst.Size();
+  std::vector<char> taken(n, 0);
+  auto mark_others = [&](const std::vector<Solution>& fl, int k) {
+    std::fill(taken.begin(), taken.end(), 0);
+    for (int j = 0; j < static_cast<int>(fl.size()); ++j) {
+      if (j == k) continue;
+      for (int v : fl[j].route)
+        if (inst.IsSite(v)) taken[v] = 1;
+    }
+    search.SetTaken(taken);
+  };
+  struct Multi {
+    std::vector<Solution> fl;
+    double reward = 0, cost = 0;
+  };
+  auto total = [&](Multi* m) {
+    m->reward = m->cost = 0;
+    for (auto& s : m->fl) {
+      search.Evaluate(&s);
+      m->reward += s.reward;
+      m->cost += s.cost;
+    }
+  };
+  auto better = [&](const Multi& a, const Multi& b) {
+    const double eps = 1e-12 * (1.0 + std::abs(b.reward));
+    if (a.reward > b.reward + eps) return true;
+    return a.reward >= b.reward - eps && a.cost < b.cost - 1e-9;
+  };
+  // Moves between every pair of flights, then each flight refilled and searched again.
+  auto improve = [&](Multi* m) {
+    for (int round = 0; round < 10; ++round) {
+      bool moved = false;
+      for (int a = 0; a < flights; ++a)
+        for (int b = a + 1; b < flights; ++b) moved |= search.BetweenRoutes(&m->fl[a], &m->fl[b]);
+      bool grew = false;
+      for (int k = 0; k < flights; ++k) {
+        const double before = m->fl[k].reward;
+        mark_others(m->fl, k);
+        search.LocalSearch(&m->fl[k]);
+        grew |= m->fl[k].reward > before + 1e-12;
+      }
+      if (!moved && !grew) break;
+    }
+    total(m);
+  };
+
+  Multi best;
+  for (auto& r : seq.routes) best.fl.push_back(search.Make(r));
+  improve(&best);
+  const double seq_reward = seq.reward;
+  Multi cur = best;
+
+  const int sites = n - inst.FirstSite();
+  const int stagnation = opt.stagnation > 0 ? opt.stagnation : std::max(5000, 50 * sites);
+  const int restart = std::clamp(stagnation / 10, 100, 400);
+  std::array<double, kNumRuins> weight{1, 1, 1, 1}, score{}, used{};
+  int it = 0, since_best = 0, new_bests = 0, last_polish = 0;
+  bool out_of_work = false, out_of_wall = false;
+  std::vector<char> blocked(n, 0);
+  auto ticks = [&] { return static_cast<double>(search.Ticks() + start_ticks); };
+  int rewarded = 0;
+  for (int v = inst.FirstSite(); v < n; ++v) rewarded += inst.nodes[v].reward > 0;
+  auto all_visited = [&](const Multi& m) {
+    int on = 0;
+    for (const auto& s : m.fl)
+      for (int v : s.route) on += inst.IsSite(v) && inst.nodes[v].reward > 0;
+    return on == rewarded;
+  };
+  for (; it < opt.max_iterations && since_best < stagnation; ++it) {
+    if (all_visited(best)) break;
+    if (work_limit > 0 && ticks() >= work_limit) {
+      out_of_work = true;
+      break;
+    }
+    if (wall_limit > 0 && elapsed() >= wall_limit) {
+      out_of_wall = true;
+      break;
+    }
+    double wsum = 0;
+    for (double w : weight) wsum += w;
+    double pick = std::uniform_real_distribution<double>(0, wsum)(rng);
+    int op = 0;
+    while (op + 1 < kNumRuins && pick >= weight[op]) pick -= weight[op++];
+    Multi cand = cur;
+    // Ruin one flight (half of the time) or all of them.
+    const bool all = rng() % 2 == 0;
+    const int one = static_cast<int>(rng() % flights);
+    std::fill(blocked.begin(), blocked.end(), 0);
+    for (int k = 0; k < flights; ++k) {
+      if (!all && k != one) continue;
+      const int m = static_cast<int>(cand.fl[k].route.size()) - 2;
+      if (m <= 0) continue;
+      const int k_max = std::max(1, std::min(40, std::max(4, (2 * m) / 5)));
+      search.Ruin(&cand.fl[k], op, 1 + static_cast<int>(rng() % k_max));
+      for (int v = 0; v < n; ++v) blocked[v] |= search.Blocked()[v];
+    }
+    static constexpr double kNoise[] = {0.1, 0.3, 0.6};
+    const double noise = kNoise[rng() % 3];
+    std::vector<int> order(flights);
+    std::iota(order.begin(), order.end(), 0);
+    std::shuffle(order.begin(), order.end(), rng);
+    for (int k : order) {
+      mark_others(cand.fl, k);
+      search.Blocked() = blocked;
+      search.Recreate(&cand.fl[k], noise);
+      search.LocalSearch(&cand.fl[k]);
+    }
+    improve(&cand);
+
+    const double progress = work_limit > 0 ? ticks() / work_limit
+                                           : static_cast<double>(since_best) / stagnation;
+    const double threshold = 0.05 * std::max(0.0, 1.0 - progress);
+    used[op] += 1;
+    ++since_best;
+    if (better(cand, best)) {
+      best = cand;
+      ++new_bests;
+      since_best = 0;
+      score[op] += 33;
+      if (it - last_polish >= 50) {
+        for (int k = 0; k < flights; ++k) {
+          mark_others(best.fl, k);
+          search.Polish(&best.fl[k], opt.seed + static_cast<uint64_t>(it) + k);
+        }
+        improve(&best);
+        last_polish = it;
+      }
+      cur = best;
+    } else if (better(cand, cur)) {
+      score[op] += 9;
+      cur = std::move(cand);
+    } else if (cand.reward >= best.reward * (1.0 - threshold)) {
+      score[op] += 13;
+      cur = std::move(cand);
+    }
+    if (since_best > 0 && since_best % restart == 0) cur = best;
+    if ((it + 1) % 100 == 0) {
+      for (int o = 0; o < kNumRuins; ++o) {
+        if (used[o] > 0) weight[o] = 0.8 * weight[o] + 0.2 * std::max(0.05, score[o] / used[o]);
+        score[o] = used[o] = 0;
+      }
+    }
+  }
+  for (int k = 0; k < flights; ++k) {
+    mark_others(best.fl, k);
+    search.Polish(&best.fl[k], opt.seed + 0x9E3779B9ULL + k);
+  }
+  improve(&best);
+
+  FlightsResult res;
+  for (auto& s : best.fl) res.routes.push_back(s.route);
+  OrderFlights(inst, &res);
+  res.stats = nlohmann::json::object();
+  res.stats["name"] = "alns";
+  res.stats["flights"] = flights;
+  res.stats["sequential_start_reward"] = seq_reward;
+  res.stats["iterations"] = it;
+  res.stats["new_bests"] = new_bests;
+  res.stats["stopped_by"] = out_of_work                ? "time limit (work ticks)"
+                            : out_of_wall              ? "wall clock (not repeatable)"
+                            : it >= opt.max_iterations ? "iterations"
+                            : since_best >= stagnation ? "stagnation"
+                                                       : "all sites visited";
+  res.stats["work_ticks"] = static_cast<uint64_t>(ticks());
   res.stats["elapsed_s"] = elapsed();
   return res;
 }

@@ -29,6 +29,7 @@
 
 #include <cstdint>
 
+#include "plan/flights.h"
 #include "plan/newalg.h"
 #include "plan/op_instance.h"
 
@@ -48,5 +49,14 @@ struct AlnsOptions {
 };
 
 PlanResult SolveAlns(const OpInstance& inst, const AlnsOptions& opt);
+
+// Several flights from the same home (the team orienteering problem): K routes, each
+// within the budget, no site in two, the most reward in all. K = 1 is SolveAlns. For
+// K > 1 the same search on K routes: the start is ALNS-OP flight by flight on the sites
+// left (a quarter of the work), then each iteration ruins one flight or all of them,
+// recreates each flight in a random order (the other flights' sites excluded), runs each
+// flight's local search and the moves between flights (relocate, exchange, cross), and
+// refills the budget they free. Flights are returned in order of reward, best first.
+FlightsResult SolveAlnsFlights(const OpInstance& inst, int flights, const AlnsOptions& opt);
 
 }  // namespace mound::plan

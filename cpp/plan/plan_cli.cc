@@ -13,8 +13,9 @@
 #include "common/cli_args.h"
 #include "common/error.h"
 #include "plan/baselines.h"
-#include "plan/exact_small.h"
 #include "plan/alns.h"
+#include "plan/exact_small.h"
+#include "plan/flights.h"
 #include "plan/newalg.h"
 #include "plan/sites_io.h"
 #include "tsp/solver.h"
@@ -27,7 +28,7 @@ constexpr const char* kVersion = "mound_plan 0.1.0";
 
 constexpr const char* kUsage =
     "usage: mound_plan SITES.json [BUDGET] [--algo NAME] [--seed N] [--iterations N]\n"
-    "                  [--time-limit S] [--routes N] [--out PLAN.json]\n"
+    "                  [--time-limit S] [--routes N] [--flights K] [--out PLAN.json]\n"
     "       mound_plan tsp FILE.tsp [--seed N] [--runs N] [--trials N] [--time-limit S]\n"
     "                  [--optimum L] [--kick-segment K] [--initial-period P]\n"
     "                  [--ascent-candidates K] [--out FILE.json]\n"
@@ -51,6 +52,11 @@ constexpr const char* kUsage =
     "                     reference machine, the same plan under load; a wall-clock guard\n"
     "                     stops it at 10 S, and solver.stopped_by says so)\n"
     "  --routes N         tsiligirides: routes built (default 3000, as in the original)\n"
+    "  --flights K        K flights from home (batteries or aircraft), each within the\n"
+    "                     budget, no site in two, the most reward in all (the team\n"
+    "                     orienteering problem): alns on K routes with moves between them,\n"
+    "                     exact (<= 14 sites), any other algorithm flight by flight;\n"
+    "                     plan.json's flights[] ordered by reward (default 1)\n"
     "  --out FILE         write the result there (atomically) instead of stdout\n"
     "The tsp command solves a TSPLIB instance with the built-in Lin-Kernighan-Helsgaun\n"
     "engine and prints {\"length\", \"tour\" (1-based ids), ...}:\n"
@@ -259,9 +265,34 @@ int RunOp(const std::vector<std::string>& args, std::ostream& out, std::ostream&
   return kExitOk;
 }
 
+// Several flights: ALNS-OP on K routes, the exact DP on small instances, and any other
+// algorithm flight by flight on the sites the earlier flights left (the paper's baseline).
+FlightsResult SolveFlights(const std::string& algo, const OpInstance& inst, int flights,
+                           const AlgoOptions& o) {
+  const int n_sites = inst.Size() - inst.FirstSite();
+  if (algo == "exact" && n_sites > kMaxExactFlightSites) {
+    throw InputError("--algo exact --flights: at most " + std::to_string(kMaxExactFlightSites) +
+                     " sites, got " + std::to_string(n_sites));
+  }
+  FlightsResult r = algo == "alns"    ? SolveAlnsFlights(inst, flights, o.alns)
+                    : algo == "exact" ? SolveExactFlights(inst, flights)
+                                      : SequentialFlights(inst, flights,
+                                                          [&](const OpInstance& sub, int k) {
+                                                            AlgoOptions ok = o;
+                                                            ok.newalg.seed += k;
+                                                            ok.alns.seed += k;
+                                                            ok.baseline.seed += k;
+                                                            return Solve(algo, sub, ok);
+                                                          });
+  if (algo != "alns" && algo != "exact") r.stats["name"] = algo + " flight by flight";
+  const std::string defect = CheckFlights(inst, r.routes);
+  if (!defect.empty()) throw std::logic_error("planner produced invalid flights: " + defect);
+  return r;
+}
+
 int RunPlan(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
   const Args a = ParseArgs(args, 0, {"--algo", "--seed", "--out", "--iterations", "--time-limit",
-                                     "--routes"});
+                                     "--routes", "--flights"});
   if (a.positional.empty() || a.positional.size() > 2) {
     throw InputError("usage: mound_plan SITES.json [BUDGET] [options] (see --help)");
   }
@@ -278,12 +309,22 @@ int RunPlan(const std::vector<std::string>& args, std::ostream& out, std::ostrea
     o.newalg.progress = Reporter(err, "mound_plan", t_read);
     o.newalg.progress("read " + std::to_string(n_sites) + " sites; planning with " + algo);
   }
+  const int flights = a.options.count("--flights")
+                          ? static_cast<int>(ParseInt(a.options.at("--flights"), "--flights", 1,
+                                                      kMaxFlights))
+                          : 1;
   const auto t0 = std::chrono::steady_clock::now();
-  PlanResult r = Solve(algo, sites.instance, o);
-  if (by_default) r.stats["algo_chosen"] = kDefaultRule;
-  const double elapsed =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  PlanSummary summary{algo, r.route, elapsed, o.newalg.seed, r.stats};
+  PlanSummary summary;
+  if (flights == 1) {
+    PlanResult r = Solve(algo, sites.instance, o);
+    if (by_default) r.stats["algo_chosen"] = kDefaultRule;
+    summary = {algo, r.route, 0, o.newalg.seed, r.stats, {}};
+  } else {
+    FlightsResult r = SolveFlights(algo, sites.instance, flights, o);
+    if (by_default) r.stats["algo_chosen"] = kDefaultRule;
+    summary = {algo, r.routes[0], 0, o.newalg.seed, r.stats, r.routes};
+  }
+  summary.elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   Emit(PlanToJson(sites, summary), a.options, out);
   return kExitOk;
 }

@@ -7,6 +7,7 @@
 #include <fstream>
 #include <functional>
 #include <nlohmann/json.hpp>
+#include <set>
 #include <sstream>
 
 #include "common/atomic_file.h"
@@ -250,6 +251,60 @@ TEST(PlanCliTest, TerrainClimbCostsAreAddedToEveryLeg) {
     const CliRun e = Call({WriteTemp("terrain_bad.json", d.dump()), "100"});
     EXPECT_EQ(e.code, 2) << c.field;
     EXPECT_NE(e.err.find(c.field), std::string::npos) << c.field << ": " << e.err;
+  }
+}
+
+// --flights K: plan.json's flights[] (always present), each within the budget, no site in
+// two, ordered by reward, summing to the top-level reward and cost; one flight is today's
+// plan; the exact DP and a baseline flight by flight; bad K refused.
+TEST(PlanCliTest, SeveralFlights) {
+  auto j = GoodSites();
+  j["sites"] = nlohmann::json::array();
+  for (int i = 0; i < 12; ++i) {
+    j["sites"].push_back({{"id", "s" + std::to_string(i)}, {"x_m", (i % 4) * 3.0 - 4},
+                          {"y_m", (i / 4) * 3.0 - 3}, {"reward", 1.0 + 0.1 * i}});
+  }
+  const std::string in = WriteTemp("flights.json", j.dump());
+  const CliRun one = Call({in, "20"});
+  const CliRun k1 = Call({in, "20", "--flights", "1"});
+  ASSERT_EQ(one.code, 0) << one.err;
+  ASSERT_EQ(k1.code, 0) << k1.err;
+  const auto p1 = nlohmann::json::parse(one.out), q1 = nlohmann::json::parse(k1.out);
+  EXPECT_EQ(p1["tour"], q1["tour"]);
+  ASSERT_EQ(p1["flights"].size(), 1u);
+  EXPECT_EQ(p1["flights"][0]["tour"], p1["tour"]);
+  EXPECT_NEAR(p1["flights"][0]["budget_left_m"].get<double>(), p1["budget_left_m"].get<double>(), 1e-9);
+  for (const std::string algo : {"alns", "exact", "newalg", "greedy"}) {
+    const CliRun r = Call({in, "20", "--flights", "3", "--algo", algo});
+    ASSERT_EQ(r.code, 0) << algo << ": " << r.err;
+    const auto p = nlohmann::json::parse(r.out);
+    ASSERT_EQ(p["flights"].size(), 3u) << algo;
+    std::set<std::string> seen;
+    double reward = 0, cost = 0, prev = 1e300;
+    for (const auto& f : p["flights"]) {
+      EXPECT_LE(f["cost_m"].get<double>(), 20 + 1e-9) << algo;
+      EXPECT_GE(f["budget_left_m"].get<double>(), -1e-9) << algo;
+      EXPECT_LE(f["reward"].get<double>(), prev + 1e-12) << algo;
+      prev = f["reward"].get<double>();
+      reward += f["reward"].get<double>();
+      cost += f["cost_m"].get<double>();
+      const auto& t = f["tour"];
+      EXPECT_EQ(t.front(), "home");
+      EXPECT_EQ(t.back(), "home");
+      for (size_t i = 1; i + 1 < t.size(); ++i) EXPECT_TRUE(seen.insert(t[i]).second) << algo;
+    }
+    EXPECT_NEAR(p["reward"].get<double>(), reward, 1e-9) << algo;
+    EXPECT_NEAR(p["cost_m"].get<double>(), cost, 1e-9) << algo;
+    EXPECT_EQ(p["tour"], p["flights"][0]["tour"]) << algo;
+    EXPECT_GT(reward, p1["reward"].get<double>()) << algo;  // three flights see more
+  }
+  const double exact = nlohmann::json::parse(Call({in, "20", "--flights", "3", "--algo", "exact"}).out)["reward"];
+  const double alns = nlohmann::json::parse(Call({in, "20", "--flights", "3"}).out)["reward"];
+  EXPECT_NEAR(alns, exact, 1e-9);
+  for (const std::string bad : {"0", "65", "x", "-1"}) {
+    const CliRun r = Call({in, "20", "--flights", bad});
+    EXPECT_EQ(r.code, 2) << bad;
+    EXPECT_NE(r.err.find("--flights"), std::string::npos) << r.err;
   }
 }
 

@@ -211,7 +211,9 @@ SitesFile ReadSites(const std::string& path, std::optional<double> budget_overri
 
 nlohmann::json PlanToJson(const SitesFile& sites, const PlanSummary& plan) {
   const OpInstance& inst = sites.instance;
-  const double cost = inst.RouteCost(plan.route) + sites.path_offset_m;
+  const std::vector<std::vector<int>> flights =
+      plan.flights.empty() ? std::vector<std::vector<int>>{plan.route} : plan.flights;
+  const double budget = inst.budget_m + sites.path_offset_m;
   nlohmann::json j;
   j["schema"] = "mound.plan";
   j["version"] = 1;
@@ -219,27 +221,46 @@ nlohmann::json PlanToJson(const SitesFile& sites, const PlanSummary& plan) {
   j["algo"] = plan.algo;
   j["sites_file"] = sites.path;
   j["closed"] = inst.Closed();
-  nlohmann::json tour = nlohmann::json::array();
   nlohmann::json wps = nlohmann::json::array();
-  double cum = 0;
+  nlohmann::json fl = nlohmann::json::array();
+  std::vector<char> listed(inst.Size(), 0);
+  double reward = 0, cost = 0;
   int visited = 0;
-  for (size_t i = 0; i < plan.route.size(); ++i) {
-    const OpNode& n = inst.nodes[plan.route[i]];
-    if (i > 0) cum += inst.Cost(plan.route[i - 1], plan.route[i]);
-    tour.push_back(n.id);
-    const bool site = inst.IsSite(plan.route[i]);
-    visited += site;
-    wps.push_back({{"id", n.id}, {"x_m", n.x_m}, {"y_m", n.y_m},
-                   {"kind", site ? "site" : (i == 0 ? "home" : "end")},
-                   {"reward", site ? n.reward : 0.0},
-                   {"scan_cost_m", site ? n.scan_cost_m : 0.0}, {"cum_cost_m", cum}});
+  for (size_t k = 0; k < flights.size(); ++k) {
+    const std::vector<int>& route = flights[k];
+    nlohmann::json tour = nlohmann::json::array();
+    double cum = 0;
+    for (size_t i = 0; i < route.size(); ++i) {
+      const OpNode& n = inst.nodes[route[i]];
+      if (i > 0) cum += inst.Cost(route[i - 1], route[i]);
+      tour.push_back(n.id);
+      const bool site = inst.IsSite(route[i]);
+      visited += site;
+      // The first flight's nodes in its order (home twice on a closed tour), then the
+      // sites of the others.
+      if (k > 0 && listed[route[i]]) continue;
+      listed[route[i]] = 1;
+      wps.push_back({{"id", n.id}, {"x_m", n.x_m}, {"y_m", n.y_m},
+                     {"kind", site ? "site" : (i == 0 ? "home" : "end")},
+                     {"reward", site ? n.reward : 0.0},
+                     {"scan_cost_m", site ? n.scan_cost_m : 0.0}, {"cum_cost_m", cum},
+                     {"flight", k + 1}});
+    }
+    const double c = inst.RouteCost(route) + sites.path_offset_m;
+    const double r = inst.RouteReward(route);
+    fl.push_back({{"flight", k + 1}, {"tour", tour}, {"reward", r}, {"cost_m", c},
+                  {"budget_left_m", budget - c}});
+    reward += r;
+    cost += c;
   }
-  j["tour"] = tour;
-  j["reward"] = inst.RouteReward(plan.route);
+  j["tour"] = fl[0]["tour"];
+  j["reward"] = reward;
   j["cost_m"] = cost;
-  j["budget_m"] = inst.budget_m + sites.path_offset_m;
+  j["budget_m"] = budget;
   j["budget_source"] = sites.budget_in_file ? "file" : "command line";
-  j["budget_left_m"] = inst.budget_m + sites.path_offset_m - cost;
+  // One flight: what it leaves; several: what they leave together.
+  j["budget_left_m"] = budget * static_cast<double>(flights.size()) - cost;
+  j["flights"] = fl;
   j["elapsed_s"] = plan.elapsed_s;
   j["n_sites"] = inst.Size() - inst.FirstSite();
   j["n_visited"] = visited;

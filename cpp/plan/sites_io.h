@@ -41,6 +41,8 @@ struct PlanSummary {
   double elapsed_s = 0;
   uint64_t seed = 0;
   nlohmann::json solver;  // algorithm statistics
+  // Several flights (route is then the first); empty: one flight, `route`.
+  std::vector<std::vector<int>> flights;
 };
 
 nlohmann::json PlanToJson(const SitesFile& sites, const PlanSummary& plan);
