@@ -697,6 +697,45 @@ class Search {
   RouteOpsStats ops_;
 };
 
+// Adaptive choice of the ruin operator: roulette on weights that follow each operator's
+// success (new best 33, better than current 9, accepted 13), updated every 100 uses.
+class Roulette {
+ public:
+  int Pick(std::mt19937_64& rng) {
+    double total = 0;
+    for (double w : weight_) total += w;
+    double pick = std::uniform_real_distribution<double>(0, total)(rng);
+    int op = 0;
+    while (op + 1 < kNumRuins && pick >= weight_[op]) pick -= weight_[op++];
+    used_[op] += 1;
+    return op;
+  }
+  void Score(int op, double points) { score_[op] += points; }
+  // At the end of every iteration.
+  void Next() {
+    if (++iterations_ % kSegment != 0) return;
+    for (int o = 0; o < kNumRuins; ++o) {
+      if (used_[o] > 0) weight_[o] = 0.8 * weight_[o] + 0.2 * std::max(0.05, score_[o] / used_[o]);
+      score_[o] = used_[o] = 0;
+    }
+  }
+  double Weight(int op) const { return weight_[op]; }
+
+ private:
+  static constexpr int kSegment = 100;
+  std::array<double, kNumRuins> weight_{1, 1, 1, 1}, score_{}, used_{};
+  int iterations_ = 0;
+};
+
+// Why a search ended, in the order the checks are made.
+const char* StopReason(bool out_of_work, bool out_of_wall, bool iterations, bool stagnated) {
+  return out_of_work ? "time limit (work ticks)"
+         : out_of_wall ? "wall clock (not repeatable)"
+         : iterations  ? "iterations"
+         : stagnated   ? "stagnation"
+                       : "all sites visited";
+}
+
 }  // namespace
 
 PlanResult SolveAlns(const OpInstance& inst, const AlnsOptions& opt) {
@@ -731,11 +770,10 @@ PlanResult SolveAlns(const OpInstance& inst, const AlnsOptions& opt) {
   const int sites = inst.Size() - inst.FirstSite();
   const int stagnation = opt.stagnation > 0 ? opt.stagnation : std::max(5000, 50 * sites);
   const int restart = std::clamp(stagnation / 10, 100, 400);
-  std::array<double, kNumRuins> weight{1, 1, 1, 1}, score{}, used{};
+  Roulette roulette;
   std::array<int, kNumRuins> bests{};
   int it = 0, since_best = 0, new_bests = 0, last_polish = 0, polishes = 1, restarts = 0;
   bool out_of_work = false, out_of_wall = false;
-  const int segment = 100;  // iterations between weight updates
   for (; it < opt.max_iterations && since_best < stagnation; ++it) {
     if (work_limit > 0 && search.Ticks() >= work_limit) {
       out_of_work = true;
@@ -746,12 +784,7 @@ PlanResult SolveAlns(const OpInstance& inst, const AlnsOptions& opt) {
       break;
     }
     if (search.AllRewardedVisited(best)) break;
-    // Roulette on the ruin operators.
-    double total = 0;
-    for (double w : weight) total += w;
-    double pick = std::uniform_real_distribution<double>(0, total)(rng);
-    int op = 0;
-    while (op + 1 < kNumRuins && pick >= weight[op]) pick -= weight[op++];
+    const int op = roulette.Pick(rng);
     const int m = static_cast<int>(cur.route.size()) - 2;
     const int k_max = std::max(1, std::min(40, std::max(4, (2 * m) / 5)));
     const int k = 1 + static_cast<int>(rng() % k_max);
@@ -767,14 +800,13 @@ PlanResult SolveAlns(const OpInstance& inst, const AlnsOptions& opt) {
     const double progress = work_limit > 0 ? search.Ticks() / work_limit
                                            : static_cast<double>(since_best) / stagnation;
     const double threshold = 0.05 * std::max(0.0, 1.0 - progress);
-    used[op] += 1;
     ++since_best;
     if (search.Better(cand, best)) {
       best = cand;
       ++new_bests;
       ++bests[op];
       since_best = 0;
-      score[op] += 33;
+      roulette.Score(op, 33);
       if (it - last_polish >= 50) {
         search.Polish(&best, opt.seed + static_cast<uint64_t>(it));
         last_polish = it;
@@ -782,10 +814,10 @@ PlanResult SolveAlns(const OpInstance& inst, const AlnsOptions& opt) {
       }
       cur = best;
     } else if (search.Better(cand, cur)) {
-      score[op] += 9;
+      roulette.Score(op, 9);
       cur = std::move(cand);
     } else if (cand.reward >= best.reward * (1.0 - threshold)) {
-      score[op] += 13;
+      roulette.Score(op, 13);
       cur = std::move(cand);
     }
     if (since_best > 0 && since_best % restart == 0) {
@@ -797,12 +829,7 @@ PlanResult SolveAlns(const OpInstance& inst, const AlnsOptions& opt) {
         ++restarts;
       }
     }
-    if ((it + 1) % segment == 0) {
-      for (int o = 0; o < kNumRuins; ++o) {
-        if (used[o] > 0) weight[o] = 0.8 * weight[o] + 0.2 * std::max(0.05, score[o] / used[o]);
-        score[o] = used[o] = 0;
-      }
-    }
+    roulette.Next();
   }
   search.Polish(&best, opt.seed + 0x9E3779B9ULL);
   ++polishes;
@@ -819,15 +846,11 @@ PlanResult SolveAlns(const OpInstance& inst, const AlnsOptions& opt) {
   res.stats["lkh_polishes"] = polishes;
   res.stats["restarts"] = restarts;
   res.stats["spread_starts_won"] = starts_won;
-  res.stats["stopped_by"] = out_of_work                       ? "time limit (work ticks)"
-                            : out_of_wall                     ? "wall clock (not repeatable)"
-                            : it >= opt.max_iterations        ? "iterations"
-                            : since_best >= stagnation        ? "stagnation"
-                            : search.AllRewardedVisited(best) ? "all sites visited"
-                                                              : "stopped";
+  res.stats["stopped_by"] =
+      StopReason(out_of_work, out_of_wall, it >= opt.max_iterations, since_best >= stagnation);
   res.stats["work_ticks"] = search.Ticks();
   nlohmann::json w = nlohmann::json::object();
-  for (int o = 0; o < kNumRuins; ++o) w[kRuinNames[o]] = {{"weight", weight[o]}, {"new_bests", bests[o]}};
+  for (int o = 0; o < kNumRuins; ++o) w[kRuinNames[o]] = {{"weight", roulette.Weight(o)}, {"new_bests", bests[o]}};
   res.stats["ruins"] = w;
   res.stats["elapsed_s"] = elapsed();
   return res;
@@ -921,7 +944,7 @@ FlightsResult SolveAlnsFlights(const OpInstance& inst, int flights, const AlnsOp
   const int sites = n - inst.FirstSite();
   const int stagnation = opt.stagnation > 0 ? opt.stagnation : std::max(5000, 50 * sites);
   const int restart = std::clamp(stagnation / 10, 100, 400);
-  std::array<double, kNumRuins> weight{1, 1, 1, 1}, score{}, used{};
+  Roulette roulette;
   int it = 0, since_best = 0, new_bests = 0, last_polish = 0;
   bool out_of_work = false, out_of_wall = false;
   std::vector<char> blocked(n, 0);
@@ -944,11 +967,7 @@ FlightsResult SolveAlnsFlights(const OpInstance& inst, int flights, const AlnsOp
       out_of_wall = true;
       break;
     }
-    double wsum = 0;
-    for (double w : weight) wsum += w;
-    double pick = std::uniform_real_distribution<double>(0, wsum)(rng);
-    int op = 0;
-    while (op + 1 < kNumRuins && pick >= weight[op]) pick -= weight[op++];
+    const int op = roulette.Pick(rng);
     Multi cand = cur;
     // Ruin one flight (half of the time) or all of them.
     const bool all = rng() % 2 == 0;
@@ -978,13 +997,12 @@ FlightsResult SolveAlnsFlights(const OpInstance& inst, int flights, const AlnsOp
     const double progress = work_limit > 0 ? ticks() / work_limit
                                            : static_cast<double>(since_best) / stagnation;
     const double threshold = 0.05 * std::max(0.0, 1.0 - progress);
-    used[op] += 1;
     ++since_best;
     if (better(cand, best)) {
       best = cand;
       ++new_bests;
       since_best = 0;
-      score[op] += 33;
+      roulette.Score(op, 33);
       if (it - last_polish >= 50) {
         for (int k = 0; k < flights; ++k) {
           mark_others(best.fl, k);
@@ -995,19 +1013,14 @@ FlightsResult SolveAlnsFlights(const OpInstance& inst, int flights, const AlnsOp
       }
       cur = best;
     } else if (better(cand, cur)) {
-      score[op] += 9;
+      roulette.Score(op, 9);
       cur = std::move(cand);
     } else if (cand.reward >= best.reward * (1.0 - threshold)) {
-      score[op] += 13;
+      roulette.Score(op, 13);
       cur = std::move(cand);
     }
     if (since_best > 0 && since_best % restart == 0) cur = best;
-    if ((it + 1) % 100 == 0) {
-      for (int o = 0; o < kNumRuins; ++o) {
-        if (used[o] > 0) weight[o] = 0.8 * weight[o] + 0.2 * std::max(0.05, score[o] / used[o]);
-        score[o] = used[o] = 0;
-      }
-    }
+    roulette.Next();
   }
   for (int k = 0; k < flights; ++k) {
     mark_others(best.fl, k);
@@ -1024,11 +1037,8 @@ FlightsResult SolveAlnsFlights(const OpInstance& inst, int flights, const AlnsOp
   res.stats["sequential_start_reward"] = seq_reward;
   res.stats["iterations"] = it;
   res.stats["new_bests"] = new_bests;
-  res.stats["stopped_by"] = out_of_work                ? "time limit (work ticks)"
-                            : out_of_wall              ? "wall clock (not repeatable)"
-                            : it >= opt.max_iterations ? "iterations"
-                            : since_best >= stagnation ? "stagnation"
-                                                       : "all sites visited";
+  res.stats["stopped_by"] =
+      StopReason(out_of_work, out_of_wall, it >= opt.max_iterations, since_best >= stagnation);
   res.stats["work_ticks"] = static_cast<uint64_t>(ticks());
   res.stats["elapsed_s"] = elapsed();
   return res;

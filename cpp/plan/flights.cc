@@ -1,10 +1,14 @@
 #include "plan/flights.h"
 
+#include <cmath>
+
 #include <algorithm>
 #include <cstdint>
 #include <limits>
 #include <numeric>
 #include <stdexcept>
+
+#include "plan/exact_small.h"
 
 namespace mound::plan {
 
@@ -94,48 +98,12 @@ FlightsResult SequentialFlights(
 }
 
 FlightsResult SolveExactFlights(const OpInstance& inst, int flights) {
-  const int first = inst.FirstSite();
-  const int m = inst.Size() - first;
+  const int m = inst.Size() - inst.FirstSite();
   if (m > kMaxExactFlightSites) {
     throw std::invalid_argument("too many sites for the exact method with several flights");
   }
-  const double inf = std::numeric_limits<double>::infinity();
-  const size_t states = size_t{1} << m;
-  const double limit = inst.budget_m + BudgetSlack(inst.budget_m);
-  // Held-Karp: dp[mask][j], the cheapest path from home through mask ending at site j.
-  std::vector<double> dp(states * std::max(m, 1), inf);
-  std::vector<int8_t> from(states * std::max(m, 1), -1);
-  auto at = [&](size_t mask, int j) { return mask * m + j; };
-  for (int j = 0; j < m; ++j) dp[at(size_t{1} << j, j)] = inst.Cost(OpInstance::kHome, first + j);
-  std::vector<double> tour(states, inf);  // the cheapest route home -> mask -> end
-  std::vector<int8_t> last(states, -1);
-  tour[0] = inst.Cost(OpInstance::kHome, inst.end);
-  for (size_t mask = 1; mask < states; ++mask) {
-    for (int j = 0; j < m; ++j) {
-      if (!(mask >> j & 1)) continue;
-      const double c = dp[at(mask, j)];
-      if (c == inf || c > limit) continue;
-      const double total = c + inst.Cost(first + j, inst.end);
-      if (total < tour[mask]) {
-        tour[mask] = total;
-        last[mask] = static_cast<int8_t>(j);
-      }
-      for (int k = 0; k < m; ++k) {
-        if (mask >> k & 1) continue;
-        const size_t next = mask | (size_t{1} << k);
-        const double nc = c + inst.Cost(first + j, first + k);
-        if (nc < dp[at(next, k)]) {
-          dp[at(next, k)] = nc;
-          from[at(next, k)] = static_cast<int8_t>(j);
-        }
-      }
-    }
-  }
-  std::vector<double> reward(states, 0.0);
-  for (size_t mask = 1; mask < states; ++mask) {
-    const int j = __builtin_ctzll(mask);
-    reward[mask] = reward[mask & (mask - 1)] + inst.nodes[first + j].reward;
-  }
+  const SubsetRoutes routes(inst);
+  const size_t states = routes.Subsets();
   // best[k][mask]: the most reward (then the least cost) of k flights on sites of mask.
   struct Value {
     double reward = 0, cost = 0;
@@ -144,18 +112,18 @@ FlightsResult SolveExactFlights(const OpInstance& inst, int flights) {
       return reward >= o.reward - 1e-12 * (1.0 + std::abs(o.reward)) && cost < o.cost - 1e-9;
     }
   };
+  const double inf = std::numeric_limits<double>::infinity();
   std::vector<std::vector<Value>> best(flights + 1, std::vector<Value>(states));
   std::vector<std::vector<uint32_t>> choice(flights + 1, std::vector<uint32_t>(states, 0));
-  // No flight at all costs nothing; a flown empty flight costs the direct trip.
   for (int k = 1; k <= flights; ++k) {
     for (size_t mask = 0; mask < states; ++mask) {
       Value b{-1, inf};
       uint32_t arg = 0;
-      // T = the first flight's sites, a submask of mask (0 included: home -> end).
+      // T = one flight's sites, a submask of mask (0 included: home -> end).
       for (size_t t = mask;; t = (t - 1) & mask) {
-        if (tour[t] <= limit) {
+        if (routes.Fits(t)) {
           const Value& rest = best[k - 1][mask ^ t];
-          const Value v{reward[t] + rest.reward, tour[t] + rest.cost};
+          const Value v{routes.Reward(t) + rest.reward, routes.Cost(t) + rest.cost};
           if (v.Beats(b)) {
             b = v;
             arg = static_cast<uint32_t>(t);
@@ -171,19 +139,7 @@ FlightsResult SolveExactFlights(const OpInstance& inst, int flights) {
   size_t mask = states - 1;
   for (int k = flights; k >= 1; --k) {
     const size_t t = choice[k][mask];
-    std::vector<int> middle;
-    size_t sub = t;
-    for (int j = last[t]; j >= 0 && sub != 0;) {
-      middle.push_back(first + j);
-      const int prev = from[at(sub, j)];
-      sub &= ~(size_t{1} << j);
-      j = prev;
-    }
-    std::reverse(middle.begin(), middle.end());
-    std::vector<int> route{OpInstance::kHome};
-    route.insert(route.end(), middle.begin(), middle.end());
-    route.push_back(inst.end);
-    res.routes.push_back(std::move(route));
+    res.routes.push_back(routes.Route(t));
     mask ^= t;
   }
   res.stats = {{"name", "exact"}, {"subsets", states}, {"flights", flights}};
