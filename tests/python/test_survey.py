@@ -393,3 +393,37 @@ def test_help_and_usage_errors(capsys: pytest.CaptureFixture[str]) -> None:
     assert "--spacing" in capsys.readouterr().err
     assert driver.main(["--images-root", "/nonexistent/photos"]) == 2
     assert "--images-root" in capsys.readouterr().err
+
+
+def test_two_flights_over_the_dem(tmp_path: Path) -> None:
+    """The survey with --flights 2 on standard field 0 placed on the laser DEM: two
+    missions (mission_1.plan, mission_2.plan, read back by the mission reader), each
+    within the budget and clear of the terrain by the clearance (the mission's own
+    account; tests/python/test_terrain_flight.py checks it independently), every visited
+    site of both flights judged, the report showing both flights."""
+    os.environ.setdefault("MOUND_DATA", str(REPO_ROOT.parent / "shared" / "data"))
+    dem = REPO_ROOT.parent / "shared" / "data" / "dem" / "TM1_564_146.tif"
+    out = tmp_path / "run"
+    r = run_driver(["--out", str(out), "--budget", "1800", "--flights", "2", "--spacing", "80",
+                    "--home", "46.451176,15.833860", "--dem", str(dem), "--dem-vertical",
+                    "egm96", "--dense-size", "0", "--image-size", "320", "240",
+                    "--no-progress"])
+    assert r.returncode == 0, r.stdout + r.stderr
+    plan = json.loads((out / "plan.json").read_text())
+    flights = [f for f in plan["flights"] if len(f["tour"]) > 2]
+    assert len(flights) == 2
+    visited = set()
+    for f in flights:
+        items, _, _ = mission_files.read_mission(out / f"mission_{f['flight']}.plan")
+        assert items[-1].command == mission_items.NAV_LAND
+        assert f["cost_m"] <= plan["budget_m"] + 1e-6
+        visited |= set(f["tour"][1:-1])
+    summary = json.loads((out / "summary.json").read_text())
+    assert {s["id"] for s in summary["sites"] if s["visited"]} == visited
+    assert all(s["verdict"] != "failed" for s in summary["sites"] if s["visited"])
+    m = summary["mission"]["flights"]
+    assert len(m) == 2
+    assert all(f["energy_m"] <= plan["budget_m"] + 1e-6 and f["lowest_clearance_m"] >= 30 - 1e-6
+               for f in m)
+    html = (out / "report.html").read_text()
+    assert "mission map, flight 2" in html and "transit legs over the DEM, flight 1" in html

@@ -391,3 +391,50 @@ def test_the_simulator_flies_the_missions_heights_over_the_same_terrain(flown, r
     assert s["scan_height_above_ground_m"] == want  # the mission flies these above g
     for p in np.vstack([leg.points_enu for leg in m.spec.scan.legs()]):
         assert p[2] - float(hf.height_at(np.array([p[0]]), np.array([p[1]]))[0]) >= 10
+
+
+def test_three_flights_each_clear_of_the_terrain_and_under_budget(flown, raw, dem_path,
+                                                                 tmp_path) -> None:
+    """mound_plan --flights 3 over the ridge sites, then mound mission build: one mission
+    file per flight, each within the budget (energy by an independent recomputation),
+    clear of the terrain by the clearance, no site in two flights; --flight picks one."""
+    doc = {**flown["terrain_doc"], "budget_m": 2500.0}
+    path = tmp_path / "sites3.json"
+    path.write_text(json.dumps(doc))
+    plan_file = tmp_path / "plan3.json"
+    native.run_tool("mound_plan", [str(path), "--flights", "3", "--out", str(plan_file)])
+    p = json.loads(plan_file.read_text())
+    flights = [f for f in p["flights"] if len(f["tour"]) > 2]
+    assert len(flights) == 3
+    out = tmp_path / "m.plan"
+    r = subprocess.run([sys.executable, "-m", "mound", "mission", "build", str(plan_file),
+                        "--out", str(out), "--dem", str(dem_path), "--dem-vertical", "egm96"],
+                       capture_output=True, text=True, cwd=REPO_ROOT, check=False)
+    assert r.returncode == 0, r.stderr
+    spec = flown["spec"]
+    fp = int(np.ceil(spec.footprint_m))
+    highest = maximum_filter(raw[0], size=2 * fp + 1, mode="nearest")
+    seen: set[str] = set()
+    for f in flights:
+        mission_file = tmp_path / f"m_{f['flight']}.plan"
+        pts, _ = flown_points(mission_file)
+        pts = np.vstack([pts, pts[:1]])
+        d = np.diff(pts, axis=0)
+        energy = float(np.hypot(d[:, 0], d[:, 1]).sum()
+                       + spec.climb_factor * np.clip(d[:, 2], 0, None).sum()
+                       + spec.descent_factor * np.clip(-d[:, 2], 0, None).sum())
+        assert energy <= f["cost_m"] + 0.5 <= p["budget_m"] + 0.5
+        level = [(a, b) for a, b in itertools.pairwise(pts[1:-1])
+                 if np.hypot(*(b[:2] - a[:2])) >= 0.5]
+        assert min(clearance_along(raw, a, b, spec.footprint_m, highest)
+                   for a, b in level) >= spec.scan_clearance_m - 0.05
+        ids = set(f["tour"][1:-1])
+        assert not ids & seen
+        seen |= ids
+    assert p["flights"][0]["reward"] >= p["flights"][1]["reward"] >= p["flights"][2]["reward"]
+    one = tmp_path / "only2.plan"
+    r = subprocess.run([sys.executable, "-m", "mound", "mission", "build", str(plan_file),
+                        "--out", str(one), "--flight", "2", "--dem", str(dem_path),
+                        "--dem-vertical", "egm96"],
+                       capture_output=True, text=True, cwd=REPO_ROOT, check=False)
+    assert r.returncode == 0 and one.exists() and not (tmp_path / "only2_2.plan").exists()

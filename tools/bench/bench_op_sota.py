@@ -95,16 +95,17 @@ def proven_optimum(p: OpProblem, routes: list[list[int]], seconds: float) -> flo
 class PyVrp:
     """The instance as a PyVRP model (built once; solve time counted without it)."""
 
-    def __init__(self, p: OpProblem) -> None:
+    def __init__(self, p: OpProblem, vehicles: int = 1) -> None:
         from pyvrp import Model
 
         self.p = p
+        self.vehicles = vehicles
         c = p.cost_matrix()
         m = Model()
         locs = [m.add_location(float(x), float(y)) for x, y in p.xy]
         home = m.add_depot(locs[0])
         end = home if p.closed else m.add_depot(locs[1])
-        m.add_vehicle_type(num_available=1, start_depot=home, end_depot=end,
+        m.add_vehicle_type(num_available=vehicles, start_depot=home, end_depot=end,
                            max_distance=int(math.floor(p.budget * COST_SCALE)),
                            unit_distance_cost=0)
         first = 1 if p.closed else 2
@@ -119,6 +120,12 @@ class PyVrp:
         self.model = m
 
     def solve(self, seconds: float, seed: int) -> tuple[float, float]:
+        routes, elapsed = self.solve_routes(seconds, seed)
+        return (check(self.p, routes[0]) if routes else 0.0), elapsed
+
+    def solve_routes(self, seconds: float, seed: int) -> tuple[list[list[int]], float]:
+        """PyVRP's best solution as routes (node indices, home ... end); none when it is
+        infeasible."""
         from pyvrp.stop import MaxRuntime
 
         t0 = time.perf_counter()
@@ -127,13 +134,11 @@ class PyVrp:
         elapsed = time.perf_counter() - t0
         best = res.best
         if not best.is_feasible():
-            return 0.0, elapsed
-        routes = best.routes()
-        route = [0]
-        if routes:
-            route += [self.client_node[a.idx] for a in routes[0] if a.is_client()]
-        route.append(self.p.end)
-        return check(self.p, route), elapsed
+            return [], elapsed
+        out = []
+        for r in best.routes():
+            out.append([0, *[self.client_node[a.idx] for a in r if a.is_client()], self.p.end])
+        return out or [[0, self.p.end]], elapsed
 
 
 def main() -> int:

@@ -97,6 +97,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="mound_plan's algorithm (default alns: ALNS-OP, 1 s at most; newalg: "
                    "the paper's)")
     g.add_argument("--plan-seed", type=int, default=1, help="mound_plan's seed")
+    g.add_argument("--flights", type=int, default=1,
+                   help="flights (batteries or aircraft) from home, each within the budget; "
+                   "one mission each (mission_1.plan, ... ordered by reward)")
     from mound.uav.terrain import add_arguments as add_terrain_arguments
 
     add_terrain_arguments(p)
@@ -420,7 +423,8 @@ def stage_plan(ctx: Context) -> str:
 
     def work() -> tuple[list[str], str, bool]:
         native.run_tool("mound_plan", [str(ctx.tree.sites), "--algo", a.algo, "--seed",
-                                       str(a.plan_seed), "--out", str(ctx.tree.plan)],
+                                       str(a.plan_seed), "--flights", str(a.flights),
+                                       "--out", str(ctx.tree.plan)],
                         timeout_s=600, log=ctx.tree.root / "log.txt")
         plan = read_json(ctx.tree.plan, "mound.plan", 1)
         if a.scene:
@@ -429,12 +433,17 @@ def stage_plan(ctx: Context) -> str:
             ctx.tree.report_dir.mkdir(parents=True, exist_ok=True)
             figures.scene_map(ctx.tree.root, read_json(ctx.tree.sites, "mound.sites", 1), plan,
                               ctx.tree.report_dir / "scene.png")
+        each = "; ".join(f"flight {f['flight']}: {len(f['tour']) - 2} sites, "
+                         f"{f['reward']:.2f} bits, {f['cost_m']:.0f} m"
+                         for f in plan["flights"]) if len(plan["flights"]) > 1 else ""
+        budget = (f"{plan['cost_m']:.0f} m in {len(plan['flights'])} flights of "
+                  f"{plan['budget_m']:.0f} m each ({each})" if each else
+                  f"{plan['cost_m']:.0f} m of {plan['budget_m']:.0f} m")
         return (["plan.json"], f"{a.algo}: {plan['n_visited']} of {plan['n_sites']} sites, "
-                f"reward {plan['reward']:.2f} bits, {plan['cost_m']:.0f} m of "
-                f"{plan['budget_m']:.0f} m", True)
+                f"reward {plan['reward']:.2f} bits, {budget}", True)
 
     return run_stage(ctx, "plan", {"field": ctx.keys["field"], "algo": a.algo,
-                                   "seed": a.plan_seed}, work)
+                                   "seed": a.plan_seed, "flights": a.flights}, work)
 
 
 def stage_mission(ctx: Context) -> str:
@@ -458,33 +467,55 @@ def stage_mission(ctx: Context) -> str:
             from mound.uav.terrain import spec_from_args
 
             terrain = mission_items.TerrainInput(a.dem, a.dem_vertical, spec_from_args(a))
-        m = mission_items.build(plan, origin, mission_items.MissionSpec(scan=scan), terrain)
-        mission_files.write_plan(t.mission_plan, m, a.firmware)
-        mission_files.write_wpl(t.mission_wpl, m)
-        mission_files.write_geojson(t.mission_geojson, m)
-        summary = m.summary()
-        note = (f"{len(m.items)} MAVLink items, {len(m.sites)} sites, flight "
-                f"{m.flight_distance_m:.0f} m of {m.budget_m:.0f} m")
+        flights = mission_items.flight_plans(plan)
+        several = len(flights) > 1
+        missions = [(f["flight"] if several else None,
+                     mission_items.build(f, origin, mission_items.MissionSpec(scan=scan),
+                                         terrain)) for f in flights]
+        t.report_dir.mkdir(parents=True, exist_ok=True)
+        made: list[str] = []
+        summaries = []
+        notes = []
+        for k, m in missions:
+            files = {name: t.flight_file(name, k) for name in
+                     ("mission.plan", "mission.waypoints", "mission.geojson")}
+            mission_files.write_plan(files["mission.plan"], m, a.firmware)
+            mission_files.write_wpl(files["mission.waypoints"], m)
+            mission_files.write_geojson(files["mission.geojson"], m)
+            tag = "" if k is None else f"_{k}"
+            figures.mission_map(m.nav_enu, m.footprints, m.sites,
+                                t.report_dir / f"mission{tag}.png")
+            made += [p.name for p in files.values()] + [f"report/mission{tag}.png"]
+            one = {**m.summary(), "flight": k or 1, "file": files["mission.plan"].name}
+            note = (f"{'' if k is None else f'flight {k}: '}{len(m.items)} MAVLink items, "
+                    f"{len(m.sites)} sites, flight {m.flight_distance_m:.0f} m of "
+                    f"{m.budget_m:.0f} m")
+            if m.terrain is not None:
+                figures.leg_profiles(m.terrain, t.report_dir / f"legs{tag}.png")
+                made.append(f"report/legs{tag}.png")
+                note += (f", over the DEM: energy {m.terrain['energy_m']:.0f} m, lowest "
+                         f"transit clearance {m.terrain['lowest_clearance_m']:.1f} m")
+            summaries.append(one)
+            notes.append(note)
+        summary = dict(summaries[0]) if not several else {
+            "schema": "mound.mission", "version": 1, "origin": summaries[0]["origin"],
+            "items": sum(x["items"] for x in summaries),
+            "flight_distance_m": sum(x["flight_distance_m"] for x in summaries),
+            "budget_m": summaries[0]["budget_m"], "terrain": summaries[0]["terrain"]}
+        summary["flights"] = summaries
+        note = "; ".join(notes)
+        if missions[0][1].terrain is None:
+            note += "; terrain not checked (no --dem)"
         if a.connect:
-            r = upload_mission(t.mission_plan, a.connect, verify=True, firmware=a.firmware)
-            summary["upload"] = {"connect": a.connect, **r}
-            note += (f"; uploaded to system {r['target_system']} and read back "
+            first = t.flight_file("mission.plan", missions[0][0])
+            r = upload_mission(first, a.connect, verify=True, firmware=a.firmware)
+            summary["upload"] = {"connect": a.connect, "file": first.name, **r}
+            note += (f"; {first.name} uploaded to system {r['target_system']} and read back "
                      f"({r['elapsed_s']:.2f} s)")
         else:
             note += "; not uploaded (no --connect)"
         write_json(t.mission_summary, summary)
-        t.report_dir.mkdir(parents=True, exist_ok=True)
-        figures.mission_map(m.nav_enu, m.footprints, m.sites, t.report_dir / "mission.png")
-        made = ["mission.plan", "mission.waypoints", "mission.geojson", "mission.json",
-                "report/mission.png"]
-        if m.terrain is not None:
-            figures.leg_profiles(m.terrain, t.report_dir / "legs.png")
-            made.append("report/legs.png")
-            note += (f"; over the DEM: energy {m.terrain['energy_m']:.0f} m, lowest transit "
-                     f"clearance {m.terrain['lowest_clearance_m']:.1f} m")
-        else:
-            note += "; terrain not checked (no --dem)"
-        return (made, note, True)
+        return ([*made, "mission.json"], note, True)
 
     return run_stage(ctx, "mission", {"plan": ctx.keys["plan"], "connect": a.connect,
                                       "firmware": a.firmware,
@@ -504,7 +535,9 @@ def site_jobs(ctx: Context) -> list[Any]:
     a = ctx.args
     sites_doc = read_json(ctx.tree.sites, "mound.sites", 1)
     plan = read_json(ctx.tree.plan, "mound.plan", 1)
-    tour = set(plan["tour"])
+    from mound.uav.mission_items import visited_ids
+
+    tour = visited_ids(plan)
     root = ctx.tree.root.resolve()
     options = {"image_size": tuple(a.image_size), "pattern": a.scan_pattern,
                "site_diameter_m": a.site_diameter, "sim_seed": a.sim_seed,
@@ -661,6 +694,8 @@ def check_args(a: argparse.Namespace) -> None:
         from mound.scene.cli import _home
 
         _home(a.home)
+    if not 1 <= a.flights <= 64:
+        raise UsageError("--flights: 1 .. 64")
     if a.dem:
         if not Path(a.dem).is_file():
             raise UsageError(f"--dem: {a.dem} not found")

@@ -145,10 +145,15 @@ def field_map(sites_doc: dict[str, Any], plan: dict[str, Any] | None,
     fig, ax = plt.subplots(figsize=(6.4, 5.6))
     if plan is not None:
         pos = {w["id"]: (w["x_m"], w["y_m"]) for w in plan.get("waypoints", [])}
-        path = np.array([pos[i] for i in plan["tour"] if i in pos])
-        if len(path):
-            ax.plot(path[:, 0], path[:, 1], "-", color="0.35", lw=1.2, zorder=1,
-                    label=f"tour ({plan['cost_m']:.0f} m of {plan['budget_m']:.0f} m)")
+        flights = plan.get("flights") or [{"tour": plan["tour"], "cost_m": plan["cost_m"]}]
+        colours = ["0.35", "tab:orange", "tab:purple", "tab:brown", "tab:pink", "tab:olive"]
+        for k, f in enumerate(flights):
+            path = np.array([pos[i] for i in f["tour"] if i in pos])
+            if len(path) > 2:
+                what = "tour" if len(flights) == 1 else f"flight {k + 1}"
+                ax.plot(path[:, 0], path[:, 1], "-", color=colours[k % len(colours)], lw=1.2,
+                        zorder=1, label=f"{what} ({f['cost_m']:.0f} m of "
+                        f"{plan['budget_m']:.0f} m)")
     sc = ax.scatter(xy[:, 0], xy[:, 1], c=p, cmap="viridis", vmin=0, vmax=1, s=60,
                     zorder=2, edgecolors="none")
     fig.colorbar(sc, ax=ax, label="p(mound) from the satellite classifier")

@@ -35,7 +35,9 @@ def _load(path: Path, schema: str) -> dict[str, Any] | None:
 
 def site_rows(tree: RunTree, sites_doc: dict[str, Any], plan: dict[str, Any] | None
               ) -> list[dict[str, Any]]:
-    tour = set(plan["tour"]) if plan else set()
+    from mound.uav.mission_items import visited_ids
+
+    tour = visited_ids(plan) if plan else set()
     rows = []
     for s in sites_doc["sites"]:
         truth = s.get("truth", {}).get("mound") if isinstance(s.get("truth"), dict) else None
@@ -126,10 +128,16 @@ def build_summary(tree: RunTree, args: argparse.Namespace, stages: list[dict[str
         doc["reason"] = reason
     if plan:
         doc["plan"] = {k: plan.get(k) for k in ("algo", "tour", "reward", "cost_m", "budget_m",
-                                                 "n_visited", "n_sites")}
+                                                 "n_visited", "n_sites", "flights")}
     if mission:
         doc["mission"] = {k: mission.get(k) for k in ("items", "flight_distance_m",
                                                        "budget_m", "upload")}
+        doc["mission"]["flights"] = [
+            {k: f.get(k) for k in ("flight", "file", "items", "flight_distance_m", "sites")}
+            | ({"energy_m": f["terrain"]["energy_m"],
+                "lowest_clearance_m": f["terrain"]["lowest_clearance_m"]}
+               if f.get("terrain", {}).get("checked") else {})
+            for f in mission.get("flights", [])]
     return doc
 
 
@@ -298,15 +306,22 @@ def render_html(tree: RunTree, s: dict[str, Any]) -> str:
             f"{m['reward']:.2f} bits, {m['cost_m']:.0f} m of a {m['budget_m']:.0f} m budget. "
             f"3-D verdicts: {m['judged']} of {m['visited']} sites ({m['failed']} failed), "
             f"{m['verdicts_correct']} of {m['verdicts_with_truth']} right where the truth is "
-            f"known. Mission: {mission.get('items', 0)} MAVLink items, "
+            f"known. Mission: {mission.get('items', 0)} MAVLink items"
+            + (f" in {len(mission['flights'])} flights ("
+               + "; ".join(f"flight {f['flight']}: {len(f.get('sites') or [])} sites, "
+                           f"{f['flight_distance_m']:.0f} m"
+                           + (f", energy {f['energy_m']:.0f} m, lowest clearance "
+                              f"{f['lowest_clearance_m']:.1f} m" if "energy_m" in f else "")
+                           for f in mission["flights"]) + ")"
+               if len(mission.get("flights") or []) > 1 else "") + ", "
             + (f"uploaded to system {upload.get('target_system')} and read back."
                if upload else "not uploaded (no --connect).") + "</p>")
-    mission_png = tree.report_dir / "mission.png"
     maps = _img("report/field.png", "field map")
-    if mission_png.is_file():
-        maps += _img("report/mission.png", "mission map")
-    if (tree.report_dir / "legs.png").is_file():
-        maps += _img("report/legs.png", "transit legs over the DEM")
+    for png in (sorted(tree.report_dir.glob("mission*.png"))
+                + sorted(tree.report_dir.glob("legs*.png"))):
+        kind, _, flight = png.stem.partition("_")
+        what = "mission map" if kind == "mission" else "transit legs over the DEM"
+        maps += _img(f"report/{png.name}", what + (f", flight {flight}" if flight else ""))
     if (tree.report_dir / "scene.png").is_file():
         maps += _img("report/scene.png", "p(mound) over the scene, candidates and tour")
     cards = "".join(_site_card(r) for r in visited)

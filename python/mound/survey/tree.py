@@ -56,6 +56,12 @@ class RunTree:
     def mission_geojson(self) -> Path:
         return self.root / "mission.geojson"
 
+    def flight_file(self, name: str, flight: int | None) -> Path:
+        """`name` (mission.plan, ...) of one flight of several: mission_2.plan; of the only
+        flight: mission.plan."""
+        p = self.root / name
+        return p if flight is None else p.with_name(f"{p.stem}_{flight}{p.suffix}")
+
     @property
     def mission_summary(self) -> Path:
         return self.root / "mission.json"

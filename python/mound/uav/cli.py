@@ -38,16 +38,46 @@ def cmd_build(args: argparse.Namespace) -> int:
 
         terrain = mission_items.TerrainInput(args.dem, args.dem_vertical,
                                              terrain_mod.spec_from_args(args))
-    m = mission_items.build(plan, origin, spec, terrain)
+    flights = mission_items.flight_plans(plan)
+    if args.flight is not None:
+        flights = [f for f in flights if f["flight"] == args.flight]
+        if not flights:
+            raise InputError(f"--flight: the plan has no flight {args.flight} that visits a site")
+    if not flights:
+        raise InputError("flights: the plan visits no site, there is nothing to fly")
+    # Several flights: one mission each, named OUT_1.plan, OUT_2.plan, ... (and the WPL and
+    # GeoJSON alike); all are checked before any file is written.
+    several = len(flights) > 1
+    outputs = []
+    missions = []
+    for f in flights:
+        m = mission_items.build(f, origin, spec, terrain)
+        names = [_numbered(p, f["flight"]) if several else p
+                 for p in (args.out, args.wpl, args.geojson)]
+        outputs.append((names[0], mission_files.plan_text(m, args.firmware)))
+        if args.wpl:
+            outputs.append((names[1], mission_files.wpl_text(m)))
+        if args.geojson:
+            outputs.append((names[2], mission_files.geojson_text(m)))
+        missions.append((f["flight"], names[0], m))
     # All files or none: every text is made and staged before any is put in place.
-    outputs = [(args.out, mission_files.plan_text(m, args.firmware))]
-    if args.wpl:
-        outputs.append((args.wpl, mission_files.wpl_text(m)))
-    if args.geojson:
-        outputs.append((args.geojson, mission_files.geojson_text(m)))
     write_all_atomic(outputs)
-    print(f"{len(m.items)} mission items for {len(m.sites)} sites, flight distance "
-          f"{m.flight_distance_m:.1f} m of budget {m.budget_m:g} m -> {args.out}")
+    for flight, out, m in missions:
+        _report(m, out, flight if several else None)
+    return 0
+
+
+def _numbered(path: str | None, flight: int) -> str | None:
+    if path is None:
+        return None
+    p = Path(path)
+    return str(p.with_name(f"{p.stem}_{flight}{p.suffix}"))
+
+
+def _report(m: Any, out: str, flight: int | None) -> None:
+    what = f"flight {flight}: " if flight is not None else ""
+    print(f"{what}{len(m.items)} mission items for {len(m.sites)} sites, flight distance "
+          f"{m.flight_distance_m:.1f} m of budget {m.budget_m:g} m -> {out}")
     if m.terrain is None:
         print("  terrain not checked (no --dem): heights above home")
     else:
@@ -59,7 +89,6 @@ def cmd_build(args: argparse.Namespace) -> int:
     for s in m.sites:
         print(f"  {s['id']}: scan {s['scan_length_m']:.0f} m, {s['images']} images "
               f"(plan's scan_cost_m {s['scan_cost_m']:g})")
-    return 0
 
 
 def upload_mission(mission: str | Path, connect: str, *, verify: bool = True,
@@ -129,6 +158,8 @@ def add_parser(sub: Any, parser_class: type) -> None:
     b.add_argument("--cruise-speed", type=float, default=12.0, help="m/s")
     b.add_argument("--scan-speed", type=float, default=5.0, help="m/s")
     b.add_argument("--firmware", choices=("px4", "ardupilot"), default="px4")
+    b.add_argument("--flight", type=int, help="only this flight of a plan with several "
+                   "(default: every flight, written as OUT_1.plan, OUT_2.plan, ...)")
     from mound.uav.terrain import add_arguments as add_terrain_arguments
 
     add_terrain_arguments(b)

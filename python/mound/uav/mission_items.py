@@ -263,6 +263,38 @@ def _plan_nodes(plan: dict[str, Any]) -> tuple[list[dict[str, Any]], bool, float
     return nodes, closed, budget
 
 
+def flight_plans(plan: dict[str, Any]) -> list[dict[str, Any]]:
+    """One mound.plan document per flight that visits a site (plan.json `flights`, ordered
+    by reward; a plan without `flights` is one flight), each with its own tour, reward,
+    cost and budget left, and `flight` (1-based)."""
+    flights = plan.get("flights")
+    if flights is None or (isinstance(flights, list) and len(flights) == 1):
+        return [{**plan, "flight": 1}]  # build() says when there is nothing to fly
+    if not isinstance(flights, list):
+        raise InputError("flights: expected a list of {tour, reward, cost_m, budget_left_m}")
+    out = []
+    for k, f in enumerate(flights):
+        where = f"flights[{k}]"
+        if not isinstance(f, dict) or not isinstance(f.get("tour"), list):
+            raise InputError(f"{where}: expected an object with a tour")
+        if len(f["tour"]) <= 2:
+            continue  # of several flights, one with nothing to visit is not flown
+        out.append({**plan, "tour": f["tour"], "flight": k + 1,
+                    "reward": require_number(f, "reward", where, lo=0, hi=1e12),
+                    "cost_m": require_number(f, "cost_m", where, lo=0, hi=MAX_BUDGET_M),
+                    "budget_left_m": require_number(f, "budget_left_m", where,
+                                                    lo=-MAX_BUDGET_M, hi=MAX_BUDGET_M)})
+    return out
+
+
+def visited_ids(plan: dict[str, Any]) -> set[str]:
+    """The sites any flight of the plan visits."""
+    ids: set[str] = set()
+    for f in plan.get("flights") or [{"tour": plan.get("tour", [])}]:
+        ids |= set(f.get("tour", [])[1:-1])
+    return ids
+
+
 def plan_scan(plan: dict[str, Any], where: str = "plan") -> ScanSpec | None:
     """The ScanSpec a plan's scan costs were derived from (`scan` of its sites document,
     carried along by mound_plan), or None."""
