@@ -78,6 +78,14 @@ def edited(edit: Any) -> str:
     ("latitude 1e20", edited(lambda d: d["origin"].update(lat=1e20)), "origin.lat"),
     ("bool as budget", edited(lambda d: d.update(budget_m=True)), "plan.budget_m"),
     ("closed as a string", edited(lambda d: d.update(closed="yes")), "plan.closed"),
+    ("flights not a list", edited(lambda d: d.update(flights={"tour": d["tour"]})), "flights"),
+    ("a flight without a tour", edited(lambda d: d.update(flights=[
+        {"tour": d["tour"], "reward": 1, "cost_m": 1, "budget_left_m": 1}, {"x": 1}])),
+     "flights[1]"),
+    ("a flight's reward abc", edited(lambda d: d.update(flights=[
+        {"tour": d["tour"], "reward": 1, "cost_m": 1, "budget_left_m": 1},
+        {"tour": d["tour"], "reward": "abc", "cost_m": 1, "budget_left_m": 1}])),
+     "flights[1].reward"),
 ])
 def test_mission_build_refuses_hostile_plans(tmp_path: Path, capsys: pytest.CaptureFixture[str],
                                              name: str, text: str | bytes,

@@ -438,3 +438,37 @@ def test_three_flights_each_clear_of_the_terrain_and_under_budget(flown, raw, de
                         "--dem-vertical", "egm96"],
                        capture_output=True, text=True, cwd=REPO_ROOT, check=False)
     assert r.returncode == 0 and one.exists() and not (tmp_path / "only2_2.plan").exists()
+
+
+def test_a_dem_in_geographic_coordinates_reads_alike(raw, dem_path, tmp_path) -> None:
+    """Any CRS: the laser DEM warped to WGS84 longitude/latitude (degrees, EPSG:4326) gives
+    the same heights at the same places (within the resampling), and the same ground and
+    corridor maxima to a metre; PROJ takes the points there from the file's CRS."""
+    from rasterio.warp import Resampling, calculate_default_transform, reproject
+
+    with rasterio.open(dem_path) as src:
+        tf, w, h = calculate_default_transform(src.crs, "EPSG:4326", src.width, src.height,
+                                               *src.bounds)
+        profile = {**src.profile, "crs": "EPSG:4326", "transform": tf, "width": w, "height": h,
+                   "nodata": -9999.0}
+        geo = tmp_path / "dem_wgs84.tif"
+        with rasterio.open(geo, "w", **profile) as dst:
+            reproject(rasterio.band(src, 1), rasterio.band(dst, 1), src_transform=src.transform,
+                      src_crs=src.crs, dst_transform=tf, dst_crs="EPSG:4326",
+                      resampling=Resampling.bilinear, dst_nodata=-9999.0)
+    origin = home_origin(raw)
+    a = Dem.open(str(dem_path), origin, "egm96")
+    b = Dem.open(str(geo), origin, "egm96")
+    assert b.crs_name.startswith("WGS 84") and 0.5 < b.pixel_m[0] < 1.5
+    rng = np.random.default_rng(3)
+    xy = np.column_stack([rng.uniform(-400, 350, 40), rng.uniform(-150, 600, 40)])
+    assert np.abs(a.height(xy) - b.height(xy)).max() < 1.0
+    ends = xy[:10], xy[10:20]
+    ta, _ = a.corridor_max(*ends, 10.0)
+    tb, _ = b.corridor_max(*ends, 10.0)
+    assert np.abs(ta - tb).max() < 1.5
+    from mound.uav.terrain import site_grounds
+
+    ids = [f"p{k}" for k in range(5)]
+    assert np.abs(site_grounds(a, xy[:5], 60.0, ids) - site_grounds(b, xy[:5], 60.0, ids)
+                  ).max() < 0.5
