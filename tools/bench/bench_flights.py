@@ -15,10 +15,13 @@ costs 0-20 m, home in the centre; the per-flight budget a fraction of the TSP es
 over K, so that the K flights together reach about 45 % of the sites), and the ten
 standard fields of Table I (100 sites, 1 m apart, node cost 1 m) at budgets 40 and 80 m.
 Small instances (12 sites) against the exact optimum of `--algo exact --flights K`
-(Held-Karp over subsets, a proof).
+(Held-Karp over subsets, a proof); with `--exact S`, medium ones (`--medium 30 40`) against
+the optimum SCIP's branch-and-cut for K flights proves within S seconds (mound.plan.
+branch_cut.solve_flights, warm-started from the ALNS flights), else left out.
 
     .venv/bin/python tools/bench/bench_flights.py [--sizes 100 200 500 1000] [--flights 2 3 5]
-        [--per-size 2] [--time 1] [--fields] [--small 20] [--seed 1]
+        [--per-size 2] [--time 1] [--fields] [--small 20] [--exact S --medium 30 40]
+        [--seed 1]
 """
 
 from __future__ import annotations
@@ -96,15 +99,41 @@ def one_instance(name: str, doc: dict, flights: int, seconds: float, seed: int, 
     return row
 
 
+def proven(name: str, doc: dict, flights: int, seconds: float, exact_s: float, seed: int,
+           tmp: Path) -> dict | None:
+    """A medium instance against SCIP's proven optimum for K flights (None: not proven)."""
+    from mound.plan import branch_cut
+
+    row = one_instance(name, doc, flights, seconds, seed, tmp)
+    p = from_document(doc)
+    plan = native.run_json("mound_plan", [str(tmp / f"{name}.json"), "--flights", str(flights),
+                                          "--time-limit", str(seconds)])
+    index = {sid: i for i, sid in enumerate(p.ids)}
+    r = branch_cut.solve_flights(p, flights, exact_s,
+                                 [[index[s] for s in f["tour"]] for f in plan["flights"]])
+    if r.status != "optimal":
+        print(f"{name:<22} K={flights} not proven in {exact_s:g} s (gap {100 * r.gap:.2f} %)",
+              flush=True)
+        return None
+    assert r.reward >= max(row["alns"], row["pyvrp"], row["newalg"]) - 1e-9
+    row["exact"] = check_flights(p, r.routes)
+    row["exact_s"] = r.seconds
+    return row
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--sizes", nargs="+", type=int, default=[100, 200, 500, 1000])
+    ap.add_argument("--sizes", nargs="*", type=int, default=[100, 200, 500, 1000])
     ap.add_argument("--flights", nargs="+", type=int, default=[2, 3, 5])
     ap.add_argument("--per-size", type=int, default=2)
     ap.add_argument("--time", type=float, default=1.0, help="ALNS's --time-limit, s")
     ap.add_argument("--fields", action="store_true", help="also the ten standard fields")
     ap.add_argument("--small", type=int, default=20,
                     help="small instances (12 sites) against the exact optimum")
+    ap.add_argument("--exact", type=float, default=0.0,
+                    help="seconds for SCIP to prove each medium instance (0: none)")
+    ap.add_argument("--medium", nargs="+", type=int, default=[30, 40],
+                    help="sites of the medium instances (with --exact)")
     ap.add_argument("--seed", type=int, default=1)
     args = ap.parse_args()
     rng = np.random.default_rng(args.seed)
@@ -139,6 +168,16 @@ def main() -> int:
             r["suite"] = "small"
             rows.append(r)
             print_row(r)
+        if args.exact > 0:
+            for n in args.medium:
+                for k in (2, 3):
+                    for i in range(args.per_size):
+                        r = proven(f"medium{n}_k{k}_{i}", random_instance(n, k, rng), k,
+                                   args.time, args.exact, args.seed, tmp)
+                        if r is not None:
+                            r["suite"] = "medium"
+                            rows.append(r)
+                            print_row(r)
     summarise(rows)
     return 0
 
@@ -156,7 +195,8 @@ def summarise(rows: list[dict]) -> None:
           f"{'behind':>7} {'ALNS/PyVRP %':>13} {'NewAlg/ALNS %':>14} {'ALNS s':>7} "
           f"{'PyVRP s':>8} {'ALNS/opt %':>11}")
     keys = sorted({(r["suite"], r["n"], r["k"]) for r in rows},
-                  key=lambda t: (["random", "fields", "small"].index(t[0]), t[1], t[2]))
+                  key=lambda t: (["random", "fields", "medium", "small"].index(t[0]), t[1],
+                                 t[2]))
     for suite, n, k in keys:
         sel = [r for r in rows if (r["suite"], r["n"], r["k"]) == (suite, n, k)]
         tol = 1e-9

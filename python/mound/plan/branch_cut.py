@@ -21,12 +21,19 @@ c(j, end) > B in both directions) are left out. SCIP's dual reductions are switc
 since the GSECs are not in the model when it presolves. A heuristic route (the caller's
 or `mound_plan --algo alns`) is given as the first solution, and SCIP's primal heuristics
 are then switched off.
+
+Several flights (`flights=K`, the team orienteering problem): the same model per flight k
+(x_e^k, y_i^k, a binary w_k that says flight k flies: home's degree 2 w_k, or w_k at home
+and at the end node of a path), every site in at most one flight (sum_k y_i^k <= 1), the
+budget per flight, the GSECs per flight, separated on each flight's LP values, and flights
+ordered by reward (sum_i r_i y_i^k >= sum_i r_i y_i^(k+1)) against the symmetry.
 """
 
 from __future__ import annotations
 
 import itertools
 import time
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -42,9 +49,12 @@ class _Gsec(Conshdlr):
     def __init__(self, bc: _Model) -> None:
         self.bc = bc
 
-    def _violated_integral(self, sol: Any) -> list[frozenset[int]]:
-        comps = _components(self.bc.n, self.bc.used_edges(sol))
-        return [frozenset(c) for c in comps if 0 not in c]
+    def _violated_integral(self, sol: Any) -> list[tuple[int, frozenset[int]]]:
+        out = []
+        for f in range(self.bc.flights):
+            comps = _components(self.bc.n, self.bc.used_edges(sol, f))
+            out += [(f, frozenset(c)) for c in comps if 0 not in c]
+        return out
 
     def conscheck(self, constraints: Any, solution: Any, checkintegrality: Any,
                   checklprows: Any, printreason: Any, completely: Any) -> dict:
@@ -56,9 +66,9 @@ class _Gsec(Conshdlr):
         outside = self._violated_integral(None)
         if not outside:
             return {"result": SCIP_RESULT.FEASIBLE}
-        for s in outside:
+        for f, s in outside:
             for k in s:
-                self.bc.add_gsec(s, k, as_cut=False)
+                self.bc.add_gsec(s, k, as_cut=False, flight=f)
         return {"result": SCIP_RESULT.CONSADDED}
 
     def consenfops(self, constraints: Any, nusefulconss: Any, solinfeasible: Any,
@@ -69,16 +79,17 @@ class _Gsec(Conshdlr):
 
     def conssepalp(self, constraints: Any, nusefulconss: Any) -> dict:
         bc = self.bc
-        xs = np.array([self.model.getSolVal(None, v) for v in bc.x])
-        ys = np.zeros(bc.n)
-        for i, v in bc.y.items():
-            ys[i] = self.model.getSolVal(None, v)
         root = self.model.getDepth() == 0
         found = 0
-        for s, k in bc.separate(xs, ys, max_flows=bc.n if root else 20):
-            if (s, k) not in bc.seen:
-                bc.add_gsec(s, k, as_cut=True)
-                found += 1
+        for f in range(bc.flights):
+            xs = np.array([self.model.getSolVal(None, v) for v in bc.xf[f]])
+            ys = np.zeros(bc.n)
+            for i, v in bc.yf[f].items():
+                ys[i] = self.model.getSolVal(None, v)
+            for s, k in bc.separate(xs, ys, max_flows=bc.n if root else 20):
+                if (s, k, f) not in bc.seen:
+                    bc.add_gsec(s, k, as_cut=True, flight=f)
+                    found += 1
         return {"result": SCIP_RESULT.SEPARATED if found else SCIP_RESULT.DIDNOTFIND}
 
     def conslock(self, constraint: Any, locktype: Any, nlockspos: Any, nlocksneg: Any) -> None:
@@ -86,8 +97,9 @@ class _Gsec(Conshdlr):
 
 
 class _Model:
-    def __init__(self, p: OpProblem, time_limit_s: float) -> None:
+    def __init__(self, p: OpProblem, time_limit_s: float, flights: int = 1) -> None:
         self.p = p
+        self.flights = flights
         self.n = n = len(p.ids)
         c = p.cost_matrix()
         end = p.end
@@ -110,28 +122,49 @@ class _Model:
         m.setParam("misc/allowstrongdualreds", False)
         m.setParam("misc/allowweakdualreds", False)
         self.m = m
-        self.x = []
-        for a, b in self.edges:
-            twice = p.closed and a == 0
-            self.x.append(m.addVar(f"x_{a}_{b}", vtype="I" if twice else "B", lb=0,
-                                   ub=2 if twice else 1))
-        self.y = {v: m.addVar(f"y_{v}", vtype="B") for v in self.sites}
         incident: dict[int, list[int]] = {v: [] for v in nodes}
         for k, (a, b) in enumerate(self.edges):
             incident[a].append(k)
             incident[b].append(k)
-        for v in depots:
-            m.addCons(quicksum(self.x[k] for k in incident[v]) == (2 if p.closed else 1))
+        # Per flight f: x_e^f, y_i^f (one flight: the paper's model, home's degree 2).
+        self.xf: list[list[Any]] = []
+        self.yf: list[dict[int, Any]] = []
+        self.wf: list[Any] = []
+        for f in range(flights):
+            tag = "" if flights == 1 else f"_f{f}"
+            x = []
+            for a, b in self.edges:
+                twice = p.closed and a == 0
+                x.append(m.addVar(f"x_{a}_{b}{tag}", vtype="I" if twice else "B", lb=0,
+                                  ub=2 if twice else 1))
+            y = {v: m.addVar(f"y_{v}{tag}", vtype="B") for v in self.sites}
+            fly = 1 if flights == 1 else m.addVar(f"w{tag}", vtype="B")
+            self.wf.append(fly)
+            for v in depots:
+                m.addCons(quicksum(x[k] for k in incident[v]) == (2 if p.closed else 1) * fly)
+            for v in self.sites:
+                m.addCons(quicksum(x[k] for k in incident[v]) == 2 * y[v])
+                if flights > 1:
+                    m.addCons(y[v] <= fly)
+            for k, (a, b) in enumerate(self.edges):
+                for v in (a, b):
+                    if v in y:
+                        m.addCons(x[k] <= (2 if p.closed and a == 0 else 1) * y[v])
+            m.addCons(quicksum(float(c[a, b]) * x[k] for k, (a, b) in enumerate(self.edges))
+                      <= p.budget + tol)
+            self.xf.append(x)
+            self.yf.append(y)
         for v in self.sites:
-            m.addCons(quicksum(self.x[k] for k in incident[v]) == 2 * self.y[v])
-        for k, (a, b) in enumerate(self.edges):
-            for v in (a, b):
-                if v in self.y:
-                    m.addCons(self.x[k] <= (2 if p.closed and a == 0 else 1) * self.y[v])
-        m.addCons(quicksum(float(c[a, b]) * self.x[k] for k, (a, b) in enumerate(self.edges))
-                  <= p.budget + tol)
-        m.setObjective(quicksum(float(p.reward[v]) * y for v, y in self.y.items()), "maximize")
-        self.seen: set[tuple[frozenset[int], int]] = set()
+            if flights > 1:
+                m.addCons(quicksum(self.yf[f][v] for f in range(flights)) <= 1)
+        reward = [quicksum(float(p.reward[v]) * y for v, y in self.yf[f].items())
+                  for f in range(flights)]
+        for f in range(flights - 1):  # flights ordered by reward: no symmetric copies
+            m.addCons(reward[f] >= reward[f + 1])
+        m.setObjective(quicksum(reward), "maximize")
+        # One flight: the names the single-flight code has always used.
+        self.x, self.y = self.xf[0], self.yf[0]
+        self.seen: set[tuple[frozenset[int], int, int]] = set()
         self.cuts = 0
         self.handler = _Gsec(self)
         m.includeConshdlr(self.handler, "gsec", "generalised subtour elimination",
@@ -158,14 +191,14 @@ class _Model:
             return found
         graph = flow_graph(n, self.edges, xs, self.p.closed)
         covered: set[int] = set()
-        order = [v for v in sorted(self.y, key=lambda v: -ys[v]) if ys[v] > tol]
+        order = [v for v in sorted(self.sites, key=lambda v: -ys[v]) if ys[v] > tol]
         for k in order[:max_flows]:
             if k in covered:
                 continue
             value, s = min_cut_from_home(graph, k)
             if value >= 2 * ys[k] - tol:
                 continue
-            best = max(s & self.y.keys(), key=lambda v: ys[v])
+            best = max(s & set(self.sites), key=lambda v: ys[v])
             if self._violation(s, best, xs, ys) > tol:
                 found.append((s, best))
                 covered |= s
@@ -184,51 +217,59 @@ class _Model:
     def _violation(self, s: frozenset[int], k: int, xs: np.ndarray, ys: np.ndarray) -> float:
         return 2 * ys[k] + self._lhs(s) - float(xs[self._crossing(s)].sum())
 
-    def add_gsec(self, s: frozenset[int], k: int, as_cut: bool) -> None:
-        """x(delta(S)) >= 2 y_k, minus 1 when S holds the end node of a path."""
-        self.seen.add((s, k))
+    def add_gsec(self, s: frozenset[int], k: int, as_cut: bool, flight: int = 0) -> None:
+        """x(delta(S)) >= 2 y_k, minus 1 when S holds the end node of a path (of one
+        flight)."""
+        self.seen.add((s, k, flight))
         self.cuts += 1
         delta = np.flatnonzero(self._crossing(s)).tolist()
         lhs = self._lhs(s)
         m = self.m
+        x, y = self.xf[flight], self.yf[flight]
         if not as_cut:
-            m.addCons(quicksum(self.x[i] for i in delta) - 2 * self.y[k] >= lhs)
+            m.addCons(quicksum(x[i] for i in delta) - 2 * y[k] >= lhs)
             return
         row = m.createEmptyRowUnspec(f"gsec{self.cuts}", lhs=lhs, rhs=None, local=False,
                                      modifiable=False, removable=True)
         m.cacheRowExtensions(row)
         for i in delta:
-            m.addVarToRow(row, self.x[i], 1.0)
-        m.addVarToRow(row, self.y[k], -2.0)
+            m.addVarToRow(row, x[i], 1.0)
+        m.addVarToRow(row, y[k], -2.0)
         m.flushRowExtensions(row)
         m.addCut(row, forcecut=False)
         m.addPoolCut(row)
 
-    def warm_start(self, route: list[int]) -> bool:
+    def warm_start(self, routes: list[list[int]]) -> bool:
+        """One route per flight (fewer: the rest do not fly)."""
         index = {e: k for k, e in enumerate(self.edges)}
         sol = self.m.createSol()
-        counts: dict[int, int] = {}
-        for a, b in itertools.pairwise(route):
-            k = index.get((min(a, b), max(a, b)))
-            if k is None:
-                return False
-            counts[k] = counts.get(k, 0) + 1
-        for k, var in enumerate(self.x):
-            self.m.setSolVal(sol, var, counts.get(k, 0))
-        visited = set(route)
-        for v, var in self.y.items():
-            self.m.setSolVal(sol, var, 1.0 if v in visited else 0.0)
+        for f in range(self.flights):
+            route = routes[f] if f < len(routes) else []
+            counts: dict[int, int] = {}
+            for a, b in itertools.pairwise(route):
+                k = index.get((min(a, b), max(a, b)))
+                if k is None:
+                    return False
+                counts[k] = counts.get(k, 0) + 1
+            for k, var in enumerate(self.xf[f]):
+                self.m.setSolVal(sol, var, counts.get(k, 0))
+            visited = set(route)
+            for v, var in self.yf[f].items():
+                self.m.setSolVal(sol, var, 1.0 if v in visited else 0.0)
+            if self.flights > 1:
+                flies = len(route) > 2 or (not self.p.closed and len(route) == 2)
+                self.m.setSolVal(sol, self.wf[f], 1.0 if flies else 0.0)
         return bool(self.m.addSol(sol, free=True))
 
-    def used_edges(self, sol: Any) -> list[tuple[int, int]]:
+    def used_edges(self, sol: Any, flight: int = 0) -> list[tuple[int, int]]:
         """The edges of an integer solution (sol None: the LP's), each as often as used."""
         used = []
         for k, e in enumerate(self.edges):
-            used += [e] * max(0, round(self.m.getSolVal(sol, self.x[k])))
+            used += [e] * max(0, round(self.m.getSolVal(sol, self.xf[flight][k])))
         return used
 
-    def route_of(self, sol: Any) -> list[int]:
-        used = self.used_edges(sol)
+    def route_of(self, sol: Any, flight: int = 0) -> list[int]:
+        used = self.used_edges(sol, flight)
         home = next((comp for comp in _components(self.n, used) if 0 in comp), [0])
         return _route_of(self.n, [e for e in used if e[0] in home], self.p.closed, self.p.end)
 
@@ -237,26 +278,54 @@ def solve(p: OpProblem, time_limit_s: float = 60.0,
           start_route: list[int] | None = None) -> ExactResult:
     """The proven optimum (status "optimal"), or on the time limit the best route found
     and SCIP's dual bound (status "time_limit")."""
+    r = solve_flights(p, 1, time_limit_s, [start_route] if start_route is not None else None)
+    return ExactResult(status=r.status, reward=r.reward, bound=r.bound, route=r.routes[0],
+                       cost=r.costs[0], cuts=r.cuts, rounds=r.rounds, seconds=r.seconds,
+                       gap=r.gap)
+
+
+@dataclass
+class FlightsResult:
+    status: str                # "optimal" or "time_limit"
+    reward: float              # of all flights returned (each feasible)
+    bound: float
+    routes: list[list[int]]    # ordered by reward
+    costs: list[float]
+    cuts: int
+    rounds: int
+    seconds: float
+    gap: float = 0.0
+
+
+def solve_flights(p: OpProblem, flights: int, time_limit_s: float = 60.0,
+                  start_routes: list[list[int]] | None = None) -> FlightsResult:
+    """K flights: the proven optimum of the team orienteering problem (status "optimal"),
+    or on the time limit the best flights found and SCIP's dual bound."""
     start = time.perf_counter()
-    bc = _Model(p, time_limit_s)
+    bc = _Model(p, time_limit_s, flights)
+    empty = [0, p.end]
     if not bc.sites:
-        route = [0, p.end]
-        return ExactResult(status="optimal", reward=0.0, bound=0.0, route=route,
-                           cost=p.route_cost(route), cuts=0, rounds=0,
-                           seconds=time.perf_counter() - start)
-    if start_route is not None and p.route_cost(start_route) <= p.budget + 1e-9:
-        # A good first route (ALNS-OP's is nearly always optimal) leaves SCIP's primal
+        routes = [empty] * flights
+        return FlightsResult("optimal", 0.0, 0.0, routes, [p.route_cost(r) for r in routes],
+                             0, 0, time.perf_counter() - start)
+    if start_routes is not None and all(p.route_cost(r) <= p.budget + 1e-9
+                                        for r in start_routes):
+        # A good first solution (ALNS-OP's is nearly always optimal) leaves SCIP's primal
         # heuristics little to find; without them the proof is about a quarter faster.
-        if bc.warm_start(start_route):
+        ordered = sorted(start_routes, key=lambda r: -float(
+            sum(p.reward[v] for v in set(r[1:-1]))))
+        if bc.warm_start(ordered):
             bc.m.setHeuristics(SCIP_PARAMSETTING.OFF)
     bc.m.optimize()
     status = "optimal" if bc.m.getStatus() == "optimal" else "time_limit"
-    route = [0, p.end]
+    routes = [empty] * flights
     if bc.m.getNSols() > 0:
-        route = bc.route_of(bc.m.getBestSol())
-    reward = float(sum(p.reward[v] for v in set(route) if v >= (1 if p.closed else 2)))
+        sol = bc.m.getBestSol()
+        routes = [bc.route_of(sol, f) for f in range(flights)]
+    first = 1 if p.closed else 2
+    reward = float(sum(p.reward[v] for r in routes for v in set(r) if v >= first))
     bound = reward if status == "optimal" else float(bc.m.getDualbound())
-    return ExactResult(status=status, reward=reward, bound=bound, route=route,
-                       cost=p.route_cost(route), cuts=bc.cuts,
-                       rounds=int(bc.m.getNNodes()), seconds=time.perf_counter() - start,
-                       gap=(bound - reward) / bound if bound > 0 else 0.0)
+    return FlightsResult(status=status, reward=reward, bound=bound, routes=routes,
+                         costs=[p.route_cost(r) for r in routes], cuts=bc.cuts,
+                         rounds=int(bc.m.getNNodes()), seconds=time.perf_counter() - start,
+                         gap=(bound - reward) / bound if bound > 0 else 0.0)

@@ -19,17 +19,20 @@ class OpProblem:
     xy: np.ndarray         # (n, 2) metres
     reward: np.ndarray     # (n,), 0 at home and end
     scan: np.ndarray       # (n,); home and end: takeoff_landing_m (0 unless given)
-    budget: float
+    budget: float          # less a path's terrain.path_offset_m (as mound_plan does)
     closed: bool           # closed tour (end == home) or path home -> node 1
+    extra: np.ndarray | None = None  # (n, n) terrain.extra_m, the climbs' costs
 
     @property
     def end(self) -> int:
         return 0 if self.closed else 1
 
     def cost_matrix(self) -> np.ndarray:
-        """Paper: the expanded costs c_ij = d_ij + (s_i + s_j) / 2 (INTERFACES.md)."""
+        """Paper: the expanded costs c_ij = d_ij + (s_i + s_j) / 2 (INTERFACES.md), plus
+        the terrain's climb costs when the document has them."""
         d = np.linalg.norm(self.xy[:, None, :] - self.xy[None, :, :], axis=2)
-        return d + 0.5 * (self.scan[:, None] + self.scan[None, :])
+        c = d + 0.5 * (self.scan[:, None] + self.scan[None, :])
+        return c if self.extra is None else c + self.extra
 
     def route_cost(self, route: list[int]) -> float:
         c = self.cost_matrix()
@@ -59,13 +62,23 @@ def _from_document(doc: dict[str, Any], budget: float | None) -> OpProblem:
         nodes.append((end["id"], end["x_m"], end["y_m"], 0.0, overhead))
     nodes += [(s["id"], s["x_m"], s["y_m"], s["reward"], s.get("scan_cost_m", 0.0))
               for s in doc["sites"]]
+    extra = None
+    offset = 0.0
+    terrain = doc.get("terrain")
+    if isinstance(terrain, dict):
+        extra = np.asarray(terrain["extra_m"], dtype=float)
+        if extra.shape != (len(nodes), len(nodes)):
+            raise InputError(f"terrain.extra_m: expected {len(nodes)} x {len(nodes)} numbers")
+        extra = np.maximum(extra, extra.T)
+        offset = 0.0 if closed else float(terrain.get("path_offset_m", 0.0))
     return OpProblem(
         ids=[n[0] for n in nodes],
         xy=np.array([[n[1], n[2]] for n in nodes], dtype=float),
         reward=np.array([n[3] for n in nodes], dtype=float),
         scan=np.array([n[4] for n in nodes], dtype=float),
-        budget=float(doc["budget_m"] if budget is None else budget),
+        budget=float(doc["budget_m"] if budget is None else budget) - offset,
         closed=closed,
+        extra=extra,
     )
 
 
