@@ -204,12 +204,17 @@ def cmd_plan_exact(args: argparse.Namespace) -> int:
         "solver": {"name": args.solver, "proof": r.status, "upper_bound": r.bound,
                    "gap": r.gap, "cuts": r.cuts, "rounds": r.rounds},
     }
+    return emit_exact_plan(args, doc, f"{r.status}: reward {r.reward:.4f}, upper bound "
+                           f"{r.bound:.4f}, {r.cuts} cuts, {r.seconds:.1f} s")
+
+
+def emit_exact_plan(args: argparse.Namespace, doc: dict[str, Any], line: str) -> int:
+    """The plan to --out (or stdout), the proof's one line to stderr."""
     if args.out:
         write_json(args.out, doc)
     else:
         print(json.dumps(doc, indent=1))
-    print(f"{r.status}: reward {r.reward:.4f}, upper bound {r.bound:.4f}, {r.cuts} cuts, "
-          f"{r.seconds:.1f} s", file=sys.stderr)
+    print(line, file=sys.stderr)
     return 0
 
 
@@ -243,13 +248,9 @@ def plan_exact_flights(args: argparse.Namespace, prob: Any) -> int:
         "solver": {"name": "scip", "proof": r.status, "upper_bound": r.bound, "gap": r.gap,
                    "cuts": r.cuts, "rounds": r.rounds, "alns_reward": heur["reward"]},
     }
-    if args.out:
-        write_json(args.out, doc)
-    else:
-        print(json.dumps(doc, indent=1))
-    print(f"{r.status}: {args.flights} flights, reward {r.reward:.4f}, upper bound "
-          f"{r.bound:.4f}, {r.cuts} cuts, {r.seconds:.1f} s", file=sys.stderr)
-    return 0
+    return emit_exact_plan(args, doc, f"{r.status}: {args.flights} flights, reward "
+                           f"{r.reward:.4f}, upper bound {r.bound:.4f}, {r.cuts} cuts, "
+                           f"{r.seconds:.1f} s")
 
 
 def cmd_table1(args: argparse.Namespace) -> int:
