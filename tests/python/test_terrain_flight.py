@@ -472,3 +472,54 @@ def test_a_dem_in_geographic_coordinates_reads_alike(raw, dem_path, tmp_path) ->
     ids = [f"p{k}" for k in range(5)]
     assert np.abs(site_grounds(a, xy[:5], 60.0, ids) - site_grounds(b, xy[:5], 60.0, ids)
                   ).max() < 0.5
+
+
+def test_plan_wpl_and_geojson_carry_the_same_altitudes(flown, tmp_path) -> None:
+    """The .plan, the WPL file and the GeoJSON path: the same heights above home's ground
+    (the GeoJSON's within the Earth's curvature over the flight, a few centimetres), and
+    home's AMSL height in the .plan's and the WPL's home."""
+    m = flown["mission"]
+    mission_files.write_wpl(tmp_path / "m.waypoints", m)
+    items_plan, home_plan, _ = mission_files.read_mission(flown["file"])
+    items_wpl, home_wpl, _ = mission_files.read_mission(tmp_path / "m.waypoints")
+    nav = [it for it in items_plan if it.command in mission_items.NAV_COMMANDS]
+    assert [it.z for it in items_plan] == [it.z for it in items_wpl]
+    assert home_plan.alt_m == pytest.approx(m.terrain["home_amsl_m"], abs=1e-3)
+    assert home_wpl.alt_m == pytest.approx(m.terrain["home_amsl_m"], abs=1e-3)
+    doc = mission_files.geojson_document(m)
+    path = next(f for f in doc["features"] if f["properties"]["kind"] == "flight_path")
+    z = np.array([c[2] for c in path["geometry"]["coordinates"]])
+    # the path: the ground at home, then every navigation item (NAV_LAND's own point is on
+    # the ground at home, as the item's z = 0 says)
+    assert np.abs(z[1:] - np.array([it.z for it in nav])).max() < 0.15
+    assert path["properties"]["altitude"] == "metres above home's ground"
+    profiles = [f for f in doc["features"] if f["properties"]["kind"] == "leg_profile"]
+    assert len(profiles) == len(m.terrain["legs"])
+    for f in profiles:
+        pr = f["properties"]
+        assert len(pr["distance_m"]) == len(pr["terrain_amsl_m"])
+        assert pr["flight_amsl_m"] - max(pr["terrain_amsl_m"]) >= flown["spec"].clearance_m - 0.5
+
+
+def test_mound_field_make_with_a_dem(raw, dem_path, tmp_path) -> None:
+    """`mound field make --dem` (the paper's field placed on the DEM): the sites document
+    carries the terrain, mound_plan reads it, and a field off the DEM is refused naming the
+    site."""
+    from mound.cli import main as mound_main
+
+    origin = home_origin(raw)
+    out = tmp_path / "sites.json"
+    args = ["field", "make", "--seed", "0", "--spacing", "30", "--scan-pattern", "raster",
+            "--origin", f"{origin.lat_deg},{origin.lon_deg}", "--dem", str(dem_path),
+            "--dem-vertical", "egm96", "--budget", "3000", "--out", str(out)]
+    assert mound_main(args) == 0
+    doc = json.loads(out.read_text())
+    t = doc["terrain"]
+    assert len(t["extra_m"]) == len(doc["sites"]) + 1 and t["vertical"] == "egm96"
+    assert doc["takeoff_landing_m"] == 0 and doc["sites"][0]["scan_cost_m"] == t["scan_energy_m"]
+    plan_doc = native.run_json("mound_plan", [str(out)])
+    assert plan_doc["terrain"]["clearance_m"] == 30 and plan_doc["n_visited"] > 0
+    far = [*args[:-1], str(tmp_path / "far.json")]
+    far[far.index("--spacing") + 1] = "200"
+    assert mound_main(far) == 2
+    assert not (tmp_path / "far.json").exists()
