@@ -404,7 +404,7 @@ def test_two_flights_over_the_dem(tmp_path: Path) -> None:
     os.environ.setdefault("MOUND_DATA", str(REPO_ROOT.parent / "shared" / "data"))
     dem = REPO_ROOT.parent / "shared" / "data" / "dem" / "TM1_564_146.tif"
     out = tmp_path / "run"
-    r = run_driver(["--out", str(out), "--budget", "1800", "--flights", "2", "--spacing", "80",
+    r = run_driver(["--out", str(out), "--budget", "1100", "--flights", "2", "--spacing", "80",
                     "--home", "46.451176,15.833860", "--dem", str(dem), "--dem-vertical",
                     "egm96", "--dense-size", "0", "--image-size", "320", "240",
                     "--no-progress"])
