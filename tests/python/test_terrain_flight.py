@@ -523,3 +523,25 @@ def test_mound_field_make_with_a_dem(raw, dem_path, tmp_path) -> None:
     far[far.index("--spacing") + 1] = "200"
     assert mound_main(far) == 2
     assert not (tmp_path / "far.json").exists()
+
+
+@pytest.mark.parametrize("pattern", ["orbit", "both"])
+def test_orbit_scans_over_the_terrain(raw, dem_path, tmp_path, pattern: str) -> None:
+    """The other scan patterns over the ridges: the flight within the plan's cost, the
+    transit legs clear, and the orbit's camera target (DO_SET_ROI_LOCATION) at the site's
+    own ground plus the target height, relative to home's ground."""
+    doc = sites_doc(raw, 6000.0)
+    scan = mission_items.scan_for_site(60.0, pattern)
+    doc["scan"] = scan.to_doc()
+    origin = Origin.from_doc(doc["origin"])
+    t = terrain.attach(doc, str(dem_path), terrain.TerrainSpec(), "egm96", origin)
+    p = plan(t, tmp_path, pattern)
+    m = mission_items.build(p, origin, None,
+                            mission_items.TerrainInput(str(dem_path), "egm96"))
+    assert m.terrain["energy_m"] <= p["cost_m"] + 1e-6 <= p["budget_m"] + 1e-6
+    assert m.terrain["lowest_clearance_m"] >= 30 - 1e-9
+    rois = [it for it in m.items if it.command == mission_items.DO_SET_ROI_LOCATION]
+    assert len(rois) == len(m.sites)
+    home = m.terrain["home_amsl_m"]
+    for it, s in zip(rois, m.sites, strict=True):
+        assert it.z == pytest.approx(s["ground_amsl_m"] + scan.target_height_m - home, abs=0.01)
