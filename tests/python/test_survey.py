@@ -99,10 +99,12 @@ def survey(tmp_path_factory: pytest.TempPathFactory, vehicle: MavsdkVehicle
             break
         time.sleep(0.2)
     assert first is not None, "no site finished before the deadline"
-    first_mtime = first.stat().st_mtime_ns
     os.killpg(proc.pid, signal.SIGINT)
     interrupted_out, _ = proc.communicate(timeout=60)
     time.sleep(0.5)
+    # After the interrupted run has ended: a Dask task whose worker was stopped before the
+    # client took its row may have run again and rewritten the same result meanwhile.
+    first_mtime = first.stat().st_mtime_ns
     leftovers = tool_processes(str(out))
     second = run_driver(args)
     third = run_driver(args)
