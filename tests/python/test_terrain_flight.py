@@ -545,3 +545,10 @@ def test_orbit_scans_over_the_terrain(raw, dem_path, tmp_path, pattern: str) -> 
     home = m.terrain["home_amsl_m"]
     for it, s in zip(rois, m.sites, strict=True):
         assert it.z == pytest.approx(s["ground_amsl_m"] + scan.target_height_m - home, abs=0.01)
+
+
+def test_a_plan_made_over_a_dem_is_not_flown_without_it(flown) -> None:
+    """Safety: a plan whose costs came from a DEM is refused without --dem (its mission
+    would fly heights above home, the terrain unchecked)."""
+    with pytest.raises(InputError, match="plan.terrain: .*build its mission with --dem"):
+        mission_items.build(flown["plan"], Origin.from_doc(flown["doc"]["origin"]))

@@ -314,6 +314,11 @@ def build(plan: dict[str, Any], origin: Origin, spec: MissionSpec | None = None,
     nodes, closed, budget = _plan_nodes(plan)
     if len(nodes) <= 2 and (closed or len(nodes) < 2):
         raise InputError("tour: the plan visits no site, there is nothing to fly")
+    if terrain is None and isinstance(plan.get("terrain"), dict):
+        dem = plan["terrain"].get("dem", "its DEM")
+        raise InputError(f"plan.terrain: the plan was made over {str(dem):.200} (its costs count "
+                         "the climbs); build its mission with --dem, or the heights would be "
+                         "above home with the terrain not checked")
     if terrain is not None:
         from mound.uav.terrain_mission import build_over_terrain
 
