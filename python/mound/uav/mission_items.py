@@ -316,7 +316,7 @@ def build(plan: dict[str, Any], origin: Origin, spec: MissionSpec | None = None,
         raise InputError("tour: the plan visits no site, there is nothing to fly")
     if terrain is None and isinstance(plan.get("terrain"), dict):
         dem = plan["terrain"].get("dem", "its DEM")
-        raise InputError(f"plan.terrain: the plan was made over {str(dem):.200} (its costs count "
+        raise InputError(f"plan.terrain: the plan was made over {dem!s:.200} (its costs count "
                          "the climbs); build its mission with --dem, or the heights would be "
                          "above home with the terrain not checked")
     if terrain is not None:
