@@ -1,5 +1,7 @@
 #include "recon/exif.h"
 
+#include <algorithm>
+#include <cstddef>
 #include <cstdint>
 #include <fstream>
 #include <vector>
@@ -82,30 +84,68 @@ class Tiff {
   bool le_ = true;
 };
 
-std::vector<uint8_t> ExifBlock(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::vector<uint8_t> head(2);
-  if (!in.read(reinterpret_cast<char*>(head.data()), 2) || head[0] != 0xFF || head[1] != 0xD8) return {};
+// The TIFF structure inside a JPEG's APP1 "Exif" segment (markers walked up to the image
+// data), or the file itself when it is a TIFF; empty when there is none.
+std::vector<uint8_t> ExifBlock(const std::vector<uint8_t>& f) {
+  if (f.size() >= 4 && ((f[0] == 'I' && f[1] == 'I' && f[2] == 42 && f[3] == 0) ||
+                        (f[0] == 'M' && f[1] == 'M' && f[2] == 0 && f[3] == 42))) {
+    return f;
+  }
+  if (f.size() < 2 || f[0] != 0xFF || f[1] != 0xD8) return {};
+  size_t at = 2;
   for (int segments = 0; segments < 64; ++segments) {
-    uint8_t m[4];
-    if (!in.read(reinterpret_cast<char*>(m), 4) || m[0] != 0xFF) return {};
-    const int len = m[2] << 8 | m[3];
+    if (at + 4 > f.size() || f[at] != 0xFF) return {};
+    const uint8_t marker = f[at + 1];
+    const size_t len = size_t(f[at + 2]) << 8 | f[at + 3];
     if (len < 2) return {};
-    if (m[1] == 0xDA || m[1] == 0xD9) return {};  // image data: no EXIF before it
-    std::vector<uint8_t> seg(len - 2);
-    if (!in.read(reinterpret_cast<char*>(seg.data()), seg.size())) return {};
-    if (m[1] == 0xE1 && seg.size() > 6 && std::equal(seg.begin(), seg.begin() + 6, "Exif\0\0")) {
-      return std::vector<uint8_t>(seg.begin() + 6, seg.end());
+    if (marker == 0xDA || marker == 0xD9) return {};  // image data: no EXIF before it
+    if (at + 2 + len > f.size()) return {};
+    const auto seg = f.begin() + static_cast<std::ptrdiff_t>(at + 4);
+    const size_t n = len - 2;
+    if (marker == 0xE1 && n > 6 && std::equal(seg, seg + 6, "Exif\0\0")) {
+      return std::vector<uint8_t>(seg + 6, seg + static_cast<std::ptrdiff_t>(n));
     }
+    at += 2 + len;
   }
   return {};
+}
+
+// "YYYY:MM:DD HH:MM:SS" with digits where digits belong; empty otherwise.
+std::string CheckedDateTime(const std::string& s) {
+  if (s.size() != 19) return "";
+  for (size_t i = 0; i < s.size(); ++i) {
+    const char c = s[i];
+    const bool sep = i == 4 || i == 7 || i == 10 || i == 13 || i == 16;
+    if (sep ? c != (i == 10 ? ' ' : ':') : (c < '0' || c > '9')) return "";
+  }
+  return s;
 }
 
 }  // namespace
 
 Exif ReadExif(const std::string& path) {
+  // A JPEG's EXIF lies in its first 64 KiB segments; a TIFF's IFDs may lie anywhere.
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return {};
+  constexpr size_t kMaxBytes = 64u << 20;
+  std::vector<uint8_t> head(4);
+  if (!in.read(reinterpret_cast<char*>(head.data()), 4)) return {};
+  const bool tiff = (head[0] == 'I' && head[1] == 'I') || (head[0] == 'M' && head[1] == 'M');
+  const size_t want = tiff ? kMaxBytes : (64u + 2u) * 65536u;
+  std::vector<uint8_t> bytes(head);
+  std::vector<char> buf(1 << 16);
+  while (bytes.size() < want) {
+    in.read(buf.data(), static_cast<std::streamsize>(buf.size()));
+    const std::streamsize got = in.gcount();
+    if (got <= 0) break;
+    bytes.insert(bytes.end(), buf.begin(), buf.begin() + got);
+  }
+  return ParseExif(bytes);
+}
+
+Exif ParseExif(const std::vector<uint8_t>& file_bytes) {
   Exif x;
-  Tiff t(ExifBlock(path));
+  Tiff t(ExifBlock(file_bytes));
   if (!t.Init()) return x;
   uint32_t exif_ifd = 0, gps_ifd = 0;
   for (const auto& e : t.Ifd(t.FirstIfd())) {
@@ -113,10 +153,15 @@ Exif ReadExif(const std::string& path) {
     if (e.tag == 0x0110) x.model = t.Text(e);
     if (e.tag == 0x8769) exif_ifd = static_cast<uint32_t>(t.Number(e).value_or(0));
     if (e.tag == 0x8825) gps_ifd = static_cast<uint32_t>(t.Number(e).value_or(0));
+    if (e.tag == 0x0132 && x.datetime.empty()) x.datetime = CheckedDateTime(t.Text(e));
   }
   if (exif_ifd) {
     for (const auto& e : t.Ifd(exif_ifd)) {
       if (e.tag == 0x920A) x.focal_mm = t.Number(e);
+      if (e.tag == 0x9003) {
+        const std::string d = CheckedDateTime(t.Text(e));
+        if (!d.empty()) x.datetime = d;
+      }
       if (e.tag == 0xA405) x.focal_35mm = t.Number(e);
       if (e.tag == 0xA20E) x.focal_plane_x_res = t.Number(e);
       if (e.tag == 0xA002) {

@@ -1,11 +1,14 @@
-// The EXIF facts a reconstruction needs from a JPEG: the focal length and the sensor's
-// pixel pitch (or the 35 mm equivalent focal length) for the intrinsics, and the GPS
-// position. A small reader of the TIFF structure inside the APP1 "Exif" segment (EXIF 2.3,
-// CIPA DC-008); anything malformed or absent is simply not reported.
+// The EXIF facts a reconstruction and the photo sorter need: the focal length and the
+// sensor's pixel pitch (or the 35 mm equivalent focal length) for the intrinsics, the GPS
+// position and the capture time. A small reader of the TIFF structure inside a JPEG's APP1
+// "Exif" segment, or of a TIFF file itself (EXIF 2.3, CIPA DC-008); anything malformed or
+// absent is simply not reported. In the light inputs library: fuzzed (target `exif`).
 #pragma once
 
+#include <cstdint>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace mound::recon {
 
@@ -17,10 +20,16 @@ struct Exif {
   std::optional<int> width_px;                  // PixelXDimension
   std::optional<double> lat_deg, lon_deg, alt_m;
   std::string make, model;
+  // DateTimeOriginal (else DateTime) as written, "YYYY:MM:DD HH:MM:SS" (camera local time,
+  // no zone), empty when absent or not of that form.
+  std::string datetime;
 };
 
-// Reads the EXIF of a JPEG file; an empty Exif when the file has none (not an error).
+// Reads the EXIF of a JPEG or TIFF file; an empty Exif when the file has none (not an
+// error).
 Exif ReadExif(const std::string& path);
+// The same from a file's first bytes (a JPEG's header segments, or a whole TIFF).
+Exif ParseExif(const std::vector<uint8_t>& file_bytes);
 
 // Focal length in pixels for an image `width_px` wide: from the focal length and the focal
 // plane resolution, else from the 35 mm equivalent (36 mm wide); nothing when neither.

@@ -16,6 +16,7 @@
 #include "recon/compare_cli.h"
 #include "recon/densify_cli.h"
 #include "recon/exif.h"
+#include "recon/photos.h"
 #include "recon/recon_io.h"
 #include "sfm/features.h"
 #include "sfm/reconstruction.h"
@@ -39,6 +40,7 @@ constexpr const char* kUsage =
     "       mound_recon verdict RECON_DIR --out verdict.json [--reference REFERENCE.ply]\n"
     "                   [--threshold-ratio R] [--radius M] [--model verdict_model.json]\n"
     "                   [--relief-threshold M] [--cloud CLOUD.ply]\n"
+    "       mound_recon photos CARD_DIR [--out LIST.json]\n"
     "       mound_recon --help | --version\n"
     "\n"
     "reconstruct: incremental structure from motion of one site's UAV images (SIFT,\n"
@@ -97,6 +99,12 @@ constexpr const char* kUsage =
     "                       reference's relief (--threshold-ratio, default 0.05)\n"
     "  --cloud PLY          judge this cloud of the model instead of points.ply (e.g.\n"
     "                       densify's dense.ply)\n"
+    "\n"
+    "photos: the files of a photo card (every file under CARD_DIR; links to folders not\n"
+    "followed, unreadable folders listed under skipped), each with its kind by its first\n"
+    "bytes (jpeg, tiff, png, not_an_image, unreadable) and its EXIF: GPS lat, lon, alt_m,\n"
+    "capture time, make, model, focal length (headers only; no pixel is decoded), as\n"
+    "mound.photo_list v1 JSON on stdout or --out.\n"
     "--help anywhere on the command line prints this text.\n"
     "Exit codes: 0 ok, 1 internal error, 2 bad input (one line naming it), 3 valid input\n"
     "that allowed no result (recon.json says \"status\": \"failed\" and why).\n";
@@ -362,6 +370,45 @@ int RunReconstruct(const std::vector<std::string>& args) {
   return kExitOk;
 }
 
+// `photos`: the card's files, their kinds and EXIF (headers only), as mound.photo_list v1.
+int RunPhotos(const std::vector<std::string>& args, std::ostream& out) {
+  const Args a = ParseArgs(args, 1, {"--out"});
+  if (a.positional.size() != 1) throw InputError("photos: expected exactly one CARD_DIR");
+  const CardListing card = ListCard(a.positional[0]);
+  nlohmann::json files = nlohmann::json::array();
+  for (const CardFile& f : card.files) {
+    nlohmann::json j = {{"file", f.file}, {"kind", f.kind}, {"bytes", f.bytes}};
+    const Exif& e = f.exif;
+    nlohmann::json x = nlohmann::json::object();
+    if (e.lat_deg && e.lon_deg) {
+      x["lat"] = *e.lat_deg;
+      x["lon"] = *e.lon_deg;
+      if (e.alt_m) x["alt_m"] = *e.alt_m;
+    }
+    if (!e.datetime.empty()) x["time"] = e.datetime;
+    if (!e.make.empty()) x["make"] = e.make;
+    if (!e.model.empty()) x["model"] = e.model;
+    if (e.focal_mm) x["focal_mm"] = *e.focal_mm;
+    if (e.focal_35mm) x["focal_35mm"] = *e.focal_35mm;
+    if (e.width_px) x["width_px"] = *e.width_px;
+    if (e.focal_plane_x_res && e.focal_plane_unit_mm) {
+      x["pixel_pitch_mm"] = *e.focal_plane_unit_mm / *e.focal_plane_x_res;
+    }
+    j["exif"] = x;
+    files.push_back(j);
+  }
+  const nlohmann::json doc = {{"schema", "mound.photo_list"}, {"version", 1},
+                              {"card", a.positional[0]}, {"files", files},
+                              {"skipped", card.skipped}};
+  const std::string text = doc.dump(1) + "\n";
+  if (a.Has("--out")) {
+    WriteFileAtomic(a.options.at("--out"), text);
+  } else {
+    out << text;
+  }
+  return kExitOk;
+}
+
 }  // namespace
 
 int RunMoundRecon(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
@@ -370,7 +417,7 @@ int RunMoundRecon(const std::vector<std::string>& args, std::ostream& out, std::
       out << kUsage;
       return static_cast<int>(kExitOk);
     }
-    if (args.empty()) throw InputError("missing a command: reconstruct, densify, compare or verdict (see --help)");
+    if (args.empty()) throw InputError("missing a command: reconstruct, densify, compare, verdict or photos (see --help)");
     if (args[0] == "--version") {
       out << kVersion << "\n";
       return static_cast<int>(kExitOk);
@@ -379,6 +426,7 @@ int RunMoundRecon(const std::vector<std::string>& args, std::ostream& out, std::
     if (args[0] == "densify") return RunDensify(args);
     if (args[0] == "compare") return RunCompare(args);
     if (args[0] == "verdict") return RunVerdict(args);
+    if (args[0] == "photos") return RunPhotos(args, out);
     throw InputError("unknown command '" + args[0] + "' (see --help)");
   });
 }

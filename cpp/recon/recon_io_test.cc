@@ -3,12 +3,18 @@
 #include "recon/recon_io.h"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
+#include <iterator>
+#include <map>
 
 #include "common/error.h"
 #include "recon/exif.h"
+#include "recon/photos.h"
 
 namespace mound::recon {
 namespace {
@@ -34,6 +40,65 @@ TEST(Exif, ReadsFocalLengthPixelPitchAndGpsOfACanonPhoto) {
   EXPECT_NEAR(*e.alt_m, 317.3, 1e-9);
   // Not a JPEG, or no EXIF: nothing reported, no error.
   EXPECT_FALSE(ReadExif(Temp("x.jpg", "hello")).focal_mm);
+  // The capture time (DateTimeOriginal), as Pillow reads it too.
+  EXPECT_EQ(e.datetime, "2014:10:19 13:20:51");
+}
+
+// The same EXIF from the TIFF structure alone (a TIFF file), and from a JPEG cut short:
+// the header segments read as far as they go, never beyond.
+TEST(Exif, ReadsTiffFilesAndSurvivesTruncation) {
+  const std::string jpeg = std::string(MOUND_SHARED_DATA) + "/images/caliterra/images/IMG_9354.jpg";
+  std::ifstream in(jpeg, std::ios::binary);
+  std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  // The TIFF block after APP1's "Exif\0\0".
+  const std::string sig("Exif\0\0", 6);
+  const auto at = std::search(bytes.begin(), bytes.end(), sig.begin(), sig.end());
+  ASSERT_NE(at, bytes.end());
+  const std::vector<uint8_t> tiff(at + 6, bytes.end());
+  const Exif t = ParseExif(tiff);
+  ASSERT_TRUE(t.lat_deg && t.lon_deg);
+  EXPECT_NEAR(*t.lat_deg, 30.171223, 1e-6);
+  EXPECT_EQ(t.make, "Canon");
+  for (size_t cut : {size_t{0}, size_t{1}, size_t{3}, size_t{100}, size_t{2000}, size_t{9000}}) {
+    const std::vector<uint8_t> part(bytes.begin(), bytes.begin() + static_cast<std::ptrdiff_t>(cut));
+    const Exif p = ParseExif(part);  // no crash; nothing beyond what is there
+    if (p.lat_deg) EXPECT_NEAR(*p.lat_deg, 30.171223, 1e-6);
+  }
+}
+
+// A card: images with and without GPS, a text file, an empty file, a link to a folder
+// above it (a loop, not followed), a folder without permission (listed as skipped).
+TEST(Card, ListsEveryFileWithItsKindAndExif) {
+  namespace fs = std::filesystem;
+  const fs::path card = fs::path(::testing::TempDir()) / "card";
+  fs::remove_all(card);
+  fs::create_directories(card / "DCIM" / "100MEDIA");
+  const std::string shared = MOUND_SHARED_DATA;
+  fs::copy_file(shared + "/images/caliterra/images/IMG_9354.jpg", card / "DCIM" / "100MEDIA" / "a.jpg");
+  fs::copy_file(shared + "/images/fountain-P11/images/0000.jpg", card / "DCIM" / "b.jpg");
+  std::ofstream(card / "notes.txt") << "hello";
+  std::ofstream(card / "empty.jpg");
+  fs::create_directory_symlink("..", card / "DCIM" / "loop");
+  fs::create_directories(card / "locked");
+  std::ofstream(card / "locked" / "c.jpg") << "x";
+  fs::permissions(card / "locked", fs::perms::none);
+  const CardListing l = ListCard(card.string());
+  fs::permissions(card / "locked", fs::perms::owner_all);
+  std::map<std::string, CardFile> by;
+  for (const auto& f : l.files) by[f.file] = f;
+  ASSERT_TRUE(by.count("DCIM/100MEDIA/a.jpg"));
+  EXPECT_EQ(by["DCIM/100MEDIA/a.jpg"].kind, "jpeg");
+  EXPECT_TRUE(by["DCIM/100MEDIA/a.jpg"].exif.lat_deg.has_value());
+  EXPECT_EQ(by["DCIM/b.jpg"].kind, "jpeg");
+  EXPECT_FALSE(by["DCIM/b.jpg"].exif.lat_deg.has_value());  // fountain-P11: no GPS
+  EXPECT_EQ(by["notes.txt"].kind, "not_an_image");
+  EXPECT_EQ(by["empty.jpg"].kind, "not_an_image");
+  for (const auto& f : l.files) EXPECT_EQ(f.file.find("loop"), std::string::npos) << f.file;
+  if (::geteuid() != 0) {  // root reads any folder
+    EXPECT_FALSE(by.count("locked/c.jpg"));
+    EXPECT_EQ(l.skipped.size(), 1u);
+  }
+  EXPECT_THROW(ListCard((card / "notes.txt").string()), InputError);
 }
 
 TEST(Camera, ReadsStrechaKAndTheSimulatorsCameraAndRefusesMisfits) {
