@@ -1,6 +1,7 @@
 #include "recon/photos.h"
 
 #include <algorithm>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <system_error>
@@ -26,6 +27,33 @@ std::string Kind(const std::string& path, bool* readable) {
   }
   if (n >= 8 && h[0] == 0x89 && h[1] == 'P' && h[2] == 'N' && h[3] == 'G') return "png";
   return "not_an_image";
+}
+
+// Valid UTF-8 (JSON carries names only as text); otherwise the name with each byte of a
+// bad sequence written as \xNN, and false.
+bool Utf8OrEscaped(std::string* s) {
+  std::string out;
+  bool ok = true;
+  const auto* p = reinterpret_cast<const unsigned char*>(s->data());
+  const size_t n = s->size();
+  for (size_t i = 0; i < n;) {
+    const unsigned char c = p[i];
+    size_t len = c < 0x80 ? 1 : (c >> 5) == 0x6 ? 2 : (c >> 4) == 0xE ? 3 : (c >> 3) == 0x1E ? 4 : 0;
+    bool good = len > 0 && i + len <= n;
+    for (size_t k = 1; good && k < len; ++k) good = (p[i + k] >> 6) == 0x2;
+    if (good) {
+      out.append(s->data() + i, len);
+      i += len;
+    } else {
+      char buf[8];
+      std::snprintf(buf, sizeof(buf), "\\x%02X", c);
+      out += buf;
+      ok = false;
+      ++i;
+    }
+  }
+  *s = out;
+  return ok;
 }
 
 }  // namespace
@@ -56,12 +84,22 @@ CardListing ListCard(const std::string& dir) {
     if (!fs::is_regular_file(it->path(), e2)) continue;
     CardFile f;
     f.file = fs::relative(it->path(), root, e2).generic_string();
+    if (!Utf8OrEscaped(&f.file)) {  // listed, never opened by that (escaped) name
+      f.kind = "bad_name";
+      out.files.push_back(std::move(f));
+      continue;
+    }
     bool readable = false;
     f.kind = Kind(it->path().string(), &readable);
     f.bytes = readable ? static_cast<uint64_t>(fs::file_size(it->path(), e2)) : 0;
-    if (f.kind == "jpeg" || f.kind == "tiff") f.exif = ReadExif(it->path().string());
+    if (f.kind == "jpeg" || f.kind == "tiff") {
+      f.exif = ReadExif(it->path().string());
+      Utf8OrEscaped(&f.exif.make);  // EXIF text is ASCII by the standard, not always so
+      Utf8OrEscaped(&f.exif.model);
+    }
     out.files.push_back(std::move(f));
   }
+  for (std::string& s : out.skipped) Utf8OrEscaped(&s);
   std::sort(out.files.begin(), out.files.end(),
             [](const CardFile& a, const CardFile& b) { return a.file < b.file; });
   return out;

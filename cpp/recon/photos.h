@@ -15,7 +15,8 @@ namespace mound::recon {
 
 struct CardFile {
   std::string file;   // relative to the card's folder, '/'-separated
-  std::string kind;   // jpeg, tiff, png, not_an_image, unreadable
+  std::string kind;   // jpeg, tiff, png, not_an_image, unreadable, bad_name (not UTF-8:
+                      // `file` then has each bad byte as \xNN and is not opened)
   uint64_t bytes = 0;
   Exif exif;          // jpeg and tiff only
 };

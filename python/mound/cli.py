@@ -42,6 +42,7 @@ from mound.errors import InputError, exit_for
 from mound.geometry.flight import ScanSpec
 from mound.geometry.geodesy import Origin
 from mound.jsonio import read_json, write_json
+from mound.photos import cli as photos_cli
 from mound.plan.field import STANDARD_SEEDS, make_field, sites_document
 from mound.scene import cli as scene_cli
 from mound.uav import cli as uav_cli
@@ -667,6 +668,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     uav_cli.add_parser(sub, Parser)
     scene_cli.add_parser(sub, Parser)
+    photos_cli.add_parser(sub, Parser)
 
     bench = sub.add_parser("bench", help="benchmarks and reproductions").add_subparsers(
         dest="cmd", required=True, parser_class=Parser)

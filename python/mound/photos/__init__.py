@@ -1,0 +1,1 @@
+"""Photos from the aircraft: a card sorted into the scanned sites (`mound photos sort`)."""

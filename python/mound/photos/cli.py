@@ -1,0 +1,44 @@
+"""`mound photos sort`: the photo card stage of the command line."""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+
+def cmd_sort(args: argparse.Namespace) -> int:
+    from mound.photos.sort import SortSpec, sort_card
+
+    spec = SortSpec(site_diameter_m=args.site_diameter, margin_m=args.margin_m,
+                    max_gap_h=args.max_gap_h, blur_ratio=args.blur_ratio, copy=args.copy)
+    doc = sort_card(args.card, args.plan or args.sites, args.out, spec)
+    counts = ", ".join(f"{n} {k}" for k, n in sorted(doc["counts"].items()))
+    print(f"{len(doc['photos'])} files: {counts} -> {args.out}/photos.json")
+    for sid, info in doc["sites"].items():
+        if info["photos"] or info["blurred"]:
+            print(f"  {sid}: {info['photos']} photos ({info['blurred']} blurred), "
+                  f"{info['status']}")
+    return 0
+
+
+def add_parser(sub: Any, parser_class: type) -> None:
+    grp = sub.add_parser("photos", help="photos from the aircraft's card").add_subparsers(
+        dest="cmd", required=True, parser_class=parser_class)
+    s = grp.add_parser("sort", help="sort a photo card into the scanned sites (links)")
+    s.add_argument("card", help="the card's folder (DCIM tree or a copy); never changed")
+    src = s.add_mutually_exclusive_group(required=True)
+    src.add_argument("--plan", help="plan.json of the flights (their sites and scan)")
+    src.add_argument("--sites", help="a mound.sites document")
+    s.add_argument("--out", required=True, help="folder: photos.json and <site id>/")
+    s.add_argument("--site-diameter", type=float, default=60.0,
+                   help="the scan's scale where the plan has no scan, m (default 60)")
+    s.add_argument("--margin-m", type=float, default=10.0,
+                   help="GPS error allowed around a scan area, m (default 10)")
+    s.add_argument("--max-gap-h", type=float, default=6.0,
+                   help="photos this many hours from the card's median time are another "
+                   "flight's (default 6)")
+    s.add_argument("--blur-ratio", type=float, default=0.3,
+                   help="blurred: sharpness below this share of the site's median "
+                   "(default 0.3)")
+    s.add_argument("--copy", action="store_true", help="copy the photos instead of linking")
+    s.set_defaults(func=cmd_sort)

@@ -1,0 +1,257 @@
+"""A photo card sorted into the sites the aircraft scanned (`mound photos sort`).
+
+The card is listed by `mound_recon photos` (the project's one EXIF reader: file kinds by
+their first bytes, GPS, capture time, camera; headers only). Then, in this order, each file
+gets a site or the reason it has none:
+
+- `not_an_image` / `unreadable`: as the listing says (a name that is not UTF-8 is
+  `unreadable`);
+- `duplicate`: the same bytes (SHA-256) as an earlier file in path order;
+- `no_gps`: an image without a usable GPS fix (none, or the EXIF's 0, 0 that cameras write
+  before a fix);
+- `other_flight`: taken more than `max_gap_h` hours from the median capture time of the
+  card's GPS photos (another day's photos left on the card);
+- the site whose scan area holds the photo's GPS position: within the scan's reach (the
+  farthest camera position of the scan pattern from the site centre, from the plan's
+  `scan`, else `site_diameter_m`) plus `margin_m` for GPS error (consumer GNSS: a few
+  metres), the nearest such site;
+- `transit`: not over a site but within the survey's area (home and the sites, grown by
+  the scan's reach and `transit_margin_m`): shot on the way;
+- `outside_sites`: elsewhere;
+- `blurred`: a site's photo whose sharpness (the variance of the Laplacian of the image
+  decoded at about 640 px, grey levels 0-255) is below `blur_ratio` times the median of
+  that site's photos: no site (`over_site` says which), listed, not deleted, and left out
+  of the site's folder.
+
+Every image with GPS is decoded once, for its sharpness. Nothing on the card is changed:
+the site folders hold symbolic links (or copies with `copy=True`).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import os
+import shutil
+from dataclasses import dataclass
+from datetime import datetime
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from mound import native
+from mound.errors import InputError
+from mound.geometry.flight import ScanSpec
+from mound.geometry.geodesy import Origin, geodetic_to_enu
+from mound.jsonio import parse_json, read_json, read_text, write_json
+
+SCHEMA = "mound.photos"
+VERSION = 1
+MIN_PHOTOS = 8   # fewer than this: the site is reported, not reconstructed
+
+
+@dataclass(frozen=True)
+class SortSpec:
+    site_diameter_m: float = 60.0   # the scan's scale where no plan says it
+    margin_m: float = 10.0          # GPS error allowed around a scan area
+    transit_margin_m: float = 200.0
+    max_gap_h: float = 6.0
+    blur_ratio: float = 0.3
+    copy: bool = False
+
+    def validate(self) -> None:
+        for name in ("site_diameter_m", "margin_m", "transit_margin_m", "max_gap_h",
+                     "blur_ratio"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v >= 0) or (name == "site_diameter_m" and v <= 0):
+                raise InputError(f"--{name.replace('_', '-')}: expected a positive number, "
+                                 f"got {v}")
+
+
+@dataclass
+class Sites:
+    origin: Origin
+    ids: list[str]
+    xy: np.ndarray          # (n, 2) ENU metres
+    home_xy: np.ndarray     # (2,)
+    reach_m: float          # the scan's farthest camera position from a site centre
+
+
+def sites_of(path: str, spec: SortSpec) -> Sites:
+    """The sites a card may hold: a plan's visited sites (mound.plan, every flight) or a
+    sites document's sites (mound.sites); the scan's reach from the plan's or document's
+    `scan`, else from `site_diameter_m`."""
+    doc = parse_json(read_text(path), path)
+    schema = doc.get("schema") if isinstance(doc, dict) else None
+    if schema not in ("mound.plan", "mound.sites"):
+        raise InputError(f"{path}: expected a mound.plan or mound.sites document")
+    doc = read_json(path, schema, 1)
+    if not isinstance(doc.get("origin"), dict):
+        raise InputError(f"{path}: origin: missing (the sites' WGS84 frame)")
+    origin = Origin.from_doc(doc["origin"], f"{path}: origin")
+    if schema == "mound.plan":
+        from mound.uav.mission_items import visited_ids
+
+        wanted = visited_ids(doc)
+        nodes = [w for w in doc.get("waypoints", []) if w.get("id") in wanted]
+        home = next((w for w in doc.get("waypoints", []) if w.get("kind") == "home"),
+                    {"x_m": 0.0, "y_m": 0.0})
+    else:
+        nodes = list(doc.get("sites", []))
+        home = doc.get("home", {"x_m": 0.0, "y_m": 0.0})
+    if not nodes:
+        raise InputError(f"{path}: no sites")
+    scan = (ScanSpec.from_doc(doc["scan"], f"{path}: scan") if isinstance(doc.get("scan"), dict)
+            else ScanSpec(pattern="raster", scale_m=spec.site_diameter_m))
+    reach = max(float(np.hypot(leg.points_enu[:, 0], leg.points_enu[:, 1]).max())
+                for leg in scan.legs())
+    return Sites(origin, [str(n["id"]) for n in nodes],
+                 np.array([[float(n["x_m"]), float(n["y_m"])] for n in nodes]),
+                 np.array([float(home.get("x_m", 0.0)), float(home.get("y_m", 0.0))]), reach)
+
+
+def sharpness(path: Path) -> float | None:
+    """The variance of the Laplacian of the image in grey levels, decoded at about 640 px
+    on its longer side (a JPEG is decoded at that scale directly); None when it does not
+    decode."""
+    from PIL import Image, UnidentifiedImageError
+    from scipy.ndimage import laplace
+
+    try:
+        with Image.open(path) as im:
+            im.draft("L", (640, 640))
+            im = im.convert("L")
+            scale = 640 / max(im.size)
+            if scale < 1:
+                im = im.resize((max(1, round(im.width * scale)), max(1, round(im.height * scale))))
+            a = np.asarray(im, dtype=np.float64)
+    except (OSError, UnidentifiedImageError, ValueError, Image.DecompressionBombError):
+        return None
+    return float(laplace(a).var()) if a.size else None
+
+
+def _time(text: str | None) -> datetime | None:
+    try:
+        return datetime.strptime(text, "%Y:%m:%d %H:%M:%S") if text else None
+    except ValueError:
+        return None
+
+
+def sort_card(card: str, sites_path: str, out_dir: str, spec: SortSpec | None = None
+              ) -> dict[str, Any]:
+    """Sorts CARD into OUT_DIR (photos.json and one folder per site); returns photos.json.
+    InputError when nothing usable is left (naming why)."""
+    spec = spec or SortSpec()
+    spec.validate()
+    sites = sites_of(sites_path, spec)
+    listing = native.run_json("mound_recon", ["photos", card])
+    root = Path(card)
+    rows: list[dict[str, Any]] = []
+    seen: dict[str, str] = {}
+    for f in listing["files"]:
+        row: dict[str, Any] = {"file": f["file"], "site": None, "reason": None,
+                               "lat": None, "lon": None, "alt_m": None, "time": None,
+                               "sharpness": None}
+        rows.append(row)
+        if f["kind"] in ("not_an_image", "unreadable", "bad_name"):
+            row["reason"] = "unreadable" if f["kind"] == "bad_name" else f["kind"]
+            continue
+        try:
+            digest = hashlib.sha256((root / f["file"]).read_bytes()).hexdigest()
+        except OSError:
+            row["reason"] = "unreadable"
+            continue
+        if digest in seen:
+            row["reason"], row["duplicate_of"] = "duplicate", seen[digest]
+            continue
+        seen[digest] = f["file"]
+        exif = f.get("exif", {})
+        row["time"] = exif.get("time")
+        row["camera"] = {k: exif[k] for k in ("make", "model", "focal_mm", "focal_35mm",
+                                              "pixel_pitch_mm") if k in exif}
+        lat, lon = exif.get("lat"), exif.get("lon")
+        if lat is None or lon is None or (abs(lat) < 1e-9 and abs(lon) < 1e-9):
+            row["reason"] = "no_gps"
+            continue
+        row["lat"], row["lon"] = lat, lon
+        alt = exif.get("alt_m")
+        row["alt_m"] = alt if alt is not None and -1000 <= alt <= 20000 else None
+    # Another flight's photos: far in time from the card's GPS photos.
+    times = [t for r in rows if r["lat"] is not None and (t := _time(r["time"])) is not None]
+    if times:
+        mid = sorted(times)[len(times) // 2]
+        for r in rows:
+            t = _time(r["time"])
+            if (r["lat"] is not None and t is not None
+                    and abs((t - mid).total_seconds()) > spec.max_gap_h * 3600):
+                r["reason"] = "other_flight"
+    # Sites by GPS position.
+    gps = [r for r in rows if r["lat"] is not None and r["reason"] is None]
+    if gps:
+        llh = np.array([[r["lat"], r["lon"], 0.0] for r in gps])
+        enu = geodetic_to_enu(sites.origin, llh)[:, :2]
+        d = np.linalg.norm(enu[:, None, :] - sites.xy[None, :, :], axis=2)
+        near = d.argmin(axis=1)
+        lo = np.minimum(sites.xy.min(axis=0), sites.home_xy) - sites.reach_m - spec.transit_margin_m
+        hi = np.maximum(sites.xy.max(axis=0), sites.home_xy) + sites.reach_m + spec.transit_margin_m
+        for k, r in enumerate(gps):
+            r["enu_m"] = [round(float(enu[k, 0]), 2), round(float(enu[k, 1]), 2)]
+            if d[k, near[k]] <= sites.reach_m + spec.margin_m:
+                r["site"] = sites.ids[near[k]]
+            elif np.all(enu[k] >= lo) and np.all(enu[k] <= hi):
+                r["reason"] = "transit"
+            else:
+                r["reason"] = "outside_sites"
+    # Sharpness of each site's photos; blurred ones flagged against the site's median.
+    for r in rows:
+        if r["site"] is not None:
+            r["sharpness"] = sharpness(root / r["file"])
+            if r["sharpness"] is None:
+                r["site"], r["reason"] = None, "unreadable"
+    per_site: dict[str, dict[str, Any]] = {}
+    for sid in sites.ids:
+        mine = [r for r in rows if r["site"] == sid]
+        s = [r["sharpness"] for r in mine]
+        med = float(np.median(s)) if s else 0.0
+        for r in mine:
+            if r["sharpness"] < spec.blur_ratio * med:
+                r["site"], r["reason"], r["over_site"] = None, "blurred", sid
+        usable = [r for r in mine if r["reason"] is None]
+        per_site[sid] = {"photos": len(usable), "blurred": len(mine) - len(usable),
+                         "median_sharpness": med,
+                         "status": "ok" if len(usable) >= MIN_PHOTOS else "too_few_photos"}
+    reasons: dict[str, int] = {}
+    for r in rows:
+        key = r["reason"] or "site"
+        reasons[key] = reasons.get(key, 0) + 1
+    doc = {"schema": SCHEMA, "version": VERSION, "card": str(root.resolve()),
+           "sites_file": str(sites_path), "spec": {**spec.__dict__, "reach_m": sites.reach_m},
+           "photos": rows, "sites": per_site, "counts": reasons,
+           "skipped_folders": listing.get("skipped", [])}
+    if not any(v["photos"] for v in per_site.values()):
+        why = ", ".join(f"{n} {k}" for k, n in sorted(reasons.items())) or "an empty card"
+        raise InputError(f"{card}: no usable photo over any site ({why})")
+    _write(doc, root, Path(out_dir), spec)
+    return doc
+
+
+def _write(doc: dict[str, Any], root: Path, out: Path, spec: SortSpec) -> None:
+    out.mkdir(parents=True, exist_ok=True)
+    for sid, info in doc["sites"].items():
+        folder = out / sid
+        if folder.exists():
+            shutil.rmtree(folder)
+        if not info["photos"]:
+            continue
+        folder.mkdir()
+        for r in doc["photos"]:
+            if r["site"] != sid or r["reason"] is not None:
+                continue
+            src = (root / r["file"]).resolve()
+            dst = folder / r["file"].replace("/", "__")
+            if spec.copy:
+                shutil.copy2(src, dst)
+            else:
+                os.symlink(src, dst)
+    write_json(out / "photos.json", doc)
