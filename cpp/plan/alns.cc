@@ -727,25 +727,68 @@ class Roulette {
   int iterations_ = 0;
 };
 
-// Why a search ended, in the order the checks are made.
-const char* StopReason(bool out_of_work, bool out_of_wall, bool iterations, bool stagnated) {
-  return out_of_work ? "time limit (work ticks)"
-         : out_of_wall ? "wall clock (not repeatable)"
-         : iterations  ? "iterations"
-         : stagnated   ? "stagnation"
-                       : "all sites visited";
+// The schedule of a search, one flight or K: its own clock of work ticks (cost lookups,
+// LKH charged by its size), so that a time limit gives the same plan on any machine load;
+// the wall clock only guards against a machine far slower than the reference one. It
+// also says when the search stagnates, when it restarts, and how far the acceptance
+// threshold has shrunk.
+class Schedule {
+ public:
+  Schedule(const AlnsOptions& opt, int sites)
+      : start_(std::chrono::steady_clock::now()),
+        work_(opt.time_limit_s > 0 ? opt.time_limit_s * kAlnsTicksPerSecond : 0),
+        wall_(opt.time_limit_s > 0 ? opt.time_limit_s * opt.wall_factor : 0),
+        max_iterations_(opt.max_iterations),
+        stagnation_(opt.stagnation > 0 ? opt.stagnation : std::max(5000, 50 * sites)),
+        restart_(std::clamp(stagnation_ / 10, 100, 400)) {}
+
+  double Elapsed() const {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+  }
+  double WorkLimit() const { return work_; }  // 0: none
+  int Restart() const { return restart_; }
+  // Neither the iterations nor the patience without a new best are spent.
+  bool Going(int it, int since_best) const {
+    return it < max_iterations_ && since_best < stagnation_;
+  }
+  // True (and remembered for Why) once the work or the wall clock is spent.
+  bool OutOfTime(double ticks) {
+    out_of_work_ = work_ > 0 && ticks >= work_;
+    out_of_wall_ = !out_of_work_ && wall_ > 0 && Elapsed() >= wall_;
+    return out_of_work_ || out_of_wall_;
+  }
+  // Record-to-record travel: the threshold shrinks from 5 % to 0 over the run (the work
+  // limit's ticks), or over a stretch without a new best when there is no limit.
+  double Threshold(double ticks, int since_best) const {
+    const double progress = work_ > 0 ? ticks / work_ : static_cast<double>(since_best) / stagnation_;
+    return 0.05 * std::max(0.0, 1.0 - progress);
+  }
+  // Why the search ended, in the order the checks are made.
+  const char* Why(int it, int since_best) const {
+    return out_of_work_                 ? "time limit (work ticks)"
+           : out_of_wall_               ? "wall clock (not repeatable)"
+           : it >= max_iterations_      ? "iterations"
+           : since_best >= stagnation_  ? "stagnation"
+                                        : "all sites visited";
+  }
+
+ private:
+  std::chrono::steady_clock::time_point start_;
+  double work_, wall_;
+  int max_iterations_, stagnation_, restart_;
+  bool out_of_work_ = false, out_of_wall_ = false;
+};
+
+// How many sites a ruin removes from a route of m sites: 1 to max(4, 2m/5), at most 40.
+int RuinSize(int m, std::mt19937_64& rng) {
+  const int k_max = std::max(1, std::min(40, std::max(4, (2 * m) / 5)));
+  return 1 + static_cast<int>(rng() % k_max);
 }
 
 }  // namespace
 
 PlanResult SolveAlns(const OpInstance& inst, const AlnsOptions& opt) {
-  const auto start = std::chrono::steady_clock::now();
-  auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
-  // The search runs on its own clock: work ticks (cost lookups, LKH charged by its size),
-  // so that a time limit gives the same plan on any machine load. The wall clock only
-  // guards against a machine far slower than the reference one.
-  const double work_limit = opt.time_limit_s > 0 ? opt.time_limit_s * kAlnsTicksPerSecond : 0;
-  const double wall_limit = opt.time_limit_s > 0 ? opt.time_limit_s * opt.wall_factor : 0;
+  Schedule schedule(opt, inst.Size() - inst.FirstSite());
   NewAlgOptions nopt;
   nopt.seed = opt.seed;
   const PlanResult init = SolveNewAlg(inst, nopt);
@@ -757,7 +800,7 @@ PlanResult SolveAlns(const OpInstance& inst, const AlnsOptions& opt) {
   // Multi-start: constructions through sites spread over the field, the best one kept.
   int starts_won = 0;
   for (int v : search.SpreadSites(kSpreadStarts)) {
-    if (work_limit > 0 && search.Ticks() >= 0.25 * work_limit) break;
+    if (schedule.WorkLimit() > 0 && search.Ticks() >= 0.25 * schedule.WorkLimit()) break;
     Solution s = search.ConstructFrom(v, 0.0);
     if (search.Better(s, best)) {
       best = std::move(s);
@@ -767,27 +810,15 @@ PlanResult SolveAlns(const OpInstance& inst, const AlnsOptions& opt) {
   search.Polish(&best, opt.seed);
   Solution cur = best;
 
-  const int sites = inst.Size() - inst.FirstSite();
-  const int stagnation = opt.stagnation > 0 ? opt.stagnation : std::max(5000, 50 * sites);
-  const int restart = std::clamp(stagnation / 10, 100, 400);
+  const int restart = schedule.Restart();
   Roulette roulette;
   std::array<int, kNumRuins> bests{};
   int it = 0, since_best = 0, new_bests = 0, last_polish = 0, polishes = 1, restarts = 0;
-  bool out_of_work = false, out_of_wall = false;
-  for (; it < opt.max_iterations && since_best < stagnation; ++it) {
-    if (work_limit > 0 && search.Ticks() >= work_limit) {
-      out_of_work = true;
-      break;
-    }
-    if (wall_limit > 0 && elapsed() >= wall_limit) {
-      out_of_wall = true;
-      break;
-    }
+  for (; schedule.Going(it, since_best); ++it) {
+    if (schedule.OutOfTime(search.Ticks())) break;
     if (search.AllRewardedVisited(best)) break;
     const int op = roulette.Pick(rng);
-    const int m = static_cast<int>(cur.route.size()) - 2;
-    const int k_max = std::max(1, std::min(40, std::max(4, (2 * m) / 5)));
-    const int k = 1 + static_cast<int>(rng() % k_max);
+    const int k = RuinSize(static_cast<int>(cur.route.size()) - 2, rng);
 
     Solution cand = cur;
     search.Ruin(&cand, op, k);
@@ -795,11 +826,7 @@ PlanResult SolveAlns(const OpInstance& inst, const AlnsOptions& opt) {
     search.Recreate(&cand, kNoise[rng() % 3]);
     search.LocalSearch(&cand);
 
-    // Record-to-record travel: the threshold shrinks from 5 % to 0 over the run (the work
-    // limit's ticks), or over a stretch without a new best when there is no limit.
-    const double progress = work_limit > 0 ? search.Ticks() / work_limit
-                                           : static_cast<double>(since_best) / stagnation;
-    const double threshold = 0.05 * std::max(0.0, 1.0 - progress);
+    const double threshold = schedule.Threshold(search.Ticks(), since_best);
     ++since_best;
     if (search.Better(cand, best)) {
       best = cand;
@@ -846,13 +873,12 @@ PlanResult SolveAlns(const OpInstance& inst, const AlnsOptions& opt) {
   res.stats["lkh_polishes"] = polishes;
   res.stats["restarts"] = restarts;
   res.stats["spread_starts_won"] = starts_won;
-  res.stats["stopped_by"] =
-      StopReason(out_of_work, out_of_wall, it >= opt.max_iterations, since_best >= stagnation);
+  res.stats["stopped_by"] = schedule.Why(it, since_best);
   res.stats["work_ticks"] = search.Ticks();
   nlohmann::json w = nlohmann::json::object();
   for (int o = 0; o < kNumRuins; ++o) w[kRuinNames[o]] = {{"weight", roulette.Weight(o)}, {"new_bests", bests[o]}};
   res.stats["ruins"] = w;
-  res.stats["elapsed_s"] = elapsed();
+  res.stats["elapsed_s"] = schedule.Elapsed();
   return res;
 }
 
@@ -869,10 +895,7 @@ FlightsResult SolveAlnsFlights(const OpInstance& inst, int flights, const AlnsOp
     OrderFlights(inst, &one);
     return one;
   }
-  const auto start = std::chrono::steady_clock::now();
-  auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(); };
-  const double work_limit = opt.time_limit_s > 0 ? opt.time_limit_s * kAlnsTicksPerSecond : 0;
-  const double wall_limit = opt.time_limit_s > 0 ? opt.time_limit_s * opt.wall_factor : 0;
+  Schedule schedule(opt, inst.Size() - inst.FirstSite());
 
   // The start: ALNS-OP flight by flight on the sites the earlier flights left, a quarter of
   // the work shared among them.
@@ -941,12 +964,9 @@ FlightsResult SolveAlnsFlights(const OpInstance& inst, int flights, const AlnsOp
   const double seq_reward = seq.reward;
   Multi cur = best;
 
-  const int sites = n - inst.FirstSite();
-  const int stagnation = opt.stagnation > 0 ? opt.stagnation : std::max(5000, 50 * sites);
-  const int restart = std::clamp(stagnation / 10, 100, 400);
+  const int restart = schedule.Restart();
   Roulette roulette;
   int it = 0, since_best = 0, new_bests = 0, last_polish = 0;
-  bool out_of_work = false, out_of_wall = false;
   std::vector<char> blocked(n, 0);
   auto ticks = [&] { return static_cast<double>(search.Ticks() + start_ticks); };
   int rewarded = 0;
@@ -957,16 +977,9 @@ FlightsResult SolveAlnsFlights(const OpInstance& inst, int flights, const AlnsOp
       for (int v : s.route) on += inst.IsSite(v) && inst.nodes[v].reward > 0;
     return on == rewarded;
   };
-  for (; it < opt.max_iterations && since_best < stagnation; ++it) {
+  for (; schedule.Going(it, since_best); ++it) {
     if (all_visited(best)) break;
-    if (work_limit > 0 && ticks() >= work_limit) {
-      out_of_work = true;
-      break;
-    }
-    if (wall_limit > 0 && elapsed() >= wall_limit) {
-      out_of_wall = true;
-      break;
-    }
+    if (schedule.OutOfTime(ticks())) break;
     const int op = roulette.Pick(rng);
     Multi cand = cur;
     // Ruin one flight (half of the time) or all of them.
@@ -977,8 +990,7 @@ FlightsResult SolveAlnsFlights(const OpInstance& inst, int flights, const AlnsOp
       if (!all && k != one) continue;
       const int m = static_cast<int>(cand.fl[k].route.size()) - 2;
       if (m <= 0) continue;
-      const int k_max = std::max(1, std::min(40, std::max(4, (2 * m) / 5)));
-      search.Ruin(&cand.fl[k], op, 1 + static_cast<int>(rng() % k_max));
+      search.Ruin(&cand.fl[k], op, RuinSize(m, rng));
       for (int v = 0; v < n; ++v) blocked[v] |= search.Blocked()[v];
     }
     static constexpr double kNoise[] = {0.1, 0.3, 0.6};
@@ -994,9 +1006,7 @@ FlightsResult SolveAlnsFlights(const OpInstance& inst, int flights, const AlnsOp
     }
     improve(&cand);
 
-    const double progress = work_limit > 0 ? ticks() / work_limit
-                                           : static_cast<double>(since_best) / stagnation;
-    const double threshold = 0.05 * std::max(0.0, 1.0 - progress);
+    const double threshold = schedule.Threshold(ticks(), since_best);
     ++since_best;
     if (better(cand, best)) {
       best = cand;
@@ -1037,10 +1047,9 @@ FlightsResult SolveAlnsFlights(const OpInstance& inst, int flights, const AlnsOp
   res.stats["sequential_start_reward"] = seq_reward;
   res.stats["iterations"] = it;
   res.stats["new_bests"] = new_bests;
-  res.stats["stopped_by"] =
-      StopReason(out_of_work, out_of_wall, it >= opt.max_iterations, since_best >= stagnation);
+  res.stats["stopped_by"] = schedule.Why(it, since_best);
   res.stats["work_ticks"] = static_cast<uint64_t>(ticks());
-  res.stats["elapsed_s"] = elapsed();
+  res.stats["elapsed_s"] = schedule.Elapsed();
   return res;
 }
 
