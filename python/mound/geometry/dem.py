@@ -35,6 +35,32 @@ _VERTICAL_CRS = {"ellipsoid": "EPSG:4979", "egm96": "EPSG:4326+5773",
 MAX_WINDOW_PX = 64_000_000  # 512 MB of float64
 
 
+def _unreadable(path: str, e: Exception) -> InputError:
+    msg = " ".join(str(e).split())[:160]
+    return InputError(f"{path}: not a readable DEM ({msg})")
+
+
+def _horizontal(crs: Any) -> Any:
+    """The horizontal part of a (maybe compound) pyproj CRS."""
+    return crs.to_2d() if crs.is_compound else crs
+
+
+def _file_crs(path: str) -> Any:
+    """The DEM's own CRS (pyproj), from the file; InputError when it states none or the
+    file is no raster."""
+    import rasterio
+    from pyproj import CRS
+    from rasterio.errors import RasterioError
+
+    try:
+        with rasterio.open(path) as ds:
+            if ds.crs is None:
+                raise InputError(f"{path}: the DEM states no CRS")
+            return CRS.from_user_input(ds.crs.to_wkt())
+    except RasterioError as e:
+        raise _unreadable(path, e) from None
+
+
 def _file_vertical(crs: Any) -> str | None:
     """The vertical reference a compound CRS states, if it is one we know."""
     try:
@@ -93,9 +119,7 @@ class Dem:
     col0: int                       # the window's first column and row in the file
     row0: int
     inverse: Any                    # affine: DEM CRS -> file (col, row), pixel corners
-    forward: Any                    # affine: file (col, row) -> DEM CRS
     to_dem: Any                     # pyproj Transformer lon/lat -> DEM CRS
-    to_lonlat: Any                  # and back
     pixel_m: tuple[float, float]    # a pixel's size on the ground, east and north, m
     crs_name: str
     _filtered: dict[float, np.ndarray] = field(default_factory=dict, repr=False)
@@ -136,10 +160,9 @@ class Dem:
                 tf = ds.transform
                 if abs(tf.a * tf.e - tf.b * tf.d) < 1e-18:
                     raise InputError(f"{path}: degenerate geotransform")
-                to_dem = Transformer.from_crs(CRS("EPSG:4326"), crs.to_2d() if crs.is_compound
-                                              else crs, always_xy=True)
-                to_lonlat = Transformer.from_crs(crs.to_2d() if crs.is_compound else crs,
-                                                 CRS("EPSG:4326"), always_xy=True)
+                to_dem = Transformer.from_crs(CRS("EPSG:4326"), _horizontal(crs), always_xy=True)
+                to_lonlat = Transformer.from_crs(_horizontal(crs), CRS("EPSG:4326"),
+                                                 always_xy=True)
                 inverse = ~tf
                 c0, r0, c1, r1 = 0, 0, ds.width, ds.height
                 if around is not None:
@@ -163,8 +186,7 @@ class Dem:
                 pixel_m = _pixel_size_m(tf, mid_c, mid_r, to_lonlat, origin)
                 name = crs.name
         except RasterioError as e:
-            msg = " ".join(str(e).split())[:160]
-            raise InputError(f"{path}: not a readable DEM ({msg})") from None
+            raise _unreadable(path, e) from None
         bad = ~np.isfinite(z)
         if nodata is not None and math.isfinite(nodata):
             bad |= z == nodata
@@ -178,26 +200,15 @@ class Dem:
             flat[ok] = vertical_shift(vertical, np.asarray(lon)[ok], np.asarray(lat)[ok],
                                       flat[ok], path)
             z = flat.reshape(z.shape)
-        return cls(path, origin, vertical, z, c0, r0, inverse, tf, to_dem, to_lonlat, pixel_m,
-                   name)
+        return cls(path, origin, vertical, z, c0, r0, inverse, to_dem, pixel_m, name)
 
     @classmethod
     def at(cls, path: str, x: float, y: float, vertical: str | None = None,
            margin_m: float = 200.0) -> Dem:
         """The DEM around (x, y) given in its own CRS, with the ENU origin there."""
-        import rasterio
         from pyproj import CRS, Transformer
-        from rasterio.errors import RasterioError
 
-        try:
-            with rasterio.open(path) as ds:
-                if ds.crs is None:
-                    raise InputError(f"{path}: the DEM states no CRS")
-                crs = CRS.from_user_input(ds.crs.to_wkt())
-        except RasterioError as e:
-            msg = " ".join(str(e).split())[:160]
-            raise InputError(f"{path}: not a readable DEM ({msg})") from None
-        to_ll = Transformer.from_crs(crs.to_2d() if crs.is_compound else crs, CRS("EPSG:4326"),
+        to_ll = Transformer.from_crs(_horizontal(_file_crs(path)), CRS("EPSG:4326"),
                                      always_xy=True)
         lon, lat = to_ll.transform(x, y)
         if not (math.isfinite(lon) and math.isfinite(lat) and abs(lat) <= 90):
@@ -306,20 +317,9 @@ class Dem:
 
 def lonlat_to_crs(path: str, lon: float, lat: float) -> tuple[float, float]:
     """A WGS84 point in the DEM's own CRS."""
-    import rasterio
     from pyproj import CRS, Transformer
-    from rasterio.errors import RasterioError
 
-    try:
-        with rasterio.open(path) as ds:
-            if ds.crs is None:
-                raise InputError(f"{path}: the DEM states no CRS")
-            crs = CRS.from_user_input(ds.crs.to_wkt())
-    except RasterioError as e:
-        msg = " ".join(str(e).split())[:160]
-        raise InputError(f"{path}: not a readable DEM ({msg})") from None
-    t = Transformer.from_crs(CRS("EPSG:4326"), crs.to_2d() if crs.is_compound else crs,
-                             always_xy=True)
+    t = Transformer.from_crs(CRS("EPSG:4326"), _horizontal(_file_crs(path)), always_xy=True)
     x, y = t.transform(float(lon), float(lat))
     return float(x), float(y)
 

@@ -59,8 +59,9 @@ class RunTree:
     def flight_file(self, name: str, flight: int | None) -> Path:
         """`name` (mission.plan, ...) of one flight of several: mission_2.plan; of the only
         flight: mission.plan."""
-        p = self.root / name
-        return p if flight is None else p.with_name(f"{p.stem}_{flight}{p.suffix}")
+        from mound.uav.files import flight_path
+
+        return flight_path(self.root / name, flight)
 
     @property
     def mission_summary(self) -> Path:

@@ -52,8 +52,8 @@ def cmd_build(args: argparse.Namespace) -> int:
     missions = []
     for f in flights:
         m = mission_items.build(f, origin, spec, terrain)
-        names = [_numbered(p, f["flight"]) if several else p
-                 for p in (args.out, args.wpl, args.geojson)]
+        names = [None if p is None else str(mission_files.flight_path(
+            p, f["flight"] if several else None)) for p in (args.out, args.wpl, args.geojson)]
         outputs.append((names[0], mission_files.plan_text(m, args.firmware)))
         if args.wpl:
             outputs.append((names[1], mission_files.wpl_text(m)))
@@ -65,13 +65,6 @@ def cmd_build(args: argparse.Namespace) -> int:
     for flight, out, m in missions:
         _report(m, out, flight if several else None)
     return 0
-
-
-def _numbered(path: str | None, flight: int) -> str | None:
-    if path is None:
-        return None
-    p = Path(path)
-    return str(p.with_name(f"{p.stem}_{flight}{p.suffix}"))
 
 
 def _report(m: Any, out: str, flight: int | None) -> None:

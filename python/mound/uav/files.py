@@ -48,6 +48,13 @@ def _json_number(v: float) -> float | None:
     return None if math.isnan(v) else v
 
 
+def flight_path(path: str | Path, flight: int | None) -> Path:
+    """The file of one flight of several (mission.plan -> mission_2.plan); of the only
+    flight, `path` itself."""
+    p = Path(path)
+    return p if flight is None else p.with_name(f"{p.stem}_{flight}{p.suffix}")
+
+
 def home_altitude(mission: Mission) -> float:
     """Home's AMSL altitude: the DEM's ground there when the mission was built over one,
     else the origin's stated altitude."""

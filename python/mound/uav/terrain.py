@@ -187,9 +187,7 @@ class TerrainModel:
         """(H_ij, highest terrain near the leg, ENU point of it) for node pairs (arrays):
         symmetric in i and j."""
         i, j = np.asarray(i), np.asarray(j)
-        names = [f"leg {self.nodes[a].id} -> {self.nodes[b].id}" for a, b in zip(i[:1], j[:1],
-                                                                                strict=True)]
-        what = names[0] if names else "a leg"
+        what = f"leg {self.nodes[i[0]].id} -> {self.nodes[j[0]].id}" if len(i) else "a leg"
         t1, w1 = self.dem.corridor_max(self.exit_xy[i], self.entry_xy[j], self.spec.footprint_m,
                                        what)
         t2, w2 = self.dem.corridor_max(self.exit_xy[j], self.entry_xy[i], self.spec.footprint_m,
