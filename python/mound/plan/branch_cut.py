@@ -162,8 +162,6 @@ class _Model:
         for f in range(flights - 1):  # flights ordered by reward: no symmetric copies
             m.addCons(reward[f] >= reward[f + 1])
         m.setObjective(quicksum(reward), "maximize")
-        # One flight: the names the single-flight code has always used.
-        self.x, self.y = self.xf[0], self.yf[0]
         self.seen: set[tuple[frozenset[int], int, int]] = set()
         self.cuts = 0
         self.handler = _Gsec(self)
