@@ -19,6 +19,7 @@ inputs and options are unchanged (ledger.py):
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import os
 import sys
@@ -147,6 +148,12 @@ class Context:
     keys: dict[str, str] = field(default_factory=dict)
     redo_from: int = 6  # index into STAGES: stages from here on are redone
     run_id: str = field(default_factory=lambda: uuid.uuid4().hex)
+
+    @functools.cached_property
+    def terrain(self) -> dict[str, Any] | None:
+        """What the terrain makes of a stage (the DEM's bytes, hashed once per run, and every
+        terrain option); None without --dem."""
+        return terrain_material(self.args)
 
     def say(self, text: str) -> None:
         print(text, flush=True)
@@ -371,7 +378,7 @@ def stage_field(ctx: Context) -> str:
         material = {"classify": ctx.keys["classify"], "seed": a.field_seed,
                     "spacing": a.spacing, "scan": scan.to_doc(), "budget": a.budget,
                     "home": a.home}
-    material["terrain"] = terrain_material(a)
+    material["terrain"] = ctx.terrain
 
     def work() -> tuple[list[str], str, bool]:
         if a.scene:
@@ -519,7 +526,7 @@ def stage_mission(ctx: Context) -> str:
 
     return run_stage(ctx, "mission", {"plan": ctx.keys["plan"], "connect": a.connect,
                                       "firmware": a.firmware,
-                                      "terrain": terrain_material(a)}, work)
+                                      "terrain": ctx.terrain}, work)
 
 
 def _folder_digest(folder: Path) -> str:
@@ -560,7 +567,7 @@ def site_jobs(ctx: Context) -> list[Any]:
                       "index": index, "options": options, "images": images,
                       "images_digest": _folder_digest(Path(images)) if images else None,
                       "reference": sha256_of(Path(a.reference)) if a.reference else None,
-                      "terrain": ter and {**ter, "dem": terrain_material(a)}})
+                      "terrain": ter and {**ter, "dem": ctx.terrain}})
         jobs.append(SiteJob(site=s, index=index, run_root=str(root), run_id=ctx.run_id,
                             origin=sites_doc["origin"], key=key, images_dir=images,
                             terrain=ter, **options))  # type: ignore[arg-type]
