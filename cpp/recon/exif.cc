@@ -1,9 +1,11 @@
 #include "recon/exif.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cstddef>
 #include <cstdint>
 #include <fstream>
+#include <utility>
 #include <vector>
 
 namespace mound::recon {
@@ -199,15 +201,43 @@ Exif ParseExif(const std::vector<uint8_t>& file_bytes) {
   return x;
 }
 
-std::optional<double> FocalPx(const Exif& e, int width_px) {
+std::optional<double> SensorWidthMm(const std::string& model) {
+  // Sensor widths from the makers' specifications (1" 13.2 mm, 1/2.3" 6.17 mm, 1/2" 6.4 mm,
+  // 1/1.3" 9.7 mm, 4/3" 17.3 mm, APS-C 23.5 mm, full frame 35.9 mm).
+  static const std::pair<const char*, double> kTable[] = {
+      {"FC6310", 13.2},  {"FC6310S", 13.2}, {"FC6310R", 13.2}, {"FC6510", 13.2},
+      {"FC6520", 17.3},  {"FC6540", 23.5},  {"L1D-20C", 13.2}, {"FC3411", 13.2},
+      {"FC330", 6.17},   {"FC300X", 6.17},  {"FC300S", 6.17},  {"FC220", 6.17},
+      {"FC2103", 6.17},  {"FC7203", 6.17},  {"FC7303", 6.17},  {"FC3170", 6.4},
+      {"FC3582", 9.7},   {"FC8482", 9.7},   {"M3E", 17.3},     {"L2D-20C", 17.3},
+      {"ZENMUSEP1", 35.9}, {"ILCE-6000", 23.5}, {"ILCE-5100", 23.5}, {"DSC-RX1RM2", 35.9},
+  };
+  std::string m;
+  for (char c : model) {
+    if (c != ' ') m += static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+  }
+  for (const auto& [name, width] : kTable) {
+    if (m == name) return width;
+  }
+  return std::nullopt;
+}
+
+std::optional<double> FocalPx(const Exif& e, int width_px, std::string* source) {
+  auto said = [&](const char* s, double px) {
+    if (source) *source = s;
+    return std::optional<double>(px);
+  };
   if (e.focal_mm && *e.focal_mm > 0 && e.focal_plane_x_res && *e.focal_plane_x_res > 0) {
     const double unit_mm = e.focal_plane_unit_mm.value_or(25.4);
     // The focal plane resolution refers to the full sensor image (PixelXDimension wide).
     double px = *e.focal_mm * *e.focal_plane_x_res / unit_mm;
     if (e.width_px && *e.width_px > 0) px *= static_cast<double>(width_px) / *e.width_px;
-    return px;
+    return said("focal_plane", px);
   }
-  if (e.focal_35mm && *e.focal_35mm > 0) return *e.focal_35mm / 36.0 * width_px;
+  if (e.focal_35mm && *e.focal_35mm > 0) return said("35mm", *e.focal_35mm / 36.0 * width_px);
+  if (e.focal_mm && *e.focal_mm > 0) {
+    if (auto w = SensorWidthMm(e.model)) return said("sensor_table", *e.focal_mm / *w * width_px);
+  }
   return std::nullopt;
 }
 

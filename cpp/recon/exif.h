@@ -31,8 +31,14 @@ Exif ReadExif(const std::string& path);
 // The same from a file's first bytes (a JPEG's header segments, or a whole TIFF).
 Exif ParseExif(const std::vector<uint8_t>& file_bytes);
 
+// The sensor's width in mm of a common UAV camera, by its EXIF model (DJI's FC codes and
+// a few others; case-insensitive); nothing for a camera the table does not know.
+std::optional<double> SensorWidthMm(const std::string& model);
+
 // Focal length in pixels for an image `width_px` wide: from the focal length and the focal
-// plane resolution, else from the 35 mm equivalent (36 mm wide); nothing when neither.
-std::optional<double> FocalPx(const Exif& e, int width_px);
+// plane resolution, else from the 35 mm equivalent (36 mm wide), else from the focal
+// length and the sensor width of a known camera (SensorWidthMm); nothing when none.
+// `source`, when given, says which: "focal_plane", "35mm", "sensor_table".
+std::optional<double> FocalPx(const Exif& e, int width_px, std::string* source = nullptr);
 
 }  // namespace mound::recon

@@ -216,8 +216,9 @@ int RunReconstruct(const std::vector<std::string>& args) {
     camera.height = H;
     camera.cx = (W - 1) / 2.0;
     camera.cy = (H - 1) / 2.0;
-    std::optional<double> f = FocalPx(exif[0], W);
-    camera_source = f ? "exif" : "default (1.2 x the longer side)";
+    std::string how;
+    std::optional<double> f = FocalPx(exif[0], W, &how);
+    camera_source = f ? "exif (" + how + ")" : "default (1.2 x the longer side)";
     camera.fx = camera.fy = f.value_or(1.2 * std::max(W, H));
     refine = true;
   }
@@ -394,6 +395,13 @@ int RunPhotos(const std::vector<std::string>& args, std::ostream& out) {
     if (e.width_px) x["width_px"] = *e.width_px;
     if (e.focal_plane_x_res && e.focal_plane_unit_mm) {
       x["pixel_pitch_mm"] = *e.focal_plane_unit_mm / *e.focal_plane_x_res;
+    }
+    std::string source;
+    if (e.width_px && *e.width_px > 0) {
+      if (auto f = FocalPx(e, *e.width_px, &source)) {
+        x["focal_px"] = *f;  // for an image PixelXDimension wide
+        x["focal_source"] = source;
+      }
     }
     j["exif"] = x;
     files.push_back(j);

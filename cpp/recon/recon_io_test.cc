@@ -25,6 +25,23 @@ std::string Temp(const std::string& name, const std::string& text) {
   return p;
 }
 
+TEST(Exif, FocalLengthFromThe35mmEquivalentOrTheSensorTableInThatOrder) {
+  Exif e;
+  e.focal_mm = 8.8;
+  e.model = "FC6310";  // Phantom 4 Pro: a 1" sensor, 13.2 mm wide
+  std::string source;
+  EXPECT_NEAR(*FocalPx(e, 5472, &source), 8.8 / 13.2 * 5472, 1e-9);
+  EXPECT_EQ(source, "sensor_table");
+  e.focal_35mm = 24;  // the 35 mm equivalent comes before the table
+  EXPECT_NEAR(*FocalPx(e, 5472, &source), 24.0 / 36.0 * 5472, 1e-9);
+  EXPECT_EQ(source, "35mm");
+  Exif unknown;
+  unknown.focal_mm = 8.8;
+  unknown.model = "Some Camera";
+  EXPECT_FALSE(FocalPx(unknown, 4000));
+  EXPECT_EQ(*SensorWidthMm(" fc6310 "), 13.2);  // spaces and case do not matter
+}
+
 TEST(Exif, ReadsFocalLengthPixelPitchAndGpsOfACanonPhoto) {
   const std::string path = std::string(MOUND_SHARED_DATA) + "/images/caliterra/images/IMG_9354.jpg";
   const Exif e = ReadExif(path);

@@ -10,6 +10,7 @@
     mound field standard [--model MODEL.json] --out-dir DIR
     mound sim site [--preset bin_tepe|lab] [--mound tumulus|none] --seed S --out DIR [...]
     mound sim figures DIR [--out-dir DIR] [--dpi-scale X]
+    mound sim flight PLAN --out CARD_DIR [--truth FILE] [...]
     mound recon figure RECON_DIR --out PNG
     mound recon rasters RECON_DIR --out DIR [--resolution-m 0.25] [--cloud dense.ply]
     mound mission build PLAN.json [--origin LAT,LON[,ALT]] --out MISSION.plan [...]
@@ -343,6 +344,10 @@ def cmd_sim_site(args: argparse.Namespace) -> int:
     if args.scan_diameter is not None:
         spec = replace(spec, scan_diameter_m=args.scan_diameter)
     site = sim.simulate(spec, args.out, threads=args.threads)
+    if args.jpeg:
+        from mound.sim.card import site_jpegs
+
+        site_jpegs(args.out, _start_time(args.start_time))
     t = site["timings"]
     print(f"{'tumulus' if spec.terrain.mound else 'flat control'} ({args.preset}, seed "
           f"{args.seed}): {site['stats']['images']} images {spec.width_px}x{spec.height_px} "
@@ -351,6 +356,34 @@ def cmd_sim_site(args: argparse.Namespace) -> int:
           f"{t['render_s']:.2f} s ({site['stats']['render_threads']} threads)")
     if args.figures:
         cmd_sim_figures(argparse.Namespace(site=args.out, out_dir=args.out, dpi_scale=1.0))
+    return 0
+
+
+def _start_time(text: str) -> Any:
+    from datetime import datetime
+
+    try:
+        return datetime.fromisoformat(text)
+    except ValueError:
+        raise InputError(f"--start-time: expected YYYY-MM-DDTHH:MM:SS, got {text!r}") from None
+
+
+def cmd_sim_flight(args: argparse.Namespace) -> int:
+    from mound.jsonio import write_json
+    from mound.sim.card import CardSpec, write_card
+
+    sites = args.sites or str(Path(args.plan).with_name("sites.json"))
+    spec = CardSpec(start=_start_time(args.start_time), speed_mps=args.speed,
+                    transit_every_s=args.transit_every_s, sim_seed=args.sim_seed,
+                    image_size=tuple(args.image_size), pattern=args.scan_pattern,
+                    site_diameter_m=args.site_diameter, threads=args.threads)
+    truth = write_card(args.plan, sites, args.out, spec)
+    if args.truth:
+        write_json(args.truth, truth)
+    n_transit = sum(1 for f in truth["files"] if f["reason"] == "transit")
+    n_sites = len({f["site"] for f in truth["files"] if f["site"]})
+    print(f"{len(truth['files'])} photos ({n_sites} sites, {n_transit} transit) -> "
+          f"{args.out}/DCIM/100MEDIA")
     return 0
 
 
@@ -608,7 +641,31 @@ def build_parser() -> argparse.ArgumentParser:
     st.add_argument("--threads", type=int, help="render threads (default: all cores)")
     st.add_argument("--figures", action="store_true",
                     help="also write contact_sheet.png and scene_3d.png into --out")
+    st.add_argument("--jpeg", action="store_true",
+                    help="JPEGs with EXIF (GPS, altitude, time, focal length) instead of PNGs")
+    st.add_argument("--start-time", default="2026-06-01T09:00:00",
+                    help="--jpeg: the first image's capture time (camera local time)")
     st.set_defaults(func=cmd_sim_site)
+    sfl = simp.add_parser("flight", help="a planned survey's photos as one card folder "
+                          "(DCIM/100MEDIA/DJI_NNNN.JPG with EXIF; transit frames included)")
+    sfl.add_argument("plan", help="plan.json (mound_plan; every flight, in order)")
+    sfl.add_argument("--sites", help="its sites document with the hidden truth (default: "
+                     "sites.json beside the plan)")
+    sfl.add_argument("--out", required=True, help="the card's folder")
+    sfl.add_argument("--truth", help="also write what each file is (mound.card_truth v1)")
+    sfl.add_argument("--start-time", default="2026-06-01T09:00:00",
+                     help="take-off of the first flight (camera local time)")
+    sfl.add_argument("--speed", type=float, default=10.0, help="ground speed, m/s")
+    sfl.add_argument("--transit-every-s", type=float, default=10.0,
+                     help="a transit frame every this many seconds between sites (0: none)")
+    sfl.add_argument("--sim-seed", type=int, default=1, help="as the survey's --sim-seed")
+    sfl.add_argument("--image-size", type=int, nargs=2, default=(640, 480),
+                     metavar=("W", "H"))
+    sfl.add_argument("--scan-pattern", choices=("raster", "orbit", "both"), default="raster")
+    sfl.add_argument("--site-diameter", type=float, default=60.0,
+                     help="as the survey's --site-diameter, m")
+    sfl.add_argument("--threads", type=int, help="render threads (default: all cores)")
+    sfl.set_defaults(func=cmd_sim_flight)
     rc = sub.add_parser("recon", help="the 3-D stage (Python side)").add_subparsers(
         dest="cmd", required=True, parser_class=Parser)
     rf = rc.add_parser("figure", help="picture of a mound_recon output: cloud + cameras")

@@ -16,15 +16,27 @@ DEFAULT_BAND = 1  # red: best held-out AUC on sat.trn (`mound classify bands`, R
 
 
 def train(data: Split, band: int | None, solver: str = "gd", l2: float = DEFAULT_L2,
-          tol: float = 1e-6, max_iter: float = 200_000) -> Model:
+          tol: float = 1e-6, max_iter: float = 200_000,
+          extra: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> Model:
     """Fits on `data`; `max_iter` < convergence gives an early-stopped (less confident) model
-    (gd: fractional values stop part-way along the last step)."""
+    (gd: fractional values stop part-way along the last step). `extra`: more examples
+    (x (m, 36), y in {-1, +1}, weight > 0 each, where `data`'s rows weigh 1), e.g. the sites
+    a survey verified; the standardisation stays that of `data`."""
     x = data.x[:, band_columns(band)]
     scaler = Standardizer.fit(x)
-    fit = logistic.fit(scaler.design(x), data.y, solver=solver, l2=l2, tol=tol,
-                       max_iter=max_iter)
+    y, weight = data.y, None
+    if extra is not None and len(extra[1]):
+        ex, ey, ew = extra
+        x = np.vstack([x, ex[:, band_columns(band)]])
+        y = np.concatenate([y, ey])
+        weight = np.concatenate([np.ones(len(data.y)), ew])
+    fit = logistic.fit(scaler.design(x), y, solver=solver, l2=l2, tol=tol,
+                       max_iter=max_iter, weight=weight)
     info = {"iterations": fit.iterations, "converged": fit.converged, "loss": fit.loss,
             "grad_norm": fit.grad_norm, "train_seconds": fit.seconds, "rows": len(data.y)}
+    if extra is not None:
+        info["extra_rows"] = len(extra[1])
+        info["extra_weight"] = float(np.sum(extra[2]))
     return Model(band=band, scaler=scaler, w=fit.w, l2=l2, solver=solver, info=info)
 
 

@@ -11,13 +11,13 @@ def cmd_sort(args: argparse.Namespace) -> int:
 
     spec = SortSpec(site_diameter_m=args.site_diameter, margin_m=args.margin_m,
                     max_gap_h=args.max_gap_h, blur_ratio=args.blur_ratio, copy=args.copy)
-    doc = sort_card(args.card, args.plan or args.sites, args.out, spec)
+    doc = sort_card(args.card, args.plan or args.sites, args.out, spec, args.camera)
     counts = ", ".join(f"{n} {k}" for k, n in sorted(doc["counts"].items()))
     print(f"{len(doc['photos'])} files: {counts} -> {args.out}/photos.json")
     for sid, info in doc["sites"].items():
         if info["photos"] or info["blurred"]:
             print(f"  {sid}: {info['photos']} photos ({info['blurred']} blurred), "
-                  f"{info['status']}")
+                  f"{info['status']}, camera {info['camera']['source']}")
     return 0
 
 
@@ -41,4 +41,6 @@ def add_parser(sub: Any, parser_class: type) -> None:
                    help="blurred: sharpness below this share of the site's median "
                    "(default 0.3)")
     s.add_argument("--copy", action="store_true", help="copy the photos instead of linking")
+    s.add_argument("--camera", help="the camera (mound.camera v1), copied into each site's "
+                   "folder (default: from the photos' EXIF)")
     s.set_defaults(func=cmd_sort)

@@ -23,13 +23,18 @@ gets a site or the reason it has none:
   that site's photos: no site (`over_site` says which), listed, not deleted, and left out
   of the site's folder.
 
-Every image with GPS is decoded once, for its sharpness. Nothing on the card is changed:
-the site folders hold symbolic links (or copies with `copy=True`).
+Each file is read once: hashed, and every image with GPS decoded from the same bytes for
+its sharpness. Nothing on the card is changed: the site folders hold symbolic links (or
+copies with `copy=True`). Each site records the camera its reconstruction starts from:
+the user's camera.json (copied into the site's folder), else the photos' EXIF (the focal
+length in pixels from the focal plane resolution, the 35 mm equivalent or the sensor
+width of a known UAV camera: mound_recon's one EXIF reader, which refines it).
 """
 
 from __future__ import annotations
 
 import hashlib
+import json
 import math
 import os
 import shutil
@@ -111,15 +116,17 @@ def sites_of(path: str, spec: SortSpec) -> Sites:
                  np.array([float(home.get("x_m", 0.0)), float(home.get("y_m", 0.0))]), reach)
 
 
-def sharpness(path: Path) -> float | None:
-    """The variance of the Laplacian of the image in grey levels, decoded at about 640 px
-    on its longer side (a JPEG is decoded at that scale directly); None when it does not
-    decode."""
+def sharpness(data: bytes) -> float | None:
+    """The variance of the Laplacian of the image (its file's bytes) in grey levels,
+    decoded at about 640 px on its longer side (a JPEG is decoded at that scale directly);
+    None when it does not decode."""
+    import io
+
     from PIL import Image, UnidentifiedImageError
     from scipy.ndimage import laplace
 
     try:
-        with Image.open(path) as im:
+        with Image.open(io.BytesIO(data)) as im:
             im.draft("L", (640, 640))
             im = im.convert("L")
             scale = 640 / max(im.size)
@@ -138,12 +145,33 @@ def _time(text: str | None) -> datetime | None:
         return None
 
 
-def sort_card(card: str, sites_path: str, out_dir: str, spec: SortSpec | None = None
-              ) -> dict[str, Any]:
-    """Sorts CARD into OUT_DIR (photos.json and one folder per site); returns photos.json.
-    InputError when nothing usable is left (naming why)."""
+def site_camera(photos: list[dict[str, Any]], camera_file: str | None) -> dict[str, Any]:
+    """The camera a site's reconstruction starts from: the user's camera.json (copied into
+    the site's folder), else the EXIF of the site's photos (the most common make, model and
+    focal length; mound_recon reads the same EXIF and refines it in bundle adjustment)."""
+    if camera_file:
+        return {"source": "file", "file": camera_file}
+    if not photos:
+        return {"source": "none"}
+    keys = [json.dumps(r.get("camera", {}), sort_keys=True) for r in photos]
+    best = max(set(keys), key=lambda k: (keys.count(k), k))
+    cam = json.loads(best)
+    mixed = len(set(keys)) > 1
+    if "focal_px" in cam:
+        return {"source": f"exif ({cam['focal_source']})", **cam, "mixed": mixed}
+    return {"source": "default (1.2 x the longer side): no focal length in EXIF "
+            "(give --camera)", **cam, "mixed": mixed}
+
+
+def sort_card(card: str, sites_path: str, out_dir: str, spec: SortSpec | None = None,
+              camera: str | None = None) -> dict[str, Any]:
+    """Sorts CARD into OUT_DIR (photos.json and one folder per site, with a copy of
+    `camera` (a mound.camera file) when given); returns photos.json. InputError when
+    nothing usable is left (naming why)."""
     spec = spec or SortSpec()
     spec.validate()
+    if camera is not None:
+        read_json(camera, "mound.camera", 1)
     sites = sites_of(sites_path, spec)
     listing = native.run_json("mound_recon", ["photos", card])
     root = Path(card)
@@ -158,10 +186,11 @@ def sort_card(card: str, sites_path: str, out_dir: str, spec: SortSpec | None = 
             row["reason"] = "unreadable" if f["kind"] == "bad_name" else f["kind"]
             continue
         try:
-            digest = hashlib.sha256((root / f["file"]).read_bytes()).hexdigest()
+            data = (root / f["file"]).read_bytes()
         except OSError:
             row["reason"] = "unreadable"
             continue
+        digest = hashlib.sha256(data).hexdigest()
         if digest in seen:
             row["reason"], row["duplicate_of"] = "duplicate", seen[digest]
             continue
@@ -169,12 +198,16 @@ def sort_card(card: str, sites_path: str, out_dir: str, spec: SortSpec | None = 
         exif = f.get("exif", {})
         row["time"] = exif.get("time")
         row["camera"] = {k: exif[k] for k in ("make", "model", "focal_mm", "focal_35mm",
-                                              "pixel_pitch_mm") if k in exif}
+                                              "pixel_pitch_mm", "width_px", "focal_px",
+                                              "focal_source") if k in exif}
         lat, lon = exif.get("lat"), exif.get("lon")
         if lat is None or lon is None or (abs(lat) < 1e-9 and abs(lon) < 1e-9):
             row["reason"] = "no_gps"
             continue
         row["lat"], row["lon"] = lat, lon
+        # Decoded from the bytes already read (each file is read once); None: it does not
+        # decode, which makes a site's photo unreadable below.
+        row["sharpness"] = sharpness(data)
         alt = exif.get("alt_m")
         row["alt_m"] = alt if alt is not None and -1000 <= alt <= 20000 else None
     # Another flight's photos: far in time from the card's GPS photos.
@@ -203,12 +236,11 @@ def sort_card(card: str, sites_path: str, out_dir: str, spec: SortSpec | None = 
                 r["reason"] = "transit"
             else:
                 r["reason"] = "outside_sites"
-    # Sharpness of each site's photos; blurred ones flagged against the site's median.
+    # A site's photo that does not decode is unreadable; blurred ones are flagged against
+    # the site's median sharpness.
     for r in rows:
-        if r["site"] is not None:
-            r["sharpness"] = sharpness(root / r["file"])
-            if r["sharpness"] is None:
-                r["site"], r["reason"] = None, "unreadable"
+        if r["site"] is not None and r["sharpness"] is None:
+            r["site"], r["reason"] = None, "unreadable"
     per_site: dict[str, dict[str, Any]] = {}
     for sid in sites.ids:
         mine = [r for r in rows if r["site"] == sid]
@@ -220,7 +252,8 @@ def sort_card(card: str, sites_path: str, out_dir: str, spec: SortSpec | None = 
         usable = [r for r in mine if r["reason"] is None]
         per_site[sid] = {"photos": len(usable), "blurred": len(mine) - len(usable),
                          "median_sharpness": med,
-                         "status": "ok" if len(usable) >= MIN_PHOTOS else "too_few_photos"}
+                         "status": "ok" if len(usable) >= MIN_PHOTOS else "too_few_photos",
+                         "camera": site_camera(usable, camera)}
     reasons: dict[str, int] = {}
     for r in rows:
         key = r["reason"] or "site"
@@ -232,11 +265,12 @@ def sort_card(card: str, sites_path: str, out_dir: str, spec: SortSpec | None = 
     if not any(v["photos"] for v in per_site.values()):
         why = ", ".join(f"{n} {k}" for k, n in sorted(reasons.items())) or "an empty card"
         raise InputError(f"{card}: no usable photo over any site ({why})")
-    _write(doc, root, Path(out_dir), spec)
+    _write(doc, root, Path(out_dir), spec, camera)
     return doc
 
 
-def _write(doc: dict[str, Any], root: Path, out: Path, spec: SortSpec) -> None:
+def _write(doc: dict[str, Any], root: Path, out: Path, spec: SortSpec,
+           camera: str | None) -> None:
     out.mkdir(parents=True, exist_ok=True)
     for sid, info in doc["sites"].items():
         folder = out / sid
@@ -254,4 +288,6 @@ def _write(doc: dict[str, Any], root: Path, out: Path, spec: SortSpec) -> None:
                 shutil.copy2(src, dst)
             else:
                 os.symlink(src, dst)
+        if camera is not None:
+            shutil.copyfile(camera, folder / "camera.json")
     write_json(out / "photos.json", doc)

@@ -9,9 +9,13 @@ inputs and options are unchanged (ledger.py):
     plan       mound_plan: the orienteering tour within the budget
     mission    the tour as a MAVLink mission (.plan, .waypoints, .geojson), uploaded and
                read back with --connect
+    photos     with --photos CARD: the aircraft's card sorted into the visited sites
+               (mound photos sort: photos.json, photos/<site id>/)
     sites3d    per visited site on Dask: its flight simulated from the site's hidden truth
-               (or the photos of --images-root), mound_recon reconstruct, mound_recon
-               verdict, the site's pictures; a failing site is reported and the rest go on
+               (or the photos of --photos / --images-root), mound_recon reconstruct,
+               mound_recon verdict, the site's pictures; a failing site is reported and the
+               rest go on. With --learn, flight by flight: after each, the verdicts
+               retrain the classifier and the next flight is re-planned (learn.py)
     report     final labels (the 3-D verdict where visited, the classifier's elsewhere),
                eps_MD / eps_FA, summary.json (mound.survey v1), report.html, report.md
 """
@@ -21,6 +25,7 @@ from __future__ import annotations
 import argparse
 import functools
 import json
+import math
 import os
 import sys
 import time
@@ -39,7 +44,8 @@ from mound.jsonio import read_json, write_json
 from mound.survey.ledger import Ledger, StageRecord, digest
 from mound.survey.tree import RunTree
 
-STAGES = ("classify", "field", "plan", "mission", "sites3d", "report")
+STAGES = ("classify", "field", "plan", "mission", "photos", "sites3d", "report")
+assert len(STAGES) == 7  # Context.redo_from: past the last stage
 SCHEMA = "mound.survey"
 VERSION = 1
 
@@ -109,9 +115,22 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--firmware", choices=("px4", "ardupilot"), default="px4",
                    help="the vehicle's dialect of mission items (default: px4)")
     g = p.add_argument_group("3-D stage")
-    g.add_argument("--images-root", help="the UAV's photos: one folder per site id (with "
-                   "camera.json / poses.json when known, else EXIF); default: simulate "
-                   "each visited site's flight from its hidden truth")
+    g.add_argument("--photos", metavar="CARD_DIR", help="the aircraft's photo card (or a copy "
+                   "of it): sorted into the visited sites by EXIF GPS and time (mound photos "
+                   "sort), each site's folder reconstructed; default: simulate each visited "
+                   "site's flight from its hidden truth")
+    g.add_argument("--camera", help="with --photos: the camera (mound.camera v1) instead of "
+                   "the photos' EXIF")
+    g.add_argument("--images-root", help="the UAV's photos sorted by hand: one folder per "
+                   "site id (with camera.json / poses.json when known, else EXIF)")
+    g.add_argument("--learn", action="store_true",
+                   help="with --flights K on the field: after each flight, the verdicts "
+                   "(weighted by their confidence) retrain the coarse classifier, p_mound "
+                   "and rewards are recomputed and the next flight is re-planned over the "
+                   "sites not yet flown")
+    g.add_argument("--learn-weight", type=float, default=1.0,
+                   help="--learn: training examples a verified site counts as (times the "
+                   "verdict's confidence)")
     g.add_argument("--image-size", type=int, nargs=2, default=(640, 480),
                    metavar=("W", "H"), help="simulated image size, px")
     g.add_argument("--sim-seed", type=int, default=1, help="seed of the simulated sites")
@@ -146,7 +165,7 @@ class Context:
     ledger: Ledger
     stages: list[dict[str, Any]] = field(default_factory=list)
     keys: dict[str, str] = field(default_factory=dict)
-    redo_from: int = 6  # index into STAGES: stages from here on are redone
+    redo_from: int = 7  # index into STAGES (len: none): stages from here on are redone
     run_id: str = field(default_factory=lambda: uuid.uuid4().hex)
 
     @functools.cached_property
@@ -372,7 +391,7 @@ def stage_field(ctx: Context) -> str:
         # Validated now, before anything is planned or flown, even when the stage is
         # skipped: a bad file must stop the run here.
         doc = load_user_sites(a.sites, scan, a.budget, flight_budget_m(),
-                              need_truth=not a.images_root)
+                              need_truth=not (a.images_root or a.photos))
         material: dict[str, Any] = {"sites": doc}
     else:
         material = {"classify": ctx.keys["classify"], "seed": a.field_seed,
@@ -529,6 +548,50 @@ def stage_mission(ctx: Context) -> str:
                                       "terrain": ctx.terrain}, work)
 
 
+def stage_photos(ctx: Context) -> str:
+    """--photos: the card sorted into the visited sites of plan.json (links, photos.json)."""
+    from mound.photos.sort import SortSpec, sort_card
+
+    a = ctx.args
+    if not a.photos:
+        note = ("not needed: photos from --images-root" if a.images_root
+                else "not needed: each visited site's flight is simulated")
+        ctx.stages.append({"name": "photos", "wall_s": 0.0, "skipped": True, "note": note})
+        ctx.say(f"[photos] {note}")
+        ctx.keys["photos"] = "none"
+        return "none"
+
+    def work() -> tuple[list[str], str, bool]:
+        doc = sort_card(a.photos, str(ctx.tree.plan), str(ctx.tree.photos),
+                        SortSpec(site_diameter_m=a.site_diameter), a.camera)
+        counts = ", ".join(f"{n} {k}" for k, n in sorted(doc["counts"].items()))
+        ok = sum(1 for v in doc["sites"].values() if v["status"] == "ok")
+        few = [k for k, v in doc["sites"].items() if v["status"] != "ok"]
+        note = (f"{len(doc['photos'])} files on the card: {counts}; {ok} of "
+                f"{len(doc['sites'])} visited sites with enough photos"
+                + (f" (too few: {', '.join(few)})" if few else ""))
+        return ["photos/photos.json"], note, True
+
+    material = {"plan": ctx.keys["plan"], "card": _card_digest(Path(a.photos)),
+                "camera": _digest_files([a.camera]) if a.camera else None,
+                "diameter": a.site_diameter}
+    return run_stage(ctx, "photos", material, work)
+
+
+def _card_digest(card: Path) -> str:
+    """The card's files (names, sizes, times): a changed card is sorted again."""
+    rows = []
+    for dirpath, _dirs, names in os.walk(card):
+        for n in names:
+            p = Path(dirpath) / n
+            try:
+                st = p.stat()
+            except OSError:
+                continue
+            rows.append((str(p.relative_to(card)), st.st_size, st.st_mtime_ns))
+    return digest(sorted(rows))
+
+
 def _folder_digest(folder: Path) -> str:
     if not folder.is_dir():
         return "missing"
@@ -536,12 +599,23 @@ def _folder_digest(folder: Path) -> str:
                          for p in folder.iterdir() if p.is_file()))
 
 
-def site_jobs(ctx: Context) -> list[Any]:
+def images_root(ctx: Context) -> Path | None:
+    """Where each visited site's photos are: the sorted card (--photos), the user's
+    folders (--images-root), or nowhere (simulated)."""
+    if ctx.args.photos:
+        return ctx.tree.photos
+    return Path(ctx.args.images_root) if ctx.args.images_root else None
+
+
+def site_jobs(ctx: Context, plan: dict[str, Any] | None = None) -> list[Any]:
+    """The 3-D jobs of the sites `plan` visits (default: plan.json); the sites keep their
+    index in sites.json (which seeds their simulation) whichever plan visits them."""
     from mound.survey.site_work import DENSE_RESOLUTION_M, SiteJob
 
     a = ctx.args
     sites_doc = read_json(ctx.tree.sites, "mound.sites", 1)
-    plan = read_json(ctx.tree.plan, "mound.plan", 1)
+    if plan is None:
+        plan = read_json(ctx.tree.plan, "mound.plan", 1)
     from mound.uav.mission_items import visited_ids
 
     tour = visited_ids(plan)
@@ -562,7 +636,8 @@ def site_jobs(ctx: Context) -> list[Any]:
             continue
         ter = ({"dem": str(Path(a.dem).resolve()), "vertical": sites_doc["terrain"]["vertical"],
                 "ground_amsl_m": grounds[s["id"]]} if a.dem and s["id"] in grounds else None)
-        images = str((Path(a.images_root) / s["id"]).resolve()) if a.images_root else None
+        photos = images_root(ctx)
+        images = str((photos / s["id"]).resolve()) if photos else None
         key = digest({"site": {k: s.get(k) for k in ("id", "x_m", "y_m", "truth", "simulate")},
                       "index": index, "options": options, "images": images,
                       "images_digest": _folder_digest(Path(images)) if images else None,
@@ -589,48 +664,54 @@ def _reusable(job: Any) -> dict[str, Any] | None:
     return None
 
 
-def stage_sites3d(ctx: Context) -> str:
+def run_jobs(ctx: Context, jobs: list[Any], tag: str = "sites3d"
+             ) -> tuple[dict[str, dict[str, Any]], str, bool]:
+    """Runs the site jobs not done before (on Dask); returns their rows by id, a note and
+    whether every failure is final (the stage is complete)."""
     from mound.survey import cluster
 
     a = ctx.args
+    rows: dict[str, dict[str, Any]] = {}
+    todo = []
+    for job in jobs:
+        row = None if STAGES.index("sites3d") >= ctx.redo_from else _reusable(job)
+        if row is not None:
+            rows[job.site["id"]] = row
+        else:
+            todo.append(job)
+    if todo:
+        ctx.say(f"[{tag}] {len(todo)} of {len(jobs)} visited sites to process "
+                f"({len(jobs) - len(todo)} done before)")
+        with cluster.client_for(a.scheduler, a.workers) as client:
+            ctx.say(f"[{tag}] Dask {cluster.describe(client)}")
+
+            def on_row(row: dict[str, Any]) -> None:
+                rows[row["id"]] = row
+                if "schema" not in row:  # the task died before writing its row
+                    job = next(j for j in todo if j.site["id"] == row["id"])
+                    write_json(job.tree.result, row)
+
+            cluster.run_sites(client, todo, ctx.run_id, on_row, progress=not a.no_progress)
+    ok = [r for r in rows.values() if r.get("status") == "ok"]
+    failed = [r for r in rows.values() if r.get("status") != "ok"]
+    mounds = sum(1 for r in ok if r.get("verdict") == "mound")
+    note = (f"{len(jobs)} visited sites: {len(ok)} judged ({mounds} mound, "
+            f"{len(ok) - mounds} no mound), {len(failed)} failed")
+    for r in failed:
+        ctx.say(f"[{tag}] {r['id']} failed: {r.get('reason', '?')}")
+    return rows, note, all(r.get("retry") is False for r in failed)
+
+
+def stage_sites3d(ctx: Context) -> str:
     jobs = site_jobs(ctx)
 
     def work() -> tuple[list[str], str, bool]:
-        rows: dict[str, dict[str, Any]] = {}
-        todo = []
-        for job in jobs:
-            row = None if STAGES.index("sites3d") >= ctx.redo_from else _reusable(job)
-            if row is not None:
-                rows[job.site["id"]] = row
-            else:
-                todo.append(job)
-        if todo:
-            ctx.say(f"[sites3d] {len(todo)} of {len(jobs)} visited sites to process "
-                    f"({len(jobs) - len(todo)} done before)")
-            with cluster.client_for(a.scheduler, a.workers) as client:
-                ctx.say(f"[sites3d] Dask {cluster.describe(client)}")
-
-                def on_row(row: dict[str, Any]) -> None:
-                    rows[row["id"]] = row
-                    if "schema" not in row:  # the task died before writing its row
-                        job = next(j for j in todo if j.site["id"] == row["id"])
-                        write_json(job.tree.result, row)
-
-                cluster.run_sites(client, todo, ctx.run_id, on_row,
-                                  progress=not a.no_progress)
-        ok = [r for r in rows.values() if r.get("status") == "ok"]
-        failed = [r for r in rows.values() if r.get("status") != "ok"]
-        mounds = sum(1 for r in ok if r.get("verdict") == "mound")
-        note = (f"{len(jobs)} visited sites: {len(ok)} judged ({mounds} mound, "
-                f"{len(ok) - mounds} no mound), {len(failed)} failed")
-        for r in failed:
-            ctx.say(f"[sites3d] {r['id']} failed: {r.get('reason', '?')}")
-        complete = all(r.get("retry") is False for r in failed)
+        _rows, note, complete = run_jobs(ctx, jobs)
         root = ctx.tree.root.resolve()
         outputs = [str(j.tree.result.relative_to(root)) for j in jobs]
         return outputs, note, complete
 
-    return run_stage(ctx, "sites3d", {"plan": ctx.keys["plan"],
+    return run_stage(ctx, "sites3d", {"plan": ctx.keys["plan"], "photos": ctx.keys["photos"],
                                       "sites": [j.key for j in jobs]}, work)
 
 
@@ -671,6 +752,24 @@ def check_args(a: argparse.Namespace) -> None:
         raise UsageError("--site-timeout, --site-threads, --workers: must be positive")
     if a.images_root and not Path(a.images_root).is_dir():
         raise UsageError(f"--images-root: {a.images_root} is not a folder")
+    if a.photos and not Path(a.photos).is_dir():
+        raise UsageError(f"--photos: {a.photos} is not a folder")
+    if a.photos and a.images_root:
+        raise UsageError("--photos and --images-root: give the card or the sorted folders")
+    if a.camera and not a.photos:
+        raise UsageError("--camera goes with --photos")
+    if a.camera and not Path(a.camera).is_file():
+        raise UsageError(f"--camera: {a.camera} not found")
+    if a.learn:
+        if a.sites or a.scene:
+            raise UsageError("--learn: the classifier learns on the field's Statlog "
+                             "features; --sites and --scene sites have none here")
+        if a.photos or a.images_root:
+            raise UsageError("--learn re-plans each flight after the one before: it flies "
+                             "simulated flights (photos of re-planned flights come one "
+                             "card at a time)")
+        if not (math.isfinite(a.learn_weight) and a.learn_weight > 0):
+            raise UsageError("--learn-weight: must be > 0")
     if a.reference and not Path(a.reference).is_file():
         raise UsageError(f"--reference: {a.reference} not found")
     if a.sites and not Path(a.sites).is_file():
@@ -732,7 +831,13 @@ def run(argv: list[str]) -> int:
     stage_field(ctx)
     stage_plan(ctx)
     stage_mission(ctx)
-    stage_sites3d(ctx)
+    stage_photos(ctx)
+    if args.learn:
+        from mound.survey.learn import stage_learn
+
+        stage_learn(ctx)
+    else:
+        stage_sites3d(ctx)
     stage_report(ctx, started)
     total = time.time() - started
     summary = read_json(tree.summary, SCHEMA, VERSION)

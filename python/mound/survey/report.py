@@ -77,8 +77,9 @@ def site_rows(tree: RunTree, sites_doc: dict[str, Any], plan: dict[str, Any] | N
 
 def build_summary(tree: RunTree, args: argparse.Namespace, stages: list[dict[str, Any]],
                   started: float) -> dict[str, Any]:
-    sites_doc = read_json(tree.sites, "mound.sites", 1)
-    plan = _load(tree.plan, "mound.plan")
+    learned = bool(getattr(args, "learn", False))
+    sites_doc = read_json(tree.final_sites(learned), "mound.sites", 1)
+    plan = _load(tree.final_plan(learned), "mound.plan")
     mission = _load(tree.mission_summary, "mound.mission")
     rows = site_rows(tree, sites_doc, plan)
     truth = [r.get("truth") for r in rows]
@@ -126,6 +127,17 @@ def build_summary(tree: RunTree, args: argparse.Namespace, stages: list[dict[str
     }
     if reason:
         doc["reason"] = reason
+    if learned and (tree.learn / "learn.json").is_file():
+        doc["learn"] = read_json(tree.learn / "learn.json", "mound.learn", 1)
+        first = read_json(tree.sites, "mound.sites", 1)
+        before = [s["p_mound"] >= 0.5 for s in first["sites"]]
+        bmd, bfa = detection_error_rates(before, truth)
+        doc["metrics"]["classifier_before_flights"] = {"eps_md": bmd, "eps_fa": bfa}
+    if (tree.photos / "photos.json").is_file():
+        card = read_json(tree.photos / "photos.json", "mound.photos", 1)
+        doc["photos"] = {"card": card["card"], "counts": card["counts"],
+                         "sites": card["sites"], "file": "photos/photos.json",
+                         "skipped_folders": card.get("skipped_folders", [])}
     if plan:
         doc["plan"] = {k: plan.get(k) for k in ("algo", "tour", "reward", "cost_m", "budget_m",
                                                  "n_visited", "n_sites", "flights")}
@@ -239,6 +251,52 @@ def _metrics_table(m: dict[str, Any]) -> str:
             f'<th>ε<sub>FA</sub> (false alarms)</th></tr>{body}</table>')
 
 
+def _card_table(card: dict[str, Any]) -> str:
+    """The sorted photo card: what became of its files, and each site's photos."""
+    e = html.escape
+    counts = "".join(f'<tr><td class="l">{e(k)}</td><td>{n}</td></tr>'
+                     for k, n in sorted(card["counts"].items()))
+    sites = "".join(
+        f'<tr><td class="l">{e(sid)}</td><td>{v["photos"]}</td><td>{v["blurred"]}</td>'
+        f'<td>{v["median_sharpness"]:.0f}</td><td class="l">{e(v["status"])}</td>'
+        f'<td class="l">{e(str((v.get("camera") or {}).get("source", "")))}</td></tr>'
+        for sid, v in card["sites"].items())
+    skipped = ("".join(f"<li>{e(str(x))}</li>" for x in card.get("skipped_folders", [])))
+    return (f'<p>Card {e(card["card"])} ({e(card["file"])}): every file, its site or why '
+            'it has none.</p><div class="row"><table><tr><th class="l">files</th><th>count'
+            f'</th></tr>{counts}</table><table><tr><th class="l">site</th><th>photos</th>'
+            '<th>blurred</th><th>median sharpness</th><th class="l">status</th>'
+            f'<th class="l">camera</th></tr>{sites}</table></div>'
+            + (f'<p class="muted">folders not read:</p><ul>{skipped}</ul>' if skipped else ""))
+
+
+def _learn_table(learn: dict[str, Any], m: dict[str, Any]) -> str:
+    """Each flight teaching the next: what it flew, what was learned, how p changed."""
+    e = html.escape
+    body = ""
+    for f in learn["flights"]:
+        ex = ", ".join(f'{x["id"]} {x["verdict"].replace("_", " ")} ({x["confidence"]:.2f})'
+                       for x in f["examples"])
+        moved = ", ".join(f'{c["id"]} {c["p_before"]:.3f}→{c["p_after"]:.3f}'
+                          for c in f["largest_changes"][:3])
+        body += (f'<tr><td>{f["flight"]}</td><td class="l">{e(" ".join(f["sites"]))}</td>'
+                 f'<td>{f["planned_reward"]:.2f}</td><td class="l">{e(ex)}</td>'
+                 f'<td>{f["held_out_auc"]:.4f}</td><td>{f["labels_flipped"]}</td>'
+                 f'<td>{f["max_abs_dp"]:.4f}</td><td class="l">{e(moved)}</td></tr>')
+    before = m.get("classifier_before_flights") or {}
+    return (f'<p>After each flight its verdicts (weighted by confidence times '
+            f'{learn["learn_weight"]:g}) retrained the classifier and the next flight was '
+            f're-planned. Held-out AUC ({e(learn["evaluation"])}, '
+            f'{learn["held_out_rows"]} rows): {learn["held_out_auc_before"]:.4f} before, '
+            f'{learn["held_out_auc_after"]:.4f} after. The classifier alone before any '
+            f'flight: ε<sub>MD</sub> {_fmt(before.get("eps_md"))}, ε<sub>FA</sub> '
+            f'{_fmt(before.get("eps_fa"))}.</p><table><tr><th>flight</th>'
+            '<th class="l">sites</th><th>planned reward (bits)</th><th class="l">learned '
+            '(verdict, confidence)</th><th>held-out AUC</th><th>labels flipped</th>'
+            '<th>max |Δp|</th><th class="l">largest changes of p</th></tr>'
+            f'{body}</table>')
+
+
 def _stage_table(stages: list[dict[str, Any]]) -> str:
     body = ""
     for s in stages:
@@ -270,8 +328,9 @@ def _sites_table(rows: list[dict[str, Any]]) -> str:
 
 def write_reports(tree: RunTree, summary: dict[str, Any]) -> None:
     tree.report_dir.mkdir(parents=True, exist_ok=True)
-    sites_doc = read_json(tree.sites, "mound.sites", 1)
-    plan = _load(tree.plan, "mound.plan")
+    learned = bool(summary["options"].get("learn"))
+    sites_doc = read_json(tree.final_sites(learned), "mound.sites", 1)
+    plan = _load(tree.final_plan(learned), "mound.plan")
     by_id = {r["id"]: r for r in summary["sites"]}
     figures.field_map(sites_doc, plan, by_id, tree.report_dir / "field.png")
     for r in summary["sites"]:
@@ -325,6 +384,11 @@ def render_html(tree: RunTree, s: dict[str, Any]) -> str:
     if (tree.report_dir / "scene.png").is_file():
         maps += _img("report/scene.png", "p(mound) over the scene, candidates and tour")
     cards = "".join(_site_card(r) for r in visited)
+    extra = ""
+    if s.get("photos"):
+        extra += f"<h2>Photo card</h2>\n{_card_table(s['photos'])}\n"
+    if s.get("learn"):
+        extra += f"<h2>Learning between flights</h2>\n{_learn_table(s['learn'], m)}\n"
     return f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>mound-survey report</title>
 <style>{STYLE}</style></head>
@@ -337,7 +401,7 @@ def render_html(tree: RunTree, s: dict[str, Any]) -> str:
 {_metrics_table(m)}
 <h2>Field and tour</h2>
 <div class="row">{maps}</div>
-<h2>Visited sites</h2>
+{extra}<h2>Visited sites</h2>
 {cards or '<p>none</p>'}
 <h2>All sites</h2>
 {_sites_table(s['sites'])}
@@ -378,6 +442,21 @@ def render_md(s: dict[str, Any]) -> str:
         lines.append(f"| {r['id']} | {r['p_mound']:.3f} | {r['verdict']} | "
                      f"{_fmt(r.get('truth'))} | {_fmt(rise.get('height_m'), 1)} | "
                      f"{_fmt(rise.get('base_diameter_m'), 1)} | {note} |")
+    if s.get("photos"):
+        lines += ["", "## Photo card", "", "| files | count |", "|---|---|"]
+        lines += [f"| {k} | {n} |" for k, n in sorted(s["photos"]["counts"].items())]
+        lines += ["", "| site | photos | blurred | status |", "|---|---|---|---|"]
+        lines += [f"| {k} | {v['photos']} | {v['blurred']} | {v['status']} |"
+                  for k, v in s["photos"]["sites"].items()]
+    if s.get("learn"):
+        lr = s["learn"]
+        lines += ["", "## Learning between flights", "",
+                  f"Held-out AUC ({lr['evaluation']}): {lr['held_out_auc_before']:.4f} -> "
+                  f"{lr['held_out_auc_after']:.4f}", "",
+                  "| flight | sites | learned | held-out AUC | labels flipped |",
+                  "|---|---|---|---|---|"]
+        lines += [f"| {f['flight']} | {' '.join(f['sites'])} | {len(f['examples'])} | "
+                  f"{f['held_out_auc']:.4f} | {f['labels_flipped']} |" for f in lr["flights"]]
     lines += ["", "## Stages", "", "| stage | wall s | result |", "|---|---|---|"]
     for st in s["stages"]:
         wall = "skipped" if st.get("skipped") else f"{st['wall_s']:.1f}"

@@ -16,17 +16,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from mound import native
 from mound.errors import InputError, NoResultError, ToolError, ToolTimeout
-from mound.geometry.geodesy import Origin, enu_to_geodetic
 from mound.jsonio import read_json, write_json
+from mound.photos.sort import MIN_PHOTOS
 from mound.survey.tree import SiteTree
 
 SCHEMA = "mound.survey_site"
 VERSION = 1
-MOUND_HEIGHTS_M = (4.0, 12.0)  # simulated tumuli: heights drawn uniformly from this range
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff")
 RASTER_CELL_M = 2.0    # the GeoTIFFs of each visited site (sparse cloud: ~1 point per m²)
 DENSE_RESOLUTION_M = 0.25  # mound_recon densify's voxel in the survey
@@ -72,42 +69,14 @@ def _rel(path: Path, root: Path) -> str:
 
 def _simulate(job: SiteJob, row: dict[str, Any]) -> tuple[Path, Path | None, str]:
     from mound.sim import site as sim
-    from mound.sim import terrain
+    from mound.sim.card import survey_site_spec
 
-    truth = job.site.get("truth", {}).get("mound")
-    if truth is None and job.site.get("simulate") == "flat":
-        truth = False  # a scene's candidate of unknown truth: flown over flat ground
-    if truth is None:
-        raise InputError(f"sites: {job.site['id']}.truth: needed to simulate its flight")
-    rng = np.random.default_rng([job.sim_seed, job.index])
-    height = float(rng.uniform(*MOUND_HEIGHTS_M))
-    if truth and job.site["truth"].get("height_m") is not None:  # the inventory's height
-        height = float(job.site["truth"]["height_m"])
-    seed = 1000 * job.sim_seed + job.index + 1
-    origin = Origin.from_doc(job.origin)
-    lat, lon, alt = enu_to_geodetic(origin, np.array([[job.site["x_m"], job.site["y_m"], 0.0]]))[0]
-    ground: dict[str, Any] = {}
-    if job.terrain:
-        # Over the survey's DEM: the site's own terrain, z = 0 at the mission's ground of
-        # the site, so the simulated flight has the mission's heights above it.
-        from mound.geometry.dem import lonlat_to_crs
-
-        x, y = lonlat_to_crs(job.terrain["dem"], float(lon), float(lat))
-        ground = {"dem_path": job.terrain["dem"], "dem_x_m": x, "dem_y_m": y,
-                  "dem_ground_m": float(job.terrain["ground_amsl_m"]),
-                  "dem_vertical": job.terrain["vertical"]}
-    spec = sim.SimSpec(
-        terrain=terrain.preset("bin_tepe", mound=bool(truth), seed=seed,
-                               diameter_m=job.site_diameter_m, height_m=height,
-                               size_m=max(160.0, 8 * job.site_diameter_m / 3), **ground),
-        width_px=job.image_size[0], height_px=job.image_size[1], pattern=job.pattern,
-        seed=seed, origin={"lat": float(lat), "lon": float(lon), "alt_m": float(alt)})
+    spec, row["simulated"] = survey_site_spec(job.site, job.index, job.origin, job.sim_seed,
+                                              job.image_size, job.pattern,
+                                              job.site_diameter_m, job.terrain)
     t = job.tree
     doc = sim.simulate(spec, t.sim, threads=job.threads)
-    row["simulated"] = {"mound": bool(truth), "height_m": height if truth else 0.0,
-                        "truth": "known" if "truth" in job.site else "unknown",
-                        "diameter_m": job.site_diameter_m, "seed": seed,
-                        "images": doc["stats"]["images"]}
+    row["simulated"]["images"] = doc["stats"]["images"]
     return t.sim / "images", t.sim / "camera.json", str(t.sim / "poses.json")
 
 
@@ -115,10 +84,14 @@ def _photos(job: SiteJob) -> tuple[Path, Path | None, str]:
     assert job.images_dir is not None
     folder = Path(job.images_dir)
     if not folder.is_dir():
-        raise InputError(f"--images-root: no folder {folder} for site {job.site['id']}")
+        raise InputError(f"no photos of site {job.site['id']} (no folder {folder}: none on "
+                         "the card, or not sorted)")
     images = [p for p in folder.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES]
     if not images:
         raise InputError(f"{folder}: no images ({', '.join(IMAGE_SUFFIXES)})")
+    if len(images) < MIN_PHOTOS:
+        raise InputError(f"{folder}: {len(images)} photos, a reconstruction needs "
+                         f"{MIN_PHOTOS}")
     camera = folder / "camera.json"
     poses = folder / "poses.json"
     return folder, camera if camera.is_file() else None, str(poses) if poses.is_file() else "exif"

@@ -67,6 +67,25 @@ class RunTree:
     def mission_summary(self) -> Path:
         return self.root / "mission.json"
 
+    @property
+    def photos(self) -> Path:
+        """The photo card sorted into the sites (--photos): photos.json, <site id>/."""
+        return self.root / "photos"
+
+    @property
+    def learn(self) -> Path:
+        """Each flight's model, sites and plan (--learn): learn/flight_K/, learn.json."""
+        return self.root / "learn"
+
+    def final_sites(self, learned: bool) -> Path:
+        """The sites with the p_mound of the final labels: the last learned model's with
+        --learn, else sites.json."""
+        return self.learn / "sites_final.json" if learned else self.sites
+
+    def final_plan(self, learned: bool) -> Path:
+        """The flights as flown: each re-planned flight with --learn, else plan.json."""
+        return self.learn / "plan_flown.json" if learned else self.plan
+
     def site_dir(self, site_id: str) -> Path:
         return self.root / "sites" / site_id
 

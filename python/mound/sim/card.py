@@ -1,0 +1,286 @@
+"""What a real camera writes: JPEGs with EXIF, and a whole simulated flight as one photo card.
+
+- `site_jpegs(site_dir, ...)` turns a simulated site's rendered PNGs into JPEGs carrying
+  what a UAV camera writes into EXIF: GPS latitude, longitude and altitude (the simulator's
+  noisy GPS, altitude above the WGS84 origin's datum), the capture time, make and model,
+  the focal length with the focal plane resolution (a 1/2.3" sensor, 6.17 mm wide) and the
+  35 mm equivalent. `mound sim site --jpeg` does this.
+- `write_card(plan, sites, out, spec)` writes the photos of a planned survey, flight by
+  flight, as they come off the aircraft: `OUT/DCIM/100MEDIA/DJI_NNNN.JPG`, each visited
+  site's scan rendered the way the survey driver simulates it (`survey_site_spec`: the same
+  terrain, mound height and seeds), and transit frames shot every `transit_every_s` along
+  the legs between sites (ground texture only; never within reach of a site's scan), with
+  times from the flight's speed. `mound sim flight PLAN --out CARD` does this, and writes
+  what each file is (`mound.card_truth` v1) with `--truth`.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import shutil
+import tempfile
+from dataclasses import dataclass
+from datetime import datetime, timedelta
+from fractions import Fraction
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from mound.errors import InputError
+from mound.geometry.geodesy import Origin, enu_to_geodetic
+from mound.jsonio import read_json, write_json
+
+SENSOR_WIDTH_MM = 6.17   # the simulated camera's sensor: 1/2.3", as on small UAVs
+MOUND_HEIGHTS_M = (4.0, 12.0)  # simulated tumuli: heights drawn uniformly from this range
+EXIF_TIME = "%Y:%m:%d %H:%M:%S"
+CARD_TRUTH = "mound.card_truth"
+
+
+@dataclass(frozen=True)
+class ExifFacts:
+    lat: float
+    lon: float
+    alt_m: float
+    time: datetime
+    focal_px: float
+    width_px: int
+    make: str = "mound-survey"
+    model: str = "sim"
+
+
+def _rational(x: float, denominator: int = 1_000_000) -> Any:
+    from PIL.TiffImagePlugin import IFDRational
+
+    f = Fraction(round(abs(x) * denominator), denominator)
+    return IFDRational(f.numerator, f.denominator)
+
+
+def _dms(deg: float) -> tuple[Any, Any, Any]:
+    deg = abs(deg)
+    d = math.floor(deg)
+    m = math.floor((deg - d) * 60)
+    s = (deg - d - m / 60) * 3600
+    return _rational(d, 1), _rational(m, 1), _rational(s, 10_000_000)
+
+
+def exif_of(f: ExifFacts) -> Any:
+    """A Pillow Exif block with the facts (EXIF 2.3 tags, GPS IFD)."""
+    from PIL import Image
+
+    ex = Image.Exif()
+    stamp = f.time.strftime(EXIF_TIME)
+    ex[0x010F], ex[0x0110], ex[0x0132] = f.make, f.model, stamp
+    e = ex.get_ifd(0x8769)
+    pitch_mm = SENSOR_WIDTH_MM / f.width_px
+    e[0x9003] = stamp
+    e[0x920A] = _rational(f.focal_px * pitch_mm)               # FocalLength, mm
+    e[0xA405] = int(round(f.focal_px / f.width_px * 36))       # FocalLengthIn35mmFilm
+    e[0xA20E] = _rational(10.0 / pitch_mm)                     # FocalPlaneXResolution
+    e[0xA20F] = _rational(10.0 / pitch_mm)
+    e[0xA210] = 3                                              # ... per centimetre
+    e[0xA002] = f.width_px                                     # PixelXDimension
+    g = ex.get_ifd(0x8825)
+    g[0] = b"\x02\x03\x00\x00"
+    g[1], g[2] = ("N" if f.lat >= 0 else "S"), _dms(f.lat)
+    g[3], g[4] = ("E" if f.lon >= 0 else "W"), _dms(f.lon)
+    g[5], g[6] = (b"\x00" if f.alt_m >= 0 else b"\x01"), _rational(f.alt_m, 1000)
+    return ex
+
+
+def save_jpeg(rgb: np.ndarray | Path, out: Path, facts: ExifFacts, quality: int = 95) -> None:
+    """Writes an image (an array or a file) as a JPEG with the EXIF facts, atomically."""
+    from PIL import Image
+
+    im = Image.open(rgb) if isinstance(rgb, Path) else Image.fromarray(rgb)
+    with im:
+        tmp = out.with_name(out.name + ".tmp")
+        im.convert("RGB").save(tmp, format="JPEG", quality=quality, exif=exif_of(facts))
+    tmp.replace(out)
+
+
+def site_jpegs(site_dir: str | Path, start: datetime, every_s: float = 2.0,
+               quality: int = 95) -> list[tuple[str, datetime]]:
+    """The simulated site's images as JPEGs with EXIF (the PNGs replaced; poses.json and
+    site.json name the JPEGs); returns (file, capture time) in flight order."""
+    d = Path(site_dir)
+    poses = read_json(d / "poses.json", "mound.poses", 1)
+    cam = read_json(d / "camera.json", "mound.camera", 1)
+    origin = Origin.from_doc(poses["origin"], f"{d}/poses.json: origin")
+    gps = np.array([im["gps_enu_m"] for im in poses["images"]], dtype=float)
+    llh = enu_to_geodetic(origin, gps)
+    out: list[tuple[str, datetime]] = []
+    for k, im in enumerate(poses["images"]):
+        png = d / im["file"]
+        jpg = png.with_suffix(".jpg")
+        when = start + timedelta(seconds=k * every_s)
+        save_jpeg(png, jpg, ExifFacts(float(llh[k, 0]), float(llh[k, 1]), float(llh[k, 2]),
+                                      when, float(cam["K"][0][0]), int(cam["width"])), quality)
+        png.unlink()
+        im["file"] = str(Path(im["file"]).with_suffix(".jpg"))
+        out.append((im["file"], when))
+    write_json(d / "poses.json", poses)
+    site = read_json(d / "site.json", "mound.sim_site", 1)
+    site["files"]["images"] = [im["file"] for im in poses["images"]]
+    site["jpeg"] = {"quality": quality, "start": start.isoformat(), "every_s": every_s,
+                    "sensor_width_mm": SENSOR_WIDTH_MM}
+    write_json(d / "site.json", site)
+    return out
+
+
+def survey_site_spec(site: dict[str, Any], index: int, origin: dict[str, float],
+                     sim_seed: int, image_size: tuple[int, int], pattern: str,
+                     site_diameter_m: float, terrain_input: dict[str, Any] | None = None
+                     ) -> tuple[Any, dict[str, Any]]:
+    """How the survey simulates a visited site's flight: the SimSpec (from the site's
+    hidden truth, seeded by `sim_seed` and the site's index) and what was simulated."""
+    from mound.sim import site as sim
+    from mound.sim import terrain
+
+    truth = site.get("truth", {}).get("mound")
+    if truth is None and site.get("simulate") == "flat":
+        truth = False  # a scene's candidate of unknown truth: flown over flat ground
+    if truth is None:
+        raise InputError(f"sites: {site['id']}.truth: needed to simulate its flight")
+    rng = np.random.default_rng([sim_seed, index])
+    height = float(rng.uniform(*MOUND_HEIGHTS_M))
+    if truth and site["truth"].get("height_m") is not None:  # the inventory's height
+        height = float(site["truth"]["height_m"])
+    seed = 1000 * sim_seed + index + 1
+    o = Origin.from_doc(origin)
+    lat, lon, alt = enu_to_geodetic(o, np.array([[site["x_m"], site["y_m"], 0.0]]))[0]
+    ground: dict[str, Any] = {}
+    if terrain_input:
+        # Over the survey's DEM: the site's own terrain, z = 0 at the mission's ground of
+        # the site, so the simulated flight has the mission's heights above it.
+        from mound.geometry.dem import lonlat_to_crs
+
+        x, y = lonlat_to_crs(terrain_input["dem"], float(lon), float(lat))
+        ground = {"dem_path": terrain_input["dem"], "dem_x_m": x, "dem_y_m": y,
+                  "dem_ground_m": float(terrain_input["ground_amsl_m"]),
+                  "dem_vertical": terrain_input["vertical"]}
+    spec = sim.SimSpec(
+        terrain=terrain.preset("bin_tepe", mound=bool(truth), seed=seed,
+                               diameter_m=site_diameter_m, height_m=height,
+                               size_m=max(160.0, 8 * site_diameter_m / 3), **ground),
+        width_px=image_size[0], height_px=image_size[1], pattern=pattern,
+        seed=seed, origin={"lat": float(lat), "lon": float(lon), "alt_m": float(alt)})
+    return spec, {"mound": bool(truth), "height_m": height if truth else 0.0,
+                  "truth": "known" if "truth" in site else "unknown",
+                  "diameter_m": site_diameter_m, "seed": seed}
+
+
+@dataclass(frozen=True)
+class CardSpec:
+    start: datetime = datetime(2026, 6, 1, 9, 0, 0)
+    speed_mps: float = 10.0
+    shot_every_s: float = 2.0        # over a site
+    transit_every_s: float = 10.0    # between sites (0: no transit frames)
+    transit_clear_m: float = 40.0    # transit frames this far beyond a scan's reach
+    transit_alt_m: float = 60.0      # above the origin's datum
+    between_flights_s: float = 1800.0
+    sim_seed: int = 1
+    image_size: tuple[int, int] = (640, 480)
+    pattern: str = "raster"
+    site_diameter_m: float = 60.0
+    quality: int = 95
+    threads: int | None = None
+
+    def validate(self) -> None:
+        for name in ("speed_mps", "shot_every_s", "between_flights_s", "site_diameter_m"):
+            if not (math.isfinite(getattr(self, name)) and getattr(self, name) > 0):
+                raise InputError(f"--{name.replace('_', '-')}: must be > 0")
+        if not (math.isfinite(self.transit_every_s) and self.transit_every_s >= 0):
+            raise InputError("--transit-every-s: must be >= 0")
+        if not 1 <= self.quality <= 100:
+            raise InputError("--quality: 1 .. 100")
+
+
+def _ground_frame(rng: np.random.Generator, size: tuple[int, int]) -> np.ndarray:
+    """A transit frame: fields seen from above (value-noise albedo, sensor noise)."""
+    from mound.sim.appearance import albedo_grid
+
+    w, h = size
+    a = albedo_grid((h, w), 0.1, seed=int(rng.integers(1 << 30)))
+    rgb = a + rng.normal(0, 2, (h, w, 3))
+    return np.clip(rgb, 0, 255).astype(np.uint8)
+
+
+def write_card(plan_path: str, sites_path: str, out_dir: str, spec: CardSpec | None = None
+               ) -> dict[str, Any]:
+    """Writes the card of the plan's flights into OUT_DIR/DCIM/100MEDIA; returns the
+    card's truth (mound.card_truth v1: per file its flight, site or `transit`, time)."""
+    from mound.geometry.flight import ScanSpec
+    from mound.sim import site as sim
+    from mound.uav.mission_items import flight_plans
+
+    spec = spec or CardSpec()
+    spec.validate()
+    plan = read_json(plan_path, "mound.plan", 1)
+    sites_doc = read_json(sites_path, "mound.sites", 1)
+    if (sites_doc.get("terrain") or {}).get("nodes"):
+        raise InputError(f"{sites_path}: sites over a DEM: mound sim flight simulates flat "
+                         "flights only (the survey driver simulates DEM ones)")
+    index = {s["id"]: k for k, s in enumerate(sites_doc["sites"])}
+    by_id = {s["id"]: s for s in sites_doc["sites"]}
+    points = {w["id"]: np.array([float(w["x_m"]), float(w["y_m"])])
+              for w in plan.get("waypoints", [])}
+    scan = (ScanSpec.from_doc(plan["scan"], f"{plan_path}: scan")
+            if isinstance(plan.get("scan"), dict) else
+            ScanSpec(pattern=spec.pattern, scale_m=spec.site_diameter_m))
+    reach = max(float(np.hypot(leg.points_enu[:, 0], leg.points_enu[:, 1]).max())
+                for leg in scan.legs())
+    origin = Origin.from_doc(plan["origin"], f"{plan_path}: origin")
+    site_xy = np.array([points[i] for i in by_id if i in points]) if points else np.zeros((0, 2))
+    folder = Path(out_dir) / "DCIM" / "100MEDIA"
+    folder.mkdir(parents=True, exist_ok=True)
+    rng = np.random.default_rng([spec.sim_seed, 99])
+    files: list[dict[str, Any]] = []
+    when = spec.start
+
+    def name() -> Path:
+        return folder / f"DJI_{len(files) + 1:04d}.JPG"
+
+    for f in flight_plans(plan):
+        tour = f["tour"]
+        for a_id, b_id in itertools.pairwise(tour):
+            a, b = points[a_id], points[b_id]
+            leg = float(np.linalg.norm(b - a))
+            if spec.transit_every_s > 0:
+                step = spec.speed_mps * spec.transit_every_s
+                for s in np.arange(step, leg, step):
+                    p = a + (b - a) * (s / leg)
+                    if len(site_xy) and np.min(np.linalg.norm(site_xy - p, axis=1)) < (
+                            reach + spec.transit_clear_m):
+                        continue
+                    lat, lon, alt = enu_to_geodetic(origin, np.array(
+                        [[p[0], p[1], spec.transit_alt_m]]))[0]
+                    t = when + timedelta(seconds=s / spec.speed_mps)
+                    path = name()
+                    save_jpeg(_ground_frame(rng, spec.image_size), path,
+                              ExifFacts(float(lat), float(lon), float(alt), t,
+                                        spec.image_size[0] * 0.714, spec.image_size[0]),
+                              spec.quality)
+                    files.append({"file": str(path.relative_to(out_dir)), "flight": f["flight"],
+                                  "site": None, "reason": "transit", "time": t.isoformat()})
+            when += timedelta(seconds=leg / spec.speed_mps)
+            if b_id not in by_id:
+                continue  # home
+            site_spec, _ = survey_site_spec(by_id[b_id], index[b_id], sites_doc["origin"],
+                                            spec.sim_seed, spec.image_size, spec.pattern,
+                                            spec.site_diameter_m)
+            with tempfile.TemporaryDirectory(prefix="card_site_") as tmp:
+                sim.simulate(site_spec, tmp, threads=spec.threads)
+                shots = site_jpegs(tmp, when, spec.shot_every_s, spec.quality)
+                for file, t in shots:
+                    path = name()
+                    shutil.move(str(Path(tmp) / file), path)
+                    files.append({"file": str(path.relative_to(out_dir)), "flight": f["flight"],
+                                  "site": b_id, "reason": None, "time": t.isoformat()})
+            when = shots[-1][1] + timedelta(seconds=spec.shot_every_s) if shots else when
+        when += timedelta(seconds=spec.between_flights_s)
+    return {"schema": CARD_TRUTH, "version": 1, "plan": str(plan_path), "card": str(out_dir),
+            "spec": {**{k: v for k, v in spec.__dict__.items() if k != "start"},
+                     "start": spec.start.isoformat(), "reach_m": reach},
+            "files": files}

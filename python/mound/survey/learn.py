@@ -1,0 +1,206 @@
+"""Each flight teaches the next (`python python/mission.py --flights K --learn`).
+
+Flights are flown (simulated) one after another. Flight 1 is plan.json's first flight (the
+one of highest reward). After flight k, every site it judged becomes a training example
+of the coarse classifier: its Statlog features with the verdict's label, weighted by the
+verdict's confidence (the probability that the verdict is right) times `--learn-weight`.
+The classifier is refitted on sat.trn plus these examples; p_mound and the reward (binary
+entropy) of every site are recomputed, and mound_plan re-plans the K - k flights left
+over the sites not yet flown, of which flight k + 1 is the one of highest reward.
+
+The run directory keeps, per flight, learn/flight_k/: sites.json (what was planned on),
+plan.json (the flight flown), mission.plan (its MAVLink mission), model.json (the
+classifier after it), sites_after.json (p_mound and rewards after it); and
+learn/learn.json (mound.learn v1: per flight its sites, verdicts, the examples, the
+classifier's AUC, how p changed), learn/plan_flown.json (the flights as flown, for the
+report) and learn/sites_final.json (the final classifier's p_mound).
+
+Honest evaluation: the field's sites are rows of sat.tst, and the verified ones become
+training rows, so the AUC before and after is measured on sat.tst without any of the
+field's 100 rows (flown or not).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from mound import native
+from mound.classify import coarse, metrics, statlog
+from mound.classify.model import SCHEMA as MODEL_SCHEMA
+from mound.classify.model import VERSION as MODEL_VERSION
+from mound.classify.model import Model
+from mound.classify.reward import binary_entropy_bits
+from mound.jsonio import read_json, write_json
+
+SCHEMA = "mound.learn"
+VERSION = 1
+
+
+def with_model(sites_doc: dict[str, Any], model: Model, test: statlog.Split
+               ) -> dict[str, Any]:
+    """The sites document with every site's p_mound and reward from `model` (the site's
+    Statlog row's features)."""
+    rows = np.array([s["truth"]["statlog_row"] for s in sites_doc["sites"]])
+    p = model.predict(test.x[rows])
+    reward = binary_entropy_bits(p)
+    sites = [{**s, "p_mound": float(pk), "reward": float(rk)}
+             for s, pk, rk in zip(sites_doc["sites"], p, reward, strict=True)]
+    prov = {**sites_doc.get("provenance", {}), "total_reward": float(reward.sum())}
+    return {**sites_doc, "sites": sites, "provenance": prov}
+
+
+def held_out_auc(model: Model, test: statlog.Split, field_rows: np.ndarray) -> float:
+    """AUC on sat.tst without the field's rows (none of them trains or judges)."""
+    keep = np.ones(len(test.cls), dtype=bool)
+    keep[field_rows] = False
+    return float(metrics.roc_auc(model.predict(test.x[keep]), test.y[keep]))
+
+
+def one_flight(plan: dict[str, Any]) -> dict[str, Any] | None:
+    """The flight of highest reward of a plan (mound_plan orders flights so), as a plan of
+    that one flight; None when no flight visits a site."""
+    from mound.uav.mission_items import flight_plans
+
+    flights = [f for f in flight_plans(plan) if len(f["tour"]) > 2]
+    if not flights:
+        return None
+    f = {k: v for k, v in flights[0].items() if k != "flights"}
+    f["n_visited"] = len(f["tour"]) - 2
+    return f
+
+
+def _write_mission(ctx: Any, plan: dict[str, Any], out: Path) -> None:
+    """The flight's MAVLink mission (refused, like the mission stage's, when it breaks the
+    budget or, over a DEM, cannot clear the ground)."""
+    from mound.geometry.geodesy import Origin
+    from mound.uav import files as mission_files
+    from mound.uav import mission_items
+
+    a = ctx.args
+    terrain = None
+    if a.dem:
+        from mound.uav.terrain import spec_from_args
+
+        terrain = mission_items.TerrainInput(a.dem, a.dem_vertical, spec_from_args(a))
+    m = mission_items.build(plan, Origin.from_doc(plan["origin"], "plan: origin"),
+                            mission_items.MissionSpec(scan=mission_items.plan_scan(plan)),
+                            terrain)
+    mission_files.write_plan(out, m, a.firmware)
+
+
+def stage_learn(ctx: Any) -> str:
+    """The sites3d stage, flight by flight, with the classifier learning in between."""
+    from mound.survey.driver import run_jobs, run_stage, site_jobs
+
+    a = ctx.args
+    t = ctx.tree
+
+    def work() -> tuple[list[str], str, bool]:
+        train = statlog.load("sat.trn")
+        test = statlog.load("sat.tst")
+        model = Model.from_doc(read_json(t.model, MODEL_SCHEMA, MODEL_VERSION), str(t.model))
+        sites0 = read_json(t.sites, "mound.sites", 1)
+        field_rows = np.array([s["truth"]["statlog_row"] for s in sites0["sites"]])
+        auc0 = held_out_auc(model, test, field_rows)
+        current = sites0
+        plan = read_json(t.plan, "mound.plan", 1)
+        flown: list[str] = []
+        ex_rows: list[int] = []
+        ex_y: list[float] = []
+        ex_w: list[float] = []
+        history: list[dict[str, Any]] = []
+        flights_flown: list[dict[str, Any]] = []
+        outputs: list[str] = []
+        complete = True
+        root = t.root.resolve()
+        for k in range(1, a.flights + 1):
+            fdir = t.learn / f"flight_{k}"
+            fdir.mkdir(parents=True, exist_ok=True)
+            if k > 1:
+                left = [s for s in current["sites"] if s["id"] not in flown]
+                if not left:
+                    break
+                doc = {**current, "sites": left}
+                write_json(fdir / "sites.json", doc)
+                native.run_tool("mound_plan", [str(fdir / "sites.json"), "--algo", a.algo,
+                                               "--seed", str(a.plan_seed), "--flights",
+                                               str(a.flights - k + 1), "--out",
+                                               str(fdir / "plan_all.json")],
+                                timeout_s=600, log=t.root / "log.txt")
+                plan = read_json(fdir / "plan_all.json", "mound.plan", 1)
+            else:
+                write_json(fdir / "sites.json", current)
+            flight = one_flight(plan)
+            if flight is None:
+                break
+            flight["flight"] = k
+            write_json(fdir / "plan.json", flight)
+            _write_mission(ctx, flight, fdir / "mission.plan")
+            jobs = site_jobs(ctx, flight)
+            rows, note, done = run_jobs(ctx, jobs, f"flight {k}")
+            complete = complete and done
+            outputs += [str(j.tree.result.relative_to(root)) for j in jobs]
+            ids = [j.site["id"] for j in jobs]
+            flown += ids
+            by_id = {s["id"]: s for s in sites0["sites"]}
+            examples = []
+            for sid in ids:
+                r = rows.get(sid, {})
+                if r.get("status") != "ok" or r.get("verdict") not in ("mound", "no_mound"):
+                    continue
+                conf = float(r.get("confidence") or 0.5)
+                ex_rows.append(int(by_id[sid]["truth"]["statlog_row"]))
+                ex_y.append(1.0 if r["verdict"] == "mound" else -1.0)
+                ex_w.append(conf * a.learn_weight)
+                examples.append({"id": sid, "verdict": r["verdict"], "confidence": conf})
+            before = current
+            model = coarse.train(train, model.band, l2=model.l2,
+                                 extra=(test.x[np.array(ex_rows, dtype=int)],
+                                        np.array(ex_y), np.array(ex_w)))
+            write_json(fdir / "model.json", model.to_doc())
+            current = with_model(sites0, model, test)
+            write_json(fdir / "sites_after.json", current)
+            p0 = {s["id"]: s["p_mound"] for s in before["sites"]}
+            changes = sorted(
+                ({"id": s["id"], "p_before": p0[s["id"]], "p_after": s["p_mound"]}
+                 for s in current["sites"] if s["id"] not in flown),
+                key=lambda c: -abs(c["p_after"] - c["p_before"]))
+            flips = sum(1 for c in changes if (c["p_before"] >= 0.5) != (c["p_after"] >= 0.5))
+            auc = held_out_auc(model, test, field_rows)
+            history.append({
+                "flight": k, "sites": ids, "planned_reward": flight["reward"],
+                "cost_m": flight["cost_m"], "note": note, "examples": examples,
+                "held_out_auc": auc, "labels_flipped": flips,
+                "max_abs_dp": abs(changes[0]["p_after"] - changes[0]["p_before"])
+                if changes else 0.0, "largest_changes": changes[:5]})
+            flights_flown.append({"tour": flight["tour"], "reward": flight["reward"],
+                                  "cost_m": flight["cost_m"],
+                                  "budget_left_m": flight.get("budget_left_m", 0.0)})
+            ctx.say(f"[learn] flight {k}: {note}; held-out AUC {auc:.4f} "
+                    f"(before any flight {auc0:.4f}), {flips} classifier labels flipped")
+        flown_plan = {k: v for k, v in read_json(t.plan, "mound.plan", 1).items()}
+        flown_plan.update(flights=flights_flown, tour=flights_flown[0]["tour"] if
+                          flights_flown else flown_plan.get("tour"),
+                          n_visited=len(flown),
+                          reward=float(sum(f["reward"] for f in flights_flown)),
+                          cost_m=float(sum(f["cost_m"] for f in flights_flown)))
+        write_json(t.final_plan(True), flown_plan)
+        write_json(t.final_sites(True), current)
+        write_json(t.learn / "learn.json", {
+            "schema": SCHEMA, "version": VERSION, "learn_weight": a.learn_weight,
+            "held_out_auc_before": auc0, "held_out_auc_after": history[-1]["held_out_auc"]
+            if history else auc0, "held_out_rows": int(len(test.cls) - len(field_rows)),
+            "evaluation": "sat.tst without the field's rows", "flights": history})
+        outputs += ["learn/learn.json", "learn/plan_flown.json", "learn/sites_final.json"]
+        note = (f"{len(history)} flights, {len(flown)} sites flown, "
+                f"{len(ex_y)} verdicts learned; held-out AUC {auc0:.4f} -> "
+                f"{history[-1]['held_out_auc'] if history else auc0:.4f}")
+        return outputs, note, complete
+
+    return run_stage(ctx, "sites3d", {"plan": ctx.keys["plan"], "photos": ctx.keys["photos"],
+                                      "learn": a.learn_weight, "flights": a.flights,
+                                      "algo": a.algo, "seed": a.plan_seed,
+                                      "first": [j.key for j in site_jobs(ctx)]}, work)
