@@ -80,6 +80,11 @@ class Tiff {
     return s;
   }
   char Char(const Entry& e) const { return e.type == 2 && e.count > 0 ? static_cast<char>(d_[e.value_offset]) : 0; }
+  // The first byte of a BYTE or UNDEFINED entry (writers use either for GPSAltitudeRef).
+  std::optional<uint8_t> Byte(const Entry& e) const {
+    if ((e.type != 1 && e.type != 7) || e.count == 0) return std::nullopt;
+    return d_[e.value_offset];
+  }
 
  private:
   std::vector<uint8_t> d_;
@@ -189,7 +194,7 @@ Exif ParseExif(const std::vector<uint8_t>& file_bytes) {
       if (e.tag == 2) lat = dms(e);
       if (e.tag == 3) lon_ref = t.Char(e);
       if (e.tag == 4) lon = dms(e);
-      if (e.tag == 5 && e.count > 0) alt_ref = e.type == 1 ? t.U16(e.value_offset) & 0xFF : 0;
+      if (e.tag == 5) alt_ref = t.Byte(e).value_or(0);
       if (e.tag == 6) alt = t.Number(e);
     }
     if (lat && lon && *lat <= 90 && *lon <= 180) {

@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import shutil
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -148,3 +149,113 @@ def test_bad_arguments(caliterra: Path, tmp_path: Path,
         sort_card(str(caliterra), str(tmp_path / "x.json"), str(tmp_path / "o"))
     with pytest.raises(InputError, match="--blur-ratio"):
         sort_card(str(caliterra), str(sites), str(tmp_path / "o"), SortSpec(blur_ratio=-1))
+
+
+@pytest.fixture(scope="module")
+def sim_card(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
+    """A planned flight over two simulated sites (a tumulus and flat ground) written as the
+    aircraft's card (mound sim flight): JPEGs with EXIF, transit frames between the sites."""
+    from dataclasses import replace
+
+    from mound.sim.card import CardSpec, write_card
+    from mound.uav.mission_items import scan_for_site
+
+    tmp = tmp_path_factory.mktemp("simcard")
+    scan = replace(scan_for_site(60.0, "raster"), width_px=160, height_px=120)
+    sites = {"schema": "mound.sites", "version": 1,
+             "origin": {"lat": 38.5705, "lon": 27.9862, "alt_m": 95.0},
+             "home": {"id": "home", "x_m": 0.0, "y_m": 0.0}, "budget_m": 3000.0,
+             "scan": scan.to_doc(), "takeoff_landing_m": scan.takeoff_landing_m(),
+             "sites": [{"id": "a", "x_m": 300.0, "y_m": 0.0, "reward": 1.0,
+                        "scan_cost_m": scan.site_cost_m(), "truth": {"mound": True}},
+                       {"id": "b", "x_m": 300.0, "y_m": 400.0, "reward": 0.9,
+                        "scan_cost_m": scan.site_cost_m(), "truth": {"mound": False}}]}
+    (tmp / "sites.json").write_text(json.dumps(sites))
+    native.run_tool("mound_plan", [str(tmp / "sites.json"), "--out", str(tmp / "plan.json")])
+    truth = write_card(str(tmp / "plan.json"), str(tmp / "sites.json"), str(tmp / "card"),
+                       CardSpec(image_size=(160, 120)))
+    return {"dir": tmp, "truth": truth}
+
+
+def test_simulated_jpegs_carry_what_a_camera_writes(sim_card: dict[str, Any]) -> None:
+    """The project's EXIF reader finds in the simulated card what the simulator put there:
+    GPS to a millimetre, the capture time, the focal length in pixels exactly."""
+    from mound.geometry.geodesy import Origin, geodetic_to_enu
+
+    listing = native.run_json("mound_recon", ["photos", str(sim_card["dir"] / "card")])
+    truth = {f["file"]: f for f in sim_card["truth"]["files"]}
+    assert [f["file"] for f in listing["files"]] == sorted(truth)
+    origin = Origin.from_doc({"lat": 38.5705, "lon": 27.9862, "alt_m": 95.0})
+    for f in listing["files"]:
+        x = f["exif"]
+        assert f["kind"] == "jpeg" and x["make"] == "mound-survey"
+        assert x["time"] == truth[f["file"]]["time"].replace("-", ":").replace("T", " ")
+        assert x["focal_source"] == "focal_plane"
+        enu = geodetic_to_enu(origin, np.array([[x["lat"], x["lon"], x["alt_m"]]]))[0]
+        site = truth[f["file"]]["site"]
+        centre = {"a": (300, 0), "b": (300, 400)}.get(site)
+        if centre:  # a site's photo: within the scan's reach plus GPS noise (1 m sigma)
+            reach = sim_card["truth"]["spec"]["reach_m"]
+            assert np.hypot(enu[0] - centre[0], enu[1] - centre[1]) < reach + 5
+            assert abs(x["focal_px"] - 160 / 2 / np.tan(np.radians(35))) < 1e-3
+    assert {f["site"] for f in truth.values()} == {"a", "b", None}
+    assert sum(1 for f in truth.values() if f["reason"] == "transit") >= 5
+
+
+def _rewritten(src: Path, dst: Path, **change: Any) -> None:
+    """A copy of a JPEG with its EXIF GPS changed (lat, lon, alt_m), removed (gps=None) or
+    its pixels blurred (blur=True)."""
+    im = Image.open(src)
+    ex = im.getexif()
+    gps = ex.get_ifd(0x8825)
+    if change.get("gps", True) is None:
+        gps.clear()
+    if "lat" in change:
+        gps[2] = (IFDRational(0), IFDRational(0), IFDRational(0))
+        gps[4] = (IFDRational(0), IFDRational(0), IFDRational(0))
+    if "alt_m" in change:
+        gps[5], gps[6] = b"\x01", IFDRational(9999)
+    if change.get("blur"):
+        im = im.filter(ImageFilter.GaussianBlur(6))
+    im.save(dst, exif=ex, quality=95)
+
+
+def test_a_simulated_card_sorts_exactly_right(sim_card: dict[str, Any], tmp_path: Path) -> None:
+    """Two sites and the transit frames as the simulator wrote them, plus the faults of a
+    real card: a GPS-less photo, GPS 0, 0, an altitude of -9999 m, a truncated file, a
+    duplicate and a blurred frame; every file gets the site or reason it should."""
+    card = tmp_path / "card"
+    shutil.copytree(sim_card["dir"] / "card", card)
+    media = card / "DCIM" / "100MEDIA"
+    expect = {f["file"]: (f["site"], f["reason"]) for f in sim_card["truth"]["files"]}
+    a_photos = sorted(f for f, (s, _) in expect.items() if s == "a")
+    src = [card / f for f in a_photos[:5]]
+    _rewritten(src[0], media / "NOGPS.JPG", gps=None)
+    _rewritten(src[1], media / "ZERO.JPG", lat=0)
+    _rewritten(src[2], media / "DEEP.JPG", alt_m=-9999)
+    (media / "CUT.JPG").write_bytes(src[3].read_bytes()[:3000])
+    shutil.copy(src[4], media / "ZZCOPY.JPG")
+    _rewritten(src[4], media / "BLUR.JPG", blur=True)
+    pre = "DCIM/100MEDIA/"
+    expect.update({pre + "NOGPS.JPG": (None, "no_gps"), pre + "ZERO.JPG": (None, "no_gps"),
+                   pre + "DEEP.JPG": ("a", None), pre + "CUT.JPG": (None, "unreadable"),
+                   pre + "ZZCOPY.JPG": (None, "duplicate"), pre + "BLUR.JPG": (None, "blurred")})
+    out = tmp_path / "sorted"
+    doc = sort_card(str(card), str(sim_card["dir"] / "plan.json"), str(out))
+    got = {r["file"]: (r["site"], r["reason"]) for r in doc["photos"]}
+    assert got == expect
+    rows = {r["file"]: r for r in doc["photos"]}
+    assert rows[pre + "DEEP.JPG"]["alt_m"] is None  # the lie is dropped, the photo kept
+    assert rows[pre + "BLUR.JPG"]["over_site"] == "a"
+    n_a = sum(1 for s, r in expect.values() if s == "a" and r is None)
+    assert doc["sites"]["a"]["photos"] == n_a and doc["sites"]["a"]["status"] == "ok"
+    assert doc["sites"]["a"]["camera"]["source"] == "exif (focal_plane)"
+    assert len(list((out / "a").iterdir())) == n_a
+    # A camera file, when given, goes into each site's folder.
+    cam = tmp_path / "camera.json"
+    cam.write_text(json.dumps({"schema": "mound.camera", "version": 1, "width": 160,
+                               "height": 120, "K": [[114, 0, 79.5], [0, 114, 59.5], [0, 0, 1]],
+                               "dist": [0, 0, 0, 0, 0]}))
+    doc = sort_card(str(card), str(sim_card["dir"] / "plan.json"), str(out), camera=str(cam))
+    assert doc["sites"]["b"]["camera"]["source"] == "file"
+    assert json.loads((out / "b" / "camera.json").read_text())["K"][0][0] == 114

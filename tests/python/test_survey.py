@@ -26,6 +26,7 @@ from PIL import Image
 
 from mound.classify.metrics import detection_error_rates
 from mound.classify.reward import binary_entropy_bits
+from mound.cli import main as cli_main
 from mound.geometry.geodesy import Origin, enu_to_geodetic
 from mound.paths import REPO_ROOT
 from mound.plan import sites as op_sites
@@ -199,7 +200,7 @@ def test_every_artefact_of_the_run(survey: dict[str, Any]) -> None:
     assert m["reward"] == plan["reward"] and m["cost_m"] == plan["cost_m"]
     assert m["budget_m"] == 3000.0
     names = [s["name"] for s in summary["stages"]]
-    assert names == ["classify", "field", "plan", "mission", "sites3d"]
+    assert names == ["classify", "field", "plan", "mission", "photos", "sites3d"]
     assert (out / "report.md").read_text().startswith("# Survey report")
 
 
@@ -395,6 +396,105 @@ def test_help_and_usage_errors(capsys: pytest.CaptureFixture[str]) -> None:
     assert "--spacing" in capsys.readouterr().err
     assert driver.main(["--images-root", "/nonexistent/photos"]) == 2
     assert "--images-root" in capsys.readouterr().err
+
+
+def test_the_photo_card_gives_the_same_verdicts(survey: dict[str, Any], tmp_path: Path
+                                                ) -> None:
+    """The survey's flight written as the aircraft's card (mound sim flight: JPEGs with
+    EXIF, transit frames), then the survey run on it with --photos: the card is sorted into
+    the visited sites and each is reconstructed from its JPEGs with the EXIF's GPS and
+    focal length; the verdicts are those of the simulated per-site folders."""
+    out: Path = survey["out"]
+    card = tmp_path / "card"
+    code = cli_main(["sim", "flight", str(out / "plan.json"), "--out", str(card),
+                     "--image-size", "320", "240", "--truth", str(tmp_path / "truth.json")])
+    assert code == 0
+    run = tmp_path / "run"
+    r = run_driver(["--out", str(run), *SMALL, "--photos", str(card), "--dense-size", "0"])
+    assert r.returncode == 0, r.stdout + r.stderr
+    first = {x["id"]: x for x in json.loads((out / "summary.json").read_text())["sites"]}
+    s = json.loads((run / "summary.json").read_text())
+    visited = [x for x in s["sites"] if x["visited"]]
+    assert len(visited) == 2
+    for x in visited:
+        assert x["source"] == "photos" and x["verdict"] == first[x["id"]]["verdict"], x["id"]
+        recon = json.loads((run / "sites" / x["id"] / "recon" / "recon.json").read_text())
+        assert recon["inputs"]["gps_source"] == "exif"
+        assert recon["inputs"]["camera_source"] == "exif (focal_plane)"
+    truth = json.loads((tmp_path / "truth.json").read_text())
+    card_doc = json.loads((run / "photos" / "photos.json").read_text())
+    assert {f["file"]: (f["site"], f["reason"]) for f in truth["files"]} == {
+        f["file"]: (f["site"], f["reason"]) for f in card_doc["photos"]}
+    assert s["photos"]["counts"]["transit"] > 0
+    html = (run / "report.html").read_text()
+    assert "Photo card" in html and "transit" in html
+    # --learn re-plans the flights one after another; with the photos of one card it is
+    # refused before anything runs.
+    bad = run_driver(["--out", str(tmp_path / "x"), "--photos", str(card), "--learn"])
+    assert bad.returncode == 2 and "--learn" in bad.stderr and not (tmp_path / "x").exists()
+
+
+def test_each_flight_teaches_the_next(survey: dict[str, Any], tmp_path: Path) -> None:
+    """--flights 2 --learn on field 0: flight 2 is re-planned over the sites flight 1 did not
+    fly, after the classifier was refitted with flight 1's verdicts (weighted by their
+    confidence); every figure of learn.json recomputes from the run's own files, the
+    held-out AUC on sat.tst without the field's rows."""
+    from mound.classify import coarse, metrics, statlog
+    from mound.classify.model import Model
+
+    run = tmp_path / "run"
+    shutil.copytree(survey["out"] / "sites", run / "sites")  # sites already judged
+    r = run_driver(["--out", str(run), "--budget", "2000", "--flights", "2", "--learn",
+                    "--learn-weight", "30", "--image-size", "320", "240", "--dense-size", "0",
+                    "--no-progress"])
+    assert r.returncode == 0, r.stdout + r.stderr
+    learn = json.loads((run / "learn" / "learn.json").read_text())
+    assert learn["schema"] == "mound.learn" and len(learn["flights"]) == 2
+    f1, f2 = learn["flights"]
+    assert f1["sites"] and f2["sites"] and not set(f1["sites"]) & set(f2["sites"])
+    sites0 = json.loads((run / "sites.json").read_text())
+    left = json.loads((run / "learn" / "flight_2" / "sites.json").read_text())
+    assert {x["id"] for x in left["sites"]} == {x["id"] for x in sites0["sites"]} - set(
+        f1["sites"])
+    # The model after flight 1: sat.trn plus flight 1's verdicts, weight confidence x 30.
+    train, test = statlog.load("sat.trn"), statlog.load("sat.tst")
+    base = Model.from_doc(json.loads((run / "model.json").read_text()), "model.json")
+    rows0 = {x["id"]: x for x in sites0["sites"]}
+    ex = f1["examples"]
+    assert [e["id"] for e in ex] == f1["sites"]
+    extra = (test.x[[rows0[e["id"]]["truth"]["statlog_row"] for e in ex]],
+             np.array([1.0 if e["verdict"] == "mound" else -1.0 for e in ex]),
+             np.array([30 * e["confidence"] for e in ex]))
+    again = coarse.train(train, base.band, l2=base.l2, extra=extra)
+    m1 = Model.from_doc(json.loads((run / "learn" / "flight_1" / "model.json").read_text()),
+                        "m1")
+    assert np.allclose(again.w, m1.w)
+    # Flight 2 was planned on m1's rewards.
+    for x in left["sites"]:
+        p = float(m1.predict(test.x[[x["truth"]["statlog_row"]]])[0])
+        assert x["p_mound"] == pytest.approx(p, abs=1e-12)
+    # Held-out AUC: sat.tst without the field's 100 rows.
+    keep = np.ones(len(test.cls), dtype=bool)
+    keep[[x["truth"]["statlog_row"] for x in sites0["sites"]]] = False
+    assert f1["held_out_auc"] == pytest.approx(
+        metrics.roc_auc(m1.predict(test.x[keep]), test.y[keep]), abs=1e-12)
+    assert learn["held_out_rows"] == int(keep.sum())
+    # The final labels of the sites not flown come from the last model.
+    m2 = Model.from_doc(json.loads((run / "learn" / "flight_2" / "model.json").read_text()),
+                        "m2")
+    s = json.loads((run / "summary.json").read_text())
+    flown = set(f1["sites"]) | set(f2["sites"])
+    assert {x["id"] for x in s["sites"] if x["visited"]} == flown
+    for x in s["sites"]:
+        p = float(m2.predict(test.x[[rows0[x["id"]]["truth"]["statlog_row"]]])[0])
+        assert x["p_mound"] == pytest.approx(p, abs=1e-12)
+    for k in (1, 2):
+        plan = json.loads((run / "learn" / f"flight_{k}" / "plan.json").read_text())
+        assert plan["cost_m"] <= plan["budget_m"] + 1e-6
+        items, _, _ = mission_files.read_mission(run / "learn" / f"flight_{k}" / "mission.plan")
+        assert items[0].command == mission_items.NAV_TAKEOFF
+        assert items[-1].command == mission_items.NAV_RETURN_TO_LAUNCH
+    assert "Learning between flights" in (run / "report.html").read_text()
 
 
 def test_two_flights_over_the_dem(tmp_path: Path) -> None:
