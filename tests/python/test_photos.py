@@ -259,3 +259,25 @@ def test_a_simulated_card_sorts_exactly_right(sim_card: dict[str, Any], tmp_path
     doc = sort_card(str(card), str(sim_card["dir"] / "plan.json"), str(out), camera=str(cam))
     assert doc["sites"]["b"]["camera"]["source"] == "file"
     assert json.loads((out / "b" / "camera.json").read_text())["K"][0][0] == 114
+
+
+def test_sim_site_jpeg(tmp_path: Path) -> None:
+    """`mound sim site --jpeg`: the site's images as JPEGs (no PNG left), poses.json naming
+    them, each one's EXIF GPS the simulator's noisy GPS position (to a millimetre) and its
+    time one shot interval after the one before."""
+    from mound.geometry.geodesy import Origin, geodetic_to_enu
+
+    out = tmp_path / "site"
+    assert mound_main(["sim", "site", "--size", "160", "120", "--pattern", "raster",
+                       "--jpeg", "--start-time", "2026-07-01T10:00:00", "--out",
+                       str(out)]) == 0
+    assert not list((out / "images").glob("*.png"))
+    poses = json.loads((out / "poses.json").read_text())
+    listing = native.run_json("mound_recon", ["photos", str(out / "images")])
+    by = {f["file"]: f["exif"] for f in listing["files"]}
+    origin = Origin.from_doc(poses["origin"])
+    for k, im in enumerate(poses["images"]):
+        x = by[Path(im["file"]).name]
+        enu = geodetic_to_enu(origin, np.array([[x["lat"], x["lon"], x["alt_m"]]]))[0]
+        assert np.allclose(enu, im["gps_enu_m"], atol=2e-3)
+        assert x["time"] == f"2026:07:01 10:00:{2 * k:02d}"

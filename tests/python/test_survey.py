@@ -434,7 +434,19 @@ def test_the_photo_card_gives_the_same_verdicts(survey: dict[str, Any], tmp_path
     assert bad.returncode == 2 and "--learn" in bad.stderr and not (tmp_path / "x").exists()
 
 
-def test_each_flight_teaches_the_next(survey: dict[str, Any], tmp_path: Path) -> None:
+@pytest.fixture(scope="module")
+def learned(survey: dict[str, Any], tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """--flights 2 --learn --learn-weight 30 on field 0 (the survey's judged sites reused)."""
+    run = tmp_path_factory.mktemp("learn") / "run"
+    shutil.copytree(survey["out"] / "sites", run / "sites")  # sites already judged
+    r = run_driver(["--out", str(run), "--budget", "2000", "--flights", "2", "--learn",
+                    "--learn-weight", "30", "--image-size", "320", "240", "--dense-size", "0",
+                    "--no-progress"])
+    assert r.returncode == 0, r.stdout + r.stderr
+    return run
+
+
+def test_each_flight_teaches_the_next(learned: Path) -> None:
     """--flights 2 --learn on field 0: flight 2 is re-planned over the sites flight 1 did not
     fly, after the classifier was refitted with flight 1's verdicts (weighted by their
     confidence); every figure of learn.json recomputes from the run's own files, the
@@ -442,12 +454,7 @@ def test_each_flight_teaches_the_next(survey: dict[str, Any], tmp_path: Path) ->
     from mound.classify import coarse, metrics, statlog
     from mound.classify.model import Model
 
-    run = tmp_path / "run"
-    shutil.copytree(survey["out"] / "sites", run / "sites")  # sites already judged
-    r = run_driver(["--out", str(run), "--budget", "2000", "--flights", "2", "--learn",
-                    "--learn-weight", "30", "--image-size", "320", "240", "--dense-size", "0",
-                    "--no-progress"])
-    assert r.returncode == 0, r.stdout + r.stderr
+    run = learned
     learn = json.loads((run / "learn" / "learn.json").read_text())
     assert learn["schema"] == "mound.learn" and len(learn["flights"]) == 2
     f1, f2 = learn["flights"]
@@ -495,6 +502,20 @@ def test_each_flight_teaches_the_next(survey: dict[str, Any], tmp_path: Path) ->
         assert items[0].command == mission_items.NAV_TAKEOFF
         assert items[-1].command == mission_items.NAV_RETURN_TO_LAUNCH
     assert "Learning between flights" in (run / "report.html").read_text()
+
+
+def test_learning_stops_when_no_flight_is_left(learned: Path, tmp_path: Path) -> None:
+    """A budget that lets flight 1 reach one site and no later flight any other: the run
+    ends after flight 1, saying why, with the labels of the first flight's learning."""
+    run = tmp_path / "run"
+    shutil.copytree(learned / "sites", run / "sites")
+    r = run_driver(["--out", str(run), "--budget", "1500", "--flights", "2", "--learn",
+                    "--image-size", "320", "240", "--dense-size", "0", "--no-progress"])
+    assert r.returncode == 0, r.stdout + r.stderr
+    learn = json.loads((run / "learn" / "learn.json").read_text())
+    assert len(learn["flights"]) == 1 and "too small to leave home" in learn["stopped"]
+    s = json.loads((run / "summary.json").read_text())
+    assert s["metrics"]["visited"] == len(learn["flights"][0]["sites"]) == 1
 
 
 def test_two_flights_over_the_dem(tmp_path: Path) -> None:

@@ -33,6 +33,7 @@ from mound.classify.model import SCHEMA as MODEL_SCHEMA
 from mound.classify.model import VERSION as MODEL_VERSION
 from mound.classify.model import Model
 from mound.classify.reward import binary_entropy_bits
+from mound.errors import ToolInputError, ToolNoResultError
 from mound.jsonio import read_json, write_json
 
 SCHEMA = "mound.learn"
@@ -115,6 +116,7 @@ def stage_learn(ctx: Any) -> str:
         flights_flown: list[dict[str, Any]] = []
         outputs: list[str] = []
         complete = True
+        stopped = ""
         root = t.root.resolve()
         for k in range(1, a.flights + 1):
             fdir = t.learn / f"flight_{k}"
@@ -125,16 +127,24 @@ def stage_learn(ctx: Any) -> str:
                     break
                 doc = {**current, "sites": left}
                 write_json(fdir / "sites.json", doc)
-                native.run_tool("mound_plan", [str(fdir / "sites.json"), "--algo", a.algo,
-                                               "--seed", str(a.plan_seed), "--flights",
-                                               str(a.flights - k + 1), "--out",
-                                               str(fdir / "plan_all.json")],
-                                timeout_s=600, log=t.root / "log.txt")
+                try:
+                    native.run_tool("mound_plan", [str(fdir / "sites.json"), "--algo", a.algo,
+                                                   "--seed", str(a.plan_seed), "--flights",
+                                                   str(a.flights - k + 1), "--out",
+                                                   str(fdir / "plan_all.json")],
+                                    timeout_s=600, log=t.root / "log.txt")
+                except (ToolInputError, ToolNoResultError) as e:
+                    # The sites left (a subset of valid sites, the same budget) allow no
+                    # flight: every one within reach was flown.
+                    why = (e.tail.strip().splitlines() or [str(e)])[-1]
+                    stopped = f"flight {k}: no flight over the sites left ({why})"
+                    break
                 plan = read_json(fdir / "plan_all.json", "mound.plan", 1)
             else:
                 write_json(fdir / "sites.json", current)
             flight = one_flight(plan)
             if flight is None:
+                stopped = f"flight {k}: no site within the budget"
                 break
             flight["flight"] = k
             write_json(fdir / "plan.json", flight)
@@ -193,11 +203,13 @@ def stage_learn(ctx: Any) -> str:
             "schema": SCHEMA, "version": VERSION, "learn_weight": a.learn_weight,
             "held_out_auc_before": auc0, "held_out_auc_after": history[-1]["held_out_auc"]
             if history else auc0, "held_out_rows": int(len(test.cls) - len(field_rows)),
-            "evaluation": "sat.tst without the field's rows", "flights": history})
+            "evaluation": "sat.tst without the field's rows", "flights": history,
+            "stopped": stopped})
         outputs += ["learn/learn.json", "learn/plan_flown.json", "learn/sites_final.json"]
         note = (f"{len(history)} flights, {len(flown)} sites flown, "
                 f"{len(ex_y)} verdicts learned; held-out AUC {auc0:.4f} -> "
-                f"{history[-1]['held_out_auc'] if history else auc0:.4f}")
+                f"{history[-1]['held_out_auc'] if history else auc0:.4f}"
+                + (f"; {stopped}" if stopped else ""))
         return outputs, note, complete
 
     return run_stage(ctx, "sites3d", {"plan": ctx.keys["plan"], "photos": ctx.keys["photos"],
