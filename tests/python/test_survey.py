@@ -459,6 +459,7 @@ def test_each_flight_teaches_the_next(learned: Path) -> None:
     assert learn["schema"] == "mound.learn" and len(learn["flights"]) == 2
     f1, f2 = learn["flights"]
     assert f1["sites"] and f2["sites"] and not set(f1["sites"]) & set(f2["sites"])
+    assert f1["first_plan_sites"] == f1["sites"]  # nothing learned before flight 1
     sites0 = json.loads((run / "sites.json").read_text())
     left = json.loads((run / "learn" / "flight_2" / "sites.json").read_text())
     assert {x["id"] for x in left["sites"]} == {x["id"] for x in sites0["sites"]} - set(

@@ -108,6 +108,9 @@ def stage_learn(ctx: Any) -> str:
         auc0 = held_out_auc(model, test, field_rows)
         current = sites0
         plan = read_json(t.plan, "mound.plan", 1)
+        from mound.uav.mission_items import flight_plans
+
+        first_plan = [f["tour"][1:-1] for f in flight_plans(plan) if len(f["tour"]) > 2]
         flown: list[str] = []
         ex_rows: list[int] = []
         ex_y: list[float] = []
@@ -182,6 +185,7 @@ def stage_learn(ctx: Any) -> str:
             auc = held_out_auc(model, test, field_rows)
             history.append({
                 "flight": k, "sites": ids, "planned_reward": flight["reward"],
+                "first_plan_sites": first_plan[k - 1] if k <= len(first_plan) else [],
                 "cost_m": flight["cost_m"], "note": note, "examples": examples,
                 "held_out_auc": auc, "labels_flipped": flips,
                 "max_abs_dp": abs(changes[0]["p_after"] - changes[0]["p_before"])

@@ -279,7 +279,9 @@ def _learn_table(learn: dict[str, Any], m: dict[str, Any]) -> str:
                        for x in f["examples"])
         moved = ", ".join(f'{c["id"]} {c["p_before"]:.3f}→{c["p_after"]:.3f}'
                           for c in f["largest_changes"][:3])
+        first = " ".join(f.get("first_plan_sites", []))
         body += (f'<tr><td>{f["flight"]}</td><td class="l">{e(" ".join(f["sites"]))}</td>'
+                 f'<td class="l">{e(first)}</td>'
                  f'<td>{f["planned_reward"]:.2f}</td><td class="l">{e(ex)}</td>'
                  f'<td>{f["held_out_auc"]:.4f}</td><td>{f["labels_flipped"]}</td>'
                  f'<td>{f["max_abs_dp"]:.4f}</td><td class="l">{e(moved)}</td></tr>')
@@ -291,7 +293,8 @@ def _learn_table(learn: dict[str, Any], m: dict[str, Any]) -> str:
             f'{learn["held_out_auc_after"]:.4f} after. The classifier alone before any '
             f'flight: ε<sub>MD</sub> {_fmt(before.get("eps_md"))}, ε<sub>FA</sub> '
             f'{_fmt(before.get("eps_fa"))}.</p><table><tr><th>flight</th>'
-            '<th class="l">sites</th><th>planned reward (bits)</th><th class="l">learned '
+            '<th class="l">sites flown</th><th class="l">sites of the first plan</th>'
+            '<th>planned reward (bits)</th><th class="l">learned '
             '(verdict, confidence)</th><th>held-out AUC</th><th>labels flipped</th>'
             '<th>max |Δp|</th><th class="l">largest changes of p</th></tr>'
             f'{body}</table>')
