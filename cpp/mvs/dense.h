@@ -53,6 +53,7 @@ struct DenseOptions {
   double resolution_m = 0.1;        // voxel of the fused cloud (>= 1 mm)
   Eigen::Vector3d up = Eigen::Vector3d::UnitZ();  // sweep-plane normal (the ground's)
   int threads = 1;
+  int image_cache_mb = 1024;        // images kept decoded and scaled (ComputeDepthMaps)
   // Returns an empty string when the options are usable, else what is wrong (naming the
   // option as a CLI user writes it).
   std::string Check() const;
@@ -98,9 +99,12 @@ DepthMap PlaneSweepDepthMap(const DenseInput& in, int ref, const std::vector<int
                             const DenseOptions& o);
 
 // The depth maps of all images on `o.threads` threads (one image per thread; OpenCV's own
-// threads are held at one meanwhile).
+// threads are held at one meanwhile). Each image is read, undistorted and scaled once and
+// shared by every depth map it serves (as reference or source), up to `o.image_cache_mb`
+// of them; beyond that an image is read again where it is needed. `images_read`, when
+// given, counts the reads.
 std::vector<DepthMap> ComputeDepthMaps(const DenseInput& in, const std::vector<std::vector<int>>& sources,
-                                       const DenseOptions& o);
+                                       const DenseOptions& o, int* images_read = nullptr);
 
 // Consistency filter and fusion of all depth maps (DepthMap::sources names the views each
 // is checked against).

@@ -99,6 +99,24 @@ TEST(Dense, SourceViewsAreTheOverlappingNeighbours) {
   EXPECT_NE(std::find(raster_neighbours.begin(), raster_neighbours.end(), sources[5][0]), raster_neighbours.end());
 }
 
+TEST(Dense, WithoutRoomToKeepThemImagesAreReadWhereNeededWithTheSameDepths) {
+  const Site& s = RenderedSite();
+  DenseOptions o;
+  o.max_image_size = 160;
+  o.threads = 2;
+  const auto sources = SelectSourceViews(s.input, o.source_views);
+  int kept = 0, again = 0;
+  const std::vector<DepthMap> a = ComputeDepthMaps(s.input, sources, o, &kept);
+  o.image_cache_mb = 0;
+  const std::vector<DepthMap> b = ComputeDepthMaps(s.input, sources, o, &again);
+  size_t uses = 0;
+  for (const auto& v : sources) uses += 1 + v.size();
+  EXPECT_EQ(kept, static_cast<int>(s.input.image_paths.size()));
+  EXPECT_EQ(again, static_cast<int>(uses));
+  ASSERT_EQ(a.size(), b.size());
+  for (size_t i = 0; i < a.size(); ++i) EXPECT_EQ(a[i].depth, b[i].depth) << i;
+}
+
 TEST(Dense, DepthMapMatchesTheRenderedDepths) {
   const Site& s = RenderedSite();
   DenseOptions o;
@@ -135,7 +153,9 @@ TEST(Dense, FusedCloudLiesOnTheSurfaceAndCoversTheMound) {
   o.resolution_m = 0.2;
   o.threads = 2;
   const auto sources = SelectSourceViews(s.input, o.source_views);
-  const std::vector<DepthMap> maps = ComputeDepthMaps(s.input, sources, o);
+  int reads = 0;
+  const std::vector<DepthMap> maps = ComputeDepthMaps(s.input, sources, o, &reads);
+  EXPECT_EQ(reads, static_cast<int>(s.input.image_paths.size()));  // each image read once
   const DenseCloud c = FuseDepthMaps(maps, o);
   ASSERT_GT(c.xyz.size(), 10000u);
   ASSERT_EQ(c.normal.size(), c.xyz.size());

@@ -4,6 +4,9 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <memory>
+#include <mutex>
+#include <atomic>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -64,6 +67,41 @@ ScaledImage LoadScaled(const std::string& path, const geometry::CameraModel& cam
   return s;
 }
 
+// The scaled images of a run, each read once and shared while they fit in `max_bytes`;
+// thread-safe.
+class ScaledImages {
+ public:
+  ScaledImages(const DenseInput& in, int max_size, size_t max_bytes)
+      : in_(in), max_size_(max_size), max_bytes_(max_bytes), once_(in.image_paths.size()),
+        kept_(in.image_paths.size()) {}
+  std::shared_ptr<const ScaledImage> Get(int i) const {
+    std::shared_ptr<const ScaledImage> fresh;
+    std::call_once(once_[i], [&] {
+      fresh = Load(i);
+      const size_t bytes = fresh->grey.total() * fresh->grey.elemSize() +
+                           fresh->colour.total() * fresh->colour.elemSize();
+      if (bytes_.fetch_add(bytes) + bytes <= max_bytes_) kept_[i] = fresh;
+    });
+    if (fresh) return fresh;
+    if (kept_[i]) return kept_[i];  // set inside call_once, which orders it before this
+    return Load(i);                 // over the bound: read again
+  }
+  int reads() const { return reads_.load(); }
+
+ private:
+  std::shared_ptr<const ScaledImage> Load(int i) const {
+    ++reads_;
+    return std::make_shared<const ScaledImage>(LoadScaled(in_.image_paths[i], in_.camera, max_size_));
+  }
+  const DenseInput& in_;
+  const int max_size_;
+  const size_t max_bytes_;
+  mutable std::vector<std::once_flag> once_;
+  mutable std::vector<std::shared_ptr<const ScaledImage>> kept_;
+  mutable std::atomic<size_t> bytes_{0};
+  mutable std::atomic<int> reads_{0};
+};
+
 // The pixel of world point X in camera c at pose cam_from_world (the project's camera
 // model, distortion included); false behind the camera.
 bool Project(const geometry::CameraModel& c, const geometry::Rigid3d& cam_from_world, const Eigen::Vector3d& X,
@@ -98,6 +136,7 @@ std::string DenseOptions::Check() const {
   if (!(resolution_m >= 1e-3) || !std::isfinite(resolution_m)) return "--resolution-m: must be >= 0.001 m";
   if (!(up.norm() > 0.5)) return "up: must be a unit vector";
   if (threads < 1) return "--threads: must be >= 1";
+  if (image_cache_mb < 0) return "image_cache_mb: must be >= 0";
   return "";
 }
 
@@ -144,9 +183,13 @@ std::vector<std::vector<int>> SelectSourceViews(const DenseInput& in, int count)
   return out;
 }
 
-DepthMap PlaneSweepDepthMap(const DenseInput& in, int ref, const std::vector<int>& sources, const DenseOptions& o) {
+namespace {
+
+DepthMap Sweep(const DenseInput& in, int ref, const std::vector<int>& sources, const DenseOptions& o,
+               const ScaledImages& images) {
   const auto t0 = std::chrono::steady_clock::now();
-  const ScaledImage R = LoadScaled(in.image_paths[ref], in.camera, o.max_image_size);
+  const std::shared_ptr<const ScaledImage> ref_image = images.Get(ref);
+  const ScaledImage& R = *ref_image;
   const int W = R.camera.width, H = R.camera.height;
   const size_t npx = static_cast<size_t>(W) * H;
   DepthMap m;
@@ -182,10 +225,10 @@ DepthMap PlaneSweepDepthMap(const DenseInput& in, int ref, const std::vector<int
   const double pad = std::max(0.1 * (hi0 - lo0), 0.01 * std::fabs(up.dot(Cr) - 0.5 * (lo0 + hi0)));
   const double lo = lo0 - pad, hi = hi0 + pad;
 
-  std::vector<ScaledImage> S;
+  std::vector<std::shared_ptr<const ScaledImage>> S;
   std::vector<geometry::Rigid3d> rel;  // source_from_ref
   for (int j : sources) {
-    S.push_back(LoadScaled(in.image_paths[j], in.camera, o.max_image_size));
+    S.push_back(images.Get(j));
     rel.push_back(in.cam_from_world[j] * Tr.Inverse());
   }
   // Plane spacing: the shift of sample pixels between the lowest and highest plane in each
@@ -202,8 +245,8 @@ DepthMap PlaneSweepDepthMap(const DenseInput& in, int ref, const std::vector<int
       double most = 0;
       for (size_t k = 0; k < S.size(); ++k) {
         Eigen::Vector2d a, b;
-        if (Project(S[k].camera, in.cam_from_world[sources[k]], Cr + l_lo * ray, &a) &&
-            Project(S[k].camera, in.cam_from_world[sources[k]], Cr + l_hi * ray, &b)) {
+        if (Project(S[k]->camera, in.cam_from_world[sources[k]], Cr + l_lo * ray, &a) &&
+            Project(S[k]->camera, in.cam_from_world[sources[k]], Cr + l_hi * ray, &b)) {
           most = std::max(most, (a - b).norm());
         }
       }
@@ -255,14 +298,14 @@ DepthMap PlaneSweepDepthMap(const DenseInput& in, int ref, const std::vector<int
     const float plane_sign = d_c > 0 ? 1.f : -1.f;
     for (auto& t : top) std::fill(t.begin(), t.end(), kNone);
     for (size_t j = 0; j < S.size(); ++j) {
-      const Eigen::Matrix3d Hm = S[j].camera.K() *
+      const Eigen::Matrix3d Hm = S[j]->camera.K() *
                                  (rel[j].RotationMatrix() + rel[j].translation * n_c.transpose() / d_c) * Kr_inv;
       cv::Mat Hcv(3, 3, CV_64F);
       for (int r = 0; r < 3; ++r)
         for (int c = 0; c < 3; ++c) Hcv.at<double>(r, c) = Hm(r, c);
       // Outside the source image reads -1 (grey values are 0..1): a pixel whose bilinear
       // sample touches it comes out negative and is skipped.
-      cv::warpPerspective(S[j].grey, warped, Hcv, R.grey.size(), cv::INTER_LINEAR | cv::WARP_INVERSE_MAP,
+      cv::warpPerspective(S[j]->grey, warped, Hcv, R.grey.size(), cv::INTER_LINEAR | cv::WARP_INVERSE_MAP,
                           cv::BORDER_CONSTANT, cv::Scalar(-1));
       const float* w = warped.ptr<float>(0);
       const float* g = R.grey.ptr<float>(0);
@@ -332,19 +375,27 @@ DepthMap PlaneSweepDepthMap(const DenseInput& in, int ref, const std::vector<int
   return m;
 }
 
+}  // namespace
+
+DepthMap PlaneSweepDepthMap(const DenseInput& in, int ref, const std::vector<int>& sources, const DenseOptions& o) {
+  return Sweep(in, ref, sources, o, ScaledImages(in, o.max_image_size, 0));
+}
+
 std::vector<DepthMap> ComputeDepthMaps(const DenseInput& in, const std::vector<std::vector<int>>& sources,
-                                       const DenseOptions& o) {
+                                       const DenseOptions& o, int* images_read) {
   std::vector<DepthMap> maps(in.image_paths.size());
+  const ScaledImages images(in, o.max_image_size, static_cast<size_t>(std::max(0, o.image_cache_mb)) << 20);
   const int cv_threads = cv::getNumThreads();
   cv::setNumThreads(1);  // one image per thread already
   try {
     ParallelFor(static_cast<int>(maps.size()), o.threads,
-                [&](int i) { maps[i] = PlaneSweepDepthMap(in, i, sources[i], o); });
+                [&](int i) { maps[i] = Sweep(in, i, sources[i], o, images); });
   } catch (...) {
     cv::setNumThreads(cv_threads);
     throw;
   }
   cv::setNumThreads(cv_threads);
+  if (images_read) *images_read = images.reads();
   return maps;
 }
 

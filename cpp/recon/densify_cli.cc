@@ -117,8 +117,10 @@ int RunDensify(const std::vector<std::string>& args) {
   const std::vector<std::vector<int>> sources = mvs::SelectSourceViews(in, o.source_views);
   const double select_s = Since(t0);
   t0 = Clock::now();
-  const std::vector<mvs::DepthMap> maps = mvs::ComputeDepthMaps(in, sources, o);
+  int images_read = 0;
+  const std::vector<mvs::DepthMap> maps = mvs::ComputeDepthMaps(in, sources, o, &images_read);
   const double depth_s = Since(t0);
+  doc["images_read"] = images_read;  // each image once while they fit in memory
   t0 = Clock::now();
   mvs::DenseCloud cloud = mvs::FuseDepthMaps(maps, o);
   // The site: the horizontal extent of the sparse model (its 1st to 99th percentiles);

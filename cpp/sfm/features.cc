@@ -1,5 +1,7 @@
 #include "sfm/features.h"
 
+#include "sfm/cascade_hash.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstring>
@@ -13,6 +15,7 @@
 #include <opencv2/video/tracking.hpp>
 
 #include "common/error.h"
+#include "sfm/cascade_hash.h"
 
 namespace mound::sfm {
 
@@ -205,26 +208,79 @@ MatchList MatchDescriptors(const ImageFeatures& a, const ImageFeatures& b, float
   return MatchWith(a, SearchIndex(a), b, SearchIndex(b), ratio);
 }
 
+namespace {
+
+Eigen::Matrix<float, 1, 128> MeanDescriptor(const std::vector<ImageFeatures>& features) {
+  Eigen::Matrix<double, 1, 128> sum = Eigen::Matrix<double, 1, 128>::Zero();
+  double count = 0;
+  for (const ImageFeatures& f : features) {
+    sum += f.descriptors.cast<double>().colwise().sum();
+    count += static_cast<double>(f.descriptors.rows());
+  }
+  return count > 0 ? Eigen::Matrix<float, 1, 128>((sum / count).cast<float>()) : Eigen::Matrix<float, 1, 128>::Zero();
+}
+
+constexpr int kCascadeCandidates = 20;
+
+// The ratio test and mutual check of MatchWith, on cascade hashes.
+MatchList MatchHashed(const ImageFeatures& a, const CascadeHasher::Hashed& ha, const ImageFeatures& b,
+                      const CascadeHasher::Hashed& hb, const CascadeHasher& hasher, float ratio) {
+  MatchList out;
+  if (a.descriptors.rows() < 2 || b.descriptors.rows() < 2) return out;
+  std::vector<std::array<int, 2>> idx;
+  std::vector<std::array<float, 2>> d2;
+  hasher.Nearest2(a.descriptors, ha, b.descriptors, hb, {}, kCascadeCandidates, &idx, &d2);
+  const float ratio2 = ratio * ratio;
+  std::vector<std::pair<int, int>> candidates;
+  std::vector<int> back_rows;
+  for (int q = 0; q < static_cast<int>(idx.size()); ++q) {
+    if (idx[q][0] < 0 || idx[q][1] < 0 || !(d2[q][0] < ratio2 * d2[q][1])) continue;
+    candidates.emplace_back(q, idx[q][0]);
+    back_rows.push_back(idx[q][0]);
+  }
+  if (candidates.empty()) return out;
+  hasher.Nearest2(b.descriptors, hb, a.descriptors, ha, back_rows, kCascadeCandidates, &idx, &d2);
+  for (size_t c = 0; c < candidates.size(); ++c)
+    if (idx[c][0] == candidates[c].first) out.push_back(candidates[c]);
+  return out;
+}
+
+}  // namespace
+
 struct DescriptorMatcher::Impl {
   const std::vector<ImageFeatures>& features;
   float ratio;
+  MatcherKind kind;
   mutable std::vector<std::unique_ptr<SearchIndex>> index;
+  mutable std::vector<std::unique_ptr<CascadeHasher::Hashed>> hashed;
   mutable std::vector<std::once_flag> built;
+  std::unique_ptr<CascadeHasher> hasher;
   const SearchIndex& Index(int i) const {
     std::call_once(built[i], [&] { index[i] = std::make_unique<SearchIndex>(features[i]); });
     return *index[i];
   }
+  const CascadeHasher::Hashed& Hash(int i) const {
+    std::call_once(built[i], [&] { hashed[i] = std::make_unique<CascadeHasher::Hashed>(hasher->Hash(features[i].descriptors)); });
+    return *hashed[i];
+  }
 };
 
-DescriptorMatcher::DescriptorMatcher(const std::vector<ImageFeatures>& features, float ratio)
-    : impl_(new Impl{features, ratio, std::vector<std::unique_ptr<SearchIndex>>(features.size()),
-                     std::vector<std::once_flag>(features.size())}) {}
+DescriptorMatcher::DescriptorMatcher(const std::vector<ImageFeatures>& features, float ratio, MatcherKind kind)
+    : impl_(new Impl{features, ratio, kind, std::vector<std::unique_ptr<SearchIndex>>(features.size()),
+                     std::vector<std::unique_ptr<CascadeHasher::Hashed>>(features.size()),
+                     std::vector<std::once_flag>(features.size()), nullptr}) {
+  if (kind == MatcherKind::kCascadeHash) impl_->hasher = std::make_unique<CascadeHasher>(MeanDescriptor(features));
+}
 
 DescriptorMatcher::~DescriptorMatcher() = default;
 
 MatchList DescriptorMatcher::Match(int i, int j) const {
   const int n = static_cast<int>(impl_->features.size());
   if (i < 0 || j < 0 || i >= n || j >= n) throw InternalError("DescriptorMatcher::Match: image out of range");
+  if (impl_->kind == MatcherKind::kCascadeHash) {
+    return MatchHashed(impl_->features[i], impl_->Hash(i), impl_->features[j], impl_->Hash(j), *impl_->hasher,
+                       impl_->ratio);
+  }
   return MatchWith(impl_->features[i], impl_->Index(i), impl_->features[j], impl_->Index(j), impl_->ratio);
 }
 

@@ -53,14 +53,19 @@ struct KltResult {
 KltResult TrackKlt(const std::vector<std::string>& paths, const FeatureOptions& options);
 MatchList MatchDescriptors(const ImageFeatures& a, const ImageFeatures& b, float ratio = 0.8f);
 
-// The same for many pairs of one image set: each image's search index (FLANN randomised
-// k-d trees, 4 trees, 64 checks, for 1,000 descriptors or more; brute force below) is built
-// once, on first use, and shared by every pair it is in; the backward search of the mutual
-// check runs only for the matches that passed the ratio test. Match() is thread-safe and
-// its result does not depend on the order of calls or on the threads.
+// The same for many pairs of one image set: each image's search index is built once, on
+// first use, and shared by every pair it is in; the backward search of the mutual check
+// runs only for the matches that passed the ratio test. The index: FLANN randomised k-d
+// trees (4 trees, 64 checks) for 1,000 descriptors or more, brute force below; or cascade
+// hashing (cascade_hash.h: codes centred on the set's mean descriptor, the 10 nearest in
+// Hamming distance compared exactly). Match() is thread-safe and its result does not
+// depend on the order of calls or on the threads.
+enum class MatcherKind { kFlann, kCascadeHash };
+
 class DescriptorMatcher {
  public:
-  explicit DescriptorMatcher(const std::vector<ImageFeatures>& features, float ratio = 0.8f);
+  explicit DescriptorMatcher(const std::vector<ImageFeatures>& features, float ratio = 0.8f,
+                             MatcherKind kind = MatcherKind::kFlann);
   ~DescriptorMatcher();
   DescriptorMatcher(const DescriptorMatcher&) = delete;
   DescriptorMatcher& operator=(const DescriptorMatcher&) = delete;

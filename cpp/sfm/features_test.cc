@@ -102,5 +102,24 @@ TEST(DescriptorMatcher, SharedIndexesMatchAsThePairwiseMatcherAndFindTheShift) {
   EXPECT_THROW(matcher.Match(0, 2), InternalError);
 }
 
+TEST(DescriptorMatcher, CascadeHashingFindsTheShiftAsTheKdTreesDo) {
+  const Image a = Texture(0, 0), b = Texture(7, 3);
+  std::vector<ImageFeatures> f = {ExtractFeatures(a.pixels.data(), a.width, a.height, 4000),
+                                  ExtractFeatures(b.pixels.data(), b.width, b.height, 4000)};
+  const MatchList flann = DescriptorMatcher(f).Match(0, 1);
+  const DescriptorMatcher cascade(f, 0.8f, MatcherKind::kCascadeHash);
+  const MatchList m = cascade.Match(0, 1);
+  EXPECT_EQ(cascade.Match(0, 1), m);
+  int right = 0;
+  for (const auto& [i, j] : m) right += (f[1].keypoints[j] - f[0].keypoints[i] - Eigen::Vector2d(7, 3)).norm() < 0.5;
+  EXPECT_GT(right, static_cast<int>(m.size() * 95 / 100));
+  EXPECT_GT(m.size(), flann.size() * 9 / 10);  // nearly as many matches
+  // Most of them are the k-d trees' matches too.
+  const std::set<std::pair<int, int>> a_set(flann.begin(), flann.end());
+  int common = 0;
+  for (const auto& p : m) common += a_set.count(p);
+  EXPECT_GT(common, static_cast<int>(m.size() * 9 / 10));
+}
+
 }  // namespace
 }  // namespace mound::sfm

@@ -10,7 +10,11 @@ fountain: Strecha fountain-P11 (11 images 3072 x 2048, K.txt): registered images
 caliterra: 40 nadir drone photos (EXIF intrinsics and GPS): registered, reprojection error,
   the GPS residual of the metric fit.
 sim, flat: the default simulated site (40 images 1280 x 960, tumulus, camera.json + GPS)
-  and its flat control:
+  and its flat control;
+survey, survey_flat: a site as the survey flies and simulates it (18 raster images 640 x 480,
+  camera.json + the poses' noisy GPS, --max-features 4000 as the driver's; a tumulus of
+  the height the driver draws for site s023 of field 0, and flat ground), simulated into
+  --out once:
   centre error after a similarity to the truth, and the cloud's height error against the
   true heightfield.
 Prints min and median wall time over --reps and, with --colmap, pycolmap's figures and the
@@ -75,9 +79,28 @@ def strecha_centres(folder: Path) -> dict[str, np.ndarray]:
     return out
 
 
+BIN: list[Path] = []  # --bin: another build's mound_recon
+
+
+def survey_site(out: Path, mound: bool) -> Path:
+    """The survey's site s023 of field 0 (index 22), simulated as the driver does."""
+    from mound.sim import site as sim
+    from mound.sim.card import survey_site_spec
+
+    site = out / ("survey_site" if mound else "survey_site_flat")
+    if not (site / "poses.json").exists():
+        spec, _ = survey_site_spec({"id": "s023", "x_m": 0.0, "y_m": 0.0,
+                                    "truth": {"mound": mound}}, 22,
+                                   {"lat": 38.5705, "lon": 27.9862, "alt_m": 95.0}, 1,
+                                   (640, 480), "raster", 60.0)
+        sim.simulate(spec, site)
+    return site
+
+
 def run_ours(images: Path, out: Path, args: list[str], threads: int) -> tuple[float, dict]:
     start = time.perf_counter()
-    r = subprocess.run([str(build_dir() / "mound_recon"), "reconstruct", str(images), "--out",
+    tool = BIN[0] if BIN else build_dir() / "mound_recon"
+    r = subprocess.run([str(tool), "reconstruct", str(images), "--out",
                         str(out), "--threads", str(threads), *args], capture_output=True,
                        text=True, check=False)
     elapsed = time.perf_counter() - start
@@ -115,8 +138,9 @@ def run_colmap(images: Path, out: Path, threads: int, max_size: int, camera: str
     elapsed = time.perf_counter() - start
     best = max(recs.values(), key=lambda r: r.num_reg_images())
     centres = {im.name: im.projection_center() for im in best.images.values()}
+    xyz = np.array([p.xyz for p in best.points3D.values()])
     return elapsed, centres, {"registered": best.num_reg_images(),
-                              "error_px": best.compute_mean_reprojection_error()}
+                              "error_px": best.compute_mean_reprojection_error(), "xyz": xyz}
 
 
 def summary(times: list[float]) -> str:
@@ -133,11 +157,15 @@ def main() -> int:
     ap.add_argument("--reps", type=int, default=1)
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--out", default="runs/bench_recon")
+    ap.add_argument("--bin", help="mound_recon of another build (default: build/)")
     args = ap.parse_args()
+    if args.bin:
+        BIN.append(Path(args.bin))
     out = Path(args.out)
     data = shared_data_dir() / "images"
     for name in args.sets.split(","):
         print(f"== {name}")
+        site: Path | None = None  # a simulated site
         if name == "fountain":
             folder = data / "fountain-P11"
             extra = ["--camera", str(folder / "K.txt")]
@@ -148,13 +176,18 @@ def main() -> int:
             images = folder / "images"
             extra = ["--gps", "exif"]
             truth = {}
-        elif name in ("sim", "flat"):
-            folder_name = "site_tumulus" if name == "sim" else "site_flat"
-            site = REPO_ROOT / "runs" / "figures" / folder_name
+        elif name in ("sim", "flat", "survey", "survey_flat"):
+            if name.startswith("survey"):
+                site = survey_site(out, name == "survey")
+            else:
+                folder_name = "site_tumulus" if name == "sim" else "site_flat"
+                site = REPO_ROOT / "runs" / "figures" / folder_name
             if not (site / "poses.json").exists():
                 raise SystemExit(f"{site} missing: run `make figures` first")
             images = site / "images"
             extra = ["--camera", str(site / "camera.json"), "--gps", str(site / "poses.json")]
+            if name.startswith("survey"):
+                extra += ["--max-features", "4000"]
             poses = json.loads((site / "poses.json").read_text())
             truth = {im["file"].split("/")[-1]: np.array(im["centre_enu_m"])
                      for im in poses["images"]}
@@ -167,7 +200,9 @@ def main() -> int:
                               args.threads)
             times.append(t)
         reg = f"{doc['registered']}/{len(doc['images'])}"
-        line = (f"ours: {reg} registered, {doc['points']} points, RMSE "
+        line = (f"ours: {reg} registered, {doc['inputs']['pairs_matched']} pairs "
+                f"({doc['inputs'].get('pairing', 'exhaustive or sequential')}), "
+                f"{doc['points']} points, RMSE "
                 f"{doc['reprojection_rmse_px']:.3f} px, {summary(times)} "
                 f"({', '.join(f'{k} {v:.1f}' for k, v in doc['timings_s'].items())})")
         print(line)
@@ -182,7 +217,7 @@ def main() -> int:
                   f"{g.get('rmse_m', 0):.2f} m (horizontal {g.get('rmse_horizontal_m', 0):.2f}, "
                   f"vertical "
                   f"{g.get('rmse_vertical_m', 0):.2f})")
-        if name in ("sim", "flat"):
+        if site is not None:
             xyz, _ = read_ply(out / name / "points.ply")
             hf = load_site_heightfield(site)
             err = np.abs(xyz[:, 2] - hf.height_at(xyz[:, 0], xyz[:, 1]))
@@ -195,6 +230,9 @@ def main() -> int:
             if name == "fountain":
                 k = np.loadtxt(folder / "K.txt")
                 cam = f"{k[0, 0]},{k[1, 1]},{k[0, 2] + 0.5},{k[1, 2] + 0.5}"
+            elif site is not None:
+                k = np.array(json.loads((site / "camera.json").read_text())["K"])
+                cam = f"{k[0, 0]},{k[1, 1]},{k[0, 2] + 0.5},{k[1, 2] + 0.5}"
             ct, ccentres, cinfo = run_colmap(images, out / f"{name}_colmap", args.threads,
                                              2000, cam)
             print(f"pycolmap: {cinfo['registered']} registered, mean reprojection error "
@@ -204,6 +242,9 @@ def main() -> int:
                 e = centre_errors(ccentres, truth)
                 print(f"  pycolmap camera centres after a similarity: mean {e.mean():.4f}, "
                       f"max {e.max():.4f}")
+            if site is not None:
+                print(f"  pycolmap cloud after the cameras' similarity to the truth: "
+                      f"{cloud_error_aligned(cinfo['xyz'], ccentres, truth, site)}")
     return 0
 
 

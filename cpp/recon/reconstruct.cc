@@ -1,0 +1,286 @@
+#include "recon/reconstruct.h"
+
+#include <algorithm>
+#include <cctype>
+#include <chrono>
+#include <filesystem>
+#include <map>
+#include <utility>
+
+#include "common/error.h"
+#include "common/parallel.h"
+#include "geometry/geodesy.h"
+#include "recon/exif.h"
+#include "recon/inputs.h"
+#include "recon/recon_io.h"
+#include "sfm/pairing.h"
+
+namespace mound::recon {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double Since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+std::vector<std::string> ListImages(const std::string& dir) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) throw InputError("IMAGES_DIR: " + dir + " is not a directory");
+  std::vector<std::string> files;
+  for (const auto& e : fs::directory_iterator(dir, ec)) {
+    if (!e.is_regular_file()) continue;
+    std::string ext = e.path().extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+    if (ext == ".jpg" || ext == ".jpeg" || ext == ".png" || ext == ".tif" || ext == ".tiff") {
+      files.push_back(e.path().filename().string());
+    }
+  }
+  if (ec) throw InputError("IMAGES_DIR: " + dir + ": " + ec.message());
+  std::sort(files.begin(), files.end());
+  if (files.size() < 2) {
+    throw InputError("IMAGES_DIR: " + dir + " holds " + std::to_string(files.size()) +
+                     " image(s) (.jpg, .png, .tif); a reconstruction needs at least 2");
+  }
+  return files;
+}
+
+nlohmann::json PoseJson(const geometry::Rigid3d& p) {
+  const Eigen::Matrix3d R = p.RotationMatrix();
+  nlohmann::json rows = nlohmann::json::array();
+  for (int r = 0; r < 3; ++r) rows.push_back({R(r, 0), R(r, 1), R(r, 2)});
+  return {{"R", rows}, {"t", {p.translation.x(), p.translation.y(), p.translation.z()}}};
+}
+
+}  // namespace
+
+std::string ReconstructOptions::Check() const {
+  if (matching != "auto" && matching != "exhaustive" && matching != "sequential") {
+    return "--matching: expected auto, exhaustive or sequential, got '" + matching + "'";
+  }
+  if (matcher != "flann" && matcher != "cascade") {
+    return "--matcher: expected flann or cascade, got '" + matcher + "'";
+  }
+  if (!align.empty() && align != "level" && align != "full") {
+    return "--align: expected level or full, got '" + align + "'";
+  }
+  if (feature_kind != "sift" && feature_kind != "klt") {
+    return "--features: expected sift or klt, got '" + feature_kind + "'";
+  }
+  if (window < 1) return "--window: must be >= 1";
+  if (neighbours < 1) return "--neighbours: must be >= 1";
+  if (threads < 1) return "--threads: must be >= 1";
+  return "";
+}
+
+ReconstructResult Reconstruct(const ReconstructOptions& o) {
+  if (const std::string bad = o.Check(); !bad.empty()) throw InputError(bad);
+  const std::string& dir = o.images_dir;
+  const std::string& gps_arg = o.gps;
+  const std::string align = !o.align.empty() ? o.align : (gps_arg == "exif" ? "level" : "full");
+  const sfm::FeatureOptions& fo = o.features;
+  const std::string& feature_kind = o.feature_kind;
+  const std::string& matching = o.matching;
+  const int window = o.window, neighbours = o.neighbours, threads = o.threads;
+  const uint64_t seed = o.seed;
+  ReconstructResult res;
+  res.files = ListImages(dir);
+  const std::vector<std::string>& files = res.files;
+  const int n = static_cast<int>(files.size());
+
+  nlohmann::json timings = nlohmann::json::object();
+  // GPS from a poses file is checked before any work.
+  std::optional<GpsPositions> gps;
+  if (!gps_arg.empty() && gps_arg != "exif") gps = ReadGpsPoses(gps_arg, files);
+
+  auto t0 = Clock::now();
+  std::vector<sfm::ImageFeatures>& features = res.features;
+  features.resize(n);
+  std::vector<sfm::MatchList> tracked;  // KLT: matches of consecutive images
+  if (feature_kind == "klt") {
+    std::vector<std::string> paths;
+    for (const std::string& f : files) paths.push_back(dir + "/" + f);
+    sfm::KltResult k = sfm::TrackKlt(paths, fo);
+    features = std::move(k.features);
+    tracked = std::move(k.consecutive);
+  } else {
+    ParallelFor(n, threads, [&](int i) { features[i] = sfm::ExtractFeatures(dir + "/" + files[i], fo); });
+  }
+  for (int i = 1; i < n; ++i) {
+    if (features[i].width != features[0].width || features[i].height != features[0].height) {
+      throw InputError(files[i] + ": " + std::to_string(features[i].width) + "x" + std::to_string(features[i].height) +
+                       " pixels, but " + files[0] + " is " + std::to_string(features[0].width) + "x" +
+                       std::to_string(features[0].height) + " (one camera for all images)");
+    }
+  }
+  timings["features_s"] = Since(t0);
+  const int W = features[0].width, H = features[0].height;
+
+  // The camera: a file, or EXIF (refined in bundle adjustment).
+  geometry::CameraModel camera;
+  std::string camera_source;
+  bool refine = false;
+  std::vector<Exif> exif(n);
+  if (gps_arg == "exif" || o.camera_file.empty()) {
+    for (int i = 0; i < n; ++i) exif[i] = ReadExif(dir + "/" + files[i]);
+  }
+  if (!o.camera_file.empty()) {
+    camera = ReadCamera(o.camera_file, W, H);
+    camera_source = "file";
+  } else {
+    camera.width = W;
+    camera.height = H;
+    camera.cx = (W - 1) / 2.0;
+    camera.cy = (H - 1) / 2.0;
+    std::string how;
+    std::optional<double> f = FocalPx(exif[0], W, &how);
+    camera_source = f ? "exif (" + how + ")" : "default (1.2 x the longer side)";
+    camera.fx = camera.fy = f.value_or(1.2 * std::max(W, H));
+    refine = true;
+  }
+  if (gps_arg == "exif") {
+    GpsPositions g;
+    g.source = "exif";
+    for (int i = 0; i < n; ++i) {
+      if (!exif[i].lat_deg) continue;
+      const geometry::Geodetic here{*exif[i].lat_deg, *exif[i].lon_deg, exif[i].alt_m.value_or(0)};
+      if (!g.origin) g.origin = here;
+      g.enu_m[files[i]] = geometry::EnuFromGeodetic(*g.origin, here);
+    }
+    if (g.enu_m.empty()) throw InputError("--gps exif: no image in " + dir + " has EXIF GPS");
+    gps = g;
+  }
+
+  // Pairs to match (KLT: the consecutive images it tracked; else sfm::SelectPairs).
+  std::vector<std::pair<int, int>> pair_list;
+  std::string pairing = "sequential (KLT tracks)";
+  if (feature_kind == "klt") {
+    for (int i = 0; i + 1 < n; ++i) pair_list.push_back({i, i + 1});
+  } else if (matching == "exhaustive") {
+    for (int i = 0; i < n; ++i)
+      for (int j = i + 1; j < n; ++j) pair_list.push_back({i, j});
+    pairing = "exhaustive";
+  } else {
+    sfm::PairingOptions po;
+    po.sequence_window = matching == "sequential" ? window : std::min(window, po.sequence_window);
+    po.spatial_neighbours = matching == "sequential" ? 0 : neighbours;
+    if (matching == "sequential") po.exhaustive_up_to = 0;
+    std::vector<std::optional<Eigen::Vector3d>> positions(n);
+    if (gps && matching == "auto") {
+      for (int i = 0; i < n; ++i) {
+        auto g = gps->enu_m.find(files[i]);
+        if (g != gps->enu_m.end()) positions[i] = g->second;
+      }
+    }
+    const sfm::PairSelection sel = sfm::SelectPairs(positions, po);
+    pair_list = sel.pairs;
+    pairing = sel.method;
+  }
+
+  t0 = Clock::now();
+  const double verify_px = std::max(1.0, 1.0 * std::max(W, H) / 2000.0);
+  std::vector<sfm::VerifiedPair> verified(pair_list.size());
+  const sfm::DescriptorMatcher matcher(
+      features, 0.8f, o.matcher == "cascade" ? sfm::MatcherKind::kCascadeHash : sfm::MatcherKind::kFlann);
+  ParallelFor(static_cast<int>(pair_list.size()), threads, [&](int k) {
+    const auto [i, j] = pair_list[k];
+    const sfm::MatchList m = feature_kind == "klt" ? tracked[i] : matcher.Match(i, j);
+    verified[k] = sfm::VerifyPair(i, j, features[i], features[j], m, camera, verify_px, seed + k);
+  });
+  timings["matching_s"] = Since(t0);
+  int useful_pairs = 0;
+  for (const auto& v : verified) useful_pairs += v.inliers.size() >= 30;
+
+  nlohmann::json doc = {{"schema", "mound.recon"}, {"version", 1}, {"tool", o.tool},
+                        {"images_dir", dir}, {"status", "ok"}};
+  doc["inputs"] = {{"images", n}, {"camera_source", camera_source}, {"gps_source", gps ? gps->source : "none"},
+                   {"pairs_matched", pair_list.size()}, {"pairs_verified", useful_pairs}, {"pairing", pairing},
+                   {"max_image_size", fo.max_image_size}, {"max_features", fo.max_features},
+                   {"features", feature_kind}, {"matcher", o.matcher}};
+  sfm::MapperOptions mo;
+  mo.max_error_px = 4.0;  // COLMAP's filter threshold, full-resolution pixels
+  mo.refine_intrinsics = refine;
+  mo.threads = threads;
+  mo.seed = seed;
+  t0 = Clock::now();
+  sfm::Reconstruction r;
+  try {
+    r = sfm::IncrementalMap(features, verified, camera, mo);
+  } catch (const NoResultError& e) {
+    timings["mapping_s"] = Since(t0);
+    doc["status"] = "failed";
+    doc["reason"] = e.what();
+    doc["timings_s"] = timings;
+    res.doc = std::move(doc);
+    return res;
+  }
+  timings["mapping_s"] = Since(t0);
+  nlohmann::json mapping_stages = {{"initialise", r.timings.initialise_s}, {"register", r.timings.register_s},
+                                 {"triangulate", r.timings.triangulate_s}, {"local_ba", r.timings.local_ba_s},
+                                 {"global_ba", r.timings.global_ba_s}};
+
+  // The metric frame: a robust similarity from the camera centres to GPS.
+  doc["frame"] = "arbitrary";
+  doc["scale"] = "unknown";
+  if (gps) {
+    std::vector<Eigen::Vector3d> model, world;
+    std::vector<int> which;
+    for (int i = 0; i < n; ++i) {
+      auto g = gps->enu_m.find(files[i]);
+      if (!r.registered[i] || g == gps->enu_m.end()) continue;
+      model.push_back(r.cam_from_world[i].Centre());
+      world.push_back(g->second);
+      which.push_back(i);
+    }
+    // Consumer GPS heights drift (Caliterra's climb 80 m during the flight): by default
+    // with EXIF GPS the vertical comes from the images (FitLevelledSim3Robust), with a
+    // poses file from all three GPS coordinates; --align chooses.
+    Eigen::Vector3d down_in_model = Eigen::Vector3d::Zero();
+    for (int i = 0; i < n; ++i)
+      if (r.registered[i]) down_in_model += r.cam_from_world[i].rotation.conjugate() * Eigen::Vector3d::UnitZ();
+    const auto fit = align == "level" ? sfm::FitLevelledSim3Robust(model, world, down_in_model, seed)
+                                      : sfm::FitSim3Robust(model, world, seed);
+    if (fit && fit->inliers >= 3) {
+      sfm::Transform(fit->world_from_model, &r);
+      doc["frame"] = "enu";
+      doc["scale"] = "metric";
+      if (gps->origin) doc["origin"] = {{"lat", gps->origin->lat_deg}, {"lon", gps->origin->lon_deg}, {"alt_m", gps->origin->alt_m}};
+      nlohmann::json outliers = nlohmann::json::array();
+      for (size_t k = 0; k < which.size(); ++k)
+        if (!fit->inlier[k]) outliers.push_back(files[which[k]]);
+      doc["gps_fit"] = {{"images", model.size()}, {"inliers", fit->inliers}, {"outliers", outliers},
+                        {"rmse_m", fit->rmse_m}, {"rmse_horizontal_m", fit->rmse_horizontal_m},
+                        {"rmse_vertical_m", fit->rmse_vertical_m}, {"scale", fit->world_from_model.scale},
+                        {"method", align == "level" ? "level: vertical from the images, heading, scale and "
+                                                      "position from horizontal GPS, height offset by median"
+                                                    : "full: 7-parameter similarity to the GPS positions"}};
+    } else {
+      doc["gps_fit"] = {{"images", model.size()}, {"note", "fewer than 3 registered images with GPS: frame left arbitrary"}};
+    }
+  }
+  doc["camera"] = CameraJson(r.camera);
+  nlohmann::json images = nlohmann::json::array();
+  for (int i = 0; i < n; ++i) {
+    nlohmann::json im = {{"file", files[i]}, {"registered", static_cast<bool>(r.registered[i])}};
+    if (r.registered[i]) {
+      im["cam_from_world"] = PoseJson(r.cam_from_world[i]);
+      const Eigen::Vector3d c = r.cam_from_world[i].Centre();
+      im["centre"] = {c.x(), c.y(), c.z()};
+      im["reprojection_error_px"] = r.image_error_px[i];
+      im["observations"] = r.image_points[i];
+    }
+    images.push_back(im);
+  }
+  doc["images"] = images;
+  doc["registered"] = r.NumRegistered();
+  doc["points"] = r.points.size();
+  doc["reprojection_rmse_px"] = r.rmse_px;
+  doc["initial_pair"] = {files[r.init_image1], files[r.init_image2]};
+  doc["bundle_adjustments"] = {{"global", r.ba_runs}, {"local", r.local_ba_runs}};
+  doc["timings_s"] = timings;
+  doc["mapping_timings_s"] = mapping_stages;
+  res.doc = std::move(doc);
+  res.model = std::move(r);
+  return res;
+}
+
+}  // namespace mound::recon
