@@ -79,7 +79,9 @@ TEST(Exif, ReadsTiffFilesAndSurvivesTruncation) {
   for (size_t cut : {size_t{0}, size_t{1}, size_t{3}, size_t{100}, size_t{2000}, size_t{9000}}) {
     const std::vector<uint8_t> part(bytes.begin(), bytes.begin() + static_cast<std::ptrdiff_t>(cut));
     const Exif p = ParseExif(part);  // no crash; nothing beyond what is there
-    if (p.lat_deg) EXPECT_NEAR(*p.lat_deg, 30.171223, 1e-6);
+    if (p.lat_deg) {
+      EXPECT_NEAR(*p.lat_deg, 30.171223, 1e-6);
+    }
   }
 }
 

@@ -6,7 +6,7 @@
 //   next image with the most triangulated tracks registered by PnP + RANSAC, its new tracks
 //   triangulated (two-view DLT of the widest pair of rays, minimum angle, reprojection check
 //   in every registered view), a local bundle adjustment around each new image, one of the
-//   whole model as it grows by ~30 %, outlier observations filtered; at the end a last triangulation pass and adjustment.
+//   whole model as it grows by 60 %, outlier observations filtered; at the end a last triangulation pass and adjustment.
 // Frames: OpenCV camera axes, cam_from_world; the model's frame is the first image's camera
 // and its scale the initial baseline (1), until Georegister maps it onto GPS positions.
 #pragma once
@@ -65,7 +65,7 @@ struct MapperOptions {
   // `global_ba_growth` since the last global adjustment.
   int local_ba_images = 6;
   int local_ba_iterations = 25;
-  double global_ba_growth = 1.3;
+  double global_ba_growth = 1.6;
   bool refine_intrinsics = false;   // f, k1, k2 in bundle adjustment (EXIF intrinsics)
   int threads = 1;
   uint64_t seed = 1;
