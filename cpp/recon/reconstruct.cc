@@ -155,15 +155,13 @@ ReconstructResult Reconstruct(const ReconstructOptions& o) {
   std::string pairing = "sequential (KLT tracks)";
   if (feature_kind == "klt") {
     for (int i = 0; i + 1 < n; ++i) pair_list.push_back({i, i + 1});
-  } else if (matching == "exhaustive") {
-    for (int i = 0; i < n; ++i)
-      for (int j = i + 1; j < n; ++j) pair_list.push_back({i, j});
-    pairing = "exhaustive";
   } else {
+    // exhaustive: every pair, as for a small unlocated set (no positions given);
+    // sequential: the next `window` images only; auto: SelectPairs' choice.
     sfm::PairingOptions po;
     po.sequence_window = matching == "sequential" ? window : std::min(window, po.sequence_window);
     po.spatial_neighbours = matching == "sequential" ? 0 : neighbours;
-    if (matching == "sequential") po.exhaustive_up_to = 0;
+    po.exhaustive_up_to = matching == "exhaustive" ? n : matching == "sequential" ? 0 : po.exhaustive_up_to;
     std::vector<std::optional<Eigen::Vector3d>> positions(n);
     if (gps && matching == "auto") {
       for (int i = 0; i < n; ++i) {

@@ -174,6 +174,12 @@ class ScanSpec:
                 legs.append(ScanLeg("orbit", centres, step, len(mine), [s.pose for s in mine]))
         return legs
 
+    def reach_m(self, legs: list[ScanLeg] | None = None) -> float:
+        """The farthest camera position of the scan from the site centre, horizontally:
+        a photo farther than this (plus GPS error) was not taken over the site."""
+        return max(float(np.hypot(leg.points_enu[:, 0], leg.points_enu[:, 1]).max())
+                   for leg in legs or self.legs())
+
     def transit_m(self, legs: list[ScanLeg] | None = None) -> float:
         """The height flown between sites."""
         if self.transit_altitude_m is not None:

@@ -109,11 +109,10 @@ def sites_of(path: str, spec: SortSpec) -> Sites:
         raise InputError(f"{path}: no sites")
     scan = (ScanSpec.from_doc(doc["scan"], f"{path}: scan") if isinstance(doc.get("scan"), dict)
             else ScanSpec(pattern="raster", scale_m=spec.site_diameter_m))
-    reach = max(float(np.hypot(leg.points_enu[:, 0], leg.points_enu[:, 1]).max())
-                for leg in scan.legs())
     return Sites(origin, [str(n["id"]) for n in nodes],
                  np.array([[float(n["x_m"]), float(n["y_m"])] for n in nodes]),
-                 np.array([float(home.get("x_m", 0.0)), float(home.get("y_m", 0.0))]), reach)
+                 np.array([float(home.get("x_m", 0.0)), float(home.get("y_m", 0.0))]),
+                 scan.reach_m())
 
 
 def sharpness(data: bytes) -> float | None:

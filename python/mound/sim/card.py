@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from mound.errors import InputError
+from mound.geometry.camera import Camera
 from mound.geometry.geodesy import Origin, enu_to_geodetic
 from mound.jsonio import read_json, write_json
 
@@ -229,8 +230,9 @@ def write_card(plan_path: str, sites_path: str, out_dir: str, spec: CardSpec | N
     scan = (ScanSpec.from_doc(plan["scan"], f"{plan_path}: scan")
             if isinstance(plan.get("scan"), dict) else
             ScanSpec(pattern=spec.pattern, scale_m=spec.site_diameter_m))
-    reach = max(float(np.hypot(leg.points_enu[:, 0], leg.points_enu[:, 1]).max())
-                for leg in scan.legs())
+    reach = scan.reach_m()
+    # Transit frames through the scan's lens at the card's image size.
+    transit_fx = Camera.from_fov(spec.image_size[0], spec.image_size[1], scan.hfov_rad).fx
     origin = Origin.from_doc(plan["origin"], f"{plan_path}: origin")
     site_xy = np.array([points[i] for i in by_id if i in points]) if points else np.zeros((0, 2))
     folder = Path(out_dir) / "DCIM" / "100MEDIA"
@@ -260,7 +262,7 @@ def write_card(plan_path: str, sites_path: str, out_dir: str, spec: CardSpec | N
                     path = name()
                     save_jpeg(_ground_frame(rng, spec.image_size), path,
                               ExifFacts(float(lat), float(lon), float(alt), t,
-                                        spec.image_size[0] * 0.714, spec.image_size[0]),
+                                        transit_fx, spec.image_size[0]),
                               spec.quality)
                     files.append({"file": str(path.relative_to(out_dir)), "flight": f["flight"],
                                   "site": None, "reason": "transit", "time": t.isoformat()})

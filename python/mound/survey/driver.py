@@ -472,6 +472,16 @@ def stage_plan(ctx: Context) -> str:
                                    "seed": a.plan_seed, "flights": a.flights}, work)
 
 
+def mission_terrain(a: argparse.Namespace) -> Any:
+    """The DEM a mission is flown over (mission_items.TerrainInput), None without --dem."""
+    if not a.dem:
+        return None
+    from mound.uav import mission_items
+    from mound.uav.terrain import spec_from_args
+
+    return mission_items.TerrainInput(a.dem, a.dem_vertical, spec_from_args(a))
+
+
 def stage_mission(ctx: Context) -> str:
     from mound.geometry.geodesy import Origin
     from mound.survey import figures
@@ -488,11 +498,7 @@ def stage_mission(ctx: Context) -> str:
             return [], "nothing to fly: no site fits the budget", True
         origin = Origin.from_doc(plan["origin"], f"{t.plan}: origin")
         scan = mission_items.plan_scan(plan, str(t.plan))
-        terrain = None
-        if a.dem:
-            from mound.uav.terrain import spec_from_args
-
-            terrain = mission_items.TerrainInput(a.dem, a.dem_vertical, spec_from_args(a))
+        terrain = mission_terrain(a)
         flights = mission_items.flight_plans(plan)
         several = len(flights) > 1
         missions = [(f["flight"] if several else None,
@@ -631,12 +637,12 @@ def site_jobs(ctx: Context, plan: dict[str, Any] | None = None) -> list[Any]:
     jobs = []
     grounds = {n["id"]: n["ground_amsl_m"]
                for n in (sites_doc.get("terrain") or {}).get("nodes", [])}
+    photos = images_root(ctx)
     for index, s in enumerate(sites_doc["sites"]):
         if s["id"] not in tour:
             continue
         ter = ({"dem": str(Path(a.dem).resolve()), "vertical": sites_doc["terrain"]["vertical"],
                 "ground_amsl_m": grounds[s["id"]]} if a.dem and s["id"] in grounds else None)
-        photos = images_root(ctx)
         images = str((photos / s["id"]).resolve()) if photos else None
         key = digest({"site": {k: s.get(k) for k in ("id", "x_m", "y_m", "truth", "simulate")},
                       "index": index, "options": options, "images": images,

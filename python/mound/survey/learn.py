@@ -77,19 +77,14 @@ def _write_mission(ctx: Any, plan: dict[str, Any], out: Path) -> None:
     """The flight's MAVLink mission (refused, like the mission stage's, when it breaks the
     budget or, over a DEM, cannot clear the ground)."""
     from mound.geometry.geodesy import Origin
+    from mound.survey.driver import mission_terrain
     from mound.uav import files as mission_files
     from mound.uav import mission_items
 
-    a = ctx.args
-    terrain = None
-    if a.dem:
-        from mound.uav.terrain import spec_from_args
-
-        terrain = mission_items.TerrainInput(a.dem, a.dem_vertical, spec_from_args(a))
     m = mission_items.build(plan, Origin.from_doc(plan["origin"], "plan: origin"),
                             mission_items.MissionSpec(scan=mission_items.plan_scan(plan)),
-                            terrain)
-    mission_files.write_plan(out, m, a.firmware)
+                            mission_terrain(ctx.args))
+    mission_files.write_plan(out, m, ctx.args.firmware)
 
 
 def stage_learn(ctx: Any) -> str:
@@ -105,6 +100,7 @@ def stage_learn(ctx: Any) -> str:
         model = Model.from_doc(read_json(t.model, MODEL_SCHEMA, MODEL_VERSION), str(t.model))
         sites0 = read_json(t.sites, "mound.sites", 1)
         field_rows = np.array([s["truth"]["statlog_row"] for s in sites0["sites"]])
+        by_id = {s["id"]: s for s in sites0["sites"]}
         auc0 = held_out_auc(model, test, field_rows)
         current = sites0
         plan = read_json(t.plan, "mound.plan", 1)
@@ -158,7 +154,6 @@ def stage_learn(ctx: Any) -> str:
             outputs += [str(j.tree.result.relative_to(root)) for j in jobs]
             ids = [j.site["id"] for j in jobs]
             flown += ids
-            by_id = {s["id"]: s for s in sites0["sites"]}
             examples = []
             for sid in ids:
                 r = rows.get(sid, {})
@@ -195,7 +190,7 @@ def stage_learn(ctx: Any) -> str:
                                   "budget_left_m": flight.get("budget_left_m", 0.0)})
             ctx.say(f"[learn] flight {k}: {note}; held-out AUC {auc:.4f} "
                     f"(before any flight {auc0:.4f}), {flips} classifier labels flipped")
-        flown_plan = {k: v for k, v in read_json(t.plan, "mound.plan", 1).items()}
+        flown_plan = read_json(t.plan, "mound.plan", 1)
         flown_plan.update(flights=flights_flown, tour=flights_flown[0]["tour"] if
                           flights_flown else flown_plan.get("tour"),
                           n_visited=len(flown),
