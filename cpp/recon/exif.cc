@@ -41,11 +41,11 @@ class Tiff {
     std::vector<Entry> out;
     const uint16_t n = U16(off);
     if (!Ok(off + 2, size_t(n) * 12)) return out;
-    static const int kSize[] = {0, 1, 1, 2, 4, 8, 1, 1, 2, 4, 8, 4, 8};
+    static const int kSize[] = {0, 1, 1, 2, 4, 8, 1, 1, 2, 4, 8, 4, 8, 4};
     for (int i = 0; i < n; ++i) {
       const size_t e = off + 2 + size_t(i) * 12;
       Entry en{U16(e), U16(e + 2), U32(e + 4), e + 8};
-      if (en.type == 0 || en.type > 12) continue;
+      if (en.type == 0 || en.type > 13) continue;
       const uint64_t bytes = uint64_t(kSize[en.type]) * en.count;
       if (bytes > 4) en.value_offset = U32(e + 8);
       if (!Ok(en.value_offset, bytes)) continue;
@@ -72,6 +72,14 @@ class Tiff {
       }
       default: return std::nullopt;
     }
+  }
+  // An integer entry (SHORT, LONG or IFD): IFD offsets and pixel counts are never rationals,
+  // and a rational there (or a negative SRATIONAL) must not reach an integer cast.
+  std::optional<uint32_t> Integer(const Entry& e) const {
+    if (e.count == 0) return std::nullopt;
+    if (e.type == 3) return U16(e.value_offset);
+    if (e.type == 4 || e.type == 13) return U32(e.value_offset);
+    return std::nullopt;
   }
   std::string Text(const Entry& e) const {
     if (e.type != 2) return "";
@@ -158,8 +166,8 @@ Exif ParseExif(const std::vector<uint8_t>& file_bytes) {
   for (const auto& e : t.Ifd(t.FirstIfd())) {
     if (e.tag == 0x010F) x.make = t.Text(e);
     if (e.tag == 0x0110) x.model = t.Text(e);
-    if (e.tag == 0x8769) exif_ifd = static_cast<uint32_t>(t.Number(e).value_or(0));
-    if (e.tag == 0x8825) gps_ifd = static_cast<uint32_t>(t.Number(e).value_or(0));
+    if (e.tag == 0x8769) exif_ifd = t.Integer(e).value_or(0);
+    if (e.tag == 0x8825) gps_ifd = t.Integer(e).value_or(0);
     if (e.tag == 0x0132 && x.datetime.empty()) x.datetime = CheckedDateTime(t.Text(e));
   }
   if (exif_ifd) {
@@ -172,7 +180,8 @@ Exif ParseExif(const std::vector<uint8_t>& file_bytes) {
       if (e.tag == 0xA405) x.focal_35mm = t.Number(e);
       if (e.tag == 0xA20E) x.focal_plane_x_res = t.Number(e);
       if (e.tag == 0xA002) {
-        if (auto w = t.Number(e)) x.width_px = static_cast<int>(*w);
+        // Up to 2^20 pixels wide; anything wider is not a photo's width.
+        if (auto w = t.Integer(e); w && *w > 0 && *w <= (1u << 20)) x.width_px = static_cast<int>(*w);
       }
       if (e.tag == 0xA210) {
         const double unit = t.Number(e).value_or(2);
@@ -197,7 +206,9 @@ Exif ParseExif(const std::vector<uint8_t>& file_bytes) {
       if (e.tag == 5) alt_ref = t.Byte(e).value_or(0);
       if (e.tag == 6) alt = t.Number(e);
     }
-    if (lat && lon && *lat <= 90 && *lon <= 180) {
+    // Degrees are unsigned (the reference letter carries the sign): an SRATIONAL below zero
+    // is a broken file, not the southern hemisphere.
+    if (lat && lon && *lat >= 0 && *lat <= 90 && *lon >= 0 && *lon <= 180) {
       x.lat_deg = lat_ref == 'S' ? -*lat : *lat;
       x.lon_deg = lon_ref == 'W' ? -*lon : *lon;
       if (alt) x.alt_m = alt_ref == 1 ? -*alt : *alt;

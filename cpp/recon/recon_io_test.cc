@@ -85,6 +85,47 @@ TEST(Exif, ReadsTiffFilesAndSurvivesTruncation) {
   }
 }
 
+// A little-endian TIFF written by hand: IFD0 points to the EXIF IFD with a negative
+// SRATIONAL (the fuzzer's finding: cast to an offset, undefined behaviour) and to a GPS IFD
+// whose latitude is a SRATIONAL triple; `lat_deg` is its degrees.
+std::vector<uint8_t> HandTiff(int32_t lat_deg) {
+  std::vector<uint8_t> b;
+  auto u16 = [&](uint32_t v) { b.push_back(v & 0xFF); b.push_back(v >> 8 & 0xFF); };
+  auto u32 = [&](uint32_t v) { u16(v & 0xFFFF); u16(v >> 16); };
+  auto entry = [&](uint16_t tag, uint16_t type, uint32_t count, uint32_t value) {
+    u16(tag); u16(type); u32(count); u32(value);
+  };
+  b = {'I', 'I'};
+  u16(42); u32(8);
+  // IFD0 at 8: 2 entries (8 + 2 + 24 + 4 = 38), the SRATIONAL -1/1 at 38.
+  u16(2);
+  entry(0x8769, 10, 1, 38);
+  entry(0x8825, 4, 1, 46);
+  u32(0);
+  u32(static_cast<uint32_t>(-1)); u32(1);
+  // GPS IFD at 46: 4 entries (46 + 2 + 48 + 4 = 100), lat at 100, lon at 124.
+  u16(4);
+  entry(1, 2, 2, 'N');
+  entry(2, 10, 3, 100);
+  entry(3, 2, 2, 'E');
+  entry(4, 5, 3, 124);
+  u32(0);
+  for (int32_t v : {lat_deg, 1, 0, 1, 0, 1}) u32(static_cast<uint32_t>(v));
+  for (uint32_t v : {28u, 1u, 0u, 1u, 0u, 1u}) u32(v);
+  return b;
+}
+
+TEST(Exif, IntegerTagsAreNeverCastFromRationalsAndDegreesAreUnsigned) {
+  const Exif ok = ParseExif(HandTiff(38));
+  ASSERT_TRUE(ok.lat_deg && ok.lon_deg);
+  EXPECT_EQ(*ok.lat_deg, 38.0);
+  EXPECT_EQ(*ok.lon_deg, 28.0);
+  EXPECT_FALSE(ok.focal_mm);  // the EXIF IFD pointer was a rational: not followed
+  const Exif bad = ParseExif(HandTiff(-100));
+  EXPECT_FALSE(bad.lat_deg);  // -100 degrees north is a broken file, not 100 south
+  EXPECT_FALSE(bad.lon_deg);
+}
+
 // A card: images with and without GPS, a text file, an empty file, a link to a folder
 // above it (a loop, not followed), a folder without permission (listed as skipped).
 TEST(Card, ListsEveryFileWithItsKindAndExif) {
