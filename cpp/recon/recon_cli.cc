@@ -30,7 +30,7 @@ constexpr const char* kVersion = "mound_recon 0.1.0";
 constexpr const char* kUsage =
     "usage: mound_recon reconstruct IMAGES_DIR --out OUT_DIR [--camera camera.json|K.txt]\n"
     "                   [--gps poses.json|exif] [--max-image-size PX] [--max-features N]\n"
-    "                   [--features sift|klt] [--matching auto|exhaustive|sequential]\n"
+    "                   [--features sift|klt] [--matching auto|exhaustive|sequential|retrieval]\n"
     "                   [--matcher flann|cascade] [--window N] [--neighbours N]\n"
     "                   [--align level|full]\n"
     "                   [--threads N] [--seed N]\n"
@@ -63,10 +63,13 @@ constexpr const char* kUsage =
     "                       each image into the next: small motions, in sequence order)\n"
     "  --matching M         auto (located images: each with the next 3 in sequence and\n"
     "                       its --neighbours nearest by GPS; unlocated: every pair up to\n"
-    "                       20 images, else a window along the sequence), exhaustive,\n"
-    "                       sequential (the next --window images)\n"
-    "  --window N           images ahead matched in sequence (default 8; auto: at most 3)\n"
-    "  --neighbours N       auto with GPS: nearest images matched with each (default 8)\n"
+    "                       20 images, else the next 3 and the --neighbours most similar\n"
+    "                       by VLAD retrieval), exhaustive, sequential (the next --window\n"
+    "                       images), retrieval (as auto's unlocated images, GPS or not)\n"
+    "  --window N           images ahead matched in sequence (default 8; auto and\n"
+    "                       retrieval: at most 3; 0: none)\n"
+    "  --neighbours N       nearest images by GPS, or most similar by retrieval, matched\n"
+    "                       with each (default 8)\n"
     "  --matcher M          cascade (cascade hashing, default) or flann (k-d trees)\n"
     "  --threads N          (default: the number of cores)\n"
     "  --seed N             RANSAC seed (default 1)\n"
@@ -137,7 +140,7 @@ int RunReconstruct(const std::vector<std::string>& args) {
   o.feature_kind = opt("--features", o.feature_kind);
   o.matching = opt("--matching", o.matching);
   o.matcher = opt("--matcher", o.matcher);
-  o.window = static_cast<int>(num("--window", 1, 10000, o.window));
+  o.window = static_cast<int>(num("--window", 0, 10000, o.window));
   o.neighbours = static_cast<int>(num("--neighbours", 1, 10000, o.neighbours));
   o.align = opt("--align", "");
   o.threads = static_cast<int>(num("--threads", 1, 256, DefaultThreads()));

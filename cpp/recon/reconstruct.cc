@@ -14,6 +14,7 @@
 #include "recon/inputs.h"
 #include "recon/recon_io.h"
 #include "sfm/pairing.h"
+#include "sfm/retrieval.h"
 
 namespace mound::recon {
 namespace {
@@ -54,8 +55,8 @@ nlohmann::json PoseJson(const geometry::Rigid3d& p) {
 }  // namespace
 
 std::string ReconstructOptions::Check() const {
-  if (matching != "auto" && matching != "exhaustive" && matching != "sequential") {
-    return "--matching: expected auto, exhaustive or sequential, got '" + matching + "'";
+  if (matching != "auto" && matching != "exhaustive" && matching != "sequential" && matching != "retrieval") {
+    return "--matching: expected auto, exhaustive, sequential or retrieval, got '" + matching + "'";
   }
   if (matcher != "flann" && matcher != "cascade") {
     return "--matcher: expected flann or cascade, got '" + matcher + "'";
@@ -66,7 +67,9 @@ std::string ReconstructOptions::Check() const {
   if (feature_kind != "sift" && feature_kind != "klt") {
     return "--features: expected sift or klt, got '" + feature_kind + "'";
   }
-  if (window < 1) return "--window: must be >= 1";
+  if (window < 0 || (window == 0 && matching == "sequential")) {
+    return "--window: must be >= 1 (0, no sequence pairs, only with auto or retrieval matching)";
+  }
   if (neighbours < 1) return "--neighbours: must be >= 1";
   if (threads < 1) return "--threads: must be >= 1";
   return "";
@@ -161,7 +164,9 @@ ReconstructResult Reconstruct(const ReconstructOptions& o) {
     sfm::PairingOptions po;
     po.sequence_window = matching == "sequential" ? window : std::min(window, po.sequence_window);
     po.spatial_neighbours = matching == "sequential" ? 0 : neighbours;
-    po.exhaustive_up_to = matching == "exhaustive" ? n : matching == "sequential" ? 0 : po.exhaustive_up_to;
+    po.exhaustive_up_to = matching == "exhaustive" ? n
+                          : matching == "sequential" || matching == "retrieval" ? 0
+                                                                                 : po.exhaustive_up_to;
     std::vector<std::optional<Eigen::Vector3d>> positions(n);
     if (gps && matching == "auto") {
       for (int i = 0; i < n; ++i) {
@@ -169,7 +174,19 @@ ReconstructResult Reconstruct(const ReconstructOptions& o) {
         if (g != gps->enu_m.end()) positions[i] = g->second;
       }
     }
-    const sfm::PairSelection sel = sfm::SelectPairs(positions, po);
+    // Images without a position in a set too large for every pair: paired by appearance
+    // too (sfm/retrieval), as are all images with --matching retrieval.
+    int located = 0;
+    for (const auto& p : positions) located += p.has_value();
+    std::optional<std::vector<std::vector<int>>> similar;
+    const bool exhaustive = located < 2 && n <= po.exhaustive_up_to;
+    if (matching == "retrieval" || (matching == "auto" && located < n && !exhaustive)) {
+      const auto tr = Clock::now();
+      po.retrieval_neighbours = neighbours;
+      similar = sfm::MostSimilar(sfm::GlobalDescriptors(features), neighbours);
+      timings["retrieval_s"] = Since(tr);
+    }
+    const sfm::PairSelection sel = sfm::SelectPairs(positions, po, similar ? &*similar : nullptr);
     pair_list = sel.pairs;
     pairing = sel.method;
   }

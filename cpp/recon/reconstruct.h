@@ -24,10 +24,10 @@ struct ReconstructOptions {
   std::string gps;                    // empty: none; "exif"; else a mound.poses file
   sfm::FeatureOptions features;
   std::string feature_kind = "sift";  // sift | klt
-  std::string matching = "auto";      // auto | exhaustive | sequential
+  std::string matching = "auto";      // auto | exhaustive | sequential | retrieval
   std::string matcher = "cascade";    // cascade | flann (sfm::MatcherKind)
-  int window = 8;                     // sequential: images ahead; auto: at most 3 of them
-  int neighbours = 8;                 // auto with positions: nearest images per image
+  int window = 8;                     // sequential: images ahead; auto, retrieval: at most 3
+  int neighbours = 8;                 // nearest (by GPS) or most similar images per image
   std::string align;                  // level | full; empty: level with EXIF GPS, else full
   int threads = 1;
   uint64_t seed = 1;

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <set>
+#include <stdexcept>
 
 namespace mound::sfm {
 
@@ -22,7 +23,7 @@ double FootprintOverlap(double h1, double h2, double d, double focal_px, int wid
 }
 
 PairSelection SelectPairs(const std::vector<std::optional<Eigen::Vector3d>>& positions,
-                          const PairingOptions& o) {
+                          const PairingOptions& o, const std::vector<std::vector<int>>* similar) {
   const int n = static_cast<int>(positions.size());
   PairSelection out;
   for (const auto& p : positions) out.located += p.has_value();
@@ -78,6 +79,18 @@ PairSelection SelectPairs(const std::vector<std::optional<Eigen::Vector3d>>& pos
         const size_t k = std::min<size_t>(static_cast<size_t>(std::max(0, o.spatial_neighbours)), near.size());
         for (size_t m = 0; m < k; ++m) add(i, near[m].second);
       }
+    }
+    if (similar && out.located < n) {
+      if (static_cast<int>(similar->size()) != n) throw std::invalid_argument("SelectPairs: one similar list per image");
+      for (int i = 0; i < n; ++i) {
+        if (positions[i]) continue;
+        const auto& s = (*similar)[i];
+        const size_t k = std::min(s.size(), static_cast<size_t>(std::max(0, o.retrieval_neighbours)));
+        for (size_t m = 0; m < k; ++m) {
+          if (s[m] >= 0 && s[m] < n) add(i, s[m]);
+        }
+      }
+      out.method += "+retrieval";
     }
   }
   out.pairs.assign(pairs.begin(), pairs.end());

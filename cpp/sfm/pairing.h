@@ -5,7 +5,9 @@
 // by position: up to `spatial_neighbours` per image within a distance limit, and, where the
 // height above the ground is known (`ground_z`), only those whose nadir footprints overlap
 // by at least `min_overlap`. Located images are thus matched with the ones that see the same
-// ground, not with all of them.
+// ground, not with all of them. Images without a position in a set too large for every
+// pair are paired, where their global descriptors are given (sfm/retrieval), with the
+// images that look most like them.
 #pragma once
 
 #include <Eigen/Core>
@@ -31,19 +33,24 @@ struct PairingOptions {
   double focal_px = 0;
   int width_px = 0, height_px = 0;
   double min_overlap = 0.3;       // of the smaller footprint's area, heading unknown
+  int retrieval_neighbours = 8;   // most similar images per unlocated image
 };
 
 struct PairSelection {
   std::vector<std::pair<int, int>> pairs;  // i < j, sorted, unique
-  std::string method;   // "exhaustive", "sequential", "spatial", "spatial+footprint"
+  // "exhaustive", "sequential", "spatial", "spatial+footprint", each but the first with
+  // "+retrieval" when unlocated images were paired by appearance.
+  std::string method;
   int located = 0;      // images with a position
   double max_distance_m = 0;  // the limit applied (0: none)
 };
 
 // `positions[i]`: image i's position (metres, any local frame with z up), or nothing.
-// Images are in capture order.
+// Images are in capture order. `similar` (optional, sfm::MostSimilar): each image's most
+// similar images, most similar first; used for the images without a position.
 PairSelection SelectPairs(const std::vector<std::optional<Eigen::Vector3d>>& positions,
-                          const PairingOptions& options);
+                          const PairingOptions& options,
+                          const std::vector<std::vector<int>>* similar = nullptr);
 
 // The overlap of two nadir footprints (discs of the image's half-diagonal on the ground:
 // the heading is unknown), as a fraction of the smaller one's area; heights above ground

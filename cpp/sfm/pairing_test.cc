@@ -35,7 +35,9 @@ TEST(Pairing, NeighboursByPositionNotFarPairs) {
   EXPECT_FALSE(Has(s, 0, 17));  // the far end of the next line but one
   for (const auto& [i, j] : s.pairs) {
     const bool a = i >= 18, b = j >= 18;
-    if (a != b) EXPECT_EQ(j, i + 1) << i << " " << j;  // only the sequence joins the sites
+    if (a != b) {
+      EXPECT_EQ(j, i + 1) << i << " " << j;  // only the sequence joins the sites
+    }
   }
   EXPECT_LT(s.pairs.size(), 24u * 23u / 2u / 3u);
   EXPECT_DOUBLE_EQ(s.max_distance_m, 100.0);  // 10 x the median nearest distance, 10 m

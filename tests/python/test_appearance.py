@@ -26,6 +26,23 @@ def test_texture_is_deterministic_and_has_detail_at_several_scales(hf) -> None:
     assert np.abs(np.diff(grey, axis=1)).mean() > 0.5
 
 
+def test_texture_built_in_blocks_is_the_whole_arrays_texture(hf, monkeypatch) -> None:
+    """The texture is built in blocks of rows (cache-sized); the block size changes
+    nothing, to the bit, with or without the light factor."""
+    light = np.linspace(0.3, 1.0, 301 * 257, dtype=np.float32).reshape(301, 257)
+    results = []
+    for rows in (7, 32, 10_000):
+        monkeypatch.setattr(appearance, "_BLOCK_ROWS", rows)
+        results.append((appearance.albedo_grid((301, 257), 0.05, seed=2),
+                        appearance.albedo_grid((301, 257), 0.05, seed=2, light=light)))
+    for albedo, lit in results[1:]:
+        np.testing.assert_array_equal(albedo, results[0][0])
+        np.testing.assert_array_equal(lit, results[0][1])
+    albedo, lit = results[0]
+    assert lit.dtype == np.uint8
+    np.testing.assert_array_equal(lit, np.clip(albedo * light[..., None], 0, 255).astype(np.uint8))
+
+
 def test_lambertian_shading_follows_the_sun(hf) -> None:
     light = appearance.Lighting(sun_azimuth_rad=np.deg2rad(90), sun_elevation_rad=np.deg2rad(30))
     n = appearance.normals(hf)

@@ -135,6 +135,30 @@ def test_without_gps_the_frame_is_arbitrary_and_runs_repeat(site: Path, tmp_path
         np.testing.assert_allclose(numbers(a), numbers(b), rtol=1e-9, atol=1e-9)
 
 
+def test_retrieval_registers_an_unlocated_set_in_no_order(site: Path, tmp_path: Path) -> None:
+    """Images without positions under names that say nothing of the capture order: pairs
+    come from VLAD retrieval alone (no sequence window), fewer than every pair, they see
+    the same ground, and every image is registered."""
+    sub = tmp_path / "images"
+    sub.mkdir()
+    files = sorted((site / "images").iterdir())
+    order = np.random.default_rng(5).permutation(len(files))
+    for k, f in zip(order, files, strict=True):
+        shutil.copy(f, sub / f"img_{k:02d}.png")
+    r = run_recon(["reconstruct", str(sub), "--out", str(tmp_path / "out"), "--camera",
+                   str(site / "camera.json"), "--matching", "retrieval", "--window", "0",
+                   "--neighbours", "3", "--threads", "2"])
+    assert r.returncode == 0, r.stderr
+    doc = json.loads((tmp_path / "out" / "recon.json").read_text())
+    n = len(files)
+    assert doc["inputs"]["pairing"] == "sequential+retrieval"
+    assert doc["inputs"]["pairs_matched"] <= 3 * n < n * (n - 1) // 2
+    # Retrieved pairs see the same ground: all but one verified (of every pair of this
+    # orbit, 48 of 66 are: a random choice would fail about a quarter).
+    assert doc["inputs"]["pairs_verified"] >= doc["inputs"]["pairs_matched"] - 1
+    assert doc["registered"] == n
+
+
 def bad_inputs(site: Path, tmp: Path) -> list[tuple[str, list[str], int, str]]:
     images = site / "images"
     one = tmp / "one"

@@ -2,7 +2,8 @@
 (PyPI pycolmap, its incremental mapper) on the same images in the same run.
 
     .venv/bin/python tools/bench/bench_recon.py [--sets fountain,caliterra,sim] [--colmap]
-        [--reps 1] [--threads 2] [--features sift|klt] [--matching auto|exhaustive|sequential]
+        [--reps 1] [--threads 2] [--features sift|klt]
+        [--matching auto|exhaustive|sequential|retrieval]
         [--out runs/bench_recon]
 
 fountain: Strecha fountain-P11 (11 images 3072 x 2048, K.txt): registered images and the
@@ -152,7 +153,7 @@ def main() -> int:
     ap.add_argument("--sets", default="fountain,caliterra,sim,flat")
     ap.add_argument("--features", default="sift", help="sift or klt (mound_recon --features)")
     ap.add_argument("--matching", default="auto",
-                    help="auto, exhaustive or sequential (mound_recon --matching)")
+                    help="auto, exhaustive, sequential or retrieval (mound_recon --matching)")
     ap.add_argument("--colmap", action="store_true", help="run pycolmap on the same images")
     ap.add_argument("--reps", type=int, default=1)
     ap.add_argument("--threads", type=int, default=2)

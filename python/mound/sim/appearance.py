@@ -44,62 +44,119 @@ class Lighting:
                          np.sin(self.sun_elevation_rad)])
 
 
-def _value_noise(shape: tuple[int, int], cells: int, rng: np.random.Generator) -> np.ndarray:
+# Rows per block when a texture is built: every field of a block stays in the cache while
+# the octaves, colours and light are combined (the result is the same as whole arrays).
+_BLOCK_ROWS = 32
+
+
+class _ValueNoise:
     """Smooth noise in [0, 1]: random values on a (cells+1)^2 lattice, bicubic-smoothstep
-    interpolated to `shape`."""
-    lattice = rng.random((cells + 1, cells + 1))
-    fy = np.linspace(0, cells, shape[0], endpoint=False)
-    fx = np.linspace(0, cells, shape[1], endpoint=False)
-    i, j = fy.astype(int), fx.astype(int)
-    ty, tx = fy - i, fx - j
-    ty = (ty * ty * (3 - 2 * ty)).astype(np.float32)[:, None]
-    tx = (tx * tx * (3 - 2 * tx)).astype(np.float32)
-    # Separable: along x on the lattice rows, then along y.
-    along_x = (lattice[:, j] * (1 - tx) + lattice[:, j + 1] * tx).astype(np.float32)
-    top = along_x[i]
-    top += (along_x[i + 1] - top) * ty
-    return top
+    interpolated to `shape`; the lattice is drawn on construction, rows on demand."""
+
+    def __init__(self, shape: tuple[int, int], cells: int, rng: np.random.Generator) -> None:
+        lattice = rng.random((cells + 1, cells + 1))
+        fy = np.linspace(0, cells, shape[0], endpoint=False)
+        fx = np.linspace(0, cells, shape[1], endpoint=False)
+        self.i, j = fy.astype(int), fx.astype(int)
+        ty, tx = fy - self.i, fx - j
+        self.ty = (ty * ty * (3 - 2 * ty)).astype(np.float32)[:, None]
+        tx = (tx * tx * (3 - 2 * tx)).astype(np.float32)
+        # Separable: along x on the lattice rows, then along y.
+        self.along_x = (lattice[:, j] * (1 - tx) + lattice[:, j + 1] * tx).astype(np.float32)
+
+    def rows(self, r0: int, r1: int) -> np.ndarray:
+        i = self.i[r0:r1]
+        top = self.along_x[i]
+        top += (self.along_x[i + 1] - top) * self.ty[r0:r1]
+        return top
+
+
+def _value_noise(shape: tuple[int, int], cells: int, rng: np.random.Generator) -> np.ndarray:
+    """Smooth noise in [0, 1] on `shape` (see _ValueNoise)."""
+    return _ValueNoise(shape, cells, rng).rows(0, shape[0])
+
+
+class _Octaves:
+    """Sum of value-noise octaves (wavelength halving from `longest_m` down to
+    `shortest_m`), octave k weighted decay^k, centred on 0; lattices drawn on construction."""
+
+    def __init__(self, shape: tuple[int, int], size_m: float, longest_m: float,
+                 shortest_m: float, decay: float, rng: np.random.Generator) -> None:
+        self.shape = shape
+        self.octaves: list[tuple[float, _ValueNoise]] = []
+        cells, weight = max(1, int(round(size_m / longest_m))), 1.0
+        while size_m / cells >= shortest_m and cells <= max(shape) // 2:
+            self.octaves.append((weight, _ValueNoise(shape, cells, rng)))
+            cells *= 2
+            weight *= decay
+
+    def rows(self, r0: int, r1: int) -> np.ndarray:
+        out = np.zeros((r1 - r0, self.shape[1]), dtype=np.float32)
+        for weight, noise in self.octaves:
+            out += weight * (noise.rows(r0, r1) - 0.5)
+        return out
 
 
 def _octaves(shape: tuple[int, int], size_m: float, longest_m: float, shortest_m: float,
              decay: float, rng: np.random.Generator) -> np.ndarray:
-    """Sum of value-noise octaves (wavelength halving from `longest_m` down to
-    `shortest_m`), octave k weighted decay^k, centred on 0."""
-    out = np.zeros(shape, dtype=np.float32)
-    cells, weight = max(1, int(round(size_m / longest_m))), 1.0
-    while size_m / cells >= shortest_m and cells <= max(shape) // 2:
-        out += weight * (_value_noise(shape, cells, rng) - 0.5)
-        cells *= 2
-        weight *= decay
-    return out
+    """The octaves of _Octaves on the whole of `shape`."""
+    return _Octaves(shape, size_m, longest_m, shortest_m, decay, rng).rows(0, shape[0])
 
 
-def albedo_grid(shape: tuple[int, int], texel_m: float, seed: int = 0) -> np.ndarray:
-    """(ny, nx, 3) float32 albedo in [0, 255] on a grid of `shape` with `texel_m` spacing.
+def _blocks(n: int) -> list[tuple[int, int]]:
+    return [(r, min(n, r + _BLOCK_ROWS)) for r in range(0, n, _BLOCK_ROWS)]
+
+
+def albedo_grid(shape: tuple[int, int], texel_m: float, seed: int = 0,
+                light: np.ndarray | None = None) -> np.ndarray:
+    """(ny, nx, 3) float32 albedo in [0, 255] on a grid of `shape` with `texel_m` spacing
+    (with `light`, an (ny, nx) factor: uint8 albedo x light, clipped, instead).
 
     Scales are in texels, so the texture suits a camera whose ground pixel is about one
     texel at any preset (at 5 cm texels: coarse soil brightness from a quarter of the site
     down to 4 m, grass patches; fine detail a standardised sum of octaves from 2 m down to
     two texels (+-22 % brightness), dark tufts up to 0.6 m, scattered 2x2-texel stones),
-    so that every image window of a few pixels has texture to track."""
+    so that every image window of a few pixels has texture to track. Built in blocks of
+    rows (the lattices are drawn first, in a fixed order, so the result is the seed's)."""
     rng = np.random.default_rng(seed + 7919)
     size_m = (max(shape) - 1) * texel_m
-    coarse = 0.5 + _octaves(shape, size_m, size_m / 4, 80 * texel_m, 0.6, rng)
-    fine = _octaves(shape, size_m, 40 * texel_m, 2 * texel_m, 0.85, rng)
+    coarse = _Octaves(shape, size_m, size_m / 4, 80 * texel_m, 0.6, rng)
+    fine_oct = _Octaves(shape, size_m, 40 * texel_m, 2 * texel_m, 0.85, rng)
+    # The fine detail is standardised over the whole grid: built first.
+    fine = np.empty(shape, dtype=np.float32)
+    for r0, r1 in _blocks(shape[0]):
+        fine[r0:r1] = fine_oct.rows(r0, r1)
     fine /= max(float(fine.std()), 1e-6)
-    grass_mask = np.clip((_value_noise(shape, 6, rng) - 0.45) * 6, 0, 1).astype(np.float32)
-    tufts = _octaves(shape, size_m, 12 * texel_m, 2 * texel_m, 0.7, rng)
-    tufts = np.clip((tufts - 0.12) * 8, 0, 1)
-    brightness = (0.6 + 0.8 * coarse) * (1 + 0.22 * fine) * (1 - 0.35 * tufts)
-    colour = (SOIL.astype(np.float32) * (1 - grass_mask[..., None]) +
-              GRASS.astype(np.float32) * grass_mask[..., None]) * brightness[..., None]
+    grass = _ValueNoise(shape, 6, rng)
+    tufts_oct = _Octaves(shape, size_m, 12 * texel_m, 2 * texel_m, 0.7, rng)
     seeds = rng.random(shape) < 0.003
     stones = seeds.copy()  # 2x2 texels each
     stones[1:, :] |= seeds[:-1, :]
     stones[:, 1:] |= seeds[:, :-1]
     stones[1:, 1:] |= seeds[:-1, :-1]
-    colour[stones] = STONE * rng.uniform(0.75, 1.1, size=(int(stones.sum()), 1))
-    return np.clip(colour, 0, 255)
+    stone_colours = (STONE * rng.uniform(0.75, 1.1, size=(int(stones.sum()), 1))
+                     ).astype(np.float32)
+    soil, grass_rgb = SOIL.astype(np.float32), GRASS.astype(np.float32)
+    out = np.empty((*shape, 3), dtype=np.float32 if light is None else np.uint8)
+    used = 0
+    for r0, r1 in _blocks(shape[0]):
+        grass_mask = np.clip((grass.rows(r0, r1) - 0.45) * 6, 0, 1).astype(np.float32)
+        tufts = np.clip((tufts_oct.rows(r0, r1) - 0.12) * 8, 0, 1)
+        brightness = ((0.6 + 0.8 * (0.5 + coarse.rows(r0, r1))) * (1 + 0.22 * fine[r0:r1])
+                      * (1 - 0.35 * tufts))
+        colour = (soil * (1 - grass_mask[..., None]) +
+                  grass_rgb * grass_mask[..., None]) * brightness[..., None]
+        here = stones[r0:r1]
+        n = int(here.sum())
+        colour[here] = stone_colours[used:used + n]
+        used += n
+        np.clip(colour, 0, 255, out=colour)
+        if light is None:
+            out[r0:r1] = colour
+        else:
+            colour *= light[r0:r1, :, None]
+            out[r0:r1] = np.clip(colour, 0, 255).astype(np.uint8)
+    return out
 
 
 def albedo(hf: Heightfield, seed: int = 0) -> np.ndarray:
@@ -136,9 +193,7 @@ def shaded_texture(hf: Heightfield, lighting: Lighting, texel_m: float, seed: in
     s = lighting.sun_vector()
     vertex_light = lighting.ambient + (1 - lighting.ambient) * np.clip(normals(hf) @ s, 0, None)
     light = _refine(vertex_light.astype(np.float32), f)
-    out = albedo_grid(shape, texel_m, seed)
-    out *= light[..., None]
-    return np.clip(out, 0, 255).astype(np.uint8)
+    return albedo_grid(shape, texel_m, seed, light=light)
 
 
 def _refine(grid: np.ndarray, f: int) -> np.ndarray:
