@@ -106,7 +106,11 @@ ReconstructResult Reconstruct(const ReconstructOptions& o) {
     features = std::move(k.features);
     tracked = std::move(k.consecutive);
   } else {
+    // One image per thread, and OpenCV's SIFT loops inside it single-threaded: --threads N
+    // uses N cores (two sites on two cores do not oversubscribe them).
+    sfm::SetLibraryThreads(1);
     ParallelFor(n, threads, [&](int i) { features[i] = sfm::ExtractFeatures(dir + "/" + files[i], fo); });
+    sfm::SetLibraryThreads(threads);
   }
   for (int i = 1; i < n; ++i) {
     if (features[i].width != features[0].width || features[i].height != features[0].height) {

@@ -76,6 +76,8 @@ ImageFeatures Sift(const Loaded& l, int max_features) {
 
 }  // namespace
 
+void SetLibraryThreads(int threads) { cv::setNumThreads(threads > 0 ? threads : -1); }
+
 ImageFeatures ExtractFeatures(const std::string& path, const FeatureOptions& o) {
   return Sift(Load(path, o.max_image_size), o.max_features);
 }

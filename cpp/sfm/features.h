@@ -32,6 +32,11 @@ struct FeatureOptions {
   int max_features = 8000;
 };
 
+// OpenCV's own parallel loops (inside SIFT, resizing, RANSAC) use at most `threads` threads
+// from now on (0: OpenCV's default, every core), so that a tool run with --threads N uses N
+// cores, not N times the cores. Process-wide: call it before the work, not during it.
+void SetLibraryThreads(int threads);
+
 // InputError naming the file when it cannot be read as an image.
 ImageFeatures ExtractFeatures(const std::string& path, const FeatureOptions& options);
 // The same on an 8-bit grey image in memory (row-major, no downscaling; colours grey).
