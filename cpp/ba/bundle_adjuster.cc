@@ -60,18 +60,25 @@ Summary Adjust(Problem* p, const Options& o) {
   s.initial_rmse_px = RmseReprojection(*p);
   std::vector<PoseBlocks> poses;
   for (const geometry::Rigid3d& v : p->cam_from_world) poses.push_back(ToBlocks(v));
-  ceres::Problem problem;
+  // One robust loss for every residual (the problem does not own it) instead of one
+  // allocation per observation; the blocks' sizes are fixed by construction, so Ceres'
+  // per-block checks are skipped.
+  ceres::HuberLoss loss(o.huber_px);
+  ceres::Problem::Options po;
+  po.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  po.disable_all_safety_checks = true;
+  ceres::Problem problem(po);
   std::array<double, 3> intrinsics{p->camera.fx, p->camera.dist[0], p->camera.dist[1]};
   for (const Observation& ob : p->observations) {
     if (o.refine_intrinsics) {
       problem.AddResidualBlock(ReprojectionErrorWithIntrinsics::Create(ob.px.x(), ob.px.y(), p->camera),
-                               new ceres::HuberLoss(o.huber_px), poses[ob.view].rotation.data(),
+                               &loss, poses[ob.view].rotation.data(),
                                poses[ob.view].translation.data(), p->points[ob.point].data(),
                                intrinsics.data());
     } else {
-      problem.AddResidualBlock(ReprojectionError::Create(ob.px.x(), ob.px.y(), p->camera),
-                               new ceres::HuberLoss(o.huber_px), poses[ob.view].rotation.data(),
-                               poses[ob.view].translation.data(), p->points[ob.point].data());
+      problem.AddResidualBlock(ReprojectionError::Create(ob.px.x(), ob.px.y(), p->camera), &loss,
+                               poses[ob.view].rotation.data(), poses[ob.view].translation.data(),
+                               p->points[ob.point].data());
     }
   }
   std::vector<bool> constant(nv, false);

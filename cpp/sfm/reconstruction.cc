@@ -402,7 +402,10 @@ class Mapper {
     bo.fixed_view = sp.view_of[r_.init_image1];
     bo.scale_view = sp.view_of[r_.init_image2];
     bo.max_iterations = max_iterations;
-    bo.function_tolerance = max_iterations > 50 ? 1e-7 : 1e-6;
+    // 1e-6 for the last one too: with the intrinsics refined, 1e-7 took Caliterra's last
+    // adjustment from 40 to 90 iterations (4.3 instead of 1.9 s) for a cost 0.002 % lower
+    // and a focal length 0.03 px apart; with a known camera it changed nothing.
+    bo.function_tolerance = 1e-6;
     bo.refine_intrinsics = o_.refine_intrinsics && r_.NumRegistered() >= 3;
     Solve(&sp, bo);
     ++r_.ba_runs;
