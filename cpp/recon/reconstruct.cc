@@ -9,6 +9,7 @@
 
 #include "common/error.h"
 #include "common/parallel.h"
+#include "common/timing.h"
 #include "geometry/geodesy.h"
 #include "recon/exif.h"
 #include "recon/inputs.h"
@@ -18,10 +19,6 @@
 
 namespace mound::recon {
 namespace {
-
-using Clock = std::chrono::steady_clock;
-
-double Since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
 std::vector<std::string> ListImages(const std::string& dir) {
   namespace fs = std::filesystem;
@@ -178,15 +175,13 @@ ReconstructResult Reconstruct(const ReconstructOptions& o) {
         if (g != gps->enu_m.end()) positions[i] = g->second;
       }
     }
-    // Images without a position in a set too large for every pair: paired by appearance
-    // too (sfm/retrieval), as are all images with --matching retrieval.
-    int located = 0;
-    for (const auto& p : positions) located += p.has_value();
+    // Images without a position in a set too large for every pair are paired by
+    // appearance too (sfm/retrieval), as are all images with --matching retrieval (no
+    // positions, no exhaustive set); never with sequential or exhaustive matching.
+    po.retrieval_neighbours = matching == "sequential" || matching == "exhaustive" ? 0 : neighbours;
     std::optional<std::vector<std::vector<int>>> similar;
-    const bool exhaustive = located < 2 && n <= po.exhaustive_up_to;
-    if (matching == "retrieval" || (matching == "auto" && located < n && !exhaustive)) {
+    if (sfm::PairsByAppearance(positions, po)) {
       const auto tr = Clock::now();
-      po.retrieval_neighbours = neighbours;
       similar = sfm::MostSimilar(sfm::GlobalDescriptors(features), neighbours);
       timings["retrieval_s"] = Since(tr);
     }

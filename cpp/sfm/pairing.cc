@@ -22,16 +22,32 @@ double FootprintOverlap(double h1, double h2, double d, double focal_px, int wid
   return area / (M_PI * small * small);
 }
 
+namespace {
+
+int Located(const std::vector<std::optional<Eigen::Vector3d>>& positions) {
+  return static_cast<int>(std::count_if(positions.begin(), positions.end(), [](const auto& p) { return p.has_value(); }));
+}
+
+// Every pair: an unlocated set this small.
+bool Exhaustive(int located, int n, const PairingOptions& o) { return located < 2 && n <= o.exhaustive_up_to; }
+
+}  // namespace
+
+bool PairsByAppearance(const std::vector<std::optional<Eigen::Vector3d>>& positions, const PairingOptions& o) {
+  const int n = static_cast<int>(positions.size()), located = Located(positions);
+  return o.retrieval_neighbours > 0 && located < n && !Exhaustive(located, n, o);
+}
+
 PairSelection SelectPairs(const std::vector<std::optional<Eigen::Vector3d>>& positions,
                           const PairingOptions& o, const std::vector<std::vector<int>>* similar) {
   const int n = static_cast<int>(positions.size());
   PairSelection out;
-  for (const auto& p : positions) out.located += p.has_value();
+  out.located = Located(positions);
   std::set<std::pair<int, int>> pairs;
   auto add = [&](int i, int j) {
     if (i != j) pairs.insert({std::min(i, j), std::max(i, j)});
   };
-  if (out.located < 2 && n <= o.exhaustive_up_to) {
+  if (Exhaustive(out.located, n, o)) {
     for (int i = 0; i < n; ++i)
       for (int j = i + 1; j < n; ++j) add(i, j);
     out.method = "exhaustive";
@@ -80,7 +96,7 @@ PairSelection SelectPairs(const std::vector<std::optional<Eigen::Vector3d>>& pos
         for (size_t m = 0; m < k; ++m) add(i, near[m].second);
       }
     }
-    if (similar && out.located < n) {
+    if (similar && PairsByAppearance(positions, o)) {
       if (static_cast<int>(similar->size()) != n) throw std::invalid_argument("SelectPairs: one similar list per image");
       for (int i = 0; i < n; ++i) {
         if (positions[i]) continue;

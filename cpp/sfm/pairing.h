@@ -46,8 +46,14 @@ struct PairSelection {
 };
 
 // `positions[i]`: image i's position (metres, any local frame with z up), or nothing.
+// Whether SelectPairs pairs some images by appearance: `retrieval_neighbours` > 0 and some
+// image has no position, in a set beyond every pair (so `similar` is worth computing).
+bool PairsByAppearance(const std::vector<std::optional<Eigen::Vector3d>>& positions,
+                       const PairingOptions& options);
+
 // Images are in capture order. `similar` (optional, sfm::MostSimilar): each image's most
-// similar images, most similar first; used for the images without a position.
+// similar images, most similar first; used for the images without a position when
+// PairsByAppearance.
 PairSelection SelectPairs(const std::vector<std::optional<Eigen::Vector3d>>& positions,
                           const PairingOptions& options,
                           const std::vector<std::vector<int>>* similar = nullptr);

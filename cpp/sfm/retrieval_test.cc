@@ -90,6 +90,7 @@ TEST(Retrieval, UnlocatedImagesArePairedByAppearanceAndTheSetIsConnected) {
   po.sequence_window = 0;    // capture order says nothing here
   po.retrieval_neighbours = 4;
   const std::vector<std::optional<Eigen::Vector3d>> none(kImages);
+  EXPECT_TRUE(PairsByAppearance(none, po));
   const PairSelection sel = SelectPairs(none, po, &similar);
   EXPECT_EQ(sel.method, "sequential+retrieval");
   EXPECT_LE(sel.pairs.size(), size_t{kImages * 4});
@@ -111,6 +112,20 @@ TEST(Retrieval, UnlocatedImagesArePairedByAppearanceAndTheSetIsConnected) {
   // Without descriptors the same set falls back to the sequence alone (here: nothing).
   EXPECT_EQ(SelectPairs(none, po).method, "sequential");
   EXPECT_TRUE(SelectPairs(none, po).pairs.empty());
+  // Retrieval is asked for only where it is used: not for a set small enough for every
+  // pair, not when every image is located, not with no retrieval neighbours.
+  PairingOptions small = po;
+  small.exhaustive_up_to = kImages;
+  EXPECT_FALSE(PairsByAppearance(none, small));
+  EXPECT_EQ(SelectPairs(none, small, &similar).method, "exhaustive");
+  std::vector<std::optional<Eigen::Vector3d>> all(kImages);
+  for (int i = 0; i < kImages; ++i) all[i] = Eigen::Vector3d(10.0 * i, 0, 50);
+  EXPECT_FALSE(PairsByAppearance(all, po));
+  EXPECT_EQ(SelectPairs(all, po, &similar).method, "spatial");
+  PairingOptions off = po;
+  off.retrieval_neighbours = 0;
+  EXPECT_FALSE(PairsByAppearance(none, off));
+  EXPECT_EQ(SelectPairs(none, off, &similar).method, "sequential");
 }
 
 TEST(Retrieval, EmptyAndDegenerateInputs) {
