@@ -15,6 +15,7 @@
 #include "common/error.h"
 #include "common/json_util.h"
 #include "common/stats.h"
+#include "common/timing.h"
 #include "geometry/ply.h"
 #include "icp/icp.h"
 #include "recon/recon_io.h"
@@ -23,9 +24,6 @@
 
 namespace mound::recon {
 namespace {
-
-using Clock = std::chrono::steady_clock;
-double Since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
 nlohmann::json SimJson(const geometry::Sim3d& s) {
   const Eigen::Matrix3d R = s.rotation.toRotationMatrix();

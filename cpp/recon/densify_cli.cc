@@ -12,6 +12,7 @@
 #include "common/stats.h"
 #include "common/json_util.h"
 #include "common/parallel.h"
+#include "common/timing.h"
 #include "geometry/json_io.h"
 #include "geometry/ply.h"
 #include "mvs/dense.h"
@@ -19,10 +20,6 @@
 
 namespace mound::recon {
 namespace {
-
-using Clock = std::chrono::steady_clock;
-
-double Since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
 // The model's camera, registered images and sparse points (validated).
 mvs::DenseInput ReadModel(const std::string& dir, const nlohmann::json& recon, const std::string& images_dir,

@@ -1,7 +1,5 @@
 #include "sfm/features.h"
 
-#include "sfm/cascade_hash.h"
-
 #include <algorithm>
 #include <cmath>
 #include <cstring>

@@ -62,7 +62,7 @@ MatchList MatchDescriptors(const ImageFeatures& a, const ImageFeatures& b, float
 // first use, and shared by every pair it is in; the backward search of the mutual check
 // runs only for the matches that passed the ratio test. The index: FLANN randomised k-d
 // trees (4 trees, 64 checks) for 1,000 descriptors or more, brute force below; or cascade
-// hashing (cascade_hash.h: codes centred on the set's mean descriptor, the 10 nearest in
+// hashing (cascade_hash.h: codes centred on the set's mean descriptor, the 20 nearest in
 // Hamming distance compared exactly). Match() is thread-safe and its result does not
 // depend on the order of calls or on the threads.
 enum class MatcherKind { kFlann, kCascadeHash };

@@ -71,11 +71,6 @@ class _ValueNoise:
         return top
 
 
-def _value_noise(shape: tuple[int, int], cells: int, rng: np.random.Generator) -> np.ndarray:
-    """Smooth noise in [0, 1] on `shape` (see _ValueNoise)."""
-    return _ValueNoise(shape, cells, rng).rows(0, shape[0])
-
-
 class _Octaves:
     """Sum of value-noise octaves (wavelength halving from `longest_m` down to
     `shortest_m`), octave k weighted decay^k, centred on 0; lattices drawn on construction."""
@@ -95,12 +90,6 @@ class _Octaves:
         for weight, noise in self.octaves:
             out += weight * (noise.rows(r0, r1) - 0.5)
         return out
-
-
-def _octaves(shape: tuple[int, int], size_m: float, longest_m: float, shortest_m: float,
-             decay: float, rng: np.random.Generator) -> np.ndarray:
-    """The octaves of _Octaves on the whole of `shape`."""
-    return _Octaves(shape, size_m, longest_m, shortest_m, decay, rng).rows(0, shape[0])
 
 
 def _blocks(n: int) -> list[tuple[int, int]]:
