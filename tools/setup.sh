@@ -42,6 +42,9 @@ want=$(cat python/requirements.txt python/pyproject.toml | sha256sum | cut -d' '
 have=$(cat .venv/.requirements.sha256 2>/dev/null || true)
 if [ "$want" != "$have" ]; then
   echo "setup: installing Python packages into .venv"
+  # No pip cache: the wheels (open3d, pycolmap, scipy, ...) would be kept a second time in
+  # ~/.cache/pip, about 0.7 GB that a CI machine short of disk cannot spare.
+  export PIP_NO_CACHE_DIR=1
   .venv/bin/python -m pip install -q --upgrade pip
   .venv/bin/python -m pip install -q -r python/requirements.txt
   .venv/bin/python -m pip install -q --no-deps -e python/
