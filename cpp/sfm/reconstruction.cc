@@ -171,6 +171,9 @@ class Mapper {
     int tried = 0;
     for (const VerifiedPair* p : cand) {
       if (tried >= 30) break;
+      // A pair's score counts some of its inliers, and the candidates come by inlier count:
+      // none of the rest can beat the best so far.
+      if (static_cast<int>(p->inliers.size()) <= best_score) break;
       // A pair a homography explains (planar scene or pure rotation) has little parallax.
       if (p->homography_inliers > 0.95 * p->inliers.size() && tried + 1 < static_cast<int>(cand.size())) continue;
       ++tried;

@@ -32,7 +32,8 @@ from typing import Any
 
 import numpy as np
 from scipy import ndimage
-from scipy.interpolate import griddata
+from scipy.interpolate import LinearNDInterpolator
+from scipy.spatial import cKDTree
 
 from mound.errors import InputError
 from mound.geometry.camera import Camera, Pose, project
@@ -169,12 +170,25 @@ def ground_model(zmin: np.ndarray, res: float, window_m: float = 80.0, slope: fl
     rows, cols = np.nonzero(ground)
     if rows.size < 3:
         raise InputError("cloud: too few ground cells to model the terrain")
-    rr, cc = np.mgrid[0:zmin.shape[0], 0:zmin.shape[1]]
-    pts = np.stack([rows, cols], axis=1).astype(float)
-    vals = zmin[rows, cols]
-    dtm = griddata(pts, vals, (rr, cc), method="linear")
-    near = griddata(pts, vals, (rr, cc), method="nearest")
-    dtm = np.where(np.isnan(dtm), near, dtm)
+    # Ground cells keep their minima; the others are interpolated linearly over a Delaunay
+    # triangulation of the ground cells, and outside its hull take the nearest ground cell.
+    # Only the ground cells beside another cell or the grid's edge are triangulated: a
+    # triangle across a gap has its corners on the gap's rim (and the hull's corners are rim
+    # cells too), and qhull on every cell of a regular grid took most of a second.
+    dtm = np.where(ground, zmin, np.nan)
+    todo = np.argwhere(~ground).astype(float)
+    if len(todo):
+        rim = ground & ndimage.binary_dilation(~ground, structure=np.ones((3, 3), bool))
+        rim[[0, -1], :] |= ground[[0, -1], :]
+        rim[:, [0, -1]] |= ground[:, [0, -1]]
+        rows, cols = np.nonzero(rim)
+        pts = np.stack([rows, cols], axis=1).astype(float)
+        vals = zmin[rows, cols]
+        z = LinearNDInterpolator(pts, vals)(todo)
+        out = np.isnan(z)
+        if out.any():
+            z[out] = vals[cKDTree(pts).query(todo[out])[1]]
+        dtm[~ground] = z
     return dtm, ground
 
 
