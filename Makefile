@@ -13,7 +13,7 @@ ifeq ($(origin MOUND_DATA),undefined)
 endif
 
 .PHONY: all build setup test test-cpp test-python lint demo demo-stages figures bench clean \
-        fuzz fuzz-smoke test-asan
+        fuzz fuzz-smoke test-asan docs
 
 all: build
 
@@ -27,7 +27,7 @@ build: setup
 	cmake -S . -B $(BUILD) -G Ninja -DCMAKE_BUILD_TYPE=Release
 	cmake --build $(BUILD) -j $(JOBS)
 
-test: build test-cpp test-python lint
+test: build test-cpp test-python lint docs
 
 test-cpp: build
 	cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
@@ -37,6 +37,11 @@ test-python: build
 
 lint: setup
 	$(VENV)/bin/ruff check python tests tools
+
+# The documentation site (docs/, mkdocs.yml) into $(BUILD)/site: strict, and the
+# command-line pages generated from the tools of this build.
+docs: build
+	MOUND_BUILD_DIR=$(abspath $(BUILD)) $(VENV)/bin/mkdocs build --strict --quiet --site-dir $(abspath $(BUILD))/site
 
 # Fuzzing (tools/fuzz/run.sh): the libFuzzer targets (clang, ASan + UBSan) in build-fuzz/,
 # FUZZ_SECONDS per target (the sites target 2.5 times that), then the Python readers with
@@ -94,7 +99,7 @@ demo-stages: build
 	./$(BUILD)/mound_recon verdict runs/demo/recon_tumulus --out runs/demo/recon_tumulus/verdict.json
 	./$(BUILD)/mound_recon verdict runs/demo/recon_tumulus --reference runs/demo/site_tumulus/reference.ply --out runs/demo/recon_tumulus/verdict_paper.json
 
-# The README's figures of the site simulator (docs/figures/).
+# The figures of the docs (docs/figures/): the site simulator and the 3-D stage.
 figures: build
 	$(VENV)/bin/mound sim site --mound tumulus --seed 1 --out runs/figures/site_tumulus
 	$(VENV)/bin/mound sim site --mound none --seed 1 --out runs/figures/site_flat

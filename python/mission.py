@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""The whole survey in one command (see `python python/mission.py --help`, README).
+"""The whole survey in one command (see `python python/mission.py --help`, docs/survey.md).
 
 Works with whatever `python` comes first on PATH: unless it already is the project's
 .venv interpreter, it re-executes itself under .venv/bin/python (made by `make` /

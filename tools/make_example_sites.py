@@ -4,7 +4,7 @@ A 10 x 10 grid of candidate sites at x, y = 1..10 m (ENU, metres), home at the o
 scan (node) cost 1 m per site, budget 120 m. Each site gets a mound probability p drawn
 from a Beta(0.5, 0.5) with a fixed seed, and the reward is the binary entropy H(p) in
 bits, as the coarse-search stage assigns it. Until that stage produces real fields, this
-file is the example the README runs.
+file is the example the README and docs/install.md run.
 
     python3 tools/make_example_sites.py data/sites.json
 """

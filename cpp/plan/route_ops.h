@@ -20,7 +20,7 @@ struct ReorderOptions {
   // nodes, else LKH's default 5. On the paper's unit-grid fields at B = 200 (~100 nodes per
   // re-order, many equal costs) sequential 5-opt spends 3x longer for routes of the same
   // reward; on random fields of 1,000 and 10,000 sites (routes of 200-600 nodes) 3-opt
-  // loses 0.4-0.6 % of NewAlg's reward (README, "NewAlg speed").
+  // loses 0.4-0.6 % of NewAlg's reward (docs/results.md, "NewAlg speed").
   int move_k = 5;
   int small_route_move_k = 3;
   int small_route_nodes = 128;

@@ -36,7 +36,7 @@ using CandidateSet = std::vector<std::vector<Candidate>>;
 // Above this many nodes the ascent is bounded (kLargeAscentPeriod, kLargeAscentCandidates
 // unless set): LKH's full ascent (INITIAL_PERIOD n/2 on 50 candidates) takes 12,522
 // iterations and 269 s at 10,000 nodes, the bounded one ~1,400 iterations and 12 s for a
-// bound 0.1 % lower (README, "LKH at 10,000 nodes").
+// bound 0.1 % lower (docs/results.md, "LKH at 10,000 nodes").
 constexpr int kLargeAscentNodes = 5000;
 constexpr int kLargeAscentPeriod = 300;
 constexpr int kLargeAscentCandidates = 15;

@@ -52,7 +52,7 @@ def test_paper_setting_matches_the_papers_total_reward(shared_data) -> None:
     model, t, total = paper_classifier(trn, test, fields)
     assert total == pytest.approx(PAPER["total_reward_per_field"], abs=1e-3)
     assert mean_total_reward(model, test, fields) == pytest.approx(total, abs=1e-12)
-    assert 13 < t < 14  # README: between 10 and 30 iterations
+    assert 13 < t < 14  # docs/results.md, Table I: between 10 and 30 iterations
     converged = coarse.train(trn, coarse.DEFAULT_BAND)
     assert mean_total_reward(converged, test, fields) < 15  # ours: about 12 bits
 

@@ -83,7 +83,7 @@ def main() -> int:
     ap.add_argument("--reps", type=int, default=3)
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--out", default="runs/bench_densify")
-    ap.add_argument("--figure", help="write the README's figure of the rasters here")
+    ap.add_argument("--figure", help="write the docs' figure of the rasters here (docs/figures/)")
     ap.add_argument("densify_args", nargs="*", help="extra mound_recon densify options (after --)")
     a = ap.parse_args()
     out = REPO_ROOT / a.out

@@ -12,7 +12,7 @@ from mound.classify.model import Model
 from mound.classify.statlog import Split
 
 DEFAULT_L2 = 1e-4
-DEFAULT_BAND = 1  # red: best held-out AUC on sat.trn (`mound classify bands`, README)
+DEFAULT_BAND = 1  # red: best held-out AUC on sat.trn (`mound classify bands`, docs/stages.md)
 
 
 def train(data: Split, band: int | None, solver: str = "gd", l2: float = DEFAULT_L2,

@@ -77,7 +77,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="distance between neighbouring sites of the field, m")
     g.add_argument("--sites", help="your own sites instead: a mound.sites JSON or a GeoJSON "
                    "FeatureCollection of points (a 'home' feature, then sites with p_mound, "
-                   "optional reward and truth); see README")
+                   "optional reward and truth); see docs/survey.md")
     g.add_argument("--budget", type=float, help="flight distance budget, m (default: the "
                    "sites file's budget_m, else the aircraft's range, 14,400 m)")
     g = p.add_argument_group("satellite scene (instead of the field or --sites)")

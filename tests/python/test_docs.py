@@ -1,0 +1,84 @@
+"""The documentation stays a front door plus docs/: the README's size and links, and the
+layering the architecture page draws (read from the code by tools/docs/hooks.py)."""
+
+from __future__ import annotations
+
+import importlib.util
+import re
+from pathlib import Path
+
+import pytest
+from markdown.extensions.toc import slugify
+
+ROOT = Path(__file__).resolve().parents[2]
+LINK = re.compile(r"\]\(([^)\s]+)\)")
+
+
+def _hooks():
+    spec = importlib.util.spec_from_file_location("docs_hooks", ROOT / "tools/docs/hooks.py")
+    assert spec and spec.loader
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def _anchors(md: Path) -> set[str]:
+    fence, out = False, set()
+    for line in md.read_text(encoding="utf-8").splitlines():
+        if line.startswith("```"):
+            fence = not fence
+        elif not fence and line.startswith("#"):
+            title = line.lstrip("#").strip().replace("`", "")
+            out.add(slugify(title, "-"))
+    return out
+
+
+def test_the_readme_is_a_front_door() -> None:
+    lines = (ROOT / "README.md").read_text(encoding="utf-8").splitlines()
+    assert len(lines) <= 200
+    text = "\n".join(lines)
+    for must in ("make demo", "make test", "python python/mission.py", "mound_plan sites.json 120"):
+        assert must in text
+
+
+@pytest.mark.parametrize("name", ["README.md", "CHANGELOG.md"])
+def test_links_outside_docs_reach_a_file_and_its_heading(name: str) -> None:
+    """mkdocs --strict checks the links inside docs/; these two files live outside it."""
+    src = ROOT / name
+    links = LINK.findall(src.read_text(encoding="utf-8"))
+    assert links
+    for link in links:
+        if link.startswith(("http://", "https://")):
+            continue
+        path, _, anchor = link.partition("#")
+        target = (src.parent / path).resolve()
+        assert target.is_file(), f"{name}: {link}"
+        if anchor:
+            assert anchor in _anchors(target), f"{name}: {link}: no such heading"
+
+
+def test_cpp_libraries_form_layers_and_keep_heavy_dependencies_private() -> None:
+    libs = _hooks().cpp_layers()
+    levels = _hooks()._levels({n: m for n, (m, _) in libs.items()})  # raises on a cycle
+    assert levels["mound_common"] == 0
+    owners = {"OpenCV": {"mound_sfm", "mound_mvs", "mound_sim"}, "Ceres::ceres": {"mound_ba"},
+              "PCL": {"mound_icp"}}
+    for dep, allowed in owners.items():
+        users = {n for n, (_, private) in libs.items() if dep in private}
+        assert users and users <= allowed, (dep, users)
+
+
+def test_python_packages_form_layers() -> None:
+    hooks = _hooks()
+    uses = hooks.python_layers()
+    units = {u: {d for d in ds if d in uses} for u, ds in uses.items()}
+    levels = hooks._levels(units)  # raises on a cycle
+    assert levels["survey"] == max(levels.values())
+    assert "survey" not in set().union(*units.values())
+
+
+def test_the_plan_example_is_shortened_but_keeps_its_ends() -> None:
+    short = _hooks()._short
+    assert short(["home", *[f"s{i:03d}" for i in range(50)], "home"]).endswith('"s049", "home"]')
+    assert short({"a": 1}) == '{"a": 1}'
+    assert len(short({"k": "x" * 500})) < 100
