@@ -6,8 +6,10 @@ FROM debian:12
 ENV DEBIAN_FRONTEND=noninteractive
 WORKDIR /src/mound-survey
 # setup.sh hashes python/requirements.txt + pyproject.toml and installs the package
-# editable, so the whole python/ tree is needed at this step.
+# editable, so pyproject.toml, the README it names and the whole python/ tree are needed
+# at this step.
 COPY tools/setup.sh tools/setup.sh
+COPY pyproject.toml README.md ./
 COPY python/ python/
 RUN bash tools/setup.sh && rm -rf /var/lib/apt/lists/*
 COPY . .

@@ -17,7 +17,7 @@ endif
 
 all: build
 
-$(VENV)/.setup-done: tools/setup.sh python/requirements.txt python/pyproject.toml
+$(VENV)/.setup-done: tools/setup.sh python/requirements.txt pyproject.toml
 	bash tools/setup.sh
 	touch $@
 
@@ -37,6 +37,7 @@ test-python: build
 
 lint: setup
 	$(VENV)/bin/ruff check python tests tools
+	$(VENV)/bin/mypy
 
 # The documentation site (docs/, mkdocs.yml) into $(BUILD)/site: strict, and the
 # command-line pages generated from the tools of this build.

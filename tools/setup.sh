@@ -38,7 +38,7 @@ if [ ! -x .venv/bin/python ]; then
   echo "setup: creating .venv with $($PYTHON --version)"
   "$PYTHON" -m venv .venv
 fi
-want=$(cat python/requirements.txt python/pyproject.toml | sha256sum | cut -d' ' -f1)
+want=$(cat python/requirements.txt pyproject.toml | sha256sum | cut -d' ' -f1)
 have=$(cat .venv/.requirements.sha256 2>/dev/null || true)
 if [ "$want" != "$have" ]; then
   echo "setup: installing Python packages into .venv"
@@ -47,7 +47,7 @@ if [ "$want" != "$have" ]; then
   export PIP_NO_CACHE_DIR=1
   .venv/bin/python -m pip install -q --upgrade pip
   .venv/bin/python -m pip install -q -r python/requirements.txt
-  .venv/bin/python -m pip install -q --no-deps -e python/
+  .venv/bin/python -m pip install -q --no-deps -e .
   echo "$want" > .venv/.requirements.sha256
 else
   echo "setup: Python packages present"

@@ -24,7 +24,7 @@
 namespace mound::plan {
 namespace {
 
-constexpr const char* kVersion = "mound_plan 0.1.0";
+constexpr const char* kVersion = "mound_plan " MOUND_VERSION;  // pyproject.toml's, from CMake
 
 constexpr const char* kUsage =
     "usage: mound_plan SITES.json [BUDGET] [--algo NAME] [--seed N] [--iterations N]\n"

@@ -25,7 +25,7 @@
 namespace mound::recon {
 namespace {
 
-constexpr const char* kVersion = "mound_recon 0.1.0";
+constexpr const char* kVersion = "mound_recon " MOUND_VERSION;  // pyproject.toml's, from CMake
 
 constexpr const char* kUsage =
     "usage: mound_recon reconstruct IMAGES_DIR --out OUT_DIR [--camera camera.json|K.txt]\n"

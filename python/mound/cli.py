@@ -30,7 +30,7 @@ import json
 import sys
 import time
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 import numpy as np
 
@@ -55,7 +55,7 @@ class UsageError(InputError):
 
 
 class Parser(argparse.ArgumentParser):
-    def error(self, message: str) -> None:  # argparse exits 2 already; keep one line
+    def error(self, message: str) -> NoReturn:  # argparse exits 2 already; keep one line
         raise UsageError(f"{self.prog}: {message}")
 
 

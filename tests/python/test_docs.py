@@ -82,3 +82,20 @@ def test_the_plan_example_is_shortened_but_keeps_its_ends() -> None:
     assert short(["home", *[f"s{i:03d}" for i in range(50)], "home"]).endswith('"s049", "home"]')
     assert short({"a": 1}) == '{"a": 1}'
     assert len(short({"k": "x" * 500})) < 100
+
+
+def test_one_version_everywhere() -> None:
+    """pyproject.toml holds the version; the package and both C++ tools report it."""
+    import subprocess
+    import tomllib
+
+    import mound
+    from mound.paths import build_dir
+
+    want = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))["project"][
+        "version"]
+    assert mound.__version__ == want
+    for tool in ("mound_plan", "mound_recon"):
+        out = subprocess.run([str(build_dir() / tool), "--version"], capture_output=True,
+                             text=True, check=True).stdout.split()
+        assert out == [tool, want]

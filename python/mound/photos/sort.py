@@ -125,9 +125,9 @@ def sharpness(data: bytes) -> float | None:
     from scipy.ndimage import laplace
 
     try:
-        with Image.open(io.BytesIO(data)) as im:
-            im.draft("L", (640, 640))
-            im = im.convert("L")
+        with Image.open(io.BytesIO(data)) as src:
+            src.draft("L", (640, 640))
+            im = src.convert("L")
             scale = 640 / max(im.size)
             if scale < 1:
                 im = im.resize((max(1, round(im.width * scale)), max(1, round(im.height * scale))))

@@ -4,12 +4,16 @@ every registered camera as a frustum (recon.json + points.ply)."""
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING, cast
 
 import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
+
+if TYPE_CHECKING:
+    from mpl_toolkits.mplot3d.axes3d import Axes3D
 
 from mound.jsonio import read_json
 from mound.ply import read_ply
@@ -29,9 +33,10 @@ def cloud_and_cameras(recon_dir: str | Path, out_png: str | Path, max_points: in
     lo, hi = np.percentile(xyz, 1, axis=0), np.percentile(xyz, 99, axis=0)
     inside = np.all((xyz >= lo) & (xyz <= hi), axis=1)
     fig = plt.figure(figsize=(8, 6))
-    ax = fig.add_subplot(projection="3d")
+    ax = cast("Axes3D", fig.add_subplot(projection="3d"))
     colours = rgb[inside] / 255.0 if rgb is not None else "grey"
-    ax.scatter(*xyz[inside].T, c=colours, s=0.6, depthshade=False)
+    px, py, pz = xyz[inside].T
+    ax.scatter(px, py, pz, c=colours, s=0.6, depthshade=False)
     cam = doc["camera"]
     w, h, k = cam["width"], cam["height"], np.array(cam["K"])
     centres = []

@@ -375,7 +375,7 @@ def from_recon(recon_dir: Path, out_dir: Path, resolution_m: float = 0.25,
     if doc.get("frame") != "enu" or doc.get("scale") != "metric":
         raise InputError(f"{where}: frame {doc.get('frame')!r}, scale {doc.get('scale')!r}: "
                          "rasters need a metric ENU model (reconstruct with --gps)")
-    origin = Origin.from_doc(doc.get("origin"), f"{where}: origin")
+    origin = Origin.from_doc(doc.get("origin") or {}, f"{where}: origin")
     cloud_path = Path(cloud) if cloud else recon_dir / "points.ply"
     xyz, _ = read_ply(cloud_path)
     if len(xyz) == 0:

@@ -309,7 +309,7 @@ def paper_agreement(folder: str | Path, model: dict[str, Any], work: str | Path,
     grid = json.loads((root / "grid.json").read_text())
     rows = load_grid(root)
     p = probability(model, rows)
-    sites = []
+    sites: list[dict[str, Any]] = []
     for row, spec_doc, q in zip(rows, grid["rows"], p, strict=True):
         if not row["measured"] or (limit is not None and len(sites) >= limit):
             continue

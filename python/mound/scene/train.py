@@ -81,7 +81,7 @@ def prepare(paths: list[str], labels: list[Label], bands_arg: list[str] | None,
     scenes = [open_scene(p, band_names) for p in paths]
     first = scenes[0]
     idx0 = first.resolve_bands(bands_arg)
-    band_doc = [{"index": k, "name": first.band_names[k - 1]} for k in idx0]
+    band_doc: list[dict[str, Any]] = [{"index": k, "name": first.band_names[k - 1]} for k in idx0]
     out = []
     n_in = 0
     for sc in scenes:
@@ -91,7 +91,7 @@ def prepare(paths: list[str], labels: list[Label], bands_arg: list[str] | None,
             raise InputError(f"{sc.path}: pixels of {sc.res_m:g} m, {first.path} has "
                              f"{first.res_m:g} m (train on scenes of one resolution)")
         bands = [sc.band_names.index(b["name"]) + 1 if b["name"] and b["name"] in
-                 sc.band_names else b["index"] for b in band_doc]
+                 sc.band_names else int(b["index"]) for b in band_doc]
         x, y, inside = labels_in_scene(labels, sc)
         is_m = np.array([lb.mound for lb in labels])
         n_in += int(inside.sum())
@@ -261,14 +261,15 @@ def judge_scene(ls: LabelledScene, logit: np.ndarray, grid: scoring.OutGrid,
     cands = scoring.candidates_of_map(p, grid, min_sep_m, max(CANDIDATES_PER_SCENE,
                                                               max(RECALL_KS)))
     cxy = np.array([grid.centre(np.array(r), np.array(c)) for _, r, c in cands]).reshape(-1, 2)
-    mounds = []
+    mounds: list[dict[str, Any]] = []
     for j, (mx, my) in zip(ls.mound_ids, ls.mound_xy, strict=True):
         dist = np.hypot(cxy[:, 0] - mx, cxy[:, 1] - my) if len(cxy) else np.zeros(0)
         first = next((i + 1 for i, dd in enumerate(dist) if dd <= FOUND_RADIUS_M), None)
         mounds.append({"id": labels[j].id, "rank": first,
                        "visibility": labels[j].props.get("visibility"),
                        "land_use": labels[j].props.get("land_use")})
-    recall = {k: (float(np.mean([m["rank"] is not None and m["rank"] <= k for m in mounds]))
+    recall = {k: (float(np.mean([m["rank"] is not None and int(m["rank"]) <= k
+                                  for m in mounds]))
                   if mounds else None) for k in RECALL_KS}
     tree = cKDTree(ls.all_mound_xy) if len(ls.all_mound_xy) else None
     judged = []

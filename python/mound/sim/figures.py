@@ -4,6 +4,7 @@ surface with the camera poses (as the paper's Fig. 3)."""
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING, cast
 
 import matplotlib
 
@@ -11,6 +12,9 @@ matplotlib.use("Agg")
 import matplotlib.image as mpimg
 import matplotlib.pyplot as plt
 import numpy as np
+
+if TYPE_CHECKING:
+    from mpl_toolkits.mplot3d.axes3d import Axes3D
 from matplotlib.colors import LightSource, Normalize
 
 from mound.jsonio import read_json
@@ -77,7 +81,7 @@ def scene_3d(site_dir: str | Path, out_png: str | Path, grid_step: int = 8, dpi:
     shaded = LightSource(azdeg=315, altdeg=35).shade(zz, cmap=plt.get_cmap("terrain"),
                                                      norm=norm, vert_exag=2, blend_mode="soft")
     fig = plt.figure(figsize=(9, 7))
-    ax = fig.add_subplot(projection="3d")
+    ax = cast("Axes3D", fig.add_subplot(projection="3d"))
     ax.plot_surface(xx, yy, zz, facecolors=shaded, rstride=1, cstride=1, linewidth=0,
                     antialiased=False, shade=False)
     K = np.array(camera["K"])
@@ -90,7 +94,8 @@ def scene_3d(site_dir: str | Path, out_png: str | Path, grid_step: int = 8, dpi:
         for k in range(1, 5):
             ax.plot(*zip(fr[0], fr[k], strict=True), color=colour, lw=0.6)
             ax.plot(*zip(fr[k], fr[1 + k % 4], strict=True), color=colour, lw=0.6)
-        ax.scatter(*im["gps_enu_m"], color="k", s=4)
+        gx, gy, gz = im["gps_enu_m"]
+        ax.scatter(gx, gy, gz, color="k", s=4)
     sigma = poses["gps_sigma_m"]
     ax.set_title(f"ground truth surface and {len(poses['images'])} camera poses "
                  f"(red raster, blue orbit; dots: GPS, sigma {sigma['horizontal']:g} m / "

@@ -205,10 +205,10 @@ def _radial_profile(spec: TerrainSpec, r: np.ndarray) -> np.ndarray:
                        - (big_r - h), 0)
         z = np.minimum(cap, 0.6 * h) / 0.6
     else:  # drum: vertical-sided drum, then a cap of the remaining height
-        cap = h - spec.drum_height_m
-        big_r = (radius ** 2 + cap ** 2) / (2 * cap)
+        cap_h = h - spec.drum_height_m
+        big_r = (radius ** 2 + cap_h ** 2) / (2 * cap_h)
         z = np.where(r < radius, spec.drum_height_m +
-                     np.sqrt(np.clip(big_r ** 2 - r ** 2, 0, None)) - (big_r - cap), 0)
+                     np.sqrt(np.clip(big_r ** 2 - r ** 2, 0, None)) - (big_r - cap_h), 0)
     return np.clip(z, 0, None)
 
 

@@ -392,7 +392,7 @@ def stage_field(ctx: Context) -> str:
         # skipped: a bad file must stop the run here.
         doc = load_user_sites(a.sites, scan, a.budget, flight_budget_m(),
                               need_truth=not (a.images_root or a.photos))
-        material: dict[str, Any] = {"sites": doc}
+        material = {"sites": doc}
     else:
         material = {"classify": ctx.keys["classify"], "seed": a.field_seed,
                     "spacing": a.spacing, "scan": scan.to_doc(), "budget": a.budget,
@@ -407,14 +407,16 @@ def stage_field(ctx: Context) -> str:
         else:
             test = statlog.load("sat.tst")
             model = Model.from_doc(read_json(ctx.tree.model, MODEL_SCHEMA, MODEL_VERSION),
-                                   ctx.tree.model)
+                                   str(ctx.tree.model))
             out = sites_document(make_field(test, a.field_seed), test, model, None,
                                  a.budget if a.budget is not None else flight_budget_m(),
                                  spacing_m=a.spacing, scan=scan)
             if a.home:
                 from mound.scene.cli import _home
 
-                lat, lon = _home(a.home)
+                home = _home(a.home)
+                assert home is not None  # a.home is set
+                lat, lon = home
                 out["origin"] = {"lat": lat, "lon": lon, "alt_m": 0.0}
         if a.dem:
             from mound.geometry.geodesy import Origin
@@ -502,8 +504,8 @@ def stage_mission(ctx: Context) -> str:
         flights = mission_items.flight_plans(plan)
         several = len(flights) > 1
         missions = [(f["flight"] if several else None,
-                     mission_items.build(f, origin, mission_items.MissionSpec(scan=scan),
-                                         terrain)) for f in flights]
+                     mission_items.build(f, origin, mission_items.MissionSpec(scan=scan)
+                                         if scan else None, terrain)) for f in flights]
         t.report_dir.mkdir(parents=True, exist_ok=True)
         made: list[str] = []
         summaries = []
@@ -651,7 +653,7 @@ def site_jobs(ctx: Context, plan: dict[str, Any] | None = None) -> list[Any]:
                       "terrain": ter and {**ter, "dem": ctx.terrain}})
         jobs.append(SiteJob(site=s, index=index, run_root=str(root), run_id=ctx.run_id,
                             origin=sites_doc["origin"], key=key, images_dir=images,
-                            terrain=ter, **options))  # type: ignore[arg-type]
+                            terrain=ter, **options))
     return jobs
 
 

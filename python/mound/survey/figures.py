@@ -31,8 +31,8 @@ def thumbnail_strip(images_dir: Path, out_png: Path, count: int = 8,
     pick = [files[int(round(k))] for k in np.linspace(0, len(files) - 1, min(count, len(files)))]
     thumbs = []
     for f in pick:
-        with Image.open(f) as im:
-            im = im.convert("RGB")
+        with Image.open(f) as src:
+            im = src.convert("RGB")
             w = max(1, round(im.width * height_px / im.height))
             thumbs.append(im.resize((w, height_px), Image.Resampling.LANCZOS))
     gap = 4
@@ -177,7 +177,7 @@ def field_map(sites_doc: dict[str, Any], plan: dict[str, Any] | None,
     return save_figure(fig, out_png, dpi)
 
 
-def mission_map(nav_enu: np.ndarray, footprints: list[dict[str, Any]],
+def mission_map(nav_enu: np.ndarray | list[np.ndarray], footprints: list[dict[str, Any]],
                 sites: list[dict[str, Any]], out_png: Path, dpi: int = 80) -> Path:
     """The MAVLink mission's flight path in local metres, coloured by height, with the
     image footprints on the ground."""

@@ -82,7 +82,7 @@ def _write_mission(ctx: Any, plan: dict[str, Any], out: Path) -> None:
     from mound.uav import mission_items
 
     m = mission_items.build(plan, Origin.from_doc(plan["origin"], "plan: origin"),
-                            mission_items.MissionSpec(scan=mission_items.plan_scan(plan)),
+                            None,  # the plan's own scan (plan_scan), else the default
                             mission_terrain(ctx.args))
     mission_files.write_plan(out, m, ctx.args.firmware)
 

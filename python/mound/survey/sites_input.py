@@ -60,6 +60,7 @@ def _site(props: dict[str, Any], site_id: Any, x: float, y: float, where: str
         raise InputError(f"{where}.id: expected a non-empty string, got {site_id!r}")
     p = _number(props, "p_mound", where, lo=0.0, hi=1.0)
     reward = _number(props, "reward", where, lo=0.0, required=False)
+    assert p is not None  # required
     if reward is None:
         reward = float(binary_entropy_bits(p))
     site: dict[str, Any] = {"id": site_id, "x_m": x, "y_m": y, "p_mound": p, "reward": reward}

@@ -48,11 +48,11 @@ def cmd_build(args: argparse.Namespace) -> int:
     # Several flights: one mission each, named OUT_1.plan, OUT_2.plan, ... (and the WPL and
     # GeoJSON alike); all are checked before any file is written.
     several = len(flights) > 1
-    outputs = []
+    outputs: list[tuple[str | Path, str]] = []
     missions = []
     for f in flights:
         m = mission_items.build(f, origin, spec, terrain)
-        names = [None if p is None else str(mission_files.flight_path(
+        names = ["" if p is None else str(mission_files.flight_path(
             p, f["flight"] if several else None)) for p in (args.out, args.wpl, args.geojson)]
         outputs.append((names[0], mission_files.plan_text(m, args.firmware)))
         if args.wpl:

@@ -193,7 +193,7 @@ def _parse_wpl(text: str, path: str | Path) -> tuple[list[MissionItem], Origin]:
     rows = [ln for ln in text.splitlines() if ln.strip()]
     if not rows or rows[0].strip() != WPL_MAGIC:
         raise InputError(f"{path}:1: not a '{WPL_MAGIC}' waypoint file")
-    parsed = []
+    parsed: list[Any] = []
     for n, line in enumerate(rows[1:], start=2):
         f = line.split("\t") if "\t" in line else line.split()
         if len(f) != 12:
@@ -218,7 +218,7 @@ def _parse_wpl(text: str, path: str | Path) -> tuple[list[MissionItem], Origin]:
         raise InputError(f"{path}: no home line")
     home = parsed[0][2]
     origin = Origin(home[4], home[5], home[6])
-    items = [MissionItem(command, _link_frame(frame), tuple(nums[:4]),  # type: ignore[arg-type]
+    items = [MissionItem(command, _link_frame(frame), tuple(nums[:4]),
                          round(nums[4] * 1e7), round(nums[5] * 1e7), nums[6], auto)
              for frame, command, nums, auto in parsed[1:]]
     return items, origin

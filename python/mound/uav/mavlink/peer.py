@@ -29,8 +29,10 @@ class MavsdkVehicle:
         from mavsdk.plugins.mission_raw_server.mission_raw_server import MissionRawServer
 
         self.log: list[str] = []  # MAVSDK's own log lines, kept off the console
-        log_subscribe(lambda level, message, _file, _line:
-                      self.log.append(f"{level.name}: {message}") is None)
+        def keep(level: Any, message: str, _file: str, _line: int) -> None:
+            self.log.append(f"{level.name}: {message}")
+
+        log_subscribe(keep)
 
         self.port = port or free_port(socket.SOCK_STREAM if kind == "tcpin" else
                                       socket.SOCK_DGRAM)
