@@ -13,7 +13,7 @@ ifeq ($(origin MOUND_DATA),undefined)
 endif
 
 .PHONY: all build setup test test-cpp test-python lint demo demo-stages figures bench clean \
-        fuzz fuzz-smoke test-asan docs
+        fuzz fuzz-smoke test-asan docs test-fast
 
 all: build
 
@@ -34,6 +34,12 @@ test-cpp: build
 
 test-python: build
 	$(PY) -m pytest -q
+
+# The edit-test loop (< 1 min after the build): every ctest binary (~15 s) and the pytest
+# tests not marked slow (~40 s). `make test` still runs everything.
+test-fast: build
+	cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
+	$(PY) -m pytest -q -m "not slow"
 
 lint: setup
 	$(VENV)/bin/ruff check python tests tools

@@ -22,6 +22,8 @@ function(mound_add_test domain name)
     MOUND_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
   target_link_libraries(${target} PRIVATE ${ARG_DEPS} GTest::gtest GTest::gtest_main)
   add_test(NAME ${domain}/${name} COMMAND ${target})
+  # `ctest -L sfm` runs one domain's tests; the whole ctest suite takes ~15 s.
+  set_tests_properties(${domain}/${name} PROPERTIES LABELS ${domain})
 endfunction()
 
 # mound_add_fuzzer(NAME SRCS ... DEPS ...): a libFuzzer target `fuzz_NAME` (MOUND_FUZZ

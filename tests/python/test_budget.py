@@ -104,6 +104,7 @@ def write(path: Path, doc: dict) -> Path:
     return path
 
 
+@pytest.mark.slow
 def test_field_make_scan_pattern_to_mission_without_tuning(tmp_path: Path,
                                                             mound_plan: Path) -> None:
     """The demo's chain with no hand-tuned numbers: the scan cost comes from the pattern,

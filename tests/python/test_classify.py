@@ -37,6 +37,7 @@ def test_gradient_matches_finite_differences(l2: float) -> None:
     np.testing.assert_allclose(grad, fd, rtol=1e-6, atol=1e-9)
 
 
+@pytest.mark.slow
 def test_gradient_descent_and_lbfgs_reach_the_same_weights(trn: statlog.Split) -> None:
     x = trn.x[:, band_columns(coarse.DEFAULT_BAND)]
     design = Standardizer.fit(x).design(x)
@@ -93,3 +94,13 @@ def test_model_json_round_trip_and_validation(trn: statlog.Split, tst: statlog.S
     del doc["mean"]
     with pytest.raises(InputError, match="mean"):
         Model.from_doc(doc, "m.json")
+
+
+def test_the_papers_decision_rule() -> None:
+    """p(mound) >= 0.5 is a mound, in the one function every stage uses."""
+    from mound.classify.metrics import says_mound
+
+    assert says_mound(0.5) and says_mound(0.93)
+    assert not says_mound(0.4999) and not says_mound(0.0)
+    p, y = np.array([0.5, 0.49, 0.9]), np.array([1, -1, -1])
+    assert metrics.accuracy(p, y) == pytest.approx(2 / 3)

@@ -61,6 +61,7 @@ def aligned(site: Path, xyz: np.ndarray) -> np.ndarray:
     return apply(*umeyama(est, tru), xyz)
 
 
+@pytest.mark.slow
 def test_dense_cloud_lies_on_the_true_surface_and_covers_the_mound(site: Path,
                                                                     dense: Path) -> None:
     doc = json.loads((dense / "dense.json").read_text())
@@ -95,6 +96,7 @@ def test_dense_cloud_lies_on_the_true_surface_and_covers_the_mound(site: Path,
     assert (h[inside] > 0).mean() > 3 * (hs[inside] > 0).mean()
 
 
+@pytest.mark.slow
 def test_rasters_and_verdict_of_the_dense_cloud(site: Path, dense: Path, tmp_path: Path) -> None:
     out = tmp_path / "rasters"
     assert mound_main(["recon", "rasters", str(site / "recon"), "--cloud",
@@ -119,6 +121,7 @@ def test_rasters_and_verdict_of_the_dense_cloud(site: Path, dense: Path, tmp_pat
     assert abs(v["measurements"]["rise"]["height_m"] - HEIGHT_M) < 0.5
 
 
+@pytest.mark.slow
 def test_bad_input_is_refused_with_one_line(site: Path, tmp_path: Path) -> None:
     def copy(**changes: object) -> Path:
         d = tmp_path / f"recon{len(list(tmp_path.iterdir()))}"

@@ -86,6 +86,7 @@ def test_cli_writes_a_plan_with_proof_and_rejects_bad_input(tmp_path: Path, caps
     assert not (tmp_path / "no.json").exists()
 
 
+@pytest.mark.slow
 def test_branch_and_cut_on_a_classic_path_and_unreachable_sites(shared_data: Path) -> None:
     """A classic benchmark path (Tsiligirides 1, budget 40: 29 sites, proven optimum in
     best_known.csv) is proven optimal (155); sites that no route within the budget reaches are
@@ -108,6 +109,7 @@ def test_branch_and_cut_on_a_classic_path_and_unreachable_sites(shared_data: Pat
     assert r.status == "optimal" and r.route == [0, 1] and r.reward == 0.0
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", range(8))
 def test_branch_and_cut_for_several_flights_agrees_with_dynamic_programme(
         tmp_path: Path, seed: int) -> None:

@@ -330,6 +330,7 @@ def _read_dem(path: Path) -> None:
 @FUZZ
 @given(st.integers(0, len(DEM_TIF) - 1), st.binary(min_size=1, max_size=16),
        st.integers(0, 16), st.booleans())
+@pytest.mark.slow
 def test_dem_patch_reader(at: int, piece: bytes, cut: int, truncate: bool) -> None:
     """The simulator's DEM reader (a terrain patch for `mound sim site --dem`, the grid) on
     a valid DEM with bytes overwritten or cut short: a finite patch or an InputError."""
@@ -351,6 +352,7 @@ def _read_dem_for_flight(path: Path) -> None:
 @FUZZ
 @given(st.integers(0, len(DEM_TIF) - 1), st.binary(min_size=1, max_size=16),
        st.integers(0, 16), st.booleans())
+@pytest.mark.slow
 def test_dem_flight_reader(at: int, piece: bytes, cut: int, truncate: bool) -> None:
     """The flight's DEM reader (geometry/dem.py: heights, corridor maxima over ENU points)
     on a valid DEM with bytes overwritten or cut short: finite heights or an InputError."""

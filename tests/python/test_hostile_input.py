@@ -224,6 +224,7 @@ def _render_job(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> dict[str,
     return json.loads((site / "render.json").read_text())
 
 
+@pytest.mark.slow
 def test_mound_render_is_all_or_nothing(tmp_path: Path,
                                         capsys: pytest.CaptureFixture[str]) -> None:
     """Two images with one name raced on one temporary file (3 failures in 5 under
@@ -264,6 +265,7 @@ def test_mound_render_is_all_or_nothing(tmp_path: Path,
     assert not [p for p in out.rglob("*") if ".tmp." in p.name or ".mound_render" in p.name]
 
 
+@pytest.mark.slow
 def test_mound_render_refuses_an_endless_npy(tmp_path: Path,
                                              capsys: pytest.CaptureFixture[str]) -> None:
     """A render job whose .npy was an endless file (/dev/zero) read until memory ran out

@@ -214,6 +214,7 @@ def received_equal(vehicle_items: list, sent: list[mission_items.MissionItem]) -
     return transfer.first_difference(sent, got) is None
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("n", [20, 200, 1000])
 def test_upload_and_read_back_on_a_clean_link(vehicle: MavsdkVehicle, n: int) -> None:
     items = items_of(n)
@@ -223,6 +224,7 @@ def test_upload_and_read_back_on_a_clean_link(vehicle: MavsdkVehicle, n: int) ->
     assert received_equal(vehicle.wait_for_mission(before + 1), items)
 
 
+@pytest.mark.slow
 def test_upload_over_tcp() -> None:
     items = items_of(200)
     with MavsdkVehicle("tcpin") as v:
@@ -264,6 +266,7 @@ def test_upload_over_a_serial_line() -> None:
             os.close(fd)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("n, loss", [(20, 0.1), (200, 0.06), (1000, 0.05)])
 def test_upload_through_a_lossy_link(vehicle: MavsdkVehicle, n: int, loss: float) -> None:
     items = items_of(n)
@@ -275,6 +278,7 @@ def test_upload_through_a_lossy_link(vehicle: MavsdkVehicle, n: int, loss: float
     assert received_equal(vehicle.wait_for_mission(before + 1), items)
 
 
+@pytest.mark.slow
 def test_a_lost_final_ack_is_not_a_failure_when_the_read_back_matches(
         vehicle: MavsdkVehicle) -> None:
     items = items_of(20)
@@ -285,6 +289,7 @@ def test_a_lost_final_ack_is_not_a_failure_when_the_read_back_matches(
     assert "read-back matches" in stats.notes[-1]
 
 
+@pytest.mark.slow
 def test_an_unreachable_vehicle_times_out_with_a_clear_message(
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     port = free_port()
@@ -299,6 +304,7 @@ def test_an_unreachable_vehicle_times_out_with_a_clear_message(
     assert code == 2 and "no heartbeat from a vehicle" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_cli_builds_and_uploads_a_plan(vehicle: MavsdkVehicle, tmp_path: Path,
                                        capsys: pytest.CaptureFixture[str]) -> None:
     (tmp_path / "plan.json").write_text(json.dumps(grid_plan(3)))
@@ -356,6 +362,7 @@ def _exchange(sender_key: bytes | None, receiver_key: bytes) -> tuple[bool, obje
         rx.close()
 
 
+@pytest.mark.slow
 def test_signing_accepts_the_right_key_and_rejects_wrong_or_unsigned_packets() -> None:
     key = mavlink_link.signing_key(passphrase="bin tepe")
     assert key is not None and len(key) == 32
@@ -368,6 +375,7 @@ def test_signing_accepts_the_right_key_and_rejects_wrong_or_unsigned_packets() -
     assert not ok and signing.sig_count == 0  # unsigned: nothing accepted
 
 
+@pytest.mark.slow
 def test_our_signed_link_rejects_unsigned_answers() -> None:
     """Without --accept-unsigned, a signed link ignores an unsigned vehicle: the MAVSDK
     peer does not sign, so no heartbeat gets through."""

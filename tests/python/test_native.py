@@ -50,6 +50,7 @@ def test_bad_input_is_an_input_error_with_the_tools_message(tmp_path: Path,
     assert "[native] pid" in text and "home" in text and "exit 2" in text
 
 
+@pytest.mark.slow
 def test_a_time_limit_ends_the_tool(tmp_path: Path, mound_plan: Path) -> None:
     tsp = big_tsp(tmp_path / "big.tsp")
     log = tmp_path / "tsp.log"
@@ -62,6 +63,7 @@ def test_a_time_limit_ends_the_tool(tmp_path: Path, mound_plan: Path) -> None:
     assert isinstance(err.value, ToolError) and "time limit" in log.read_text()
 
 
+@pytest.mark.slow
 def test_ctrl_c_during_a_long_call_leaves_no_child_behind(tmp_path: Path,
                                                            mound_plan: Path) -> None:
     tsp = big_tsp(tmp_path / "big.tsp")

@@ -45,6 +45,7 @@ def sites_at(caliterra: Path, tmp: Path) -> Path:
     return path
 
 
+@pytest.mark.slow
 def test_caliterra_lands_in_the_site_at_its_centre(caliterra: Path, tmp_path: Path) -> None:
     sites = sites_at(caliterra, tmp_path)
     out = tmp_path / "sorted"
@@ -96,6 +97,7 @@ def _moved(src: Path, dst: Path, east_m: float = 0.0, day: str | None = None,
     im.save(dst, exif=ex, quality=90)
 
 
+@pytest.mark.slow
 def test_a_card_with_the_faults_of_a_real_one(caliterra: Path, tmp_path: Path) -> None:
     sites = sites_at(caliterra, tmp_path)
     card = tmp_path / "card"
@@ -177,6 +179,7 @@ def sim_card(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
     return {"dir": tmp, "truth": truth}
 
 
+@pytest.mark.slow
 def test_simulated_jpegs_carry_what_a_camera_writes(sim_card: dict[str, Any]) -> None:
     """The project's EXIF reader finds in the simulated card what the simulator put there:
     GPS to a millimetre, the capture time, the focal length in pixels exactly."""
@@ -220,6 +223,7 @@ def _rewritten(src: Path, dst: Path, **change: Any) -> None:
     im.save(dst, exif=ex, quality=95)
 
 
+@pytest.mark.slow
 def test_a_simulated_card_sorts_exactly_right(sim_card: dict[str, Any], tmp_path: Path) -> None:
     """Two sites and the transit frames as the simulator wrote them, plus the faults of a
     real card: a GPS-less photo, GPS 0, 0, an altitude of -9999 m, a truncated file, a
@@ -261,6 +265,7 @@ def test_a_simulated_card_sorts_exactly_right(sim_card: dict[str, Any], tmp_path
     assert json.loads((out / "b" / "camera.json").read_text())["K"][0][0] == 114
 
 
+@pytest.mark.slow
 def test_sim_site_jpeg(tmp_path: Path) -> None:
     """`mound sim site --jpeg`: the site's images as JPEGs (no PNG left), poses.json naming
     them, each one's EXIF GPS the simulator's noisy GPS position (to a millimetre) and its

@@ -41,6 +41,7 @@ def recon(site: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
     return out
 
 
+@pytest.mark.slow
 def test_poses_scale_and_cloud_match_the_truth(site: Path, recon: Path) -> None:
     doc = json.loads((recon / "recon.json").read_text())
     poses = json.loads((site / "poses.json").read_text())
@@ -87,6 +88,7 @@ def test_poses_scale_and_cloud_match_the_truth(site: Path, recon: Path) -> None:
     assert np.median(err) < 0.05 and np.percentile(err, 90) < 0.25
 
 
+@pytest.mark.slow
 def test_colmap_reads_the_export_and_agrees(recon: Path) -> None:
     pycolmap = pytest.importorskip("pycolmap")
     doc = json.loads((recon / "recon.json").read_text())
@@ -107,6 +109,7 @@ def test_colmap_reads_the_export_and_agrees(recon: Path) -> None:
         assert np.linalg.norm(image.projection_center() - est[image.name]) < 1e-6
 
 
+@pytest.mark.slow
 def test_without_gps_the_frame_is_arbitrary_and_runs_repeat(site: Path, tmp_path: Path) -> None:
     sub = tmp_path / "images"
     sub.mkdir()
@@ -135,6 +138,7 @@ def test_without_gps_the_frame_is_arbitrary_and_runs_repeat(site: Path, tmp_path
         np.testing.assert_allclose(numbers(a), numbers(b), rtol=1e-9, atol=1e-9)
 
 
+@pytest.mark.slow
 def test_retrieval_registers_an_unlocated_set_in_no_order(site: Path, tmp_path: Path) -> None:
     """Images without positions under names that say nothing of the capture order: pairs
     come from VLAD retrieval alone (no sequence window), fewer than every pair, they see
@@ -197,6 +201,7 @@ def bad_inputs(site: Path, tmp: Path) -> list[tuple[str, list[str], int, str]]:
     ]
 
 
+@pytest.mark.slow
 def test_bad_input_is_refused_with_one_line(site: Path, tmp_path: Path) -> None:
     for name, args, code, message in bad_inputs(site, tmp_path):
         out = tmp_path / ("out_" + name.replace(" ", "_"))
@@ -220,6 +225,7 @@ def test_no_texture_is_no_result_with_a_reason(tmp_path: Path) -> None:
     assert not (tmp_path / "out" / "points.ply").exists()
 
 
+@pytest.mark.slow
 def test_figure_of_the_reconstruction(recon: Path, tmp_path: Path) -> None:
     import matplotlib.image as mpimg
 

@@ -41,6 +41,7 @@ def learned(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
             "labels": labels, "scenes": scenes}
 
 
+@pytest.mark.slow
 def test_model_records_what_it_learned(learned: dict[str, Any]) -> None:
     doc = json.loads(learned["model"].read_text())
     assert doc["schema"] == "mound.scene_model" and doc["version"] == 1
@@ -57,6 +58,7 @@ def test_model_records_what_it_learned(learned: dict[str, Any]) -> None:
     assert 0 < doc["threshold"] < 1 and np.isfinite(doc["calibration"]["a"])
 
 
+@pytest.mark.slow
 def test_scores_rasters_and_candidates_on_an_unseen_scene(learned: dict[str, Any]) -> None:
     out = learned["out"]
     with rasterio.open(learned["test"]) as src, rasterio.open(out / "p_mound.tif") as p_ds, \
@@ -103,6 +105,7 @@ def test_scores_rasters_and_candidates_on_an_unseen_scene(learned: dict[str, Any
     assert doc["counts"]["candidates"] == 6 and doc["counts"]["scored"] > 0
 
 
+@pytest.mark.slow
 def test_candidates_are_sites_the_survey_reads(learned: dict[str, Any]) -> None:
     from mound.survey.sites_input import load_user_sites
     from mound.uav import mission_items
@@ -114,6 +117,7 @@ def test_candidates_are_sites_the_survey_reads(learned: dict[str, Any]) -> None:
     assert all(0 <= s["p_mound"] <= 1 for s in doc["sites"])
 
 
+@pytest.mark.slow
 def test_blockwise_scoring_equals_whole_scene(learned: dict[str, Any]) -> None:
     d = learned["dir"]
     outs = {}

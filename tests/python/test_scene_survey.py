@@ -19,6 +19,7 @@ from mound.paths import REPO_ROOT
 MISSION_PY = REPO_ROOT / "python" / "mission.py"
 
 
+@pytest.mark.slow
 def test_survey_on_two_kazanlak_stamps(tmp_path: Path, shared_data: Path) -> None:
     k = shared_data / "kazanlak"
     out = tmp_path / "run"

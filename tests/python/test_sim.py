@@ -56,6 +56,7 @@ def xyz_of(site: Path, k: int) -> np.ndarray:
     return np.load(site / "geometry" / "images" / f"{k:04d}.xyz.npy")
 
 
+@pytest.mark.slow
 def test_ground_truth_files_describe_the_scene(pair: dict[str, Path]) -> None:
     site = pair["mound"]
     cam_doc = json.loads((site / "camera.json").read_text())
@@ -89,6 +90,7 @@ def test_ground_truth_files_describe_the_scene(pair: dict[str, Path]) -> None:
     assert doc["terrain"]["diameter_m"] == 60.0 and doc["mound"] is True
 
 
+@pytest.mark.slow
 def test_pixels_see_what_the_python_camera_projects(pair: dict[str, Path]) -> None:
     """The renderer and python/mound/geometry/camera.py agree: each pixel's ground point projects
     back onto that pixel's centre (with the distortion), for nadir and oblique views."""
@@ -109,6 +111,7 @@ def test_pixels_see_what_the_python_camera_projects(pair: dict[str, Path]) -> No
         assert np.percentile(err, 99) < 0.05 and err.max() < 0.2
 
 
+@pytest.mark.slow
 def test_flat_and_mound_images_differ_only_where_the_mound_is(pair: dict[str, Path]) -> None:
     spec = small_spec()
     # The mound's footprint: radius, plus the erosion blur (4 sigma), plus one grid cell of
@@ -150,6 +153,7 @@ def test_a_point_behind_the_mound_is_hidden_from_a_low_oblique_view(
     assert seen_depth < depth[0] - 50
 
 
+@pytest.mark.slow
 def test_same_seed_same_images_other_seed_other_images(tmp_path: Path) -> None:
     spec = small_spec(pattern="orbit", orbit_images=3)
     for name, s in (("a", spec), ("b", spec), ("c", replace(spec, seed=6))):

@@ -24,7 +24,7 @@ import pytest
 import rasterio
 from PIL import Image
 
-from mound.classify.metrics import detection_error_rates
+from mound.classify.metrics import detection_error_rates, says_mound
 from mound.classify.reward import binary_entropy_bits
 from mound.cli import main as cli_main
 from mound.geometry.geodesy import Origin, enu_to_geodetic
@@ -114,6 +114,7 @@ def survey(tmp_path_factory: pytest.TempPathFactory, vehicle: MavsdkVehicle
             "second": second, "third": third, "vehicle": vehicle}
 
 
+@pytest.mark.slow
 def test_interrupt_ends_the_tools_and_the_rerun_resumes(survey: dict[str, Any]) -> None:
     assert survey["interrupted_rc"] == 130, survey["interrupted"]
     assert "run the same command again to resume" in survey["interrupted"]
@@ -131,6 +132,7 @@ def test_interrupt_ends_the_tools_and_the_rerun_resumes(survey: dict[str, Any]) 
         assert f"[{stage}] skipped, unchanged" in third.stdout, third.stdout
 
 
+@pytest.mark.slow
 def test_every_artefact_of_the_run(survey: dict[str, Any]) -> None:
     out: Path = survey["out"]
     summary = json.loads((out / "summary.json").read_text())
@@ -189,13 +191,13 @@ def test_every_artefact_of_the_run(survey: dict[str, Any]) -> None:
     # The metrics recompute from the rows.
     for r in summary["sites"]:
         expect = r["verdict"] if r["visited"] and r["verdict"] != "failed" else (
-            "mound" if r["p_mound"] >= 0.5 else "no_mound")
+            "mound" if says_mound(r["p_mound"]) else "no_mound")
         assert r["final_label"] == expect
     truth = [r["truth"] for r in summary["sites"]]
     md, fa = detection_error_rates([r["final_label"] == "mound" for r in summary["sites"]], truth)
     m = summary["metrics"]
     assert (m["eps_md"], m["eps_fa"]) == (md, fa)
-    cmd, cfa = detection_error_rates([r["p_mound"] >= 0.5 for r in summary["sites"]], truth)
+    cmd, cfa = detection_error_rates([says_mound(r["p_mound"]) for r in summary["sites"]], truth)
     assert (m["classifier_only"]["eps_md"], m["classifier_only"]["eps_fa"]) == (cmd, cfa)
     assert m["reward"] == plan["reward"] and m["cost_m"] == plan["cost_m"]
     assert m["budget_m"] == 3000.0
@@ -204,6 +206,7 @@ def test_every_artefact_of_the_run(survey: dict[str, Any]) -> None:
     assert (out / "report.md").read_text().startswith("# Survey report")
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(CHROMIUM is None, reason="Debian chromium not installed (tools/setup.sh)")
 def test_report_renders_in_headless_chromium(survey: dict[str, Any], tmp_path: Path) -> None:
     out: Path = survey["out"]
@@ -243,6 +246,7 @@ def free_tcp_port() -> int:
         return int(s.getsockname()[1])
 
 
+@pytest.mark.slow
 def test_a_failing_site_is_reported_and_the_run_finishes(
         survey: dict[str, Any], tmp_path: Path) -> None:
     """The UAV's photos (--images-root) of the two visited sites: the first run's simulated
@@ -290,7 +294,7 @@ def test_a_failing_site_is_reported_and_the_run_finishes(
         assert rows[good]["verdict"] == ("mound" if rows[good]["truth"] else "no_mound")
         assert rows[bad]["verdict"] == "failed"
         assert "no image pair with enough matches" in rows[bad]["failure"]
-        assert rows[bad]["final_label"] == ("mound" if rows[bad]["p_mound"] >= 0.5
+        assert rows[bad]["final_label"] == ("mound" if says_mound(rows[bad]["p_mound"])
                                             else "no_mound")
         assert s["metrics"]["failed"] == 1 and s["metrics"]["judged"] == 1
         result = json.loads((run / "sites" / bad / "site_result.json").read_text())
@@ -398,6 +402,7 @@ def test_help_and_usage_errors(capsys: pytest.CaptureFixture[str]) -> None:
     assert "--images-root" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_the_photo_card_gives_the_same_verdicts(survey: dict[str, Any], tmp_path: Path
                                                 ) -> None:
     """The survey's flight written as the aircraft's card (mound sim flight: JPEGs with
@@ -446,6 +451,7 @@ def learned(survey: dict[str, Any], tmp_path_factory: pytest.TempPathFactory) ->
     return run
 
 
+@pytest.mark.slow
 def test_each_flight_teaches_the_next(learned: Path) -> None:
     """--flights 2 --learn on field 0: flight 2 is re-planned over the sites flight 1 did not
     fly, after the classifier was refitted with flight 1's verdicts (weighted by their
@@ -505,6 +511,7 @@ def test_each_flight_teaches_the_next(learned: Path) -> None:
     assert "Learning between flights" in (run / "report.html").read_text()
 
 
+@pytest.mark.slow
 def test_learning_stops_when_no_flight_is_left(learned: Path, tmp_path: Path) -> None:
     """A budget that lets flight 1 reach one site and no later flight any other: the run
     ends after flight 1, saying why, with the labels of the first flight's learning."""
@@ -519,6 +526,7 @@ def test_learning_stops_when_no_flight_is_left(learned: Path, tmp_path: Path) ->
     assert s["metrics"]["visited"] == len(learn["flights"][0]["sites"]) == 1
 
 
+@pytest.mark.slow
 def test_two_flights_over_the_dem(tmp_path: Path) -> None:
     """The survey with --flights 2 on standard field 0 placed on the laser DEM: two
     missions (mission_1.plan, mission_2.plan, read back by the mission reader), each

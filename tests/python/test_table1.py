@@ -45,6 +45,7 @@ def test_fractional_gradient_descent_stops_part_way_along_the_last_step(shared_d
     np.testing.assert_allclose(w, w13 + 0.25 * (w14 - w13), rtol=1e-12, atol=1e-15)
 
 
+@pytest.mark.slow
 def test_paper_setting_matches_the_papers_total_reward(shared_data) -> None:
     test = statlog.load_file(shared_data / "statlog" / "sat.tst")
     trn = statlog.load_file(shared_data / "statlog" / "sat.trn")
@@ -57,6 +58,7 @@ def test_paper_setting_matches_the_papers_total_reward(shared_data) -> None:
     assert mean_total_reward(converged, test, fields) < 15  # ours: about 12 bits
 
 
+@pytest.mark.slow
 def test_bench_table1_paper_with_proven_optima(tmp_path: Path) -> None:
     """`mound bench table1 --paper` at a small budget: every field proven optimal by SCIP,
     the optimum at or above every planner's plan, and ALNS-OP at the optimum there."""

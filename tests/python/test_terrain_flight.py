@@ -315,6 +315,7 @@ def test_todays_mission_without_the_dem_flies_into_the_ridges(flown, raw, tmp_pa
     assert worst40 < -10, worst40
 
 
+@pytest.mark.slow
 def test_a_plan_through_the_ridges_without_the_terrain_is_refused(flown, dem_path,
                                                                  tmp_path) -> None:
     """Planned without the DEM to the last metre of its budget: over the DEM, with a
@@ -393,6 +394,7 @@ def test_the_simulator_flies_the_missions_heights_over_the_same_terrain(flown, r
         assert p[2] - float(hf.height_at(np.array([p[0]]), np.array([p[1]]))[0]) >= 10
 
 
+@pytest.mark.slow
 def test_three_flights_each_clear_of_the_terrain_and_under_budget(flown, raw, dem_path,
                                                                  tmp_path) -> None:
     """mound_plan --flights 3 over the ridge sites, then mound mission build: one mission
@@ -501,6 +503,7 @@ def test_plan_wpl_and_geojson_carry_the_same_altitudes(flown, tmp_path) -> None:
         assert pr["flight_amsl_m"] - max(pr["terrain_amsl_m"]) >= flown["spec"].clearance_m - 0.5
 
 
+@pytest.mark.slow
 def test_mound_field_make_with_a_dem(raw, dem_path, tmp_path) -> None:
     """`mound field make --dem` (the paper's field placed on the DEM): the sites document
     carries the terrain, mound_plan reads it, and a field off the DEM is refused naming the

@@ -45,6 +45,7 @@ def flat(tmp_path_factory: pytest.TempPathFactory, mound_recon: Path) -> tuple[P
     return reconstruct(tmp_path_factory, "none")
 
 
+@pytest.mark.slow
 def test_reference_free_verdicts(tumulus: tuple[Path, Path], flat: tuple[Path, Path],
                                  tmp_path: Path) -> None:
     site, recon = tumulus
@@ -73,6 +74,7 @@ DEFAULT_MODEL = json.loads((Path(__file__).resolve().parents[2] / "data" /
                             "verdict_model.json").read_text())
 
 
+@pytest.mark.slow
 def test_the_verdict_model_file_round_trips(tumulus: tuple[Path, Path], tmp_path: Path) -> None:
     """The shipped model, written out and read back by mound_recon, gives the p that the
     Python side computes from the detector's features; a changed weight changes it as
@@ -118,6 +120,7 @@ def test_the_verdict_model_file_round_trips(tumulus: tuple[Path, Path], tmp_path
     assert r.returncode == 2 and "not JSON" in r.stderr, r.stderr
 
 
+@pytest.mark.slow
 def test_paper_test_and_compare(tumulus: tuple[Path, Path], flat: tuple[Path, Path],
                                 tmp_path: Path) -> None:
     site, recon = tumulus
@@ -147,6 +150,7 @@ def write(path: Path, data: bytes) -> Path:
     return path
 
 
+@pytest.mark.slow
 def test_bad_inputs(tumulus: tuple[Path, Path], tmp_path: Path) -> None:
     site, recon = tumulus
     ref = str(site / "reference.ply")

@@ -131,6 +131,7 @@ MISSED = {"conical", "drum", "ploughed"}
 @pytest.mark.parametrize("name", [pytest.param(
     n, marks=pytest.mark.xfail(n in MISSED, reason="issue 26: the ground bends under the "
                                "mound on a wide cloud", strict=False)) for n in CASES])
+@pytest.mark.slow
 def test_each_shape_and_confuser_is_decided_right(name: str, tmp_path: Path,
                                                   mound_recon: Path, mound_render: Path) -> None:
     spec = CASES[name]
@@ -140,6 +141,7 @@ def test_each_shape_and_confuser_is_decided_right(name: str, tmp_path: Path,
     assert v["label"] == want, (name, v["p_mound"], v["reason"])
 
 
+@pytest.mark.slow
 def test_a_mound_wider_than_the_scan_is_a_mound_with_a_coverage_warning(
         tmp_path: Path, mound_recon: Path, mound_render: Path) -> None:
     spec = base(profile="spherical_cap", diameter_m=130.0, height_m=10.0, mound_x_m=8.0,
@@ -154,6 +156,7 @@ def test_a_mound_wider_than_the_scan_is_a_mound_with_a_coverage_warning(
                      f"{v['p_mound']:.2f}); the coverage warning stands")
 
 
+@pytest.mark.slow
 def test_a_rise_at_the_edge_of_the_site_is_flagged(tmp_path: Path, mound_recon: Path,
                                                     mound_render: Path) -> None:
     """A 40 m mound whose centre lies 25 m east of the scan's centre: half of it off the

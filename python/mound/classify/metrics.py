@@ -5,9 +5,18 @@ from __future__ import annotations
 import numpy as np
 from scipy.stats import rankdata
 
+# The paper's decision rule, in one place: the classifier labels a site a mound when
+# p(mound) >= 0.5 (Table I's error rates, the survey's labels of sites not flown).
+DECISION_P = 0.5
+
+
+def says_mound(p: float) -> bool:
+    """The classifier's label of a site of probability p(mound)."""
+    return bool(p >= DECISION_P)
+
 
 def accuracy(p: np.ndarray, y: np.ndarray) -> float:
-    return float(np.mean(np.where(p >= 0.5, 1.0, -1.0) == y))
+    return float(np.mean(np.where(p >= DECISION_P, 1.0, -1.0) == y))
 
 
 def majority_accuracy(y: np.ndarray) -> float:

@@ -26,7 +26,7 @@ import numpy as np
 
 from mound import native
 from mound.classify import coarse, statlog
-from mound.classify.metrics import detection_error_rates
+from mound.classify.metrics import detection_error_rates, says_mound
 from mound.classify.model import Model
 from mound.classify.reward import binary_entropy_bits
 from mound.jsonio import write_atomic
@@ -93,7 +93,7 @@ def error_rates(doc: dict[str, Any], visited: set[str]) -> tuple[float, float]:
     false alarms among the others; a visited site gets its true label, the others
     p_mound >= 0.5."""
     truth = [bool(s["truth"]["mound"]) for s in doc["sites"]]
-    label = [t if s["id"] in visited else s["p_mound"] >= 0.5
+    label = [t if s["id"] in visited else says_mound(s["p_mound"])
              for s, t in zip(doc["sites"], truth, strict=True)]
     md, fa = detection_error_rates(label, list(truth))
     return md or 0.0, fa or 0.0

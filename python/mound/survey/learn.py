@@ -176,7 +176,8 @@ def stage_learn(ctx: Any) -> str:
                 ({"id": s["id"], "p_before": p0[s["id"]], "p_after": s["p_mound"]}
                  for s in current["sites"] if s["id"] not in flown),
                 key=lambda c: -abs(c["p_after"] - c["p_before"]))
-            flips = sum(1 for c in changes if (c["p_before"] >= 0.5) != (c["p_after"] >= 0.5))
+            flips = sum(1 for c in changes
+                        if metrics.says_mound(c["p_before"]) != metrics.says_mound(c["p_after"]))
             auc = held_out_auc(model, test, field_rows)
             history.append({
                 "flight": k, "sites": ids, "planned_reward": flight["reward"],

@@ -20,7 +20,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from mound.classify.metrics import detection_error_rates
+from mound.classify.metrics import detection_error_rates, says_mound
 from mound.jsonio import read_json, write_atomic
 from mound.survey import figures
 from mound.survey.tree import RunTree, SiteTree
@@ -46,7 +46,7 @@ def site_rows(tree: RunTree, sites_doc: dict[str, Any], plan: dict[str, Any] | N
                                "visited": s["id"] in tour}
         if truth is not None:
             row["truth"] = bool(truth)
-        classifier = "mound" if s["p_mound"] >= 0.5 else "no_mound"
+        classifier = "mound" if says_mound(s["p_mound"]) else "no_mound"
         row["classifier_label"] = classifier
         if row["visited"]:
             path = SiteTree(tree.site_dir(s["id"])).result
@@ -130,7 +130,7 @@ def build_summary(tree: RunTree, args: argparse.Namespace, stages: list[dict[str
     if learned and (tree.learn / "learn.json").is_file():
         doc["learn"] = read_json(tree.learn / "learn.json", "mound.learn", 1)
         first = read_json(tree.sites, "mound.sites", 1)
-        before = [s["p_mound"] >= 0.5 for s in first["sites"]]
+        before = [says_mound(s["p_mound"]) for s in first["sites"]]
         bmd, bfa = detection_error_rates(before, truth)
         doc["metrics"]["classifier_before_flights"] = {"eps_md": bmd, "eps_fa": bfa}
     if (tree.photos / "photos.json").is_file():
