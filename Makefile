@@ -13,7 +13,7 @@ ifeq ($(origin MOUND_DATA),undefined)
 endif
 
 .PHONY: all build setup test test-cpp test-python lint demo demo-stages figures bench clean \
-        fuzz fuzz-smoke test-asan docs test-fast
+        fuzz fuzz-smoke test-asan docs test-fast format
 
 all: build
 
@@ -41,9 +41,17 @@ test-fast: build
 	cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
 	$(PY) -m pytest -q -m "not slow"
 
+# C++ sources of the project (the fuzz corpus and build trees excluded).
+CXX_SOURCES = $(shell find cpp tools -name '*.cc' -o -name '*.h')
+
 lint: setup
 	$(VENV)/bin/ruff check python tests tools
 	$(VENV)/bin/mypy
+	$(VENV)/bin/clang-format --dry-run --Werror $(CXX_SOURCES)
+
+# Applies .clang-format to the C++ sources (make lint checks it).
+format: setup
+	$(VENV)/bin/clang-format -i $(CXX_SOURCES)
 
 # The documentation site (docs/, mkdocs.yml) into $(BUILD)/site: strict, and the
 # command-line pages generated from the tools of this build.

@@ -28,8 +28,9 @@ PoseBlocks ToBlocks(const geometry::Rigid3d& cam_from_world) {
 
 geometry::Rigid3d FromBlocks(const PoseBlocks& b) {
   const Eigen::Vector3d w(b.rotation[0], b.rotation[1], b.rotation[2]);
-  const Eigen::Quaterniond q = w.norm() > 0 ? Eigen::Quaterniond(Eigen::AngleAxisd(w.norm(), w.normalized()))
-                                            : Eigen::Quaterniond::Identity();
+  const Eigen::Quaterniond q = w.norm() > 0
+                                   ? Eigen::Quaterniond(Eigen::AngleAxisd(w.norm(), w.normalized()))
+                                   : Eigen::Quaterniond::Identity();
   return {q, Eigen::Vector3d(b.translation[0], b.translation[1], b.translation[2])};
 }
 
@@ -46,14 +47,17 @@ double RmseReprojection(const Problem& p) {
 }
 
 Summary Adjust(Problem* p, const Options& o) {
-  const int nv = static_cast<int>(p->cam_from_world.size()), np = static_cast<int>(p->points.size());
+  const int nv = static_cast<int>(p->cam_from_world.size()),
+            np = static_cast<int>(p->points.size());
   for (size_t k = 0; k < p->observations.size(); ++k) {
     const Observation& ob = p->observations[k];
     if (ob.view < 0 || ob.view >= nv || ob.point < 0 || ob.point >= np) {
-      throw InternalError("ba::Adjust: observations[" + std::to_string(k) + "]: view or point out of range");
+      throw InternalError("ba::Adjust: observations[" + std::to_string(k) +
+                          "]: view or point out of range");
     }
   }
-  if (o.fixed_view < -1 || o.fixed_view >= nv) throw InternalError("ba::Adjust: fixed_view out of range");
+  if (o.fixed_view < -1 || o.fixed_view >= nv)
+    throw InternalError("ba::Adjust: fixed_view out of range");
   for (int v : o.constant_views)
     if (v < 0 || v >= nv) throw InternalError("ba::Adjust: constant_views: view out of range");
   Summary s;
@@ -71,10 +75,10 @@ Summary Adjust(Problem* p, const Options& o) {
   std::array<double, 3> intrinsics{p->camera.fx, p->camera.dist[0], p->camera.dist[1]};
   for (const Observation& ob : p->observations) {
     if (o.refine_intrinsics) {
-      problem.AddResidualBlock(ReprojectionErrorWithIntrinsics::Create(ob.px.x(), ob.px.y(), p->camera),
-                               &loss, poses[ob.view].rotation.data(),
-                               poses[ob.view].translation.data(), p->points[ob.point].data(),
-                               intrinsics.data());
+      problem.AddResidualBlock(
+          ReprojectionErrorWithIntrinsics::Create(ob.px.x(), ob.px.y(), p->camera), &loss,
+          poses[ob.view].rotation.data(), poses[ob.view].translation.data(),
+          p->points[ob.point].data(), intrinsics.data());
     } else {
       problem.AddResidualBlock(ReprojectionError::Create(ob.px.x(), ob.px.y(), p->camera), &loss,
                                poses[ob.view].rotation.data(), poses[ob.view].translation.data(),

@@ -55,8 +55,8 @@ struct Summary {
   std::string brief;  // Ceres' one-line report
 };
 
-// Paper: bundle adjustment. Refines `problem` in place. An observation or gauge index out of range is a caller's bug
-// (InternalError).
+// Paper: bundle adjustment. Refines `problem` in place. An observation or gauge index out of range
+// is a caller's bug (InternalError).
 Summary Adjust(Problem* problem, const Options& options);
 
 // Root-mean-square reprojection error of all observations (pixels); a point behind its

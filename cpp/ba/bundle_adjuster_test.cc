@@ -55,11 +55,13 @@ TEST(BundleAdjuster, RecoversAPerturbedSceneToTheNoiseLevel) {
   // Six views on an arc looking at the origin from about 30 m; the first at the origin of
   // the frame is the gauge, so the world frame is camera 0's.
   for (int k = 0; k < 6; ++k) {
-    truth.cam_from_world.push_back(k == 0 ? geometry::Rigid3d()
-                                          : View({0.02 * k, 0.12 * k, 0.01 * k}, {-1.5 * k, 0.2 * k, 0.1 * k}));
+    truth.cam_from_world.push_back(
+        k == 0 ? geometry::Rigid3d()
+               : View({0.02 * k, 0.12 * k, 0.01 * k}, {-1.5 * k, 0.2 * k, 0.1 * k}));
   }
   // Braces: the three draws in order (function arguments have no evaluation order).
-  for (int j = 0; j < 400; ++j) truth.points.push_back(Eigen::Vector3d{8 * u(rng), 6 * u(rng), 30 + 10 * u(rng)});
+  for (int j = 0; j < 400; ++j)
+    truth.points.push_back(Eigen::Vector3d{8 * u(rng), 6 * u(rng), 30 + 10 * u(rng)});
   Problem noisy = truth;
   for (int k = 0; k < 6; ++k) {
     for (int j = 0; j < 400; ++j) {
@@ -89,9 +91,9 @@ TEST(BundleAdjuster, RecoversAPerturbedSceneToTheNoiseLevel) {
   Options options;
   options.scale_view = 5;
   const Summary s = Adjust(&noisy, options);
-  std::cout << s.brief << "\nRMSE " << s.initial_rmse_px << " -> " << s.final_rmse_px
-            << " px over " << noisy.observations.size() << " observations (truth "
-            << RmseReprojection(truth) << " px)\n";
+  std::cout << s.brief << "\nRMSE " << s.initial_rmse_px << " -> " << s.final_rmse_px << " px over "
+            << noisy.observations.size() << " observations (truth " << RmseReprojection(truth)
+            << " px)\n";
   EXPECT_GT(s.initial_rmse_px, 10.0);
   // The noise: 0.5 px per coordinate is sqrt(2) * 0.5 = 0.71 px per observation; the
   // adjusted scene fits slightly better than the truth (it absorbs part of the noise).
@@ -99,10 +101,12 @@ TEST(BundleAdjuster, RecoversAPerturbedSceneToTheNoiseLevel) {
   EXPECT_LE(s.final_rmse_px, RmseReprojection(truth));
   EXPECT_TRUE(s.converged) << s.brief;
   for (int k = 0; k < 6; ++k) {
-    const double centre_m = (noisy.cam_from_world[k].Centre() - truth.cam_from_world[k].Centre()).norm();
+    const double centre_m =
+        (noisy.cam_from_world[k].Centre() - truth.cam_from_world[k].Centre()).norm();
     // Rotation difference R_est R_true^T as an angle.
-    const double angle_deg =
-        geometry::RotationAngle(noisy.cam_from_world[k].rotation, truth.cam_from_world[k].rotation) * 180 / M_PI;
+    const double angle_deg = geometry::RotationAngle(noisy.cam_from_world[k].rotation,
+                                                     truth.cam_from_world[k].rotation) *
+                             180 / M_PI;
     std::cout << "view " << k << ": centre error " << centre_m * 100 << " cm, rotation error "
               << angle_deg << " deg\n";
     // From 0.5 px noise at f = 900 px and 20-40 m depth, the rotation about the vertical
@@ -121,9 +125,11 @@ TEST(BundleAdjuster, ConstantViewsHoldTheGaugeOfALocalAdjustment) {
   std::uniform_real_distribution<double> u(-1, 1);
   Problem truth;
   truth.camera = Camera();
-  truth.cam_from_world = {View({0.01, -0.05, 0.0}, {1.0, 0.0, 0.5}), View({0.0, 0.1, 0.02}, {-2.0, 0.1, 0.2}),
+  truth.cam_from_world = {View({0.01, -0.05, 0.0}, {1.0, 0.0, 0.5}),
+                          View({0.0, 0.1, 0.02}, {-2.0, 0.1, 0.2}),
                           View({0.03, 0.2, -0.01}, {-4.5, 0.3, 0.6})};
-  for (int j = 0; j < 300; ++j) truth.points.push_back(Eigen::Vector3d{8 * u(rng), 6 * u(rng), 30 + 10 * u(rng)});
+  for (int j = 0; j < 300; ++j)
+    truth.points.push_back(Eigen::Vector3d{8 * u(rng), 6 * u(rng), 30 + 10 * u(rng)});
   for (int k = 0; k < 3; ++k)
     for (int j = 0; j < 300; ++j) {
       Eigen::Vector2d r;
@@ -132,7 +138,9 @@ TEST(BundleAdjuster, ConstantViewsHoldTheGaugeOfALocalAdjustment) {
     }
   Problem p = truth;
   p.cam_from_world[2].translation += Eigen::Vector3d(0.4, -0.3, 0.5);
-  p.cam_from_world[2].rotation = p.cam_from_world[2].rotation * Eigen::Quaterniond(Eigen::AngleAxisd(0.02, Eigen::Vector3d::UnitY()));
+  p.cam_from_world[2].rotation =
+      p.cam_from_world[2].rotation *
+      Eigen::Quaterniond(Eigen::AngleAxisd(0.02, Eigen::Vector3d::UnitY()));
   for (Eigen::Vector3d& X : p.points)
     for (int i = 0; i < 3; ++i) X[i] += 0.2 * g(rng);
   Options o;
@@ -144,11 +152,18 @@ TEST(BundleAdjuster, ConstantViewsHoldTheGaugeOfALocalAdjustment) {
   EXPECT_LT(s.final_rmse_px, 0.3) << s.brief;
   for (int k = 0; k < 2; ++k) {
     // (up to the round trip through angle-axis parameters)
-    EXPECT_LT((p.cam_from_world[k].translation - truth.cam_from_world[k].translation).norm(), 1e-12) << "view " << k;
-    EXPECT_LT(geometry::RotationAngle(p.cam_from_world[k].rotation, truth.cam_from_world[k].rotation), 1e-12) << "view " << k;
+    EXPECT_LT((p.cam_from_world[k].translation - truth.cam_from_world[k].translation).norm(), 1e-12)
+        << "view " << k;
+    EXPECT_LT(
+        geometry::RotationAngle(p.cam_from_world[k].rotation, truth.cam_from_world[k].rotation),
+        1e-12)
+        << "view " << k;
   }
   EXPECT_LT((p.cam_from_world[2].Centre() - truth.cam_from_world[2].Centre()).norm(), 0.02);
-  EXPECT_LT(geometry::RotationAngle(p.cam_from_world[2].rotation, truth.cam_from_world[2].rotation) * 180 / M_PI, 0.05);
+  EXPECT_LT(
+      geometry::RotationAngle(p.cam_from_world[2].rotation, truth.cam_from_world[2].rotation) *
+          180 / M_PI,
+      0.05);
   o.constant_views = {3};
   EXPECT_THROW(Adjust(&p, o), InternalError);
 }

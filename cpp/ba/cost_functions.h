@@ -40,7 +40,8 @@ class ReprojectionError {
   }
 
   // Ceres 2.1: the cost function takes ownership of a heap-allocated functor.
-  static ceres::CostFunction* Create(double u_px, double v_px, const geometry::CameraModel& camera) {
+  static ceres::CostFunction* Create(double u_px, double v_px,
+                                     const geometry::CameraModel& camera) {
     return new ceres::AutoDiffCostFunction<ReprojectionError, 2, 3, 3, 3>(
         new ReprojectionError(u_px, v_px, camera));
   }
@@ -64,9 +65,11 @@ class ReprojectionErrorWithIntrinsics {
     T p[3];
     ceres::AngleAxisRotatePoint(rotation, point, p);
     for (int i = 0; i < 3; ++i) p[i] += translation[i];
-    const T params[geometry::CameraModel::kNumParams] = {
-        intrinsics[0], intrinsics[0] * T(aspect_), T(fixed_[2]), T(fixed_[3]), intrinsics[1],
-        intrinsics[2], T(fixed_[6]), T(fixed_[7]), T(fixed_[8])};
+    const T params[geometry::CameraModel::kNumParams] = {intrinsics[0], intrinsics[0] * T(aspect_),
+                                                         T(fixed_[2]),  T(fixed_[3]),
+                                                         intrinsics[1], intrinsics[2],
+                                                         T(fixed_[6]),  T(fixed_[7]),
+                                                         T(fixed_[8])};
     T u, v;
     if (!geometry::ImageFromCamera(params, p, &u, &v)) {
       residual[0] = residual[1] = T(0);
@@ -77,7 +80,8 @@ class ReprojectionErrorWithIntrinsics {
     return true;
   }
 
-  static ceres::CostFunction* Create(double u_px, double v_px, const geometry::CameraModel& camera) {
+  static ceres::CostFunction* Create(double u_px, double v_px,
+                                     const geometry::CameraModel& camera) {
     return new ceres::AutoDiffCostFunction<ReprojectionErrorWithIntrinsics, 2, 3, 3, 3, 3>(
         new ReprojectionErrorWithIntrinsics(u_px, v_px, camera));
   }

@@ -28,7 +28,8 @@ Args ParseArgs(const std::vector<std::string>& args, size_t begin,
 }
 
 bool WantsHelp(const std::vector<std::string>& args) {
-  return std::any_of(args.begin(), args.end(), [](const std::string& s) { return s == "--help" || s == "-h"; });
+  return std::any_of(args.begin(), args.end(),
+                     [](const std::string& s) { return s == "--help" || s == "-h"; });
 }
 
 double ParseNumber(const std::string& s, const std::string& what) {

@@ -22,8 +22,7 @@ struct Args {
 // Parses args[begin..]: anything starting with "--" must be in `known` (takes a value) or in
 // `flags` (takes none); everything else is positional. Throws InputError otherwise.
 Args ParseArgs(const std::vector<std::string>& args, size_t begin,
-               const std::vector<std::string>& known,
-               const std::vector<std::string>& flags = {});
+               const std::vector<std::string>& known, const std::vector<std::string>& flags = {});
 
 // True when --help or -h stands anywhere among the arguments (the usage text then wins over
 // any other argument, valid or not).

@@ -31,8 +31,8 @@ std::string LastKeyBefore(const std::string& text, size_t pos) {
   const size_t begin = end > 4096 ? end - 4096 : 0;
   const std::string head = text.substr(begin, end - begin);
   std::string last;
-  for (auto it = std::sregex_iterator(head.begin(), head.end(), kKey);
-       it != std::sregex_iterator(); ++it) {
+  for (auto it = std::sregex_iterator(head.begin(), head.end(), kKey); it != std::sregex_iterator();
+       ++it) {
     last = (*it)[1].str();
   }
   return last;
@@ -180,13 +180,14 @@ std::vector<double> FiniteNumbers(const nlohmann::json& a, const std::string& pa
   return out;
 }
 
-std::vector<double> RequireNumbers(const nlohmann::json& obj, const std::string& key, const std::string& path,
-                                   size_t count) {
+std::vector<double> RequireNumbers(const nlohmann::json& obj, const std::string& key,
+                                   const std::string& path, size_t count) {
   return FiniteNumbers(RequireField(obj, key, path), JoinPath(path, key), count);
 }
 
 // A 3x3 matrix as nested arrays, row-major.
-std::vector<double> RequireMatrix3(const nlohmann::json& obj, const std::string& key, const std::string& path) {
+std::vector<double> RequireMatrix3(const nlohmann::json& obj, const std::string& key,
+                                   const std::string& path) {
   const nlohmann::json& m = RequireField(obj, key, path);
   const std::string p = JoinPath(path, key);
   if (!m.is_array() || m.size() != 3) throw InputError(p + ": expected a 3x3 array of numbers");
@@ -198,8 +199,8 @@ std::vector<double> RequireMatrix3(const nlohmann::json& obj, const std::string&
   return out;
 }
 
-int RequireInt(const nlohmann::json& obj, const std::string& key, const std::string& path, long long lo,
-               long long hi) {
+int RequireInt(const nlohmann::json& obj, const std::string& key, const std::string& path,
+               long long lo, long long hi) {
   const nlohmann::json& v = RequireField(obj, key, path);
   if (!v.is_number_integer() || v.get<long long>() < lo || v.get<long long>() > hi) {
     throw InputError(JoinPath(path, key) + ": expected an integer in [" + std::to_string(lo) +

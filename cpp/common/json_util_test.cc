@@ -31,8 +31,9 @@ TEST(JsonUtilTest, SyntaxErrorNamesLineAndKey) {
 
 TEST(JsonUtilTest, FieldAccessorsNameTheField) {
   const nlohmann::json j = nlohmann::json::parse(R"({"a": -1, "b": "x"})");
-  EXPECT_NE(MessageOf([&] { RequireNonNegative(j, "a", "sites[2]"); }).find("sites[2].a: must be >= 0"),
-            std::string::npos);
+  EXPECT_NE(
+      MessageOf([&] { RequireNonNegative(j, "a", "sites[2]"); }).find("sites[2].a: must be >= 0"),
+      std::string::npos);
   EXPECT_NE(MessageOf([&] { RequireFinite(j, "b", ""); }).find("b: must be a number"),
             std::string::npos);
   EXPECT_NE(MessageOf([&] { RequireFinite(j, "zz", "home"); }).find("home.zz: missing"),

@@ -8,6 +8,8 @@ namespace mound {
 using Clock = std::chrono::steady_clock;
 
 // Seconds since `t0`.
-inline double Since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+inline double Since(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
 
 }  // namespace mound

@@ -40,8 +40,8 @@ void ImageFromNormalised(const P* params, const T& x, const T& y, T* u, T* v) {
 template <typename P, typename T>
 bool ImageFromCamera(const P* params, const T* point_in_cam, T* u, T* v) {
   if (!(point_in_cam[2] > T(0))) return false;
-  ImageFromNormalised(params, point_in_cam[0] / point_in_cam[2], point_in_cam[1] / point_in_cam[2], u,
-                      v);
+  ImageFromNormalised(params, point_in_cam[0] / point_in_cam[2], point_in_cam[1] / point_in_cam[2],
+                      u, v);
   return true;
 }
 

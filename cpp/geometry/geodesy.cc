@@ -6,9 +6,9 @@
 namespace mound::geometry {
 namespace {
 
-constexpr double kA = 6378137.0;               // WGS84 semi-major axis, m
-constexpr double kF = 1.0 / 298.257223563;     // flattening
-constexpr double kE2 = kF * (2 - kF);          // first eccentricity squared
+constexpr double kA = 6378137.0;            // WGS84 semi-major axis, m
+constexpr double kF = 1.0 / 298.257223563;  // flattening
+constexpr double kE2 = kF * (2 - kF);       // first eccentricity squared
 constexpr double kB = kA * (1 - kF);
 constexpr double kDeg = M_PI / 180;
 
@@ -25,8 +25,8 @@ Eigen::Matrix3d EnuFromEcefRotation(const Geodetic& o) {
 Eigen::Vector3d EcefFromGeodetic(const Geodetic& g) {
   const double lat = g.lat_deg * kDeg, lon = g.lon_deg * kDeg;
   const double N = kA / std::sqrt(1 - kE2 * std::sin(lat) * std::sin(lat));
-  return {(N + g.alt_m) * std::cos(lat) * std::cos(lon), (N + g.alt_m) * std::cos(lat) * std::sin(lon),
-          (N * (1 - kE2) + g.alt_m) * std::sin(lat)};
+  return {(N + g.alt_m) * std::cos(lat) * std::cos(lon),
+          (N + g.alt_m) * std::cos(lat) * std::sin(lon), (N * (1 - kE2) + g.alt_m) * std::sin(lat)};
 }
 
 Geodetic GeodeticFromEcef(const Eigen::Vector3d& e) {

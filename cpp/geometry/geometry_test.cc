@@ -111,7 +111,8 @@ TEST(Geodesy, Wgs84KnownPointsAndRoundTrips) {
   const Eigen::Vector3d north = EnuFromGeodetic(origin, {38.5705 + 1.0 / 3600, 27.9862, 95.0});
   EXPECT_NEAR(north.y(), 30.85, 0.05);
   EXPECT_NEAR(north.x(), 0, 1e-6);
-  for (const Eigen::Vector3d& enu : {Eigen::Vector3d(30000, -20000, 500), Eigen::Vector3d(-5, 7, -3)}) {
+  for (const Eigen::Vector3d& enu :
+       {Eigen::Vector3d(30000, -20000, 500), Eigen::Vector3d(-5, 7, -3)}) {
     EXPECT_NEAR((EnuFromGeodetic(origin, GeodeticFromEnu(origin, enu)) - enu).norm(), 0, 1e-6);
   }
 }

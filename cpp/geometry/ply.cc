@@ -20,7 +20,8 @@ struct Property {
 int TypeSize(const std::string& t) {
   if (t == "char" || t == "uchar" || t == "int8" || t == "uint8") return 1;
   if (t == "short" || t == "ushort" || t == "int16" || t == "uint16") return 2;
-  if (t == "int" || t == "uint" || t == "int32" || t == "uint32" || t == "float" || t == "float32") return 4;
+  if (t == "int" || t == "uint" || t == "int32" || t == "uint32" || t == "float" || t == "float32")
+    return 4;
   if (t == "double" || t == "float64") return 8;
   return 0;
 }
@@ -68,7 +69,8 @@ PlyCloud ParsePly(std::istream& in, const std::string& path) {
   };
   std::string line;
   int ln = 0;
-  if (!std::getline(in, line) || (line != "ply" && line != "ply\r")) fail(1, "not a PLY file (no 'ply' magic line)");
+  if (!std::getline(in, line) || (line != "ply" && line != "ply\r"))
+    fail(1, "not a PLY file (no 'ply' magic line)");
   ++ln;
   std::string format;
   std::vector<Element> elements;
@@ -131,12 +133,18 @@ PlyCloud ParsePly(std::istream& in, const std::string& path) {
   for (size_t k = 0; k < v.props.size(); ++k) {
     const std::string& n = v.props[k].name;
     const int kk = static_cast<int>(k);
-    if (n == "x") ix = kk;
-    else if (n == "y") iy = kk;
-    else if (n == "z") iz = kk;
-    else if (n == "red" && v.props[k].type.find("char") != std::string::npos) ir = kk;
-    else if (n == "green" && v.props[k].type.find("char") != std::string::npos) ig = kk;
-    else if (n == "blue" && v.props[k].type.find("char") != std::string::npos) ib = kk;
+    if (n == "x")
+      ix = kk;
+    else if (n == "y")
+      iy = kk;
+    else if (n == "z")
+      iz = kk;
+    else if (n == "red" && v.props[k].type.find("char") != std::string::npos)
+      ir = kk;
+    else if (n == "green" && v.props[k].type.find("char") != std::string::npos)
+      ig = kk;
+    else if (n == "blue" && v.props[k].type.find("char") != std::string::npos)
+      ib = kk;
   }
   if (ix < 0 || iy < 0 || iz < 0) fail(ln, "element vertex lacks x, y or z");
   const bool colours = ir >= 0 && ig >= 0 && ib >= 0;
@@ -145,7 +153,8 @@ PlyCloud ParsePly(std::istream& in, const std::string& path) {
   // Skip the elements before the vertex element.
   for (size_t i = 0; i < vi; ++i) {
     const Element& e = elements[i];
-    if (e.has_list) fail(ln, "element " + e.name + " before vertex has list properties (unsupported)");
+    if (e.has_list)
+      fail(ln, "element " + e.name + " before vertex has list properties (unsupported)");
     if (binary) {
       long long bytes = 0;
       for (const Property& p : e.props) bytes += p.size;
@@ -164,7 +173,8 @@ PlyCloud ParsePly(std::istream& in, const std::string& path) {
   std::vector<std::vector<double>*> extra(v.props.size(), nullptr);
   for (size_t k = 0; k < v.props.size(); ++k) {
     const int kk = static_cast<int>(k);
-    if (kk == ix || kk == iy || kk == iz || (colours && (kk == ir || kk == ig || kk == ib))) continue;
+    if (kk == ix || kk == iy || kk == iz || (colours && (kk == ir || kk == ig || kk == ib)))
+      continue;
     extra[k] = &cloud.scalars[v.props[k].name];
     extra[k]->reserve(reserve);
   }
@@ -173,8 +183,8 @@ PlyCloud ParsePly(std::istream& in, const std::string& path) {
   for (long long n = 0; n < v.count; ++n) {
     if (binary) {
       if (!in.read(buf.data(), record)) {
-        throw InputError(path + ": truncated: vertex " + std::to_string(n) + " of " + std::to_string(v.count) +
-                         " missing");
+        throw InputError(path + ": truncated: vertex " + std::to_string(n) + " of " +
+                         std::to_string(v.count) + " missing");
       }
       int off = 0;
       for (size_t k = 0; k < v.props.size(); ++k) {
@@ -183,8 +193,8 @@ PlyCloud ParsePly(std::istream& in, const std::string& path) {
       }
     } else {
       if (!std::getline(in, line)) {
-        throw InputError(path + ": truncated: vertex " + std::to_string(n) + " of " + std::to_string(v.count) +
-                         " missing");
+        throw InputError(path + ": truncated: vertex " + std::to_string(n) + " of " +
+                         std::to_string(v.count) + " missing");
       }
       ++ln;
       std::istringstream ls(line);
@@ -193,11 +203,13 @@ PlyCloud ParsePly(std::istream& in, const std::string& path) {
         ls >> tok;
         char* end = nullptr;
         val[k] = std::strtod(tok.c_str(), &end);
-        if (tok.empty() || *end != '\0') fail(ln, "vertex " + std::to_string(n) + ": bad value '" + tok + "'");
+        if (tok.empty() || *end != '\0')
+          fail(ln, "vertex " + std::to_string(n) + ": bad value '" + tok + "'");
       }
     }
     const Eigen::Vector3d p(val[ix], val[iy], val[iz]);
-    if (!p.allFinite()) throw InputError(path + ": vertex " + std::to_string(n) + ": non-finite coordinate");
+    if (!p.allFinite())
+      throw InputError(path + ": vertex " + std::to_string(n) + ": non-finite coordinate");
     cloud.xyz.push_back(p);
     if (colours) {
       // Colour values outside 0..255 (an ASCII file may say anything) are clamped; a cast
@@ -215,13 +227,16 @@ PlyCloud ParsePly(std::istream& in, const std::string& path) {
 
 void WritePly(const std::string& path, const PlyCloud& c) {
   const bool colours = !c.rgb.empty();
-  if (colours && c.rgb.size() != c.xyz.size()) throw InternalError("WritePly: rgb and xyz differ in length");
+  if (colours && c.rgb.size() != c.xyz.size())
+    throw InternalError("WritePly: rgb and xyz differ in length");
   for (const auto& [name, values] : c.scalars)
-    if (values.size() != c.xyz.size()) throw InternalError("WritePly: scalar " + name + " differs in length");
+    if (values.size() != c.xyz.size())
+      throw InternalError("WritePly: scalar " + name + " differs in length");
   std::ostringstream h;
   h << "ply\nformat binary_little_endian 1.0\n";
   for (const std::string& s : c.comments) h << "comment " << s << "\n";
-  h << "element vertex " << c.xyz.size() << "\nproperty float x\nproperty float y\nproperty float z\n";
+  h << "element vertex " << c.xyz.size()
+    << "\nproperty float x\nproperty float y\nproperty float z\n";
   if (colours) h << "property uchar red\nproperty uchar green\nproperty uchar blue\n";
   for (const auto& kv : c.scalars) h << "property float " << kv.first << "\n";
   h << "end_header\n";

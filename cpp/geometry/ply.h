@@ -13,8 +13,8 @@
 #include <Eigen/Core>
 #include <array>
 #include <cstdint>
-#include <map>
 #include <istream>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -22,7 +22,7 @@ namespace mound {
 
 struct PlyCloud {
   std::vector<Eigen::Vector3d> xyz;
-  std::vector<std::array<uint8_t, 3>> rgb;          // empty when the file has no colours
+  std::vector<std::array<uint8_t, 3>> rgb;             // empty when the file has no colours
   std::map<std::string, std::vector<double>> scalars;  // other vertex properties, by name
   std::vector<std::string> comments;
 };

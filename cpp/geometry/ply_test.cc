@@ -50,17 +50,19 @@ TEST(Ply, WrittenCloudReadsBack) {
 
 TEST(Ply, AsciiAndBigEndianAndSkippedElements) {
   const std::string a = Temp("ascii.ply");
-  Write(a, "ply\nformat ascii 1.0\nelement vertex 2\nproperty double x\nproperty double y\n"
-           "property double z\nproperty int track_length\nelement face 1\n"
-           "property list uchar int vertex_indices\nend_header\n1 2 3 4\n-1 -2 -3.5 2\n3 0 1 2\n");
+  Write(a,
+        "ply\nformat ascii 1.0\nelement vertex 2\nproperty double x\nproperty double y\n"
+        "property double z\nproperty int track_length\nelement face 1\n"
+        "property list uchar int vertex_indices\nend_header\n1 2 3 4\n-1 -2 -3.5 2\n3 0 1 2\n");
   const PlyCloud c = ReadPly(a);
   ASSERT_EQ(c.xyz.size(), 2u);
   EXPECT_EQ(c.xyz[1], Eigen::Vector3d(-1, -2, -3.5));
   EXPECT_TRUE(c.rgb.empty());
   EXPECT_EQ(c.scalars.at("track_length"), (std::vector<double>{4, 2}));
   // Big-endian float 1.0 = 3f 80 00 00; a fixed-size element before the vertices.
-  std::string b = "ply\nformat binary_big_endian 1.0\nelement camera 1\nproperty short id\n"
-                  "element vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\n";
+  std::string b =
+      "ply\nformat binary_big_endian 1.0\nelement camera 1\nproperty short id\n"
+      "element vertex 1\nproperty float x\nproperty float y\nproperty float z\nend_header\n";
   b += std::string("\x00\x07", 2);
   b += std::string("\x3f\x80\x00\x00\x40\x00\x00\x00\xc0\x40\x00\x00", 12);
   const std::string bp = Temp("be.ply");
@@ -75,22 +77,33 @@ TEST(Ply, BadFilesNameTheProblem) {
   const std::string p = Temp("bad.ply");
   Write(p, "solid cube\n");
   EXPECT_NE(ErrorOf(p).find("not a PLY file"), std::string::npos);
-  Write(p, "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
-           "property float z\nend_header\n" + std::string(20, '\0'));
+  Write(
+      p,
+      "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+      "property float z\nend_header\n" +
+          std::string(20, '\0'));
   EXPECT_NE(ErrorOf(p).find("truncated: vertex 1 of 3"), std::string::npos) << ErrorOf(p);
-  Write(p, "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nend_header\n1 2\n");
+  Write(p,
+        "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float "
+        "y\nend_header\n1 2\n");
   EXPECT_NE(ErrorOf(p).find("lacks x, y or z"), std::string::npos);
-  Write(p, "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\n"
-           "end_header\n1 nan 2\n");
+  Write(p,
+        "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty "
+        "float z\n"
+        "end_header\n1 nan 2\n");
   EXPECT_NE(ErrorOf(p).find("vertex 0: non-finite"), std::string::npos) << ErrorOf(p);
   Write(p, "ply\nformat ascii 1.0\nelement vertex many\nend_header\n");
   EXPECT_NE(ErrorOf(p).find(":3: element vertex: bad count"), std::string::npos) << ErrorOf(p);
-  Write(p, "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\n");
+  Write(p,
+        "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty "
+        "float z\n");
   EXPECT_NE(ErrorOf(p).find("no end_header"), std::string::npos);
   Write(p, "ply\nformat ebcdic 1.0\n");
   EXPECT_NE(ErrorOf(p).find("unknown format"), std::string::npos);
-  Write(p, "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty float z\n"
-           "end_header\n1 2 x\n");
+  Write(p,
+        "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nproperty "
+        "float z\n"
+        "end_header\n1 2 x\n");
   EXPECT_NE(ErrorOf(p).find("bad value 'x'"), std::string::npos);
 }
 

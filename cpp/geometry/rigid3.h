@@ -13,8 +13,10 @@ struct Rigid3d {
   Eigen::Vector3d translation = Eigen::Vector3d::Zero();
 
   Rigid3d() = default;
-  Rigid3d(const Eigen::Quaterniond& q, const Eigen::Vector3d& t) : rotation(q.normalized()), translation(t) {}
-  Rigid3d(const Eigen::Matrix3d& R, const Eigen::Vector3d& t) : rotation(Eigen::Quaterniond(R).normalized()), translation(t) {}
+  Rigid3d(const Eigen::Quaterniond& q, const Eigen::Vector3d& t)
+      : rotation(q.normalized()), translation(t) {}
+  Rigid3d(const Eigen::Matrix3d& R, const Eigen::Vector3d& t)
+      : rotation(Eigen::Quaterniond(R).normalized()), translation(t) {}
 
   Eigen::Matrix3d RotationMatrix() const { return rotation.toRotationMatrix(); }
   // The origin of the source frame's target: for cam_from_world, the camera centre in the
@@ -23,7 +25,9 @@ struct Rigid3d {
   Rigid3d Inverse() const;
 
   Eigen::Vector3d operator*(const Eigen::Vector3d& x) const { return rotation * x + translation; }
-  Rigid3d operator*(const Rigid3d& b) const { return {rotation * b.rotation, rotation * b.translation + translation}; }
+  Rigid3d operator*(const Rigid3d& b) const {
+    return {rotation * b.rotation, rotation * b.translation + translation};
+  }
 };
 
 // Angle of the rotation between a and b, radians.

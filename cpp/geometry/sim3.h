@@ -16,7 +16,9 @@ struct Sim3d {
   Eigen::Quaterniond rotation = Eigen::Quaterniond::Identity();
   Eigen::Vector3d translation = Eigen::Vector3d::Zero();
 
-  Eigen::Vector3d operator*(const Eigen::Vector3d& x) const { return scale * (rotation * x) + translation; }
+  Eigen::Vector3d operator*(const Eigen::Vector3d& x) const {
+    return scale * (rotation * x) + translation;
+  }
   Sim3d Inverse() const;
 };
 

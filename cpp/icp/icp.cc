@@ -56,9 +56,11 @@ Sim3d FromMatrix(const Eigen::Matrix4f& mf) {
   const Eigen::Matrix3d a = m.topLeftCorner<3, 3>();
   Sim3d s;
   s.scale = std::cbrt(a.determinant());
-  if (!(s.scale > 0) || !std::isfinite(s.scale)) throw NoResultError("ICP degenerated (scale " + std::to_string(s.scale) + ")");
+  if (!(s.scale > 0) || !std::isfinite(s.scale))
+    throw NoResultError("ICP degenerated (scale " + std::to_string(s.scale) + ")");
   // The nearest rotation to a / s (float round-off).
-  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(a / s.scale, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(a / s.scale,
+                                              Eigen::ComputeFullU | Eigen::ComputeFullV);
   Eigen::Matrix3d r = svd.matrixU() * svd.matrixV().transpose();
   if (r.determinant() < 0) r = -r;
   s.rotation = Eigen::Quaterniond(r).normalized();
@@ -66,12 +68,14 @@ Sim3d FromMatrix(const Eigen::Matrix4f& mf) {
   return s;
 }
 
-Cloud::Ptr ToPcl(const std::vector<Eigen::Vector3d>& p, const Eigen::Vector3d& offset, const std::vector<int>& which) {
+Cloud::Ptr ToPcl(const std::vector<Eigen::Vector3d>& p, const Eigen::Vector3d& offset,
+                 const std::vector<int>& which) {
   Cloud::Ptr c(new Cloud);
   c->reserve(which.size());
   for (int i : which) {
     const Eigen::Vector3d q = p[i] - offset;
-    c->push_back(pcl::PointXYZ(static_cast<float>(q.x()), static_cast<float>(q.y()), static_cast<float>(q.z())));
+    c->push_back(pcl::PointXYZ(static_cast<float>(q.x()), static_cast<float>(q.y()),
+                               static_cast<float>(q.z())));
   }
   return c;
 }
@@ -112,7 +116,8 @@ struct Run {
 };
 
 // Nearest-neighbour statistics of `src` mapped by T against the target tree.
-void Score(const Cloud& src, const pcl::search::KdTree<pcl::PointXYZ>& tree, double median_factor, Run* r) {
+void Score(const Cloud& src, const pcl::search::KdTree<pcl::PointXYZ>& tree, double median_factor,
+           Run* r) {
   const Eigen::Matrix4f M = ToMatrix(r->T);
   std::vector<double> d(src.size());
   pcl::Indices k(1);
@@ -135,15 +140,17 @@ void Score(const Cloud& src, const pcl::search::KdTree<pcl::PointXYZ>& tree, dou
   r->inlier_fraction = static_cast<double>(n) / static_cast<double>(d.size());
 }
 
-Run RunIcp(const Cloud::Ptr& src, const Cloud::Ptr& tgt, const pcl::search::KdTree<pcl::PointXYZ>::Ptr& tree,
-           const Sim3d& init, const Options& o, int max_iterations, double extent) {
+Run RunIcp(const Cloud::Ptr& src, const Cloud::Ptr& tgt,
+           const pcl::search::KdTree<pcl::PointXYZ>::Ptr& tree, const Sim3d& init, const Options& o,
+           int max_iterations, double extent) {
   pcl::IterativeClosestPoint<pcl::PointXYZ, pcl::PointXYZ> icp;
   icp.setInputSource(src);
   icp.setInputTarget(tgt);
   icp.setSearchMethodTarget(tree, true);
   if (o.estimate_scale) {
     icp.setTransformationEstimation(
-        pcl::make_shared<pcl::registration::TransformationEstimationSVDScale<pcl::PointXYZ, pcl::PointXYZ>>());
+        pcl::make_shared<
+            pcl::registration::TransformationEstimationSVDScale<pcl::PointXYZ, pcl::PointXYZ>>());
   }
   auto rejector = pcl::make_shared<pcl::registration::CorrespondenceRejectorMedianDistance>();
   rejector->setMedianFactor(o.median_factor);
@@ -156,7 +163,9 @@ Run RunIcp(const Cloud::Ptr& src, const Cloud::Ptr& tgt, const pcl::search::KdTr
   icp.setEuclideanFitnessEpsilon(o.relative_mse_epsilon);
   Run r;
   std::function<void(const Cloud&, const pcl::Indices&, const Cloud&, const pcl::Indices&)> count =
-      [&r](const Cloud&, const pcl::Indices&, const Cloud&, const pcl::Indices&) { ++r.iterations; };
+      [&r](const Cloud&, const pcl::Indices&, const Cloud&, const pcl::Indices&) {
+        ++r.iterations;
+      };
   icp.registerVisualizationCallback(count);
   Cloud out;
   icp.align(out, ToMatrix(init));
@@ -171,13 +180,15 @@ Run RunIcp(const Cloud::Ptr& src, const Cloud::Ptr& tgt, const pcl::search::KdTr
   return r;
 }
 
-
 // Surface normals of reference points (PCA of their 8 nearest neighbours), computed on
 // first use and cached: only the points that become correspondences need one.
 class Normals {
  public:
   Normals(const Cloud::Ptr& ref, const pcl::search::KdTree<pcl::PointXYZ>::Ptr& tree)
-      : ref_(ref), tree_(tree), n_(ref->size(), Eigen::Vector3d::Zero()), done_(ref->size(), false) {}
+      : ref_(ref),
+        tree_(tree),
+        n_(ref->size(), Eigen::Vector3d::Zero()),
+        done_(ref->size(), false) {}
   const Eigen::Vector3d& At(int i) {
     if (!done_[i]) {
       pcl::Indices k;
@@ -210,8 +221,8 @@ class Normals {
 // median_factor x the median distance dropped; one Gauss-Newton step on the 7 parameters
 // (rotation, translation, scale about the correspondences' centroid).
 Run RunPlaneIcp(const std::vector<Eigen::Vector3d>& src, const Cloud::Ptr& tgt,
-                const pcl::search::KdTree<pcl::PointXYZ>::Ptr& tree, Normals* normals, const Sim3d& init,
-                const Options& o, int max_iterations, double extent) {
+                const pcl::search::KdTree<pcl::PointXYZ>::Ptr& tree, Normals* normals,
+                const Sim3d& init, const Options& o, int max_iterations, double extent) {
   Run r;
   r.T = init;
   const int np = o.estimate_scale ? 7 : 6;
@@ -225,7 +236,8 @@ Run RunPlaneIcp(const std::vector<Eigen::Vector3d>& src, const Cloud::Ptr& tgt,
     ++r.iterations;
     for (size_t i = 0; i < src.size(); ++i) {
       p[i] = r.T * src[i];
-      const pcl::PointXYZ q(static_cast<float>(p[i].x()), static_cast<float>(p[i].y()), static_cast<float>(p[i].z()));
+      const pcl::PointXYZ q(static_cast<float>(p[i].x()), static_cast<float>(p[i].y()),
+                            static_cast<float>(p[i].z()));
       if (tree->nearestKSearch(q, 1, k, d2) > 0) {
         nn[i] = k[0];
         dist[i] = std::sqrt(d2[0]);
@@ -242,7 +254,8 @@ Run RunPlaneIcp(const std::vector<Eigen::Vector3d>& src, const Cloud::Ptr& tgt,
         use.push_back(static_cast<int>(i));
         c += p[i];
       }
-    if (use.size() < 10) throw NoResultError("the clouds do not overlap: ICP found too few correspondences");
+    if (use.size() < 10)
+      throw NoResultError("the clouds do not overlap: ICP found too few correspondences");
     c /= static_cast<double>(use.size());
     Eigen::Matrix<double, 7, 7> A = Eigen::Matrix<double, 7, 7>::Zero();
     Eigen::Matrix<double, 7, 1> b = Eigen::Matrix<double, 7, 1>::Zero();
@@ -282,16 +295,22 @@ Run RunPlaneIcp(const std::vector<Eigen::Vector3d>& src, const Cloud::Ptr& tgt,
 
 }  // namespace
 
-Result Align(const std::vector<Eigen::Vector3d>& cloud, const std::vector<Eigen::Vector3d>& reference,
-             const Options& o) {
-  if (cloud.size() < 10) throw InputError("cloud: " + std::to_string(cloud.size()) + " points; ICP needs at least 10");
-  if (reference.size() < 10) throw InputError("reference: " + std::to_string(reference.size()) + " points; ICP needs at least 10");
-  if (o.init != "auto" && o.init != "none" && o.init != "pca") throw InputError("--init: expected auto, none or pca, got '" + o.init + "'");
+Result Align(const std::vector<Eigen::Vector3d>& cloud,
+             const std::vector<Eigen::Vector3d>& reference, const Options& o) {
+  if (cloud.size() < 10)
+    throw InputError("cloud: " + std::to_string(cloud.size()) + " points; ICP needs at least 10");
+  if (reference.size() < 10)
+    throw InputError("reference: " + std::to_string(reference.size()) +
+                     " points; ICP needs at least 10");
+  if (o.init != "auto" && o.init != "none" && o.init != "pca")
+    throw InputError("--init: expected auto, none or pca, got '" + o.init + "'");
   if (o.method != "point_to_plane" && o.method != "pcl_point_to_point") {
-    throw InputError("--method: expected point_to_plane or pcl_point_to_point, got '" + o.method + "'");
+    throw InputError("--method: expected point_to_plane or pcl_point_to_point, got '" + o.method +
+                     "'");
   }
   const Stats sc = Moments(cloud), sr = Moments(reference);
-  if (!(sr.rms_radius > 0) || !(sc.rms_radius > 0)) throw NoResultError("a cloud has all its points at one place");
+  if (!(sr.rms_radius > 0) || !(sc.rms_radius > 0))
+    throw NoResultError("a cloud has all its points at one place");
   std::vector<int> all_ref(reference.size());
   std::iota(all_ref.begin(), all_ref.end(), 0);
   const Cloud::Ptr tgt = ToPcl(reference, sr.centroid, all_ref);
@@ -301,15 +320,17 @@ Result Align(const std::vector<Eigen::Vector3d>& cloud, const std::vector<Eigen:
   tree->setEpsilon(0.5f);
   tree->setInputCloud(tgt);
   Normals normals(tgt, tree);
-  const std::vector<int> sample = Sample(static_cast<int>(cloud.size()), o.max_source_points, o.seed);
+  const std::vector<int> sample =
+      Sample(static_cast<int>(cloud.size()), o.max_source_points, o.seed);
   const Cloud::Ptr src = ToPcl(cloud, sc.centroid, sample);
   std::vector<Eigen::Vector3d> src_e;
   for (int i : sample) src_e.push_back(cloud[i] - sc.centroid);
   const double extent = sr.rms_radius;
-  auto run = [&](const Cloud::Ptr& s, const std::vector<Eigen::Vector3d>& se, const Sim3d& start, int iters,
-                 const Options& opt) {
-    Run r = opt.method == "point_to_plane" ? RunPlaneIcp(se, tgt, tree, &normals, start, opt, iters, extent)
-                                           : RunIcp(s, tgt, tree, start, opt, iters, extent);
+  auto run = [&](const Cloud::Ptr& s, const std::vector<Eigen::Vector3d>& se, const Sim3d& start,
+                 int iters, const Options& opt) {
+    Run r = opt.method == "point_to_plane"
+                ? RunPlaneIcp(se, tgt, tree, &normals, start, opt, iters, extent)
+                : RunIcp(s, tgt, tree, start, opt, iters, extent);
     Score(*s, *tree, opt.median_factor, &r);
     return r;
   };
@@ -348,8 +369,10 @@ Result Align(const std::vector<Eigen::Vector3d>& cloud, const std::vector<Eigen:
     }
     // Nor is a fit that moved the cloud far beyond GPS errors (a flat site slides over a
     // mound's reference onto its flat surroundings): the georeferenced frame is kept.
-    const double moved = (best.T * Eigen::Vector3d::Zero() - start * Eigen::Vector3d::Zero()).norm();
-    if (moved > o.max_shift_fraction * sc.rms_radius || best.T.rotation.angularDistance(start.rotation) > o.max_rotation_rad) {
+    const double moved =
+        (best.T * Eigen::Vector3d::Zero() - start * Eigen::Vector3d::Zero()).norm();
+    if (moved > o.max_shift_fraction * sc.rms_radius ||
+        best.T.rotation.angularDistance(start.rotation) > o.max_rotation_rad) {
       Run r;
       r.T = start;
       Score(*src, *tree, o.median_factor, &r);
@@ -361,7 +384,8 @@ Result Align(const std::vector<Eigen::Vector3d>& cloud, const std::vector<Eigen:
     // terrain patch, whose in-plane axes are ill-defined) in 30-degree steps, normal flipped
     // or not: 24 starts, each refined by a coarse ICP; the best by median distance wins.
     const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> ec(sc.cov), er(sr.cov);
-    Eigen::Matrix3d Ec = ec.eigenvectors().rowwise().reverse(), Er = er.eigenvectors().rowwise().reverse();
+    Eigen::Matrix3d Ec = ec.eigenvectors().rowwise().reverse(),
+                    Er = er.eigenvectors().rowwise().reverse();
     if (Ec.determinant() < 0) Ec.col(2) *= -1;
     if (Er.determinant() < 0) Er.col(2) *= -1;
     // A start is scored both ways: the median distance of the cloud's points to the
@@ -372,14 +396,16 @@ Result Align(const std::vector<Eigen::Vector3d>& cloud, const std::vector<Eigen:
       Cloud::Ptr mapped(new Cloud);
       for (const Eigen::Vector3d& p : coarse_e) {
         const Eigen::Vector3d q = T * p;
-        mapped->push_back(pcl::PointXYZ(static_cast<float>(q.x()), static_cast<float>(q.y()), static_cast<float>(q.z())));
+        mapped->push_back(pcl::PointXYZ(static_cast<float>(q.x()), static_cast<float>(q.y()),
+                                        static_cast<float>(q.z())));
       }
       pcl::KdTreeFLANN<pcl::PointXYZ> t;
       t.setInputCloud(mapped);
       pcl::Indices k(1);
       std::vector<float> d2(1);
       std::vector<double> d;
-      for (int i : ref_idx) d.push_back(t.nearestKSearch((*tgt)[i], 1, k, d2) > 0 ? std::sqrt(d2[0]) : 1e30);
+      for (int i : ref_idx)
+        d.push_back(t.nearestKSearch((*tgt)[i], 1, k, d2) > 0 ? std::sqrt(d2[0]) : 1e30);
       return Median(std::move(d));
     };
     double best_median = std::numeric_limits<double>::infinity();
@@ -387,7 +413,9 @@ Result Align(const std::vector<Eigen::Vector3d>& cloud, const std::vector<Eigen:
       for (int k = 0; k < 12; ++k) {
         Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
         if (flip) D.diagonal() << 1, -1, -1;
-        const Eigen::Matrix3d R = Er * Eigen::AngleAxisd(k * M_PI / 6, Eigen::Vector3d::UnitZ()).toRotationMatrix() * D * Ec.transpose();
+        const Eigen::Matrix3d R =
+            Er * Eigen::AngleAxisd(k * M_PI / 6, Eigen::Vector3d::UnitZ()).toRotationMatrix() * D *
+            Ec.transpose();
         Sim3d start;
         start.rotation = Eigen::Quaterniond(R);
         start.scale = o.estimate_scale ? sr.rms_radius / sc.rms_radius : 1.0;
@@ -404,7 +432,8 @@ Result Align(const std::vector<Eigen::Vector3d>& cloud, const std::vector<Eigen:
           best = r;
         }
       }
-    if (!std::isfinite(best_median)) throw NoResultError("no start of the ICP found an overlap between the clouds");
+    if (!std::isfinite(best_median))
+      throw NoResultError("no start of the ICP found an overlap between the clouds");
     best = run(src, src_e, best.T, o.max_iterations, o);
   }
   Result res;
@@ -434,7 +463,10 @@ std::vector<double> SurfaceDistances(const std::vector<Eigen::Vector3d>& points,
   std::vector<float> d2(6);
   for (size_t i = 0; i < points.size(); ++i) {
     const Eigen::Vector3d q = points[i] - sr.centroid;
-    const int n = tree.nearestKSearch(pcl::PointXYZ(static_cast<float>(q.x()), static_cast<float>(q.y()), static_cast<float>(q.z())), 6, k, d2);
+    const int n =
+        tree.nearestKSearch(pcl::PointXYZ(static_cast<float>(q.x()), static_cast<float>(q.y()),
+                                          static_cast<float>(q.z())),
+                            6, k, d2);
     Eigen::Vector3d mean = Eigen::Vector3d::Zero();
     std::vector<Eigen::Vector3d> nb(n);
     for (int j = 0; j < n; ++j) {

@@ -40,7 +40,7 @@ struct Options {
   double median_factor = 3.0;
   // Steps below these move the cloud by less than 1e-4 of its extent: below the sampling's
   // nearest-neighbour jitter.
-  double translation_epsilon = 1e-4;   // of the reference's extent (the scale step likewise)
+  double translation_epsilon = 1e-4;  // of the reference's extent (the scale step likewise)
   double rotation_epsilon_rad = 1e-4;
   double relative_mse_epsilon = 1e-9;
   int max_source_points = 20000;
@@ -57,20 +57,20 @@ struct Options {
 
 struct Result {
   geometry::Sim3d reference_from_cloud;
-  std::string init_used;  // none | pca
+  std::string init_used;      // none | pca
   int iterations = 0;         // of the final ICP on the full sample
   int coarse_iterations = 0;  // of the 2,000-point ICPs before it (all starts)
   bool scale_fixed = false;   // the fit with scale left max_scale_change: redone rigid
   bool frame_kept = false;    // the fit moved too far: the input frame kept, no alignment
   bool converged = false;
-  double rmse_m = 0;            // point-to-point, over the inliers of the last iteration
-  double inlier_fraction = 0;   // of the sampled cloud points
+  double rmse_m = 0;           // point-to-point, over the inliers of the last iteration
+  double inlier_fraction = 0;  // of the sampled cloud points
 };
 
 // Throws InputError for clouds with fewer than 10 points, NoResultError when the clouds do
 // not overlap (no correspondences survive) or the fit degenerates.
-Result Align(const std::vector<Eigen::Vector3d>& cloud, const std::vector<Eigen::Vector3d>& reference,
-             const Options& options);
+Result Align(const std::vector<Eigen::Vector3d>& cloud,
+             const std::vector<Eigen::Vector3d>& reference, const Options& options);
 
 // Unsigned distance of each point to the reference surface: to the least-squares plane of
 // its 6 nearest reference points (CloudCompare's local-model distance), but never less than

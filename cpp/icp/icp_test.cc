@@ -17,7 +17,8 @@ namespace {
 // A 60 x 60 m terrain patch with a 4 m dome and gentle undulation, sampled at random.
 double Height(double x, double y) {
   const double r2 = x * x + y * y;
-  return 4.0 * std::max(0.0, 1 - r2 / 400.0) + 0.6 * std::sin(0.11 * x) * std::cos(0.07 * y) + 0.02 * x;
+  return 4.0 * std::max(0.0, 1 - r2 / 400.0) + 0.6 * std::sin(0.11 * x) * std::cos(0.07 * y) +
+         0.02 * x;
 }
 
 std::vector<Eigen::Vector3d> Terrain(int n, uint64_t seed, double x0 = -30, double x1 = 30) {
@@ -34,12 +35,14 @@ std::vector<Eigen::Vector3d> Terrain(int n, uint64_t seed, double x0 = -30, doub
 geometry::Sim3d Truth(double scale) {
   geometry::Sim3d s;
   s.scale = scale;
-  s.rotation = Eigen::Quaterniond(Eigen::AngleAxisd(0.7, Eigen::Vector3d(0.2, -0.3, 1).normalized()));
+  s.rotation =
+      Eigen::Quaterniond(Eigen::AngleAxisd(0.7, Eigen::Vector3d(0.2, -0.3, 1).normalized()));
   s.translation = {120, -45, 8};
   return s;
 }
 
-void ExpectRecovered(const geometry::Sim3d& est, const geometry::Sim3d& truth_cloud_from_ref, double tol_rel) {
+void ExpectRecovered(const geometry::Sim3d& est, const geometry::Sim3d& truth_cloud_from_ref,
+                     double tol_rel) {
   SCOPED_TRACE("scale " + std::to_string(truth_cloud_from_ref.scale));
   // est maps cloud -> reference; the truth maps reference -> cloud.
   const geometry::Sim3d inv = truth_cloud_from_ref.Inverse();
@@ -49,7 +52,8 @@ void ExpectRecovered(const geometry::Sim3d& est, const geometry::Sim3d& truth_cl
   EXPECT_LT(est.rotation.angularDistance(inv.rotation), 5e-3);
   // Points of the site (in the cloud's frame: mapped there by the truth) land within 15 cm
   // (10.2 cm measured at 35 m from the centre).
-  for (const Eigen::Vector3d& x : {Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(20, -10, 2), Eigen::Vector3d(-25, 25, 0)}) {
+  for (const Eigen::Vector3d& x :
+       {Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(20, -10, 2), Eigen::Vector3d(-25, 25, 0)}) {
     const Eigen::Vector3d in_cloud = truth_cloud_from_ref * x;
     EXPECT_LT((est * in_cloud - x).norm(), 0.15) << x.transpose();
   }
@@ -116,7 +120,8 @@ TEST(SurfaceDistances, KnownOffsetsFromAPlaneAndBeyondItsEdge) {
   const Eigen::Vector3d n = Eigen::Vector3d(-0.1, 0, 1).normalized();
   std::vector<Eigen::Vector3d> pts;
   const std::vector<double> offsets = {0.0, 0.03, 0.2, 1.0};
-  for (double d : offsets) pts.push_back(Eigen::Vector3d(7.3, 11.1, 0.73) + d * n);  // off-grid positions
+  for (double d : offsets)
+    pts.push_back(Eigen::Vector3d(7.3, 11.1, 0.73) + d * n);  // off-grid positions
   pts.emplace_back(30.0, 10.0, 3.0);  // 10 m beyond the edge, on the plane's extension
   const std::vector<double> dist = SurfaceDistances(pts, ref);
   for (size_t k = 0; k < offsets.size(); ++k) EXPECT_NEAR(dist[k], offsets[k], 1e-4) << k;

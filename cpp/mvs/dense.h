@@ -38,45 +38,45 @@
 namespace mound::mvs {
 
 struct DenseOptions {
-  int max_image_size = 640;         // longer side of the depth maps (pixels; images downscaled)
-  int source_views = 4;             // source views per reference image
-  int best_views = 2;               // a hypothesis's score: mean NCC of its best views
-  int window = 7;                   // NCC window side, pixels at the depth-map scale (odd)
-  double max_step_px = 2.0;         // plane spacing: largest shift of a source pixel (the
-                                    // parabola through the scores refines between planes)
+  int max_image_size = 640;  // longer side of the depth maps (pixels; images downscaled)
+  int source_views = 4;      // source views per reference image
+  int best_views = 2;        // a hypothesis's score: mean NCC of its best views
+  int window = 7;            // NCC window side, pixels at the depth-map scale (odd)
+  double max_step_px = 2.0;  // plane spacing: largest shift of a source pixel (the
+                             // parabola through the scores refines between planes)
   int min_planes = 16, max_planes = 256;
-  double min_ncc = 0.4;             // best score accepted
-  double min_texture = 0.01;        // the reference window's intensity std (0..1 scale)
-  int min_consistent = 2;           // source depth maps that must confirm a point
-  double max_reprojection_px = 1.0; // forward-backward, depth-map pixels
+  double min_ncc = 0.4;              // best score accepted
+  double min_texture = 0.01;         // the reference window's intensity std (0..1 scale)
+  int min_consistent = 2;            // source depth maps that must confirm a point
+  double max_reprojection_px = 1.0;  // forward-backward, depth-map pixels
   double max_relative_depth = 0.01;
-  double resolution_m = 0.1;        // voxel of the fused cloud (>= 1 mm)
+  double resolution_m = 0.1;                      // voxel of the fused cloud (>= 1 mm)
   Eigen::Vector3d up = Eigen::Vector3d::UnitZ();  // sweep-plane normal (the ground's)
   int threads = 1;
-  int image_cache_mb = 1024;        // images kept decoded and scaled (ComputeDepthMaps)
+  int image_cache_mb = 1024;  // images kept decoded and scaled (ComputeDepthMaps)
   // Returns an empty string when the options are usable, else what is wrong (naming the
   // option as a CLI user writes it).
   std::string Check() const;
 };
 
 struct DenseInput {
-  geometry::CameraModel camera;                    // one camera for all images
-  std::vector<std::string> image_paths;            // registered images only
-  std::vector<geometry::Rigid3d> cam_from_world;   // one per image
-  std::vector<Eigen::Vector3d> sparse_points;      // the sparse model (view choice, depth range)
+  geometry::CameraModel camera;                   // one camera for all images
+  std::vector<std::string> image_paths;           // registered images only
+  std::vector<geometry::Rigid3d> cam_from_world;  // one per image
+  std::vector<Eigen::Vector3d> sparse_points;     // the sparse model (view choice, depth range)
 };
 
 // One image's depth map at the depth-map scale: depth along the optical axis (0: none).
 struct DepthMap {
   int width = 0, height = 0;
-  geometry::CameraModel camera;           // pinhole (distortion removed), at this scale
+  geometry::CameraModel camera;  // pinhole (distortion removed), at this scale
   geometry::Rigid3d cam_from_world, world_from_cam;
-  std::vector<float> depth;               // row-major
+  std::vector<float> depth;  // row-major
   std::vector<std::array<uint8_t, 3>> rgb;
   std::vector<int> sources;               // indices of the source images
   double height_min = 0, height_max = 0;  // swept range along `up`
   int planes = 0;
-  int valid = 0;                          // pixels with a depth
+  int valid = 0;  // pixels with a depth
   double seconds = 0;
 
   float At(int x, int y) const { return depth[static_cast<size_t>(y) * width + x]; }
@@ -87,7 +87,7 @@ struct DepthMap {
 struct DenseCloud {
   std::vector<Eigen::Vector3d> xyz, normal;
   std::vector<std::array<uint8_t, 3>> rgb;
-  std::vector<int> support;  // fused pixels merged into the point
+  std::vector<int> support;            // fused pixels merged into the point
   std::vector<int> consistent_pixels;  // per image, pixels that passed the consistency check
 };
 
@@ -103,7 +103,8 @@ DepthMap PlaneSweepDepthMap(const DenseInput& in, int ref, const std::vector<int
 // shared by every depth map it serves (as reference or source), up to `o.image_cache_mb`
 // of them; beyond that an image is read again where it is needed. `images_read`, when
 // given, counts the reads.
-std::vector<DepthMap> ComputeDepthMaps(const DenseInput& in, const std::vector<std::vector<int>>& sources,
+std::vector<DepthMap> ComputeDepthMaps(const DenseInput& in,
+                                       const std::vector<std::vector<int>>& sources,
                                        const DenseOptions& o, int* images_read = nullptr);
 
 // Consistency filter and fusion of all depth maps (DepthMap::sources names the views each

@@ -3,6 +3,7 @@
 // depths, the fused cloud against the heightfield, its coverage and normals.
 #include <gtest/gtest.h>
 
+#include <unistd.h>
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -10,7 +11,6 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <random>
-#include <unistd.h>
 
 #include "common/error.h"
 #include "mvs/dense.h"
@@ -24,7 +24,8 @@ constexpr double kMoundRadius = 10, kMoundHeight = 2;
 double TrueHeight(double x, double y) {
   const double r = std::hypot(x, y);
   const double ground = 0.02 * x;  // a 2 % slope
-  return ground + (r < kMoundRadius ? kMoundHeight * (1 - (r * r) / (kMoundRadius * kMoundRadius)) : 0.0);
+  return ground +
+         (r < kMoundRadius ? kMoundHeight * (1 - (r * r) / (kMoundRadius * kMoundRadius)) : 0.0);
 }
 
 struct Site {
@@ -55,7 +56,8 @@ const Site& RenderedSite() {
       poses.push_back(geometry::LookAt({30 * std::cos(a), 30 * std::sin(a), 22}, {0, 0, 0.5}));
     }
     const std::string dir = (std::filesystem::temp_directory_path() /
-                             ("mound_dense_test_" + std::to_string(::getpid()))).string();
+                             ("mound_dense_test_" + std::to_string(::getpid())))
+                                .string();
     std::filesystem::create_directories(dir);
     sim::RenderSettings rs;
     rs.noise_sigma = 1.0;
@@ -96,7 +98,8 @@ TEST(Dense, SourceViewsAreTheOverlappingNeighbours) {
   ASSERT_EQ(sources[5].size(), 4u);
   for (int j : sources[5]) EXPECT_NE(j, 5);
   const std::vector<int> raster_neighbours = {1, 4, 6, 9, 0, 2, 8, 10};
-  EXPECT_NE(std::find(raster_neighbours.begin(), raster_neighbours.end(), sources[5][0]), raster_neighbours.end());
+  EXPECT_NE(std::find(raster_neighbours.begin(), raster_neighbours.end(), sources[5][0]),
+            raster_neighbours.end());
 }
 
 TEST(Dense, WithoutRoomToKeepThemImagesAreReadWhereNeededWithTheSameDepths) {
@@ -133,14 +136,16 @@ TEST(Dense, DepthMapMatchesTheRenderedDepths) {
       // valid at the distorted pixel of the same ray.
       const Eigen::Vector2d uv = s.input.camera.ImageFromNormalised(
           {(x - m.camera.cx) / m.camera.fx, (y - m.camera.cy) / m.camera.fy});
-      const int u = static_cast<int>(std::lround(uv.x())), v = static_cast<int>(std::lround(uv.y()));
+      const int u = static_cast<int>(std::lround(uv.x())),
+                v = static_cast<int>(std::lround(uv.y()));
       if (!(d > 0) || u < 0 || v < 0 || u >= truth.width || v >= truth.height) continue;
       const float t = truth.depth_m[static_cast<size_t>(v) * truth.width + u];
       if (std::isnan(t)) continue;
       rel.push_back(std::fabs(d - t) / t);
     }
   std::cout << "depth map: " << m.valid << " of " << m.width * m.height << " pixels, " << m.planes
-            << " planes, relative error median " << Percentile(rel, 0.5) << ", p90 " << Percentile(rel, 0.9) << "\n";
+            << " planes, relative error median " << Percentile(rel, 0.5) << ", p90 "
+            << Percentile(rel, 0.9) << "\n";
   EXPECT_GT(m.valid, m.width * m.height * 7 / 10);
   EXPECT_LT(Percentile(rel, 0.5), 0.002);  // 6 cm at 30 m
   EXPECT_LT(Percentile(rel, 0.9), 0.01);
@@ -164,8 +169,10 @@ TEST(Dense, FusedCloudLiesOnTheSurfaceAndCoversTheMound) {
   for (size_t k = 0; k < c.xyz.size(); ++k) {
     const Eigen::Vector3d& p = c.xyz[k];
     err.push_back(std::fabs(p.z() - TrueHeight(p.x(), p.y())));
-    if (std::hypot(p.x(), p.y()) > 12 && c.normal[k].norm() > 0) tilt.push_back(std::acos(c.normal[k].z()) * 180 / M_PI);
-    const int i = static_cast<int>(std::floor((p.y() + 12.5) / 0.5)), j = static_cast<int>(std::floor((p.x() + 12.5) / 0.5));
+    if (std::hypot(p.x(), p.y()) > 12 && c.normal[k].norm() > 0)
+      tilt.push_back(std::acos(c.normal[k].z()) * 180 / M_PI);
+    const int i = static_cast<int>(std::floor((p.y() + 12.5) / 0.5)),
+              j = static_cast<int>(std::floor((p.x() + 12.5) / 0.5));
     if (i >= 0 && j >= 0 && i < 50 && j < 50) covered[i * 50 + j] = 1;
   }
   int inside = 0, hit = 0;

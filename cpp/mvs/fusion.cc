@@ -59,7 +59,8 @@ std::vector<Fused> FuseOne(const std::vector<DepthMap>& maps, int r, const Dense
       }
       if (agree < o.min_consistent) continue;
       // The normal from the depth map's central differences, facing the camera.
-      const float dl = m.At(x - 1, y), dr = m.At(x + 1, y), du = m.At(x, y - 1), dd = m.At(x, y + 1);
+      const float dl = m.At(x - 1, y), dr = m.At(x + 1, y), du = m.At(x, y - 1),
+                  dd = m.At(x, y + 1);
       Eigen::Vector3d n = Eigen::Vector3d::Zero();
       if (dl > 0 && dr > 0 && du > 0 && dd > 0) {
         const Eigen::Vector3d gx = m.Unproject(x + 1, y, dr) - m.Unproject(x - 1, y, dl);
@@ -84,7 +85,8 @@ DenseCloud FuseDepthMaps(const std::vector<DepthMap>& maps, const DenseOptions& 
 
   // Voxel merge: the mean position, normal and colour of the points in each voxel.
   struct Acc {
-    Eigen::Vector3d xyz = Eigen::Vector3d::Zero(), normal = Eigen::Vector3d::Zero(), rgb = Eigen::Vector3d::Zero();
+    Eigen::Vector3d xyz = Eigen::Vector3d::Zero(), normal = Eigen::Vector3d::Zero(),
+                    rgb = Eigen::Vector3d::Zero();
     int count = 0;
   };
   struct Voxel {
@@ -102,7 +104,8 @@ DenseCloud FuseDepthMaps(const std::vector<DepthMap>& maps, const DenseOptions& 
   const double inv = 1.0 / o.resolution_m;
   for (const auto& points : per)
     for (const Fused& f : points) {
-      const Voxel key{static_cast<int64_t>(std::floor(f.xyz.x() * inv)), static_cast<int64_t>(std::floor(f.xyz.y() * inv)),
+      const Voxel key{static_cast<int64_t>(std::floor(f.xyz.x() * inv)),
+                      static_cast<int64_t>(std::floor(f.xyz.y() * inv)),
                       static_cast<int64_t>(std::floor(f.xyz.z() * inv))};
       auto [it, fresh] = index.emplace(key, static_cast<int>(acc.size()));
       if (fresh) acc.emplace_back();
@@ -114,10 +117,12 @@ DenseCloud FuseDepthMaps(const std::vector<DepthMap>& maps, const DenseOptions& 
     }
   for (const Acc& a : acc) {
     cloud.xyz.push_back(a.xyz / a.count);
-    const Eigen::Vector3d nn = a.normal.norm() > 0 ? Eigen::Vector3d(a.normal.normalized()) : Eigen::Vector3d::Zero();
+    const Eigen::Vector3d nn =
+        a.normal.norm() > 0 ? Eigen::Vector3d(a.normal.normalized()) : Eigen::Vector3d::Zero();
     cloud.normal.push_back(nn);
     const Eigen::Vector3d c = a.rgb / a.count;
-    cloud.rgb.push_back({static_cast<uint8_t>(std::lround(c.x())), static_cast<uint8_t>(std::lround(c.y())),
+    cloud.rgb.push_back({static_cast<uint8_t>(std::lround(c.x())),
+                         static_cast<uint8_t>(std::lround(c.y())),
                          static_cast<uint8_t>(std::lround(c.z()))});
     cloud.support.push_back(a.count);
   }

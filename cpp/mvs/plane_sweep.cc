@@ -13,8 +13,8 @@
 #include <opencv2/imgproc.hpp>
 
 #include "common/error.h"
-#include "common/stats.h"
 #include "common/parallel.h"
+#include "common/stats.h"
 #include "mvs/dense.h"
 
 namespace mound::mvs {
@@ -39,7 +39,8 @@ ScaledImage LoadScaled(const std::string& path, const geometry::CameraModel& cam
   }
   cv::Mat K = (cv::Mat_<double>(3, 3) << cam.fx, 0, cam.cx, 0, cam.fy, cam.cy, 0, 0, 1);
   if (cam.HasDistortion()) {
-    cv::Mat dist = (cv::Mat_<double>(1, 5) << cam.dist[0], cam.dist[1], cam.dist[2], cam.dist[3], cam.dist[4]);
+    cv::Mat dist =
+        (cv::Mat_<double>(1, 5) << cam.dist[0], cam.dist[1], cam.dist[2], cam.dist[3], cam.dist[4]);
     cv::Mat u;
     cv::undistort(img, u, K, dist, K);
     img = u;
@@ -72,7 +73,10 @@ ScaledImage LoadScaled(const std::string& path, const geometry::CameraModel& cam
 class ScaledImages {
  public:
   ScaledImages(const DenseInput& in, int max_size, size_t max_bytes)
-      : in_(in), max_size_(max_size), max_bytes_(max_bytes), once_(in.image_paths.size()),
+      : in_(in),
+        max_size_(max_size),
+        max_bytes_(max_bytes),
+        once_(in.image_paths.size()),
         kept_(in.image_paths.size()) {}
   std::shared_ptr<const ScaledImage> Get(int i) const {
     std::shared_ptr<const ScaledImage> fresh;
@@ -91,7 +95,8 @@ class ScaledImages {
  private:
   std::shared_ptr<const ScaledImage> Load(int i) const {
     ++reads_;
-    return std::make_shared<const ScaledImage>(LoadScaled(in_.image_paths[i], in_.camera, max_size_));
+    return std::make_shared<const ScaledImage>(
+        LoadScaled(in_.image_paths[i], in_.camera, max_size_));
   }
   const DenseInput& in_;
   const int max_size_;
@@ -104,8 +109,8 @@ class ScaledImages {
 
 // The pixel of world point X in camera c at pose cam_from_world (the project's camera
 // model, distortion included); false behind the camera.
-bool Project(const geometry::CameraModel& c, const geometry::Rigid3d& cam_from_world, const Eigen::Vector3d& X,
-             Eigen::Vector2d* uv) {
+bool Project(const geometry::CameraModel& c, const geometry::Rigid3d& cam_from_world,
+             const Eigen::Vector3d& X, Eigen::Vector2d* uv) {
   return c.ImageFromCamera(cam_from_world * X, uv);
 }
 
@@ -114,18 +119,19 @@ bool Inside(const Eigen::Vector2d& uv, int w, int h) {
 }
 
 // The ray of pixel (x, y) in the world, from the camera centre.
-Eigen::Vector3d RayInWorld(const geometry::CameraModel& c, const geometry::Rigid3d& cam_from_world, double x,
-                           double y) {
-  return cam_from_world.rotation.conjugate() * Eigen::Vector3d((x - c.cx) / c.fx, (y - c.cy) / c.fy, 1.0);
+Eigen::Vector3d RayInWorld(const geometry::CameraModel& c, const geometry::Rigid3d& cam_from_world,
+                           double x, double y) {
+  return cam_from_world.rotation.conjugate() *
+         Eigen::Vector3d((x - c.cx) / c.fx, (y - c.cy) / c.fy, 1.0);
 }
-
 
 }  // namespace
 
 std::string DenseOptions::Check() const {
   if (max_image_size < 32) return "--max-image-size: must be >= 32";
   if (source_views < 1) return "--source-views: must be >= 1";
-  if (best_views < 1 || best_views > source_views) return "--best-views: must be in [1, --source-views]";
+  if (best_views < 1 || best_views > source_views)
+    return "--best-views: must be in [1, --source-views]";
   if (window < 3 || window % 2 == 0) return "--window: must be odd and >= 3";
   if (!(max_step_px > 0)) return "--max-step-px: must be > 0";
   if (min_planes < 2 || max_planes < min_planes) return "--max-planes: must be >= the minimum (2)";
@@ -133,7 +139,8 @@ std::string DenseOptions::Check() const {
   if (min_consistent < 1) return "--min-consistent: must be >= 1";
   if (!(max_reprojection_px > 0)) return "--max-reprojection-px: must be > 0";
   if (!(max_relative_depth > 0)) return "--max-relative-depth: must be > 0";
-  if (!(resolution_m >= 1e-3) || !std::isfinite(resolution_m)) return "--resolution-m: must be >= 0.001 m";
+  if (!(resolution_m >= 1e-3) || !std::isfinite(resolution_m))
+    return "--resolution-m: must be >= 0.001 m";
   if (!(up.norm() > 0.5)) return "up: must be a unit vector";
   if (threads < 1) return "--threads: must be >= 1";
   if (image_cache_mb < 0) return "image_cache_mb: must be >= 0";
@@ -170,23 +177,26 @@ std::vector<std::vector<int>> SelectSourceViews(const DenseInput& in, int count)
       double score = 0;
       for (int p : sees[j]) {
         if (!mine[p]) continue;
-        const Eigen::Vector3d a = centre[r] - in.sparse_points[p], b = centre[j] - in.sparse_points[p];
-        const double theta = std::acos(std::clamp(a.dot(b) / (a.norm() * b.norm()), -1.0, 1.0)) * 180 / kPi;
+        const Eigen::Vector3d a = centre[r] - in.sparse_points[p],
+                              b = centre[j] - in.sparse_points[p];
+        const double theta =
+            std::acos(std::clamp(a.dot(b) / (a.norm() * b.norm()), -1.0, 1.0)) * 180 / kPi;
         const double sigma = theta <= 5 ? 1.0 : 10.0;  // MVSNet's G: theta0 5 deg, sigma 1 / 10
         score += std::exp(-(theta - 5) * (theta - 5) / (2 * sigma * sigma));
       }
       if (score > 0) scored.emplace_back(-score, j);
     }
     std::sort(scored.begin(), scored.end());
-    for (int k = 0; k < std::min<int>(count, static_cast<int>(scored.size())); ++k) out[r].push_back(scored[k].second);
+    for (int k = 0; k < std::min<int>(count, static_cast<int>(scored.size())); ++k)
+      out[r].push_back(scored[k].second);
   }
   return out;
 }
 
 namespace {
 
-DepthMap Sweep(const DenseInput& in, int ref, const std::vector<int>& sources, const DenseOptions& o,
-               const ScaledImages& images) {
+DepthMap Sweep(const DenseInput& in, int ref, const std::vector<int>& sources,
+               const DenseOptions& o, const ScaledImages& images) {
   const auto t0 = std::chrono::steady_clock::now();
   const std::shared_ptr<const ScaledImage> ref_image = images.Get(ref);
   const ScaledImage& R = *ref_image;
@@ -271,8 +281,8 @@ DepthMap Sweep(const DenseInput& in, int ref, const std::vector<int>& sources, c
   for (int y = 0; y < H; ++y)
     for (int x = 0; x < W; ++x) {
       const size_t p = static_cast<size_t>(y) * W + x;
-      nd[p] = static_cast<float>(n_c.dot(Eigen::Vector3d((x - R.camera.cx) / R.camera.fx,
-                                                          (y - R.camera.cy) / R.camera.fy, 1.0)));
+      nd[p] = static_cast<float>(n_c.dot(
+          Eigen::Vector3d((x - R.camera.cx) / R.camera.fx, (y - R.camera.cy) / R.camera.fy, 1.0)));
       const float mi = mean_i.at<float>(y, x);
       std_i[p] = std::sqrt(std::max(0.f, mean_ii.at<float>(y, x) - mi * mi));
     }
@@ -281,7 +291,8 @@ DepthMap Sweep(const DenseInput& in, int ref, const std::vector<int>& sources, c
   // vectorises them): -2 marks "no score".
   const float kNone = -2.f;
   const int kb = min_sources;
-  std::vector<float> prev(npx, kNone), best(npx, kNone), s_minus(npx, kNone), s_plus(npx, kNone), ncc(npx);
+  std::vector<float> prev(npx, kNone), best(npx, kNone), s_minus(npx, kNone), s_plus(npx, kNone),
+      ncc(npx);
   std::vector<std::vector<float>> top(kb, std::vector<float>(npx));  // the best kb NCCs, descending
   std::vector<float> best_k(npx, -1.f);  // float: the loop below mixes no types
   std::vector<float> inv_std_i(npx), nd_sign(npx);
@@ -298,15 +309,17 @@ DepthMap Sweep(const DenseInput& in, int ref, const std::vector<int>& sources, c
     const float plane_sign = d_c > 0 ? 1.f : -1.f;
     for (auto& t : top) std::fill(t.begin(), t.end(), kNone);
     for (size_t j = 0; j < S.size(); ++j) {
-      const Eigen::Matrix3d Hm = S[j]->camera.K() *
-                                 (rel[j].RotationMatrix() + rel[j].translation * n_c.transpose() / d_c) * Kr_inv;
+      const Eigen::Matrix3d Hm =
+          S[j]->camera.K() *
+          (rel[j].RotationMatrix() + rel[j].translation * n_c.transpose() / d_c) * Kr_inv;
       cv::Mat Hcv(3, 3, CV_64F);
       for (int r = 0; r < 3; ++r)
         for (int c = 0; c < 3; ++c) Hcv.at<double>(r, c) = Hm(r, c);
       // Outside the source image reads -1 (grey values are 0..1): a pixel whose bilinear
       // sample touches it comes out negative and is skipped.
-      cv::warpPerspective(S[j]->grey, warped, Hcv, R.grey.size(), cv::INTER_LINEAR | cv::WARP_INVERSE_MAP,
-                          cv::BORDER_CONSTANT, cv::Scalar(-1));
+      cv::warpPerspective(S[j]->grey, warped, Hcv, R.grey.size(),
+                          cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, cv::BORDER_CONSTANT,
+                          cv::Scalar(-1));
       const float* w = warped.ptr<float>(0);
       const float* g = R.grey.ptr<float>(0);
       float* q1 = prod[1].ptr<float>(0);
@@ -327,7 +340,8 @@ DepthMap Sweep(const DenseInput& in, int ref, const std::vector<int>& sources, c
         const float inv = inv_std_i[p] / std::sqrt(var_j + 1e-12f);
         const float c = std::min(std::max((b2[p] - mi[p] * mean_j) * inv, -1.f), 1.f);
         // Inside the source, the plane in front of the camera, texture in both windows.
-        const bool ok = (w[p] >= 0) & (nd_sign[p] == plane_sign) & (var_j > 1e-8f) & (inv_std_i[p] > 0);
+        const bool ok =
+            (w[p] >= 0) & (nd_sign[p] == plane_sign) & (var_j > 1e-8f) & (inv_std_i[p] > 0);
         ncc[p] = ok ? c : kNone;
       }
       for (int i = 0; i < kb; ++i) {
@@ -358,7 +372,9 @@ DepthMap Sweep(const DenseInput& in, int ref, const std::vector<int>& sources, c
   for (int y = 0; y < H; ++y)
     for (int x = 0; x < W; ++x) {
       const size_t p = static_cast<size_t>(y) * W + x;
-      if (best[p] < o.min_ncc || std_i[p] < o.min_texture || best_k[p] <= 0 || best_k[p] >= planes - 1) continue;
+      if (best[p] < o.min_ncc || std_i[p] < o.min_texture || best_k[p] <= 0 ||
+          best_k[p] >= planes - 1)
+        continue;
       double delta = 0;
       if (s_minus[p] > kNone && s_plus[p] > kNone) {
         const double den = s_minus[p] - 2.0 * best[p] + s_plus[p];
@@ -377,14 +393,17 @@ DepthMap Sweep(const DenseInput& in, int ref, const std::vector<int>& sources, c
 
 }  // namespace
 
-DepthMap PlaneSweepDepthMap(const DenseInput& in, int ref, const std::vector<int>& sources, const DenseOptions& o) {
+DepthMap PlaneSweepDepthMap(const DenseInput& in, int ref, const std::vector<int>& sources,
+                            const DenseOptions& o) {
   return Sweep(in, ref, sources, o, ScaledImages(in, o.max_image_size, 0));
 }
 
-std::vector<DepthMap> ComputeDepthMaps(const DenseInput& in, const std::vector<std::vector<int>>& sources,
+std::vector<DepthMap> ComputeDepthMaps(const DenseInput& in,
+                                       const std::vector<std::vector<int>>& sources,
                                        const DenseOptions& o, int* images_read) {
   std::vector<DepthMap> maps(in.image_paths.size());
-  const ScaledImages images(in, o.max_image_size, static_cast<size_t>(std::max(0, o.image_cache_mb)) << 20);
+  const ScaledImages images(in, o.max_image_size,
+                            static_cast<size_t>(std::max(0, o.image_cache_mb)) << 20);
   const int cv_threads = cv::getNumThreads();
   cv::setNumThreads(1);  // one image per thread already
   try {

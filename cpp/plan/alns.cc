@@ -61,8 +61,13 @@ const char* const kRuinNames[kNumRuins] = {"random", "segment", "worst", "relate
 class Search {
  public:
   Search(const OpInstance& inst, uint64_t seed)
-      : inst_(inst), c_(inst), rng_(seed), limit_(inst.budget_m + BudgetSlack(inst.budget_m)),
-        eps_(1e-12 * (1.0 + inst.budget_m)), in_(inst.Size(), 0), taken_(inst.Size(), 0) {
+      : inst_(inst),
+        c_(inst),
+        rng_(seed),
+        limit_(inst.budget_m + BudgetSlack(inst.budget_m)),
+        eps_(1e-12 * (1.0 + inst.budget_m)),
+        in_(inst.Size(), 0),
+        taken_(inst.Size(), 0) {
     for (int v = inst.FirstSite(); v < inst.Size(); ++v)
       if (inst.nodes[v].reward > 0) rewarded_.push_back(v);
     pos_.assign(inst.Size(), -1);
@@ -516,8 +521,7 @@ class Search {
       // of those is on it).
       std::array<std::pair<double, int>, 3> top{{{inf, -1}, {inf, -1}, {inf, -1}}};
       auto consider = [&](int k) {
-        if (k < 0 || k + 1 >= L || k == top[0].second || k == top[1].second ||
-            k == top[2].second) {
+        if (k < 0 || k + 1 >= L || k == top[0].second || k == top[1].second || k == top[2].second) {
           return;
         }
         const double d = c_(v, r[k]) + c_(v, r[k + 1]) - edge_[k];
@@ -760,16 +764,17 @@ class Schedule {
   // Record-to-record travel: the threshold shrinks from 5 % to 0 over the run (the work
   // limit's ticks), or over a stretch without a new best when there is no limit.
   double Threshold(double ticks, int since_best) const {
-    const double progress = work_ > 0 ? ticks / work_ : static_cast<double>(since_best) / stagnation_;
+    const double progress =
+        work_ > 0 ? ticks / work_ : static_cast<double>(since_best) / stagnation_;
     return 0.05 * std::max(0.0, 1.0 - progress);
   }
   // Why the search ended, in the order the checks are made.
   const char* Why(int it, int since_best) const {
-    return out_of_work_                 ? "time limit (work ticks)"
-           : out_of_wall_               ? "wall clock (not repeatable)"
-           : it >= max_iterations_      ? "iterations"
-           : since_best >= stagnation_  ? "stagnation"
-                                        : "all sites visited";
+    return out_of_work_                ? "time limit (work ticks)"
+           : out_of_wall_              ? "wall clock (not repeatable)"
+           : it >= max_iterations_     ? "iterations"
+           : since_best >= stagnation_ ? "stagnation"
+                                       : "all sites visited";
   }
 
  private:
@@ -876,7 +881,8 @@ PlanResult SolveAlns(const OpInstance& inst, const AlnsOptions& opt) {
   res.stats["stopped_by"] = schedule.Why(it, since_best);
   res.stats["work_ticks"] = search.Ticks();
   nlohmann::json w = nlohmann::json::object();
-  for (int o = 0; o < kNumRuins; ++o) w[kRuinNames[o]] = {{"weight", roulette.Weight(o)}, {"new_bests", bests[o]}};
+  for (int o = 0; o < kNumRuins; ++o)
+    w[kRuinNames[o]] = {{"weight", roulette.Weight(o)}, {"new_bests", bests[o]}};
   res.stats["ruins"] = w;
   res.stats["elapsed_s"] = schedule.Elapsed();
   return res;

@@ -42,9 +42,9 @@ constexpr double kAlnsWallFactor = 10.0;
 
 struct AlnsOptions {
   uint64_t seed = 1;
-  int max_iterations = 1 << 30;  // ruin-and-recreate iterations
-  int stagnation = 0;            // stop after this many without a new best; 0: automatic
-  double time_limit_s = 1.0;     // in work ticks (see above); <= 0: no limit
+  int max_iterations = 1 << 30;          // ruin-and-recreate iterations
+  int stagnation = 0;                    // stop after this many without a new best; 0: automatic
+  double time_limit_s = 1.0;             // in work ticks (see above); <= 0: no limit
   double wall_factor = kAlnsWallFactor;  // wall-clock guard: time_limit_s * wall_factor
 };
 

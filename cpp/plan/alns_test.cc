@@ -36,11 +36,13 @@ TEST(AlnsTest, ReachesTheExactOptimumOnSmallInstances) {
     const PlanResult r = SolveAlns(inst, Fixed(seed, 2000));
     test_instances::ExpectValidRoute(inst, r, "seed " + std::to_string(seed));
     EXPECT_LE(r.reward, exact.reward + 1e-9) << "seed " << seed;
-    EXPECT_GE(r.reward, exact.reward - 1e-9) << "seed " << seed << " (optimum " << exact.reward << ")";
+    EXPECT_GE(r.reward, exact.reward - 1e-9)
+        << "seed " << seed << " (optimum " << exact.reward << ")";
     optimal += r.reward >= exact.reward - 1e-9;
     ++count;
   }
-  std::cout << "[ alns    ] optimal on " << optimal << " of " << count << " instances <= 16 sites\n";
+  std::cout << "[ alns    ] optimal on " << optimal << " of " << count
+            << " instances <= 16 sites\n";
 }
 
 // Never worse than NewAlg, which it starts from; equal seeds give equal routes.
@@ -108,8 +110,8 @@ TEST(AlnsTest, RepeatableUnderLoadAtTheDefaultTimeLimit) {
   stop = true;
   for (auto& t : load) t.join();
   std::cout << "[ alns    ] 400 sites, default limit: alone " << alone.stats["elapsed_s"]
-            << " s, under load " << loaded.stats["elapsed_s"] << " s, reward "
-            << alone.reward << " / " << loaded.reward << "\n";
+            << " s, under load " << loaded.stats["elapsed_s"] << " s, reward " << alone.reward
+            << " / " << loaded.reward << "\n";
   test_instances::ExpectValidRoute(inst, loaded, "loaded");
   EXPECT_EQ(alone.route, loaded.route);
   EXPECT_EQ(alone.stats["iterations"], loaded.stats["iterations"]);

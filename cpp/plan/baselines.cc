@@ -22,8 +22,8 @@ std::pair<double, size_t> CheapestInsertion(const OpInstance& inst, const std::v
   double best = std::numeric_limits<double>::infinity();
   size_t pos = 1;
   for (size_t i = 1; i < route.size(); ++i) {
-    const double d = inst.Cost(route[i - 1], v) + inst.Cost(v, route[i]) -
-                     inst.Cost(route[i - 1], route[i]);
+    const double d =
+        inst.Cost(route[i - 1], v) + inst.Cost(v, route[i]) - inst.Cost(route[i - 1], route[i]);
     if (d < best) {
       best = d;
       pos = i;

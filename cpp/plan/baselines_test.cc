@@ -6,7 +6,9 @@
 #include <iostream>
 #include <random>
 #include <set>
+#include <utility>
 
+#include "plan/alns.h"
 #include "plan/exact_small.h"
 #include "plan/test_instances.h"
 
@@ -30,7 +32,8 @@ TEST(BaselinesTest, FeasibleAndNeverAboveTheOptimum) {
     const OpInstance inst = RandomInstance(4 + seed % 7, closed, 8 + seed % 23, 500 + seed);
     const PlanResult exact = SolveExactSmall(inst);
     opt.seed = seed;
-    const PlanResult g = SolveGreedy(inst), t = SolveTsiligirides(inst, opt), v = SolveGlv(inst, opt);
+    const PlanResult g = SolveGreedy(inst), t = SolveTsiligirides(inst, opt),
+                     v = SolveGlv(inst, opt);
     ExpectFeasible(inst, g, "greedy");
     ExpectFeasible(inst, t, "tsiligirides");
     ExpectFeasible(inst, v, "glv");
@@ -40,21 +43,33 @@ TEST(BaselinesTest, FeasibleAndNeverAboveTheOptimum) {
     sum[2] += v.reward;
     sum_exact += exact.reward;
   }
-  std::cout << "[ reward  ] share of the optimum over 120 instances: greedy "
-            << sum[0] / sum_exact << ", tsiligirides " << sum[1] / sum_exact << ", glv "
-            << sum[2] / sum_exact << "\n";
+  std::cout << "[ reward  ] share of the optimum over 120 instances: greedy " << sum[0] / sum_exact
+            << ", tsiligirides " << sum[1] / sum_exact << ", glv " << sum[2] / sum_exact << "\n";
   EXPECT_GT(sum[1], sum[0]);  // 200 randomised routes beat the single greedy route
 }
 
-TEST(BaselinesTest, LargerInstancesStayFeasible) {
+TEST(BaselinesTest, LargerInstancesStayFeasibleAndCollectReward) {
   for (bool closed : {true, false}) {
     OpInstance inst = RandomInstance(150, closed, 0, 9);
     test_instances::ScaleCoordinates(&inst, 10);
     inst.budget_m = std::max(300.0, inst.Cost(0, inst.end) + 10);
     BaselineOptions opt;
-    ExpectFeasible(inst, SolveGreedy(inst), "greedy");
-    ExpectFeasible(inst, SolveTsiligirides(inst, opt), "tsiligirides");
-    ExpectFeasible(inst, SolveGlv(inst, opt), "glv");
+    AlnsOptions ao;
+    ao.time_limit_s = 0.5;
+    const PlanResult best = SolveAlns(inst, ao);
+    ExpectFeasible(inst, best, "alns");
+    ASSERT_GT(best.route.size(), 12u);  // the budget reaches many of the 150 sites
+    for (const auto& [name, r] : {std::pair{"greedy", SolveGreedy(inst)},
+                                  std::pair{"tsiligirides", SolveTsiligirides(inst, opt)},
+                                  std::pair{"glv", SolveGlv(inst, opt)}}) {
+      ExpectFeasible(inst, r, name);
+      // Not an empty route: each heuristic collects a fair share of what ALNS finds.
+      EXPECT_GT(r.route.size(), 4u) << name;
+      EXPECT_GT(r.reward, 0.5 * best.reward) << name;
+      EXPECT_LE(r.reward, best.reward * 1.05) << name;
+      std::cout << "[ reward  ] " << name << (closed ? " closed" : " path") << ": "
+                << r.reward / best.reward << " of ALNS's\n";
+    }
   }
 }
 

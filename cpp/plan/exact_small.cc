@@ -7,7 +7,9 @@
 namespace mound::plan {
 
 SubsetRoutes::SubsetRoutes(const OpInstance& inst)
-    : inst_(inst), first_(inst.FirstSite()), m_(inst.Size() - inst.FirstSite()),
+    : inst_(inst),
+      first_(inst.FirstSite()),
+      m_(inst.Size() - inst.FirstSite()),
       limit_(inst.budget_m + BudgetSlack(inst.budget_m)) {
   if (m_ > kMaxExactSites) throw std::invalid_argument("too many sites for the exact method");
   const double inf = std::numeric_limits<double>::infinity();

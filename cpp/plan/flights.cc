@@ -27,7 +27,8 @@ std::string CheckFlights(const OpInstance& inst, const std::vector<std::vector<i
 
 void OrderFlights(const OpInstance& inst, FlightsResult* r) {
   std::vector<std::pair<double, double>> key;
-  for (const auto& route : r->routes) key.push_back({inst.RouteReward(route), inst.RouteCost(route)});
+  for (const auto& route : r->routes)
+    key.push_back({inst.RouteReward(route), inst.RouteCost(route)});
   std::vector<size_t> order(r->routes.size());
   std::iota(order.begin(), order.end(), 0);
   std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {

@@ -14,7 +14,7 @@ namespace {
 constexpr double kTinyCost = 1e-12;
 
 struct Tree {
-  std::vector<int> parent;              // -1: not in the tree
+  std::vector<int> parent;  // -1: not in the tree
   std::vector<std::vector<int>> children;
   std::vector<char> in;
   double cost = 0;
@@ -23,7 +23,8 @@ struct Tree {
 // Depth-first route over the tree from home. For a path, the child whose subtree holds
 // the end node is visited last and the end node after its own children, so the walk
 // finishes at the end node.
-std::vector<int> DfsRoute(const OpInstance& inst, const Tree& t, const std::vector<char>& toward_end) {
+std::vector<int> DfsRoute(const OpInstance& inst, const Tree& t,
+                          const std::vector<char>& toward_end) {
   std::vector<int> route;
   std::vector<std::pair<int, bool>> stack{{OpInstance::kHome, false}};
   while (!stack.empty()) {
@@ -34,8 +35,10 @@ std::vector<int> DfsRoute(const OpInstance& inst, const Tree& t, const std::vect
       route.push_back(v);  // the end node, after its subtree
       continue;
     }
-    if (!is_end) route.push_back(v);
-    else stack.emplace_back(v, true);
+    if (!is_end)
+      route.push_back(v);
+    else
+      stack.emplace_back(v, true);
     // Push children in reverse so that the first-added child is visited first; the child
     // toward the end goes to the bottom (visited last).
     const auto& ch = t.children[v];

@@ -18,8 +18,8 @@
 
 #include <cstdint>
 #include <functional>
-#include <string>
 #include <nlohmann/json.hpp>
+#include <string>
 #include <vector>
 
 #include "plan/op_instance.h"
@@ -36,7 +36,7 @@ struct NewAlgOptions {
 };
 
 struct PlanResult {
-  std::vector<int> route;      // home ... end (closed: home ... home)
+  std::vector<int> route;  // home ... end (closed: home ... home)
   double reward = 0;
   double cost = 0;
   nlohmann::json stats;

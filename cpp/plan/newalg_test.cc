@@ -83,10 +83,9 @@ TEST(NewAlgTest, NeverAboveOptimumOnSmallInstancesAndGapIsReported) {
     optimal_newalg += a.reward >= exact.reward - 1e-9;
     optimal_ls += b.reward >= exact.reward - 1e-9;
   }
-  std::cout << "[ gap     ] 200 instances <= 10 sites: NewAlg mean gap "
-            << 100 * gap_newalg / count << "%, optimal in " << optimal_newalg
-            << "; newalg-ls mean gap " << 100 * gap_ls / count << "%, optimal in "
-            << optimal_ls << "\n";
+  std::cout << "[ gap     ] 200 instances <= 10 sites: NewAlg mean gap " << 100 * gap_newalg / count
+            << "%, optimal in " << optimal_newalg << "; newalg-ls mean gap " << 100 * gap_ls / count
+            << "%, optimal in " << optimal_ls << "\n";
   RecordProperty("newalg_mean_gap_pct", std::to_string(100 * gap_newalg / count));
   RecordProperty("newalg_ls_mean_gap_pct", std::to_string(100 * gap_ls / count));
   EXPECT_LT(gap_ls / count, 0.02);

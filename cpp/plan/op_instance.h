@@ -23,7 +23,7 @@ class OpInstance {
  public:
   // nodes[0] is home. For a path, nodes[1] is the end node; sites follow.
   std::vector<OpNode> nodes;
-  int end = 0;          // index of the end node; 0 (== home) for a closed tour
+  int end = 0;  // index of the end node; 0 (== home) for a closed tour
   double budget_m = 0;
   // Optional n*n distances replacing the planar ones (TSPLIB metrics of OPLib files:
   // rounded, ATT, GEO, explicit). Empty: Euclidean from x_m, y_m.

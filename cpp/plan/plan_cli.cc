@@ -12,8 +12,8 @@
 #include "common/atomic_file.h"
 #include "common/cli_args.h"
 #include "common/error.h"
-#include "plan/baselines.h"
 #include "plan/alns.h"
+#include "plan/baselines.h"
 #include "plan/exact_small.h"
 #include "plan/flights.h"
 #include "plan/newalg.h"
@@ -103,13 +103,14 @@ std::function<void(const std::string&)> Reporter(std::ostream& err, const std::s
 }
 
 int RunTsp(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
-  const Args a = ParseArgs(args, 1, {"--seed", "--runs", "--trials", "--time-limit", "--out",
-                                     "--optimum", "--kick-segment", "--initial-period",
-                                     "--ascent-candidates"});
+  const Args a = ParseArgs(args, 1,
+                           {"--seed", "--runs", "--trials", "--time-limit", "--out", "--optimum",
+                            "--kick-segment", "--initial-period", "--ascent-candidates"});
   if (a.positional.size() != 1) throw InputError("tsp: expected exactly one FILE.tsp");
   const std::string& path = a.positional[0];
   tsp::SolverOptions opt;
-  if (a.options.count("--seed")) opt.seed = ParseInt(a.options.at("--seed"), "--seed", 0, 1LL << 62);
+  if (a.options.count("--seed"))
+    opt.seed = ParseInt(a.options.at("--seed"), "--seed", 0, 1LL << 62);
   if (a.options.count("--runs")) opt.runs = ParseInt(a.options.at("--runs"), "--runs", 1, 1000000);
   if (a.options.count("--trials"))
     opt.max_trials = ParseInt(a.options.at("--trials"), "--trials", 1, 1LL << 30);
@@ -134,22 +135,31 @@ int RunTsp(const std::vector<std::string>& args, std::ostream& out, std::ostream
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   nlohmann::json tour = nlohmann::json::array();
   for (int v : r.tour) tour.push_back(v + 1);
-  nlohmann::json j = {
-      {"schema", "mound.tsp_result"}, {"version", 1}, {"name", inst.name},
-      {"n", inst.dimension}, {"length", r.length}, {"tour", tour}, {"elapsed_s", elapsed},
-      {"lower_bound", r.stats.lower_bound}, {"seed", opt.seed},
-      {"stats",
-       {{"ascent_iterations", r.stats.ascent_iterations}, {"ascent_s", r.stats.ascent_s},
-        {"candidates_s", r.stats.candidates_s}, {"search_s", r.stats.search_s},
-        {"runs", r.stats.runs}, {"trials", r.stats.trials},
-        {"improving_trials", r.stats.improving_trials}, {"lk_moves", r.stats.lk_moves},
-        {"exact", r.stats.exact}}}};
+  nlohmann::json j = {{"schema", "mound.tsp_result"},
+                      {"version", 1},
+                      {"name", inst.name},
+                      {"n", inst.dimension},
+                      {"length", r.length},
+                      {"tour", tour},
+                      {"elapsed_s", elapsed},
+                      {"lower_bound", r.stats.lower_bound},
+                      {"seed", opt.seed},
+                      {"stats",
+                       {{"ascent_iterations", r.stats.ascent_iterations},
+                        {"ascent_s", r.stats.ascent_s},
+                        {"candidates_s", r.stats.candidates_s},
+                        {"search_s", r.stats.search_s},
+                        {"runs", r.stats.runs},
+                        {"trials", r.stats.trials},
+                        {"improving_trials", r.stats.improving_trials},
+                        {"lk_moves", r.stats.lk_moves},
+                        {"exact", r.stats.exact}}}};
   Emit(j, a.options, out);
   return kExitOk;
 }
 
-const std::vector<std::string> kAlgos = {"newalg", "newalg-ls", "alns", "best", "greedy",
-                                         "tsiligirides", "glv", "exact"};
+const std::vector<std::string> kAlgos = {"newalg", "newalg-ls",    "alns", "best",
+                                         "greedy", "tsiligirides", "glv",  "exact"};
 
 struct AlgoOptions {
   NewAlgOptions newalg;
@@ -183,9 +193,7 @@ AlgoOptions ParseAlgoOptions(const Args& a) {
 constexpr int kDefaultAlnsMaxSites = 1000;
 constexpr const char* kDefaultRule = "default: alns up to 1000 sites, newalg above";
 
-std::string DefaultAlgo(int n_sites) {
-  return n_sites <= kDefaultAlnsMaxSites ? "alns" : "newalg";
-}
+std::string DefaultAlgo(int n_sites) { return n_sites <= kDefaultAlnsMaxSites ? "alns" : "newalg"; }
 
 // The --algo given ("best" read as "alns"), or "" when none was given (see DefaultAlgo).
 std::string ParseAlgo(const Args& a) {
@@ -216,8 +224,8 @@ PlanResult Solve(const std::string& algo, const OpInstance& inst, const AlgoOpti
 }
 
 int RunOp(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
-  const Args a = ParseArgs(args, 1, {"--algo", "--seed", "--out", "--iterations", "--time-limit",
-                                     "--routes"});
+  const Args a =
+      ParseArgs(args, 1, {"--algo", "--seed", "--out", "--iterations", "--time-limit", "--routes"});
   if (a.positional.size() != 1) throw InputError("op: expected exactly one FILE.oplib");
   const std::string& path = a.positional[0];
   std::string algo = ParseAlgo(a);
@@ -240,7 +248,8 @@ int RunOp(const std::vector<std::string>& args, std::ostream& out, std::ostream&
   for (int v = 0; v < t.dimension; ++v)
     if (v != t.depot) order.push_back(v);
   OpInstance inst;
-  for (int v : order) inst.nodes.push_back({std::to_string(v + 1), 0, 0, v == t.depot ? 0 : t.scores[v], 0});
+  for (int v : order)
+    inst.nodes.push_back({std::to_string(v + 1), 0, 0, v == t.depot ? 0 : t.scores[v], 0});
   inst.budget_m = t.cost_limit;
   const size_t n = order.size();
   inst.dist_matrix.resize(n * n);
@@ -254,13 +263,20 @@ int RunOp(const std::vector<std::string>& args, std::ostream& out, std::ostream&
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   nlohmann::json tour = nlohmann::json::array();
   for (int v : r.route) tour.push_back(order[v] + 1);
-  Emit({{"schema", "mound.op_result"}, {"version", 1}, {"name", t.name}, {"n", t.dimension},
-        {"algo", algo}, {"cost_limit", t.cost_limit},
+  Emit({{"schema", "mound.op_result"},
+        {"version", 1},
+        {"name", t.name},
+        {"n", t.dimension},
+        {"algo", algo},
+        {"cost_limit", t.cost_limit},
         // OPLib's objective: the scores of the nodes on the tour, the depot's included
         // (a constant the planners leave out).
-        {"reward", r.reward + t.scores[t.depot]}, {"depot_score", t.scores[t.depot]},
+        {"reward", r.reward + t.scores[t.depot]},
+        {"depot_score", t.scores[t.depot]},
         {"cost", r.cost},
-        {"tour", tour}, {"elapsed_s", elapsed}, {"solver", r.stats}},
+        {"tour", tour},
+        {"elapsed_s", elapsed},
+        {"solver", r.stats}},
        a.options, out);
   return kExitOk;
 }
@@ -274,16 +290,16 @@ FlightsResult SolveFlights(const std::string& algo, const OpInstance& inst, int 
     throw InputError("--algo exact --flights: at most " + std::to_string(kMaxExactFlightSites) +
                      " sites, got " + std::to_string(n_sites));
   }
-  FlightsResult r = algo == "alns"    ? SolveAlnsFlights(inst, flights, o.alns)
-                    : algo == "exact" ? SolveExactFlights(inst, flights)
-                                      : SequentialFlights(inst, flights,
-                                                          [&](const OpInstance& sub, int k) {
-                                                            AlgoOptions ok = o;
-                                                            ok.newalg.seed += k;
-                                                            ok.alns.seed += k;
-                                                            ok.baseline.seed += k;
-                                                            return Solve(algo, sub, ok);
-                                                          });
+  FlightsResult r = algo == "alns" ? SolveAlnsFlights(inst, flights, o.alns)
+                    : algo == "exact"
+                        ? SolveExactFlights(inst, flights)
+                        : SequentialFlights(inst, flights, [&](const OpInstance& sub, int k) {
+                            AlgoOptions ok = o;
+                            ok.newalg.seed += k;
+                            ok.alns.seed += k;
+                            ok.baseline.seed += k;
+                            return Solve(algo, sub, ok);
+                          });
   if (algo != "alns" && algo != "exact") r.stats["name"] = algo + " flight by flight";
   const std::string defect = CheckFlights(inst, r.routes);
   if (!defect.empty()) throw std::logic_error("planner produced invalid flights: " + defect);
@@ -291,8 +307,9 @@ FlightsResult SolveFlights(const std::string& algo, const OpInstance& inst, int 
 }
 
 int RunPlan(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
-  const Args a = ParseArgs(args, 0, {"--algo", "--seed", "--out", "--iterations", "--time-limit",
-                                     "--routes", "--flights"});
+  const Args a = ParseArgs(
+      args, 0,
+      {"--algo", "--seed", "--out", "--iterations", "--time-limit", "--routes", "--flights"});
   if (a.positional.empty() || a.positional.size() > 2) {
     throw InputError("usage: mound_plan SITES.json [BUDGET] [options] (see --help)");
   }
@@ -309,10 +326,10 @@ int RunPlan(const std::vector<std::string>& args, std::ostream& out, std::ostrea
     o.newalg.progress = Reporter(err, "mound_plan", t_read);
     o.newalg.progress("read " + std::to_string(n_sites) + " sites; planning with " + algo);
   }
-  const int flights = a.options.count("--flights")
-                          ? static_cast<int>(ParseInt(a.options.at("--flights"), "--flights", 1,
-                                                      kMaxFlights))
-                          : 1;
+  const int flights =
+      a.options.count("--flights")
+          ? static_cast<int>(ParseInt(a.options.at("--flights"), "--flights", 1, kMaxFlights))
+          : 1;
   const auto t0 = std::chrono::steady_clock::now();
   PlanSummary summary;
   if (flights == 1) {

@@ -106,43 +106,74 @@ TEST(PlanCliTest, BadInputExitsTwoWithOneLineNamingTheFieldAndWritesNothing) {
   const std::vector<BadCase> cases = {
       {"missing home", with([](auto& j) { j.erase("home"); }), {}, "home"},
       {"missing x", with([](auto& j) { j["sites"][1].erase("x_m"); }), {}, "sites[1].x_m"},
-      {"missing reward", with([](auto& j) { j["sites"][2].erase("reward"); }), {}, "sites[2].reward"},
-      {"NaN literal", [] { return std::string(R"({"schema": "mound.sites", "version": 1,
+      {"missing reward",
+       with([](auto& j) { j["sites"][2].erase("reward"); }),
+       {},
+       "sites[2].reward"},
+      {"NaN literal",
+       [] {
+         return std::string(R"({"schema": "mound.sites", "version": 1,
          "home": {"id": "h", "x_m": 0, "y_m": 0}, "budget_m": 9,
-         "sites": [{"id": "a", "x_m": 1, "y_m": 1, "reward": NaN}]})"); }, {}, "reward"},
-      {"negative reward", with([](auto& j) { j["sites"][0]["reward"] = -1; }), {}, "sites[0].reward"},
-      {"negative scan", with([](auto& j) { j["sites"][3]["scan_cost_m"] = -2; }), {}, "sites[3].scan_cost_m"},
+         "sites": [{"id": "a", "x_m": 1, "y_m": 1, "reward": NaN}]})");
+       },
+       {},
+       "reward"},
+      {"negative reward",
+       with([](auto& j) { j["sites"][0]["reward"] = -1; }),
+       {},
+       "sites[0].reward"},
+      {"negative scan",
+       with([](auto& j) { j["sites"][3]["scan_cost_m"] = -2; }),
+       {},
+       "sites[3].scan_cost_m"},
       {"negative budget", with([](auto& j) { j["budget_m"] = -5; }), {}, "budget_m"},
       {"string coord", with([](auto& j) { j["sites"][0]["y_m"] = "4"; }), {}, "sites[0].y_m"},
       {"duplicate id", with([](auto& j) { j["sites"][2]["id"] = "a"; }), {}, "sites[2].id"},
-      {"site named like home", with([](auto& j) { j["sites"][1]["id"] = "home"; }), {}, "sites[1].id"},
+      {"site named like home",
+       with([](auto& j) { j["sites"][1]["id"] = "home"; }),
+       {},
+       "sites[1].id"},
       {"unknown version", with([](auto& j) { j["version"] = 7; }), {}, "version"},
       {"wrong schema", with([](auto& j) { j["schema"] = "mound.plan"; }), {}, "schema"},
       {"empty sites", with([](auto& j) { j["sites"] = nlohmann::json::array(); }), {}, "sites"},
       {"sites not array", with([](auto& j) { j["sites"] = 3; }), {}, "sites"},
       {"budget too small", with([](auto& j) { j["budget_m"] = 2; }), {}, "budget_m"},
       {"path budget too small",
-       with([](auto& j) { j["end"] = {{"id", "e"}, {"x_m", 100}, {"y_m", 0}}; }), {}, "budget_m"},
+       with([](auto& j) { j["end"] = {{"id", "e"}, {"x_m", 100}, {"y_m", 0}}; }),
+       {},
+       "budget_m"},
       {"end without coordinates", with([](auto& j) { j["end"] = {{"id", "e"}}; }), {}, "end.x_m"},
       {"no budget anywhere", with([](auto& j) { j.erase("budget_m"); }), {}, "budget_m"},
       {"bad budget argument", with([](auto&) {}), {"12abc"}, "BUDGET"},
       {"not JSON", [] { return std::string("{\"schema\": \"mound.sites\", "); }, {}, "bad.json"},
       {"unknown algo", with([](auto&) {}), {"--algo", "magic"}, "--algo"},
       {"unknown option", with([](auto&) {}), {"--fast"}, "--fast"},
-      {"negative time limit", with([](auto&) {}), {"--algo", "alns", "--time-limit", "-1"},
+      {"negative time limit",
+       with([](auto&) {}),
+       {"--algo", "alns", "--time-limit", "-1"},
        "--time-limit"},
-      {"negative take-off", with([](auto& j) { j["takeoff_landing_m"] = -1; }), {}, "takeoff_landing_m"},
+      {"negative take-off",
+       with([](auto& j) { j["takeoff_landing_m"] = -1; }),
+       {},
+       "takeoff_landing_m"},
       {"scan not an object", with([](auto& j) { j["scan"] = 3; }), {}, "scan"},
       // Fuzzer findings (issue 14): magnitudes that overflowed the cost scaling (x_m 1e155
       // crashed newalg), ids with control characters, a latitude of 1e20.
       {"huge coordinate", with([](auto& j) { j["sites"][0]["x_m"] = 1e155; }), {}, "sites[0].x_m"},
       {"huge home", with([](auto& j) { j["home"]["y_m"] = -1e9; }), {}, "home.y_m"},
-      {"huge reward", with([](auto& j) { j["sites"][1]["reward"] = 1e300; }), {}, "sites[1].reward"},
-      {"huge scan", with([](auto& j) { j["sites"][1]["scan_cost_m"] = 1e200; }), {},
+      {"huge reward",
+       with([](auto& j) { j["sites"][1]["reward"] = 1e300; }),
+       {},
+       "sites[1].reward"},
+      {"huge scan",
+       with([](auto& j) { j["sites"][1]["scan_cost_m"] = 1e200; }),
+       {},
        "sites[1].scan_cost_m"},
       {"huge budget", with([](auto& j) { j["budget_m"] = 1e300; }), {}, "budget_m"},
       {"control id", with([](auto& j) { j["sites"][2]["id"] = "a\nb"; }), {}, "sites[2].id"},
-      {"long id", with([](auto& j) { j["sites"][2]["id"] = std::string(300, 'x'); }), {},
+      {"long id",
+       with([](auto& j) { j["sites"][2]["id"] = std::string(300, 'x'); }),
+       {},
        "sites[2].id"},
       {"latitude", with([](auto& j) { j["origin"]["lat"] = 1e20; }), {}, "origin.lat"},
       {"origin not object", with([](auto& j) { j["origin"] = 5; }), {}, "origin"},
@@ -169,7 +200,8 @@ TEST(PlanCliTest, TakeoffLandingIsPaidOnceAndTheScanIsCarriedAlong) {
   auto j = GoodSites();
   j["takeoff_landing_m"] = 4.0;
   j["scan"] = {{"pattern", "raster"}, {"scale_m", 60}};
-  j["sites"] = nlohmann::json::array({{{"id", "a"}, {"x_m", 3}, {"y_m", 4}, {"reward", 1.0}, {"scan_cost_m", 1}}});
+  j["sites"] = nlohmann::json::array(
+      {{{"id", "a"}, {"x_m", 3}, {"y_m", 4}, {"reward", 1.0}, {"scan_cost_m", 1}}});
   const std::string in = WriteTemp("climb.json", j.dump());
   const CliRun r = Call({in, "100"});
   ASSERT_EQ(r.code, 0) << r.err;
@@ -192,9 +224,8 @@ TEST(PlanCliTest, TakeoffLandingIsPaidOnceAndTheScanIsCarriedAlong) {
 // matrix) rides into plan.json, and a malformed matrix is refused naming the entry.
 TEST(PlanCliTest, TerrainClimbCostsAreAddedToEveryLeg) {
   auto j = GoodSites();
-  j["sites"] = nlohmann::json::array(
-      {{{"id", "a"}, {"x_m", 3}, {"y_m", 4}, {"reward", 1.0}},
-       {{"id", "b"}, {"x_m", -3}, {"y_m", 4}, {"reward", 1.0}}});
+  j["sites"] = nlohmann::json::array({{{"id", "a"}, {"x_m", 3}, {"y_m", 4}, {"reward", 1.0}},
+                                      {{"id", "b"}, {"x_m", -3}, {"y_m", 4}, {"reward", 1.0}}});
   // Nodes: home, a, b. home-a 10 m of climbs, home-b 1 m, a-b 50 m.
   j["terrain"] = {{"version", 1},
                   {"nodes", {{{"id", "home"}}, {{"id", "a"}}, {{"id", "b"}}}},
@@ -261,8 +292,10 @@ TEST(PlanCliTest, SeveralFlights) {
   auto j = GoodSites();
   j["sites"] = nlohmann::json::array();
   for (int i = 0; i < 12; ++i) {
-    j["sites"].push_back({{"id", "s" + std::to_string(i)}, {"x_m", (i % 4) * 3.0 - 4},
-                          {"y_m", (i / 4) * 3.0 - 3}, {"reward", 1.0 + 0.1 * i}});
+    j["sites"].push_back({{"id", "s" + std::to_string(i)},
+                          {"x_m", (i % 4) * 3.0 - 4},
+                          {"y_m", (i / 4) * 3.0 - 3},
+                          {"reward", 1.0 + 0.1 * i}});
   }
   const std::string in = WriteTemp("flights.json", j.dump());
   const CliRun one = Call({in, "20"});
@@ -273,7 +306,8 @@ TEST(PlanCliTest, SeveralFlights) {
   EXPECT_EQ(p1["tour"], q1["tour"]);
   ASSERT_EQ(p1["flights"].size(), 1u);
   EXPECT_EQ(p1["flights"][0]["tour"], p1["tour"]);
-  EXPECT_NEAR(p1["flights"][0]["budget_left_m"].get<double>(), p1["budget_left_m"].get<double>(), 1e-9);
+  EXPECT_NEAR(p1["flights"][0]["budget_left_m"].get<double>(), p1["budget_left_m"].get<double>(),
+              1e-9);
   for (const std::string algo : {"alns", "exact", "newalg", "greedy"}) {
     const CliRun r = Call({in, "20", "--flights", "3", "--algo", algo});
     ASSERT_EQ(r.code, 0) << algo << ": " << r.err;
@@ -298,7 +332,8 @@ TEST(PlanCliTest, SeveralFlights) {
     EXPECT_EQ(p["tour"], p["flights"][0]["tour"]) << algo;
     EXPECT_GT(reward, p1["reward"].get<double>()) << algo;  // three flights see more
   }
-  const double exact = nlohmann::json::parse(Call({in, "20", "--flights", "3", "--algo", "exact"}).out)["reward"];
+  const double exact =
+      nlohmann::json::parse(Call({in, "20", "--flights", "3", "--algo", "exact"}).out)["reward"];
   const double alns = nlohmann::json::parse(Call({in, "20", "--flights", "3"}).out)["reward"];
   EXPECT_NEAR(alns, exact, 1e-9);
   for (const std::string bad : {"0", "65", "x", "-1"}) {
@@ -309,23 +344,25 @@ TEST(PlanCliTest, SeveralFlights) {
 }
 
 TEST(PlanCliTest, HelpAnywhereOnTheCommandLinePrintsTheUsage) {
-  for (const std::vector<std::string>& args :
-       {std::vector<std::string>{"--help"}, {"sites.json", "--help"}, {"tsp", "x.tsp", "-h"},
-        {"op", "--seed", "nonsense", "--help"}}) {
+  for (const std::vector<std::string>& args : {std::vector<std::string>{"--help"},
+                                               {"sites.json", "--help"},
+                                               {"tsp", "x.tsp", "-h"},
+                                               {"op", "--seed", "nonsense", "--help"}}) {
     const CliRun r = Call(args);
     EXPECT_EQ(r.code, 0) << r.err;
     EXPECT_NE(r.out.find("usage: mound_plan"), std::string::npos);
     // Every option any command accepts is in the usage text.
     for (const char* opt : {"--algo", "--seed", "--iterations", "--time-limit", "--routes", "--out",
-                            "--runs", "--trials", "--optimum", "--kick-segment",
-                            "--initial-period", "--ascent-candidates", "--version"}) {
+                            "--runs", "--trials", "--optimum", "--kick-segment", "--initial-period",
+                            "--ascent-candidates", "--version"}) {
       EXPECT_NE(r.out.find(opt), std::string::npos) << opt;
     }
   }
 }
 
 TEST(PlanCliTest, TspCommandPrintsLengthAndOneBasedTour) {
-  const CliRun r = Call({"tsp", std::string(MOUND_SHARED_DATA) + "/tsplib/eil51.tsp", "--seed", "3"});
+  const CliRun r =
+      Call({"tsp", std::string(MOUND_SHARED_DATA) + "/tsplib/eil51.tsp", "--seed", "3"});
   ASSERT_EQ(r.code, 0) << r.err;
   const auto j = nlohmann::json::parse(r.out);
   EXPECT_EQ(j["length"], 426);
@@ -383,18 +420,21 @@ TEST(PlanCliTest, HostileTsplibAndOplibFilesExitTwo) {
   for (int k = 1; k <= 8; ++k) scores8 += std::to_string(k) + " " + std::to_string(k % 3) + "\n";
   auto op_file = [&](const std::string& depot, const std::string& extra = "") {
     return "NAME: t\nTYPE: OP\nDIMENSION: 8\nEDGE_WEIGHT_TYPE: EUC_2D\nCOST_LIMIT: 30\n" + extra +
-           "NODE_COORD_SECTION\n" + coords8 + "NODE_SCORE_SECTION\n" + scores8 +
-           "DEPOT_SECTION\n" + depot + "\nEOF\n";
+           "NODE_COORD_SECTION\n" + coords8 + "NODE_SCORE_SECTION\n" + scores8 + "DEPOT_SECTION\n" +
+           depot + "\nEOF\n";
   };
   struct Case {
     std::string name, command, text, must_name;
   };
-  std::string big_explicit = "NAME: x\nTYPE: TSP\nDIMENSION: 50000\nEDGE_WEIGHT_TYPE: EXPLICIT\n"
-                             "EDGE_WEIGHT_FORMAT: FULL_MATRIX\nEDGE_WEIGHT_SECTION\n0 1\n1 0\nEOF\n";
-  std::string huge_dim = "NAME: x\nTYPE: TSP\nDIMENSION: 10000000\nEDGE_WEIGHT_TYPE: EXPLICIT\n"
-                         "EDGE_WEIGHT_FORMAT: UPPER_ROW\nEDGE_WEIGHT_SECTION\n1\nEOF\n";
-  std::string five = "NAME: x\nTYPE: TSP\nDIMENSION: 5\nEDGE_WEIGHT_TYPE: EUC_2D\n"
-                     "NODE_COORD_SECTION\n1 0 0\n2 5e18 0\n3 1 1\n4 2 2\n5 3 3\nEOF\n";
+  std::string big_explicit =
+      "NAME: x\nTYPE: TSP\nDIMENSION: 50000\nEDGE_WEIGHT_TYPE: EXPLICIT\n"
+      "EDGE_WEIGHT_FORMAT: FULL_MATRIX\nEDGE_WEIGHT_SECTION\n0 1\n1 0\nEOF\n";
+  std::string huge_dim =
+      "NAME: x\nTYPE: TSP\nDIMENSION: 10000000\nEDGE_WEIGHT_TYPE: EXPLICIT\n"
+      "EDGE_WEIGHT_FORMAT: UPPER_ROW\nEDGE_WEIGHT_SECTION\n1\nEOF\n";
+  std::string five =
+      "NAME: x\nTYPE: TSP\nDIMENSION: 5\nEDGE_WEIGHT_TYPE: EUC_2D\n"
+      "NODE_COORD_SECTION\n1 0 0\n2 5e18 0\n3 1 1\n4 2 2\n5 3 3\nEOF\n";
   std::string berlin = ReadFile(std::string(MOUND_SHARED_DATA) + "/tsplib/berlin52.tsp");
   const size_t at = berlin.find("\n1 ", berlin.find("NODE_COORD_SECTION"));
   ASSERT_NE(at, std::string::npos);
@@ -407,15 +447,18 @@ TEST(PlanCliTest, HostileTsplibAndOplibFilesExitTwo) {
       {"depot 1000", "op", op_file("1000\n-1"), "depot"},
       {"depot fraction", "op", op_file("2.5\n-1"), "depot"},
       {"two depots", "op", op_file("1\n2\n-1"), "DEPOT_SECTION"},
-      {"cost limit text", "op", op_file("1\n-1").replace(op_file("1\n-1").find("COST_LIMIT: 30"), 14,
-                                                       "COST_LIMIT: abc"), "COST_LIMIT"},
+      {"cost limit text", "op",
+       op_file("1\n-1").replace(op_file("1\n-1").find("COST_LIMIT: 30"), 14, "COST_LIMIT: abc"),
+       "COST_LIMIT"},
       {"fractional node id", "op", op_head, "node id"},
       {"berlin52 with 1e18", "tsp", berlin, "x coordinate"},
       {"5 nodes with 5e18", "tsp", five, "x coordinate"},
       {"explicit 50000", "tsp", big_explicit, "explicit matrix of 50000"},
       {"dimension 1e7", "tsp", huge_dim, "DIMENSION"},
-      {"negative weight", "tsp", "NAME: x\nTYPE: TSP\nDIMENSION: 3\nEDGE_WEIGHT_TYPE: EXPLICIT\n"
-       "EDGE_WEIGHT_FORMAT: UPPER_ROW\nEDGE_WEIGHT_SECTION\n1 -2\n3\nEOF\n", "edge weight"},
+      {"negative weight", "tsp",
+       "NAME: x\nTYPE: TSP\nDIMENSION: 3\nEDGE_WEIGHT_TYPE: EXPLICIT\n"
+       "EDGE_WEIGHT_FORMAT: UPPER_ROW\nEDGE_WEIGHT_SECTION\n1 -2\n3\nEOF\n",
+       "edge weight"},
       {"dimension twice", "tsp", "DIMENSION: 3\nDIMENSION: 4\n", "DIMENSION given twice"},
   };
   for (const Case& c : cases) {
@@ -440,8 +483,9 @@ TEST(PlanCliTest, HostileTsplibAndOplibFilesExitTwo) {
 // instance reports its progress on stderr (issue 14: 4,000 nodes with --time-limit 2 took
 // 25.8 s, 25.6 s of it in the ascent, in silence).
 TEST(PlanCliTest, TspTimeLimitCoversTheAscentAndLargeInstancesReportProgress) {
-  std::string text = "NAME: r6000\nTYPE: TSP\nDIMENSION: 6000\nEDGE_WEIGHT_TYPE: EUC_2D\n"
-                     "NODE_COORD_SECTION\n";
+  std::string text =
+      "NAME: r6000\nTYPE: TSP\nDIMENSION: 6000\nEDGE_WEIGHT_TYPE: EUC_2D\n"
+      "NODE_COORD_SECTION\n";
   uint64_t x = 88172645463325252ULL;
   auto next = [&x]() {
     x ^= x << 13;

@@ -12,7 +12,7 @@ namespace mound::plan {
 // LKH settings for the many small tours the planner re-orders: a shorter ascent and
 // fewer kicks than LKH's defaults for one-off TSP solving (see the benchmark figures).
 struct ReorderOptions {
-  int trials_divisor = 8;          // trials = max(min_trials, m / trials_divisor)
+  int trials_divisor = 8;  // trials = max(min_trials, m / trials_divisor)
   int min_trials = 5;
   int initial_period_divisor = 2;  // ascent INITIAL_PERIOD = max(10, m / divisor)
   int max_ascent_iterations = 30;  // per call; the penalties carry over between calls

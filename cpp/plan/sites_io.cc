@@ -43,7 +43,8 @@ void ReadTerrain(const nlohmann::json& t, SitesFile* out) {
       const std::string p = "terrain.nodes[" + std::to_string(i) + "]";
       if (!ns[i].is_object()) throw InputError(p + ": must be an object");
       if (RequireId(ns[i], "id", p) != inst.nodes[i].id) {
-        throw InputError(p + ".id: expected \"" + inst.nodes[i].id + "\" (the planner's node order)");
+        throw InputError(p + ".id: expected \"" + inst.nodes[i].id +
+                         "\" (the planner's node order)");
       }
     }
   }
@@ -164,10 +165,12 @@ SitesFile ParseSites(const std::string& text, const std::string& path,
       throw InputError("BUDGET: must be a finite number in [0, 1e12]");
     }
     inst.budget_m = *budget_override;
-    if (doc.contains("budget_m")) RequireInRange(doc, "budget_m", "", 0, kMaxBudgetM);  // still validated
+    if (doc.contains("budget_m"))
+      RequireInRange(doc, "budget_m", "", 0, kMaxBudgetM);  // still validated
   } else {
     if (!doc.contains("budget_m")) {
-      throw InputError("budget_m: missing (give it in " + path + " or as BUDGET on the command line)");
+      throw InputError("budget_m: missing (give it in " + path +
+                       " or as BUDGET on the command line)");
     }
     inst.budget_m = RequireInRange(doc, "budget_m", "", 0, kMaxBudgetM);
     out.budget_in_file = true;
@@ -176,7 +179,8 @@ SitesFile ParseSites(const std::string& text, const std::string& path,
   if (out.path_offset_m != 0) {
     if (inst.Closed()) throw InputError("terrain.path_offset_m: must be 0 for a closed tour");
     if (inst.budget_m - out.path_offset_m < 0) {
-      throw InputError("budget_m: " + FormatNumber(inst.budget_m) + " m is less than the "
+      throw InputError("budget_m: " + FormatNumber(inst.budget_m) +
+                       " m is less than the "
                        "climb from home to the end node (terrain.path_offset_m " +
                        FormatNumber(out.path_offset_m) + " m)");
     }
@@ -189,7 +193,8 @@ SitesFile ParseSites(const std::string& text, const std::string& path,
     const double direct = inst.Cost(OpInstance::kHome, inst.end);
     if (direct > inst.budget_m + slack) {
       throw InputError("budget_m: " + FormatNumber(inst.budget_m) +
-                       " m is less than the direct home->end trip of " + FormatNumber(direct) + " m");
+                       " m is less than the direct home->end trip of " + FormatNumber(direct) +
+                       " m");
     }
   } else {
     double cheapest = std::numeric_limits<double>::infinity();
@@ -240,15 +245,21 @@ nlohmann::json PlanToJson(const SitesFile& sites, const PlanSummary& plan) {
       // sites of the others.
       if (k > 0 && listed[route[i]]) continue;
       listed[route[i]] = 1;
-      wps.push_back({{"id", n.id}, {"x_m", n.x_m}, {"y_m", n.y_m},
+      wps.push_back({{"id", n.id},
+                     {"x_m", n.x_m},
+                     {"y_m", n.y_m},
                      {"kind", site ? "site" : (i == 0 ? "home" : "end")},
                      {"reward", site ? n.reward : 0.0},
-                     {"scan_cost_m", site ? n.scan_cost_m : 0.0}, {"cum_cost_m", cum},
+                     {"scan_cost_m", site ? n.scan_cost_m : 0.0},
+                     {"cum_cost_m", cum},
                      {"flight", k + 1}});
     }
     const double c = inst.RouteCost(route) + sites.path_offset_m;
     const double r = inst.RouteReward(route);
-    fl.push_back({{"flight", k + 1}, {"tour", tour}, {"reward", r}, {"cost_m", c},
+    fl.push_back({{"flight", k + 1},
+                  {"tour", tour},
+                  {"reward", r},
+                  {"cost_m", c},
                   {"budget_left_m", budget - c}});
     reward += r;
     cost += c;

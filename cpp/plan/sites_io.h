@@ -16,7 +16,7 @@ struct SitesFile {
   nlohmann::json origin;  // null when absent
   nlohmann::json scan;    // the scan the scan costs came from (carried along), null when absent
   double takeoff_landing_m = 0;  // the home and end nodes' cost (see ParseSites)
-  bool budget_in_file = false;  // false: BUDGET came from the command line
+  bool budget_in_file = false;   // false: BUDGET came from the command line
   // `terrain` of the file (without its matrix), null when absent. Its extra_m is in
   // instance.extra_m; a path's constant climb cost path_offset_m is taken off
   // instance.budget_m here and added back to the costs PlanToJson reports.

@@ -9,9 +9,9 @@
 #include "common/atomic_file.h"
 #include "common/cli_args.h"
 #include "common/error.h"
-#include "common/stats.h"
 #include "common/json_util.h"
 #include "common/parallel.h"
+#include "common/stats.h"
 #include "common/timing.h"
 #include "geometry/json_io.h"
 #include "geometry/ply.h"
@@ -22,8 +22,8 @@ namespace mound::recon {
 namespace {
 
 // The model's camera, registered images and sparse points (validated).
-mvs::DenseInput ReadModel(const std::string& dir, const nlohmann::json& recon, const std::string& images_dir,
-                          std::vector<std::string>* files) {
+mvs::DenseInput ReadModel(const std::string& dir, const nlohmann::json& recon,
+                          const std::string& images_dir, std::vector<std::string>* files) {
   const std::string path = dir + "/recon.json";
   mvs::DenseInput in;
   try {
@@ -35,8 +35,8 @@ mvs::DenseInput ReadModel(const std::string& dir, const nlohmann::json& recon, c
       if (!images[k].is_object()) throw InputError(at + ": expected an object");
       if (!images[k].value("registered", false)) continue;
       const std::string file = RequireString(images[k], "file", at);
-      in.cam_from_world.push_back(
-          geometry::PoseFromJson(RequireField(images[k], "cam_from_world", at), at + ".cam_from_world"));
+      in.cam_from_world.push_back(geometry::PoseFromJson(
+          RequireField(images[k], "cam_from_world", at), at + ".cam_from_world"));
       in.image_paths.push_back(images_dir + "/" + file);
       files->push_back(file);
     }
@@ -52,32 +52,46 @@ mvs::DenseInput ReadModel(const std::string& dir, const nlohmann::json& recon, c
   return in;
 }
 
-
 }  // namespace
 
 int RunDensify(const std::vector<std::string>& args) {
-  const Args a = ParseArgs(args, 1, {"--out", "--resolution-m", "--threads", "--max-image-size", "--images",
-                                     "--source-views", "--window", "--min-ncc", "--min-consistent", "--max-step-px"});
-  if (a.positional.size() != 1) throw InputError("densify: expected exactly one RECON_DIR (see --help)");
+  const Args a =
+      ParseArgs(args, 1,
+                {"--out", "--resolution-m", "--threads", "--max-image-size", "--images",
+                 "--source-views", "--window", "--min-ncc", "--min-consistent", "--max-step-px"});
+  if (a.positional.size() != 1)
+    throw InputError("densify: expected exactly one RECON_DIR (see --help)");
   if (!a.Has("--out")) throw InputError("--out: the output directory is required");
   const std::string dir = a.positional[0], out = a.options.at("--out");
   mvs::DenseOptions o;
-  o.threads = a.Has("--threads") ? static_cast<int>(ParseInt(a.options.at("--threads"), "--threads", 1, 256)) : DefaultThreads();
-  if (a.Has("--resolution-m")) o.resolution_m = ParseNumber(a.options.at("--resolution-m"), "--resolution-m");
-  if (a.Has("--max-image-size")) o.max_image_size = static_cast<int>(ParseInt(a.options.at("--max-image-size"), "--max-image-size", 32, 100000));
-  if (a.Has("--source-views")) o.source_views = static_cast<int>(ParseInt(a.options.at("--source-views"), "--source-views", 1, 64));
+  o.threads = a.Has("--threads")
+                  ? static_cast<int>(ParseInt(a.options.at("--threads"), "--threads", 1, 256))
+                  : DefaultThreads();
+  if (a.Has("--resolution-m"))
+    o.resolution_m = ParseNumber(a.options.at("--resolution-m"), "--resolution-m");
+  if (a.Has("--max-image-size"))
+    o.max_image_size = static_cast<int>(
+        ParseInt(a.options.at("--max-image-size"), "--max-image-size", 32, 100000));
+  if (a.Has("--source-views"))
+    o.source_views =
+        static_cast<int>(ParseInt(a.options.at("--source-views"), "--source-views", 1, 64));
   o.best_views = std::min(o.best_views, o.source_views);
-  if (a.Has("--window")) o.window = static_cast<int>(ParseInt(a.options.at("--window"), "--window", 3, 99));
-  if (a.Has("--max-step-px")) o.max_step_px = ParseNumber(a.options.at("--max-step-px"), "--max-step-px");
+  if (a.Has("--window"))
+    o.window = static_cast<int>(ParseInt(a.options.at("--window"), "--window", 3, 99));
+  if (a.Has("--max-step-px"))
+    o.max_step_px = ParseNumber(a.options.at("--max-step-px"), "--max-step-px");
   if (a.Has("--min-ncc")) o.min_ncc = ParseNumber(a.options.at("--min-ncc"), "--min-ncc");
-  if (a.Has("--min-consistent")) o.min_consistent = static_cast<int>(ParseInt(a.options.at("--min-consistent"), "--min-consistent", 1, 64));
+  if (a.Has("--min-consistent"))
+    o.min_consistent =
+        static_cast<int>(ParseInt(a.options.at("--min-consistent"), "--min-consistent", 1, 64));
   if (const std::string why = o.Check(); !why.empty()) throw InputError(why);
 
   const std::string recon_path = dir + "/recon.json";
   const nlohmann::json recon = LoadRecon(recon_path);
   // A field's text, or "" when it is absent or not a string.
   auto text = [&](const char* key) {
-    return recon.contains(key) && recon[key].is_string() ? recon[key].get<std::string>() : std::string();
+    return recon.contains(key) && recon[key].is_string() ? recon[key].get<std::string>()
+                                                         : std::string();
   };
   const std::string status = RequireString(recon, "status", "");
   if (status != "ok") {
@@ -86,29 +100,45 @@ int RunDensify(const std::vector<std::string>& args) {
                      (reason.empty() ? "no reason given" : reason) + "); nothing to densify");
   }
   if (text("frame") != "enu" || text("scale") != "metric") {
-    throw InputError(recon_path + ": frame: densify needs a georeferenced model (frame enu, metric scale: "
+    throw InputError(recon_path +
+                     ": frame: densify needs a georeferenced model (frame enu, metric scale: "
                      "run reconstruct with --gps)");
   }
-  const std::string images_dir = a.Has("--images") ? a.options.at("--images") : RequireString(recon, "images_dir", "");
+  const std::string images_dir =
+      a.Has("--images") ? a.options.at("--images") : RequireString(recon, "images_dir", "");
   std::error_code ec;
   if (!std::filesystem::is_directory(images_dir, ec)) {
-    throw InputError((a.Has("--images") ? "--images: " : recon_path + ": images_dir: ") + images_dir +
-                     " is not a directory (give the images with --images)");
+    throw InputError((a.Has("--images") ? "--images: " : recon_path + ": images_dir: ") +
+                     images_dir + " is not a directory (give the images with --images)");
   }
   std::vector<std::string> files;
   const mvs::DenseInput in = ReadModel(dir, recon, images_dir, &files);
   std::filesystem::create_directories(out, ec);
   if (ec) throw InputError("--out: cannot create " + out + ": " + ec.message());
 
-  nlohmann::json doc = {{"schema", "mound.dense"}, {"version", 1}, {"tool", "mound_recon densify"},
-                        {"recon_dir", dir}, {"images_dir", images_dir}, {"status", "ok"}, {"frame", "enu"}};
+  nlohmann::json doc = {{"schema", "mound.dense"},
+                        {"version", 1},
+                        {"tool", "mound_recon densify"},
+                        {"recon_dir", dir},
+                        {"images_dir", images_dir},
+                        {"status", "ok"},
+                        {"frame", "enu"}};
   if (recon.contains("origin")) doc["origin"] = recon["origin"];
-  doc["method"] = "plane sweep along the vertical, NCC over the best views, forward-backward consistency, voxel fusion";
-  doc["options"] = {{"resolution_m", o.resolution_m}, {"max_image_size", o.max_image_size},
-                    {"source_views", o.source_views}, {"best_views", o.best_views}, {"window", o.window},
-                    {"min_ncc", o.min_ncc}, {"min_texture", o.min_texture}, {"min_consistent", o.min_consistent},
-                    {"max_reprojection_px", o.max_reprojection_px}, {"max_relative_depth", o.max_relative_depth},
-                    {"max_step_px", o.max_step_px}, {"threads", o.threads}};
+  doc["method"] =
+      "plane sweep along the vertical, NCC over the best views, forward-backward consistency, "
+      "voxel fusion";
+  doc["options"] = {{"resolution_m", o.resolution_m},
+                    {"max_image_size", o.max_image_size},
+                    {"source_views", o.source_views},
+                    {"best_views", o.best_views},
+                    {"window", o.window},
+                    {"min_ncc", o.min_ncc},
+                    {"min_texture", o.min_texture},
+                    {"min_consistent", o.min_consistent},
+                    {"max_reprojection_px", o.max_reprojection_px},
+                    {"max_relative_depth", o.max_relative_depth},
+                    {"max_step_px", o.max_step_px},
+                    {"threads", o.threads}};
   const int n = static_cast<int>(in.image_paths.size());
   auto t0 = Clock::now();
   const std::vector<std::vector<int>> sources = mvs::SelectSourceViews(in, o.source_views);
@@ -127,10 +157,12 @@ int RunDensify(const std::vector<std::string>& args) {
     xs.push_back(p.x());
     ys.push_back(p.y());
   }
-  const double x0 = Quantile(xs, 0.01), x1 = Quantile(xs, 0.99), y0 = Quantile(ys, 0.01), y1 = Quantile(ys, 0.99);
+  const double x0 = Quantile(xs, 0.01), x1 = Quantile(xs, 0.99), y0 = Quantile(ys, 0.01),
+               y1 = Quantile(ys, 0.99);
   PlyCloud ply;
-  ply.comments = {"mound.dense v1: fused multi-view stereo points, ENU metres; nx ny nz: unit normal; support: "
-                  "depth-map pixels merged"};
+  ply.comments = {
+      "mound.dense v1: fused multi-view stereo points, ENU metres; nx ny nz: unit normal; support: "
+      "depth-map pixels merged"};
   for (const char* f : {"nx", "ny", "nz", "support"}) ply.scalars[f];
   for (size_t k = 0; k < cloud.xyz.size(); ++k) {
     const Eigen::Vector3d& p = cloud.xyz[k];
@@ -149,9 +181,14 @@ int RunDensify(const std::vector<std::string>& args) {
     const mvs::DepthMap& m = maps[i];
     nlohmann::json src = nlohmann::json::array();
     for (int j : m.sources) src.push_back(files[j]);
-    per.push_back({{"file", files[i]}, {"sources", src}, {"size", {m.width, m.height}}, {"planes", m.planes},
-                   {"height_range_m", {m.height_min, m.height_max}}, {"depth_pixels", m.valid},
-                   {"consistent_pixels", cloud.consistent_pixels[i]}, {"seconds", m.seconds}});
+    per.push_back({{"file", files[i]},
+                   {"sources", src},
+                   {"size", {m.width, m.height}},
+                   {"planes", m.planes},
+                   {"height_range_m", {m.height_min, m.height_max}},
+                   {"depth_pixels", m.valid},
+                   {"consistent_pixels", cloud.consistent_pixels[i]},
+                   {"seconds", m.seconds}});
     depth_pixels += m.valid;
   }
   doc["images"] = per;

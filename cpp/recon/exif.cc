@@ -16,21 +16,27 @@ class Tiff {
   explicit Tiff(std::vector<uint8_t> d) : d_(std::move(d)) {}
   bool Init() {
     if (d_.size() < 8) return false;
-    if (d_[0] == 'I' && d_[1] == 'I') le_ = true;
-    else if (d_[0] == 'M' && d_[1] == 'M') le_ = false;
-    else return false;
+    if (d_[0] == 'I' && d_[1] == 'I')
+      le_ = true;
+    else if (d_[0] == 'M' && d_[1] == 'M')
+      le_ = false;
+    else
+      return false;
     return U16(2) == 42;
   }
   uint32_t FirstIfd() const { return U32(4); }
   bool Ok(size_t off, size_t n) const { return off <= d_.size() && n <= d_.size() - off; }
   uint16_t U16(size_t o) const {
     if (!Ok(o, 2)) return 0;
-    return le_ ? static_cast<uint16_t>(d_[o] | d_[o + 1] << 8) : static_cast<uint16_t>(d_[o] << 8 | d_[o + 1]);
+    return le_ ? static_cast<uint16_t>(d_[o] | d_[o + 1] << 8)
+               : static_cast<uint16_t>(d_[o] << 8 | d_[o + 1]);
   }
   uint32_t U32(size_t o) const {
     if (!Ok(o, 4)) return 0;
-    return le_ ? (uint32_t(d_[o]) | uint32_t(d_[o + 1]) << 8 | uint32_t(d_[o + 2]) << 16 | uint32_t(d_[o + 3]) << 24)
-               : (uint32_t(d_[o]) << 24 | uint32_t(d_[o + 1]) << 16 | uint32_t(d_[o + 2]) << 8 | uint32_t(d_[o + 3]));
+    return le_ ? (uint32_t(d_[o]) | uint32_t(d_[o + 1]) << 8 | uint32_t(d_[o + 2]) << 16 |
+                  uint32_t(d_[o + 3]) << 24)
+               : (uint32_t(d_[o]) << 24 | uint32_t(d_[o + 1]) << 16 | uint32_t(d_[o + 2]) << 8 |
+                  uint32_t(d_[o + 3]));
   }
   struct Entry {
     uint16_t tag = 0, type = 0;
@@ -57,8 +63,10 @@ class Tiff {
   std::optional<double> Number(const Entry& e, uint32_t k = 0) const {
     if (k >= e.count) return std::nullopt;
     switch (e.type) {
-      case 3: return U16(e.value_offset + 2 * k);
-      case 4: return U32(e.value_offset + 4 * k);
+      case 3:
+        return U16(e.value_offset + 2 * k);
+      case 4:
+        return U32(e.value_offset + 4 * k);
       case 5: {
         const uint32_t num = U32(e.value_offset + 8 * k), den = U32(e.value_offset + 8 * k + 4);
         if (den == 0) return std::nullopt;
@@ -70,7 +78,8 @@ class Tiff {
         if (den == 0) return std::nullopt;
         return double(num) / den;
       }
-      default: return std::nullopt;
+      default:
+        return std::nullopt;
     }
   }
   // An integer entry (SHORT, LONG or IFD): IFD offsets and pixel counts are never rationals,
@@ -87,7 +96,9 @@ class Tiff {
     while (!s.empty() && (s.back() == '\0' || s.back() == ' ')) s.pop_back();
     return s;
   }
-  char Char(const Entry& e) const { return e.type == 2 && e.count > 0 ? static_cast<char>(d_[e.value_offset]) : 0; }
+  char Char(const Entry& e) const {
+    return e.type == 2 && e.count > 0 ? static_cast<char>(d_[e.value_offset]) : 0;
+  }
   // The first byte of a BYTE or UNDEFINED entry (writers use either for GPSAltitudeRef).
   std::optional<uint8_t> Byte(const Entry& e) const {
     if ((e.type != 1 && e.type != 7) || e.count == 0) return std::nullopt;
@@ -181,7 +192,8 @@ Exif ParseExif(const std::vector<uint8_t>& file_bytes) {
       if (e.tag == 0xA20E) x.focal_plane_x_res = t.Number(e);
       if (e.tag == 0xA002) {
         // Up to 2^20 pixels wide; anything wider is not a photo's width.
-        if (auto w = t.Integer(e); w && *w > 0 && *w <= (1u << 20)) x.width_px = static_cast<int>(*w);
+        if (auto w = t.Integer(e); w && *w > 0 && *w <= (1u << 20))
+          x.width_px = static_cast<int>(*w);
       }
       if (e.tag == 0xA210) {
         const double unit = t.Number(e).value_or(2);
@@ -221,11 +233,11 @@ std::optional<double> SensorWidthMm(const std::string& model) {
   // Sensor widths from the makers' specifications (1" 13.2 mm, 1/2.3" 6.17 mm, 1/2" 6.4 mm,
   // 1/1.3" 9.7 mm, 4/3" 17.3 mm, APS-C 23.5 mm, full frame 35.9 mm).
   static const std::pair<const char*, double> kTable[] = {
-      {"FC6310", 13.2},  {"FC6310S", 13.2}, {"FC6310R", 13.2}, {"FC6510", 13.2},
-      {"FC6520", 17.3},  {"FC6540", 23.5},  {"L1D-20C", 13.2}, {"FC3411", 13.2},
-      {"FC330", 6.17},   {"FC300X", 6.17},  {"FC300S", 6.17},  {"FC220", 6.17},
-      {"FC2103", 6.17},  {"FC7203", 6.17},  {"FC7303", 6.17},  {"FC3170", 6.4},
-      {"FC3582", 9.7},   {"FC8482", 9.7},   {"M3E", 17.3},     {"L2D-20C", 17.3},
+      {"FC6310", 13.2},    {"FC6310S", 13.2},   {"FC6310R", 13.2},   {"FC6510", 13.2},
+      {"FC6520", 17.3},    {"FC6540", 23.5},    {"L1D-20C", 13.2},   {"FC3411", 13.2},
+      {"FC330", 6.17},     {"FC300X", 6.17},    {"FC300S", 6.17},    {"FC220", 6.17},
+      {"FC2103", 6.17},    {"FC7203", 6.17},    {"FC7303", 6.17},    {"FC3170", 6.4},
+      {"FC3582", 9.7},     {"FC8482", 9.7},     {"M3E", 17.3},       {"L2D-20C", 17.3},
       {"ZENMUSEP1", 35.9}, {"ILCE-6000", 23.5}, {"ILCE-5100", 23.5}, {"DSC-RX1RM2", 35.9},
   };
   std::string m;

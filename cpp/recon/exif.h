@@ -14,10 +14,10 @@ namespace mound::recon {
 
 struct Exif {
   std::optional<double> focal_mm;
-  std::optional<double> focal_35mm;             // FocalLengthIn35mmFilm
-  std::optional<double> focal_plane_x_res;      // pixels per unit
-  std::optional<double> focal_plane_unit_mm;    // the unit, in mm (inch 25.4, cm 10, mm 1)
-  std::optional<int> width_px;                  // PixelXDimension
+  std::optional<double> focal_35mm;           // FocalLengthIn35mmFilm
+  std::optional<double> focal_plane_x_res;    // pixels per unit
+  std::optional<double> focal_plane_unit_mm;  // the unit, in mm (inch 25.4, cm 10, mm 1)
+  std::optional<int> width_px;                // PixelXDimension
   std::optional<double> lat_deg, lon_deg, alt_m;
   std::string make, model;
   // DateTimeOriginal (else DateTime) as written, "YYYY:MM:DD HH:MM:SS" (camera local time,

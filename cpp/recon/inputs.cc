@@ -13,10 +13,12 @@ namespace mound::recon {
 namespace {
 
 std::vector<double> Numbers(const nlohmann::json& j, size_t n, const std::string& where) {
-  if (!j.is_array() || j.size() != n) throw InputError(where + ": expected " + std::to_string(n) + " numbers");
+  if (!j.is_array() || j.size() != n)
+    throw InputError(where + ": expected " + std::to_string(n) + " numbers");
   std::vector<double> v;
   for (const auto& x : j) {
-    if (!x.is_number() || !std::isfinite(x.get<double>())) throw InputError(where + ": expected finite numbers");
+    if (!x.is_number() || !std::isfinite(x.get<double>()))
+      throw InputError(where + ": expected finite numbers");
     v.push_back(x.get<double>());
   }
   return v;
@@ -62,7 +64,8 @@ geometry::CameraModel ParseCamera(const std::string& text, const std::string& pa
     std::istringstream in(text);
     double v;
     while (K.size() < 9 && in >> v) K.push_back(v);
-    if (K.size() != 9 || !std::all_of(K.begin(), K.end(), [](double x) { return std::isfinite(x); })) {
+    if (K.size() != 9 ||
+        !std::all_of(K.begin(), K.end(), [](double x) { return std::isfinite(x); })) {
       throw InputError(path + ": expected a mound.camera JSON file or the 9 numbers of K");
     }
   }
@@ -74,9 +77,9 @@ geometry::CameraModel ParseCamera(const std::string& text, const std::string& pa
   c.cx = K[2];
   c.cy = K[5];
   if (c.cx < 0 || c.cx > width || c.cy < 0 || c.cy > height) {
-    throw InputError(path + ": the principal point (" + FormatNumber(c.cx) + ", " + FormatNumber(c.cy) +
-                     ") lies outside the " + std::to_string(width) + "x" + std::to_string(height) +
-                     " images: is this the images' camera?");
+    throw InputError(path + ": the principal point (" + FormatNumber(c.cx) + ", " +
+                     FormatNumber(c.cy) + ") lies outside the " + std::to_string(width) + "x" +
+                     std::to_string(height) + " images: is this the images' camera?");
   }
   return c;
 }
@@ -93,20 +96,23 @@ GpsPositions ParseGpsPoses(const std::string& text, const std::string& path,
   g.source = "poses";
   if (doc.contains("origin") && doc["origin"].is_object()) {
     const auto& o = doc["origin"];
-    g.origin = geometry::Geodetic{RequireFinite(o, "lat", "origin"), RequireFinite(o, "lon", "origin"),
-                                  o.contains("alt_m") ? RequireFinite(o, "alt_m", "origin") : 0.0};
+    g.origin =
+        geometry::Geodetic{RequireFinite(o, "lat", "origin"), RequireFinite(o, "lon", "origin"),
+                           o.contains("alt_m") ? RequireFinite(o, "alt_m", "origin") : 0.0};
   }
   const nlohmann::json& images = RequireField(doc, "images", "");
   if (!images.is_array()) throw InputError(path + ": images: expected an array");
   for (size_t k = 0; k < images.size(); ++k) {
     const std::string p = "images[" + std::to_string(k) + "]";
     if (!images[k].is_object()) throw InputError(path + ": " + p + ": expected an object");
-    const std::string file = std::filesystem::path(RequireString(images[k], "file", p)).filename().string();
+    const std::string file =
+        std::filesystem::path(RequireString(images[k], "file", p)).filename().string();
     if (std::find(files.begin(), files.end(), file) == files.end()) {
       throw InputError(path + ": " + p + ".file: no image '" + file + "' in the images folder");
     }
     if (!images[k].contains("gps_enu_m")) continue;
-    const std::vector<double> v = Numbers(images[k]["gps_enu_m"], 3, path + ": " + p + ".gps_enu_m");
+    const std::vector<double> v =
+        Numbers(images[k]["gps_enu_m"], 3, path + ": " + p + ".gps_enu_m");
     g.enu_m[file] = Eigen::Vector3d(v[0], v[1], v[2]);
   }
   return g;

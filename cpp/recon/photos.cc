@@ -38,7 +38,11 @@ bool Utf8OrEscaped(std::string* s) {
   const size_t n = s->size();
   for (size_t i = 0; i < n;) {
     const unsigned char c = p[i];
-    size_t len = c < 0x80 ? 1 : (c >> 5) == 0x6 ? 2 : (c >> 4) == 0xE ? 3 : (c >> 3) == 0x1E ? 4 : 0;
+    size_t len = c < 0x80           ? 1
+                 : (c >> 5) == 0x6  ? 2
+                 : (c >> 4) == 0xE  ? 3
+                 : (c >> 3) == 0x1E ? 4
+                                    : 0;
     bool good = len > 0 && i + len <= n;
     for (size_t k = 1; good && k < len; ++k) good = (p[i + k] >> 6) == 0x2;
     if (good) {
@@ -77,7 +81,9 @@ CardListing ListCard(const std::string& dir) {
     if (fs::is_directory(st)) {
       // Permission denied below is skipped silently by the iterator: say so.
       fs::directory_iterator probe(it->path(), e2);
-      if (e2) out.skipped.push_back(fs::relative(it->path(), root).generic_string() + ": " + e2.message());
+      if (e2)
+        out.skipped.push_back(fs::relative(it->path(), root).generic_string() + ": " +
+                              e2.message());
       continue;
     }
     if (fs::is_symlink(st) && fs::is_directory(it->path(), e2)) continue;  // not followed

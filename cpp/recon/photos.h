@@ -14,16 +14,16 @@
 namespace mound::recon {
 
 struct CardFile {
-  std::string file;   // relative to the card's folder, '/'-separated
-  std::string kind;   // jpeg, tiff, png, not_an_image, unreadable, bad_name (not UTF-8:
-                      // `file` then has each bad byte as \xNN and is not opened)
+  std::string file;  // relative to the card's folder, '/'-separated
+  std::string kind;  // jpeg, tiff, png, not_an_image, unreadable, bad_name (not UTF-8:
+                     // `file` then has each bad byte as \xNN and is not opened)
   uint64_t bytes = 0;
-  Exif exif;          // jpeg and tiff only
+  Exif exif;  // jpeg and tiff only
 };
 
 struct CardListing {
-  std::vector<CardFile> files;         // sorted by file
-  std::vector<std::string> skipped;    // folders that could not be read, with the reason
+  std::vector<CardFile> files;       // sorted by file
+  std::vector<std::string> skipped;  // folders that could not be read, with the reason
 };
 
 // Throws InputError when `dir` is not a readable folder.

@@ -120,9 +120,12 @@ constexpr const char* kUsage =
     "that allowed no result (recon.json says \"status\": \"failed\" and why).\n";
 
 int RunReconstruct(const std::vector<std::string>& args) {
-  const Args a = ParseArgs(args, 1, {"--out", "--camera", "--gps", "--max-image-size", "--max-features",
-                                     "--matching", "--matcher", "--window", "--neighbours", "--threads", "--seed", "--features", "--align"});
-  if (a.positional.size() != 1) throw InputError("reconstruct: expected exactly one IMAGES_DIR (see --help)");
+  const Args a = ParseArgs(
+      args, 1,
+      {"--out", "--camera", "--gps", "--max-image-size", "--max-features", "--matching",
+       "--matcher", "--window", "--neighbours", "--threads", "--seed", "--features", "--align"});
+  if (a.positional.size() != 1)
+    throw InputError("reconstruct: expected exactly one IMAGES_DIR (see --help)");
   if (!a.Has("--out")) throw InputError("--out: the output directory is required");
   const std::string out = a.options.at("--out");
   auto opt = [&](const char* name, const std::string& fallback) {
@@ -135,8 +138,10 @@ int RunReconstruct(const std::vector<std::string>& args) {
   o.images_dir = a.positional[0];
   o.camera_file = opt("--camera", "");
   o.gps = opt("--gps", "");
-  o.features.max_image_size = static_cast<int>(num("--max-image-size", 100, 100000, o.features.max_image_size));
-  o.features.max_features = static_cast<int>(num("--max-features", 100, 1000000, o.features.max_features));
+  o.features.max_image_size =
+      static_cast<int>(num("--max-image-size", 100, 100000, o.features.max_image_size));
+  o.features.max_features =
+      static_cast<int>(num("--max-features", 100, 1000000, o.features.max_features));
   o.feature_kind = opt("--features", o.feature_kind);
   o.matching = opt("--matching", o.matching);
   o.matcher = opt("--matcher", o.matcher);
@@ -161,11 +166,12 @@ int RunReconstruct(const std::vector<std::string>& args) {
   const auto t0 = std::chrono::steady_clock::now();
   WritePly(out + "/points.ply", r);
   WriteColmapText(out, r, res.files, res.features);
-  doc["timings_s"]["write_s"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  doc["timings_s"]["write_s"] =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   WriteFileAtomic(out + "/recon.json", doc.dump(1) + "\n");
-  std::cerr << "mound_recon: " << r.NumRegistered() << "/" << res.files.size() << " images registered, "
-            << r.points.size() << " points, RMSE " << r.rmse_px << " px, frame " << doc["frame"].get<std::string>()
-            << "\n";
+  std::cerr << "mound_recon: " << r.NumRegistered() << "/" << res.files.size()
+            << " images registered, " << r.points.size() << " points, RMSE " << r.rmse_px
+            << " px, frame " << doc["frame"].get<std::string>() << "\n";
   return kExitOk;
 }
 
@@ -203,8 +209,10 @@ int RunPhotos(const std::vector<std::string>& args, std::ostream& out) {
     j["exif"] = x;
     files.push_back(j);
   }
-  const nlohmann::json doc = {{"schema", "mound.photo_list"}, {"version", 1},
-                              {"card", a.positional[0]}, {"files", files},
+  const nlohmann::json doc = {{"schema", "mound.photo_list"},
+                              {"version", 1},
+                              {"card", a.positional[0]},
+                              {"files", files},
                               {"skipped", card.skipped}};
   const std::string text = doc.dump(1) + "\n";
   if (a.Has("--out")) {
@@ -223,7 +231,9 @@ int RunMoundRecon(const std::vector<std::string>& args, std::ostream& out, std::
       out << kUsage;
       return static_cast<int>(kExitOk);
     }
-    if (args.empty()) throw InputError("missing a command: reconstruct, densify, compare, verdict or photos (see --help)");
+    if (args.empty())
+      throw InputError(
+          "missing a command: reconstruct, densify, compare, verdict or photos (see --help)");
     if (args[0] == "--version") {
       out << kVersion << "\n";
       return static_cast<int>(kExitOk);

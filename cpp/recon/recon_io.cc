@@ -13,7 +13,9 @@
 namespace mound::recon {
 
 nlohmann::json CameraJson(const geometry::CameraModel& c) {
-  return {{"model", "opencv_pinhole"}, {"width", c.width}, {"height", c.height},
+  return {{"model", "opencv_pinhole"},
+          {"width", c.width},
+          {"height", c.height},
           {"K", {{c.fx, 0.0, c.cx}, {0.0, c.fy, c.cy}, {0.0, 0.0, 1.0}}},
           {"dist_k1k2p1p2k3", c.dist}};
 }
@@ -55,13 +57,15 @@ void WriteColmapText(const std::string& dir, const sfm::Reconstruction& r,
         << " " << cy << " " << c.dist[0] << " " << c.dist[1] << " " << c.dist[2] << " " << c.dist[3]
         << " " << c.dist[4] << " 0 0 0\n";
   } else {
-    cam << "1 OPENCV " << c.width << " " << c.height << " " << c.fx << " " << c.fy << " " << cx << " "
-        << cy << " " << c.dist[0] << " " << c.dist[1] << " " << c.dist[2] << " " << c.dist[3] << "\n";
+    cam << "1 OPENCV " << c.width << " " << c.height << " " << c.fx << " " << c.fy << " " << cx
+        << " " << cy << " " << c.dist[0] << " " << c.dist[1] << " " << c.dist[2] << " " << c.dist[3]
+        << "\n";
   }
   // Per image: its keypoints that belong to a point (POINT2D index -> point id).
   std::vector<std::vector<std::pair<int, int>>> obs(files.size());  // (keypoint, point)
   for (size_t j = 0; j < r.points.size(); ++j)
-    for (const sfm::TrackElement& e : r.points[j].track) obs[e.image].emplace_back(e.keypoint, static_cast<int>(j));
+    for (const sfm::TrackElement& e : r.points[j].track)
+      obs[e.image].emplace_back(e.keypoint, static_cast<int>(j));
   std::vector<std::map<int, int>> point2d_index(files.size());
   std::ostringstream img;
   img << std::setprecision(17);
@@ -72,8 +76,8 @@ void WriteColmapText(const std::string& dir, const sfm::Reconstruction& r,
     if (!r.registered[i]) continue;
     const auto& q = r.cam_from_world[i].rotation;
     const auto& t = r.cam_from_world[i].translation;
-    img << i + 1 << " " << q.w() << " " << q.x() << " " << q.y() << " " << q.z() << " " << t.x() << " "
-        << t.y() << " " << t.z() << " 1 " << files[i] << "\n";
+    img << i + 1 << " " << q.w() << " " << q.x() << " " << q.y() << " " << q.z() << " " << t.x()
+        << " " << t.y() << " " << t.z() << " 1 " << files[i] << "\n";
     std::sort(obs[i].begin(), obs[i].end());
     for (size_t k = 0; k < obs[i].size(); ++k) {
       // COLMAP's pixel convention puts (0, 0) at the top-left corner of the first pixel.
@@ -90,9 +94,10 @@ void WriteColmapText(const std::string& dir, const sfm::Reconstruction& r,
       << "# Number of points: " << r.points.size() << "\n";
   for (size_t j = 0; j < r.points.size(); ++j) {
     const sfm::Point3D& p = r.points[j];
-    pts << j + 1 << " " << p.xyz.x() << " " << p.xyz.y() << " " << p.xyz.z() << " " << int(p.color[0]) << " "
-        << int(p.color[1]) << " " << int(p.color[2]) << " " << p.error_px;
-    for (const sfm::TrackElement& e : p.track) pts << " " << e.image + 1 << " " << point2d_index[e.image][e.keypoint];
+    pts << j + 1 << " " << p.xyz.x() << " " << p.xyz.y() << " " << p.xyz.z() << " "
+        << int(p.color[0]) << " " << int(p.color[1]) << " " << int(p.color[2]) << " " << p.error_px;
+    for (const sfm::TrackElement& e : p.track)
+      pts << " " << e.image + 1 << " " << point2d_index[e.image][e.keypoint];
     pts << "\n";
   }
   WriteFileAtomic(dir + "/cameras.txt", cam.str());
@@ -102,7 +107,9 @@ void WriteColmapText(const std::string& dir, const sfm::Reconstruction& r,
 
 PlyCloud ReadCloud(const std::string& path, const std::string& what) {
   PlyCloud c = ReadPly(path);
-  if (c.xyz.size() < 10) throw InputError(what + ": " + path + " has " + std::to_string(c.xyz.size()) + " points (need >= 10)");
+  if (c.xyz.size() < 10)
+    throw InputError(what + ": " + path + " has " + std::to_string(c.xyz.size()) +
+                     " points (need >= 10)");
   return c;
 }
 

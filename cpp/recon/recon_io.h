@@ -1,5 +1,5 @@
-// Files of the 3-D stage: the camera and GPS inputs (recon/inputs.h), and the reconstruction's outputs
-// (recon.json, points.ply, COLMAP's text model). Contract: ../shared/INTERFACES.md.
+// Files of the 3-D stage: the camera and GPS inputs (recon/inputs.h), and the reconstruction's
+// outputs (recon.json, points.ply, COLMAP's text model). Contract: ../shared/INTERFACES.md.
 #pragma once
 
 #include <Eigen/Core>

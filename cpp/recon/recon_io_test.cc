@@ -66,7 +66,8 @@ TEST(Exif, ReadsFocalLengthPixelPitchAndGpsOfACanonPhoto) {
 TEST(Exif, ReadsTiffFilesAndSurvivesTruncation) {
   const std::string jpeg = std::string(MOUND_SHARED_DATA) + "/images/caliterra/images/IMG_9354.jpg";
   std::ifstream in(jpeg, std::ios::binary);
-  std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(in)),
+                             std::istreambuf_iterator<char>());
   // The TIFF block after APP1's "Exif\0\0".
   const std::string sig("Exif\0\0", 6);
   const auto at = std::search(bytes.begin(), bytes.end(), sig.begin(), sig.end());
@@ -77,7 +78,8 @@ TEST(Exif, ReadsTiffFilesAndSurvivesTruncation) {
   EXPECT_NEAR(*t.lat_deg, 30.171223, 1e-6);
   EXPECT_EQ(t.make, "Canon");
   for (size_t cut : {size_t{0}, size_t{1}, size_t{3}, size_t{100}, size_t{2000}, size_t{9000}}) {
-    const std::vector<uint8_t> part(bytes.begin(), bytes.begin() + static_cast<std::ptrdiff_t>(cut));
+    const std::vector<uint8_t> part(bytes.begin(),
+                                    bytes.begin() + static_cast<std::ptrdiff_t>(cut));
     const Exif p = ParseExif(part);  // no crash; nothing beyond what is there
     if (p.lat_deg) {
       EXPECT_NEAR(*p.lat_deg, 30.171223, 1e-6);
@@ -90,19 +92,30 @@ TEST(Exif, ReadsTiffFilesAndSurvivesTruncation) {
 // whose latitude is a SRATIONAL triple; `lat_deg` is its degrees.
 std::vector<uint8_t> HandTiff(int32_t lat_deg) {
   std::vector<uint8_t> b;
-  auto u16 = [&](uint32_t v) { b.push_back(v & 0xFF); b.push_back(v >> 8 & 0xFF); };
-  auto u32 = [&](uint32_t v) { u16(v & 0xFFFF); u16(v >> 16); };
+  auto u16 = [&](uint32_t v) {
+    b.push_back(v & 0xFF);
+    b.push_back(v >> 8 & 0xFF);
+  };
+  auto u32 = [&](uint32_t v) {
+    u16(v & 0xFFFF);
+    u16(v >> 16);
+  };
   auto entry = [&](uint16_t tag, uint16_t type, uint32_t count, uint32_t value) {
-    u16(tag); u16(type); u32(count); u32(value);
+    u16(tag);
+    u16(type);
+    u32(count);
+    u32(value);
   };
   b = {'I', 'I'};
-  u16(42); u32(8);
+  u16(42);
+  u32(8);
   // IFD0 at 8: 2 entries (8 + 2 + 24 + 4 = 38), the SRATIONAL -1/1 at 38.
   u16(2);
   entry(0x8769, 10, 1, 38);
   entry(0x8825, 4, 1, 46);
   u32(0);
-  u32(static_cast<uint32_t>(-1)); u32(1);
+  u32(static_cast<uint32_t>(-1));
+  u32(1);
   // GPS IFD at 46: 4 entries (46 + 2 + 48 + 4 = 100), lat at 100, lon at 124.
   u16(4);
   entry(1, 2, 2, 'N');
@@ -134,7 +147,8 @@ TEST(Card, ListsEveryFileWithItsKindAndExif) {
   fs::remove_all(card);
   fs::create_directories(card / "DCIM" / "100MEDIA");
   const std::string shared = MOUND_SHARED_DATA;
-  fs::copy_file(shared + "/images/caliterra/images/IMG_9354.jpg", card / "DCIM" / "100MEDIA" / "a.jpg");
+  fs::copy_file(shared + "/images/caliterra/images/IMG_9354.jpg",
+                card / "DCIM" / "100MEDIA" / "a.jpg");
   fs::copy_file(shared + "/images/fountain-P11/images/0000.jpg", card / "DCIM" / "b.jpg");
   std::ofstream(card / "notes.txt") << "hello";
   std::ofstream(card / "empty.jpg");
@@ -162,18 +176,22 @@ TEST(Card, ListsEveryFileWithItsKindAndExif) {
 }
 
 TEST(Camera, ReadsStrechaKAndTheSimulatorsCameraAndRefusesMisfits) {
-  const geometry::CameraModel k = ReadCamera(Temp("K.txt", "2759.48 0 1520.69\n0 2764.16 1006.81\n0 0 1\n"), 3072, 2048);
+  const geometry::CameraModel k =
+      ReadCamera(Temp("K.txt", "2759.48 0 1520.69\n0 2764.16 1006.81\n0 0 1\n"), 3072, 2048);
   EXPECT_EQ(k.fx, 2759.48);
   EXPECT_EQ(k.cy, 1006.81);
-  const std::string cam = Temp("camera.json", R"({"schema": "mound.camera", "version": 1, "width": 640,
+  const std::string cam =
+      Temp("camera.json", R"({"schema": "mound.camera", "version": 1, "width": 640,
       "height": 480, "K": [[457, 0, 319.5], [0, 457, 239.5], [0, 0, 1]],
       "dist_k1k2p1p2k3": [-0.1, 0.01, 0, 0, 0]})");
   const geometry::CameraModel c = ReadCamera(cam, 640, 480);
   EXPECT_EQ(c.dist[0], -0.1);
-  EXPECT_THROW(ReadCamera(cam, 1280, 960), InputError);                              // other images
-  EXPECT_THROW(ReadCamera(Temp("K2.txt", "2759 0 1520 0 2764 1006 0 0 1"), 640, 480), InputError);  // pp outside
+  EXPECT_THROW(ReadCamera(cam, 1280, 960), InputError);  // other images
+  EXPECT_THROW(ReadCamera(Temp("K2.txt", "2759 0 1520 0 2764 1006 0 0 1"), 640, 480),
+               InputError);  // pp outside
   EXPECT_THROW(ReadCamera(Temp("K3.txt", "1 2 3"), 640, 480), InputError);
-  EXPECT_THROW(ReadCamera(Temp("K4.txt", "100 5 300 0 100 200 0 0 1"), 640, 480), InputError);  // skew
+  EXPECT_THROW(ReadCamera(Temp("K4.txt", "100 5 300 0 100 200 0 0 1"), 640, 480),
+               InputError);  // skew
 }
 
 }  // namespace

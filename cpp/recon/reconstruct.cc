@@ -28,7 +28,8 @@ std::vector<std::string> ListImages(const std::string& dir) {
   for (const auto& e : fs::directory_iterator(dir, ec)) {
     if (!e.is_regular_file()) continue;
     std::string ext = e.path().extension().string();
-    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+    std::transform(ext.begin(), ext.end(), ext.begin(),
+                   [](unsigned char c) { return std::tolower(c); });
     if (ext == ".jpg" || ext == ".jpeg" || ext == ".png" || ext == ".tif" || ext == ".tiff") {
       files.push_back(e.path().filename().string());
     }
@@ -52,7 +53,8 @@ nlohmann::json PoseJson(const geometry::Rigid3d& p) {
 }  // namespace
 
 std::string ReconstructOptions::Check() const {
-  if (matching != "auto" && matching != "exhaustive" && matching != "sequential" && matching != "retrieval") {
+  if (matching != "auto" && matching != "exhaustive" && matching != "sequential" &&
+      matching != "retrieval") {
     return "--matching: expected auto, exhaustive, sequential or retrieval, got '" + matching + "'";
   }
   if (matcher != "flann" && matcher != "cascade") {
@@ -106,13 +108,15 @@ ReconstructResult Reconstruct(const ReconstructOptions& o) {
     // One image per thread, and OpenCV's SIFT loops inside it single-threaded: --threads N
     // uses N cores (two sites on two cores do not oversubscribe them).
     sfm::SetLibraryThreads(1);
-    ParallelFor(n, threads, [&](int i) { features[i] = sfm::ExtractFeatures(dir + "/" + files[i], fo); });
+    ParallelFor(n, threads,
+                [&](int i) { features[i] = sfm::ExtractFeatures(dir + "/" + files[i], fo); });
     sfm::SetLibraryThreads(threads);
   }
   for (int i = 1; i < n; ++i) {
     if (features[i].width != features[0].width || features[i].height != features[0].height) {
-      throw InputError(files[i] + ": " + std::to_string(features[i].width) + "x" + std::to_string(features[i].height) +
-                       " pixels, but " + files[0] + " is " + std::to_string(features[0].width) + "x" +
+      throw InputError(files[i] + ": " + std::to_string(features[i].width) + "x" +
+                       std::to_string(features[i].height) + " pixels, but " + files[0] + " is " +
+                       std::to_string(features[0].width) + "x" +
                        std::to_string(features[0].height) + " (one camera for all images)");
     }
   }
@@ -166,8 +170,9 @@ ReconstructResult Reconstruct(const ReconstructOptions& o) {
     po.sequence_window = matching == "sequential" ? window : std::min(window, po.sequence_window);
     po.spatial_neighbours = matching == "sequential" ? 0 : neighbours;
     po.exhaustive_up_to = matching == "exhaustive" ? n
-                          : matching == "sequential" || matching == "retrieval" ? 0
-                                                                                 : po.exhaustive_up_to;
+                          : matching == "sequential" || matching == "retrieval"
+                              ? 0
+                              : po.exhaustive_up_to;
     std::vector<std::optional<Eigen::Vector3d>> positions(n);
     if (gps && matching == "auto") {
       for (int i = 0; i < n; ++i) {
@@ -194,7 +199,8 @@ ReconstructResult Reconstruct(const ReconstructOptions& o) {
   const double verify_px = std::max(1.0, 1.0 * std::max(W, H) / 2000.0);
   std::vector<sfm::VerifiedPair> verified(pair_list.size());
   const sfm::DescriptorMatcher matcher(
-      features, 0.8f, o.matcher == "cascade" ? sfm::MatcherKind::kCascadeHash : sfm::MatcherKind::kFlann);
+      features, 0.8f,
+      o.matcher == "cascade" ? sfm::MatcherKind::kCascadeHash : sfm::MatcherKind::kFlann);
   ParallelFor(static_cast<int>(pair_list.size()), threads, [&](int k) {
     const auto [i, j] = pair_list[k];
     const sfm::MatchList m = feature_kind == "klt" ? tracked[i] : matcher.Match(i, j);
@@ -204,12 +210,21 @@ ReconstructResult Reconstruct(const ReconstructOptions& o) {
   int useful_pairs = 0;
   for (const auto& v : verified) useful_pairs += v.inliers.size() >= 30;
 
-  nlohmann::json doc = {{"schema", "mound.recon"}, {"version", 1}, {"tool", o.tool},
-                        {"images_dir", dir}, {"status", "ok"}};
-  doc["inputs"] = {{"images", n}, {"camera_source", camera_source}, {"gps_source", gps ? gps->source : "none"},
-                   {"pairs_matched", pair_list.size()}, {"pairs_verified", useful_pairs}, {"pairing", pairing},
-                   {"max_image_size", fo.max_image_size}, {"max_features", fo.max_features},
-                   {"features", feature_kind}, {"matcher", o.matcher}};
+  nlohmann::json doc = {{"schema", "mound.recon"},
+                        {"version", 1},
+                        {"tool", o.tool},
+                        {"images_dir", dir},
+                        {"status", "ok"}};
+  doc["inputs"] = {{"images", n},
+                   {"camera_source", camera_source},
+                   {"gps_source", gps ? gps->source : "none"},
+                   {"pairs_matched", pair_list.size()},
+                   {"pairs_verified", useful_pairs},
+                   {"pairing", pairing},
+                   {"max_image_size", fo.max_image_size},
+                   {"max_features", fo.max_features},
+                   {"features", feature_kind},
+                   {"matcher", o.matcher}};
   sfm::MapperOptions mo;
   mo.max_error_px = 4.0;  // COLMAP's filter threshold, full-resolution pixels
   mo.refine_intrinsics = refine;
@@ -228,9 +243,11 @@ ReconstructResult Reconstruct(const ReconstructOptions& o) {
     return res;
   }
   timings["mapping_s"] = Since(t0);
-  nlohmann::json mapping_stages = {{"initialise", r.timings.initialise_s}, {"register", r.timings.register_s},
-                                 {"triangulate", r.timings.triangulate_s}, {"local_ba", r.timings.local_ba_s},
-                                 {"global_ba", r.timings.global_ba_s}};
+  nlohmann::json mapping_stages = {{"initialise", r.timings.initialise_s},
+                                   {"register", r.timings.register_s},
+                                   {"triangulate", r.timings.triangulate_s},
+                                   {"local_ba", r.timings.local_ba_s},
+                                   {"global_ba", r.timings.global_ba_s}};
 
   // The metric frame: a robust similarity from the camera centres to GPS.
   doc["frame"] = "arbitrary";
@@ -250,25 +267,36 @@ ReconstructResult Reconstruct(const ReconstructOptions& o) {
     // poses file from all three GPS coordinates; --align chooses.
     Eigen::Vector3d down_in_model = Eigen::Vector3d::Zero();
     for (int i = 0; i < n; ++i)
-      if (r.registered[i]) down_in_model += r.cam_from_world[i].rotation.conjugate() * Eigen::Vector3d::UnitZ();
-    const auto fit = align == "level" ? sfm::FitLevelledSim3Robust(model, world, down_in_model, seed)
-                                      : sfm::FitSim3Robust(model, world, seed);
+      if (r.registered[i])
+        down_in_model += r.cam_from_world[i].rotation.conjugate() * Eigen::Vector3d::UnitZ();
+    const auto fit = align == "level"
+                         ? sfm::FitLevelledSim3Robust(model, world, down_in_model, seed)
+                         : sfm::FitSim3Robust(model, world, seed);
     if (fit && fit->inliers >= 3) {
       sfm::Transform(fit->world_from_model, &r);
       doc["frame"] = "enu";
       doc["scale"] = "metric";
-      if (gps->origin) doc["origin"] = {{"lat", gps->origin->lat_deg}, {"lon", gps->origin->lon_deg}, {"alt_m", gps->origin->alt_m}};
+      if (gps->origin)
+        doc["origin"] = {{"lat", gps->origin->lat_deg},
+                         {"lon", gps->origin->lon_deg},
+                         {"alt_m", gps->origin->alt_m}};
       nlohmann::json outliers = nlohmann::json::array();
       for (size_t k = 0; k < which.size(); ++k)
         if (!fit->inlier[k]) outliers.push_back(files[which[k]]);
-      doc["gps_fit"] = {{"images", model.size()}, {"inliers", fit->inliers}, {"outliers", outliers},
-                        {"rmse_m", fit->rmse_m}, {"rmse_horizontal_m", fit->rmse_horizontal_m},
-                        {"rmse_vertical_m", fit->rmse_vertical_m}, {"scale", fit->world_from_model.scale},
-                        {"method", align == "level" ? "level: vertical from the images, heading, scale and "
-                                                      "position from horizontal GPS, height offset by median"
-                                                    : "full: 7-parameter similarity to the GPS positions"}};
+      doc["gps_fit"] = {
+          {"images", model.size()},
+          {"inliers", fit->inliers},
+          {"outliers", outliers},
+          {"rmse_m", fit->rmse_m},
+          {"rmse_horizontal_m", fit->rmse_horizontal_m},
+          {"rmse_vertical_m", fit->rmse_vertical_m},
+          {"scale", fit->world_from_model.scale},
+          {"method", align == "level" ? "level: vertical from the images, heading, scale and "
+                                        "position from horizontal GPS, height offset by median"
+                                      : "full: 7-parameter similarity to the GPS positions"}};
     } else {
-      doc["gps_fit"] = {{"images", model.size()}, {"note", "fewer than 3 registered images with GPS: frame left arbitrary"}};
+      doc["gps_fit"] = {{"images", model.size()},
+                        {"note", "fewer than 3 registered images with GPS: frame left arbitrary"}};
     }
   }
   doc["camera"] = CameraJson(r.camera);

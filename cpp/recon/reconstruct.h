@@ -20,8 +20,8 @@ namespace mound::recon {
 
 struct ReconstructOptions {
   std::string images_dir;
-  std::string camera_file;            // mound.camera JSON or K.txt; empty: EXIF, refined
-  std::string gps;                    // empty: none; "exif"; else a mound.poses file
+  std::string camera_file;  // mound.camera JSON or K.txt; empty: EXIF, refined
+  std::string gps;          // empty: none; "exif"; else a mound.poses file
   sfm::FeatureOptions features;
   std::string feature_kind = "sift";  // sift | klt
   std::string matching = "auto";      // auto | exhaustive | sequential | retrieval
@@ -31,7 +31,7 @@ struct ReconstructOptions {
   std::string align;                  // level | full; empty: level with EXIF GPS, else full
   int threads = 1;
   uint64_t seed = 1;
-  std::string tool;                   // recon.json's "tool"
+  std::string tool;  // recon.json's "tool"
   // Empty when usable, else what is wrong, naming the option as the CLI spells it.
   std::string Check() const;
 };

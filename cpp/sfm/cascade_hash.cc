@@ -7,7 +7,8 @@
 
 namespace mound::sfm {
 
-CascadeHasher::CascadeHasher(const Eigen::Matrix<float, 1, 128>& mean, uint64_t seed) : mean_(mean) {
+CascadeHasher::CascadeHasher(const Eigen::Matrix<float, 1, 128>& mean, uint64_t seed)
+    : mean_(mean) {
   std::mt19937_64 rng(seed);
   std::normal_distribution<float> g(0.f, 1.f);
   for (int r = 0; r < 128; ++r)
@@ -33,7 +34,8 @@ CascadeHasher::Hashed CascadeHasher::Hash(const Descriptors& d) const {
     h.codes[i] = code;
     for (int g = 0; g < kGroups; ++g) {
       int id = 0;
-      for (int b = 0; b < kBucketBits; ++b) id = (id << 1) | (secondary_.row(g * kBucketBits + b).dot(c) > 0);
+      for (int b = 0; b < kBucketBits; ++b)
+        id = (id << 1) | (secondary_.row(g * kBucketBits + b).dot(c) > 0);
       h.bucket[i][g] = static_cast<uint8_t>(id);
       h.members[g][id].push_back(i);
     }
@@ -43,10 +45,12 @@ CascadeHasher::Hashed CascadeHasher::Hash(const Descriptors& d) const {
 
 void CascadeHasher::Nearest2(const Descriptors& query, const Hashed& qh, const Descriptors& train,
                              const Hashed& th, const std::vector<int>& rows, int candidates,
-                             std::vector<std::array<int, 2>>* index, std::vector<std::array<float, 2>>* dist2) const {
+                             std::vector<std::array<int, 2>>* index,
+                             std::vector<std::array<float, 2>>* dist2) const {
   const int nq = rows.empty() ? static_cast<int>(query.rows()) : static_cast<int>(rows.size());
   index->assign(nq, {-1, -1});
-  dist2->assign(nq, {std::numeric_limits<float>::infinity(), std::numeric_limits<float>::infinity()});
+  dist2->assign(nq,
+                {std::numeric_limits<float>::infinity(), std::numeric_limits<float>::infinity()});
   const int nt = static_cast<int>(train.rows());
   std::vector<int> stamp(nt, -1);
   std::vector<int> found;
@@ -64,7 +68,8 @@ void CascadeHasher::Nearest2(const Descriptors& query, const Hashed& qh, const D
     const auto& cq = qh.codes[q];
     for (int t : found) {
       const auto& ct = th.codes[t];
-      const int hd = static_cast<int>(std::bitset<64>(cq[0] ^ ct[0]).count() + std::bitset<64>(cq[1] ^ ct[1]).count());
+      const int hd = static_cast<int>(std::bitset<64>(cq[0] ^ ct[0]).count() +
+                                      std::bitset<64>(cq[1] ^ ct[1]).count());
       by_hamming[hd].push_back(t);
     }
     int compared = 0;

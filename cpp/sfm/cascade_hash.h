@@ -38,7 +38,8 @@ class CascadeHasher {
   // `train` among the candidates, indices (-1 when fewer) and squared L2 distances.
   void Nearest2(const Descriptors& query, const Hashed& query_hash, const Descriptors& train,
                 const Hashed& train_hash, const std::vector<int>& rows, int candidates,
-                std::vector<std::array<int, 2>>* index, std::vector<std::array<float, 2>>* dist2) const;
+                std::vector<std::array<int, 2>>* index,
+                std::vector<std::array<float, 2>>* dist2) const;
 
  private:
   Eigen::Matrix<float, 1, 128> mean_;

@@ -67,7 +67,8 @@ ImageFeatures Sift(const Loaded& l, int max_features) {
   constexpr float kSiftBiasPx = 0.25f;
   for (size_t k = 0; k < kps.size(); ++k) {
     AddKeypoint(l, kps[k].pt - cv::Point2f(kSiftBiasPx, kSiftBiasPx), &f);
-    for (int j = 0; j < 128; ++j) f.descriptors(static_cast<Eigen::Index>(k), j) = desc.at<float>(static_cast<int>(k), j);
+    for (int j = 0; j < 128; ++j)
+      f.descriptors(static_cast<Eigen::Index>(k), j) = desc.at<float>(static_cast<int>(k), j);
   }
   return f;
 }
@@ -105,7 +106,8 @@ KltResult TrackKlt(const std::vector<std::string>& paths, const FeatureOptions& 
       std::vector<cv::Point2f> fwd, back;
       std::vector<unsigned char> st1, st2;
       std::vector<float> err;
-      cv::calcOpticalFlowPyrLK(prev.grey, cur.grey, prev_pts, fwd, st1, err, cv::Size(21, 21), 5, term);
+      cv::calcOpticalFlowPyrLK(prev.grey, cur.grey, prev_pts, fwd, st1, err, cv::Size(21, 21), 5,
+                               term);
       cv::calcOpticalFlowPyrLK(cur.grey, prev.grey, fwd, back, st2, err, cv::Size(21, 21), 5, term);
       for (size_t i = 0; i < prev_pts.size(); ++i) {
         const cv::Point2f& p = fwd[i];
@@ -166,7 +168,8 @@ class SearchIndex {
       for (size_t r = 0; r < m[q].size() && static_cast<int>(r) < k; ++r) {
         indices->at<int>(static_cast<int>(q), static_cast<int>(r)) = m[q][r].trainIdx;
         // FLANN reports squared L2 distances: so does this.
-        dists->at<float>(static_cast<int>(q), static_cast<int>(r)) = m[q][r].distance * m[q][r].distance;
+        dists->at<float>(static_cast<int>(q), static_cast<int>(r)) =
+            m[q][r].distance * m[q][r].distance;
       }
   }
 
@@ -193,12 +196,13 @@ MatchList MatchWith(const ImageFeatures& a, const SearchIndex& index_a, const Im
   if (candidates.empty()) return out;
   cv::Mat back_queries(static_cast<int>(candidates.size()), 128, CV_32F);
   for (size_t c = 0; c < candidates.size(); ++c)
-    std::memcpy(back_queries.ptr<float>(static_cast<int>(c)), b.descriptors.row(candidates[c].second).data(),
-                128 * sizeof(float));
+    std::memcpy(back_queries.ptr<float>(static_cast<int>(c)),
+                b.descriptors.row(candidates[c].second).data(), 128 * sizeof(float));
   cv::Mat back_idx, back_dist;
   index_a.Search(back_queries, 1, &back_idx, &back_dist);
   for (size_t c = 0; c < candidates.size(); ++c)
-    if (back_idx.at<int>(static_cast<int>(c), 0) == candidates[c].first) out.push_back(candidates[c]);
+    if (back_idx.at<int>(static_cast<int>(c), 0) == candidates[c].first)
+      out.push_back(candidates[c]);
   return out;
 }
 
@@ -217,14 +221,16 @@ Eigen::Matrix<float, 1, 128> MeanDescriptor(const std::vector<ImageFeatures>& fe
     sum += f.descriptors.cast<double>().colwise().sum();
     count += static_cast<double>(f.descriptors.rows());
   }
-  return count > 0 ? Eigen::Matrix<float, 1, 128>((sum / count).cast<float>()) : Eigen::Matrix<float, 1, 128>::Zero();
+  return count > 0 ? Eigen::Matrix<float, 1, 128>((sum / count).cast<float>())
+                   : Eigen::Matrix<float, 1, 128>::Zero();
 }
 
 constexpr int kCascadeCandidates = 20;
 
 // The ratio test and mutual check of MatchWith, on cascade hashes.
-MatchList MatchHashed(const ImageFeatures& a, const CascadeHasher::Hashed& ha, const ImageFeatures& b,
-                      const CascadeHasher::Hashed& hb, const CascadeHasher& hasher, float ratio) {
+MatchList MatchHashed(const ImageFeatures& a, const CascadeHasher::Hashed& ha,
+                      const ImageFeatures& b, const CascadeHasher::Hashed& hb,
+                      const CascadeHasher& hasher, float ratio) {
   MatchList out;
   if (a.descriptors.rows() < 2 || b.descriptors.rows() < 2) return out;
   std::vector<std::array<int, 2>> idx;
@@ -260,28 +266,35 @@ struct DescriptorMatcher::Impl {
     return *index[i];
   }
   const CascadeHasher::Hashed& Hash(int i) const {
-    std::call_once(built[i], [&] { hashed[i] = std::make_unique<CascadeHasher::Hashed>(hasher->Hash(features[i].descriptors)); });
+    std::call_once(built[i], [&] {
+      hashed[i] = std::make_unique<CascadeHasher::Hashed>(hasher->Hash(features[i].descriptors));
+    });
     return *hashed[i];
   }
 };
 
-DescriptorMatcher::DescriptorMatcher(const std::vector<ImageFeatures>& features, float ratio, MatcherKind kind)
-    : impl_(new Impl{features, ratio, kind, std::vector<std::unique_ptr<SearchIndex>>(features.size()),
+DescriptorMatcher::DescriptorMatcher(const std::vector<ImageFeatures>& features, float ratio,
+                                     MatcherKind kind)
+    : impl_(new Impl{features, ratio, kind,
+                     std::vector<std::unique_ptr<SearchIndex>>(features.size()),
                      std::vector<std::unique_ptr<CascadeHasher::Hashed>>(features.size()),
                      std::vector<std::once_flag>(features.size()), nullptr}) {
-  if (kind == MatcherKind::kCascadeHash) impl_->hasher = std::make_unique<CascadeHasher>(MeanDescriptor(features));
+  if (kind == MatcherKind::kCascadeHash)
+    impl_->hasher = std::make_unique<CascadeHasher>(MeanDescriptor(features));
 }
 
 DescriptorMatcher::~DescriptorMatcher() = default;
 
 MatchList DescriptorMatcher::Match(int i, int j) const {
   const int n = static_cast<int>(impl_->features.size());
-  if (i < 0 || j < 0 || i >= n || j >= n) throw InternalError("DescriptorMatcher::Match: image out of range");
+  if (i < 0 || j < 0 || i >= n || j >= n)
+    throw InternalError("DescriptorMatcher::Match: image out of range");
   if (impl_->kind == MatcherKind::kCascadeHash) {
-    return MatchHashed(impl_->features[i], impl_->Hash(i), impl_->features[j], impl_->Hash(j), *impl_->hasher,
-                       impl_->ratio);
+    return MatchHashed(impl_->features[i], impl_->Hash(i), impl_->features[j], impl_->Hash(j),
+                       *impl_->hasher, impl_->ratio);
   }
-  return MatchWith(impl_->features[i], impl_->Index(i), impl_->features[j], impl_->Index(j), impl_->ratio);
+  return MatchWith(impl_->features[i], impl_->Index(i), impl_->features[j], impl_->Index(j),
+                   impl_->ratio);
 }
 
 VerifiedPair VerifyPair(int i1, int i2, const ImageFeatures& a, const ImageFeatures& b,
@@ -306,7 +319,8 @@ VerifiedPair VerifyPair(int i1, int i2, const ImageFeatures& a, const ImageFeatu
   for (size_t i = 0; i < mask.size(); ++i)
     if (mask[i]) out.inliers.push_back(matches[i]);
   const cv::Mat H = cv::findHomography(p1, p2, cv::RANSAC, max_error_px, hmask, 2000, 0.999);
-  if (!H.empty()) out.homography_inliers = static_cast<int>(std::count(hmask.begin(), hmask.end(), 1));
+  if (!H.empty())
+    out.homography_inliers = static_cast<int>(std::count(hmask.begin(), hmask.end(), 1));
   return out;
 }
 

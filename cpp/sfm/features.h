@@ -21,9 +21,9 @@
 namespace mound::sfm {
 
 struct ImageFeatures {
-  int width = 0, height = 0;                        // of the full image
-  std::vector<Eigen::Vector2d> keypoints;           // full-image pixels
-  std::vector<std::array<uint8_t, 3>> colors;       // RGB at each keypoint
+  int width = 0, height = 0;                   // of the full image
+  std::vector<Eigen::Vector2d> keypoints;      // full-image pixels
+  std::vector<std::array<uint8_t, 3>> colors;  // RGB at each keypoint
   Eigen::Matrix<float, Eigen::Dynamic, 128, Eigen::RowMajor> descriptors;
 };
 
@@ -83,7 +83,7 @@ class DescriptorMatcher {
 
 struct VerifiedPair {
   int image1 = 0, image2 = 0;
-  MatchList inliers;        // consistent with the fundamental matrix
+  MatchList inliers;  // consistent with the fundamental matrix
   int homography_inliers = 0;
 };
 

@@ -81,7 +81,8 @@ Image Texture(int shift_x, int shift_y) {
   for (int y = 0; y < im.height; ++y)
     for (int x = 0; x < im.width; ++x) {
       const double v = blur[static_cast<size_t>(y - shift_y + 32) * W + (x - shift_x + 32)];
-      im.pixels.push_back(static_cast<uint8_t>(std::clamp(std::lround((v - 0.5) * 900 + 128), 0L, 255L)));
+      im.pixels.push_back(
+          static_cast<uint8_t>(std::clamp(std::lround((v - 0.5) * 900 + 128), 0L, 255L)));
     }
   return im;
 }
@@ -97,7 +98,8 @@ TEST(DescriptorMatcher, SharedIndexesMatchAsThePairwiseMatcherAndFindTheShift) {
   EXPECT_EQ(matcher.Match(0, 1), m);  // the second call reuses the indexes
   ASSERT_GT(m.size(), 300u);
   int right = 0;
-  for (const auto& [i, j] : m) right += (f[1].keypoints[j] - f[0].keypoints[i] - Eigen::Vector2d(7, 3)).norm() < 0.5;
+  for (const auto& [i, j] : m)
+    right += (f[1].keypoints[j] - f[0].keypoints[i] - Eigen::Vector2d(7, 3)).norm() < 0.5;
   EXPECT_GT(right, static_cast<int>(m.size() * 95 / 100));
   EXPECT_THROW(matcher.Match(0, 2), InternalError);
 }
@@ -111,7 +113,8 @@ TEST(DescriptorMatcher, CascadeHashingFindsTheShiftAsTheKdTreesDo) {
   const MatchList m = cascade.Match(0, 1);
   EXPECT_EQ(cascade.Match(0, 1), m);
   int right = 0;
-  for (const auto& [i, j] : m) right += (f[1].keypoints[j] - f[0].keypoints[i] - Eigen::Vector2d(7, 3)).norm() < 0.5;
+  for (const auto& [i, j] : m)
+    right += (f[1].keypoints[j] - f[0].keypoints[i] - Eigen::Vector2d(7, 3)).norm() < 0.5;
   EXPECT_GT(right, static_cast<int>(m.size() * 95 / 100));
   EXPECT_GT(m.size(), flann.size() * 9 / 10);  // nearly as many matches
   // Most of them are the k-d trees' matches too.

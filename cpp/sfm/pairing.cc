@@ -25,15 +25,19 @@ double FootprintOverlap(double h1, double h2, double d, double focal_px, int wid
 namespace {
 
 int Located(const std::vector<std::optional<Eigen::Vector3d>>& positions) {
-  return static_cast<int>(std::count_if(positions.begin(), positions.end(), [](const auto& p) { return p.has_value(); }));
+  return static_cast<int>(std::count_if(positions.begin(), positions.end(),
+                                        [](const auto& p) { return p.has_value(); }));
 }
 
 // Every pair: an unlocated set this small.
-bool Exhaustive(int located, int n, const PairingOptions& o) { return located < 2 && n <= o.exhaustive_up_to; }
+bool Exhaustive(int located, int n, const PairingOptions& o) {
+  return located < 2 && n <= o.exhaustive_up_to;
+}
 
 }  // namespace
 
-bool PairsByAppearance(const std::vector<std::optional<Eigen::Vector3d>>& positions, const PairingOptions& o) {
+bool PairsByAppearance(const std::vector<std::optional<Eigen::Vector3d>>& positions,
+                       const PairingOptions& o) {
   const int n = static_cast<int>(positions.size()), located = Located(positions);
   return o.retrieval_neighbours > 0 && located < n && !Exhaustive(located, n, o);
 }
@@ -65,7 +69,8 @@ PairSelection SelectPairs(const std::vector<std::optional<Eigen::Vector3d>>& pos
           if (!positions[i]) continue;
           double best = std::numeric_limits<double>::infinity();
           for (int j = 0; j < n; ++j)
-            if (j != i && positions[j]) best = std::min(best, (*positions[i] - *positions[j]).norm());
+            if (j != i && positions[j])
+              best = std::min(best, (*positions[i] - *positions[j]).norm());
           nearest.push_back(best);
         }
         std::nth_element(nearest.begin(), nearest.begin() + nearest.size() / 2, nearest.end());
@@ -92,16 +97,19 @@ PairSelection SelectPairs(const std::vector<std::optional<Eigen::Vector3d>>& pos
           }
         }
         std::sort(near.begin(), near.end());
-        const size_t k = std::min<size_t>(static_cast<size_t>(std::max(0, o.spatial_neighbours)), near.size());
+        const size_t k =
+            std::min<size_t>(static_cast<size_t>(std::max(0, o.spatial_neighbours)), near.size());
         for (size_t m = 0; m < k; ++m) add(i, near[m].second);
       }
     }
     if (similar && PairsByAppearance(positions, o)) {
-      if (static_cast<int>(similar->size()) != n) throw std::invalid_argument("SelectPairs: one similar list per image");
+      if (static_cast<int>(similar->size()) != n)
+        throw std::invalid_argument("SelectPairs: one similar list per image");
       for (int i = 0; i < n; ++i) {
         if (positions[i]) continue;
         const auto& s = (*similar)[i];
-        const size_t k = std::min(s.size(), static_cast<size_t>(std::max(0, o.retrieval_neighbours)));
+        const size_t k =
+            std::min(s.size(), static_cast<size_t>(std::max(0, o.retrieval_neighbours)));
         for (size_t m = 0; m < k; ++m) {
           if (s[m] >= 0 && s[m] < n) add(i, s[m]);
         }

@@ -19,9 +19,9 @@
 namespace mound::sfm {
 
 struct PairingOptions {
-  int exhaustive_up_to = 20;      // unlocated sets this small: every pair
-  int sequence_window = 3;        // images ahead in capture order (0: none)
-  int spatial_neighbours = 8;     // nearest located images per image
+  int exhaustive_up_to = 20;   // unlocated sets this small: every pair
+  int sequence_window = 3;     // images ahead in capture order (0: none)
+  int spatial_neighbours = 8;  // nearest located images per image
   // Neighbours no farther than this (0: `max_distance_factor` times the median distance
   // of the located images to their nearest neighbour, so that separate sites on one card
   // are not joined by their nearest images; 0 and 0: no limit).
@@ -32,8 +32,8 @@ struct PairingOptions {
   std::optional<double> ground_z;
   double focal_px = 0;
   int width_px = 0, height_px = 0;
-  double min_overlap = 0.3;       // of the smaller footprint's area, heading unknown
-  int retrieval_neighbours = 8;   // most similar images per unlocated image
+  double min_overlap = 0.3;      // of the smaller footprint's area, heading unknown
+  int retrieval_neighbours = 8;  // most similar images per unlocated image
 };
 
 struct PairSelection {
@@ -41,7 +41,7 @@ struct PairSelection {
   // "exhaustive", "sequential", "spatial", "spatial+footprint", each but the first with
   // "+retrieval" when unlocated images were paired by appearance.
   std::string method;
-  int located = 0;      // images with a position
+  int located = 0;            // images with a position
   double max_distance_m = 0;  // the limit applied (0: none)
 };
 

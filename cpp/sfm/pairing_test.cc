@@ -9,7 +9,8 @@ namespace mound::sfm {
 namespace {
 
 bool Has(const PairSelection& s, int i, int j) {
-  return std::binary_search(s.pairs.begin(), s.pairs.end(), std::make_pair(std::min(i, j), std::max(i, j)));
+  return std::binary_search(s.pairs.begin(), s.pairs.end(),
+                            std::make_pair(std::min(i, j), std::max(i, j)));
 }
 
 // A raster of 3 lines of 6 images (10 m apart along a line, 25 m between lines) at 60 m,
@@ -17,7 +18,8 @@ bool Has(const PairSelection& s, int i, int j) {
 std::vector<std::optional<Eigen::Vector3d>> Layout() {
   std::vector<std::optional<Eigen::Vector3d>> p;
   for (int line = 0; line < 3; ++line)
-    for (int k = 0; k < 6; ++k) p.push_back(Eigen::Vector3d((line % 2 ? 5 - k : k) * 10.0, line * 25.0, 60.0));
+    for (int k = 0; k < 6; ++k)
+      p.push_back(Eigen::Vector3d((line % 2 ? 5 - k : k) * 10.0, line * 25.0, 60.0));
   for (int k = 0; k < 6; ++k) p.push_back(Eigen::Vector3d(1000.0 + 10 * k, 0.0, 60.0));
   return p;
 }

@@ -3,8 +3,8 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <chrono>
-#include <complex>
 #include <cmath>
+#include <complex>
 #include <numeric>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
@@ -69,7 +69,9 @@ constexpr double kDeg = M_PI / 180;
 class ScopedTimer {
  public:
   explicit ScopedTimer(double* sum) : sum_(sum), t0_(std::chrono::steady_clock::now()) {}
-  ~ScopedTimer() { *sum_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count(); }
+  ~ScopedTimer() {
+    *sum_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count();
+  }
   ScopedTimer(const ScopedTimer&) = delete;
   ScopedTimer& operator=(const ScopedTimer&) = delete;
 
@@ -129,7 +131,8 @@ class Mapper {
       }
       if (r_.NumRegistered() >= next_ba) {
         Adjust();
-        next_ba = std::max(next_ba + 1, static_cast<int>(std::ceil(r_.NumRegistered() * o_.global_ba_growth)));
+        next_ba = std::max(next_ba + 1,
+                           static_cast<int>(std::ceil(r_.NumRegistered() * o_.global_ba_growth)));
         std::fill(failures.begin(), failures.end(), 0);  // a better model may register them
       } else {
         LocalAdjust(image);
@@ -175,7 +178,9 @@ class Mapper {
       // none of the rest can beat the best so far.
       if (static_cast<int>(p->inliers.size()) <= best_score) break;
       // A pair a homography explains (planar scene or pure rotation) has little parallax.
-      if (p->homography_inliers > 0.95 * p->inliers.size() && tried + 1 < static_cast<int>(cand.size())) continue;
+      if (p->homography_inliers > 0.95 * p->inliers.size() &&
+          tried + 1 < static_cast<int>(cand.size()))
+        continue;
       ++tried;
       Matches m;
       for (const auto& [a, b] : p->inliers) {
@@ -191,11 +196,13 @@ class Mapper {
       }
       // Score: inliers triangulated in front of both cameras with enough parallax.
       const Eigen::Vector3d c2 = tv.cam2_from_cam1.Centre();
-      const std::vector<Eigen::Vector3d> x1 = Normalise([&] {
-        std::vector<Eigen::Vector2d> px;
-        for (int i : tv.inliers) px.push_back(m.px1[i]);
-        return px;
-      }(), r_.camera);
+      const std::vector<Eigen::Vector3d> x1 = Normalise(
+          [&] {
+            std::vector<Eigen::Vector2d> px;
+            for (int i : tv.inliers) px.push_back(m.px1[i]);
+            return px;
+          }(),
+          r_.camera);
       int score = 0;
       for (size_t k = 0; k < tv.inliers.size(); ++k) {
         if (!(tv.depth1[k] > 0 && tv.depth2[k] > 0)) continue;
@@ -212,10 +219,11 @@ class Mapper {
     }
     if (best_pair == nullptr || best_score < o_.min_inliers) {
       throw NoResultError("no image pair with enough matches and parallax to start from (" +
-                          std::to_string(cand.size()) + " pairs with >= " +
-                          std::to_string(o_.min_inliers) + " verified matches; best had " +
-                          std::to_string(best_score) + " points at >= " +
-                          FormatAngle(o_.min_tri_angle_deg) + " deg): too little motion or texture?");
+                          std::to_string(cand.size()) +
+                          " pairs with >= " + std::to_string(o_.min_inliers) +
+                          " verified matches; best had " + std::to_string(best_score) +
+                          " points at >= " + FormatAngle(o_.min_tri_angle_deg) +
+                          " deg): too little motion or texture?");
     }
     r_.init_image1 = best_pair->image1;
     r_.init_image2 = best_pair->image2;
@@ -278,9 +286,11 @@ class Mapper {
     }
     cv::solvePnPRefineLM(obj_in, img_in, K, dist, rvec, tvec);
     Eigen::Vector3d w(rvec.at<double>(0), rvec.at<double>(1), rvec.at<double>(2));
-    const Eigen::Quaterniond q = w.norm() > 0 ? Eigen::Quaterniond(Eigen::AngleAxisd(w.norm(), w.normalized()))
-                                              : Eigen::Quaterniond::Identity();
-    r_.cam_from_world[image] = {q, Eigen::Vector3d(tvec.at<double>(0), tvec.at<double>(1), tvec.at<double>(2))};
+    const Eigen::Quaterniond q =
+        w.norm() > 0 ? Eigen::Quaterniond(Eigen::AngleAxisd(w.norm(), w.normalized()))
+                     : Eigen::Quaterniond::Identity();
+    r_.cam_from_world[image] = {
+        q, Eigen::Vector3d(tvec.at<double>(0), tvec.at<double>(1), tvec.at<double>(2))};
     r_.registered[image] = true;
     for (int i : inliers) {
       Point3D& p = r_.points[point_ids[i]];
@@ -314,7 +324,8 @@ class Mapper {
       int ia = -1, ib = -1;
       std::vector<Eigen::Vector3d> dirs, centres;
       for (const TrackElement& e : obs) {
-        dirs.push_back((r_.cam_from_world[e.image].rotation.conjugate() * Ray(e.image, e.keypoint)).normalized());
+        dirs.push_back((r_.cam_from_world[e.image].rotation.conjugate() * Ray(e.image, e.keypoint))
+                           .normalized());
         centres.push_back(r_.cam_from_world[e.image].Centre());
       }
       for (size_t a = 0; a < obs.size(); ++a)
@@ -345,7 +356,8 @@ class Mapper {
     }
   }
 
-  std::optional<Eigen::Vector3d> TriangulateDlt(const TrackElement& a, const TrackElement& b) const {
+  std::optional<Eigen::Vector3d> TriangulateDlt(const TrackElement& a,
+                                                const TrackElement& b) const {
     const Eigen::Vector3d x1 = Ray(a.image, a.keypoint), x2 = Ray(b.image, b.keypoint);
     Eigen::Matrix<double, 3, 4> P1, P2;
     P1 << r_.cam_from_world[a.image].RotationMatrix(), r_.cam_from_world[a.image].translation;
@@ -355,10 +367,12 @@ class Mapper {
     A.row(1) = x1.y() * P1.row(2) - P1.row(1);
     A.row(2) = x2.x() * P2.row(2) - P2.row(0);
     A.row(3) = x2.y() * P2.row(2) - P2.row(1);
-    const Eigen::Vector4d h = Eigen::JacobiSVD<Eigen::Matrix4d>(A, Eigen::ComputeFullV).matrixV().col(3);
+    const Eigen::Vector4d h =
+        Eigen::JacobiSVD<Eigen::Matrix4d>(A, Eigen::ComputeFullV).matrixV().col(3);
     if (std::fabs(h[3]) < 1e-12) return std::nullopt;
     const Eigen::Vector3d X = h.head<3>() / h[3];
-    if ((r_.cam_from_world[a.image] * X).z() <= 0 || (r_.cam_from_world[b.image] * X).z() <= 0) return std::nullopt;
+    if ((r_.cam_from_world[a.image] * X).z() <= 0 || (r_.cam_from_world[b.image] * X).z() <= 0)
+      return std::nullopt;
     return X;
   }
 
@@ -379,9 +393,8 @@ class Mapper {
     std::vector<int> others;
     for (size_t i = 0; i < f_.size(); ++i)
       if (shared[i] > 0) others.push_back(static_cast<int>(i));
-    std::sort(others.begin(), others.end(), [&](int a, int b) {
-      return shared[a] != shared[b] ? shared[a] > shared[b] : a < b;
-    });
+    std::sort(others.begin(), others.end(),
+              [&](int a, int b) { return shared[a] != shared[b] ? shared[a] > shared[b] : a < b; });
     if (static_cast<int>(others.size()) > o_.local_ba_images) others.resize(o_.local_ba_images);
     std::vector<bool> local(f_.size(), false);
     local[image] = true;
@@ -461,8 +474,10 @@ class Mapper {
     ba::Adjust(&sp->problem, bo);
     r_.camera = sp->problem.camera;
     for (size_t v = 0; v < sp->image_of.size(); ++v)
-      if (sp->free[sp->image_of[v]]) r_.cam_from_world[sp->image_of[v]] = sp->problem.cam_from_world[v];
-    for (size_t k = 0; k < sp->point_ids.size(); ++k) r_.points[sp->point_ids[k]].xyz = sp->problem.points[k];
+      if (sp->free[sp->image_of[v]])
+        r_.cam_from_world[sp->image_of[v]] = sp->problem.cam_from_world[v];
+    for (size_t k = 0; k < sp->point_ids.size(); ++k)
+      r_.points[sp->point_ids[k]].xyz = sp->problem.points[k];
     Filter();
   }
 
@@ -525,7 +540,7 @@ class Mapper {
   std::vector<std::vector<TrackElement>> tracks_;
   std::vector<std::vector<int>> track_of_;  // per image, per keypoint
   std::vector<int> point_of_track_;
-  std::vector<int> track_id_;               // per point
+  std::vector<int> track_id_;  // per point
 };
 
 }  // namespace
@@ -554,7 +569,8 @@ std::optional<GeoFit> FitSim3Robust(const std::vector<Eigen::Vector3d>& model,
   for (int it = 0; it < iterations; ++it) {
     const int a = pick(rng), b = pick(rng), c = pick(rng);
     if (a == b || b == c || a == c) continue;
-    const auto s = geometry::EstimateSim3d({model[a], model[b], model[c]}, {world[a], world[b], world[c]});
+    const auto s =
+        geometry::EstimateSim3d({model[a], model[b], model[c]}, {world[a], world[b], world[c]});
     if (!s) continue;
     const double med = Median(residuals(*s));
     if (med < best_med) {
@@ -629,7 +645,8 @@ std::optional<GeoFit> FitLevelledSim3Robust(const std::vector<Eigen::Vector3d>& 
   };
   auto horizontal = [&](C a, C b) {
     std::vector<double> r(n);
-    for (int i = 0; i < n; ++i) r[i] = std::abs(a * C(m[i].x(), m[i].y()) + b - C(world[i].x(), world[i].y()));
+    for (int i = 0; i < n; ++i)
+      r[i] = std::abs(a * C(m[i].x(), m[i].y()) + b - C(world[i].x(), world[i].y()));
     return r;
   };
   std::mt19937_64 rng(seed);

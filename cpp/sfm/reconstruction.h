@@ -6,7 +6,8 @@
 //   next image with the most triangulated tracks registered by PnP + RANSAC, its new tracks
 //   triangulated (two-view DLT of the widest pair of rays, minimum angle, reprojection check
 //   in every registered view), a local bundle adjustment around each new image, one of the
-//   whole model as it grows by 60 %, outlier observations filtered; at the end a last triangulation pass and adjustment.
+//   whole model as it grows by 60 %, outlier observations filtered; at the end a last triangulation
+//   pass and adjustment.
 // Frames: OpenCV camera axes, cam_from_world; the model's frame is the first image's camera
 // and its scale the initial baseline (1), until Georegister maps it onto GPS positions.
 #pragma once
@@ -55,8 +56,8 @@ struct Reconstruction {
 };
 
 struct MapperOptions {
-  int min_inliers = 30;             // a pair below this is not used
-  double max_error_px = 4.0;        // PnP RANSAC and triangulation/filtering threshold
+  int min_inliers = 30;       // a pair below this is not used
+  double max_error_px = 4.0;  // PnP RANSAC and triangulation/filtering threshold
   double min_tri_angle_deg = 1.5;
   int min_pnp_inliers = 15;
   // After each registration: the new image and the `local_ba_images` images that share
@@ -66,7 +67,7 @@ struct MapperOptions {
   int local_ba_images = 6;
   int local_ba_iterations = 25;
   double global_ba_growth = 1.6;
-  bool refine_intrinsics = false;   // f, k1, k2 in bundle adjustment (EXIF intrinsics)
+  bool refine_intrinsics = false;  // f, k1, k2 in bundle adjustment (EXIF intrinsics)
   int threads = 1;
   uint64_t seed = 1;
 };
@@ -83,8 +84,8 @@ Reconstruction IncrementalMap(const std::vector<ImageFeatures>& features,
 
 struct GeoFit {
   geometry::Sim3d world_from_model;
-  std::vector<bool> inlier;   // per pair given
-  double rmse_m = 0;          // over the inliers
+  std::vector<bool> inlier;  // per pair given
+  double rmse_m = 0;         // over the inliers
   double rmse_horizontal_m = 0, rmse_vertical_m = 0;
   int inliers = 0;
 };

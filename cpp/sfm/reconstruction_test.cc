@@ -80,9 +80,10 @@ TEST(GeoFit, LevelledFitIgnoresAClimbingGpsAltitude) {
 TEST(GeoFit, TransformKeepsPosesRigidAndMovesPointsAndCentres) {
   Reconstruction r;
   r.registered = {true, true};
-  r.cam_from_world = {geometry::Rigid3d(Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitY()).toRotationMatrix(),
-                                        Eigen::Vector3d(1, 2, 3)),
-                      geometry::Rigid3d()};
+  r.cam_from_world = {
+      geometry::Rigid3d(Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitY()).toRotationMatrix(),
+                        Eigen::Vector3d(1, 2, 3)),
+      geometry::Rigid3d()};
   Point3D p;
   p.xyz = {0.5, -1, 8};
   r.points.push_back(p);
@@ -124,7 +125,8 @@ Synthetic Synthesize(int rows, int cols, uint64_t seed) {
   for (int k = 0; k < 1500; ++k) s.points.emplace_back(30 * u(rng), 30 * u(rng), 3 * u(rng));
   for (int r = 0; r < rows; ++r)
     for (int c = 0; c < cols; ++c) {
-      const Eigen::Vector3d centre(-20 + 40.0 * c / std::max(1, cols - 1), -15 + 30.0 * r / std::max(1, rows - 1), 30);
+      const Eigen::Vector3d centre(-20 + 40.0 * c / std::max(1, cols - 1),
+                                   -15 + 30.0 * r / std::max(1, rows - 1), 30);
       // Looking down (camera z along world -z, x east), tilted a few degrees.
       Eigen::Matrix3d R;
       R << 1, 0, 0, 0, -1, 0, 0, 0, -1;
@@ -151,10 +153,12 @@ Synthetic Synthesize(int rows, int cols, uint64_t seed) {
     for (int j = i + 1; j < n; ++j) {
       VerifiedPair v{i, j, {}, 0};
       for (size_t p = 0; p < s.points.size(); ++p)
-        if (keypoint_of[i][p] >= 0 && keypoint_of[j][p] >= 0) v.inliers.push_back({keypoint_of[i][p], keypoint_of[j][p]});
+        if (keypoint_of[i][p] >= 0 && keypoint_of[j][p] >= 0)
+          v.inliers.push_back({keypoint_of[i][p], keypoint_of[j][p]});
       // 2 % wrong matches: keypoints of different points.
       const size_t wrong = v.inliers.size() / 50;
-      for (size_t k = 0; k + 1 < v.inliers.size() && k < wrong; ++k) std::swap(v.inliers[2 * k].second, v.inliers[2 * k + 1].second);
+      for (size_t k = 0; k + 1 < v.inliers.size() && k < wrong; ++k)
+        std::swap(v.inliers[2 * k].second, v.inliers[2 * k + 1].second);
       if (v.inliers.size() >= 30) s.pairs.push_back(v);
     }
   return s;

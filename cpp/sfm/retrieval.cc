@@ -70,7 +70,8 @@ RowMatrix Codebook(const RowMatrix& sample, const RetrievalOptions& o) {
       ++count[static_cast<size_t>(a[static_cast<size_t>(i)])];
     }
     for (int c = 0; c < k; ++c) {
-      if (count[static_cast<size_t>(c)] > 0) centres.row(c) = sum.row(c) / static_cast<float>(count[static_cast<size_t>(c)]);
+      if (count[static_cast<size_t>(c)] > 0)
+        centres.row(c) = sum.row(c) / static_cast<float>(count[static_cast<size_t>(c)]);
     }
   }
   return centres;
@@ -78,7 +79,8 @@ RowMatrix Codebook(const RowMatrix& sample, const RetrievalOptions& o) {
 
 }  // namespace
 
-Eigen::MatrixXf GlobalDescriptors(const std::vector<ImageFeatures>& features, const RetrievalOptions& o) {
+Eigen::MatrixXf GlobalDescriptors(const std::vector<ImageFeatures>& features,
+                                  const RetrievalOptions& o) {
   if (o.words < 1 || o.sample_per_image < 1 || o.iterations < 0) {
     throw InputError("retrieval: words, sample_per_image must be >= 1 and iterations >= 0");
   }
@@ -130,9 +132,8 @@ std::vector<std::vector<int>> MostSimilar(const Eigen::MatrixXf& global, int k) 
     std::vector<int> others;
     for (int j = 0; j < n; ++j)
       if (j != i) others.push_back(j);
-    std::partial_sort(others.begin(), others.begin() + take, others.end(), [&](int a, int b) {
-      return s(i, a) != s(i, b) ? s(i, a) > s(i, b) : a < b;
-    });
+    std::partial_sort(others.begin(), others.begin() + take, others.end(),
+                      [&](int a, int b) { return s(i, a) != s(i, b) ? s(i, a) > s(i, b) : a < b; });
     others.resize(static_cast<size_t>(take));
     out[static_cast<size_t>(i)] = std::move(others);
   }

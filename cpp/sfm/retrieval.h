@@ -19,9 +19,9 @@
 namespace mound::sfm {
 
 struct RetrievalOptions {
-  int words = 64;               // codebook size (VLAD dimension: 128 x words)
-  int sample_per_image = 400;   // descriptors per image the codebook learns from
-  int iterations = 12;          // Lloyd iterations
+  int words = 64;              // codebook size (VLAD dimension: 128 x words)
+  int sample_per_image = 400;  // descriptors per image the codebook learns from
+  int iterations = 12;         // Lloyd iterations
   uint64_t seed = 7;
 };
 

@@ -56,7 +56,8 @@ Strip MakeStrip(uint64_t seed) {
     }
     ImageFeatures f;
     f.descriptors.resize(static_cast<Eigen::Index>(rows.size()), 128);
-    for (size_t r = 0; r < rows.size(); ++r) f.descriptors.row(static_cast<Eigen::Index>(r)) = rows[r];
+    for (size_t r = 0; r < rows.size(); ++r)
+      f.descriptors.row(static_cast<Eigen::Index>(r)) = rows[r];
     s.features.push_back(std::move(f));
   }
   return s;

@@ -10,8 +10,8 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "ba/bundle_adjuster.h"
-#include "sfm/features.h"
 #include "common/error.h"
+#include "sfm/features.h"
 
 namespace mound::sfm {
 Eigen::Matrix3d Skew(const Eigen::Vector3d& v) {
@@ -59,7 +59,8 @@ std::vector<Eigen::Vector3d> Normalise(const std::vector<Eigen::Vector2d>& px,
   std::vector<Eigen::Vector3d> out;
   if (px.empty()) return out;
   cv::Mat src(static_cast<int>(px.size()), 1, CV_64FC2), dst;
-  for (size_t i = 0; i < px.size(); ++i) src.at<cv::Vec2d>(static_cast<int>(i)) = {px[i].x(), px[i].y()};
+  for (size_t i = 0; i < px.size(); ++i)
+    src.at<cv::Vec2d>(static_cast<int>(i)) = {px[i].x(), px[i].y()};
   const cv::Matx33d Km(K.fx, 0, K.cx, 0, K.fy, K.cy, 0, 0, 1);
   cv::undistortPoints(src, dst, Km, std::vector<double>(K.dist.begin(), K.dist.end()));
   for (size_t i = 0; i < px.size(); ++i) {
@@ -142,7 +143,7 @@ TwoViewResult InitialiseTwoView(const Matches& m, const geometry::CameraModel& K
   }
   if (r.inliers.size() < 8) {
     throw NoResultError("two-view: " + std::to_string(r.inliers.size()) +
-                     " RANSAC inliers, need at least 8 (too little overlap or texture?)");
+                        " RANSAC inliers, need at least 8 (too little overlap or texture?)");
   }
   // The 8-point algorithm (Hartley-normalised, in OpenCV) on every inlier.
   const cv::Mat F = cv::findFundamentalMat(q1, q2, cv::FM_8POINT);

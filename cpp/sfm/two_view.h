@@ -6,8 +6,8 @@
 // X2 = R X1 + t, with |t| = 1 (two views fix the scene only up to scale). The camera is the
 // project's model (geometry/camera_model.h), calibrated.
 //
-// Depths, the paper's eqs. (9)-(11) (Ma, Soatto, Kosecka & Sastry, "An Invitation to 3-D Vision", 2004, sec. 5.2):
-// for each point j with normalised image coordinates x1_j, x2_j (homogeneous),
+// Depths, the paper's eqs. (9)-(11) (Ma, Soatto, Kosecka & Sastry, "An Invitation to 3-D Vision",
+// 2004, sec. 5.2): for each point j with normalised image coordinates x1_j, x2_j (homogeneous),
 //   lambda2_j x2_j = lambda1_j R x1_j + gamma t,
 // and multiplying by the skew matrix of x2_j removes lambda2_j:
 //   [x2_j]x R x1_j lambda1_j + [x2_j]x t gamma = 0.
@@ -56,11 +56,11 @@ Eigen::VectorXd StackedEpipolarDepths(const std::vector<Eigen::Vector3d>& x1,
 
 struct TwoViewResult {
   geometry::Rigid3d cam2_from_cam1;  // translation of unit length
-  std::vector<int> inliers;       // indices into the matches
-  std::vector<double> depth1;     // per inlier: depth in camera 1, in units of |t|
-  std::vector<double> depth2;     // per inlier: depth in camera 2
+  std::vector<int> inliers;          // indices into the matches
+  std::vector<double> depth1;        // per inlier: depth in camera 1, in units of |t|
+  std::vector<double> depth2;        // per inlier: depth in camera 2
   int matches = 0;
-  int positive_depth = 0;         // inliers in front of both cameras
+  int positive_depth = 0;  // inliers in front of both cameras
 };
 
 // Paper: the 8-point initialisation. RANSAC (fundamental matrix, 1 px) selects the

@@ -71,10 +71,10 @@ TEST(StackedEpipolarDepths, ExactDataGivesTheTrueDepths) {
 struct PairResult {
   size_t matches = 0;
   TwoViewResult r;
-  double rot_deg = 0, dir_deg = 0;          // after InitialiseTwoView
-  double ba_rot_deg = 0, ba_dir_deg = 0;    // after RefineTwoView
+  double rot_deg = 0, dir_deg = 0;        // after InitialiseTwoView
+  double ba_rot_deg = 0, ba_dir_deg = 0;  // after RefineTwoView
   std::pair<double, double> rmse;
-  std::vector<double> depth_rel_err;        // initialisation, sorted
+  std::vector<double> depth_rel_err;  // initialisation, sorted
 };
 
 // Renders a terrain from two cameras and runs the two-view chain on the images.
@@ -120,7 +120,8 @@ PairResult RenderedPair(const std::function<double(double, double)>& height,
     const Eigen::Vector2d px = m.px1[out.r.inliers[k]];
     const int u = static_cast<int>(std::lround(px.x())), v = static_cast<int>(std::lround(px.y()));
     const double gt = a.depth_m[static_cast<size_t>(v) * a.width + u];
-    if (!std::isnan(gt)) out.depth_rel_err.push_back(std::fabs(out.r.depth1[k] * t_true.norm() - gt) / gt);
+    if (!std::isnan(gt))
+      out.depth_rel_err.push_back(std::fabs(out.r.depth1[k] * t_true.norm() - gt) / gt);
   }
   std::sort(out.depth_rel_err.begin(), out.depth_rel_err.end());
   TwoViewResult refined = out.r;
@@ -130,8 +131,7 @@ PairResult RenderedPair(const std::function<double(double, double)>& height,
   std::cout << out.matches << " matches, " << out.r.inliers.size() << " inliers; 8-point: "
             << "rotation error " << out.rot_deg << " deg, translation direction error "
             << out.dir_deg << " deg; after two-view BA (" << out.rmse.first << " -> "
-            << out.rmse.second << " px): " << out.ba_rot_deg << " / " << out.ba_dir_deg
-            << " deg\n";
+            << out.rmse.second << " px): " << out.ba_rot_deg << " / " << out.ba_dir_deg << " deg\n";
   return out;
 }
 
@@ -161,9 +161,9 @@ TEST(TwoView, RecoversPoseAndDepthsFromRenderedImages) {
 TEST(TwoView, BundleAdjustmentRepairsTheNearlyPlanarCase) {
   // Gently undulating ground seen from straight above: nearly a plane, where the 8-point
   // algorithm's translation is poorly determined; the adjustment fixes it.
-  const PairResult p = RenderedPair(
-      [](double x, double y) { return 0.3 * std::sin(0.2 * x) * std::cos(0.15 * y); },
-      {-6, 0, 40}, {-6, 0.001, 0}, {6, 0, 40}, {6, 0.001, 0});
+  const PairResult p =
+      RenderedPair([](double x, double y) { return 0.3 * std::sin(0.2 * x) * std::cos(0.15 * y); },
+                   {-6, 0, 40}, {-6, 0.001, 0}, {6, 0, 40}, {6, 0.001, 0});
   EXPECT_LT(p.ba_rot_deg, 0.05);
   EXPECT_LT(p.ba_dir_deg, 0.2);
   EXPECT_LT(p.ba_dir_deg, p.dir_deg);

@@ -81,7 +81,9 @@ NpyArray ReadNpy(const std::string& path) {
 }
 
 NpyArray ParseNpy(std::istream& in, const std::string& path) {
-  auto bad = [&](const std::string& why) { return InputError(path + ": not a valid .npy: " + why); };
+  auto bad = [&](const std::string& why) {
+    return InputError(path + ": not a valid .npy: " + why);
+  };
   char lead[12];
   in.read(lead, 10);
   if (in.gcount() < 10 || std::string(lead, 6) != "\x93NUMPY") throw bad("bad magic");
@@ -92,7 +94,8 @@ NpyArray ParseNpy(std::istream& in, const std::string& path) {
   } else if (major == 2 || major == 3) {
     in.read(lead + 10, 2);
     if (in.gcount() < 2) throw bad("truncated header");
-    for (int k = 0; k < 4; ++k) header_len |= size_t(static_cast<unsigned char>(lead[8 + k])) << (8 * k);
+    for (int k = 0; k < 4; ++k)
+      header_len |= size_t(static_cast<unsigned char>(lead[8 + k])) << (8 * k);
   } else {
     throw bad("unknown format version " + std::to_string(major));
   }

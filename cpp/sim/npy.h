@@ -12,7 +12,7 @@
 namespace mound::sim {
 
 struct NpyArray {
-  std::string descr;            // "<f4", "<f8" or "|u1"
+  std::string descr;  // "<f4", "<f8" or "|u1"
   std::vector<size_t> shape;
   std::vector<unsigned char> data;  // raw little-endian elements, C order
 

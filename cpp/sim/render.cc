@@ -19,7 +19,11 @@ struct GBuffer {
   int width, height;
   std::vector<float> iz, x, y, z;  // 1/depth (0: empty) and the ENU ground point
   GBuffer(int w, int h)
-      : width(w), height(h), iz(static_cast<size_t>(w) * h, 0.f), x(iz.size()), y(iz.size()),
+      : width(w),
+        height(h),
+        iz(static_cast<size_t>(w) * h, 0.f),
+        x(iz.size()),
+        y(iz.size()),
         z(iz.size()) {}
 };
 

@@ -7,8 +7,8 @@
 #include <chrono>
 #include <filesystem>
 #include <mutex>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <thread>
 
@@ -49,8 +49,10 @@ void WriteImage(const std::string& path, const RenderedImage& im) {
   std::vector<unsigned char> buf;
   const std::string ext = std::filesystem::path(path).extension().string();
   std::vector<int> params;
-  if (ext == ".png") params = {cv::IMWRITE_PNG_COMPRESSION, 1};
-  else params = {cv::IMWRITE_JPEG_QUALITY, 95};
+  if (ext == ".png")
+    params = {cv::IMWRITE_PNG_COMPRESSION, 1};
+  else
+    params = {cv::IMWRITE_JPEG_QUALITY, 95};
   if (!cv::imencode(ext, bgr, buf, params)) throw std::runtime_error("cannot encode " + path);
   WriteFileAtomic(path, std::string(buf.begin(), buf.end()));
 }
@@ -67,19 +69,21 @@ int RunMoundRender(const std::vector<std::string>& args, std::ostream& out, std:
     if (a.positional.size() != 1) throw InputError("expected exactly one JOB.json (see --help)");
     if (!a.Has("--out")) throw InputError("--out: the output directory is required");
     const int hw = std::max(1u, std::thread::hardware_concurrency());
-    const int threads = a.Has("--threads")
-                            ? static_cast<int>(ParseInt(a.options.at("--threads"), "--threads", 1, 256))
-                            : hw;
+    const int threads =
+        a.Has("--threads")
+            ? static_cast<int>(ParseInt(a.options.at("--threads"), "--threads", 1, 256))
+            : hw;
     const bool geometry = a.Has("--geometry");
     const auto t0 = std::chrono::steady_clock::now();
     const RenderJob job = LoadRenderJob(a.positional[0]);
-    const double load_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const double load_s =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     const std::filesystem::path final_dir(a.options.at("--out"));
     for (size_t k = 0; k < job.images.size(); ++k) {
       std::error_code e;
       if (std::filesystem::is_directory(final_dir / job.images[k].file, e)) {
-        throw InputError("images[" + std::to_string(k) + "].file: " +
-                         (final_dir / job.images[k].file).string() + " is a folder");
+        throw InputError("images[" + std::to_string(k) +
+                         "].file: " + (final_dir / job.images[k].file).string() + " is a folder");
       }
     }
     // All or nothing: the images go to a staging folder inside --out and are moved into
@@ -88,7 +92,8 @@ int RunMoundRender(const std::vector<std::string>& args, std::ostream& out, std:
     std::error_code ec;
     const bool created_out = !std::filesystem::exists(final_dir, ec);
     std::filesystem::create_directories(final_dir, ec);
-    if (ec) throw InputError("--out: cannot create " + final_dir.string() + " (" + ec.message() + ")");
+    if (ec)
+      throw InputError("--out: cannot create " + final_dir.string() + " (" + ec.message() + ")");
     std::string staging_name = (final_dir / ".mound_render.XXXXXX").string();
     if (::mkdtemp(staging_name.data()) == nullptr) {
       throw InputError("--out: cannot write into " + final_dir.string());
@@ -106,7 +111,8 @@ int RunMoundRender(const std::vector<std::string>& args, std::ostream& out, std:
     } cleanup{out_dir, final_dir, created_out};
     for (const ImageJob& im : job.images) {
       std::filesystem::create_directories((out_dir / im.file).parent_path(), ec);
-      if (ec) throw InputError("--out: cannot create " + (final_dir / im.file).parent_path().string());
+      if (ec)
+        throw InputError("--out: cannot create " + (final_dir / im.file).parent_path().string());
     }
 
     std::vector<double> seconds(job.images.size());
@@ -133,7 +139,8 @@ int RunMoundRender(const std::vector<std::string>& args, std::ostream& out, std:
             WriteNpyFloat32(std::filesystem::path(path).replace_extension(".xyz.npy").string(),
                             {h, w, 3}, im.xyz_m);
           }
-          covered[k] = static_cast<double>(im.covered_px) / (static_cast<double>(im.width) * im.height);
+          covered[k] =
+              static_cast<double>(im.covered_px) / (static_cast<double>(im.width) * im.height);
           seconds[k] = std::chrono::duration<double>(std::chrono::steady_clock::now() - s0).count();
         } catch (...) {
           std::lock_guard<std::mutex> lock(error_mutex);
@@ -143,7 +150,8 @@ int RunMoundRender(const std::vector<std::string>& args, std::ostream& out, std:
       }
     };
     std::vector<std::thread> pool;
-    for (int t = 0; t < std::min<int>(threads, static_cast<int>(job.images.size())); ++t) pool.emplace_back(worker);
+    for (int t = 0; t < std::min<int>(threads, static_cast<int>(job.images.size())); ++t)
+      pool.emplace_back(worker);
     for (std::thread& t : pool) t.join();
     if (error) std::rethrow_exception(error);
     // Every image is written: move them (and their geometry) into place.
@@ -167,12 +175,17 @@ int RunMoundRender(const std::vector<std::string>& args, std::ostream& out, std:
 
     nlohmann::json images = nlohmann::json::array();
     for (size_t k = 0; k < job.images.size(); ++k) {
-      images.push_back({{"file", job.images[k].file}, {"render_s", seconds[k]},
+      images.push_back({{"file", job.images[k].file},
+                        {"render_s", seconds[k]},
                         {"covered_fraction", covered[k]}});
     }
-    const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    nlohmann::json result = {{"schema", "mound.render_result"}, {"version", 1},
-                             {"images", images}, {"threads", threads}, {"load_s", load_s},
+    const double elapsed =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    nlohmann::json result = {{"schema", "mound.render_result"},
+                             {"version", 1},
+                             {"images", images},
+                             {"threads", threads},
+                             {"load_s", load_s},
                              {"elapsed_s", elapsed}};
     out << result.dump(2) << "\n";
     return static_cast<int>(kExitOk);

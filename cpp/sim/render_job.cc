@@ -54,7 +54,8 @@ Heightfield LoadHeightfield(const json& h, const std::string& dir) {
   hf.ny = static_cast<int>(a.shape[0]);
   hf.nx = static_cast<int>(a.shape[1]);
   for (double z : a.AsDouble()) {
-    if (!std::isfinite(z)) throw InputError("heightfield.npy: " + file + " has a non-finite height");
+    if (!std::isfinite(z))
+      throw InputError("heightfield.npy: " + file + " has a non-finite height");
     hf.z_m.push_back(static_cast<float>(z));
   }
   return hf;
@@ -76,7 +77,8 @@ std::string CheckImageFile(const std::string& file, const std::string& path) {
   const std::filesystem::path p(file);
   const std::string ext = p.extension().string();
   if (file.empty() || p.is_absolute() || file.find("..") != std::string::npos) {
-    throw InputError(path + ": must be a relative path inside the output directory, got '" + file + "'");
+    throw InputError(path + ": must be a relative path inside the output directory, got '" + file +
+                     "'");
   }
   if (ext != ".png" && ext != ".jpg" && ext != ".jpeg") {
     throw InputError(path + ": must end in .png, .jpg or .jpeg, got '" + file + "'");
@@ -87,8 +89,7 @@ std::string CheckImageFile(const std::string& file, const std::string& path) {
 }  // namespace
 
 RenderJob LoadRenderJob(const std::string& path) {
-  return ParseRenderJob(ReadFile(path), path,
-                        std::filesystem::path(path).parent_path().string());
+  return ParseRenderJob(ReadFile(path), path, std::filesystem::path(path).parent_path().string());
 }
 
 RenderJob ParseRenderJob(const std::string& text, const std::string& path, const std::string& dir) {
@@ -111,7 +112,8 @@ RenderJob ParseRenderJob(const std::string& text, const std::string& path, const
   job.noise_sigma = OptionalNonNegative(doc, "noise_sigma", "").value_or(0);
   job.vignetting = OptionalNonNegative(doc, "vignetting", "").value_or(0);
   if (job.vignetting >= 1) throw InputError("vignetting: must be in [0, 1)");
-  if (doc.contains("seed")) job.seed = static_cast<uint64_t>(RequireInt(doc, "seed", "", 0, 2147483647));
+  if (doc.contains("seed"))
+    job.seed = static_cast<uint64_t>(RequireInt(doc, "seed", "", 0, 2147483647));
   const json& images = RequireField(doc, "images", "");
   if (!images.is_array() || images.empty()) throw InputError("images: expected a non-empty array");
   std::map<std::string, size_t> stems;  // output stem (no extension) -> first image with it
@@ -134,9 +136,9 @@ RenderJob ParseRenderJob(const std::string& text, const std::string& path, const
     const Eigen::Vector3d c = im.cam_from_world.Centre();
     double ground = 0;
     if (job.scene.terrain.HeightAt(c[0], c[1], &ground) && c[2] <= ground) {
-      throw InputError(pp + ": the camera centre (" + FormatNumber(c[0]) + ", " + FormatNumber(c[1]) +
-                       ", " + FormatNumber(c[2]) + ") m is below the ground (" +
-                       FormatNumber(ground) + " m)");
+      throw InputError(pp + ": the camera centre (" + FormatNumber(c[0]) + ", " +
+                       FormatNumber(c[1]) + ", " + FormatNumber(c[2]) +
+                       ") m is below the ground (" + FormatNumber(ground) + " m)");
     }
     job.images.push_back(std::move(im));
   }

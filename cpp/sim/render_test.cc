@@ -14,7 +14,8 @@
 namespace mound::sim {
 namespace {
 
-Heightfield MakeTerrain(double half_m, double spacing_m, const std::function<double(double, double)>& z) {
+Heightfield MakeTerrain(double half_m, double spacing_m,
+                        const std::function<double(double, double)>& z) {
   Heightfield hf;
   hf.x0_m = hf.y0_m = -half_m;
   hf.spacing_m = spacing_m;
@@ -68,7 +69,8 @@ std::array<double, 2> Project(const CameraModel& cam, const Pose& pose, std::arr
 std::array<double, 2> BlobCentroid(const RenderedImage& im, std::array<double, 2> guess, int half,
                                    double background) {
   double sw = 0, su = 0, sv = 0;
-  const int u0 = static_cast<int>(std::lround(guess[0])), v0 = static_cast<int>(std::lround(guess[1]));
+  const int u0 = static_cast<int>(std::lround(guess[0])),
+            v0 = static_cast<int>(std::lround(guess[1]));
   for (int v = v0 - half; v <= v0 + half; ++v) {
     for (int u = u0 - half; u <= u0 + half; ++u) {
       const double w = im.rgb[(static_cast<size_t>(v) * im.width + u) * 3] - background;
@@ -111,21 +113,22 @@ TEST_P(BlobTest, TexturedPointLandsWhereTheCameraProjectsIt) {
   EXPECT_NEAR(got[1], expected[1], 0.1);
 }
 
-INSTANTIATE_TEST_SUITE_P(
-    Cameras, BlobTest,
-    ::testing::Values(BlobCase{{0, 0, 0, 0, 0}, {1.0, -1.5, 18.0}},
-                      BlobCase{{0, 0, 0, 0, 0}, {-6.0, -9.0, 12.0}},
-                      BlobCase{{-0.18, 0.05, 0.001, -0.0005, 0}, {1.0, -1.5, 18.0}},
-                      BlobCase{{0.1, -0.02, 0, 0, 0.01}, {-6.0, -9.0, 12.0}}));
+INSTANTIATE_TEST_SUITE_P(Cameras, BlobTest,
+                         ::testing::Values(BlobCase{{0, 0, 0, 0, 0}, {1.0, -1.5, 18.0}},
+                                           BlobCase{{0, 0, 0, 0, 0}, {-6.0, -9.0, 12.0}},
+                                           BlobCase{{-0.18, 0.05, 0.001, -0.0005, 0},
+                                                    {1.0, -1.5, 18.0}},
+                                           BlobCase{{0.1, -0.02, 0, 0, 0.01}, {-6.0, -9.0, 12.0}}));
 
 double Bumps(double x, double y) { return 0.6 * std::sin(0.3 * x) * std::cos(0.23 * y) + 0.02 * x; }
 
 TEST(Render, StoredGroundPointsReprojectOntoTheirPixels) {
-  for (const std::array<double, 5>& dist : {std::array<double, 5>{0, 0, 0, 0, 0},
-                                           std::array<double, 5>{-0.2, 0.06, 0.001, 0.001, 0}}) {
+  for (const std::array<double, 5>& dist :
+       {std::array<double, 5>{0, 0, 0, 0, 0}, std::array<double, 5>{-0.2, 0.06, 0.001, 0.001, 0}}) {
     Scene scene;
     scene.terrain = MakeTerrain(25, 0.25, Bumps);
-    scene.texture = MakeTexture(25, 0.1, [](double x, double y) { return 128 + 60 * std::sin(x * y); });
+    scene.texture =
+        MakeTexture(25, 0.1, [](double x, double y) { return 128 + 60 * std::sin(x * y); });
     const CameraModel cam = MakeCamera(dist);
     const Pose pose = LookAt({-4, -14, 10}, {2, 3, 0});
     RenderSettings rs;
@@ -167,7 +170,8 @@ TEST(Render, PointBehindTheMoundIsHiddenFromALowObliqueView) {
   rs.keep_geometry = true;
   for (bool with_mound : {false, true}) {
     Scene scene;
-    scene.terrain = MakeTerrain(40, 0.25, with_mound ? std::function<double(double, double)>(mound) : flat);
+    scene.terrain =
+        MakeTerrain(40, 0.25, with_mound ? std::function<double(double, double)>(mound) : flat);
     scene.texture = MakeTexture(40, 0.1, [](double x, double) { return 100 + x; });
     const RenderedImage im = Render(scene, cam, pose, rs);
     ASSERT_FALSE(std::isnan(im.depth_m[k]));
@@ -271,8 +275,11 @@ std::string NpyError(const std::string& path) {
 // std::regex) and no runaway read.
 TEST(Npy, HostileHeadersAreRefused) {
   const std::string path = ::testing::TempDir() + "/mound_npy_hostile.npy";
-  WriteRawNpy(path, "{'descr': '" + std::string(30000, 'f') + "', 'fortran_order': False, "
-                    "'shape': (2,), }\n", std::string(8, '\0'));
+  WriteRawNpy(path,
+              "{'descr': '" + std::string(30000, 'f') +
+                  "', 'fortran_order': False, "
+                  "'shape': (2,), }\n",
+              std::string(8, '\0'));
   EXPECT_NE(NpyError(path).find("dtype"), std::string::npos) << NpyError(path);
   std::string dims;
   for (int k = 0; k < 10000; ++k) dims += "1, ";

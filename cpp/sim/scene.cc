@@ -11,7 +11,8 @@ bool Heightfield::HeightAt(double x, double y, double* z) const {
   if (!(fx >= 0 && fy >= 0 && fx <= nx - 1 && fy <= ny - 1)) return false;
   const int j = std::min(static_cast<int>(fx), nx - 2), i = std::min(static_cast<int>(fy), ny - 2);
   const double b = fx - j, a = fy - i;
-  *z = (1 - a) * ((1 - b) * Z(i, j) + b * Z(i, j + 1)) + a * ((1 - b) * Z(i + 1, j) + b * Z(i + 1, j + 1));
+  *z = (1 - a) * ((1 - b) * Z(i, j) + b * Z(i, j + 1)) +
+       a * ((1 - b) * Z(i + 1, j) + b * Z(i + 1, j + 1));
   return true;
 }
 
@@ -33,8 +34,8 @@ Texture::Texture(double x0_m, double y0_m, double texel_m, int width, int height
           auto at = [&](int ii, int jj) {
             return static_cast<int>(prev.rgb[(static_cast<size_t>(ii) * prev.width + jj) * 3 + c]);
           };
-          next.rgb[(static_cast<size_t>(i) * next.width + j) * 3 + c] =
-              static_cast<unsigned char>((at(i0, j0) + at(i0, j1) + at(i1, j0) + at(i1, j1) + 2) / 4);
+          next.rgb[(static_cast<size_t>(i) * next.width + j) * 3 + c] = static_cast<unsigned char>(
+              (at(i0, j0) + at(i0, j1) + at(i1, j0) + at(i1, j1) + 2) / 4);
         }
       }
     }
@@ -95,8 +96,9 @@ Texture ValueNoiseTexture(double half_m, double texel_m, uint32_t seed) {
         const float fy = static_cast<float>(i) / cell, fx = static_cast<float>(j) / cell;
         const int i0 = static_cast<int>(fy), j0 = static_cast<int>(fx);
         const float a = fy - i0, b = fx - j0;
-        const float v = (1 - a) * ((1 - b) * lattice[i0 * m + j0] + b * lattice[i0 * m + j0 + 1]) +
-                        a * ((1 - b) * lattice[(i0 + 1) * m + j0] + b * lattice[(i0 + 1) * m + j0 + 1]);
+        const float v =
+            (1 - a) * ((1 - b) * lattice[i0 * m + j0] + b * lattice[i0 * m + j0 + 1]) +
+            a * ((1 - b) * lattice[(i0 + 1) * m + j0] + b * lattice[(i0 + 1) * m + j0 + 1]);
         acc[static_cast<size_t>(i) * n + j] += v;
       }
     }
@@ -109,8 +111,8 @@ Texture ValueNoiseTexture(double half_m, double texel_m, uint32_t seed) {
   return Texture(-half_m, -half_m, texel_m, n, n, std::move(rgb));
 }
 
-Scene NoiseScene(const std::function<double(double, double)>& height, double half_m, double spacing_m,
-                 uint32_t texture_seed) {
+Scene NoiseScene(const std::function<double(double, double)>& height, double half_m,
+                 double spacing_m, uint32_t texture_seed) {
   Scene scene;
   Heightfield& hf = scene.terrain;
   hf.x0_m = hf.y0_m = -half_m;

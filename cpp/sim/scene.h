@@ -62,7 +62,7 @@ struct Scene {
 
 // A square scene [-half_m, half_m]^2 of height(x, y) sampled every `spacing_m`, draped with
 // ValueNoiseTexture (5 cm texels): the tests' rendered sites.
-Scene NoiseScene(const std::function<double(double, double)>& height, double half_m, double spacing_m,
-                 uint32_t texture_seed);
+Scene NoiseScene(const std::function<double(double, double)>& height, double half_m,
+                 double spacing_m, uint32_t texture_seed);
 
 }  // namespace mound::sim

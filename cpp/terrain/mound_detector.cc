@@ -34,21 +34,23 @@ struct Grid {
 
 }  // namespace
 
-Detection DetectMound(const std::vector<Eigen::Vector3d>& points, const Eigen::Vector2d& centre, double radius_m,
-                      const DetectorOptions& o) {
+Detection DetectMound(const std::vector<Eigen::Vector3d>& points, const Eigen::Vector2d& centre,
+                      double radius_m, const DetectorOptions& o) {
   if (!(radius_m > 0)) throw InputError("site radius must be > 0");
   std::vector<Eigen::Vector3d> site;
   for (const Eigen::Vector3d& p : points)
     if ((p.head<2>() - centre).norm() <= radius_m) site.push_back(p);
   if (site.size() < 100) {
-    throw NoResultError("only " + std::to_string(site.size()) + " points within " + std::to_string(radius_m) +
+    throw NoResultError("only " + std::to_string(site.size()) + " points within " +
+                        std::to_string(radius_m) +
                         " m of the site centre; a terrain model needs at least 100");
   }
   Detection d;
   d.radius_m = radius_m;
   const double area = M_PI * radius_m * radius_m;
   d.cell_m = o.cell_m > 0 ? o.cell_m
-                          : std::clamp(std::sqrt(area / (site.size() / 4.0)), 0.25, std::max(0.25, radius_m / 25));
+                          : std::clamp(std::sqrt(area / (site.size() / 4.0)), 0.25,
+                                       std::max(0.25, radius_m / 25));
   Grid g;
   g.cell = d.cell_m;
   g.w = g.h = 2 * static_cast<int>(std::ceil(radius_m / g.cell)) + 1;
@@ -59,7 +61,8 @@ Detection DetectMound(const std::vector<Eigen::Vector3d>& points, const Eigen::V
   for (const Eigen::Vector3d& p : site) {
     const Eigen::Vector2d q = (p.head<2>() - centre - g.origin) / g.cell;
     const int i = static_cast<int>(std::lround(q.x())), j = static_cast<int>(std::lround(q.y()));
-    if (i >= 0 && j >= 0 && i < g.w && j < g.h) bins[static_cast<size_t>(j) * g.w + i].push_back(p.z());
+    if (i >= 0 && j >= 0 && i < g.w && j < g.h)
+      bins[static_cast<size_t>(j) * g.w + i].push_back(p.z());
   }
   g.z.assign(bins.size(), kNaN);
   std::vector<bool> inside(bins.size(), false), measured(bins.size(), false);
@@ -86,7 +89,8 @@ Detection DetectMound(const std::vector<Eigen::Vector3d>& points, const Eigen::V
         std::vector<double> nb;
         for (int b = std::max(0, j - 1); b <= std::min(g.h - 1, j + 1); ++b)
           for (int a = std::max(0, i - 1); a <= std::min(g.w - 1, i + 1); ++a)
-            if ((a != i || b != j) && measured[static_cast<size_t>(b) * g.w + a]) nb.push_back(g.Get(a, b));
+            if ((a != i || b != j) && measured[static_cast<size_t>(b) * g.w + a])
+              nb.push_back(g.Get(a, b));
         if (nb.size() < 3) continue;
         dep[k] = g.z[k] - Median(nb);
         all.push_back(std::fabs(dep[k]));
@@ -143,7 +147,8 @@ Detection DetectMound(const std::vector<Eigen::Vector3d>& points, const Eigen::V
   Eigen::Matrix<double, 6, 1> coef = Eigen::Matrix<double, 6, 1>::Zero();
   double sigma = 0;
   auto xy = [&](size_t k) -> Eigen::Vector2d {
-    return g.Centre(static_cast<int>(k % g.w), static_cast<int>(k / g.w)) / radius_m;  // scaled for conditioning
+    return g.Centre(static_cast<int>(k % g.w), static_cast<int>(k / g.w)) /
+           radius_m;  // scaled for conditioning
   };
   for (int it = 0; it < 20; ++it) {
     Eigen::MatrixXd A = Eigen::MatrixXd::Zero(nb, nb);
@@ -195,13 +200,14 @@ Detection DetectMound(const std::vector<Eigen::Vector3d>& points, const Eigen::V
     H << 2 * q[3], q[4], q[4], 2 * q[5];
     const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es(H);
     if (q.allFinite()) {
-      d.site_sag_m = -es.eigenvalues()[1] / 2;   // the least falling direction
+      d.site_sag_m = -es.eigenvalues()[1] / 2;    // the least falling direction
       d.site_ridge_m = -es.eigenvalues()[0] / 2;  // the most
     }
   }
   // Coefficients in metres of x, y from the centre.
   const double s = radius_m;
-  d.ground_coefficients = {coef[0], coef[1] / s, coef[2] / s, coef[3] / (s * s), coef[4] / (s * s), coef[5] / (s * s)};
+  d.ground_coefficients = {coef[0],           coef[1] / s,       coef[2] / s,
+                           coef[3] / (s * s), coef[4] / (s * s), coef[5] / (s * s)};
 
   // Relief and the rises above the threshold.
   std::vector<double> relief(g.z.size(), kNaN);
@@ -258,7 +264,9 @@ Detection DetectMound(const std::vector<Eigen::Vector3d>& points, const Eigen::V
       M += p * p.transpose();
     }
     const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es(M / comp.size());
-    r.roundness = es.eigenvalues()[1] > 0 ? std::sqrt(std::max(0.0, es.eigenvalues()[0]) / es.eigenvalues()[1]) : 0;
+    r.roundness = es.eigenvalues()[1] > 0
+                      ? std::sqrt(std::max(0.0, es.eigenvalues()[0]) / es.eigenvalues()[1])
+                      : 0;
     // Dome fit over the cells within 1.5 equivalent radii (a paraboloid of revolution,
     // clipped at zero): grid search on R, H in closed form.
     const double r_eq = std::sqrt(r.area_m2 / M_PI);
@@ -303,7 +311,8 @@ Detection DetectMound(const std::vector<Eigen::Vector3d>& points, const Eigen::V
     // Radial symmetry: the relief about its mean in rings of one cell (or R/20) around c.
     {
       const double ring = std::max(g.cell, r_eq / 20);
-      std::vector<double> sum(static_cast<size_t>(1.5 * r_eq / ring) + 2, 0.0), cnt(sum.size(), 0.0);
+      std::vector<double> sum(static_cast<size_t>(1.5 * r_eq / ring) + 2, 0.0),
+          cnt(sum.size(), 0.0);
       for (const auto& [rad, rel] : prof) {
         const size_t b = std::min(sum.size() - 1, static_cast<size_t>(rad / ring));
         sum[b] += rel;
@@ -317,14 +326,16 @@ Detection DetectMound(const std::vector<Eigen::Vector3d>& points, const Eigen::V
       }
       r.symmetry = tot > 0 ? 1 - sse / tot : 0;
     }
-    r.fill = r.base_diameter_m > 0 ? r.area_m2 / (M_PI * r.base_diameter_m * r.base_diameter_m / 4) : 0;
+    r.fill =
+        r.base_diameter_m > 0 ? r.area_m2 / (M_PI * r.base_diameter_m * r.base_diameter_m / 4) : 0;
     // Flank slope, outline on the site's edge, extent.
     std::vector<double> slopes;
     int outline = 0, on_edge = 0;
     for (size_t k : comp) {
       const int i = static_cast<int>(k % g.w), j = static_cast<int>(k / g.w);
       auto rel = [&](int a, int b) {
-        return (a < 0 || b < 0 || a >= g.w || b >= g.h) ? kNaN : relief[static_cast<size_t>(b) * g.w + a];
+        return (a < 0 || b < 0 || a >= g.w || b >= g.h) ? kNaN
+                                                        : relief[static_cast<size_t>(b) * g.w + a];
       };
       const double gx = (rel(i + 1, j) - rel(i - 1, j)) / (2 * g.cell);
       const double gy = (rel(i, j + 1) - rel(i, j - 1)) / (2 * g.cell);
@@ -332,7 +343,8 @@ Detection DetectMound(const std::vector<Eigen::Vector3d>& points, const Eigen::V
       bool boundary = false, edge = false;
       for (const auto& [di, dj] : {std::pair{1, 0}, {-1, 0}, {0, 1}, {0, -1}}) {
         const int a = i + di, b = j + dj;
-        const bool out = a < 0 || b < 0 || a >= g.w || b >= g.h || !inside[static_cast<size_t>(b) * g.w + a];
+        const bool out =
+            a < 0 || b < 0 || a >= g.w || b >= g.h || !inside[static_cast<size_t>(b) * g.w + a];
         if (out || label[static_cast<size_t>(b) * g.w + a] != label[k]) boundary = true;
         if (out) edge = true;
       }
@@ -357,8 +369,9 @@ Detection DetectMound(const std::vector<Eigen::Vector3d>& points, const Eigen::V
 
 const std::vector<std::string>& VerdictFeatureNames() {
   static const std::vector<std::string> names = {
-      "log_height", "log_diameter", "log_aspect", "dome_r2", "roundness", "symmetry", "fill",
-      "flank_slope", "clipped", "offset", "log_snr", "coverage", "log_rises", "site_sag", "site_ridge"};
+      "log_height", "log_diameter", "log_aspect",  "dome_r2",  "roundness",
+      "symmetry",   "fill",         "flank_slope", "clipped",  "offset",
+      "log_snr",    "coverage",     "log_rises",   "site_sag", "site_ridge"};
   return names;
 }
 

@@ -33,7 +33,7 @@
 namespace mound::terrain {
 
 struct DetectorOptions {
-  double cell_m = 0;               // 0: about 4 points per cell, within [0.25 m, radius / 25]
+  double cell_m = 0;  // 0: about 4 points per cell, within [0.25 m, radius / 25]
   // 2: a quadratic surface (the default: real ground curves, and on the training grid it
   // separated mounds from ground better, out-of-fold AUC 0.94 against 0.91 for a plane on
   // the sites without the DEM); 1: a plane. A quadratic bends into the dome of a mound
@@ -63,18 +63,19 @@ struct Detection {
   std::vector<Rise> judged;  // the kMaxJudgedRises most prominent (height x area), in order
   // The most prominent rise, or nullptr when none rose above the relief threshold.
   const Rise* Tallest() const { return judged.empty() ? nullptr : &judged.front(); }
-  int rises = 0;                // components above the relief threshold
+  int rises = 0;  // components above the relief threshold
   double cell_m = 0;
   int grid_width = 0, grid_height = 0, cells_with_points = 0, cells_inside = 0;
   double radius_m = 0;
-  double ground_noise_m = 0;    // robust sigma of the ground cells' relief
+  double ground_noise_m = 0;  // robust sigma of the ground cells' relief
   // A quadratic fitted to the whole site (every cell, not only the ground): how far it
   // falls from the centre to the site's edge along its least and most curved directions
   // (m; positive: falling). A site on a mound wider than the scan sees no ground: the
   // ground fit then runs along the mound's flanks, but the site is domed (both > 0); a
   // ridge falls one way only; a valley or flat ground does not fall.
   double site_sag_m = 0, site_ridge_m = 0;
-  std::vector<double> ground_coefficients;  // z = c0 + c1 x + c2 y + c3 x^2 + c4 x y + c5 y^2 (x, y from the centre)
+  std::vector<double> ground_coefficients;  // z = c0 + c1 x + c2 y + c3 x^2 + c4 x y + c5 y^2 (x, y
+                                            // from the centre)
 };
 
 // The features the verdict model reads, in this order (names: VerdictFeatureNames()): of
@@ -86,7 +87,7 @@ std::vector<double> VerdictFeatures(const Detection& d, const Rise& rise);
 
 // `points` in a metric frame with z up; `centre` and `radius_m` the site (horizontal).
 // Throws NoResultError when fewer than 100 points fall within the site.
-Detection DetectMound(const std::vector<Eigen::Vector3d>& points, const Eigen::Vector2d& centre, double radius_m,
-                      const DetectorOptions& options);
+Detection DetectMound(const std::vector<Eigen::Vector3d>& points, const Eigen::Vector2d& centre,
+                      double radius_m, const DetectorOptions& options);
 
 }  // namespace mound::terrain

@@ -24,7 +24,8 @@ std::vector<Eigen::Vector3d> Site(double dome_h, double dome_d, bool ridge, uint
   std::vector<Eigen::Vector3d> p;
   for (int i = 0; i < 80000; ++i) {
     const double x = u(rng), y = u(rng);
-    double z = 50 + 0.03 * x - 0.02 * y + 0.4 * std::sin(x / 23.0 + 1) * std::cos(y / 31.0) + g(rng);
+    double z =
+        50 + 0.03 * x - 0.02 * y + 0.4 * std::sin(x / 23.0 + 1) * std::cos(y / 31.0) + g(rng);
     const double r = std::hypot(x - 5, y + 3);
     if (dome_h > 0 && r < dome_d / 2) z += dome_h * (1 - 4 * r * r / (dome_d * dome_d));
     if (ridge && std::fabs(y) < 3 && std::fabs(x) < 40) z += 2.0 * (1 - y * y / 9);
@@ -83,9 +84,15 @@ nlohmann::json ModelDoc() {
   const size_t n = VerdictFeatureNames().size();
   nlohmann::json w = std::vector<double>(n, 0.0);
   w[0] = 2.0;  // log_height
-  return {{"schema", "mound.verdict_model"}, {"version", 1}, {"features", VerdictFeatureNames()},
-          {"mean", std::vector<double>(n, 0.0)}, {"std", std::vector<double>(n, 1.0)}, {"weights", w},
-          {"bias", -1.0}, {"threshold", 0.5}, {"p_no_rise", 0.01}};
+  return {{"schema", "mound.verdict_model"},
+          {"version", 1},
+          {"features", VerdictFeatureNames()},
+          {"mean", std::vector<double>(n, 0.0)},
+          {"std", std::vector<double>(n, 1.0)},
+          {"weights", w},
+          {"bias", -1.0},
+          {"threshold", 0.5},
+          {"p_no_rise", 0.01}};
 }
 
 TEST(VerdictModel, AppliesTheLogisticRegression) {

@@ -15,17 +15,21 @@ namespace {
 double Number(const nlohmann::json& doc, const std::string& key, const std::string& source) {
   if (!doc.contains(key)) throw InputError(source + ": " + key + ": missing required field");
   const nlohmann::json& v = doc[key];
-  if (!v.is_number() || !std::isfinite(v.get<double>())) throw InputError(source + ": " + key + ": expected a finite number");
+  if (!v.is_number() || !std::isfinite(v.get<double>()))
+    throw InputError(source + ": " + key + ": expected a finite number");
   return v.get<double>();
 }
 
-std::vector<double> Numbers(const nlohmann::json& doc, const std::string& key, size_t n, const std::string& source) {
+std::vector<double> Numbers(const nlohmann::json& doc, const std::string& key, size_t n,
+                            const std::string& source) {
   if (!doc.contains(key)) throw InputError(source + ": " + key + ": missing required field");
   const nlohmann::json& v = doc[key];
-  if (!v.is_array() || v.size() != n) throw InputError(source + ": " + key + ": expected " + std::to_string(n) + " numbers");
+  if (!v.is_array() || v.size() != n)
+    throw InputError(source + ": " + key + ": expected " + std::to_string(n) + " numbers");
   std::vector<double> out;
   for (const auto& x : v) {
-    if (!x.is_number() || !std::isfinite(x.get<double>())) throw InputError(source + ": " + key + ": expected finite numbers");
+    if (!x.is_number() || !std::isfinite(x.get<double>()))
+      throw InputError(source + ": " + key + ": expected finite numbers");
     out.push_back(x.get<double>());
   }
   return out;
@@ -40,12 +44,15 @@ double VerdictModel::Score(const std::vector<double>& f) const {
   for (size_t k = 0; k < n; ++k) {
     const double z = (f[index[k]] - mean[k]) / std[k];
     s += weights[k] * z;
-    if (hinge) s += weights[n + k] * std::max(z - 1, 0.0) + weights[2 * n + k] * std::max(-z - 1, 0.0);
+    if (hinge)
+      s += weights[n + k] * std::max(z - 1, 0.0) + weights[2 * n + k] * std::max(-z - 1, 0.0);
   }
   return s;
 }
 
-double VerdictModel::Probability(const std::vector<double>& f) const { return 1 / (1 + std::exp(-Score(f))); }
+double VerdictModel::Probability(const std::vector<double>& f) const {
+  return 1 / (1 + std::exp(-Score(f)));
+}
 
 double VerdictModel::Probability(const Detection& d, size_t* best) const {
   if (d.judged.empty()) return p_no_rise;
@@ -64,9 +71,11 @@ VerdictModel ParseVerdictModel(const nlohmann::json& doc, const std::string& sou
   if (!doc.is_object()) throw InputError(source + ": expected a JSON object");
   if (!doc.contains("schema") || doc["schema"] != "mound.verdict_model")
     throw InputError(source + ": schema: expected \"mound.verdict_model\"");
-  if (!doc.contains("version") || doc["version"] != 1) throw InputError(source + ": version: expected 1");
+  if (!doc.contains("version") || doc["version"] != 1)
+    throw InputError(source + ": version: expected 1");
   VerdictModel m;
-  if (!doc.contains("features") || !doc["features"].is_array()) throw InputError(source + ": features: expected a list of names");
+  if (!doc.contains("features") || !doc["features"].is_array())
+    throw InputError(source + ": features: expected a list of names");
   for (const auto& n : doc["features"]) {
     if (!n.is_string()) throw InputError(source + ": features: expected a list of names");
     m.features.push_back(n.get<std::string>());
@@ -83,11 +92,14 @@ VerdictModel ParseVerdictModel(const nlohmann::json& doc, const std::string& sou
   if (index.size() != m.features.size() || index.size() != mine.size()) {
     std::string want;
     for (const auto& n : mine) want += (want.empty() ? "" : ",") + n;
-    throw InputError(source + ": features: made for other features than this detector's (" + want + ")");
+    throw InputError(source + ": features: made for other features than this detector's (" + want +
+                     ")");
   }
   m.index = index;
   const size_t n = m.features.size();
-  const std::string basis = doc.contains("basis") && doc["basis"].is_string() ? doc["basis"].get<std::string>() : "linear";
+  const std::string basis = doc.contains("basis") && doc["basis"].is_string()
+                                ? doc["basis"].get<std::string>()
+                                : "linear";
   if (doc.contains("basis") && basis != "linear" && basis != "hinge")
     throw InputError(source + ": basis: expected \"linear\" or \"hinge\"");
   m.hinge = basis == "hinge";
@@ -97,16 +109,21 @@ VerdictModel ParseVerdictModel(const nlohmann::json& doc, const std::string& sou
   // Bounded, so that every score is a finite number (huge weights of both signs would
   // make inf - inf).
   for (double s : m.std)
-    if (!(s >= 1e-9 && s <= 1e9)) throw InputError(source + ": std: must be > 0 (within 1e-9 .. 1e9)");
+    if (!(s >= 1e-9 && s <= 1e9))
+      throw InputError(source + ": std: must be > 0 (within 1e-9 .. 1e9)");
   for (const auto* v : {&m.mean, &m.weights})
     for (double x : *v)
-      if (!(std::fabs(x) <= 1e6)) throw InputError(source + ": " + (v == &m.mean ? "mean" : "weights") + ": must be within +-1e6");
+      if (!(std::fabs(x) <= 1e6))
+        throw InputError(source + ": " + (v == &m.mean ? "mean" : "weights") +
+                         ": must be within +-1e6");
   m.bias = Number(doc, "bias", source);
   if (!(std::fabs(m.bias) <= 1e6)) throw InputError(source + ": bias: must be within +-1e6");
   m.threshold = Number(doc, "threshold", source);
   m.p_no_rise = Number(doc, "p_no_rise", source);
-  if (!(m.threshold > 0 && m.threshold < 1)) throw InputError(source + ": threshold: must be in (0, 1)");
-  if (!(m.p_no_rise >= 0 && m.p_no_rise <= 1)) throw InputError(source + ": p_no_rise: must be in [0, 1]");
+  if (!(m.threshold > 0 && m.threshold < 1))
+    throw InputError(source + ": threshold: must be in (0, 1)");
+  if (!(m.p_no_rise >= 0 && m.p_no_rise <= 1))
+    throw InputError(source + ": p_no_rise: must be in [0, 1]");
   m.doc = doc;
   return m;
 }
@@ -126,8 +143,9 @@ VerdictModel LoadVerdictModel(const std::string& path) {
 }
 
 const VerdictModel& DefaultVerdictModel() {
-  static const VerdictModel m = ParseVerdictModel(nlohmann::json::parse(kDefaultVerdictModelJson),
-                                                  "the default verdict model (data/verdict_model.json)");
+  static const VerdictModel m =
+      ParseVerdictModel(nlohmann::json::parse(kDefaultVerdictModelJson),
+                        "the default verdict model (data/verdict_model.json)");
   return m;
 }
 

@@ -20,13 +20,13 @@ struct SparseGraph {
 
 // A minimum 1-tree under transformed costs.
 struct OneTree {
-  std::vector<int> dad;       // tree parent, -1 for the root
+  std::vector<int> dad;        // tree parent, -1 for the root
   std::vector<Cost> dad_cost;  // transformed cost of (v, dad[v])
-  std::vector<int> order;     // topological order: dad before child
+  std::vector<int> order;      // topological order: dad before child
   std::vector<int> degree;
   int special = -1, special_to = -1;  // the extra edge
   Cost special_cost = 0;
-  Cost cost = 0;              // sum of transformed edge costs
+  Cost cost = 0;  // sum of transformed edge costs
 };
 
 class OneTreeBuilder {
@@ -284,8 +284,8 @@ AscentResult Ascent(const CostCache& d, const AscentOptions& opt) {
   // with untransformed costs P*D (penalties are added on the fly).
   const bool large = n > kLargeAscentNodes;
   const int k = std::min(opt.ascent_candidates > 0 ? opt.ascent_candidates
-                         : large                  ? kLargeAscentCandidates
-                                                  : 50,
+                         : large                   ? kLargeAscentCandidates
+                                                   : 50,
                          n - 1);
   SparseGraph graph;
   const bool use_sparse = n > 2 * k + 2;
@@ -345,8 +345,8 @@ AscentResult Ascent(const CostCache& d, const AscentOptions& opt) {
       if (now - last_report > std::chrono::seconds(2)) {
         last_report = now;
         char line[160];
-        std::snprintf(line, sizeof(line), "ascent: iteration %d, bound %.6g, %.1f s", res.iterations,
-                      static_cast<double>(best_w) / opt.precision,
+        std::snprintf(line, sizeof(line), "ascent: iteration %d, bound %.6g, %.1f s",
+                      res.iterations, static_cast<double>(best_w) / opt.precision,
                       std::chrono::duration<double>(now - started).count());
         opt.progress(line);
       }
@@ -359,8 +359,7 @@ AscentResult Ascent(const CostCache& d, const AscentOptions& opt) {
                                                     : std::max(n / 2, 100);
   Cost step = opt.precision;  // INITIAL_STEP_SIZE = 1, scaled by the precision
   bool initial_phase = true;
-  for (int period = initial_period; period > 0 && step > 0 && norm != 0;
-       period /= 2, step /= 2) {
+  for (int period = initial_period; period > 0 && step > 0 && norm != 0; period /= 2, step /= 2) {
     for (int p = 1; step > 0 && p <= period && norm != 0; ++p) {
       if (res.iterations >= opt.max_iterations || stop_now()) break;
       for (int i = 0; i < n; ++i) {

@@ -28,7 +28,7 @@ namespace mound::tsp {
 
 struct Candidate {
   int node;
-  Cost cost;   // transformed cost d(from, node)
+  Cost cost;  // transformed cost d(from, node)
   Cost alpha;
 };
 using CandidateSet = std::vector<std::vector<Candidate>>;
@@ -43,10 +43,10 @@ constexpr int kLargeAscentCandidates = 15;
 
 struct AscentOptions {
   int precision = 100;
-  int ascent_candidates = -1;   // <= 0: 50 as in LKH (15 above kLargeAscentNodes)
-  int initial_period = -1;      // <= 0: max(n/2, 100) as in LKH (300 above kLargeAscentNodes)
+  int ascent_candidates = -1;  // <= 0: 50 as in LKH (15 above kLargeAscentNodes)
+  int initial_period = -1;     // <= 0: max(n/2, 100) as in LKH (300 above kLargeAscentNodes)
   int max_iterations = 1 << 30;
-  bool subgradient = true;      // false: pi = initial_pi (plain alpha of that 1-tree)
+  bool subgradient = true;  // false: pi = initial_pi (plain alpha of that 1-tree)
   // Warm start (LKH's PI_FILE): penalties from an earlier, similar instance. Empty: zeros.
   std::vector<Cost> initial_pi;
   // Checked every iteration: true ends the ascent with the best penalties so far (the
@@ -58,9 +58,9 @@ struct AscentOptions {
 
 struct AscentResult {
   std::vector<Cost> pi;
-  double lower_bound = 0;       // in units of D
+  double lower_bound = 0;  // in units of D
   int iterations = 0;
-  bool tour_found = false;      // the best 1-tree was a tour (lower bound is optimal)
+  bool tour_found = false;  // the best 1-tree was a tour (lower bound is optimal)
 };
 
 // Distances with a dense cache for small n, so that the search pays no recomputation.

@@ -12,10 +12,15 @@ bool SameEdge(const std::pair<int, int>& e, int a, int b) {
 }  // namespace
 
 LinKernighan::LinKernighan(const CostCache& d, const std::vector<Cost>& pi, int precision,
-                           const CandidateSet& cands,
-                           const std::vector<std::pair<int, int>>& fixed, int move_k)
-    : d_(d), pi_(pi), p_(precision), cands_(cands), k_(std::max(2, std::min(move_k, kMaxK))),
-      fixed_partner_(d.Size(), -1), in_queue_(d.Size(), 0) {
+                           const CandidateSet& cands, const std::vector<std::pair<int, int>>& fixed,
+                           int move_k)
+    : d_(d),
+      pi_(pi),
+      p_(precision),
+      cands_(cands),
+      k_(std::max(2, std::min(move_k, kMaxK))),
+      fixed_partner_(d.Size(), -1),
+      in_queue_(d.Size(), 0) {
   for (const auto& [a, b] : fixed) {
     fixed_partner_[a] = b;
     fixed_partner_[b] = a;

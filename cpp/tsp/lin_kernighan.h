@@ -23,7 +23,7 @@
 namespace mound::tsp {
 
 struct LkStats {
-  long long moves = 0;            // improving moves made
+  long long moves = 0;             // improving moves made
   long long nongainful_steps = 0;  // non-gainful k-opt steps made (later kept or undone)
 };
 

@@ -17,8 +17,7 @@ void Problem::AddFixedEdge(int a, int b) {
   fixed_edges_.emplace_back(a, b);
 }
 
-MatrixProblem::MatrixProblem(int n, std::vector<Cost> row_major)
-    : n_(n), d_(std::move(row_major)) {
+MatrixProblem::MatrixProblem(int n, std::vector<Cost> row_major) : n_(n), d_(std::move(row_major)) {
   if (n < 0 || d_.size() != static_cast<size_t>(n) * n) {
     throw std::invalid_argument("matrix size does not match dimension");
   }

@@ -128,15 +128,16 @@ TspResult SolveTsp(const Problem& problem, const SolverOptions& opt) {
     std::snprintf(line, sizeof(line), "ascent done: %d iterations, bound %.6g, %.1f s%s",
                   ascent.iterations, ascent.lower_bound, res.stats.ascent_s,
                   opt.time_limit_s > 0 && res.stats.ascent_s > 0.5 * opt.time_limit_s
-                      ? " (stopped at half the time limit)" : "");
+                      ? " (stopped at half the time limit)"
+                      : "");
     say(line);
   }
   res.pi = ascent.pi;
   res.stats.lower_bound = ascent.lower_bound;
   res.stats.ascent_iterations = ascent.iterations;
   const auto t_cand = Clock::now();
-  const CandidateSet cands = AlphaCandidates(d, ascent.pi, opt.ascent.precision,
-                                             opt.max_candidates, problem.FixedEdges());
+  const CandidateSet cands =
+      AlphaCandidates(d, ascent.pi, opt.ascent.precision, opt.max_candidates, problem.FixedEdges());
   res.stats.candidates_s = Seconds(t_cand);
   say("candidates: " + std::to_string(opt.max_candidates) + " per node");
 
@@ -171,8 +172,8 @@ TspResult SolveTsp(const Problem& problem, const SolverOptions& opt) {
       if (opt.progress && Clock::now() - last_report > std::chrono::seconds(2)) {
         last_report = Clock::now();
         say("run " + std::to_string(run + 1) + ", trial " + std::to_string(trial) + " of " +
-            std::to_string(max_trials) + ": length " + std::to_string(length_of(cur)) +
-            " (bound " + std::to_string(bound) + ")");
+            std::to_string(max_trials) + ": length " + std::to_string(length_of(cur)) + " (bound " +
+            std::to_string(bound) + ")");
       }
       // Segment double bridge: a1 | B | C | D | e1  ->  a1 D C B e1.
       int a1 = -1, b1 = -1, b2 = -1, c1 = -1, c2 = -1, d1 = -1, d2 = -1, e1 = -1;
@@ -196,8 +197,8 @@ TspResult SolveTsp(const Problem& problem, const SolverOptions& opt) {
       }
       if (!ok) break;
       const size_t mark = tour.Mark();
-      const Cost delta = lk.C(a1, d1) + lk.C(d2, c1) + lk.C(c2, b1) + lk.C(b2, e1) -
-                         lk.C(a1, b1) - lk.C(b2, c1) - lk.C(c2, d1) - lk.C(d2, e1);
+      const Cost delta = lk.C(a1, d1) + lk.C(d2, c1) + lk.C(c2, b1) + lk.C(b2, e1) - lk.C(a1, b1) -
+                         lk.C(b2, c1) - lk.C(c2, d1) - lk.C(d2, e1);
       tour.Reverse(b1, d2);
       tour.Reverse(d2, d1);
       tour.Reverse(c2, c1);

@@ -25,33 +25,33 @@ namespace mound::tsp {
 
 struct SolverOptions {
   int runs = 1;
-  int max_trials = -1;        // trials per run (LK descents); <= 0: n, as LKH's MAX_TRIALS
+  int max_trials = -1;  // trials per run (LK descents); <= 0: n, as LKH's MAX_TRIALS
   uint64_t seed = 1;
-  int max_candidates = 5;     // alpha-nearest candidates per node
-  int move_k = 5;             // basis move: sequential k-opt, 2..5
-  int kick_segment = 0;       // longest segment of a double-bridge kick; <= 0: max(50, n/4)
-  double time_limit_s = 0;    // <= 0: none
-  Cost optimum = -1;          // stop when a tour this short is found (benchmarks)
+  int max_candidates = 5;   // alpha-nearest candidates per node
+  int move_k = 5;           // basis move: sequential k-opt, 2..5
+  int kick_segment = 0;     // longest segment of a double-bridge kick; <= 0: max(50, n/4)
+  double time_limit_s = 0;  // <= 0: none
+  Cost optimum = -1;        // stop when a tour this short is found (benchmarks)
   AscentOptions ascent;
   // One-line accounts of a long solve (ascent, candidates, runs, trials), about every 2 s.
   std::function<void(const std::string&)> progress;
 };
 
 struct SolverStats {
-  double lower_bound = 0;     // Held-Karp 1-tree bound (units of D)
+  double lower_bound = 0;  // Held-Karp 1-tree bound (units of D)
   int ascent_iterations = 0;
   double ascent_s = 0, candidates_s = 0, search_s = 0;
   int runs = 0;
   long long trials = 0;
   long long improving_trials = 0;
   long long lk_moves = 0;
-  bool exact = false;         // solved by enumeration
+  bool exact = false;  // solved by enumeration
 };
 
 struct TspResult {
-  std::vector<int> tour;      // a permutation of 0..n-1
+  std::vector<int> tour;  // a permutation of 0..n-1
   Cost length = 0;
-  std::vector<Cost> pi;       // the ascent's penalties (a warm start for similar instances)
+  std::vector<Cost> pi;  // the ascent's penalties (a warm start for similar instances)
   SolverStats stats;
 };
 

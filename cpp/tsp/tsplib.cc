@@ -75,8 +75,8 @@ int NodeIndex(double v, int n, const std::string& where, const char* what) {
 
 double Bounded(double v, double lo, double hi, const std::string& where, const char* what) {
   if (v < lo || v > hi) {
-    throw InputError(where + ": " + what + " " + FormatNumber(v) + " outside [" +
-                     FormatNumber(lo) + ", " + FormatNumber(hi) + "]");
+    throw InputError(where + ": " + what + " " + FormatNumber(v) + " outside [" + FormatNumber(lo) +
+                     ", " + FormatNumber(hi) + "]");
   }
   return v;
 }
@@ -154,7 +154,8 @@ TsplibInstance ParseTsplib(const std::string& text, const std::string& source) {
       std::vector<bool> seen(inst.dimension, false);
       for (int k = 0; k < inst.dimension; ++k) {
         const int idx = NodeIndex(r.Next("node id"), inst.dimension, r.Where(), "node id");
-        if (seen[idx]) throw InputError(r.Where() + ": repeated node id " + std::to_string(idx + 1));
+        if (seen[idx])
+          throw InputError(r.Where() + ": repeated node id " + std::to_string(idx + 1));
         seen[idx] = true;
         x[idx] = Bounded(r.Next("x coordinate"), -kMaxCoordinate, kMaxCoordinate, r.Where(),
                          "x coordinate");
@@ -167,10 +168,14 @@ TsplibInstance ParseTsplib(const std::string& text, const std::string& source) {
       need_dim(lineno);
       const long long n = inst.dimension;
       long long count = 0;
-      if (format == "FULL_MATRIX") count = n * n;
-      else if (format == "UPPER_ROW" || format == "LOWER_ROW") count = n * (n - 1) / 2;
-      else if (format == "UPPER_DIAG_ROW" || format == "LOWER_DIAG_ROW") count = n * (n + 1) / 2;
-      else throw InputError(source + ": EDGE_WEIGHT_FORMAT " + format + " not supported");
+      if (format == "FULL_MATRIX")
+        count = n * n;
+      else if (format == "UPPER_ROW" || format == "LOWER_ROW")
+        count = n * (n - 1) / 2;
+      else if (format == "UPPER_DIAG_ROW" || format == "LOWER_DIAG_ROW")
+        count = n * (n + 1) / 2;
+      else
+        throw InputError(source + ": EDGE_WEIGHT_FORMAT " + format + " not supported");
       if (n > kMaxExplicitDimension) {
         throw InputError(source + ":" + std::to_string(lineno) + ": an explicit matrix of " +
                          std::to_string(n) + " nodes is more than this reader builds (at most " +
@@ -192,7 +197,8 @@ TsplibInstance ParseTsplib(const std::string& text, const std::string& source) {
       std::vector<bool> seen(inst.dimension, false);
       for (int k = 0; k < inst.dimension; ++k) {
         const int idx = NodeIndex(r.Next("node id"), inst.dimension, r.Where(), "node id");
-        if (seen[idx]) throw InputError(r.Where() + ": repeated node id " + std::to_string(idx + 1));
+        if (seen[idx])
+          throw InputError(r.Where() + ": repeated node id " + std::to_string(idx + 1));
         seen[idx] = true;
         inst.scores[idx] = Bounded(r.Next("score"), 0, kMaxScore, r.Where(), "score");
       }
@@ -238,23 +244,33 @@ TsplibInstance ParseTsplib(const std::string& text, const std::string& source) {
           if (m[static_cast<size_t>(a) * n + b] != m[static_cast<size_t>(b) * n + a])
             throw InputError(source + ": FULL_MATRIX is not symmetric");
     } else if (format == "UPPER_ROW") {
-      for (int a = 0; a < n; ++a) for (int b = a + 1; b < n; ++b) set(a, b);
+      for (int a = 0; a < n; ++a)
+        for (int b = a + 1; b < n; ++b) set(a, b);
     } else if (format == "LOWER_ROW") {
-      for (int a = 0; a < n; ++a) for (int b = 0; b < a; ++b) set(a, b);
+      for (int a = 0; a < n; ++a)
+        for (int b = 0; b < a; ++b) set(a, b);
     } else if (format == "UPPER_DIAG_ROW") {
-      for (int a = 0; a < n; ++a) for (int b = a; b < n; ++b) set(a, b);
+      for (int a = 0; a < n; ++a)
+        for (int b = a; b < n; ++b) set(a, b);
     } else {  // LOWER_DIAG_ROW
-      for (int a = 0; a < n; ++a) for (int b = 0; b <= a; ++b) set(a, b);
+      for (int a = 0; a < n; ++a)
+        for (int b = 0; b <= a; ++b) set(a, b);
     }
     inst.problem = std::make_unique<MatrixProblem>(n, std::move(m));
   } else {
     Metric metric;
-    if (ewt == "EUC_2D") metric = Metric::kEuc2D;
-    else if (ewt == "CEIL_2D") metric = Metric::kCeil2D;
-    else if (ewt == "ATT") metric = Metric::kAtt;
-    else if (ewt == "GEO") metric = Metric::kGeo;
-    else if (ewt.empty()) throw InputError(source + ": EDGE_WEIGHT_TYPE missing");
-    else throw InputError(source + ": EDGE_WEIGHT_TYPE " + ewt + " not supported");
+    if (ewt == "EUC_2D")
+      metric = Metric::kEuc2D;
+    else if (ewt == "CEIL_2D")
+      metric = Metric::kCeil2D;
+    else if (ewt == "ATT")
+      metric = Metric::kAtt;
+    else if (ewt == "GEO")
+      metric = Metric::kGeo;
+    else if (ewt.empty())
+      throw InputError(source + ": EDGE_WEIGHT_TYPE missing");
+    else
+      throw InputError(source + ": EDGE_WEIGHT_TYPE " + ewt + " not supported");
     if (!have_coords) throw InputError(source + ": NODE_COORD_SECTION missing");
     inst.problem = std::make_unique<CoordProblem>(metric, std::move(x), std::move(y));
   }

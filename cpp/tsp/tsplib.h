@@ -13,14 +13,14 @@ namespace mound::tsp {
 
 struct TsplibInstance {
   std::string name;
-  std::string type;               // "TSP" or "OP"
-  std::string edge_weight_type;   // as written in the file
+  std::string type;              // "TSP" or "OP"
+  std::string edge_weight_type;  // as written in the file
   int dimension = 0;
   std::unique_ptr<Problem> problem;
   // OPLib extensions (TYPE: OP): score per node and the tour length limit.
   std::vector<double> scores;
   double cost_limit = -1;
-  int depot = 0;                  // 0-based
+  int depot = 0;  // 0-based
 };
 
 // Parses TSPLIB text; `source` names the file in error messages. Throws InputError with

@@ -30,11 +30,12 @@ import json
 import sys
 import time
 from pathlib import Path
-from typing import Any, NoReturn
+from typing import Any
 
 import numpy as np
 
 from mound import datasets
+from mound.args import Parser, UsageError
 from mound.classify import coarse, statlog
 from mound.classify.model import SCHEMA as MODEL_SCHEMA
 from mound.classify.model import VERSION as MODEL_VERSION
@@ -48,15 +49,6 @@ from mound.plan.field import STANDARD_SEEDS, make_field, sites_document
 from mound.scene import cli as scene_cli
 from mound.uav import cli as uav_cli
 from mound.uav import mission_items
-
-
-class UsageError(InputError):
-    pass
-
-
-class Parser(argparse.ArgumentParser):
-    def error(self, message: str) -> NoReturn:  # argparse exits 2 already; keep one line
-        raise UsageError(f"{self.prog}: {message}")
 
 
 def load_model(path: str | None) -> Model:

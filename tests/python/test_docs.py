@@ -99,3 +99,17 @@ def test_one_version_everywhere() -> None:
         out = subprocess.run([str(build_dir() / tool), "--version"], capture_output=True,
                              text=True, check=True).stdout.split()
         assert out == [tool, want]
+
+
+def test_no_package_imports_a_command_line_module() -> None:
+    """Command lines map flags onto library calls; libraries never import them back."""
+    pattern = re.compile(r"^\s*from mound(?:\.\w+)*\.cli import|^\s*from mound import cli\b|"
+                         r"^\s*import mound(?:\.\w+)*\.cli\b|^\s*from mound\.\w+ import cli\b",
+                         re.M)
+    offenders = []
+    for f in (ROOT / "python" / "mound").rglob("*.py"):
+        if f.name in ("cli.py", "__main__.py"):
+            continue
+        if pattern.search(f.read_text(encoding="utf-8")):
+            offenders.append(str(f.relative_to(ROOT)))
+    assert offenders == []

@@ -27,7 +27,8 @@ mound::plan::OpInstance Field(int n, unsigned seed) {
   std::uniform_real_distribution<double> u(0, side), r(0, 1);
   mound::plan::OpInstance inst;
   inst.nodes.push_back({"home", 0, 0, 0, 0});
-  for (int i = 0; i < n; ++i) inst.nodes.push_back({"s" + std::to_string(i), u(rng), u(rng), r(rng), 1.0});
+  for (int i = 0; i < n; ++i)
+    inst.nodes.push_back({"s" + std::to_string(i), u(rng), u(rng), r(rng), 1.0});
   inst.budget_m = 12.0 * side;
   return inst;
 }
@@ -68,15 +69,17 @@ int main(int argc, char** argv) {
         const auto t0 = std::chrono::steady_clock::now();
         const auto res = std::string(algo) == "newalg" ? mound::plan::SolveNewAlg(inst, opt)
                                                        : mound::plan::SolveNewAlgLs(inst, opt);
-        ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+        ms.push_back(
+            std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
+                .count());
         reward += res.reward / r;
         visited += (res.route.size() - 2);
       }
       const double med = Median(ms);
       std::printf("%-7d %-10s %8.1f %8.1f %8.2f %9.3f %10.3f %11.0fx %12.0fx\n", n, algo,
                   inst.budget_m, static_cast<double>(visited) / r, reward,
-                  *std::min_element(ms.begin(), ms.end()), med,
-                  paper_low_s * 1000 / med, paper_high_s * 1000 / med);
+                  *std::min_element(ms.begin(), ms.end()), med, paper_low_s * 1000 / med,
+                  paper_high_s * 1000 / med);
       std::fflush(stdout);
     }
   }

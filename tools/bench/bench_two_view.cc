@@ -73,7 +73,8 @@ int main(int argc, char** argv) {
     const Eigen::Vector3d t_init = r.cam2_from_cam1.translation;
     const std::pair<double, double> rmse = mound::sfm::RefineTwoView(m, K, &r);
     secs.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-    const mound::geometry::Rigid3d truth = CamFromWorld(images[a + 1]) * CamFromWorld(images[a]).Inverse();
+    const mound::geometry::Rigid3d truth =
+        CamFromWorld(images[a + 1]) * CamFromWorld(images[a]).Inverse();
     const Eigen::Matrix3d R_true = truth.RotationMatrix();
     const Eigen::Vector3d t_true = truth.translation.normalized();
     auto rot_deg = [&](const Eigen::Matrix3d& R) {
@@ -88,10 +89,10 @@ int main(int argc, char** argv) {
     rot.push_back(rot_deg(r.cam2_from_cam1.RotationMatrix()));
     dir_err.push_back(dir_deg(r.cam2_from_cam1.translation));
     std::cout << images[a].at("pattern").get<std::string>() << " " << a << "-" << a + 1 << ": "
-              << m.px1.size() << " matches, " << r.inliers.size() << " inliers; 8-point: "
-              << rot_init.back() << " / " << dir_init.back() << " deg; after BA ("
-              << rmse.first << " -> " << rmse.second << " px): " << rot.back() << " / "
-              << dir_err.back() << " deg (rotation / translation direction error)\n";
+              << m.px1.size() << " matches, " << r.inliers.size()
+              << " inliers; 8-point: " << rot_init.back() << " / " << dir_init.back()
+              << " deg; after BA (" << rmse.first << " -> " << rmse.second << " px): " << rot.back()
+              << " / " << dir_err.back() << " deg (rotation / translation direction error)\n";
   }
   for (const auto& [pattern, v] : inliers) {
     std::cout << pattern << ": median " << Median(v) << " RANSAC inliers (min "
@@ -102,10 +103,9 @@ int main(int argc, char** argv) {
             << " deg (max " << *std::max_element(rot_init.begin(), rot_init.end())
             << "), median translation direction error " << Median(dir_init) << " deg (max "
             << *std::max_element(dir_init.begin(), dir_init.end()) << ")\n";
-  std::cout << "after two-view BA: median rotation error " << Median(rot)
-            << " deg (max " << *std::max_element(rot.begin(), rot.end())
-            << "), median translation direction error " << Median(dir_err) << " deg (max "
-            << *std::max_element(dir_err.begin(), dir_err.end()) << "), median "
-            << Median(secs) << " s per pair\n";
+  std::cout << "after two-view BA: median rotation error " << Median(rot) << " deg (max "
+            << *std::max_element(rot.begin(), rot.end()) << "), median translation direction error "
+            << Median(dir_err) << " deg (max " << *std::max_element(dir_err.begin(), dir_err.end())
+            << "), median " << Median(secs) << " s per pair\n";
   return 0;
 }

@@ -15,111 +15,22 @@ from __future__ import annotations
 
 import argparse
 import os
-import sys
 from pathlib import Path
 from typing import Any
 
+from mound.args import parse_lat_lon, parse_names
 from mound.errors import InputError
-
-
-def _names(text: str | None) -> list[str] | None:
-    if text is None:
-        return None
-    names = [t.strip() for t in text.split(",")]
-    if not all(names):
-        raise InputError(f"expected a comma-separated list, got {text!r}")
-    return names
-
-
-def _say(text: str) -> None:
-    print(f"scene: {text}", file=sys.stderr, flush=True)
-
-
-def _home(text: str | None) -> tuple[float, float] | None:
-    if text is None:
-        return None
-    try:
-        lat, lon = (float(v) for v in text.split(","))
-    except ValueError:
-        raise InputError(f"--home: expected LAT,LON in degrees, got {text!r}") from None
-    if not (-90 <= lat <= 90 and -180 <= lon <= 180):
-        raise InputError(f"--home: {text} is not a WGS84 latitude, longitude")
-    return lat, lon
-
-
-def train_model(scenes: list[str], labels_path: str, out: str | None, *,
-                bands: list[str] | None = None, band_names: list[str] | None = None,
-                features: str = "multiscale", resample_m: float = 8.0, basis: str = "hinge",
-                negative_distance_m: float = 40.0, negatives_per_scene: int = 1500,
-                folds: int = 5, l2: float | None = None, solver: str = "gd", seed: int = 0,
-                min_sep_m: float = 30.0, threads: int = 1) -> Any:
-    """Learns a scene model (and writes it when `out` is given); the survey calls it too."""
-    from mound.datasets import sha256_of
-    from mound.jsonio import write_json
-    from mound.scene import train
-    from mound.scene.features import FeatureSpec
-    from mound.scene.vector import read_labels
-
-    if not 0 < negative_distance_m < 1e5:
-        raise InputError("--negative-distance-m: must be > 0 m")
-    if not 10 <= negatives_per_scene <= 1_000_000:
-        raise InputError("--negatives-per-scene: must be 10 .. 1,000,000")
-    if l2 is not None and not 0 <= l2 < 1e6:
-        raise InputError("--l2: must be >= 0")
-    labels = read_labels(labels_path)
-    prep = train.prepare(scenes, labels, bands, band_names, labels_path)
-    spec = FeatureSpec(features, resample_m=resample_m,
-                       band_labels=[b["name"] or f"band{b['index']}" for b in prep.band_doc])
-    basis = "none" if features == "paper" else basis
-    samples = train.sample(prep, spec, negatives_per_scene, negative_distance_m, seed)
-    n_pos, n_neg = int((samples.y > 0).sum()), int((samples.y < 0).sum())
-    _say(f"{len(scenes)} scenes, {sum(len(s.mound_ids) for s in prep.scenes)} known mounds "
-         f"inside, {n_pos} mound and {n_neg} background windows, {len(spec.names())} features")
-    cv = None
-    if len(scenes) >= 2:
-        grid = (l2,) if l2 is not None else train.L2_GRID
-        cv = train.cross_validate(prep, spec, basis, samples, solver="lbfgs", folds=folds,
-                                  seed=seed, min_sep_m=min_sep_m, l2_grid=grid,
-                                  threads=threads, progress=_say)
-        chosen = cv.l2
-    else:
-        _say("one scene: no cross-validation (folds are whole scenes); l2 = 0.01, "
-             "calibration: none")
-        chosen = 0.01 if l2 is None else l2
-    model = train.fit(samples.x, samples.y, spec, basis, chosen, solver, prep.band_doc,
-                      prep.res_m)
-    fit_info = model.info["fit"]
-    if cv is not None:
-        model.calibration, model.threshold = cv.calibration, cv.threshold
-    model.info = {
-        "fit": fit_info, "band_count": prep.scenes[0].scene.count,
-        "training": {
-            "scenes": [{"file": Path(s).name, "sha256": sha256_of(Path(s))} for s in scenes],
-            "labels": {"file": Path(labels_path).name, "sha256": sha256_of(Path(labels_path)),
-                       "points": len(labels),
-                       "mounds_inside": sum(len(s.mound_ids) for s in prep.scenes)},
-            "windows": {"mound": n_pos, "background": n_neg,
-                        "positive_radius_m": train.POSITIVE_RADIUS_M,
-                        "negative_distance_m": negative_distance_m,
-                        "negatives_per_scene": negatives_per_scene, "seed": seed,
-                        "class_weights": "balanced"}},
-        "cross_validation": cv.summary() if cv is not None else None,
-        "calibration_method": ("Platt scaling of out-of-fold candidates (true: a known mound "
-                               f"within {train.FOUND_RADIUS_M:g} m)") if cv else "none",
-        "threshold_method": ("highest balanced accuracy of the out-of-fold candidates"
-                             if cv else "0.5 (no cross-validation)")}
-    if out:
-        write_json(out, model.to_doc())
-    return model
+from mound.scene import workflow
 
 
 def cmd_train(args: argparse.Namespace) -> int:
-    model = train_model(args.scenes, args.labels, args.out, bands=_names(args.bands),
-                        band_names=_names(args.band_names), features=args.features,
-                        resample_m=args.resample_m, basis=args.basis,
-                        negative_distance_m=args.negative_distance_m,
-                        negatives_per_scene=args.negatives_per_scene, folds=args.folds,
-                        l2=args.l2, solver=args.solver, seed=args.seed, threads=args.threads)
+    model = workflow.train_model(
+        args.scenes, args.labels, args.out, bands=parse_names(args.bands),
+        band_names=parse_names(args.band_names), features=args.features,
+        resample_m=args.resample_m, basis=args.basis,
+        negative_distance_m=args.negative_distance_m,
+        negatives_per_scene=args.negatives_per_scene, folds=args.folds,
+        l2=args.l2, solver=args.solver, seed=args.seed, threads=args.threads)
     cv = model.info.get("cross_validation")
     f = model.info["fit"]
     print(f"{model.spec.kind} features ({len(model.spec.names())}), basis {model.basis}, "
@@ -141,7 +52,7 @@ def cmd_score(args: argparse.Namespace) -> int:
     from mound.scene.vector import read_aoi
 
     model = SceneModel.from_doc(read_json(args.model, SCHEMA, VERSION), args.model)
-    scene = open_scene(args.scene, _names(args.band_names))
+    scene = open_scene(args.scene, parse_names(args.band_names))
     aoi = (score.aoi_in_scene(read_aoi(args.aoi), scene, f"--aoi {args.aoi}")
            if args.aoi else None)
     if args.threads < 1:
@@ -149,12 +60,12 @@ def cmd_score(args: argparse.Namespace) -> int:
 
     def progress(done: int, total: int) -> None:
         if done == total or done % max(1, total // 10) == 0:
-            _say(f"{done}/{total} blocks")
+            workflow.say(f"{done}/{total} blocks")
 
     doc = score.score_to_dir(scene, model, args.out, model_path=args.model,
                              model_sha256=sha256_of(Path(args.model)), stride_m=args.stride_m,
                              limit=args.candidates, min_sep_m=args.min_separation_m, aoi=aoi,
-                             aoi_path=args.aoi, home=_home(args.home), block=args.block,
+                             aoi_path=args.aoi, home=parse_lat_lon(args.home), block=args.block,
                              threads=args.threads, scheduler=args.scheduler,
                              progress=progress)
     t = doc["timings"]
@@ -167,10 +78,10 @@ def cmd_score(args: argparse.Namespace) -> int:
 def cmd_eval(args: argparse.Namespace) -> int:
     from mound.scene import evaluate
 
-    doc = evaluate.run(args.scenes, args.labels, band_names=_names(args.band_names),
-                       bands=_names(args.bands), folds=args.folds, seed=args.seed,
+    doc = evaluate.run(args.scenes, args.labels, band_names=parse_names(args.band_names),
+                       bands=parse_names(args.bands), folds=args.folds, seed=args.seed,
                        paper_resample_m=args.paper_resample_m, figure=args.figure,
-                       json_out=args.json, threads=args.threads, progress=_say)
+                       json_out=args.json, threads=args.threads, progress=workflow.say)
     print(evaluate.format_table(doc))
     return 0
 

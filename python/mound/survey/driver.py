@@ -37,7 +37,7 @@ from typing import Any
 import numpy as np
 
 from mound import native
-from mound.cli import Parser, UsageError
+from mound.args import Parser, UsageError
 from mound.datasets import sha256_of
 from mound.errors import EXIT_NO_RESULT, InputError, exit_for
 from mound.jsonio import read_json, write_json
@@ -241,11 +241,12 @@ def _digest_files(paths: list[str]) -> list[str]:
 
 def stage_classify_scene(ctx: Context) -> str:
     """The scene model: learned on the scene(s) from --labels, or the user's --scene-model."""
+    from mound.args import parse_names
     from mound.jsonio import read_json as read_doc
-    from mound.scene.cli import _names, train_model
     from mound.scene.model import SCHEMA as SCENE_SCHEMA
     from mound.scene.model import VERSION as SCENE_VERSION
     from mound.scene.model import SceneModel
+    from mound.scene.workflow import train_model
 
     a = ctx.args
     path = ctx.tree.root / "scene_model.json"
@@ -256,7 +257,7 @@ def stage_classify_scene(ctx: Context) -> str:
             SceneModel.from_doc(doc, a.scene_model)
             write_json(path, doc)
             return ["scene_model.json"], f"scene model {a.scene_model}", True
-        model = train_model(a.scene, a.labels, str(path), band_names=_names(a.band_names))
+        model = train_model(a.scene, a.labels, str(path), band_names=parse_names(a.band_names))
         cv = model.info.get("cross_validation") or {}
         note = (f"{model.spec.kind} scene model on {len(a.scene)} scene(s)"
                 + (f", leave-scenes-out AUC {cv['auc_mean']:.3f}, recall@5 "
@@ -275,10 +276,10 @@ def scene_sites(ctx: Context, scan: Any) -> dict[str, Any]:
     them as the run's sites; the others are simulated as flat ground, truth unknown."""
     from scipy.spatial import cKDTree
 
+    from mound.args import parse_lat_lon, parse_names
     from mound.datasets import sha256_of as digest_of
     from mound.jsonio import read_json as read_doc
     from mound.scene import score
-    from mound.scene.cli import _home, _names
     from mound.scene.model import SCHEMA as SCENE_SCHEMA
     from mound.scene.model import VERSION as SCENE_VERSION
     from mound.scene.model import SceneModel
@@ -292,11 +293,11 @@ def scene_sites(ctx: Context, scan: Any) -> dict[str, Any]:
     model_path = ctx.tree.root / "scene_model.json"
     model = SceneModel.from_doc(read_doc(model_path, SCENE_SCHEMA, SCENE_VERSION),
                                 str(model_path))
-    home = _home(a.home)
+    home = parse_lat_lon(a.home)
     labels = read_labels(a.labels) if a.labels else []
     feats: list[dict[str, Any]] = []
     for k, scene_path in enumerate(a.scene):
-        scene = open_scene(scene_path, _names(a.band_names))
+        scene = open_scene(scene_path, parse_names(a.band_names))
         aoi = None
         if a.aoi:
             try:
@@ -412,9 +413,9 @@ def stage_field(ctx: Context) -> str:
                                  a.budget if a.budget is not None else flight_budget_m(),
                                  spacing_m=a.spacing, scan=scan)
             if a.home:
-                from mound.scene.cli import _home
+                from mound.args import parse_lat_lon
 
-                home = _home(a.home)
+                home = parse_lat_lon(a.home)
                 assert home is not None  # a.home is set
                 lat, lon = home
                 out["origin"] = {"lat": lat, "lon": lon, "alt_m": 0.0}
@@ -489,7 +490,7 @@ def stage_mission(ctx: Context) -> str:
     from mound.survey import figures
     from mound.uav import files as mission_files
     from mound.uav import mission_items
-    from mound.uav.cli import upload_mission
+    from mound.uav.upload import upload_mission
 
     a = ctx.args
     t = ctx.tree
@@ -794,10 +795,10 @@ def check_args(a: argparse.Namespace) -> None:
                 raise UsageError(f"--{opt.replace('_', '-')}: {getattr(a, opt)} not found")
         if not 1 <= a.candidates <= 10_000:
             raise UsageError("--candidates: 1 .. 10,000")
-        from mound.scene.cli import _home
+        from mound.args import parse_lat_lon
         from mound.scene.raster import open_scene
 
-        _home(a.home)
+        parse_lat_lon(a.home)
         for sp in a.scene:
             open_scene(sp)
     elif a.labels or a.scene_model or a.aoi:
@@ -805,9 +806,9 @@ def check_args(a: argparse.Namespace) -> None:
     elif a.home:
         if a.sites:
             raise UsageError("--home: the sites file has its own home and origin")
-        from mound.scene.cli import _home
+        from mound.args import parse_lat_lon
 
-        _home(a.home)
+        parse_lat_lon(a.home)
     if not 1 <= a.flights <= 64:
         raise UsageError("--flights: 1 .. 64")
     if a.dem:
