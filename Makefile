@@ -47,7 +47,8 @@ CXX_SOURCES = $(shell find cpp tools -name '*.cc' -o -name '*.h')
 lint: setup
 	$(VENV)/bin/ruff check python tests tools
 	$(VENV)/bin/mypy
-	$(VENV)/bin/clang-format --dry-run --Werror $(CXX_SOURCES)
+	@echo "clang-format --dry-run --Werror: $(words $(CXX_SOURCES)) C++ sources"
+	@$(VENV)/bin/clang-format --dry-run --Werror $(CXX_SOURCES)
 
 # Applies .clang-format to the C++ sources (make lint checks it).
 format: setup
