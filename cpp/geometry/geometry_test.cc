@@ -6,6 +6,7 @@
 #include <cmath>
 #include <random>
 
+#include "common/error.h"
 #include "geometry/camera_model.h"
 #include "geometry/geodesy.h"
 #include "geometry/rigid3.h"
@@ -75,6 +76,22 @@ TEST(Rigid3d, LookAtPutsTheTargetOnTheOpticalAxisWithNorthUp) {
   EXPECT_NEAR((cam_from_world.Centre() - c).norm(), 0, 1e-12);
   // A point north of the target appears above it in the image (smaller y).
   EXPECT_LT((cam_from_world * (target + Eigen::Vector3d(0, 1, 0))).y(), 0);
+}
+
+TEST(Rigid3d, LookAtAlongNorthIsARotationWithEastToTheRight) {
+  // The degenerate case of the north-up rule (it gave NaN): as the Python twin, image x is
+  // east and the rotation stays proper.
+  for (const Eigen::Vector3d& dir : {Eigen::Vector3d(0, 5, 0), Eigen::Vector3d(0, -2, 0)}) {
+    const Eigen::Vector3d c(1, 2, 3);
+    const Rigid3d cam_from_world = LookAt(c, c + dir);
+    const Eigen::Matrix3d R = cam_from_world.RotationMatrix();
+    ASSERT_TRUE(R.allFinite());
+    EXPECT_NEAR((R * R.transpose() - Eigen::Matrix3d::Identity()).norm(), 0, 1e-12);
+    EXPECT_NEAR(R.determinant(), 1, 1e-12);
+    EXPECT_NEAR((R.row(0).transpose() - Eigen::Vector3d(1, 0, 0)).norm(), 0, 1e-12);
+    EXPECT_NEAR((R.row(2).transpose() - dir.normalized()).norm(), 0, 1e-12);
+  }
+  EXPECT_THROW(LookAt({1, 2, 3}, {1, 2, 3}), InputError);
 }
 
 TEST(Sim3d, UmeyamaRecoversAKnownSimilarity) {

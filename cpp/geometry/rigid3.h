@@ -34,8 +34,8 @@ struct Rigid3d {
 double RotationAngle(const Eigen::Quaterniond& a, const Eigen::Quaterniond& b);
 
 // cam_from_world of a camera at `centre` looking at `target`, the image's up as close to
-// north (+y) as possible (as mound.geometry.camera.Pose.look_at). Not for a camera looking
-// straight along +-y.
+// north (+y) as possible (as mound.geometry.camera.Pose.look_at); looking straight along
+// +-y, image x is east. InputError when the target is the centre.
 Rigid3d LookAt(const Eigen::Vector3d& centre, const Eigen::Vector3d& target);
 
 }  // namespace mound::geometry
