@@ -37,8 +37,7 @@ test-python: build
 
 # The edit-test loop (< 1 min after the build): every ctest binary (~15 s) and the pytest
 # tests not marked slow (~40 s). `make test` still runs everything.
-test-fast: build
-	cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
+test-fast: test-cpp
 	$(PY) -m pytest -q -m "not slow"
 
 # C++ sources of the project (the fuzz corpus and build trees excluded).

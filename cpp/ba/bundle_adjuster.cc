@@ -88,8 +88,13 @@ Summary Adjust(Problem* p, const Options& o) {
   std::vector<bool> constant(nv, false);
   if (o.fixed_view >= 0) constant[o.fixed_view] = true;
   for (int v : o.constant_views) constant[v] = true;
+  int free_views = 0;  // views with observations that the solver moves
   for (int v = 0; v < nv; ++v) {
-    if (!constant[v] || !problem.HasParameterBlock(poses[v].rotation.data())) continue;
+    if (!problem.HasParameterBlock(poses[v].rotation.data())) continue;
+    if (!constant[v]) {
+      ++free_views;
+      continue;
+    }
     problem.SetParameterBlockConstant(poses[v].rotation.data());
     problem.SetParameterBlockConstant(poses[v].translation.data());
   }
@@ -104,9 +109,6 @@ Summary Adjust(Problem* p, const Options& o) {
   // free view. Up to 50 free views it is factorised dense, as COLMAP does: for a survey
   // site's 18 views that is a 108 x 108 matrix, where a sparse ordering costs more than it
   // saves.
-  int free_views = 0;
-  for (int v = 0; v < nv; ++v)
-    free_views += !constant[v] && problem.HasParameterBlock(poses[v].rotation.data());
   so.linear_solver_type = free_views <= 50 ? ceres::DENSE_SCHUR : ceres::SPARSE_SCHUR;
   so.max_num_iterations = o.max_iterations;
   so.num_threads = o.threads;

@@ -58,8 +58,9 @@ def test_links_outside_docs_reach_a_file_and_its_heading(name: str) -> None:
 
 
 def test_cpp_libraries_form_layers_and_keep_heavy_dependencies_private() -> None:
-    libs = _hooks().cpp_layers()
-    levels = _hooks()._levels({n: m for n, (m, _) in libs.items()})  # raises on a cycle
+    hooks = _hooks()
+    libs = hooks.cpp_layers()
+    levels = hooks._levels({n: m for n, (m, _) in libs.items()})  # raises on a cycle
     assert levels["mound_common"] == 0
     owners = {"OpenCV": {"mound_sfm", "mound_mvs", "mound_sim"}, "Ceres::ceres": {"mound_ba"},
               "PCL": {"mound_icp"}}

@@ -211,19 +211,21 @@ def _layers(words: list[str]) -> str:
     if words == ["cpp"]:
         libs = cpp_layers()
         deps = {n: m for n, (m, _) in libs.items()}
+        level = _levels(deps)
         rows = ["| layer | library | uses | outside libraries (private) |", "|---|---|---|---|"]
-        for n in sorted(deps, key=lambda n: (_levels(deps)[n], n)):
-            rows.append(f"| {_levels(deps)[n]} | `{n}` | "
+        for n in sorted(deps, key=lambda n: (level[n], n)):
+            rows.append(f"| {level[n]} | `{n}` | "
                         f"{', '.join(f'`{d}`' for d in sorted(deps[n])) or '—'} | "
                         f"{', '.join(sorted(libs[n][1])) or '—'} |")
         return "\n".join(rows)
     if words == ["python"]:
         uses = python_layers()
         units = {u: {d for d in ds if d in uses} for u, ds in uses.items()}
+        level = _levels(units)
         rows = ["| layer | package | uses packages | uses modules |", "|---|---|---|---|"]
-        for n in sorted(units, key=lambda n: (_levels(units)[n], n)):
+        for n in sorted(units, key=lambda n: (level[n], n)):
             mods = sorted(uses[n] - set(uses))
-            rows.append(f"| {_levels(units)[n]} | `mound.{n}` | "
+            rows.append(f"| {level[n]} | `mound.{n}` | "
                         f"{', '.join(f'`{d}`' for d in sorted(units[n])) or '—'} | "
                         f"{', '.join(f'`{m}`' for m in mods) or '—'} |")
         return "\n".join(rows)

@@ -167,8 +167,7 @@ def ground_model(zmin: np.ndarray, res: float, window_m: float = 80.0, slope: fl
         if half * res * 2 >= window_m:
             break
         prev, half = half, half * 2
-    rows, cols = np.nonzero(ground)
-    if rows.size < 3:
+    if np.count_nonzero(ground) < 3:
         raise InputError("cloud: too few ground cells to model the terrain")
     # Ground cells keep their minima; the others are interpolated linearly over a Delaunay
     # triangulation of the ground cells, and outside its hull take the nearest ground cell.

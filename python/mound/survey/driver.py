@@ -500,13 +500,14 @@ def stage_mission(ctx: Context) -> str:
         if not plan.get("n_visited"):
             return [], "nothing to fly: no site fits the budget", True
         origin = Origin.from_doc(plan["origin"], f"{t.plan}: origin")
+        # The plan's scan, read once for every flight (build's own rule: else the default).
         scan = mission_items.plan_scan(plan, str(t.plan))
+        spec = mission_items.MissionSpec(scan=scan) if scan else mission_items.MissionSpec()
         terrain = mission_terrain(a)
         flights = mission_items.flight_plans(plan)
         several = len(flights) > 1
         missions = [(f["flight"] if several else None,
-                     mission_items.build(f, origin, mission_items.MissionSpec(scan=scan)
-                                         if scan else None, terrain)) for f in flights]
+                     mission_items.build(f, origin, spec, terrain)) for f in flights]
         t.report_dir.mkdir(parents=True, exist_ok=True)
         made: list[str] = []
         summaries = []
