@@ -117,6 +117,25 @@ TEST(Sim3d, UmeyamaRecoversAKnownSimilarity) {
   EXPECT_FALSE(EstimateSim3d({src[0], src[1]}, {dst[0], dst[1]}));
 }
 
+TEST(Sim3d, ComposesRightToLeftAndInverts) {
+  Sim3d a, b;
+  a.scale = 1.5;
+  a.rotation = Eigen::AngleAxisd(0.7, Eigen::Vector3d(0, 0, 1));
+  a.translation = {3, -2, 1};
+  b.scale = 0.4;
+  b.rotation = Eigen::AngleAxisd(-1.1, Eigen::Vector3d(1, 2, 0).normalized());
+  b.translation = {-5, 0.5, 9};
+  const Eigen::Vector3d x(2, -7, 4);
+  EXPECT_NEAR(((a * b) * x - a * (b * x)).norm(), 0, 1e-12);
+  EXPECT_NEAR(((a * a.Inverse()) * x - x).norm(), 0, 1e-12);
+}
+
+TEST(Skew, IsTheCrossProduct) {
+  const Eigen::Vector3d v(0.3, -2, 5), w(-1, 4, 0.5);
+  EXPECT_NEAR((Skew(v) * w - v.cross(w)).norm(), 0, 1e-12);
+  EXPECT_NEAR((Skew(v) + Skew(v).transpose()).norm(), 0, 0);
+}
+
 TEST(Geodesy, Wgs84KnownPointsAndRoundTrips) {
   const Eigen::Vector3d equator = EcefFromGeodetic({0, 0, 0});
   EXPECT_NEAR((equator - Eigen::Vector3d(6378137.0, 0, 0)).norm(), 0, 1e-6);

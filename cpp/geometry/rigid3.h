@@ -30,6 +30,13 @@ struct Rigid3d {
   }
 };
 
+// [v]x: the matrix of the cross product, [v]x w = v x w.
+inline Eigen::Matrix3d Skew(const Eigen::Vector3d& v) {
+  Eigen::Matrix3d m;
+  m << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
+  return m;
+}
+
 // Angle of the rotation between a and b, radians.
 double RotationAngle(const Eigen::Quaterniond& a, const Eigen::Quaterniond& b);
 

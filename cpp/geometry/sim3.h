@@ -19,6 +19,14 @@ struct Sim3d {
   Eigen::Vector3d operator*(const Eigen::Vector3d& x) const {
     return scale * (rotation * x) + translation;
   }
+  // Composition reads right to left, as Rigid3d's: (a * b) * x = a * (b * x).
+  Sim3d operator*(const Sim3d& b) const {
+    Sim3d c;
+    c.scale = scale * b.scale;
+    c.rotation = rotation * b.rotation;
+    c.translation = scale * (rotation * b.translation) + translation;
+    return c;
+  }
   Sim3d Inverse() const;
 };
 

@@ -17,26 +17,13 @@
 
 #include "common/error.h"
 #include "common/stats.h"
+#include "geometry/rigid3.h"
 
 namespace mound::icp {
 namespace {
 
 using Cloud = pcl::PointCloud<pcl::PointXYZ>;
 using geometry::Sim3d;
-
-Sim3d Compose(const Sim3d& a, const Sim3d& b) {  // a * b
-  Sim3d c;
-  c.scale = a.scale * b.scale;
-  c.rotation = a.rotation * b.rotation;
-  c.translation = a.scale * (a.rotation * b.translation) + a.translation;
-  return c;
-}
-
-Eigen::Matrix3d Skew(const Eigen::Vector3d& v) {
-  Eigen::Matrix3d m;
-  m << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
-  return m;
-}
 
 Sim3d Shift(const Eigen::Vector3d& t) {
   Sim3d s;
@@ -269,7 +256,7 @@ Run RunPlaneIcp(const std::vector<Eigen::Vector3d>& src, const Cloud::Ptr& tgt,
       A += J * J.transpose();
       b += J * res;
       Eigen::Matrix<double, 3, 7> Jp;
-      Jp << -Skew(pt), Eigen::Matrix3d::Identity(), pt;
+      Jp << -geometry::Skew(pt), Eigen::Matrix3d::Identity(), pt;
       A += w_point * w_point * Jp.transpose() * Jp;
       b += w_point * w_point * Jp.transpose() * (p[i] - q);
     }
@@ -283,7 +270,7 @@ Run RunPlaneIcp(const std::vector<Eigen::Vector3d>& src, const Cloud::Ptr& tgt,
                                  : Eigen::Quaterniond::Identity();
     // p -> c + tau + s R (p - c)
     step.translation = c + tau - step.scale * (step.rotation * c);
-    r.T = Compose(step, r.T);
+    r.T = step * r.T;
     if (w.norm() < o.rotation_epsilon_rad && tau.norm() < o.translation_epsilon * extent &&
         std::fabs(x[6]) < o.translation_epsilon) {
       r.converged = true;
@@ -437,7 +424,7 @@ Result Align(const std::vector<Eigen::Vector3d>& cloud,
     best = run(src, src_e, best.T, o.max_iterations, o);
   }
   Result res;
-  res.reference_from_cloud = Compose(Shift(sr.centroid), Compose(best.T, Shift(-sc.centroid)));
+  res.reference_from_cloud = Shift(sr.centroid) * best.T * Shift(-sc.centroid);
   res.init_used = init;
   res.iterations = best.iterations;
   res.coarse_iterations = coarse_iterations;

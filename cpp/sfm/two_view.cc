@@ -14,11 +14,7 @@
 #include "sfm/features.h"
 
 namespace mound::sfm {
-Eigen::Matrix3d Skew(const Eigen::Vector3d& v) {
-  Eigen::Matrix3d s;
-  s << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
-  return s;
-}
+using geometry::Skew;
 
 namespace {
 

@@ -73,9 +73,6 @@ struct TwoViewResult {
 TwoViewResult InitialiseTwoView(const Matches& m, const geometry::CameraModel& camera,
                                 double ransac_px = 1.0, uint64_t seed = 1);
 
-// [v]x: the matrix of the cross product, [v]x w = v x w.
-Eigen::Matrix3d Skew(const Eigen::Vector3d& v);
-
 // Two-view bundle adjustment of an initialisation (cpp/ba: camera 1 fixed, |t| kept):
 // refines R, t and the inlier depths in place; returns the RMS reprojection error
 // before and after (pixels).

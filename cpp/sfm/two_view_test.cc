@@ -18,6 +18,8 @@
 namespace mound::sfm {
 namespace {
 
+using geometry::Skew;
+
 struct Scene {
   Eigen::Matrix3d R;
   Eigen::Vector3d t;
