@@ -9,19 +9,33 @@
 
 namespace mound::geometry {
 
-CameraModel CameraFromJson(const nlohmann::json& c, const std::string& path) {
-  CameraModel cam;
-  cam.width = RequireInt(c, "width", path, 1, 20000);
-  cam.height = RequireInt(c, "height", path, 1, 20000);
-  const std::vector<double> K = RequireMatrix3(c, "K", path);
+CameraModel CameraFromK(const std::vector<double>& K, int width, int height,
+                        const std::string& where) {
+  if (K.size() != 9 || !std::all_of(K.begin(), K.end(), [](double x) { return std::isfinite(x); }))
+    throw InputError(where + ": expected 9 finite numbers");
   if (K[1] != 0 || K[3] != 0 || K[6] != 0 || K[7] != 0 || K[8] != 1) {
-    throw InputError(JoinPath(path, "K") + ": expected [[fx, 0, cx], [0, fy, cy], [0, 0, 1]]");
+    throw InputError(where + ": expected [[fx, 0, cx], [0, fy, cy], [0, 0, 1]]");
   }
-  if (K[0] <= 0 || K[4] <= 0) throw InputError(JoinPath(path, "K") + ": fx and fy must be > 0");
+  if (!(K[0] > 0) || !(K[4] > 0)) throw InputError(where + ": fx and fy must be > 0");
+  CameraModel cam;
+  cam.width = width;
+  cam.height = height;
   cam.fx = K[0];
   cam.fy = K[4];
   cam.cx = K[2];
   cam.cy = K[5];
+  if (cam.cx < 0 || cam.cx > width || cam.cy < 0 || cam.cy > height) {
+    throw InputError(where + ": the principal point (" + FormatNumber(cam.cx) + ", " +
+                     FormatNumber(cam.cy) + ") lies outside the " + std::to_string(width) + "x" +
+                     std::to_string(height) + " image");
+  }
+  return cam;
+}
+
+CameraModel CameraFromJson(const nlohmann::json& c, const std::string& path) {
+  const int width = RequireInt(c, "width", path, 1, 20000);
+  const int height = RequireInt(c, "height", path, 1, 20000);
+  CameraModel cam = CameraFromK(RequireMatrix3(c, "K", path), width, height, JoinPath(path, "K"));
   if (c.contains("dist_k1k2p1p2k3")) {
     const std::vector<double> d = RequireNumbers(c, "dist_k1k2p1p2k3", path, 5);
     std::copy(d.begin(), d.end(), cam.dist.begin());

@@ -177,6 +177,9 @@ PlyCloud ParsePly(std::istream& in, const std::string& path) {
       continue;
     extra[k] = &cloud.scalars[v.props[k].name];
     extra[k]->reserve(reserve);
+    const std::string& t = v.props[k].type;
+    if (t != "float" && t != "float32" && t != "double" && t != "float64")
+      cloud.int_scalars.insert(v.props[k].name);
   }
   std::vector<char> buf(static_cast<size_t>(record));
   std::vector<double> val(v.props.size());
@@ -229,16 +232,22 @@ void WritePly(const std::string& path, const PlyCloud& c) {
   const bool colours = !c.rgb.empty();
   if (colours && c.rgb.size() != c.xyz.size())
     throw InternalError("WritePly: rgb and xyz differ in length");
-  for (const auto& [name, values] : c.scalars)
+  for (const auto& [name, values] : c.scalars) {
     if (values.size() != c.xyz.size())
       throw InternalError("WritePly: scalar " + name + " differs in length");
+    if (!c.int_scalars.count(name)) continue;
+    for (double x : values)
+      if (!(x == std::floor(x) && x >= -2147483648.0 && x <= 2147483647.0))
+        throw InternalError("WritePly: int scalar " + name + " holds " + std::to_string(x));
+  }
   std::ostringstream h;
   h << "ply\nformat binary_little_endian 1.0\n";
   for (const std::string& s : c.comments) h << "comment " << s << "\n";
   h << "element vertex " << c.xyz.size()
     << "\nproperty float x\nproperty float y\nproperty float z\n";
   if (colours) h << "property uchar red\nproperty uchar green\nproperty uchar blue\n";
-  for (const auto& kv : c.scalars) h << "property float " << kv.first << "\n";
+  for (const auto& kv : c.scalars)
+    h << "property " << (c.int_scalars.count(kv.first) ? "int " : "float ") << kv.first << "\n";
   h << "end_header\n";
   std::string out = h.str();
   const size_t record = 12 + (colours ? 3 : 0) + 4 * c.scalars.size();
@@ -256,8 +265,13 @@ void WritePly(const std::string& path, const PlyCloud& c) {
       p += 3;
     }
     for (const auto& kv : c.scalars) {
-      const float f = static_cast<float>(kv.second[i]);
-      std::memcpy(p, &f, 4);
+      if (c.int_scalars.count(kv.first)) {
+        const int32_t n = static_cast<int32_t>(kv.second[i]);
+        std::memcpy(p, &n, 4);
+      } else {
+        const float f = static_cast<float>(kv.second[i]);
+        std::memcpy(p, &f, 4);
+      }
       p += 4;
     }
   }

@@ -15,6 +15,7 @@
 #include <cstdint>
 #include <istream>
 #include <map>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -24,6 +25,7 @@ struct PlyCloud {
   std::vector<Eigen::Vector3d> xyz;
   std::vector<std::array<uint8_t, 3>> rgb;             // empty when the file has no colours
   std::map<std::string, std::vector<double>> scalars;  // other vertex properties, by name
+  std::set<std::string> int_scalars;  // those of `scalars` of an integer type in the file
   std::vector<std::string> comments;
 };
 
@@ -32,7 +34,9 @@ PlyCloud ReadPly(const std::string& path);
 PlyCloud ParsePly(std::istream& in, const std::string& path);
 
 // Binary little-endian: float x y z, uchar red green blue when `rgb` is not empty, then
-// one float per scalar field (in the map's order); comments as given. Atomic.
+// one scalar field after another in the map's order, int for those named in
+// `int_scalars` (their values must be integers in int32's range), float for the others;
+// comments as given. Atomic. The one PLY writer of the C++ side.
 void WritePly(const std::string& path, const PlyCloud& cloud);
 
 }  // namespace mound

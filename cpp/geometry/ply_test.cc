@@ -37,6 +37,8 @@ TEST(Ply, WrittenCloudReadsBack) {
   c.xyz = {{1.5, -2.25, 3.0}, {0, 0, 0}, {1e3, 2e3, -5}};
   c.rgb = {{255, 0, 10}, {1, 2, 3}, {9, 8, 7}};
   c.scalars["distance"] = {0.5, 0.25, 4.0};
+  c.scalars["track_length"] = {2, 7, 40000};
+  c.int_scalars = {"track_length"};
   c.comments = {"mound.test v1"};
   const std::string p = Temp("rt.ply");
   WritePly(p, c);
@@ -45,7 +47,11 @@ TEST(Ply, WrittenCloudReadsBack) {
   for (size_t i = 0; i < 3; ++i) EXPECT_LT((r.xyz[i] - c.xyz[i]).norm(), 1e-4);
   EXPECT_EQ(r.rgb, c.rgb);
   EXPECT_EQ(r.scalars.at("distance"), c.scalars.at("distance"));
+  EXPECT_EQ(r.scalars.at("track_length"), c.scalars.at("track_length"));
+  EXPECT_EQ(r.int_scalars, c.int_scalars);  // written as int, read back as an integer field
   EXPECT_EQ(r.comments, c.comments);
+  c.scalars["track_length"][1] = 7.5;  // an int field must hold integers
+  EXPECT_THROW(WritePly(p, c), InternalError);
 }
 
 TEST(Ply, AsciiAndBigEndianAndSkippedElements) {

@@ -8,80 +8,40 @@
 #include "common/atomic_file.h"
 #include "common/error.h"
 #include "common/json_util.h"
+#include "geometry/json_io.h"
 
 namespace mound::recon {
-namespace {
-
-std::vector<double> Numbers(const nlohmann::json& j, size_t n, const std::string& where) {
-  if (!j.is_array() || j.size() != n)
-    throw InputError(where + ": expected " + std::to_string(n) + " numbers");
-  std::vector<double> v;
-  for (const auto& x : j) {
-    if (!x.is_number() || !std::isfinite(x.get<double>()))
-      throw InputError(where + ": expected finite numbers");
-    v.push_back(x.get<double>());
-  }
-  return v;
-}
-
-void CheckK(const std::vector<double>& K, const std::string& where) {
-  if (K[1] != 0 || K[3] != 0 || K[6] != 0 || K[7] != 0 || K[8] != 1 || !(K[0] > 0) || !(K[4] > 0)) {
-    throw InputError(where + ": expected [[fx, 0, cx], [0, fy, cy], [0, 0, 1]] with fx, fy > 0");
-  }
-}
-
-}  // namespace
-
 geometry::CameraModel ReadCamera(const std::string& path, int width, int height) {
   return ParseCamera(ReadFile(path), path, width, height);
 }
 
 geometry::CameraModel ParseCamera(const std::string& text, const std::string& path, int width,
                                   int height) {
-  geometry::CameraModel c;
-  std::vector<double> K;
   const size_t first = text.find_first_not_of(" \t\r\n");
   if (first != std::string::npos && text[first] == '{') {
     const nlohmann::json doc = ParseJson(text, path);
     CheckSchema(doc, "mound.camera", 1, path);
-    const nlohmann::json& k = RequireField(doc, "K", "");
-    if (!k.is_array() || k.size() != 3) throw InputError(path + ": K: expected 3 rows");
-    for (int r = 0; r < 3; ++r) {
-      const std::vector<double> row = Numbers(k[r], 3, path + ": K[" + std::to_string(r) + "]");
-      K.insert(K.end(), row.begin(), row.end());
+    geometry::CameraModel c;
+    try {
+      c = geometry::CameraFromJson(doc, "");
+    } catch (const InputError& e) {
+      throw InputError(path + ": " + e.what());
     }
-    if (doc.contains("dist_k1k2p1p2k3")) {
-      const std::vector<double> d = Numbers(doc["dist_k1k2p1p2k3"], 5, path + ": dist_k1k2p1p2k3");
-      std::copy(d.begin(), d.end(), c.dist.begin());
+    if (c.width != width || c.height != height) {
+      throw InputError(path + ": width x height " + std::to_string(c.width) + "x" +
+                       std::to_string(c.height) + " does not match the images (" +
+                       std::to_string(width) + "x" + std::to_string(height) + ")");
     }
-    const double w = RequireFinite(doc, "width", ""), h = RequireFinite(doc, "height", "");
-    if (w != width || h != height) {
-      throw InputError(path + ": width x height " + FormatNumber(w) + "x" + FormatNumber(h) +
-                       " does not match the images (" + std::to_string(width) + "x" +
-                       std::to_string(height) + ")");
-    }
-  } else {
-    std::istringstream in(text);
-    double v;
-    while (K.size() < 9 && in >> v) K.push_back(v);
-    if (K.size() != 9 ||
-        !std::all_of(K.begin(), K.end(), [](double x) { return std::isfinite(x); })) {
-      throw InputError(path + ": expected a mound.camera JSON file or the 9 numbers of K");
-    }
+    return c;
   }
-  CheckK(K, path + ": K");
-  c.width = width;
-  c.height = height;
-  c.fx = K[0];
-  c.fy = K[4];
-  c.cx = K[2];
-  c.cy = K[5];
-  if (c.cx < 0 || c.cx > width || c.cy < 0 || c.cy > height) {
-    throw InputError(path + ": the principal point (" + FormatNumber(c.cx) + ", " +
-                     FormatNumber(c.cy) + ") lies outside the " + std::to_string(width) + "x" +
-                     std::to_string(height) + " images: is this the images' camera?");
+  std::istringstream in(text);
+  std::vector<double> K;
+  double v;
+  while (K.size() < 9 && in >> v) K.push_back(v);
+  if (K.size() != 9) {
+    throw InputError(path + ": expected a mound.camera JSON file or the 9 numbers of K");
   }
-  return c;
+  return geometry::CameraFromK(K, width, height, path + ": K");
 }
 
 GpsPositions ReadGpsPoses(const std::string& path, const std::vector<std::string>& files) {
@@ -111,8 +71,7 @@ GpsPositions ParseGpsPoses(const std::string& text, const std::string& path,
       throw InputError(path + ": " + p + ".file: no image '" + file + "' in the images folder");
     }
     if (!images[k].contains("gps_enu_m")) continue;
-    const std::vector<double> v =
-        Numbers(images[k]["gps_enu_m"], 3, path + ": " + p + ".gps_enu_m");
+    const std::vector<double> v = RequireNumbers(images[k], "gps_enu_m", path + ": " + p, 3);
     g.enu_m[file] = Eigen::Vector3d(v[0], v[1], v[2]);
   }
   return g;

@@ -21,23 +21,16 @@ nlohmann::json CameraJson(const geometry::CameraModel& c) {
 }
 
 void WritePly(const std::string& path, const sfm::Reconstruction& r) {
-  std::ostringstream h;
-  h << "ply\nformat binary_little_endian 1.0\ncomment mound.recon v1 points\nelement vertex "
-    << r.points.size()
-    << "\nproperty float x\nproperty float y\nproperty float z\nproperty uchar red\n"
-       "property uchar green\nproperty uchar blue\nproperty int track_length\nend_header\n";
-  std::string out = h.str();
+  PlyCloud cloud;
+  cloud.comments = {"mound.recon v1 points"};
+  std::vector<double>& track_length = cloud.scalars["track_length"];
+  cloud.int_scalars = {"track_length"};
   for (const sfm::Point3D& p : r.points) {
-    const float xyz[3] = {static_cast<float>(p.xyz.x()), static_cast<float>(p.xyz.y()),
-                          static_cast<float>(p.xyz.z())};
-    const int32_t len = static_cast<int32_t>(p.track.size());
-    char buf[19];
-    std::memcpy(buf, xyz, 12);  // x86-64 and aarch64 are little-endian
-    std::memcpy(buf + 12, p.color.data(), 3);
-    std::memcpy(buf + 15, &len, 4);
-    out.append(buf, sizeof buf);
+    cloud.xyz.push_back(p.xyz);
+    cloud.rgb.push_back(p.color);
+    track_length.push_back(static_cast<double>(p.track.size()));
   }
-  WriteFileAtomic(path, out);
+  mound::WritePly(path, cloud);
 }
 
 void WriteColmapText(const std::string& dir, const sfm::Reconstruction& r,

@@ -192,6 +192,22 @@ TEST(Camera, ReadsStrechaKAndTheSimulatorsCameraAndRefusesMisfits) {
   EXPECT_THROW(ReadCamera(Temp("K3.txt", "1 2 3"), 640, 480), InputError);
   EXPECT_THROW(ReadCamera(Temp("K4.txt", "100 5 300 0 100 200 0 0 1"), 640, 480),
                InputError);  // skew
+  // The JSON and the text form go through the same checks (geometry::CameraFromK), and a
+  // field's error names the file and the field.
+  const std::string bad = Temp("bad.json", R"({"schema": "mound.camera", "version": 1,
+      "width": 640, "height": 480, "K": [[457, 0, 319.5], [0, -457, 239.5], [0, 0, 1]]})");
+  try {
+    ReadCamera(bad, 640, 480);
+    ADD_FAILURE() << "a negative fy was accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), bad + ": K: fx and fy must be > 0");
+  }
+  try {
+    ReadCamera(Temp("K5.txt", "457 0 319.5 0 -457 239.5 0 0 1"), 640, 480);
+    ADD_FAILURE() << "a negative fy was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("K: fx and fy must be > 0"), std::string::npos);
+  }
 }
 
 }  // namespace

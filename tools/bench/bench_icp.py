@@ -28,13 +28,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "python"))
 
 from mound.paths import REPO_ROOT, build_dir
-from mound.ply import read_ply
-
-
-def write_ply(path: Path, xyz: np.ndarray) -> None:
-    head = (f"ply\nformat binary_little_endian 1.0\nelement vertex {len(xyz)}\n"
-            "property float x\nproperty float y\nproperty float z\nend_header\n").encode()
-    path.write_bytes(head + xyz.astype("<f4").tobytes())
+from mound.ply import read_ply, write_ply
 
 
 def rotation(axis: np.ndarray, angle: float) -> np.ndarray:
