@@ -282,6 +282,41 @@ Run RunPlaneIcp(const std::vector<Eigen::Vector3d>& src, const Cloud::Ptr& tgt,
 
 }  // namespace
 
+std::string ToString(Method m) {
+  return m == Method::kPointToPlane ? "point_to_plane" : "pcl_point_to_point";
+}
+
+std::string ToString(Init i) {
+  return i == Init::kAuto ? "auto" : i == Init::kNone ? "none" : "pca";
+}
+
+std::optional<Method> MethodFromString(const std::string& name) {
+  for (Method m : {Method::kPointToPlane, Method::kPclPointToPoint})
+    if (ToString(m) == name) return m;
+  return std::nullopt;
+}
+
+std::optional<Init> InitFromString(const std::string& name) {
+  for (Init i : {Init::kAuto, Init::kNone, Init::kPca})
+    if (ToString(i) == name) return i;
+  return std::nullopt;
+}
+
+void Options::Check() const {
+  auto require = [](bool ok, const std::string& field, const std::string& what) {
+    if (!ok) throw InputError("icp." + field + ": must be " + what);
+  };
+  require(max_iterations >= 1, "max_iterations", ">= 1");
+  require(median_factor > 1, "median_factor", "> 1");
+  require(translation_epsilon > 0, "translation_epsilon", "> 0");
+  require(rotation_epsilon_rad > 0, "rotation_epsilon_rad", "> 0");
+  require(relative_mse_epsilon > 0, "relative_mse_epsilon", "> 0");
+  require(max_source_points >= 10, "max_source_points", ">= 10");
+  require(max_scale_change > 0, "max_scale_change", "> 0");
+  require(max_shift_fraction > 0, "max_shift_fraction", "> 0");
+  require(max_rotation_rad > 0, "max_rotation_rad", "> 0");
+}
+
 Result Align(const std::vector<Eigen::Vector3d>& cloud,
              const std::vector<Eigen::Vector3d>& reference, const Options& o) {
   if (cloud.size() < 10)
@@ -289,12 +324,7 @@ Result Align(const std::vector<Eigen::Vector3d>& cloud,
   if (reference.size() < 10)
     throw InputError("reference: " + std::to_string(reference.size()) +
                      " points; ICP needs at least 10");
-  if (o.init != "auto" && o.init != "none" && o.init != "pca")
-    throw InputError("--init: expected auto, none or pca, got '" + o.init + "'");
-  if (o.method != "point_to_plane" && o.method != "pcl_point_to_point") {
-    throw InputError("--method: expected point_to_plane or pcl_point_to_point, got '" + o.method +
-                     "'");
-  }
+  o.Check();
   const Stats sc = Moments(cloud), sr = Moments(reference);
   if (!(sr.rms_radius > 0) || !(sc.rms_radius > 0))
     throw NoResultError("a cloud has all its points at one place");
@@ -315,17 +345,18 @@ Result Align(const std::vector<Eigen::Vector3d>& cloud,
   const double extent = sr.rms_radius;
   auto run = [&](const Cloud::Ptr& s, const std::vector<Eigen::Vector3d>& se, const Sim3d& start,
                  int iters, const Options& opt) {
-    Run r = opt.method == "point_to_plane"
+    Run r = opt.method == Method::kPointToPlane
                 ? RunPlaneIcp(se, tgt, tree, &normals, start, opt, iters, extent)
                 : RunIcp(s, tgt, tree, start, opt, iters, extent);
     Score(*s, *tree, opt.median_factor, &r);
     return r;
   };
   // Centred frames: reference' = reference - c_r, cloud' = cloud - c_c.
-  std::string init = o.init;
-  if (init == "auto") {
+  Init init = o.init;
+  if (init == Init::kAuto) {
     const double ratio = sc.rms_radius / sr.rms_radius;
-    init = (sc.centroid - sr.centroid).norm() < extent && ratio > 0.1 && ratio < 2 ? "none" : "pca";
+    init = (sc.centroid - sr.centroid).norm() < extent && ratio > 0.1 && ratio < 2 ? Init::kNone
+                                                                                   : Init::kPca;
   }
   // Coarse to fine: a 2,000-point sample converges first (most of the iterations, at a
   // tenth of the cost), then the full sample refines from there.
@@ -336,7 +367,7 @@ Result Align(const std::vector<Eigen::Vector3d>& cloud,
   Run best;
   int coarse_iterations = 0;
   bool scale_fixed = false, frame_kept = false;
-  if (init == "none") {
+  if (init == Init::kNone) {
     const Sim3d start = Shift(sc.centroid - sr.centroid);  // the identity, centred frames
     auto coarse_to_fine = [&](const Options& opt) {
       const Run c = run(coarse, coarse_e, start, opt.max_iterations, opt);

@@ -18,6 +18,7 @@
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -25,17 +26,26 @@
 
 namespace mound::icp {
 
+// kPointToPlane (default): written here, on PCL's k-d tree; kPclPointToPoint: PCL's
+// IterativeClosestPoint with its SVD-with-scale estimator (slow on smooth terrain, where
+// point-to-point ICP crawls along the surface; kept for comparison).
+enum class Method { kPointToPlane, kPclPointToPoint };
+// kNone: the clouds share a frame (both georeferenced); kPca: principal axes with their
+// ambiguities (24 starts) tried by a coarse ICP each; kAuto: none when the cloud's
+// centroid lies within the reference's extent (RMS radius) and its own extent is 0.1-2x
+// the reference's (a flight covers part of a reference site), else pca.
+enum class Init { kAuto, kNone, kPca };
+
+// The names of the files and flags: point_to_plane, pcl_point_to_point; auto, none, pca.
+std::string ToString(Method m);
+std::string ToString(Init i);
+std::optional<Method> MethodFromString(const std::string& name);
+std::optional<Init> InitFromString(const std::string& name);
+
 struct Options {
   bool estimate_scale = true;
-  // point_to_plane (default): written here, on PCL's k-d tree; pcl_point_to_point: PCL's
-  // IterativeClosestPoint with its SVD-with-scale estimator (slow on smooth terrain, where
-  // point-to-point ICP crawls along the surface; kept for comparison).
-  std::string method = "point_to_plane";
-  // none: the clouds share a frame (both georeferenced); pca: principal axes with their
-  // ambiguities (24 starts) tried by a coarse ICP each; auto: none when the cloud's
-  // centroid lies within the reference's extent (RMS radius) and its own extent is 0.1-2x
-  // the reference's (a flight covers part of a reference site), else pca.
-  std::string init = "auto";
+  Method method = Method::kPointToPlane;
+  Init init = Init::kAuto;
   int max_iterations = 100;
   double median_factor = 3.0;
   // Steps below these move the cloud by less than 1e-4 of its extent: below the sampling's
@@ -53,21 +63,25 @@ struct Options {
   double max_shift_fraction = 0.1;
   double max_rotation_rad = 0.17;  // 10 degrees
   uint64_t seed = 1;
+
+  // InputError naming the field ("icp.max_iterations: ...") when a value is out of range.
+  void Check() const;
 };
 
 struct Result {
   geometry::Sim3d reference_from_cloud;
-  std::string init_used;      // none | pca
-  int iterations = 0;         // of the final ICP on the full sample
-  int coarse_iterations = 0;  // of the 2,000-point ICPs before it (all starts)
-  bool scale_fixed = false;   // the fit with scale left max_scale_change: redone rigid
-  bool frame_kept = false;    // the fit moved too far: the input frame kept, no alignment
+  Init init_used = Init::kNone;  // kNone or kPca
+  int iterations = 0;            // of the final ICP on the full sample
+  int coarse_iterations = 0;     // of the 2,000-point ICPs before it (all starts)
+  bool scale_fixed = false;      // the fit with scale left max_scale_change: redone rigid
+  bool frame_kept = false;       // the fit moved too far: the input frame kept, no alignment
   bool converged = false;
   double rmse_m = 0;           // point-to-point, over the inliers of the last iteration
   double inlier_fraction = 0;  // of the sampled cloud points
 };
 
-// Throws InputError for clouds with fewer than 10 points, NoResultError when the clouds do
+// Throws InputError for clouds with fewer than 10 points or options that fail Check(),
+// NoResultError when the clouds do
 // not overlap (no correspondences survive) or the fit degenerates.
 Result Align(const std::vector<Eigen::Vector3d>& cloud,
              const std::vector<Eigen::Vector3d>& reference, const Options& options);

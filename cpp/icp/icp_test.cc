@@ -75,9 +75,9 @@ TEST_P(ScaleCase, RecoversASimilarityWithOutliersAndPartialOverlap) {
   const geometry::Sim3d T = Truth(scale);
   for (auto& p : cloud) p = T * p;
   Options o;
-  o.init = "pca";
+  o.init = Init::kPca;
   const Result r = Align(cloud, reference, o);
-  EXPECT_EQ(r.init_used, "pca");
+  EXPECT_EQ(r.init_used, Init::kPca);
   EXPECT_TRUE(r.converged) << r.iterations << " iterations";
   ExpectRecovered(r.reference_from_cloud, T, 5e-3);
   EXPECT_GT(r.inlier_fraction, 0.6);
@@ -95,7 +95,7 @@ TEST(Align, SharedFrameStartsFromIdentity) {
   small.translation = {1.5, -1.0, 0.8};
   for (auto& p : cloud) p = small * p;
   const Result r = Align(cloud, reference, Options{});
-  EXPECT_EQ(r.init_used, "none");
+  EXPECT_EQ(r.init_used, Init::kNone);
   ExpectRecovered(r.reference_from_cloud, small, 2e-3);
   EXPECT_LT(r.rmse_m, 0.5);
 }
@@ -105,11 +105,28 @@ TEST(Align, DisjointCloudsOrTooFewPointsAreReported) {
   std::vector<Eigen::Vector3d> far = Terrain(2000, 7);
   for (auto& p : far) p += Eigen::Vector3d(1e4, 0, 0);
   Options o;
-  o.init = "none";
+  o.init = Init::kNone;
   EXPECT_THROW(Align(far, reference, o), NoResultError);
   EXPECT_THROW(Align({{0, 0, 0}}, reference, o), InputError);
-  o.init = "sideways";
+  o.max_iterations = 0;
   EXPECT_THROW(Align(reference, reference, o), InputError);
+}
+
+TEST(Options, NamesRoundTripAndCheckNamesTheField) {
+  for (Init i : {Init::kAuto, Init::kNone, Init::kPca}) EXPECT_EQ(InitFromString(ToString(i)), i);
+  for (Method m : {Method::kPointToPlane, Method::kPclPointToPoint})
+    EXPECT_EQ(MethodFromString(ToString(m)), m);
+  EXPECT_FALSE(InitFromString("sideways"));
+  EXPECT_FALSE(MethodFromString("Point_To_Plane"));
+  Options o;
+  EXPECT_NO_THROW(o.Check());
+  o.median_factor = 0.5;
+  try {
+    o.Check();
+    ADD_FAILURE() << "median_factor 0.5 accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), "icp.median_factor: must be > 1");
+  }
 }
 
 TEST(SurfaceDistances, KnownOffsetsFromAPlaneAndBeyondItsEdge) {

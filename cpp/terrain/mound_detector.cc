@@ -22,6 +22,15 @@ Eigen::Matrix<double, 6, 1> Basis(double x, double y) {
   return b;
 }
 
+// How far the quadratic q (Basis order, x and y in units of the radius) falls from the
+// centre to the radius along its least and its most falling direction, m.
+Eigen::Vector2d Fall(const Eigen::Matrix<double, 6, 1>& q) {
+  Eigen::Matrix2d H;
+  H << 2 * q[3], q[4], q[4], 2 * q[5];
+  const Eigen::Vector2d ev = Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(H).eigenvalues();
+  return {-ev[1] / 2, -ev[0] / 2};
+}
+
 struct Grid {
   int w = 0, h = 0;
   double cell = 0;
@@ -34,8 +43,18 @@ struct Grid {
 
 }  // namespace
 
+void DetectorOptions::Check() const {
+  if (!(cell_m >= 0) || !std::isfinite(cell_m))
+    throw InputError("detector.cell_m: must be >= 0 (0: from the point density)");
+  if (ground_order != 1 && ground_order != 2)
+    throw InputError("detector.ground_order: 1 (a plane) or 2 (a quadratic)");
+  if (!(relief_threshold_m > 0) || !std::isfinite(relief_threshold_m))
+    throw InputError("detector.relief_threshold_m: must be > 0");
+}
+
 Detection DetectMound(const std::vector<Eigen::Vector3d>& points, const Eigen::Vector2d& centre,
                       double radius_m, const DetectorOptions& o) {
+  o.Check();
   if (!(radius_m > 0)) throw InputError("site radius must be > 0");
   std::vector<Eigen::Vector3d> site;
   for (const Eigen::Vector3d& p : points)
@@ -196,13 +215,12 @@ Detection DetectMound(const std::vector<Eigen::Vector3d>& points, const Eigen::V
       b += f * g.z[k];
     }
     const Eigen::Matrix<double, 6, 1> q = A.ldlt().solve(b);
-    Eigen::Matrix2d H;
-    H << 2 * q[3], q[4], q[4], 2 * q[5];
-    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es(H);
     if (q.allFinite()) {
-      d.site_sag_m = -es.eigenvalues()[1] / 2;    // the least falling direction
-      d.site_ridge_m = -es.eigenvalues()[0] / 2;  // the most
+      const Eigen::Vector2d fall = Fall(q);
+      d.site_sag_m = fall[0];
+      d.site_ridge_m = fall[1];
     }
+    if (coef.allFinite()) d.ground_sag_m = Fall(coef)[0];
   }
   // Coefficients in metres of x, y from the centre.
   const double s = radius_m;

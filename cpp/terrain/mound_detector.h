@@ -40,6 +40,9 @@ struct DetectorOptions {
   // wider than the scan: the site's own curvature (site_sag_m) tells that case.
   int ground_order = 2;
   double relief_threshold_m = 0.3;
+
+  // InputError naming the field ("detector.ground_order: ...") when out of range.
+  void Check() const;
 };
 
 struct Rise {
@@ -74,6 +77,9 @@ struct Detection {
   // ground fit then runs along the mound's flanks, but the site is domed (both > 0); a
   // ridge falls one way only; a valley or flat ground does not fall.
   double site_sag_m = 0, site_ridge_m = 0;
+  // The same fall (least falling direction) of the ground fit alone: > 0 when the ground
+  // itself is domed (it follows a mound wider than the scan), ~0 on ground around a tumulus.
+  double ground_sag_m = 0;
   std::vector<double> ground_coefficients;  // z = c0 + c1 x + c2 y + c3 x^2 + c4 x y + c5 y^2 (x, y
                                             // from the centre)
 };

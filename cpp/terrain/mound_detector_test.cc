@@ -13,29 +13,16 @@
 #include <random>
 
 #include "common/error.h"
+#include "terrain/synthetic_site.h"
 
 namespace mound::terrain {
 namespace {
 
-std::vector<Eigen::Vector3d> Site(double dome_h, double dome_d, bool ridge, uint64_t seed) {
-  std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> u(-60, 60);
-  std::normal_distribution<double> g(0, 0.03);
-  std::vector<Eigen::Vector3d> p;
-  for (int i = 0; i < 80000; ++i) {
-    const double x = u(rng), y = u(rng);
-    double z =
-        50 + 0.03 * x - 0.02 * y + 0.4 * std::sin(x / 23.0 + 1) * std::cos(y / 31.0) + g(rng);
-    const double r = std::hypot(x - 5, y + 3);
-    if (dome_h > 0 && r < dome_d / 2) z += dome_h * (1 - 4 * r * r / (dome_d * dome_d));
-    if (ridge && std::fabs(y) < 3 && std::fabs(x) < 40) z += 2.0 * (1 - y * y / 9);
-    p.emplace_back(x, y, z);
-  }
-  return p;
-}
+using testing::SyntheticSite;
 
 TEST(DetectMound, FindsAndMeasuresADome) {
-  const Detection d = DetectMound(Site(6.0, 40.0, false, 1), {0, 0}, 58, DetectorOptions{});
+  const Detection d =
+      DetectMound(SyntheticSite(6.0, 40.0, false, 1), {0, 0}, 58, DetectorOptions{});
   ASSERT_TRUE(d.Tallest() != nullptr);
   const Rise& r = *d.Tallest();
   EXPECT_NEAR(r.height_m, 6.0, 0.5);
@@ -51,27 +38,34 @@ TEST(DetectMound, FindsAndMeasuresADome) {
   EXPECT_GT(r.roundness, 0.9);
   EXPECT_GT(r.dome_r2, 0.9);
   EXPECT_LT(d.ground_noise_m, 0.2);
+  // The dome inside the site domes the whole site's quadratic, but the ground fit around it
+  // stays level.
+  EXPECT_GT(d.site_sag_m, 1.0);
+  EXPECT_LT(d.ground_sag_m, 0.5);
 }
 
 TEST(DetectMound, FlatGroundHasNoRiseAndARidgeIsElongated) {
-  const Detection flat = DetectMound(Site(0, 0, false, 2), {0, 0}, 58, DetectorOptions{});
+  const Detection flat = DetectMound(SyntheticSite(0, 0, false, 2), {0, 0}, 58, DetectorOptions{});
   EXPECT_FALSE(flat.Tallest() != nullptr && flat.Tallest()->height_m > 0.6);
-  const Detection ridge = DetectMound(Site(0, 0, true, 3), {0, 0}, 58, DetectorOptions{});
+  const Detection ridge = DetectMound(SyntheticSite(0, 0, true, 3), {0, 0}, 58, DetectorOptions{});
   ASSERT_TRUE(ridge.Tallest() != nullptr);
   EXPECT_LT(ridge.Tallest()->roundness, 0.3);  // 80 m long, 6 m wide
 }
 
 TEST(DetectMound, ADomeWiderThanTheSiteIsClippedNotElongated) {
   // 140 m across, centred (5, -3) m from a 40 m site: it fills the site beyond its edge
-  const Detection d = DetectMound(Site(8.0, 140.0, false, 4), {0, 0}, 40, DetectorOptions{});
+  const Detection d =
+      DetectMound(SyntheticSite(8.0, 140.0, false, 4), {0, 0}, 40, DetectorOptions{});
   // no ground in sight: the ground fit follows the flanks, but the site is domed: it falls
   // 8 x 4 x 40^2 / 140^2 = 2.6 m from the centre to the edge in every direction
   EXPECT_NEAR(d.site_sag_m, 2.6, 0.5);
   EXPECT_NEAR(d.site_ridge_m, 2.6, 0.5);
-  const Detection flat = DetectMound(Site(0, 0, false, 2), {0, 0}, 40, DetectorOptions{});
+  EXPECT_GT(d.ground_sag_m, 1.0);  // the ground fit bends with the dome
+  const Detection flat = DetectMound(SyntheticSite(0, 0, false, 2), {0, 0}, 40, DetectorOptions{});
   EXPECT_LT(std::fabs(flat.site_sag_m), 0.5);
   // a dome 60 m across, 20 m east of a 40 m site's centre: cut by the edge
-  const Detection off = DetectMound(Site(6.0, 60.0, false, 5), {-15, 3}, 40, DetectorOptions{});
+  const Detection off =
+      DetectMound(SyntheticSite(6.0, 60.0, false, 5), {-15, 3}, 40, DetectorOptions{});
   ASSERT_TRUE(off.Tallest() != nullptr);
   EXPECT_GT(off.Tallest()->clipped, 0.2);
   EXPECT_GT(off.Tallest()->extent_m, 38);
@@ -97,7 +91,8 @@ nlohmann::json ModelDoc() {
 
 TEST(VerdictModel, AppliesTheLogisticRegression) {
   const VerdictModel m = ParseVerdictModel(ModelDoc(), "m.json");
-  const Detection dome = DetectMound(Site(6.0, 40.0, false, 1), {0, 0}, 58, DetectorOptions{});
+  const Detection dome =
+      DetectMound(SyntheticSite(6.0, 40.0, false, 1), {0, 0}, 58, DetectorOptions{});
   const double h = dome.Tallest()->height_m;
   EXPECT_NEAR(m.Probability(dome), 1 / (1 + std::exp(-(-1.0 + 2.0 * std::log(h)))), 1e-12);
   Detection none;
@@ -123,7 +118,8 @@ TEST(VerdictModel, HingeBasisAndTheHighestRiseDecide) {
   doc["weights"] = w;
   doc["bias"] = -2.0;
   const VerdictModel m = ParseVerdictModel(doc, "m.json");
-  const Detection dome = DetectMound(Site(6.0, 40.0, false, 1), {0, 0}, 58, DetectorOptions{});
+  const Detection dome =
+      DetectMound(SyntheticSite(6.0, 40.0, false, 1), {0, 0}, 58, DetectorOptions{});
   ASSERT_FALSE(dome.judged.empty());
   double top = -1e9;
   for (const Rise& r : dome.judged) {

@@ -1,0 +1,329 @@
+#include "recon/verdict.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "common/error.h"
+#include "common/json_util.h"
+#include "common/stats.h"
+#include "common/timing.h"
+
+namespace mound::recon {
+namespace {
+
+nlohmann::json SimJson(const geometry::Sim3d& s) {
+  const Eigen::Matrix3d R = s.rotation.toRotationMatrix();
+  nlohmann::json rows = nlohmann::json::array();
+  for (int r = 0; r < 3; ++r) rows.push_back({R(r, 0), R(r, 1), R(r, 2)});
+  return {{"R", rows},
+          {"t", {s.translation.x(), s.translation.y(), s.translation.z()}},
+          {"scale", s.scale}};
+}
+
+// Mean, std, median, 90th percentile, max, a 20-bin histogram up to the 99th percentile,
+// and the paper's N(mu, sigma) fitted to the distances below their 99th percentile (a
+// sparse model's few stray points, tens of metres off, would otherwise make sigma).
+nlohmann::json DistanceJson(const std::vector<double>& d) {
+  const NormalFit all = FitNormal(d, 1.0), paper = FitNormal(d, 0.99);
+  const double top = std::max(1e-9, Quantile(d, 0.99));
+  std::vector<long long> counts(20, 0);
+  long long above = 0;
+  for (double x : d) {
+    const int b = static_cast<int>(x / top * 20);
+    if (b >= 20)
+      ++above;
+    else
+      ++counts[std::max(0, b)];
+  }
+  return {
+      {"mean", all.mu},
+      {"std", all.sigma},
+      {"median", Quantile(d, 0.5)},
+      {"p90", Quantile(d, 0.9)},
+      {"max", *std::max_element(d.begin(), d.end())},
+      {"normal_fit", {{"mu", paper.mu}, {"sigma", paper.sigma}, {"below_quantile", 0.99}}},
+      {"histogram", {{"bin_width_m", top / 20}, {"counts", counts}, {"above_last_bin", above}}}};
+}
+
+nlohmann::json RiseJson(const terrain::Detection& d, const terrain::Rise& t,
+                        const terrain::VerdictModel& model) {
+  nlohmann::json r = {{"centre_enu_m", {t.centre.x(), t.centre.y()}},
+                      {"height_m", t.height_m},
+                      {"base_diameter_m", t.base_diameter_m},
+                      {"dome_height_m", t.dome_height_m},
+                      {"dome_r2", t.dome_r2},
+                      {"area_m2", t.area_m2},
+                      {"volume_m3", t.volume_m3},
+                      {"roundness", t.roundness},
+                      {"symmetry", t.symmetry},
+                      {"fill", t.fill},
+                      {"flank_slope_rad", t.flank_slope_rad},
+                      {"clipped", t.clipped},
+                      {"offset_m", t.offset_m},
+                      {"extent_m", t.extent_m}};
+  const std::vector<double> f = terrain::VerdictFeatures(d, t);
+  nlohmann::json feats = nlohmann::json::object();
+  for (size_t k = 0; k < f.size(); ++k) feats[terrain::VerdictFeatureNames()[k]] = f[k];
+  r["features"] = feats;
+  r["p_mound"] = model.Probability(f);
+  return r;
+}
+
+}  // namespace
+
+// ---- compare ---------------------------------------------------------------------------
+
+Comparison Compare(const std::vector<Eigen::Vector3d>& cloud,
+                   const std::vector<Eigen::Vector3d>& reference, const icp::Options& options) {
+  Comparison c;
+  auto t0 = Clock::now();
+  c.fit = icp::Align(cloud, reference, options);
+  c.icp_s = Since(t0);
+  t0 = Clock::now();
+  c.aligned.reserve(cloud.size());
+  for (const Eigen::Vector3d& p : cloud) c.aligned.push_back(c.fit.reference_from_cloud * p);
+  c.distance = icp::SurfaceDistances(c.aligned, reference);
+  c.distances_s = Since(t0);
+  return c;
+}
+
+NormalFit FitNormal(const std::vector<double>& d, double quantile) {
+  if (d.empty()) throw InternalError("FitNormal: no distances");
+  const double top = Quantile(d, quantile);
+  double mean = 0, n = 0;
+  for (double x : d)
+    if (x <= top) {
+      mean += x;
+      ++n;
+    }
+  mean /= n;
+  double var = 0;
+  for (double x : d)
+    if (x <= top) var += (x - mean) * (x - mean);
+  return {mean, std::sqrt(var / n)};
+}
+
+nlohmann::json ComparisonJson(const Comparison& c) {
+  return {{"init", icp::ToString(c.fit.init_used)},
+          {"reference_from_cloud", SimJson(c.fit.reference_from_cloud)},
+          {"iterations", c.fit.iterations},
+          {"coarse_iterations", c.fit.coarse_iterations},
+          {"scale_fixed", c.fit.scale_fixed},
+          {"frame_kept", c.fit.frame_kept},
+          {"converged", c.fit.converged},
+          {"rmse_m", c.fit.rmse_m},
+          {"inlier_fraction", c.fit.inlier_fraction},
+          {"distance_m", DistanceJson(c.distance)}};
+}
+
+// ---- the paper's test ------------------------------------------------------------------
+
+void PaperTestOptions::Check() const {
+  if (!(threshold_ratio > 0) || !std::isfinite(threshold_ratio))
+    throw InputError("threshold_ratio: must be > 0");
+  icp.Check();
+}
+
+PaperDecision PaperRule(double mu_m, double sigma_m, double relief_m, double threshold_ratio) {
+  if (!(threshold_ratio > 0)) throw InputError("threshold_ratio: must be > 0");
+  if (!(relief_m > 0)) throw NoResultError("the reference is flat (no relief to compare with)");
+  PaperDecision d;
+  d.mu_m = mu_m;
+  d.sigma_m = sigma_m;
+  d.relief_m = relief_m;
+  d.threshold_m = threshold_ratio * relief_m;
+  d.mound = mu_m <= d.threshold_m;
+  d.confidence = std::min(1.0, std::fabs(mu_m - d.threshold_m) / d.threshold_m);
+  return d;
+}
+
+double Relief(const std::vector<Eigen::Vector3d>& reference) {
+  std::vector<double> z;
+  z.reserve(reference.size());
+  for (const auto& p : reference) z.push_back(p.z());
+  return Quantile(z, 0.99) - Quantile(z, 0.01);
+}
+
+PaperVerdict PaperTest(const std::vector<Eigen::Vector3d>& cloud,
+                       const std::vector<Eigen::Vector3d>& reference,
+                       const PaperTestOptions& options) {
+  options.Check();
+  PaperVerdict v;
+  v.comparison = Compare(cloud, reference, options.icp);
+  const NormalFit fit = FitNormal(v.comparison.distance, 0.99);
+  v.decision = PaperRule(fit.mu, fit.sigma, Relief(reference), options.threshold_ratio);
+  return v;
+}
+
+nlohmann::json PaperVerdictJson(const PaperVerdict& v, double threshold_ratio) {
+  const PaperDecision& d = v.decision;
+  nlohmann::json doc;
+  doc["method"] = "paper_normal_fit";
+  doc["label"] = d.mound ? "mound" : "no_mound";
+  doc["confidence"] = d.confidence;
+  doc["measurements"] = {{"mu_m", d.mu_m},
+                         {"sigma_m", d.sigma_m},
+                         {"reference_relief_m", d.relief_m},
+                         {"threshold_m", d.threshold_m},
+                         {"threshold_ratio", threshold_ratio},
+                         {"compare", ComparisonJson(v.comparison)}};
+  doc["reason"] = std::string("distances to the reference N(") + std::to_string(d.mu_m) + ", " +
+                  std::to_string(d.sigma_m) + ") m; mu " + (d.mound ? "<=" : ">") + " threshold " +
+                  std::to_string(d.threshold_m) + " m";
+  return doc;
+}
+
+// ---- the reference-free verdict --------------------------------------------------------
+
+void SiteVerdictOptions::Check() const {
+  if (radius_m && (!(*radius_m > 0) || !std::isfinite(*radius_m)))
+    throw InputError("radius_m: must be > 0");
+  detector.Check();
+}
+
+Coverage JudgeCoverage(const terrain::Detection& d, const terrain::Rise* judged, double radius_m) {
+  Coverage c;
+  c.rise_clipped = judged ? judged->clipped : 0.0;
+  c.site_sag_m = d.site_sag_m;
+  // A rise cut by the edge of the cloud, or a site domed all over (a mound wider than the
+  // scan: no ground in sight): the scan did not see the whole rise. Domed means the site
+  // falls >= 1 m from its centre in every direction and the ground fit bends with it
+  // (>= 0.5 m): a tumulus inside the scan domes the site too, but the ground around it
+  // keeps the ground fit level. A plane ground fit cannot bend: the site's fall decides.
+  const bool cut = judged && judged->clipped > 0.1;
+  const bool quadratic_ground = d.ground_coefficients.size() == 6 &&
+                                (d.ground_coefficients[3] != 0 || d.ground_coefficients[4] != 0 ||
+                                 d.ground_coefficients[5] != 0);
+  const bool domed = d.site_sag_m >= 1.0 && (!quadratic_ground || d.ground_sag_m >= 0.5);
+  if (!cut && !domed) {
+    c.status = judged ? "whole" : "no_rise";
+    return c;
+  }
+  c.status = "clipped";
+  const double extent = judged ? judged->extent_m : radius_m;
+  c.scan_needed_m =
+      10 * std::ceil((domed ? std::max(4 * radius_m, 2.5 * extent) : 2.5 * extent) / 10);
+  std::ostringstream w;
+  w.precision(3);
+  if (cut) {
+    w << "the rise runs off the scanned site (" << 100 * judged->clipped
+      << " % of its outline on the edge of the " << 2 * radius_m << " m site)";
+  } else {
+    w << "the whole " << 2 * radius_m << " m site is domed (it falls " << d.site_sag_m
+      << " m or more from its centre to its edge in every direction): no ground around the "
+         "rise was seen";
+  }
+  w << "; a scan " << (domed ? "at least " : "about ") << c.scan_needed_m
+    << " m across would see it whole";
+  c.message = w.str();
+  return c;
+}
+
+SiteVerdict JudgeSite(const std::vector<Eigen::Vector3d>& cloud, const Eigen::Vector2d& centre,
+                      const SiteVerdictOptions& options, const terrain::VerdictModel& model) {
+  options.Check();
+  SiteVerdict v;
+  v.centre = centre;
+  if (options.radius_m) {
+    v.radius_m = *options.radius_m;
+  } else {
+    if (cloud.empty()) throw NoResultError("the cloud has no points");
+    std::vector<double> r;
+    r.reserve(cloud.size());
+    for (const auto& p : cloud) r.push_back((p.head<2>() - centre).norm());
+    v.radius_m = Quantile(r, 0.8);
+  }
+  v.detection = terrain::DetectMound(cloud, centre, v.radius_m, options.detector);
+  size_t best = 0;
+  v.p_mound = model.Probability(v.detection, &best);
+  v.mound = v.p_mound >= model.threshold;
+  if (!v.detection.judged.empty()) v.judged = best;
+  v.coverage =
+      JudgeCoverage(v.detection, v.judged ? &v.detection.judged[*v.judged] : nullptr, v.radius_m);
+  return v;
+}
+
+nlohmann::json SiteVerdictJson(const SiteVerdict& v, const terrain::VerdictModel& model,
+                               const std::string& model_file,
+                               const terrain::DetectorOptions& detector) {
+  const terrain::Detection& d = v.detection;
+  const terrain::Rise* judged = v.judged ? &d.judged[*v.judged] : nullptr;
+  nlohmann::json doc;
+  doc["method"] = "reference_free_model";
+  doc["p_mound"] = v.p_mound;
+  doc["label"] = v.mound ? "mound" : "no_mound";
+  doc["confidence"] = v.mound ? v.p_mound : 1 - v.p_mound;
+  nlohmann::json m = {{"site_centre_enu_m", {v.centre.x(), v.centre.y()}},
+                      {"site_radius_m", v.radius_m},
+                      {"cell_m", d.cell_m},
+                      {"grid", {d.grid_width, d.grid_height}},
+                      {"cells_with_points", d.cells_with_points},
+                      {"cells_inside", d.cells_inside},
+                      {"ground_noise_m", d.ground_noise_m},
+                      {"ground_coefficients", d.ground_coefficients},
+                      {"rises", d.rises},
+                      {"site_sag_m", d.site_sag_m},
+                      {"site_ridge_m", d.site_ridge_m},
+                      {"ground_sag_m", d.ground_sag_m}};
+  // Every judged rise (the training data of `mound recon train-verdict`), the one that
+  // decided the site as `rise` with its `features`.
+  nlohmann::json all = nlohmann::json::array();
+  for (const terrain::Rise& r : d.judged) all.push_back(RiseJson(d, r, model));
+  m["judged_rises"] = all;
+  std::ostringstream why;
+  why.precision(3);
+  if (judged) {
+    const terrain::Rise& t = *judged;
+    m["rise"] = all[*v.judged];
+    m["features"] = m["rise"]["features"];
+    why << "the rise judged most likely a mound (of " << d.judged.size() << "): height "
+        << t.height_m << " m, base diameter " << t.base_diameter_m << " m, roundness "
+        << t.roundness << ", dome fit R^2 " << t.dome_r2 << ", flank slope "
+        << t.flank_slope_rad * 180 / M_PI << " deg, " << 100 * t.clipped
+        << " % of its outline on the scan's edge";
+  } else {
+    why << "no rise above " << detector.relief_threshold_m << " m over the ground";
+  }
+  const Coverage& c = v.coverage;
+  if (c.status == "clipped") {
+    doc["coverage"] = {{"status", c.status},
+                       {"scan_needed_m", c.scan_needed_m},
+                       {"message", c.message},
+                       {"rise_clipped", c.rise_clipped},
+                       {"site_sag_m", c.site_sag_m}};
+  } else {
+    doc["coverage"] = {
+        {"status", c.status}, {"rise_clipped", c.rise_clipped}, {"site_sag_m", c.site_sag_m}};
+  }
+  why << "; p(mound) " << v.p_mound << " (threshold " << model.threshold << ")";
+  doc["reason"] = why.str();
+  doc["measurements"] = m;
+  doc["model"] = {{"file", model_file},
+                  {"threshold", model.threshold},
+                  {"relief_threshold_m", detector.relief_threshold_m}};
+  if (model.doc.contains("trained")) doc["model"]["trained"] = model.doc["trained"];
+  return doc;
+}
+
+std::optional<Eigen::Vector2d> CameraCentre(const nlohmann::json& recon, const std::string& path) {
+  const nlohmann::json& images = RequireField(recon, "images", "");
+  if (!images.is_array()) throw InputError(path + ": images: expected an array");
+  Eigen::Vector2d c = Eigen::Vector2d::Zero();
+  int n = 0;
+  for (size_t k = 0; k < images.size(); ++k) {
+    const std::string at = "images[" + std::to_string(k) + "]";
+    if (!images[k].is_object() || !images[k].value("registered", false)) continue;
+    const nlohmann::json& centre = RequireField(images[k], "centre", at);
+    if (!centre.is_array() || centre.size() != 3 || !centre[0].is_number() ||
+        !centre[1].is_number()) {
+      throw InputError(path + ": " + at + ".centre: expected [x, y, z]");
+    }
+    c += Eigen::Vector2d(centre[0].get<double>(), centre[1].get<double>());
+    ++n;
+  }
+  if (n == 0) return std::nullopt;
+  return c / n;
+}
+
+}  // namespace mound::recon

@@ -1,0 +1,130 @@
+// The compare and verdict pipelines of mound_recon as library functions (COLMAP's RunX ->
+// library call): the CLI maps flags to these option structs, reads the files and writes
+// what these functions return. Contract of compare.json and verdict.json:
+// ../shared/INTERFACES.md.
+//
+// Two verdicts:
+// - the paper's test (Section IV): ICP with scale of the site's cloud onto a reference
+//   cloud, the distances fitted by N(mu, sigma); a mound when mu <= threshold_ratio x the
+//   reference's relief (PaperRule);
+// - reference-free (the survey's): the site's terrain (cpp/terrain's detector), each
+//   prominent rise scored by the calibrated verdict model, the site's p the highest
+//   (JudgeSite), with the coverage of the scan (JudgeCoverage).
+#pragma once
+
+#include <Eigen/Core>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "icp/icp.h"
+#include "terrain/mound_detector.h"
+#include "terrain/verdict_model.h"
+
+namespace mound::recon {
+
+// ---- compare ---------------------------------------------------------------------------
+
+struct Comparison {
+  icp::Result fit;
+  std::vector<Eigen::Vector3d> aligned;  // the cloud in the reference's frame
+  std::vector<double> distance;          // of each aligned point to the reference surface, m
+  double icp_s = 0, distances_s = 0;
+};
+
+// ICP (icp::Align) and the surface distances of every aligned point. NoResultError when
+// the clouds do not overlap.
+Comparison Compare(const std::vector<Eigen::Vector3d>& cloud,
+                   const std::vector<Eigen::Vector3d>& reference, const icp::Options& options);
+
+// Mean and standard deviation (the maximum-likelihood N(mu, sigma)) of the distances up
+// to their `quantile` (1: all).
+struct NormalFit {
+  double mu = 0, sigma = 0;
+};
+NormalFit FitNormal(const std::vector<double>& distances, double quantile);
+
+// The fields compare.json and the paper's verdict share: init, reference_from_cloud,
+// iterations, convergence, rmse_m, inlier_fraction, distance_m (statistics, the paper's
+// N(mu, sigma) below the 99th percentile, a 20-bin histogram).
+nlohmann::json ComparisonJson(const Comparison& c);
+
+// ---- the paper's test ------------------------------------------------------------------
+
+struct PaperTestOptions {
+  double threshold_ratio = 0.05;  // of the reference's relief
+  icp::Options icp;
+  void Check() const;  // InputError naming the field
+};
+
+struct PaperDecision {
+  bool mound = false;
+  double mu_m = 0, sigma_m = 0, relief_m = 0, threshold_m = 0;
+  // How far mu lies from the threshold, in units of the threshold (1 at 0 or 2x).
+  double confidence = 0;
+};
+
+// The rule itself: a mound when mu <= threshold_ratio x relief.
+PaperDecision PaperRule(double mu_m, double sigma_m, double relief_m, double threshold_ratio);
+
+// The reference's relief: the 1st to the 99th percentile of its heights, m.
+double Relief(const std::vector<Eigen::Vector3d>& reference);
+
+struct PaperVerdict {
+  Comparison comparison;
+  PaperDecision decision;
+};
+PaperVerdict PaperTest(const std::vector<Eigen::Vector3d>& cloud,
+                       const std::vector<Eigen::Vector3d>& reference,
+                       const PaperTestOptions& options);
+
+// verdict.json's method, label, confidence, measurements and reason for the paper's test.
+nlohmann::json PaperVerdictJson(const PaperVerdict& v, double threshold_ratio);
+
+// ---- the reference-free verdict --------------------------------------------------------
+
+struct SiteVerdictOptions {
+  // The site's radius; unset: the 80th percentile of the points' horizontal distance from
+  // the site centre.
+  std::optional<double> radius_m;
+  terrain::DetectorOptions detector;
+  void Check() const;  // InputError naming the field
+};
+
+// Whether the scan saw the judged rise whole: "whole", "no_rise", or "clipped" (the rise
+// runs off the cloud's edge, > 10 % of its outline there, or the whole site is domed, a
+// mound wider than the scan) with the scan diameter that would see it whole.
+struct Coverage {
+  std::string status;
+  double scan_needed_m = 0;  // clipped only: rounded up to 10 m
+  std::string message;       // clipped only
+  double rise_clipped = 0, site_sag_m = 0;
+};
+Coverage JudgeCoverage(const terrain::Detection& d, const terrain::Rise* judged, double radius_m);
+
+struct SiteVerdict {
+  Eigen::Vector2d centre = Eigen::Vector2d::Zero();  // ENU metres
+  double radius_m = 0;
+  terrain::Detection detection;
+  double p_mound = 0;            // calibrated: the highest of the judged rises' p
+  bool mound = false;            // p_mound >= the model's threshold
+  std::optional<size_t> judged;  // the rise that decided, in detection.judged
+  Coverage coverage;
+};
+
+// NoResultError when too few points lie on the site for a terrain model.
+SiteVerdict JudgeSite(const std::vector<Eigen::Vector3d>& cloud, const Eigen::Vector2d& centre,
+                      const SiteVerdictOptions& options, const terrain::VerdictModel& model);
+
+// verdict.json's method, p_mound, label, confidence, coverage, measurements (every judged
+// rise with its features and p), reason and model for the reference-free verdict.
+nlohmann::json SiteVerdictJson(const SiteVerdict& v, const terrain::VerdictModel& model,
+                               const std::string& model_file,
+                               const terrain::DetectorOptions& detector);
+
+// The horizontal centre of the registered cameras of a recon.json (the flight is centred on
+// the candidate site); nothing when no image is registered. InputError naming the field.
+std::optional<Eigen::Vector2d> CameraCentre(const nlohmann::json& recon, const std::string& path);
+
+}  // namespace mound::recon

@@ -1,0 +1,140 @@
+// The verdict pipelines as library functions: the paper's rule at and around its threshold,
+// the normal fit, the paper's test end to end on clouds with a known offset, the
+// reference-free verdict with the default model on a constructed tumulus and on bare
+// ground, the coverage of a clipped rise, and options refused naming the field.
+#include "recon/verdict.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "common/error.h"
+#include "terrain/synthetic_site.h"
+
+namespace mound::recon {
+namespace {
+
+using terrain::testing::SyntheticSite;
+
+TEST(PaperRule, MoundAtOrBelowTheThresholdAndConfidenceInThresholdUnits) {
+  // relief 10 m, ratio 0.05: threshold 0.5 m
+  const PaperDecision at = PaperRule(0.5, 0.1, 10, 0.05);
+  EXPECT_TRUE(at.mound);
+  EXPECT_DOUBLE_EQ(at.threshold_m, 0.5);
+  EXPECT_DOUBLE_EQ(at.confidence, 0);
+  const PaperDecision below = PaperRule(0.125, 0.1, 10, 0.05);
+  EXPECT_TRUE(below.mound);
+  EXPECT_DOUBLE_EQ(below.confidence, 0.75);
+  const PaperDecision above = PaperRule(0.75, 0.1, 10, 0.05);
+  EXPECT_FALSE(above.mound);
+  EXPECT_DOUBLE_EQ(above.confidence, 0.5);
+  EXPECT_DOUBLE_EQ(PaperRule(3.0, 0.1, 10, 0.05).confidence, 1.0);  // capped
+  EXPECT_THROW(PaperRule(0.1, 0.1, 10, 0), InputError);
+  EXPECT_THROW(PaperRule(0.1, 0.1, 0, 0.05), NoResultError);  // a flat reference
+}
+
+TEST(FitNormal, MeanAndStdBelowTheQuantile) {
+  std::vector<double> d = {1, 2, 3, 4};
+  const NormalFit all = FitNormal(d, 1.0);
+  EXPECT_DOUBLE_EQ(all.mu, 2.5);
+  EXPECT_DOUBLE_EQ(all.sigma, std::sqrt(1.25));
+  for (int i = 0; i < 96; ++i) d.push_back(2.5);
+  d.push_back(1000);  // one stray point above the 99th percentile
+  EXPECT_NEAR(FitNormal(d, 0.99).mu, 2.5, 1e-12);
+  EXPECT_GT(FitNormal(d, 1.0).mu, 10);
+}
+
+TEST(PaperTest, ACloudOnItsReferenceIsAMoundAndAShiftedOneIsNot) {
+  const std::vector<Eigen::Vector3d> reference = SyntheticSite(6, 40, false, 1);
+  std::vector<Eigen::Vector3d> cloud =
+      SyntheticSite(6, 40, false, 2);  // the same surface, resampled
+  PaperTestOptions o;
+  o.icp.init = icp::Init::kNone;
+  const PaperVerdict same = PaperTest(cloud, reference, o);
+  EXPECT_TRUE(same.decision.mound);
+  EXPECT_LT(same.decision.mu_m, 0.1);
+  EXPECT_NEAR(same.decision.relief_m, Relief(reference), 1e-12);
+  EXPECT_GT(same.decision.relief_m, 6);
+  // A scan of bare ground where the reference has its tumulus: ICP cannot make the dome
+  // appear.
+  std::vector<Eigen::Vector3d> bare_site;
+  for (const Eigen::Vector3d& p : SyntheticSite(0, 0, false, 3))
+    if ((p.head<2>() - Eigen::Vector2d(5, -3)).norm() < 25) bare_site.push_back(p);
+  const PaperVerdict bare = PaperTest(bare_site, reference, o);
+  EXPECT_FALSE(bare.decision.mound);
+  const nlohmann::json j = PaperVerdictJson(bare, o.threshold_ratio);
+  EXPECT_EQ(j["label"], "no_mound");
+  EXPECT_EQ(j["measurements"]["compare"]["init"], "none");
+  EXPECT_DOUBLE_EQ(j["measurements"]["mu_m"].get<double>(), bare.decision.mu_m);
+}
+
+TEST(JudgeSite, TheDefaultModelFindsATumulusAndNotBareGround) {
+  const terrain::VerdictModel model = terrain::DefaultVerdictModel();
+  SiteVerdictOptions o;
+  o.radius_m = 40;  // the constructed ground's undulation alone falls ~1 m towards 60 m
+  const SiteVerdict mound = JudgeSite(SyntheticSite(5, 30, false, 4), {0, 0}, o, model);
+  EXPECT_TRUE(mound.mound) << mound.p_mound;
+  ASSERT_TRUE(mound.judged);
+  EXPECT_NEAR(mound.detection.judged[*mound.judged].height_m, 5, 0.6);
+  EXPECT_EQ(mound.coverage.status, "whole") << mound.coverage.message;
+  const SiteVerdict bare = JudgeSite(SyntheticSite(0, 0, false, 5), {0, 0}, o, model);
+  EXPECT_FALSE(bare.mound) << bare.p_mound;
+  EXPECT_LT(bare.p_mound, mound.p_mound);
+  const nlohmann::json j = SiteVerdictJson(mound, model, "default", o.detector);
+  EXPECT_EQ(j["label"], "mound");
+  EXPECT_EQ(j["measurements"]["judged_rises"].size(), mound.detection.judged.size());
+  EXPECT_EQ(j["measurements"]["rise"], j["measurements"]["judged_rises"][*mound.judged]);
+  // Unset, the radius is the 80th percentile of the points' distance from the centre: on
+  // the 120 m square, pi R^2 = 0.8 x 120^2, R = 60.56 m.
+  o.radius_m.reset();
+  EXPECT_NEAR(JudgeSite(SyntheticSite(0, 0, false, 6), {0, 0}, o, model).radius_m,
+              std::sqrt(0.8 * 14400 / M_PI), 0.5);
+}
+
+TEST(JudgeCoverage, AClippedRiseAsksForAWiderScan) {
+  terrain::Detection d;
+  terrain::Rise r;
+  r.clipped = 0.3;
+  r.extent_m = 28;
+  d.judged = {r};
+  const Coverage c = JudgeCoverage(d, &d.judged[0], 25);
+  EXPECT_EQ(c.status, "clipped");
+  EXPECT_DOUBLE_EQ(c.scan_needed_m, 70);  // 2.5 x 28 = 70
+  EXPECT_NE(c.message.find("runs off the scanned site"), std::string::npos);
+  d.site_sag_m = 1.5;  // domed all over (a plane ground fit): at least 4 x the radius
+  EXPECT_DOUBLE_EQ(JudgeCoverage(d, nullptr, 25).scan_needed_m, 100);
+  // A quadratic ground fit that stays level: the tumulus inside the scan domes the site,
+  // the ground around it was seen.
+  d.ground_coefficients = {50, 0.01, 0, -1e-5, 0, -1e-5};
+  d.ground_sag_m = 0.01;
+  EXPECT_EQ(JudgeCoverage(d, nullptr, 25).status, "no_rise");
+  d.ground_sag_m = 0.8;  // the ground fit bends with the dome: no ground in sight
+  EXPECT_EQ(JudgeCoverage(d, nullptr, 25).status, "clipped");
+  d.site_sag_m = 0;
+  EXPECT_EQ(JudgeCoverage(d, nullptr, 25).status, "no_rise");
+  r.clipped = 0.05;
+  EXPECT_EQ(JudgeCoverage(d, &r, 25).status, "whole");
+}
+
+TEST(Options, RefusedNamingTheField) {
+  SiteVerdictOptions s;
+  s.radius_m = -1;
+  EXPECT_THROW(s.Check(), InputError);
+  s.radius_m.reset();
+  s.detector.ground_order = 3;
+  try {
+    s.Check();
+    ADD_FAILURE() << "ground order 3 accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("detector.ground_order:", 0), 0u);
+  }
+  PaperTestOptions p;
+  p.threshold_ratio = 0;
+  EXPECT_THROW(p.Check(), InputError);
+  p.threshold_ratio = 0.05;
+  p.icp.max_source_points = 3;
+  EXPECT_THROW(p.Check(), InputError);
+}
+
+}  // namespace
+}  // namespace mound::recon
