@@ -10,6 +10,9 @@
 #include <string>
 #include <vector>
 
+#include "common/enum_names.h"
+#include "common/error.h"
+
 namespace mound {
 
 struct Args {
@@ -31,6 +34,15 @@ bool WantsHelp(const std::vector<std::string>& args);
 // A finite number / an integer in [lo, hi]; the message names `what` (e.g. "--seed").
 double ParseNumber(const std::string& s, const std::string& what);
 long long ParseInt(const std::string& s, const std::string& what, long long lo, long long hi);
+
+// The value of option `flag` as one of the enum's names; InputError "--flag: expected a,
+// b or c, got 'x'" otherwise. The flag must be present.
+template <typename E, size_t N>
+E ParseEnum(const Args& a, const std::string& flag, const EnumName<E> (&names)[N]) {
+  const std::string& value = a.options.at(flag);
+  if (const std::optional<E> e = FromName(value, names)) return *e;
+  throw InputError(flag + ": expected " + ExpectedNames(names) + ", got '" + value + "'");
+}
 
 // Runs `body`, mapping InputError to exit 2, NoResultError to exit 3 and any other
 // exception to exit 1, each with one line "<tool>: ..." on `err`.

@@ -282,26 +282,6 @@ Run RunPlaneIcp(const std::vector<Eigen::Vector3d>& src, const Cloud::Ptr& tgt,
 
 }  // namespace
 
-std::string ToString(Method m) {
-  return m == Method::kPointToPlane ? "point_to_plane" : "pcl_point_to_point";
-}
-
-std::string ToString(Init i) {
-  return i == Init::kAuto ? "auto" : i == Init::kNone ? "none" : "pca";
-}
-
-std::optional<Method> MethodFromString(const std::string& name) {
-  for (Method m : {Method::kPointToPlane, Method::kPclPointToPoint})
-    if (ToString(m) == name) return m;
-  return std::nullopt;
-}
-
-std::optional<Init> InitFromString(const std::string& name) {
-  for (Init i : {Init::kAuto, Init::kNone, Init::kPca})
-    if (ToString(i) == name) return i;
-  return std::nullopt;
-}
-
 void Options::Check() const {
   auto require = [](bool ok, const std::string& field, const std::string& what) {
     if (!ok) throw InputError("icp." + field + ": must be " + what);

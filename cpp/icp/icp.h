@@ -18,10 +18,10 @@
 
 #include <Eigen/Core>
 #include <cstdint>
-#include <optional>
 #include <string>
 #include <vector>
 
+#include "common/enum_names.h"
 #include "geometry/sim3.h"
 
 namespace mound::icp {
@@ -36,11 +36,11 @@ enum class Method { kPointToPlane, kPclPointToPoint };
 // the reference's (a flight covers part of a reference site), else pca.
 enum class Init { kAuto, kNone, kPca };
 
-// The names of the files and flags: point_to_plane, pcl_point_to_point; auto, none, pca.
-std::string ToString(Method m);
-std::string ToString(Init i);
-std::optional<Method> MethodFromString(const std::string& name);
-std::optional<Init> InitFromString(const std::string& name);
+// Their names in flags and files (NameOf, FromName of common/enum_names.h).
+inline constexpr EnumName<Method> kMethodNames[] = {
+    {Method::kPointToPlane, "point_to_plane"}, {Method::kPclPointToPoint, "pcl_point_to_point"}};
+inline constexpr EnumName<Init> kInitNames[] = {
+    {Init::kAuto, "auto"}, {Init::kNone, "none"}, {Init::kPca, "pca"}};
 
 struct Options {
   bool estimate_scale = true;

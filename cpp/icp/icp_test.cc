@@ -113,11 +113,13 @@ TEST(Align, DisjointCloudsOrTooFewPointsAreReported) {
 }
 
 TEST(Options, NamesRoundTripAndCheckNamesTheField) {
-  for (Init i : {Init::kAuto, Init::kNone, Init::kPca}) EXPECT_EQ(InitFromString(ToString(i)), i);
+  for (Init i : {Init::kAuto, Init::kNone, Init::kPca})
+    EXPECT_EQ(FromName(NameOf(i, kInitNames), kInitNames), i);
   for (Method m : {Method::kPointToPlane, Method::kPclPointToPoint})
-    EXPECT_EQ(MethodFromString(ToString(m)), m);
-  EXPECT_FALSE(InitFromString("sideways"));
-  EXPECT_FALSE(MethodFromString("Point_To_Plane"));
+    EXPECT_EQ(FromName(NameOf(m, kMethodNames), kMethodNames), m);
+  EXPECT_FALSE(FromName("sideways", kInitNames));
+  EXPECT_FALSE(FromName("Point_To_Plane", kMethodNames));
+  EXPECT_EQ(ExpectedNames(kInitNames), "auto, none or pca");
   Options o;
   EXPECT_NO_THROW(o.Check());
   o.median_factor = 0.5;

@@ -54,9 +54,8 @@ struct DenseOptions {
   Eigen::Vector3d up = Eigen::Vector3d::UnitZ();  // sweep-plane normal (the ground's)
   int threads = 1;
   int image_cache_mb = 1024;  // images kept decoded and scaled (ComputeDepthMaps)
-  // Returns an empty string when the options are usable, else what is wrong (naming the
-  // option as a CLI user writes it).
-  std::string Check() const;
+  // InputError naming the option as a CLI user writes it ("--window: ...") when unusable.
+  void Check() const;
 };
 
 struct DenseInput {

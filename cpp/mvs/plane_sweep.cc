@@ -127,24 +127,24 @@ Eigen::Vector3d RayInWorld(const geometry::CameraModel& c, const geometry::Rigid
 
 }  // namespace
 
-std::string DenseOptions::Check() const {
-  if (max_image_size < 32) return "--max-image-size: must be >= 32";
-  if (source_views < 1) return "--source-views: must be >= 1";
+void DenseOptions::Check() const {
+  if (max_image_size < 32) throw InputError("--max-image-size: must be >= 32");
+  if (source_views < 1) throw InputError("--source-views: must be >= 1");
   if (best_views < 1 || best_views > source_views)
-    return "--best-views: must be in [1, --source-views]";
-  if (window < 3 || window % 2 == 0) return "--window: must be odd and >= 3";
-  if (!(max_step_px > 0)) return "--max-step-px: must be > 0";
-  if (min_planes < 2 || max_planes < min_planes) return "--max-planes: must be >= the minimum (2)";
-  if (!(min_ncc >= -1 && min_ncc < 1)) return "--min-ncc: must be in [-1, 1)";
-  if (min_consistent < 1) return "--min-consistent: must be >= 1";
-  if (!(max_reprojection_px > 0)) return "--max-reprojection-px: must be > 0";
-  if (!(max_relative_depth > 0)) return "--max-relative-depth: must be > 0";
+    throw InputError("--best-views: must be in [1, --source-views]");
+  if (window < 3 || window % 2 == 0) throw InputError("--window: must be odd and >= 3");
+  if (!(max_step_px > 0)) throw InputError("--max-step-px: must be > 0");
+  if (min_planes < 2 || max_planes < min_planes)
+    throw InputError("--max-planes: must be >= the minimum (2)");
+  if (!(min_ncc >= -1 && min_ncc < 1)) throw InputError("--min-ncc: must be in [-1, 1)");
+  if (min_consistent < 1) throw InputError("--min-consistent: must be >= 1");
+  if (!(max_reprojection_px > 0)) throw InputError("--max-reprojection-px: must be > 0");
+  if (!(max_relative_depth > 0)) throw InputError("--max-relative-depth: must be > 0");
   if (!(resolution_m >= 1e-3) || !std::isfinite(resolution_m))
-    return "--resolution-m: must be >= 0.001 m";
-  if (!(up.norm() > 0.5)) return "up: must be a unit vector";
-  if (threads < 1) return "--threads: must be >= 1";
-  if (image_cache_mb < 0) return "image_cache_mb: must be >= 0";
-  return "";
+    throw InputError("--resolution-m: must be >= 0.001 m");
+  if (!(up.norm() > 0.5)) throw InputError("up: must be a unit vector");
+  if (threads < 1) throw InputError("--threads: must be >= 1");
+  if (image_cache_mb < 0) throw InputError("image_cache_mb: must be >= 0");
 }
 
 Eigen::Vector3d DepthMap::Unproject(double x, double y, double d) const {

@@ -21,10 +21,7 @@ icp::Options IcpOptions(const Args& a) {
   icp::Options o;
   o.estimate_scale = !a.Has("--no-scale");
   if (a.Has("--init")) {
-    const std::optional<icp::Init> init = icp::InitFromString(a.options.at("--init"));
-    if (!init)
-      throw InputError("--init: expected auto, none or pca, got '" + a.options.at("--init") + "'");
-    o.init = *init;
+    o.init = ParseEnum(a, "--init", icp::kInitNames);
   }
   if (a.Has("--max-points"))
     o.max_source_points =

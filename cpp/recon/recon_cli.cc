@@ -137,21 +137,25 @@ int RunReconstruct(const std::vector<std::string>& args) {
   ReconstructOptions o;
   o.images_dir = a.positional[0];
   o.camera_file = opt("--camera", "");
-  o.gps = opt("--gps", "");
+  if (a.Has("--gps")) {
+    const std::string& g = a.options.at("--gps");
+    o.gps = g == "exif" ? GpsSource::kExif : GpsSource::kPosesFile;
+    if (o.gps == GpsSource::kPosesFile) o.poses_file = g;
+  }
   o.features.max_image_size =
       static_cast<int>(num("--max-image-size", 100, 100000, o.features.max_image_size));
   o.features.max_features =
       static_cast<int>(num("--max-features", 100, 1000000, o.features.max_features));
-  o.feature_kind = opt("--features", o.feature_kind);
-  o.matching = opt("--matching", o.matching);
-  o.matcher = opt("--matcher", o.matcher);
+  if (a.Has("--features")) o.feature_kind = ParseEnum(a, "--features", kFeatureKindNames);
+  if (a.Has("--matching")) o.matching = ParseEnum(a, "--matching", kMatchingNames);
+  if (a.Has("--matcher")) o.matcher = ParseEnum(a, "--matcher", kMatcherNames);
   o.window = static_cast<int>(num("--window", 0, 10000, o.window));
   o.neighbours = static_cast<int>(num("--neighbours", 1, 10000, o.neighbours));
-  o.align = opt("--align", "");
+  if (a.Has("--align")) o.align = ParseEnum(a, "--align", kAlignNames);
   o.threads = static_cast<int>(num("--threads", 1, 256, DefaultThreads()));
   o.seed = static_cast<uint64_t>(num("--seed", 0, 1LL << 62, 1));
   o.tool = kVersion;
-  if (const std::string bad = o.Check(); !bad.empty()) throw InputError(bad);
+  o.Check();
   std::error_code ec;
   std::filesystem::create_directories(out, ec);
   if (ec) throw InputError("--out: cannot create " + out + ": " + ec.message());

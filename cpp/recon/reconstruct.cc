@@ -52,36 +52,25 @@ nlohmann::json PoseJson(const geometry::Rigid3d& p) {
 
 }  // namespace
 
-std::string ReconstructOptions::Check() const {
-  if (matching != "auto" && matching != "exhaustive" && matching != "sequential" &&
-      matching != "retrieval") {
-    return "--matching: expected auto, exhaustive, sequential or retrieval, got '" + matching + "'";
+void ReconstructOptions::Check() const {
+  if (window < 0 || (window == 0 && matching == Matching::kSequential)) {
+    throw InputError(
+        "--window: must be >= 1 (0, no sequence pairs, only with auto or retrieval matching)");
   }
-  if (matcher != "flann" && matcher != "cascade") {
-    return "--matcher: expected flann or cascade, got '" + matcher + "'";
-  }
-  if (!align.empty() && align != "level" && align != "full") {
-    return "--align: expected level or full, got '" + align + "'";
-  }
-  if (feature_kind != "sift" && feature_kind != "klt") {
-    return "--features: expected sift or klt, got '" + feature_kind + "'";
-  }
-  if (window < 0 || (window == 0 && matching == "sequential")) {
-    return "--window: must be >= 1 (0, no sequence pairs, only with auto or retrieval matching)";
-  }
-  if (neighbours < 1) return "--neighbours: must be >= 1";
-  if (threads < 1) return "--threads: must be >= 1";
-  return "";
+  if (neighbours < 1) throw InputError("--neighbours: must be >= 1");
+  if (threads < 1) throw InputError("--threads: must be >= 1");
+  if (gps == GpsSource::kPosesFile && poses_file.empty())
+    throw InputError("--gps: the poses file is empty");
 }
 
 ReconstructResult Reconstruct(const ReconstructOptions& o) {
-  if (const std::string bad = o.Check(); !bad.empty()) throw InputError(bad);
+  o.Check();
   const std::string& dir = o.images_dir;
-  const std::string& gps_arg = o.gps;
-  const std::string align = !o.align.empty() ? o.align : (gps_arg == "exif" ? "level" : "full");
+  const bool exif_gps = o.gps == GpsSource::kExif;
+  const Align align = o.align != Align::kAuto ? o.align : exif_gps ? Align::kLevel : Align::kFull;
   const sfm::FeatureOptions& fo = o.features;
-  const std::string& feature_kind = o.feature_kind;
-  const std::string& matching = o.matching;
+  const bool klt = o.feature_kind == FeatureKind::kKlt;
+  const Matching matching = o.matching;
   const int window = o.window, neighbours = o.neighbours, threads = o.threads;
   const uint64_t seed = o.seed;
   ReconstructResult res;
@@ -92,13 +81,13 @@ ReconstructResult Reconstruct(const ReconstructOptions& o) {
   nlohmann::json timings = nlohmann::json::object();
   // GPS from a poses file is checked before any work.
   std::optional<GpsPositions> gps;
-  if (!gps_arg.empty() && gps_arg != "exif") gps = ReadGpsPoses(gps_arg, files);
+  if (o.gps == GpsSource::kPosesFile) gps = ReadGpsPoses(o.poses_file, files);
 
   auto t0 = Clock::now();
   std::vector<sfm::ImageFeatures>& features = res.features;
   features.resize(n);
   std::vector<sfm::MatchList> tracked;  // KLT: matches of consecutive images
-  if (feature_kind == "klt") {
+  if (klt) {
     std::vector<std::string> paths;
     for (const std::string& f : files) paths.push_back(dir + "/" + f);
     sfm::KltResult k = sfm::TrackKlt(paths, fo);
@@ -128,7 +117,7 @@ ReconstructResult Reconstruct(const ReconstructOptions& o) {
   std::string camera_source;
   bool refine = false;
   std::vector<Exif> exif(n);
-  if (gps_arg == "exif" || o.camera_file.empty()) {
+  if (exif_gps || o.camera_file.empty()) {
     for (int i = 0; i < n; ++i) exif[i] = ReadExif(dir + "/" + files[i]);
   }
   if (!o.camera_file.empty()) {
@@ -145,7 +134,7 @@ ReconstructResult Reconstruct(const ReconstructOptions& o) {
     camera.fx = camera.fy = f.value_or(1.2 * std::max(W, H));
     refine = true;
   }
-  if (gps_arg == "exif") {
+  if (exif_gps) {
     GpsPositions g;
     g.source = "exif";
     for (int i = 0; i < n; ++i) {
@@ -161,20 +150,21 @@ ReconstructResult Reconstruct(const ReconstructOptions& o) {
   // Pairs to match (KLT: the consecutive images it tracked; else sfm::SelectPairs).
   std::vector<std::pair<int, int>> pair_list;
   std::string pairing = "sequential (KLT tracks)";
-  if (feature_kind == "klt") {
+  if (klt) {
     for (int i = 0; i + 1 < n; ++i) pair_list.push_back({i, i + 1});
   } else {
     // exhaustive: every pair, as for a small unlocated set (no positions given);
     // sequential: the next `window` images only; auto: SelectPairs' choice.
     sfm::PairingOptions po;
-    po.sequence_window = matching == "sequential" ? window : std::min(window, po.sequence_window);
-    po.spatial_neighbours = matching == "sequential" ? 0 : neighbours;
-    po.exhaustive_up_to = matching == "exhaustive" ? n
-                          : matching == "sequential" || matching == "retrieval"
+    po.sequence_window =
+        matching == Matching::kSequential ? window : std::min(window, po.sequence_window);
+    po.spatial_neighbours = matching == Matching::kSequential ? 0 : neighbours;
+    po.exhaustive_up_to = matching == Matching::kExhaustive ? n
+                          : matching == Matching::kSequential || matching == Matching::kRetrieval
                               ? 0
                               : po.exhaustive_up_to;
     std::vector<std::optional<Eigen::Vector3d>> positions(n);
-    if (gps && matching == "auto") {
+    if (gps && matching == Matching::kAuto) {
       for (int i = 0; i < n; ++i) {
         auto g = gps->enu_m.find(files[i]);
         if (g != gps->enu_m.end()) positions[i] = g->second;
@@ -183,7 +173,8 @@ ReconstructResult Reconstruct(const ReconstructOptions& o) {
     // Images without a position in a set too large for every pair are paired by
     // appearance too (sfm/retrieval), as are all images with --matching retrieval (no
     // positions, no exhaustive set); never with sequential or exhaustive matching.
-    po.retrieval_neighbours = matching == "sequential" || matching == "exhaustive" ? 0 : neighbours;
+    po.retrieval_neighbours =
+        matching == Matching::kSequential || matching == Matching::kExhaustive ? 0 : neighbours;
     std::optional<std::vector<std::vector<int>>> similar;
     if (sfm::PairsByAppearance(positions, po)) {
       const auto tr = Clock::now();
@@ -198,12 +189,10 @@ ReconstructResult Reconstruct(const ReconstructOptions& o) {
   t0 = Clock::now();
   const double verify_px = std::max(1.0, 1.0 * std::max(W, H) / 2000.0);
   std::vector<sfm::VerifiedPair> verified(pair_list.size());
-  const sfm::DescriptorMatcher matcher(
-      features, 0.8f,
-      o.matcher == "cascade" ? sfm::MatcherKind::kCascadeHash : sfm::MatcherKind::kFlann);
+  const sfm::DescriptorMatcher matcher(features, 0.8f, o.matcher);
   ParallelFor(static_cast<int>(pair_list.size()), threads, [&](int k) {
     const auto [i, j] = pair_list[k];
-    const sfm::MatchList m = feature_kind == "klt" ? tracked[i] : matcher.Match(i, j);
+    const sfm::MatchList m = klt ? tracked[i] : matcher.Match(i, j);
     verified[k] = sfm::VerifyPair(i, j, features[i], features[j], m, camera, verify_px, seed + k);
   });
   timings["matching_s"] = Since(t0);
@@ -223,8 +212,8 @@ ReconstructResult Reconstruct(const ReconstructOptions& o) {
                    {"pairing", pairing},
                    {"max_image_size", fo.max_image_size},
                    {"max_features", fo.max_features},
-                   {"features", feature_kind},
-                   {"matcher", o.matcher}};
+                   {"features", NameOf(o.feature_kind, kFeatureKindNames)},
+                   {"matcher", NameOf(o.matcher, kMatcherNames)}};
   sfm::MapperOptions mo;
   mo.max_error_px = 4.0;  // COLMAP's filter threshold, full-resolution pixels
   mo.refine_intrinsics = refine;
@@ -269,7 +258,7 @@ ReconstructResult Reconstruct(const ReconstructOptions& o) {
     for (int i = 0; i < n; ++i)
       if (r.registered[i])
         down_in_model += r.cam_from_world[i].rotation.conjugate() * Eigen::Vector3d::UnitZ();
-    const auto fit = align == "level"
+    const auto fit = align == Align::kLevel
                          ? sfm::FitLevelledSim3Robust(model, world, down_in_model, seed)
                          : sfm::FitSim3Robust(model, world, seed);
     if (fit && fit->inliers >= 3) {
@@ -283,17 +272,17 @@ ReconstructResult Reconstruct(const ReconstructOptions& o) {
       nlohmann::json outliers = nlohmann::json::array();
       for (size_t k = 0; k < which.size(); ++k)
         if (!fit->inlier[k]) outliers.push_back(files[which[k]]);
-      doc["gps_fit"] = {
-          {"images", model.size()},
-          {"inliers", fit->inliers},
-          {"outliers", outliers},
-          {"rmse_m", fit->rmse_m},
-          {"rmse_horizontal_m", fit->rmse_horizontal_m},
-          {"rmse_vertical_m", fit->rmse_vertical_m},
-          {"scale", fit->world_from_model.scale},
-          {"method", align == "level" ? "level: vertical from the images, heading, scale and "
-                                        "position from horizontal GPS, height offset by median"
-                                      : "full: 7-parameter similarity to the GPS positions"}};
+      doc["gps_fit"] = {{"images", model.size()},
+                        {"inliers", fit->inliers},
+                        {"outliers", outliers},
+                        {"rmse_m", fit->rmse_m},
+                        {"rmse_horizontal_m", fit->rmse_horizontal_m},
+                        {"rmse_vertical_m", fit->rmse_vertical_m},
+                        {"scale", fit->world_from_model.scale},
+                        {"method", align == Align::kLevel
+                                       ? "level: vertical from the images, heading, scale and "
+                                         "position from horizontal GPS, height offset by median"
+                                       : "full: 7-parameter similarity to the GPS positions"}};
     } else {
       doc["gps_fit"] = {{"images", model.size()},
                         {"note", "fewer than 3 registered images with GPS: frame left arbitrary"}};

@@ -13,27 +13,48 @@
 
 #include <nlohmann/json.hpp>
 
+#include "common/enum_names.h"
 #include "sfm/features.h"
 #include "sfm/reconstruction.h"
 
 namespace mound::recon {
 
+enum class FeatureKind { kSift, kKlt };
+// kAuto: SelectPairs' choice (spatial from GPS, exhaustive for small sets, appearance for
+// images without a position); kSequential: the next `window` images only.
+enum class Matching { kAuto, kExhaustive, kSequential, kRetrieval };
+enum class GpsSource { kNone, kExif, kPosesFile };
+// kAuto: kLevel with EXIF GPS (consumer GPS heights drift), else kFull.
+enum class Align { kAuto, kLevel, kFull };
+
+// Their names in flags and in recon.json.
+inline constexpr EnumName<FeatureKind> kFeatureKindNames[] = {{FeatureKind::kSift, "sift"},
+                                                              {FeatureKind::kKlt, "klt"}};
+inline constexpr EnumName<Matching> kMatchingNames[] = {{Matching::kAuto, "auto"},
+                                                        {Matching::kExhaustive, "exhaustive"},
+                                                        {Matching::kSequential, "sequential"},
+                                                        {Matching::kRetrieval, "retrieval"}};
+inline constexpr EnumName<sfm::MatcherKind> kMatcherNames[] = {
+    {sfm::MatcherKind::kFlann, "flann"}, {sfm::MatcherKind::kCascadeHash, "cascade"}};
+inline constexpr EnumName<Align> kAlignNames[] = {{Align::kLevel, "level"}, {Align::kFull, "full"}};
+
 struct ReconstructOptions {
   std::string images_dir;
   std::string camera_file;  // mound.camera JSON or K.txt; empty: EXIF, refined
-  std::string gps;          // empty: none; "exif"; else a mound.poses file
+  GpsSource gps = GpsSource::kNone;
+  std::string poses_file;  // kPosesFile: a mound.poses file
   sfm::FeatureOptions features;
-  std::string feature_kind = "sift";  // sift | klt
-  std::string matching = "auto";      // auto | exhaustive | sequential | retrieval
-  std::string matcher = "cascade";    // cascade | flann (sfm::MatcherKind)
-  int window = 8;                     // sequential: images ahead; auto, retrieval: at most 3
-  int neighbours = 8;                 // nearest (by GPS) or most similar images per image
-  std::string align;                  // level | full; empty: level with EXIF GPS, else full
+  FeatureKind feature_kind = FeatureKind::kSift;
+  Matching matching = Matching::kAuto;
+  sfm::MatcherKind matcher = sfm::MatcherKind::kCascadeHash;
+  int window = 8;      // sequential: images ahead; auto, retrieval: at most 3
+  int neighbours = 8;  // nearest (by GPS) or most similar images per image
+  Align align = Align::kAuto;
   int threads = 1;
   uint64_t seed = 1;
   std::string tool;  // recon.json's "tool"
-  // Empty when usable, else what is wrong, naming the option as the CLI spells it.
-  std::string Check() const;
+  // InputError naming the option as the CLI spells it ("--window: ...") when unusable.
+  void Check() const;
 };
 
 struct ReconstructResult {

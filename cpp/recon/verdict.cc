@@ -105,7 +105,7 @@ NormalFit FitNormal(const std::vector<double>& d, double quantile) {
 }
 
 nlohmann::json ComparisonJson(const Comparison& c) {
-  return {{"init", icp::ToString(c.fit.init_used)},
+  return {{"init", NameOf(c.fit.init_used, icp::kInitNames)},
           {"reference_from_cloud", SimJson(c.fit.reference_from_cloud)},
           {"iterations", c.fit.iterations},
           {"coarse_iterations", c.fit.coarse_iterations},
