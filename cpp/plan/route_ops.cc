@@ -82,12 +82,15 @@ int InsertByRatio(const OpInstance& inst, std::vector<int>* route, std::vector<c
       candidates.push_back(v);
   std::vector<double> delta(n, inf);
   std::vector<int> after(n, -1);
+  int inserted = 0;
   auto full_scan = [&](int v) {
     delta[v] = inf;
     after[v] = -1;
     int a = OpInstance::kHome;
-    // Walk edges (a, next[a]) of the route; for a closed tour the last edge ends at home.
-    for (size_t k = 0; k + 1 < route->size(); ++k) {
+    // Walk the edges (a, next[a]) of the route as it is now (the sites inserted so far
+    // included); for a closed tour the last edge ends at home.
+    const size_t edges = route->size() - 1 + static_cast<size_t>(inserted);
+    for (size_t k = 0; k < edges; ++k) {
       const int b = next[a];
       const double dlt = inst.Cost(a, v) + inst.Cost(v, b) - inst.Cost(a, b);
       if (dlt < delta[v]) {
@@ -99,7 +102,6 @@ int InsertByRatio(const OpInstance& inst, std::vector<int>* route, std::vector<c
   };
   for (int v : candidates) full_scan(v);
 
-  int inserted = 0;
   for (;;) {
     int best = -1;
     double best_ratio = -1;
