@@ -25,23 +25,23 @@ from __future__ import annotations
 import argparse
 import functools
 import json
-import math
 import os
 import sys
 import time
 import uuid
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, get_args
 
 import numpy as np
 
 from mound import native
-from mound.args import Parser, UsageError
+from mound.args import Parser
 from mound.datasets import sha256_of
 from mound.errors import EXIT_NO_RESULT, InputError, exit_for
 from mound.jsonio import read_json, write_json
 from mound.survey.ledger import Ledger, StageRecord, digest
+from mound.survey.options import Algo, Firmware, ScanPattern, SurveyOptions
 from mound.survey.tree import RunTree
 
 STAGES = ("classify", "field", "plan", "mission", "photos", "sites3d", "report")
@@ -60,6 +60,7 @@ class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
 
 
 def build_parser() -> argparse.ArgumentParser:
+    D = SurveyOptions()  # the defaults, in one place
     p = Parser(
         prog="python python/mission.py",
         description="The whole survey in one command: classifier -> candidate sites -> "
@@ -68,12 +69,12 @@ def build_parser() -> argparse.ArgumentParser:
         "eps_FA, summary.json and report.html. A rerun with the same options skips what "
         "is done (interrupt it any time and run it again).",
         formatter_class=HelpFormatter)
-    p.add_argument("--out", default="runs/survey", help="run directory")
+    p.add_argument("--out", default=D.out, help="run directory")
     g = p.add_argument_group("candidate sites")
-    g.add_argument("--field-seed", type=int, default=0,
+    g.add_argument("--field-seed", type=int, default=D.field_seed,
                    help="the paper's protocol: a 10 x 10 field of Statlog sat.tst examples, "
                    "3-5 of them positives (mounds); seeds 0-9 are the standard fields")
-    g.add_argument("--spacing", type=float, default=250.0,
+    g.add_argument("--spacing", type=float, default=D.spacing,
                    help="distance between neighbouring sites of the field, m")
     g.add_argument("--sites", help="your own sites instead: a mound.sites JSON or a GeoJSON "
                    "FeatureCollection of points (a 'home' feature, then sites with p_mound, "
@@ -90,21 +91,21 @@ def build_parser() -> argparse.ArgumentParser:
                    "with the field: where the field's home is, default Bin Tepe)")
     g.add_argument("--aoi", help="GeoJSON polygon(s): candidates only inside")
     g.add_argument("--band-names", help="names of the scene's bands, e.g. blue,green,red,nir")
-    g.add_argument("--candidates", type=int, default=20, help="candidate sites from the scene")
-    g.add_argument("--min-separation-m", type=float, default=30.0,
+    g.add_argument("--candidates", type=int, default=D.candidates,
+                   help="candidate sites from the scene")
+    g.add_argument("--min-separation-m", type=float, default=D.min_separation_m,
                    help="candidates at least this far apart, m")
     g = p.add_argument_group("flight")
-    g.add_argument("--scan-pattern", choices=("raster", "orbit", "both"), default="raster",
+    g.add_argument("--scan-pattern", choices=get_args(ScanPattern), default=D.scan_pattern,
                    help="how each site is scanned (the mission flies it, the simulator "
                    "renders it, the planner pays for it)")
-    g.add_argument("--site-diameter", type=float, default=60.0,
+    g.add_argument("--site-diameter", type=float, default=D.site_diameter,
                    help="size of the scan (and of a simulated tumulus), m")
-    g.add_argument("--algo", default="alns",
-                   choices=("alns", "newalg", "newalg-ls", "greedy", "tsiligirides", "glv"),
+    g.add_argument("--algo", default=D.algo, choices=get_args(Algo),
                    help="mound_plan's algorithm (default alns: ALNS-OP, 1 s at most; newalg: "
                    "the paper's)")
-    g.add_argument("--plan-seed", type=int, default=1, help="mound_plan's seed")
-    g.add_argument("--flights", type=int, default=1,
+    g.add_argument("--plan-seed", type=int, default=D.plan_seed, help="mound_plan's seed")
+    g.add_argument("--flights", type=int, default=D.flights,
                    help="flights (batteries or aircraft) from home, each within the budget; "
                    "one mission each (mission_1.plan, ... ordered by reward)")
     from mound.uav.terrain import add_arguments as add_terrain_arguments
@@ -112,7 +113,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_terrain_arguments(p)
     g.add_argument("--connect", help="also upload the mission to this MAVLink vehicle and "
                    "read it back (udpout:HOST:PORT, udpin:HOST:PORT, tcp:HOST:PORT, serial)")
-    g.add_argument("--firmware", choices=("px4", "ardupilot"), default="px4",
+    g.add_argument("--firmware", choices=get_args(Firmware), default=D.firmware,
                    help="the vehicle's dialect of mission items (default: px4)")
     g = p.add_argument_group("3-D stage")
     g.add_argument("--photos", metavar="CARD_DIR", help="the aircraft's photo card (or a copy "
@@ -128,27 +129,27 @@ def build_parser() -> argparse.ArgumentParser:
                    "(weighted by their confidence) retrain the coarse classifier, p_mound "
                    "and rewards are recomputed and the next flight is re-planned over the "
                    "sites not yet flown")
-    g.add_argument("--learn-weight", type=float, default=1.0,
+    g.add_argument("--learn-weight", type=float, default=D.learn_weight,
                    help="--learn: training examples a verified site counts as (times the "
                    "verdict's confidence)")
-    g.add_argument("--image-size", type=int, nargs=2, default=(640, 480),
+    g.add_argument("--image-size", type=int, nargs=2, default=D.image_size,
                    metavar=("W", "H"), help="simulated image size, px")
-    g.add_argument("--sim-seed", type=int, default=1, help="seed of the simulated sites")
-    g.add_argument("--max-features", type=int, default=4000,
+    g.add_argument("--sim-seed", type=int, default=D.sim_seed, help="seed of the simulated sites")
+    g.add_argument("--max-features", type=int, default=D.max_features,
                    help="SIFT features per image (mound_recon reconstruct)")
-    g.add_argument("--dense-size", type=int, default=320, metavar="PX",
+    g.add_argument("--dense-size", type=int, default=D.dense_size, metavar="PX",
                    help="depth maps of mound_recon densify, longer side px (0: no dense "
                    "cloud; the site's GeoTIFFs then come from the sparse one)")
     g.add_argument("--reference", help="judge by the paper's test against this reference "
                    "mound (PLY) instead of the reference-free dome detector")
-    g.add_argument("--site-timeout", type=float, default=1800.0,
+    g.add_argument("--site-timeout", type=float, default=D.site_timeout,
                    help="limit per tool run of a site, s")
     g = p.add_argument_group("scale-out")
     g.add_argument("--scheduler", help="address of a running Dask scheduler "
                    "(tcp://HOST:8786); default: a local cluster")
     g.add_argument("--workers", type=int, help="local cluster: worker processes "
                    "(default: one per core)")
-    g.add_argument("--site-threads", type=int, default=1,
+    g.add_argument("--site-threads", type=int, default=D.site_threads,
                    help="threads of each site's tools (one task per worker thread)")
     g = p.add_argument_group("run")
     g.add_argument("--force", action="store_true", help="redo every stage")
@@ -160,7 +161,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 @dataclass
 class Context:
-    args: argparse.Namespace
+    args: SurveyOptions
     tree: RunTree
     ledger: Ledger
     stages: list[dict[str, Any]] = field(default_factory=list)
@@ -257,14 +258,15 @@ def stage_classify_scene(ctx: Context) -> str:
             SceneModel.from_doc(doc, a.scene_model)
             write_json(path, doc)
             return ["scene_model.json"], f"scene model {a.scene_model}", True
-        model = train_model(a.scene, a.labels, str(path), band_names=parse_names(a.band_names))
+        assert a.labels  # SurveyOptions.check: --labels or --scene-model
+        model = train_model(a.scenes, a.labels, str(path), band_names=parse_names(a.band_names))
         cv = model.info.get("cross_validation") or {}
-        note = (f"{model.spec.kind} scene model on {len(a.scene)} scene(s)"
+        note = (f"{model.spec.kind} scene model on {len(a.scenes)} scene(s)"
                 + (f", leave-scenes-out AUC {cv['auc_mean']:.3f}, recall@5 "
                    f"{cv['recall_at_5']:.3f}" if cv.get("auc_mean") is not None else ""))
         return ["scene_model.json"], note, True
 
-    material = {"scenes": _digest_files(a.scene), "band_names": a.band_names,
+    material = {"scenes": _digest_files(a.scenes), "band_names": a.band_names,
                 "labels": _digest_files([a.labels]) if a.labels else None,
                 "model": _digest_files([a.scene_model]) if a.scene_model else None}
     return run_stage(ctx, "classify", material, work)
@@ -296,14 +298,14 @@ def scene_sites(ctx: Context, scan: Any) -> dict[str, Any]:
     home = parse_lat_lon(a.home)
     labels = read_labels(a.labels) if a.labels else []
     feats: list[dict[str, Any]] = []
-    for k, scene_path in enumerate(a.scene):
+    for k, scene_path in enumerate(a.scenes):
         scene = open_scene(scene_path, parse_names(a.band_names))
         aoi = None
         if a.aoi:
             try:
                 aoi = score.aoi_in_scene(read_aoi(a.aoi), scene, f"--aoi {a.aoi}")
             except InputError:
-                if len(a.scene) == 1:
+                if len(a.scenes) == 1:
                     raise
                 continue
         out = ctx.tree.root / "scene" / f"{k:02d}_{Path(scene_path).stem}"
@@ -357,11 +359,11 @@ def scene_sites(ctx: Context, scan: Any) -> dict[str, Any]:
         if "truth" not in s:
             s["simulate"] = "flat"  # truth unknown: flown over flat ground, not counted
     doc["provenance"]["tool"] = "python/mission.py --scene"
-    doc["provenance"]["scenes"] = list(a.scene)
+    doc["provenance"]["scenes"] = a.scenes
     return doc
 
 
-def scan_spec(args: argparse.Namespace) -> Any:
+def scan_spec(args: SurveyOptions) -> Any:
     from mound.uav import mission_items
 
     scan = mission_items.scan_for_site(args.site_diameter, args.scan_pattern)
@@ -423,12 +425,12 @@ def stage_field(ctx: Context) -> str:
             from mound.geometry.geodesy import Origin
             from mound.uav import terrain
 
-            out = terrain.attach(out, a.dem, terrain.spec_from_args(a), a.dem_vertical,
+            out = terrain.attach(out, a.dem, a.terrain_spec(), a.dem_vertical,
                                  Origin.from_doc(out["origin"], "sites: origin"))
         write_json(ctx.tree.sites, out)
         prov = out["provenance"]
         what = (f"field seed {a.field_seed}" if not (a.sites or a.scene) else
-                f"{a.sites}" if a.sites else f"{len(a.scene)} scene(s)")
+                f"{a.sites}" if a.sites else f"{len(a.scenes)} scene(s)")
         return (["sites.json"], f"{what}: {len(out['sites'])} sites, {prov['positives']} "
                 f"true mounds, total reward {prov['total_reward']:.2f} bits, scan cost "
                 f"{out['sites'][0]['scan_cost_m']:.0f} m per site"
@@ -438,7 +440,7 @@ def stage_field(ctx: Context) -> str:
     return run_stage(ctx, "field", material, work)
 
 
-def terrain_material(a: argparse.Namespace) -> dict[str, Any] | None:
+def terrain_material(a: SurveyOptions) -> dict[str, Any] | None:
     """What the terrain makes of a stage (the DEM's bytes and every terrain option)."""
     if not a.dem:
         return None
@@ -475,14 +477,12 @@ def stage_plan(ctx: Context) -> str:
                                    "seed": a.plan_seed, "flights": a.flights}, work)
 
 
-def mission_terrain(a: argparse.Namespace) -> Any:
+def mission_terrain(a: SurveyOptions) -> Any:
     """The DEM a mission is flown over (mission_items.TerrainInput), None without --dem."""
     if not a.dem:
         return None
     from mound.uav import mission_items
-    from mound.uav.terrain import spec_from_args
-
-    return mission_items.TerrainInput(a.dem, a.dem_vertical, spec_from_args(a))
+    return mission_items.TerrainInput(a.dem, a.dem_vertical, a.terrain_spec())
 
 
 def stage_mission(ctx: Context) -> str:
@@ -572,6 +572,7 @@ def stage_photos(ctx: Context) -> str:
         return "none"
 
     def work() -> tuple[list[str], str, bool]:
+        assert a.photos
         doc = sort_card(a.photos, str(ctx.tree.plan), str(ctx.tree.photos),
                         SortSpec(site_diameter_m=a.site_diameter), a.camera)
         counts = ", ".join(f"{n} {k}" for k, n in sorted(doc["counts"].items()))
@@ -630,7 +631,7 @@ def site_jobs(ctx: Context, plan: dict[str, Any] | None = None) -> list[Any]:
 
     tour = visited_ids(plan)
     root = ctx.tree.root.resolve()
-    options = {"image_size": tuple(a.image_size), "pattern": a.scan_pattern,
+    options: dict[str, Any] = {"image_size": tuple(a.image_size), "pattern": a.scan_pattern,
                "site_diameter_m": a.site_diameter, "sim_seed": a.sim_seed,
                "recon_args": ("--max-features", str(a.max_features)),
                "dense_args": ("--max-image-size", str(a.dense_size), "--resolution-m",
@@ -745,89 +746,9 @@ def stage_report(ctx: Context, started: float) -> str:
     return run_stage(ctx, "report", {k: ctx.keys.get(k) for k in STAGES[:-1]}, work)
 
 
-def check_args(a: argparse.Namespace) -> None:
-    if a.spacing <= 0:
-        raise UsageError("--spacing: must be > 0 m")
-    if a.budget is not None and a.budget <= 0:
-        raise UsageError("--budget: must be > 0 m")
-    if a.site_diameter <= 0:
-        raise UsageError("--site-diameter: must be > 0 m")
-    if min(a.image_size) < 64:
-        raise UsageError("--image-size: at least 64 x 64 px")
-    if a.max_features < 100:
-        raise UsageError("--max-features: at least 100")
-    if a.dense_size != 0 and a.dense_size < 32:
-        raise UsageError("--dense-size: 0 (no dense cloud) or at least 32 px")
-    if a.site_timeout <= 0 or a.site_threads < 1 or (a.workers is not None and a.workers < 1):
-        raise UsageError("--site-timeout, --site-threads, --workers: must be positive")
-    if a.images_root and not Path(a.images_root).is_dir():
-        raise UsageError(f"--images-root: {a.images_root} is not a folder")
-    if a.photos and not Path(a.photos).is_dir():
-        raise UsageError(f"--photos: {a.photos} is not a folder")
-    if a.photos and a.images_root:
-        raise UsageError("--photos and --images-root: give the card or the sorted folders")
-    if a.camera and not a.photos:
-        raise UsageError("--camera goes with --photos")
-    if a.camera and not Path(a.camera).is_file():
-        raise UsageError(f"--camera: {a.camera} not found")
-    if a.learn:
-        if a.sites or a.scene:
-            raise UsageError("--learn: the classifier learns on the field's Statlog "
-                             "features; --sites and --scene sites have none here")
-        if a.photos or a.images_root:
-            raise UsageError("--learn re-plans each flight after the one before: it flies "
-                             "simulated flights (photos of re-planned flights come one "
-                             "card at a time)")
-        if not (math.isfinite(a.learn_weight) and a.learn_weight > 0):
-            raise UsageError("--learn-weight: must be > 0")
-    if a.reference and not Path(a.reference).is_file():
-        raise UsageError(f"--reference: {a.reference} not found")
-    if a.sites and not Path(a.sites).is_file():
-        raise UsageError(f"--sites: {a.sites} not found")
-    if a.scene:
-        if a.sites:
-            raise UsageError("--scene and --sites: give one source of candidate sites")
-        if not a.home:
-            raise UsageError("--home: LAT,LON of the take-off point is needed with --scene")
-        if bool(a.labels) == bool(a.scene_model):
-            raise UsageError("--scene needs --labels (to learn the model) or --scene-model")
-        for opt in ("labels", "scene_model", "aoi"):
-            if getattr(a, opt) and not Path(getattr(a, opt)).is_file():
-                raise UsageError(f"--{opt.replace('_', '-')}: {getattr(a, opt)} not found")
-        if not 1 <= a.candidates <= 10_000:
-            raise UsageError("--candidates: 1 .. 10,000")
-        from mound.args import parse_lat_lon
-        from mound.scene.raster import open_scene
-
-        parse_lat_lon(a.home)
-        for sp in a.scene:
-            open_scene(sp)
-    elif a.labels or a.scene_model or a.aoi:
-        raise UsageError("--labels, --scene-model and --aoi go with --scene")
-    elif a.home:
-        if a.sites:
-            raise UsageError("--home: the sites file has its own home and origin")
-        from mound.args import parse_lat_lon
-
-        parse_lat_lon(a.home)
-    if not 1 <= a.flights <= 64:
-        raise UsageError("--flights: 1 .. 64")
-    if a.dem:
-        if not Path(a.dem).is_file():
-            raise UsageError(f"--dem: {a.dem} not found")
-        from mound.uav.terrain import spec_from_args
-
-        spec_from_args(a)
-    for tool in ("mound_plan", "mound_recon", "mound_render"):
-        try:
-            native.tool_path(tool)
-        except FileNotFoundError as e:
-            raise UsageError(f"{e}") from None
-
-
 def run(argv: list[str]) -> int:
-    args = build_parser().parse_args(argv)
-    check_args(args)
+    args = SurveyOptions.from_namespace(build_parser().parse_args(argv))
+    args.check()
     started = time.time()
     tree = RunTree(Path(args.out))
     tree.root.mkdir(parents=True, exist_ok=True)

@@ -13,7 +13,6 @@ report.html opens from the file system: styles inline, every picture a PNG besid
 
 from __future__ import annotations
 
-import argparse
 import html
 import json
 import time
@@ -23,6 +22,7 @@ from typing import Any
 from mound.classify.metrics import detection_error_rates, says_mound
 from mound.jsonio import read_json, write_atomic
 from mound.survey import figures
+from mound.survey.options import SurveyOptions
 from mound.survey.tree import RunTree, SiteTree
 
 SCHEMA = "mound.survey"
@@ -75,9 +75,9 @@ def site_rows(tree: RunTree, sites_doc: dict[str, Any], plan: dict[str, Any] | N
     return rows
 
 
-def build_summary(tree: RunTree, args: argparse.Namespace, stages: list[dict[str, Any]],
+def build_summary(tree: RunTree, args: SurveyOptions, stages: list[dict[str, Any]],
                   started: float) -> dict[str, Any]:
-    learned = bool(getattr(args, "learn", False))
+    learned = args.learn
     sites_doc = read_json(tree.final_sites(learned), "mound.sites", 1)
     plan = _load(tree.final_plan(learned), "mound.plan")
     mission = _load(tree.mission_summary, "mound.mission")
@@ -104,7 +104,7 @@ def build_summary(tree: RunTree, args: argparse.Namespace, stages: list[dict[str
         "schema": SCHEMA, "version": VERSION, "status": status,
         "created_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
         "origin": sites_doc.get("origin"),
-        "options": {k: (list(v) if isinstance(v, tuple) else v) for k, v in vars(args).items()},
+        "options": args.as_dict(),
         "field": {"source": args.sites or f"standard field seed {args.field_seed}",
                   "sites": len(rows), "true_mounds": sum(1 for t in truth if t),
                   "truth_known": sum(1 for t in truth if t is not None),

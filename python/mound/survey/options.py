@@ -1,0 +1,192 @@
+"""The survey's options, typed: what `python python/mission.py` takes, as one frozen
+dataclass. The command line (mound.survey.driver.build_parser) takes its defaults from here
+and turns its namespace into a SurveyOptions (from_namespace); the stages read only this.
+A script can build one directly: SurveyOptions(out="runs/x", flights=2).check()."""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal
+
+from mound import native
+from mound.args import UsageError
+from mound.uav.terrain import TerrainSpec
+
+ScanPattern = Literal["raster", "orbit", "both"]
+Algo = Literal["alns", "newalg", "newalg-ls", "greedy", "tsiligirides", "glv"]
+Firmware = Literal["px4", "ardupilot"]
+DemVertical = Literal["ellipsoid", "egm96", "egm2008"]
+
+
+@dataclass(frozen=True)
+class SurveyOptions:
+    out: str = "runs/survey"
+    # candidate sites: the paper's field, your sites, or a satellite scene
+    field_seed: int = 0
+    spacing: float = 250.0              # m between neighbouring sites of the field
+    sites: str | None = None            # mound.sites JSON or GeoJSON
+    budget: float | None = None         # m; None: the sites file's, else the aircraft's range
+    scene: tuple[str, ...] | None = None  # GeoTIFF scene(s)
+    labels: str | None = None
+    scene_model: str | None = None
+    home: str | None = None             # "LAT,LON"
+    aoi: str | None = None
+    band_names: str | None = None
+    candidates: int = 20
+    min_separation_m: float = 30.0
+    # flight
+    scan_pattern: ScanPattern = "raster"
+    site_diameter: float = 60.0         # m
+    algo: Algo = "alns"
+    plan_seed: int = 1
+    flights: int = 1
+    dem: str | None = None
+    dem_vertical: DemVertical | None = None
+    clearance_m: float = TerrainSpec.clearance_m
+    scan_clearance_m: float = TerrainSpec.scan_clearance_m
+    footprint_m: float = TerrainSpec.footprint_m
+    climb_factor: float = TerrainSpec.climb_factor
+    descent_factor: float = TerrainSpec.descent_factor
+    connect: str | None = None
+    firmware: Firmware = "px4"
+    # 3-D stage
+    photos: str | None = None
+    camera: str | None = None
+    images_root: str | None = None
+    learn: bool = False
+    learn_weight: float = 1.0
+    image_size: tuple[int, int] = (640, 480)  # px
+    sim_seed: int = 1
+    max_features: int = 4000
+    dense_size: int = 320               # px; 0: no dense cloud
+    reference: str | None = None        # PLY: the paper's test instead of the detector
+    site_timeout: float = 1800.0        # s per tool run of a site
+    # scale-out
+    scheduler: str | None = None
+    workers: int | None = None
+    site_threads: int = 1
+    # run
+    force: bool = False
+    rerun_from: str | None = None
+    no_progress: bool = False
+
+    @classmethod
+    def from_namespace(cls, ns: argparse.Namespace) -> SurveyOptions:
+        """The parser's namespace; its names must be exactly the fields (a parser option
+        without a field, or a field without an option, is a bug)."""
+        given = vars(ns)
+        names = {f.name for f in dataclasses.fields(cls)}
+        if set(given) != names:
+            raise RuntimeError(f"survey options and parser differ: "
+                               f"{sorted(set(given) ^ names)}")
+        kw: dict[str, Any] = dict(given)
+        kw["image_size"] = tuple(kw["image_size"])
+        if kw["scene"] is not None:
+            kw["scene"] = tuple(kw["scene"])
+        return cls(**kw)
+
+    @property
+    def scenes(self) -> list[str]:
+        """The scene GeoTIFFs (none without --scene)."""
+        return list(self.scene or ())
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready (tuples as lists), for summary.json's `options`."""
+        return {k: (list(v) if isinstance(v, tuple) else v)
+                for k, v in dataclasses.asdict(self).items()}
+
+    def terrain_spec(self) -> TerrainSpec:
+        spec = TerrainSpec(clearance_m=self.clearance_m, scan_clearance_m=self.scan_clearance_m,
+                           footprint_m=self.footprint_m, climb_factor=self.climb_factor,
+                           descent_factor=self.descent_factor)
+        spec.validate()
+        return spec
+
+    def check(self) -> None:
+        """UsageError naming the option (as the command line spells it) when the options
+        cannot make a survey; files named must exist, scenes must open."""
+        if self.spacing <= 0:
+            raise UsageError("--spacing: must be > 0 m")
+        if self.budget is not None and self.budget <= 0:
+            raise UsageError("--budget: must be > 0 m")
+        if self.site_diameter <= 0:
+            raise UsageError("--site-diameter: must be > 0 m")
+        if min(self.image_size) < 64:
+            raise UsageError("--image-size: at least 64 x 64 px")
+        if self.max_features < 100:
+            raise UsageError("--max-features: at least 100")
+        if self.dense_size != 0 and self.dense_size < 32:
+            raise UsageError("--dense-size: 0 (no dense cloud) or at least 32 px")
+        if (self.site_timeout <= 0 or self.site_threads < 1
+                or (self.workers is not None and self.workers < 1)):
+            raise UsageError("--site-timeout, --site-threads, --workers: must be positive")
+        if self.images_root and not Path(self.images_root).is_dir():
+            raise UsageError(f"--images-root: {self.images_root} is not a folder")
+        if self.photos and not Path(self.photos).is_dir():
+            raise UsageError(f"--photos: {self.photos} is not a folder")
+        if self.photos and self.images_root:
+            raise UsageError("--photos and --images-root: give the card or the sorted folders")
+        if self.camera and not self.photos:
+            raise UsageError("--camera goes with --photos")
+        if self.camera and not Path(self.camera).is_file():
+            raise UsageError(f"--camera: {self.camera} not found")
+        if self.learn:
+            if self.sites or self.scene:
+                raise UsageError("--learn: the classifier learns on the field's Statlog "
+                                 "features; --sites and --scene sites have none here")
+            if self.photos or self.images_root:
+                raise UsageError("--learn re-plans each flight after the one before: it "
+                                 "flies simulated flights (photos of re-planned flights come "
+                                 "one card at a time)")
+            if not (math.isfinite(self.learn_weight) and self.learn_weight > 0):
+                raise UsageError("--learn-weight: must be > 0")
+        if self.reference and not Path(self.reference).is_file():
+            raise UsageError(f"--reference: {self.reference} not found")
+        if self.sites and not Path(self.sites).is_file():
+            raise UsageError(f"--sites: {self.sites} not found")
+        if self.scene:
+            self._check_scene()
+        elif self.labels or self.scene_model or self.aoi:
+            raise UsageError("--labels, --scene-model and --aoi go with --scene")
+        elif self.home:
+            if self.sites:
+                raise UsageError("--home: the sites file has its own home and origin")
+            from mound.args import parse_lat_lon
+
+            parse_lat_lon(self.home)
+        if not 1 <= self.flights <= 64:
+            raise UsageError("--flights: 1 .. 64")
+        if self.dem:
+            if not Path(self.dem).is_file():
+                raise UsageError(f"--dem: {self.dem} not found")
+            self.terrain_spec()
+        for tool in ("mound_plan", "mound_recon", "mound_render"):
+            try:
+                native.tool_path(tool)
+            except FileNotFoundError as e:
+                raise UsageError(f"{e}") from None
+
+    def _check_scene(self) -> None:
+        assert self.scene
+        if self.sites:
+            raise UsageError("--scene and --sites: give one source of candidate sites")
+        if not self.home:
+            raise UsageError("--home: LAT,LON of the take-off point is needed with --scene")
+        if bool(self.labels) == bool(self.scene_model):
+            raise UsageError("--scene needs --labels (to learn the model) or --scene-model")
+        for opt in ("labels", "scene_model", "aoi"):
+            value = getattr(self, opt)
+            if value and not Path(value).is_file():
+                raise UsageError(f"--{opt.replace('_', '-')}: {value} not found")
+        if not 1 <= self.candidates <= 10_000:
+            raise UsageError("--candidates: 1 .. 10,000")
+        from mound.args import parse_lat_lon
+        from mound.scene.raster import open_scene
+
+        parse_lat_lon(self.home)
+        for sp in self.scene:
+            open_scene(sp)
