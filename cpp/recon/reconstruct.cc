@@ -14,6 +14,8 @@
 #include "recon/exif.h"
 #include "recon/inputs.h"
 #include "recon/recon_io.h"
+#include "sfm/georegistration.h"
+#include "sfm/incremental_mapper.h"
 #include "sfm/pairing.h"
 #include "sfm/retrieval.h"
 

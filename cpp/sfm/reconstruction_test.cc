@@ -3,6 +3,10 @@
 // incremental mapper itself on a synthetic scene (COLMAP's SynthesizeDataset pattern).
 #include "sfm/reconstruction.h"
 
+#include "sfm/georegistration.h"
+#include "sfm/incremental_mapper.h"
+#include "sfm/tracks.h"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
