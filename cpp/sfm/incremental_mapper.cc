@@ -5,9 +5,9 @@
 #include <chrono>
 #include <cmath>
 #include <numeric>
-#include <optional>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
+#include <optional>
 
 #include "ba/bundle_adjuster.h"
 #include "common/error.h"
