@@ -1,111 +1,23 @@
 // Plane-sweep depth maps (see dense.h for the method and its sources).
 #include <Eigen/Dense>
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <limits>
 #include <memory>
-#include <mutex>
-#include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "common/error.h"
 #include "common/parallel.h"
 #include "common/stats.h"
 #include "mvs/dense.h"
+#include "mvs/scaled_images.h"
 
 namespace mound::mvs {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-
-// An image at the depth-map scale: distortion removed, downscaled, grey 0..1 and colour.
-struct ScaledImage {
-  cv::Mat grey;    // CV_32F
-  cv::Mat colour;  // CV_8UC3, BGR
-  geometry::CameraModel camera;
-};
-
-ScaledImage LoadScaled(const std::string& path, const geometry::CameraModel& cam, int max_size) {
-  cv::Mat img = cv::imread(path, cv::IMREAD_COLOR);
-  if (img.empty()) throw InputError(path + ": cannot read the image");
-  if (img.cols != cam.width || img.rows != cam.height) {
-    throw InputError(path + ": " + std::to_string(img.cols) + "x" + std::to_string(img.rows) +
-                     " pixels, but the model's camera is " + std::to_string(cam.width) + "x" +
-                     std::to_string(cam.height));
-  }
-  cv::Mat K = (cv::Mat_<double>(3, 3) << cam.fx, 0, cam.cx, 0, cam.fy, cam.cy, 0, 0, 1);
-  if (cam.HasDistortion()) {
-    cv::Mat dist =
-        (cv::Mat_<double>(1, 5) << cam.dist[0], cam.dist[1], cam.dist[2], cam.dist[3], cam.dist[4]);
-    cv::Mat u;
-    cv::undistort(img, u, K, dist, K);
-    img = u;
-  }
-  ScaledImage s;
-  const double scale = std::min(1.0, static_cast<double>(max_size) / std::max(img.cols, img.rows));
-  const int w = std::max(1, static_cast<int>(std::lround(img.cols * scale)));
-  const int h = std::max(1, static_cast<int>(std::lround(img.rows * scale)));
-  if (w != img.cols || h != img.rows) {
-    cv::resize(img, s.colour, cv::Size(w, h), 0, 0, cv::INTER_AREA);
-  } else {
-    s.colour = img;
-  }
-  cv::Mat grey8;
-  cv::cvtColor(s.colour, grey8, cv::COLOR_BGR2GRAY);
-  grey8.convertTo(s.grey, CV_32F, 1.0 / 255.0);
-  const double sx = static_cast<double>(w) / cam.width, sy = static_cast<double>(h) / cam.height;
-  s.camera.width = w;
-  s.camera.height = h;
-  s.camera.fx = cam.fx * sx;
-  s.camera.fy = cam.fy * sy;
-  // Pixel centres: (0, 0) is the centre of the top-left pixel at both scales.
-  s.camera.cx = (cam.cx + 0.5) * sx - 0.5;
-  s.camera.cy = (cam.cy + 0.5) * sy - 0.5;
-  return s;
-}
-
-// The scaled images of a run, each read once and shared while they fit in `max_bytes`;
-// thread-safe.
-class ScaledImages {
- public:
-  ScaledImages(const DenseInput& in, int max_size, size_t max_bytes)
-      : in_(in),
-        max_size_(max_size),
-        max_bytes_(max_bytes),
-        once_(in.image_paths.size()),
-        kept_(in.image_paths.size()) {}
-  std::shared_ptr<const ScaledImage> Get(int i) const {
-    std::shared_ptr<const ScaledImage> fresh;
-    std::call_once(once_[i], [&] {
-      fresh = Load(i);
-      const size_t bytes = fresh->grey.total() * fresh->grey.elemSize() +
-                           fresh->colour.total() * fresh->colour.elemSize();
-      if (bytes_.fetch_add(bytes) + bytes <= max_bytes_) kept_[i] = fresh;
-    });
-    if (fresh) return fresh;
-    if (kept_[i]) return kept_[i];  // set inside call_once, which orders it before this
-    return Load(i);                 // over the bound: read again
-  }
-  int reads() const { return reads_.load(); }
-
- private:
-  std::shared_ptr<const ScaledImage> Load(int i) const {
-    ++reads_;
-    return std::make_shared<const ScaledImage>(
-        LoadScaled(in_.image_paths[i], in_.camera, max_size_));
-  }
-  const DenseInput& in_;
-  const int max_size_;
-  const size_t max_bytes_;
-  mutable std::vector<std::once_flag> once_;
-  mutable std::vector<std::shared_ptr<const ScaledImage>> kept_;
-  mutable std::atomic<size_t> bytes_{0};
-  mutable std::atomic<int> reads_{0};
-};
 
 // The pixel of world point X in camera c at pose cam_from_world (the project's camera
 // model, distortion included); false behind the camera.
