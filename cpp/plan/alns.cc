@@ -792,7 +792,26 @@ int RuinSize(int m, std::mt19937_64& rng) {
 
 }  // namespace
 
-PlanResult SolveAlns(const OpInstance& inst, const AlnsOptions& opt) {
+nlohmann::json AlnsStats::ToJson() const {
+  nlohmann::json j = {{"name", "alns"},           {"iterations", iterations},
+                      {"new_bests", new_bests},   {"stopped_by", stopped_by},
+                      {"work_ticks", work_ticks}, {"elapsed_s", elapsed_s}};
+  if (flights > 1) {
+    j["flights"] = flights;
+    j["sequential_start_reward"] = start_reward;
+    return j;
+  }
+  j["newalg_reward"] = start_reward;
+  j["lkh_polishes"] = lkh_polishes;
+  j["restarts"] = restarts;
+  j["spread_starts_won"] = spread_starts_won;
+  nlohmann::json w = nlohmann::json::object();
+  for (const Ruin& r : ruins) w[r.name] = {{"weight", r.weight}, {"new_bests", r.new_bests}};
+  j["ruins"] = w;
+  return j;
+}
+
+PlanResult SolveAlns(const OpInstance& inst, const AlnsOptions& opt, AlnsStats* out_stats) {
   Schedule schedule(opt, inst.Size() - inst.FirstSite());
   NewAlgOptions nopt;
   nopt.seed = opt.seed;
@@ -870,21 +889,20 @@ PlanResult SolveAlns(const OpInstance& inst, const AlnsOptions& opt) {
   res.route = best.route;
   res.reward = inst.RouteReward(res.route);
   res.cost = inst.RouteCost(res.route);
-  res.stats = nlohmann::json::object();
-  res.stats["name"] = "alns";
-  res.stats["newalg_reward"] = init.reward;
-  res.stats["iterations"] = it;
-  res.stats["new_bests"] = new_bests;
-  res.stats["lkh_polishes"] = polishes;
-  res.stats["restarts"] = restarts;
-  res.stats["spread_starts_won"] = starts_won;
-  res.stats["stopped_by"] = schedule.Why(it, since_best);
-  res.stats["work_ticks"] = search.Ticks();
-  nlohmann::json w = nlohmann::json::object();
+  AlnsStats st;
+  st.start_reward = init.reward;
+  st.iterations = it;
+  st.new_bests = new_bests;
+  st.lkh_polishes = polishes;
+  st.restarts = restarts;
+  st.spread_starts_won = starts_won;
+  st.stopped_by = schedule.Why(it, since_best);
+  st.work_ticks = search.Ticks();
   for (int o = 0; o < kNumRuins; ++o)
-    w[kRuinNames[o]] = {{"weight", roulette.Weight(o)}, {"new_bests", bests[o]}};
-  res.stats["ruins"] = w;
-  res.stats["elapsed_s"] = schedule.Elapsed();
+    st.ruins.push_back({kRuinNames[o], roulette.Weight(o), bests[o]});
+  st.elapsed_s = schedule.Elapsed();
+  res.stats = st.ToJson();
+  if (out_stats) *out_stats = std::move(st);
   return res;
 }
 
@@ -892,10 +910,11 @@ PlanResult SolveAlns(const OpInstance& inst, const AlnsOptions& opt) {
 
 namespace mound::plan {
 
-FlightsResult SolveAlnsFlights(const OpInstance& inst, int flights, const AlnsOptions& opt) {
+FlightsResult SolveAlnsFlights(const OpInstance& inst, int flights, const AlnsOptions& opt,
+                               AlnsStats* out_stats) {
   if (flights == 1) {
     FlightsResult one;
-    const PlanResult r = SolveAlns(inst, opt);
+    const PlanResult r = SolveAlns(inst, opt, out_stats);
     one.routes = {r.route};
     one.stats = r.stats;
     OrderFlights(inst, &one);
@@ -911,8 +930,9 @@ FlightsResult SolveAlnsFlights(const OpInstance& inst, int flights, const AlnsOp
     o.seed = opt.seed + 7919 * static_cast<uint64_t>(k);
     o.time_limit_s = opt.time_limit_s > 0 ? 0.25 * opt.time_limit_s / flights : 0;
     if (opt.time_limit_s <= 0) o.max_iterations = std::min(opt.max_iterations, 2000);
-    PlanResult r = SolveAlns(sub, o);
-    start_ticks += r.stats.value("work_ticks", uint64_t{0});
+    AlnsStats sub_stats;
+    PlanResult r = SolveAlns(sub, o, &sub_stats);
+    start_ticks += sub_stats.work_ticks;
     return r;
   });
 
@@ -1047,15 +1067,16 @@ FlightsResult SolveAlnsFlights(const OpInstance& inst, int flights, const AlnsOp
   FlightsResult res;
   for (auto& s : best.fl) res.routes.push_back(s.route);
   OrderFlights(inst, &res);
-  res.stats = nlohmann::json::object();
-  res.stats["name"] = "alns";
-  res.stats["flights"] = flights;
-  res.stats["sequential_start_reward"] = seq_reward;
-  res.stats["iterations"] = it;
-  res.stats["new_bests"] = new_bests;
-  res.stats["stopped_by"] = schedule.Why(it, since_best);
-  res.stats["work_ticks"] = static_cast<uint64_t>(ticks());
-  res.stats["elapsed_s"] = schedule.Elapsed();
+  AlnsStats st;
+  st.flights = flights;
+  st.start_reward = seq_reward;
+  st.iterations = it;
+  st.new_bests = new_bests;
+  st.stopped_by = schedule.Why(it, since_best);
+  st.work_ticks = static_cast<uint64_t>(ticks());
+  st.elapsed_s = schedule.Elapsed();
+  res.stats = st.ToJson();
+  if (out_stats) *out_stats = std::move(st);
   return res;
 }
 

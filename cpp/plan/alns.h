@@ -28,6 +28,9 @@
 #pragma once
 
 #include <cstdint>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
 
 #include "plan/flights.h"
 #include "plan/newalg.h"
@@ -48,7 +51,29 @@ struct AlnsOptions {
   double wall_factor = kAlnsWallFactor;  // wall-clock guard: time_limit_s * wall_factor
 };
 
-PlanResult SolveAlns(const OpInstance& inst, const AlnsOptions& opt);
+// What a search did, typed (PlanResult::stats / FlightsResult::stats hold ToJson()).
+struct AlnsStats {
+  int flights = 1;
+  double start_reward = 0;  // K = 1: NewAlg's route; K > 1: ALNS-OP flight by flight
+  int iterations = 0, new_bests = 0;
+  int lkh_polishes = 0, restarts = 0, spread_starts_won = 0;  // K = 1
+  std::string stopped_by;  // "time limit (work ticks)", "all sites visited", ...
+  uint64_t work_ticks = 0;
+  struct Ruin {
+    std::string name;   // random | segment | worst | related
+    double weight = 0;  // the roulette's at the end
+    int new_bests = 0;
+  };
+  std::vector<Ruin> ruins;  // K = 1
+  double elapsed_s = 0;
+
+  // The plan file's `solver` object: name "alns", newalg_reward or (K > 1) flights and
+  // sequential_start_reward, the counts, stopped_by, work_ticks, ruins, elapsed_s.
+  nlohmann::json ToJson() const;
+};
+
+// `stats`, when given, receives the typed statistics.
+PlanResult SolveAlns(const OpInstance& inst, const AlnsOptions& opt, AlnsStats* stats = nullptr);
 
 // Several flights from the same home (the team orienteering problem): K routes, each
 // within the budget, no site in two, the most reward in all. K = 1 is SolveAlns. For
@@ -57,6 +82,7 @@ PlanResult SolveAlns(const OpInstance& inst, const AlnsOptions& opt);
 // recreates each flight in a random order (the other flights' sites excluded), runs each
 // flight's local search and the moves between flights (relocate, exchange, cross), and
 // refills the budget they free. Flights are returned in order of reward, best first.
-FlightsResult SolveAlnsFlights(const OpInstance& inst, int flights, const AlnsOptions& opt);
+FlightsResult SolveAlnsFlights(const OpInstance& inst, int flights, const AlnsOptions& opt,
+                               AlnsStats* stats = nullptr);
 
 }  // namespace mound::plan

@@ -51,7 +51,8 @@ TEST(AlnsTest, AtLeastNewAlgAndDeterministic) {
     OpInstance inst = RandomInstance(150, closed, 0, 11);
     test_instances::ScaleCoordinates(&inst, 10);
     inst.budget_m = 250;
-    const PlanResult a = SolveAlns(inst, Fixed(4, 300));
+    AlnsStats st;
+    const PlanResult a = SolveAlns(inst, Fixed(4, 300), &st);
     const PlanResult b = SolveAlns(inst, Fixed(4, 300));
     NewAlgOptions n;
     n.seed = 4;
@@ -59,7 +60,10 @@ TEST(AlnsTest, AtLeastNewAlgAndDeterministic) {
     test_instances::ExpectValidRoute(inst, a, closed ? "closed" : "path");
     EXPECT_EQ(a.route, b.route);
     EXPECT_GE(a.reward, base.reward - 1e-9);
+    EXPECT_EQ(st.start_reward, base.reward);
+    EXPECT_EQ(a.stats, st.ToJson());  // the plan file's object is the typed stats
     EXPECT_EQ(a.stats["newalg_reward"].get<double>(), base.reward);
+    EXPECT_EQ(st.ruins.size(), 4u);
   }
 }
 
@@ -75,13 +79,14 @@ TEST(AlnsTest, SpreadStartsReachAFarCluster) {
   }
   inst.budget_m = 130;  // the cluster (2 x 50 m there and back, ~16 m inside), not more
   const PlanResult trail_only = SolveNewAlg(inst, NewAlgOptions{});
-  const PlanResult r = SolveAlns(inst, Fixed(1, 1));
+  AlnsStats st;
+  const PlanResult r = SolveAlns(inst, Fixed(1, 1), &st);
   test_instances::ExpectValidRoute(inst, r, "cluster");
   std::cout << "[ alns    ] far cluster: NewAlg " << trail_only.reward << ", ALNS after one "
             << "iteration " << r.reward << "\n";
   EXPECT_LT(trail_only.reward, 160);
   EXPECT_GE(r.reward, 160);  // all 16 cluster sites of 10
-  EXPECT_GE(r.stats["spread_starts_won"].get<int>(), 1);
+  EXPECT_GE(st.spread_starts_won, 1);
 }
 
 // Repeatable under the default time limit on any machine load: a search that the limit
@@ -95,8 +100,9 @@ TEST(AlnsTest, RepeatableUnderLoadAtTheDefaultTimeLimit) {
   // The wall-clock guard (10x the limit) is for machines far slower than the reference;
   // under the sanitizers and the load below this one can be, so it is widened here.
   o.wall_factor = 100;
-  const PlanResult alone = SolveAlns(inst, o);
-  ASSERT_EQ(alone.stats["stopped_by"], "time limit (work ticks)") << alone.stats.dump();
+  AlnsStats alone_stats, loaded_stats;
+  const PlanResult alone = SolveAlns(inst, o, &alone_stats);
+  ASSERT_EQ(alone_stats.stopped_by, "time limit (work ticks)") << alone.stats.dump();
   std::atomic<bool> stop{false};
   std::vector<std::thread> load;
   const unsigned threads = std::max(2u, 2 * std::thread::hardware_concurrency());
@@ -106,16 +112,17 @@ TEST(AlnsTest, RepeatableUnderLoadAtTheDefaultTimeLimit) {
       while (!stop.load(std::memory_order_relaxed)) x = x * 1.0000001 + 1e-9;
     });
   }
-  const PlanResult loaded = SolveAlns(inst, o);
+  const PlanResult loaded = SolveAlns(inst, o, &loaded_stats);
   stop = true;
   for (auto& t : load) t.join();
-  std::cout << "[ alns    ] 400 sites, default limit: alone " << alone.stats["elapsed_s"]
-            << " s, under load " << loaded.stats["elapsed_s"] << " s, reward " << alone.reward
-            << " / " << loaded.reward << "\n";
+  std::cout << "[ alns    ] 400 sites, default limit: alone " << alone_stats.elapsed_s
+            << " s, under load " << loaded_stats.elapsed_s << " s, reward " << alone.reward << " / "
+            << loaded.reward << "\n";
   test_instances::ExpectValidRoute(inst, loaded, "loaded");
   EXPECT_EQ(alone.route, loaded.route);
-  EXPECT_EQ(alone.stats["iterations"], loaded.stats["iterations"]);
-  EXPECT_EQ(loaded.stats["stopped_by"], "time limit (work ticks)");
+  EXPECT_EQ(alone_stats.iterations, loaded_stats.iterations);
+  EXPECT_EQ(alone_stats.work_ticks, loaded_stats.work_ticks);
+  EXPECT_EQ(loaded_stats.stopped_by, "time limit (work ticks)");
 }
 
 // Costs over terrain (climbs round ridges, no triangle inequality): every planner's route
@@ -156,10 +163,11 @@ TEST(AlnsTest, EdgeCases) {
   PlanResult r = SolveAlns(tight, Fixed(1, 50));
   test_instances::ExpectValidRoute(tight, r, "tight");
   OpInstance loose = RandomInstance(20, false, 1000, 3);
-  r = SolveAlns(loose, Fixed(1, 50));
+  AlnsStats st;
+  r = SolveAlns(loose, Fixed(1, 50), &st);
   test_instances::ExpectValidRoute(loose, r, "loose");
   EXPECT_EQ(r.route.size(), 22u);  // every site visited
-  EXPECT_EQ(r.stats["stopped_by"], "all sites visited");
+  EXPECT_EQ(st.stopped_by, "all sites visited");
 }
 
 }  // namespace

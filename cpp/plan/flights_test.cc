@@ -101,14 +101,17 @@ TEST(FlightsTest, RepeatableAtTheDefaultTimeLimit) {
   inst.budget_m = 300;
   AlnsOptions o;
   o.wall_factor = 100;  // sanitizers
-  const FlightsResult a = SolveAlnsFlights(inst, 3, o);
+  AlnsStats st;
+  const FlightsResult a = SolveAlnsFlights(inst, 3, o, &st);
   const FlightsResult b = SolveAlnsFlights(inst, 3, o);
   ExpectValidFlights(inst, a, 3, "200 sites");
   EXPECT_EQ(a.routes, b.routes);
   EXPECT_GT(a.reward, 0);
   std::cout << "[ flights ] 200 sites, 3 flights: reward " << a.reward << " (flight by flight "
-            << a.stats["sequential_start_reward"] << "), " << a.stats["iterations"]
-            << " iterations, " << a.stats["elapsed_s"] << " s\n";
+            << st.start_reward << "), " << st.iterations << " iterations, " << st.elapsed_s
+            << " s\n";
+  EXPECT_EQ(st.flights, 3);
+  EXPECT_EQ(a.stats, st.ToJson());
 }
 
 }  // namespace
