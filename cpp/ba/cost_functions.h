@@ -19,6 +19,25 @@
 
 namespace mound::ba {
 
+// Projected minus observed pixel of `point` in the camera (rotation, translation) with the
+// model parameters `params` (fixed doubles or refined jets); zero behind the camera.
+// Shared by both cost functions.
+template <typename P, typename T>
+bool ProjectionResidual(const T* rotation, const T* translation, const T* point, const P* params,
+                        double u_px, double v_px, T* residual) {
+  T p[3];
+  ceres::AngleAxisRotatePoint(rotation, point, p);
+  for (int i = 0; i < 3; ++i) p[i] += translation[i];
+  T u, v;
+  if (!geometry::ImageFromCamera(params, p, &u, &v)) {
+    residual[0] = residual[1] = T(0);
+    return true;
+  }
+  residual[0] = u - T(u_px);
+  residual[1] = v - T(v_px);
+  return true;
+}
+
 class ReprojectionError {
  public:
   ReprojectionError(double u_px, double v_px, const geometry::CameraModel& camera)
@@ -26,17 +45,7 @@ class ReprojectionError {
 
   template <typename T>
   bool operator()(const T* rotation, const T* translation, const T* point, T* residual) const {
-    T p[3];
-    ceres::AngleAxisRotatePoint(rotation, point, p);
-    for (int i = 0; i < 3; ++i) p[i] += translation[i];
-    T u, v;
-    if (!geometry::ImageFromCamera(params_.data(), p, &u, &v)) {
-      residual[0] = residual[1] = T(0);
-      return true;
-    }
-    residual[0] = u - T(u_);
-    residual[1] = v - T(v_);
-    return true;
+    return ProjectionResidual(rotation, translation, point, params_.data(), u_, v_, residual);
   }
 
   // Ceres 2.1: the cost function takes ownership of a heap-allocated functor.
@@ -62,22 +71,12 @@ class ReprojectionErrorWithIntrinsics {
   template <typename T>
   bool operator()(const T* rotation, const T* translation, const T* point, const T* intrinsics,
                   T* residual) const {
-    T p[3];
-    ceres::AngleAxisRotatePoint(rotation, point, p);
-    for (int i = 0; i < 3; ++i) p[i] += translation[i];
     const T params[geometry::CameraModel::kNumParams] = {intrinsics[0], intrinsics[0] * T(aspect_),
                                                          T(fixed_[2]),  T(fixed_[3]),
                                                          intrinsics[1], intrinsics[2],
                                                          T(fixed_[6]),  T(fixed_[7]),
                                                          T(fixed_[8])};
-    T u, v;
-    if (!geometry::ImageFromCamera(params, p, &u, &v)) {
-      residual[0] = residual[1] = T(0);
-      return true;
-    }
-    residual[0] = u - T(u_);
-    residual[1] = v - T(v_);
-    return true;
+    return ProjectionResidual(rotation, translation, point, params, u_, v_, residual);
   }
 
   static ceres::CostFunction* Create(double u_px, double v_px,

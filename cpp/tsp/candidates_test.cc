@@ -5,20 +5,12 @@
 #include <random>
 
 #include "tsp/problem.h"
+#include "tsp/test_problems.h"
 
 namespace mound::tsp {
 namespace {
 
-CoordProblem RandomProblem(int n, unsigned seed) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> u(0, 1000);
-  std::vector<double> x(n), y(n);
-  for (int i = 0; i < n; ++i) {
-    x[i] = u(rng);
-    y[i] = u(rng);
-  }
-  return CoordProblem(Metric::kEuc2D, x, y);
-}
+using testing::RandomProblem;
 
 TEST(CandidatesTest, AscentRaisesTheBoundAndStaysBelowAKnownTour) {
   const CoordProblem p = RandomProblem(120, 1);

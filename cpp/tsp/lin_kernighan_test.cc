@@ -14,21 +14,13 @@
 
 #include "tsp/candidates.h"
 #include "tsp/problem.h"
+#include "tsp/test_problems.h"
 #include "tsp/tour.h"
 
 namespace mound::tsp {
 namespace {
 
-CoordProblem Random(int n, uint32_t seed) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> u(0, 1000);
-  std::vector<double> x(n), y(n);
-  for (int i = 0; i < n; ++i) {
-    x[i] = u(rng);
-    y[i] = u(rng);
-  }
-  return CoordProblem(Metric::kEuc2D, x, y);
-}
+using testing::RandomProblem;
 
 // Runs LK from a random order with zero penalties and all n-1 neighbours as candidates,
 // `passes` times from all nodes (0: until a pass gains nothing); returns the tour and
@@ -87,7 +79,7 @@ TEST(LinKernighan, PointsInConvexPositionEndInTheirConvexOrder) {
 // (t2 = t5), which the sequential search does not build; the solver's kicks cover it.
 TEST(LinKernighan, APassWithoutGainLeavesNoImprovingTwoOptOrSegmentMove) {
   for (uint32_t seed = 1; seed <= 5; ++seed) {
-    const CoordProblem p = Random(60, seed);
+    const CoordProblem p = RandomProblem(60, seed);
     const int n = p.Size();
     const std::vector<int> t = Optimize(p, seed, 5, 0);
     auto D = [&](int i, int j) { return p.Dist(t[i % n], t[j % n]); };
@@ -114,7 +106,7 @@ TEST(LinKernighan, APassWithoutGainLeavesNoImprovingTwoOptOrSegmentMove) {
 }
 
 TEST(LinKernighan, NeverRemovesAFixedEdge) {
-  CoordProblem p = Random(50, 7);
+  CoordProblem p = RandomProblem(50, 7);
   // Two far-apart nodes: the edge between them is in no good tour.
   int a = 0, b = 1;
   for (int j = 1; j < p.Size(); ++j)

@@ -81,6 +81,19 @@ double Bounded(double v, double lo, double hi, const std::string& where, const c
   return v;
 }
 
+// A node section: `n` records "id value...", each id once; read_values(0-based id) reads
+// the rest of a record.
+template <typename F>
+void ReadNodeRecords(NumberReader& r, int n, F&& read_values) {
+  std::vector<bool> seen(n, false);
+  for (int k = 0; k < n; ++k) {
+    const int idx = NodeIndex(r.Next("node id"), n, r.Where(), "node id");
+    if (seen[idx]) throw InputError(r.Where() + ": repeated node id " + std::to_string(idx + 1));
+    seen[idx] = true;
+    read_values(idx);
+  }
+}
+
 }  // namespace
 
 TsplibInstance ParseTsplib(const std::string& text, const std::string& source) {
@@ -151,17 +164,12 @@ TsplibInstance ParseTsplib(const std::string& text, const std::string& source) {
       NumberReader r(lines, i, source);
       x.assign(inst.dimension, 0);
       y.assign(inst.dimension, 0);
-      std::vector<bool> seen(inst.dimension, false);
-      for (int k = 0; k < inst.dimension; ++k) {
-        const int idx = NodeIndex(r.Next("node id"), inst.dimension, r.Where(), "node id");
-        if (seen[idx])
-          throw InputError(r.Where() + ": repeated node id " + std::to_string(idx + 1));
-        seen[idx] = true;
+      ReadNodeRecords(r, inst.dimension, [&](int idx) {
         x[idx] = Bounded(r.Next("x coordinate"), -kMaxCoordinate, kMaxCoordinate, r.Where(),
                          "x coordinate");
         y[idx] = Bounded(r.Next("y coordinate"), -kMaxCoordinate, kMaxCoordinate, r.Where(),
                          "y coordinate");
-      }
+      });
       i = r.line();
       have_coords = true;
     } else if (key == "EDGE_WEIGHT_SECTION") {
@@ -194,14 +202,9 @@ TsplibInstance ParseTsplib(const std::string& text, const std::string& source) {
       need_dim(lineno);
       NumberReader r(lines, i, source);
       inst.scores.assign(inst.dimension, 0);
-      std::vector<bool> seen(inst.dimension, false);
-      for (int k = 0; k < inst.dimension; ++k) {
-        const int idx = NodeIndex(r.Next("node id"), inst.dimension, r.Where(), "node id");
-        if (seen[idx])
-          throw InputError(r.Where() + ": repeated node id " + std::to_string(idx + 1));
-        seen[idx] = true;
+      ReadNodeRecords(r, inst.dimension, [&](int idx) {
         inst.scores[idx] = Bounded(r.Next("score"), 0, kMaxScore, r.Where(), "score");
-      }
+      });
       i = r.line();
     } else if (key == "DEPOT_SECTION") {
       need_dim(lineno);
