@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from dataclasses import asdict, dataclass, replace
+from dataclasses import asdict, dataclass, fields, replace
 from typing import Any
 
 import numpy as np
@@ -91,18 +91,14 @@ class ScanLeg:
 
 
 @dataclass(frozen=True)
-class ScanSpec:
-    """How one site is scanned: the camera, the pattern(s) and their geometry.
-
-    Lengths are metres; None scales the geometry to the site diameter D (`scale_m`): a
-    raster at height D over a D x D square, whose images then stay on the site, and an
-    orbit of radius D at height 0.75 D looking at `target_height_m` above the site centre
-    (by default 18 nadir + 22 oblique = 40 images). `transit_altitude_m` is the height the
-    aircraft flies between sites (None: the highest scan waypoint).
-    """
+class FlightLayout:
+    """The camera and the scan's pattern(s) and geometry, shared by the mission's ScanSpec
+    and the simulator's SimSpec. Lengths are metres; None scales the geometry to the site
+    diameter D: a raster at height D over a D x D square, whose images then stay on the
+    site, and an orbit of radius D at height 0.75 D (by default 18 nadir + 22 oblique = 40
+    images)."""
 
     pattern: str = "both"
-    scale_m: float = 60.0
     width_px: int = 1280
     height_px: int = 960
     hfov_rad: float = 1.2217304763960306  # 70 degrees
@@ -114,6 +110,19 @@ class ScanSpec:
     orbit_radius_m: float | None = None
     orbit_altitude_m: float | None = None
     orbit_images: int = 22
+
+    def layout(self) -> dict[str, Any]:
+        """The layout's fields by name (to build another FlightLayout from this one)."""
+        return {f.name: getattr(self, f.name) for f in fields(FlightLayout)}
+
+
+@dataclass(frozen=True)
+class ScanSpec(FlightLayout):
+    """How one site is scanned: the layout scaled to `scale_m` (the site diameter D), the
+    orbit looking at `target_height_m` above the site centre; `transit_altitude_m` is the
+    height the aircraft flies between sites (None: the highest scan waypoint)."""
+
+    scale_m: float = 60.0
     target_height_m: float = 0.0
     transit_altitude_m: float | None = None
 

@@ -36,7 +36,7 @@ from mound import native
 from mound.errors import InputError
 from mound.geometry import flight
 from mound.geometry.camera import Camera
-from mound.geometry.flight import PATTERNS, ScanSpec
+from mound.geometry.flight import PATTERNS, FlightLayout, ScanSpec
 from mound.jsonio import write_json
 from mound.ply import write_ply
 from mound.sim import appearance, terrain
@@ -45,25 +45,13 @@ DEFAULT_ORIGIN = {"lat": 38.5705, "lon": 27.9862, "alt_m": 95.0}  # Bin Tepe, Ma
 
 
 @dataclass(frozen=True)
-class SimSpec:
+class SimSpec(FlightLayout):
+    """A simulated site and its flight: the terrain, the light, the flight's layout
+    (FlightLayout: None scales it to the mound diameter, the orbit looking at a third of
+    the mound's height), the sensor and the GPS."""
+
     terrain: terrain.TerrainSpec = field(default_factory=terrain.TerrainSpec)
     lighting: appearance.Lighting = field(default_factory=appearance.Lighting)
-    width_px: int = 1280
-    height_px: int = 960
-    hfov_rad: float = 1.2217304763960306  # 70 degrees
-    dist: tuple[float, float, float, float, float] = (0.0, 0.0, 0.0, 0.0, 0.0)
-    pattern: str = "both"
-    # Flight geometry; None: scaled to the mound diameter D (raster at height D over a
-    # D x D square, whose images then stay on the site; orbit of radius D at height
-    # 0.75 D looking at a third of the mound's height), so one layout fits both presets:
-    # 18 nadir + 22 oblique = 40 images by default.
-    raster_altitude_m: float | None = None
-    raster_area_m: float | None = None
-    front_overlap: float = 0.8
-    side_overlap: float = 0.6
-    orbit_radius_m: float | None = None
-    orbit_altitude_m: float | None = None
-    orbit_images: int = 22
     texel_m: float | None = None  # None: a fifth of the heightfield spacing
     noise_sigma: float = 1.5      # sensor noise, digital numbers
     vignetting: float = 0.15
@@ -85,12 +73,7 @@ class SimSpec:
         to the mound diameter, the orbit looking at a third of the mound's height (also
         for the flat control, which gets the same flight)."""
         return ScanSpec(
-            pattern=self.pattern, scale_m=self.scale_m, width_px=self.width_px,
-            height_px=self.height_px, hfov_rad=self.hfov_rad, dist=self.dist,
-            raster_altitude_m=self.raster_altitude_m, raster_area_m=self.raster_area_m,
-            front_overlap=self.front_overlap, side_overlap=self.side_overlap,
-            orbit_radius_m=self.orbit_radius_m, orbit_altitude_m=self.orbit_altitude_m,
-            orbit_images=self.orbit_images,
+            **self.layout(), scale_m=self.scale_m,
             target_height_m=self.terrain.height_m / 3 if self.scan_diameter_m is None else 0.0)
 
     def camera(self) -> Camera:
