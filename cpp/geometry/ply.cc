@@ -9,7 +9,7 @@
 #include "common/atomic_file.h"
 #include "common/error.h"
 
-namespace mound {
+namespace mound::geometry {
 namespace {
 
 struct Property {
@@ -278,4 +278,4 @@ void WritePly(const std::string& path, const PlyCloud& c) {
   WriteFileAtomic(path, out);
 }
 
-}  // namespace mound
+}  // namespace mound::geometry

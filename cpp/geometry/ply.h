@@ -19,7 +19,7 @@
 #include <string>
 #include <vector>
 
-namespace mound {
+namespace mound::geometry {
 
 struct PlyCloud {
   std::vector<Eigen::Vector3d> xyz;
@@ -39,4 +39,4 @@ PlyCloud ParsePly(std::istream& in, const std::string& path);
 // comments as given. Atomic. The one PLY writer of the C++ side.
 void WritePly(const std::string& path, const PlyCloud& cloud);
 
-}  // namespace mound
+}  // namespace mound::geometry

@@ -10,7 +10,7 @@
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   std::istringstream in(std::string(reinterpret_cast<const char*>(data), size));
   mound::fuzz::ExpectValueOrInputError([&] {
-    const mound::PlyCloud c = mound::ParsePly(in, "fuzz.ply");
+    const mound::geometry::PlyCloud c = mound::geometry::ParsePly(in, "fuzz.ply");
     if (!c.rgb.empty() && c.rgb.size() != c.xyz.size()) std::abort();
   });
   return 0;

@@ -12,7 +12,7 @@
 
 #include "common/error.h"
 
-namespace mound {
+namespace mound::geometry {
 namespace {
 
 std::string Temp(const std::string& name) {
@@ -114,4 +114,4 @@ TEST(Ply, BadFilesNameTheProblem) {
 }
 
 }  // namespace
-}  // namespace mound
+}  // namespace mound::geometry

@@ -42,8 +42,8 @@ int RunCompare(const std::vector<std::string>& args) {
   const std::string out = a.options.at("--out");
   const icp::Options io = IcpOptions(a);
   auto t0 = Clock::now();
-  const PlyCloud cloud = ReadCloud(a.positional[0], "CLOUD"),
-                 reference = ReadCloud(a.positional[1], "REFERENCE");
+  const geometry::PlyCloud cloud = ReadCloud(a.positional[0], "CLOUD"),
+                           reference = ReadCloud(a.positional[1], "REFERENCE");
   const double read_s = Since(t0);
   std::error_code ec;
   std::filesystem::create_directories(out, ec);
@@ -68,14 +68,14 @@ int RunCompare(const std::vector<std::string>& args) {
   }
   doc.update(ComparisonJson(c));
   t0 = Clock::now();
-  PlyCloud aligned;
+  geometry::PlyCloud aligned;
   aligned.xyz = c.aligned;
   aligned.rgb = cloud.rgb;
   aligned.scalars["distance"] = c.distance;
   aligned.comments = {
       "mound.aligned v1: the cloud in the reference's frame; distance: metres to the reference "
       "surface"};
-  WritePly(out + "/aligned.ply", aligned);
+  geometry::WritePly(out + "/aligned.ply", aligned);
   doc["timings_s"] = {{"icp_s", c.icp_s},
                       {"distances_s", c.distances_s},
                       {"read_s", read_s},
@@ -145,11 +145,11 @@ int RunVerdict(const std::vector<std::string>& args) {
     fail("the reconstruction failed: " + recon.value("reason", std::string("?")));
   // The sparse cloud, or another cloud of the same model (densify's dense.ply).
   const std::string cloud_path = a.Has("--cloud") ? a.options.at("--cloud") : dir + "/points.ply";
-  const PlyCloud cloud =
+  const geometry::PlyCloud cloud =
       ReadCloud(cloud_path, a.Has("--cloud") ? "--cloud" : "RECON_DIR/points.ply");
   doc["cloud"] = cloud_path;
   if (a.Has("--reference")) {
-    const PlyCloud reference = ReadCloud(a.options.at("--reference"), "--reference");
+    const geometry::PlyCloud reference = ReadCloud(a.options.at("--reference"), "--reference");
     try {
       doc.update(
           PaperVerdictJson(PaperTest(cloud.xyz, reference.xyz, paper), paper.threshold_ratio));

@@ -39,7 +39,7 @@ mvs::DenseInput ReadModel(const std::string& dir, const nlohmann::json& recon,
     throw InputError(path + ": images: " + std::to_string(in.image_paths.size()) +
                      " registered image(s); dense stereo needs at least 2");
   }
-  const PlyCloud sparse = ReadCloud(dir + "/points.ply", "RECON_DIR/points.ply");
+  const geometry::PlyCloud sparse = ReadCloud(dir + "/points.ply", "RECON_DIR/points.ply");
   in.sparse_points = sparse.xyz;
   return in;
 }
@@ -126,7 +126,7 @@ DensifyResult Densify(const DensifyOptions& options) {
   }
   const double x0 = Quantile(xs, 0.01), x1 = Quantile(xs, 0.99), y0 = Quantile(ys, 0.01),
                y1 = Quantile(ys, 0.99);
-  PlyCloud ply;
+  geometry::PlyCloud ply;
   ply.comments = {
       "mound.dense v1: fused multi-view stereo points, ENU metres; nx ny nz: unit normal; support: "
       "depth-map pixels merged"};
@@ -166,7 +166,7 @@ DensifyResult Densify(const DensifyOptions& options) {
   if (ply.xyz.empty()) {
     doc["status"] = "failed";
     doc["reason"] = "no depth survived the consistency check (too little texture or overlap)";
-    return {doc, PlyCloud{}};
+    return {doc, geometry::PlyCloud{}};
   }
   doc["cloud"] = "dense.ply";
   return {doc, std::move(ply)};

@@ -24,7 +24,7 @@ struct DensifyResult {
   // ENU metres, with colours and the scalars nx ny nz (unit normal) and support (depth-map
   // pixels merged); only the points within the sparse model's horizontal extent (its 1st
   // to 99th percentiles): oblique views also see far ground at grazing angles.
-  PlyCloud cloud;
+  geometry::PlyCloud cloud;
 };
 
 // InputError for a model that failed, is not georeferenced (frame enu, metric scale), has

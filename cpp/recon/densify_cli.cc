@@ -59,7 +59,7 @@ int RunDensify(const std::vector<std::string>& args) {
     throw NoResultError(doc["reason"].get<std::string>());
   }
   const auto t0 = Clock::now();
-  WritePly(out + "/dense.ply", res.cloud);
+  geometry::WritePly(out + "/dense.ply", res.cloud);
   doc["timings_s"]["write"] = Since(t0);
   WriteFileAtomic(out + "/dense.json", doc.dump(1) + "\n");
   std::cerr << "mound_recon densify: " << doc["images"].size() << " depth maps, "

@@ -21,7 +21,7 @@ nlohmann::json CameraJson(const geometry::CameraModel& c) {
 }
 
 void WritePly(const std::string& path, const sfm::Reconstruction& r) {
-  PlyCloud cloud;
+  geometry::PlyCloud cloud;
   cloud.comments = {"mound.recon v1 points"};
   std::vector<double>& track_length = cloud.scalars["track_length"];
   cloud.int_scalars = {"track_length"};
@@ -30,7 +30,7 @@ void WritePly(const std::string& path, const sfm::Reconstruction& r) {
     cloud.rgb.push_back(p.color);
     track_length.push_back(static_cast<double>(p.track.size()));
   }
-  mound::WritePly(path, cloud);
+  geometry::WritePly(path, cloud);
 }
 
 void WriteColmapText(const std::string& dir, const sfm::Reconstruction& r,
@@ -98,8 +98,8 @@ void WriteColmapText(const std::string& dir, const sfm::Reconstruction& r,
   WriteFileAtomic(dir + "/points3D.txt", pts.str());
 }
 
-PlyCloud ReadCloud(const std::string& path, const std::string& what) {
-  PlyCloud c = ReadPly(path);
+geometry::PlyCloud ReadCloud(const std::string& path, const std::string& what) {
+  geometry::PlyCloud c = geometry::ReadPly(path);
   if (c.xyz.size() < 10)
     throw InputError(what + ": " + path + " has " + std::to_string(c.xyz.size()) +
                      " points (need >= 10)");

@@ -29,7 +29,7 @@ void WriteColmapText(const std::string& dir, const sfm::Reconstruction& r,
 nlohmann::json CameraJson(const geometry::CameraModel& c);
 
 // A point cloud of at least 10 points; `what` names it in the error ("--reference").
-PlyCloud ReadCloud(const std::string& path, const std::string& what);
+geometry::PlyCloud ReadCloud(const std::string& path, const std::string& what);
 
 // recon.json, its schema checked (mound.recon v1).
 nlohmann::json LoadRecon(const std::string& path);
