@@ -66,4 +66,18 @@ int RunGuarded(const std::string& tool, std::ostream& err, const std::function<i
   }
 }
 
+int RunTool(const std::string& tool, const std::string& usage, const std::string& version,
+            const std::vector<std::string>& args, std::ostream& out, std::ostream& err,
+            const std::function<int()>& body) {
+  if (WantsHelp(args)) {
+    out << usage;
+    return kExitOk;
+  }
+  if (!args.empty() && args[0] == "--version") {
+    out << version << "\n";
+    return kExitOk;
+  }
+  return RunGuarded(tool, err, body);
+}
+
 }  // namespace mound

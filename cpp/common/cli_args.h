@@ -44,6 +44,12 @@ E ParseEnum(const Args& a, const std::string& flag, const EnumName<E> (&names)[N
   throw InputError(flag + ": expected " + ExpectedNames(names) + ", got '" + value + "'");
 }
 
+// A tool's entry point: --help or -h anywhere prints `usage`, --version as the first
+// argument prints `version`; anything else runs `body` under RunGuarded.
+int RunTool(const std::string& tool, const std::string& usage, const std::string& version,
+            const std::vector<std::string>& args, std::ostream& out, std::ostream& err,
+            const std::function<int()>& body);
+
 // Runs `body`, mapping InputError to exit 2, NoResultError to exit 3 and any other
 // exception to exit 1, each with one line "<tool>: ..." on `err`.
 int RunGuarded(const std::string& tool, std::ostream& err, const std::function<int()>& body);

@@ -349,16 +349,8 @@ int RunPlan(const std::vector<std::string>& args, std::ostream& out, std::ostrea
 }  // namespace
 
 int RunMoundPlan(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
-  return RunGuarded("mound_plan", err, [&]() {
+  return RunTool("mound_plan", kUsage, kVersion, args, out, err, [&]() {
     if (args.empty()) throw InputError("missing SITES.json (see --help)");
-    if (WantsHelp(args)) {
-      out << kUsage;
-      return static_cast<int>(kExitOk);
-    }
-    if (args[0] == "--version") {
-      out << kVersion << "\n";
-      return static_cast<int>(kExitOk);
-    }
     if (args[0] == "tsp") return RunTsp(args, out, err);
     if (args[0] == "op") return RunOp(args, out, err);
     return RunPlan(args, out, err);

@@ -230,18 +230,10 @@ int RunPhotos(const std::vector<std::string>& args, std::ostream& out) {
 }  // namespace
 
 int RunMoundRecon(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
-  return RunGuarded("mound_recon", err, [&]() {
-    if (WantsHelp(args)) {
-      out << kUsage;
-      return static_cast<int>(kExitOk);
-    }
+  return RunTool("mound_recon", kUsage, kVersion, args, out, err, [&]() {
     if (args.empty())
       throw InputError(
           "missing a command: reconstruct, densify, compare, verdict or photos (see --help)");
-    if (args[0] == "--version") {
-      out << kVersion << "\n";
-      return static_cast<int>(kExitOk);
-    }
     if (args[0] == "reconstruct") return RunReconstruct(args);
     if (args[0] == "densify") return RunDensify(args);
     if (args[0] == "compare") return RunCompare(args);

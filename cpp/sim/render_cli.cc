@@ -24,8 +24,11 @@
 namespace mound::sim {
 namespace {
 
+constexpr const char* kVersion = "mound_render " MOUND_VERSION;  // pyproject.toml's, from CMake
+
 constexpr const char* kUsage =
     "usage: mound_render JOB.json --out DIR [--threads N] [--geometry]\n"
+    "       mound_render --version\n"
     "\n"
     "Renders the images of a mound.render job (a heightfield terrain with a texture, a camera\n"
     "and cam_from_world poses; python/mound/sim/site.py writes them) with a z-buffer rasteriser.\n"
@@ -60,11 +63,7 @@ void WriteImage(const std::string& path, const RenderedImage& im) {
 }  // namespace
 
 int RunMoundRender(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
-  return RunGuarded("mound_render", err, [&]() {
-    if (WantsHelp(args)) {
-      out << kUsage;
-      return static_cast<int>(kExitOk);
-    }
+  return RunTool("mound_render", kUsage, kVersion, args, out, err, [&]() {
     const Args a = ParseArgs(args, 0, {"--out", "--threads"}, {"--geometry"});
     if (a.positional.size() != 1) throw InputError("expected exactly one JOB.json (see --help)");
     if (!a.Has("--out")) throw InputError("--out: the output directory is required");

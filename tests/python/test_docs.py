@@ -96,7 +96,7 @@ def test_one_version_everywhere() -> None:
     want = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))["project"][
         "version"]
     assert mound.__version__ == want
-    for tool in ("mound_plan", "mound_recon"):
+    for tool in ("mound_plan", "mound_recon", "mound_render"):
         out = subprocess.run([str(build_dir() / tool), "--version"], capture_output=True,
                              text=True, check=True).stdout.split()
         assert out == [tool, want]
