@@ -13,24 +13,16 @@
 #include "ba/bundle_adjuster.h"
 #include "ba/cost_functions.h"
 #include "common/error.h"
+#include "geometry/test_cameras.h"
 
 namespace mound::ba {
 namespace {
 
-geometry::CameraModel Camera() {
-  geometry::CameraModel c;
-  c.width = 1280;
-  c.height = 960;
-  c.fx = 900;
-  c.fy = 905;
-  c.cx = 640;
-  c.cy = 480;
-  c.dist = {-0.12, 0.03, 0.0008, -0.0005, 0.001};
-  return c;
-}
+using geometry::testing::DistortedCamera;
 
 TEST(ReprojectionError, JacobianMatchesNumericDifferences) {
-  std::unique_ptr<ceres::CostFunction> cost(ReprojectionError::Create(700.3, 410.9, Camera()));
+  std::unique_ptr<ceres::CostFunction> cost(
+      ReprojectionError::Create(700.3, 410.9, DistortedCamera()));
   double rotation[3] = {0.1, -0.2, 0.05}, translation[3] = {0.3, -0.1, 12.0},
          point[3] = {1.5, -0.7, 3.0};
   const double* params[3] = {rotation, translation, point};
@@ -51,7 +43,7 @@ TEST(BundleAdjuster, RecoversAPerturbedSceneToTheNoiseLevel) {
   std::normal_distribution<double> g(0, 1);
   std::uniform_real_distribution<double> u(-1, 1);
   Problem truth;
-  truth.camera = Camera();
+  truth.camera = DistortedCamera();
   // Six views on an arc looking at the origin from about 30 m; the first at the origin of
   // the frame is the gauge, so the world frame is camera 0's.
   for (int k = 0; k < 6; ++k) {
@@ -124,7 +116,7 @@ TEST(BundleAdjuster, ConstantViewsHoldTheGaugeOfALocalAdjustment) {
   std::normal_distribution<double> g(0, 1);
   std::uniform_real_distribution<double> u(-1, 1);
   Problem truth;
-  truth.camera = Camera();
+  truth.camera = DistortedCamera();
   truth.cam_from_world = {View({0.01, -0.05, 0.0}, {1.0, 0.0, 0.5}),
                           View({0.0, 0.1, 0.02}, {-2.0, 0.1, 0.2}),
                           View({0.03, 0.2, -0.01}, {-4.5, 0.3, 0.6})};
@@ -170,7 +162,7 @@ TEST(BundleAdjuster, ConstantViewsHoldTheGaugeOfALocalAdjustment) {
 
 TEST(BundleAdjuster, ObservationsOutOfRangeAreAnInternalError) {
   Problem p;
-  p.camera = Camera();
+  p.camera = DistortedCamera();
   p.cam_from_world.resize(2);
   p.points.emplace_back(0, 0, 10);
   p.observations.push_back({2, 0, {1, 1}});

@@ -11,24 +11,15 @@
 #include "geometry/geodesy.h"
 #include "geometry/rigid3.h"
 #include "geometry/sim3.h"
+#include "geometry/test_cameras.h"
 
 namespace mound::geometry {
 namespace {
 
-CameraModel Camera() {
-  CameraModel c;
-  c.width = 1280;
-  c.height = 960;
-  c.fx = 900;
-  c.fy = 905;
-  c.cx = 640;
-  c.cy = 480;
-  c.dist = {-0.12, 0.03, 0.0008, -0.0005, 0.001};
-  return c;
-}
+using testing::DistortedCamera;
 
 TEST(CameraModel, DistortionIsOpenCvsPolynomial) {
-  const CameraModel c = Camera();
+  const CameraModel c = DistortedCamera();
   const double x = 0.3, y = -0.2, r2 = x * x + y * y;
   const double radial = 1 - 0.12 * r2 + 0.03 * r2 * r2 + 0.001 * r2 * r2 * r2;
   const double xd = x * radial + 2 * 0.0008 * x * y + -0.0005 * (r2 + 2 * x * x);
@@ -43,7 +34,7 @@ TEST(CameraModel, DistortionIsOpenCvsPolynomial) {
 }
 
 TEST(CameraModel, UndistortionInvertsDistortion) {
-  const CameraModel c = Camera();
+  const CameraModel c = DistortedCamera();
   for (double u : {0.0, 300.0, 640.0, 1279.0}) {
     for (double v : {0.0, 480.0, 959.0}) {
       const Eigen::Vector2d xy = c.NormalisedFromImage({u, v});
