@@ -52,3 +52,24 @@ if [ "$want" != "$have" ]; then
 else
   echo "setup: Python packages present"
 fi
+
+# The report's JavaScript (Leaflet for the map page), pinned by tools/web/package-lock.json,
+# installed into tools/web/node_modules and copied into each report (it works offline).
+# Debian's nodejs and npm where no npm is on the PATH (a NodeSource nodejs brings its own
+# npm and conflicts with Debian's).
+if ! command -v npm >/dev/null; then
+  echo "setup: installing Debian packages: nodejs npm"
+  SUDO=""
+  if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+  $SUDO apt-get update -q
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -q --no-install-recommends nodejs npm
+fi
+want=$(sha256sum tools/web/package-lock.json | cut -d' ' -f1)
+have=$(cat tools/web/node_modules/.lock.sha256 2>/dev/null || true)
+if [ "$want" != "$have" ]; then
+  echo "setup: installing the report's JavaScript (npm ci in tools/web)"
+  (cd tools/web && npm ci --no-audit --no-fund --loglevel=error)
+  echo "$want" > tools/web/node_modules/.lock.sha256
+else
+  echo "setup: the report's JavaScript present"
+fi

@@ -232,6 +232,61 @@ def test_report_renders_in_headless_chromium(survey: dict[str, Any], tmp_path: P
     assert len(np.unique(pixels.reshape(-1, 3)[::97], axis=0)) > 200  # pictures, not text
 
 
+@pytest.mark.slow
+@pytest.mark.skipif(CHROMIUM is None, reason="Debian chromium not installed (tools/setup.sh)")
+def test_map_page_in_headless_chromium(survey: dict[str, Any], tmp_path: Path) -> None:
+    """map.html from file:// (no server, no network): no console error, one marker per
+    site, one path per flight, each overlay where its GeoTIFF lies in WGS84 (to 1 m), and a
+    click on the first visited site opens its card with its verdict."""
+    from html import unescape
+
+    from rasterio.warp import transform_bounds
+
+    out: Path = survey["out"]
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["map"] == "map.html"
+    assert 'href="map.html"' in (out / "report.html").read_text()
+    url = (out / "map.html").resolve().as_uri() + "#selftest"
+    base = [str(CHROMIUM), "--headless", "--no-sandbox", "--disable-gpu",
+            f"--user-data-dir={tmp_path / 'profile'}"]
+    dom = subprocess.run([*base, "--virtual-time-budget=10000", "--dump-dom", url],
+                         capture_output=True, text=True, timeout=120)
+    assert dom.returncode == 0, dom.stderr[-2000:]
+    body = dom.stdout[dom.stdout.index("<body"):]
+    body = body[:body.index(">")]
+
+    def attr(name: str) -> str:
+        key = f'data-{name}="'
+        assert key in body, (name, body[:300])
+        start = body.index(key) + len(key)
+        return unescape(body[start:body.index('"', start)])
+
+    assert attr("ready") == "1"
+    assert json.loads(attr("errors")) == []
+    sites = json.loads((out / "sites.json").read_text())["sites"]
+    assert int(attr("markers")) == len(sites)
+    plan = json.loads((out / "plan.json").read_text())
+    assert int(attr("paths")) == len(plan.get("flights") or [plan])
+    overlays = json.loads(attr("overlays"))
+    visited = [r for r in summary["sites"] if r["visited"] and r.get("files", {}).get("rasters")]
+    assert len(overlays) == 2 * len(visited) > 0  # orthophoto and relief model per site
+    for o in overlays:
+        row = next(r for r in visited if r["id"] == o["site"])
+        with rasterio.open(out / row["files"]["rasters"] / f"{o['name']}.tif") as src:
+            west, south, east, north = transform_bounds(src.crs, "EPSG:4326", *src.bounds)
+        (s, w), (n, e) = o["bounds"]
+        m_per_deg = 111_320.0
+        lat_scale = m_per_deg * np.cos(np.radians(0.5 * (south + north)))
+        assert abs(s - south) * m_per_deg < 1 and abs(n - north) * m_per_deg < 1
+        assert abs(w - west) * lat_scale < 1 and abs(e - east) * lat_scale < 1
+    first = next(r for r in summary["sites"] if r["visited"])
+    assert attr("card-site") == first["id"]
+    assert attr("card-verdict") == first.get("verdict", "")
+    # Shipped with the page: nothing loads from the network.
+    page = (out / "map.html").read_text() + (out / "map" / "webmap.js").read_text()
+    assert "http://" not in page.replace("http://www.w3.org", "") and "https://" not in page
+
+
 def test_error_rates_on_a_constructed_case() -> None:
     # 4 true mounds (one missed), 6 others (two false alarms), 2 unknown (ignored).
     labels = [True, True, True, False, True, True, False, False, False, False, True, False]

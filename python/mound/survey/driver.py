@@ -731,11 +731,12 @@ def stage_report(ctx: Context, started: float) -> str:
 
     def work() -> tuple[list[str], str, bool]:
         summary = report.build_summary(ctx.tree, ctx.args, ctx.stages, started)
+        report.write_reports(ctx.tree, summary)  # adds the map page's name
         write_json(ctx.tree.summary, summary)
-        report.write_reports(ctx.tree, summary)
         m = summary["metrics"]
         fmt = (lambda v: "n/a" if v is None else f"{v:.3f}")  # noqa: E731
-        return (["summary.json", "report.html", "report.md"],
+        return (["summary.json", "report.html", "report.md"]
+                + (["map.html"] if summary.get("map") else []),
                 f"eps_MD {fmt(m['eps_md'])}, eps_FA {fmt(m['eps_fa'])} (classifier alone: "
                 f"{fmt(m['classifier_only']['eps_md'])}, "
                 f"{fmt(m['classifier_only']['eps_fa'])}) -> {ctx.tree.report_html}", True)

@@ -340,6 +340,10 @@ def write_reports(tree: RunTree, summary: dict[str, Any]) -> None:
         files = r.get("files")
         if files:  # site files are relative to the run directory, as is report.html
             r["files"] = {k: v for k, v in files.items() if (tree.root / v).exists()}
+    from mound.survey import webmap
+
+    page = webmap.write_map(tree, summary, sites_doc, plan)
+    summary["map"] = page.name if page else None
     write_atomic(tree.report_html, render_html(tree, summary))
     write_atomic(tree.report_md, render_md(summary))
 
@@ -378,7 +382,10 @@ def render_html(tree: RunTree, s: dict[str, Any]) -> str:
                if len(mission.get("flights") or []) > 1 else "") + ", "
             + (f"uploaded to system {upload.get('target_system')} and read back."
                if upload else "not uploaded (no --connect).") + "</p>")
-    maps = _img("report/field.png", "field map")
+    maps = (f'<p><a href="{e(s["map"])}">The survey on a map</a> (pan, zoom, the sites\' '
+            "orthophotos and relief models where they lie; click a site for its card)</p>"
+            if s.get("map") else "")
+    maps += _img("report/field.png", "field map")
     for png in (sorted(tree.report_dir.glob("mission*.png"))
                 + sorted(tree.report_dir.glob("legs*.png"))):
         kind, _, flight = png.stem.partition("_")
