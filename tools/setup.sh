@@ -53,8 +53,9 @@ else
   echo "setup: Python packages present"
 fi
 
-# The report's JavaScript (Leaflet for the map page), pinned by tools/web/package-lock.json,
-# installed into tools/web/node_modules and copied into each report (it works offline).
+# The report's JavaScript (Leaflet for the map page, three.js for the 3-D viewer), pinned
+# by tools/web/package-lock.json, installed into tools/web/node_modules and copied into
+# each report (it works offline).
 # Debian's nodejs and npm where no npm is on the PATH (a NodeSource nodejs brings its own
 # npm and conflicts with Debian's).
 if ! command -v npm >/dev/null; then

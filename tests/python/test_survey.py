@@ -282,6 +282,15 @@ def test_map_page_in_headless_chromium(survey: dict[str, Any], tmp_path: Path) -
     first = next(r for r in summary["sites"] if r["visited"])
     assert attr("card-site") == first["id"]
     assert attr("card-verdict") == first.get("verdict", "")
+    # The first visited site in 3-D: its cloud, drawn without error.
+    viewer = subprocess.run([*base, "--window-size=1200,800", "--virtual-time-budget=10000",
+                             "--dump-dom", (out / "site3d.html").resolve().as_uri()
+                             + "#" + first["id"]], capture_output=True, text=True, timeout=120)
+    assert viewer.returncode == 0, viewer.stderr[-2000:]
+    vbody = viewer.stdout[viewer.stdout.index("<body"):]
+    assert 'data-errors="[]"' in vbody and 'data-ready="1"' in vbody, vbody[:300]
+    nonblank = int(vbody.split('data-nonblank="')[1].split('"')[0])
+    assert nonblank > 50_000, nonblank
     # Shipped with the page: nothing loads from the network.
     page = (out / "map.html").read_text() + (out / "map" / "webmap.js").read_text()
     assert "http://" not in page.replace("http://www.w3.org", "") and "https://" not in page

@@ -55,6 +55,7 @@
       html += `<tr><td>${esc(k)}</td><td class="v" data-key="${esc(k)}">${esc(fmt(v))}</td></tr>`;
     }
     html += "</table>";
+    if (c.viewer) html += `<p><a id="viewer-link" href="${esc(c.viewer)}">the site in 3-D</a> (cloud, cameras, ground fit and dome; measure)</p>`;
     const files = Object.entries(c.files || {});
     const pics = files.filter(([, f]) => /\.png$/i.test(f));
     for (const [k, f] of pics) html += `<p><img src="${esc(f)}" alt="${esc(k)}" style="max-width:100%"></p>`;

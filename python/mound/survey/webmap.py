@@ -1,5 +1,6 @@
-"""The survey on a map, offline: `DIR/map.html` with Leaflet (from npm at set-up, shipped
-beside the page in `DIR/map/`), in WGS84. Candidate sites coloured by p(mound), one path per
+"""The survey on a map and each site in 3-D, offline: `DIR/map.html` with Leaflet and
+`DIR/site3d.html#ID` with three.js (both from npm at set-up, shipped beside the pages in
+`DIR/map/`). The map is in WGS84. Candidate sites coloured by p(mound), one path per
 flight, home, each visited site's verdict, and its orthophoto and local relief model as
 image overlays where they lie (the GeoTIFFs reprojected to WGS84 with rasterio). A click
 on a site opens its card. No tiles: the overlays are the basemap (`basemap` adds a tile
@@ -24,12 +25,16 @@ from mound.jsonio import write_atomic
 from mound.paths import REPO_ROOT
 from mound.survey.tree import RunTree
 
-LEAFLET_DIR = REPO_ROOT / "tools" / "web" / "node_modules" / "leaflet" / "dist"
+NODE_MODULES = REPO_ROOT / "tools" / "web" / "node_modules"
+LEAFLET_DIR = NODE_MODULES / "leaflet" / "dist"
+THREE_JS = NODE_MODULES / "three" / "build" / "three.min.js"
 OVERLAY_MAX_PX = 1024  # the longer side of an overlay image
+MAX_VIEW_POINTS = 100_000  # the 3-D viewer's cloud, decimated to at most this many points
+FRUSTUM_DEPTH_M = 4.0  # how far the cameras' frustums reach in the viewer
 
 
 def leaflet_available() -> bool:
-    return (LEAFLET_DIR / "leaflet.js").is_file()
+    return (LEAFLET_DIR / "leaflet.js").is_file() and THREE_JS.is_file()
 
 
 def _lat_lon(origin: Origin, x: float, y: float) -> tuple[float, float]:
@@ -137,24 +142,132 @@ def map_data(tree: RunTree, summary: dict[str, Any], sites_doc: dict[str, Any],
             "metrics": summary.get("metrics", {})}
 
 
-def write_map(tree: RunTree, summary: dict[str, Any], sites_doc: dict[str, Any],
-              plan: dict[str, Any] | None, basemap: str | None = None) -> Path | None:
-    """DIR/map.html and DIR/map/ (Leaflet, survey.js, overlays); None (and nothing
-    written) when Leaflet is not installed (tools/setup.sh installs it)."""
-    if not leaflet_available():
+def viewer_doc(site_id: str, xyz: np.ndarray, rgb: np.ndarray | None, centre: np.ndarray,
+               ground: list[float], radius_m: float, rise: dict[str, Any] | None = None,
+               cameras: list[dict[str, Any]] | None = None, note: str = "",
+               seed: int = 0) -> dict[str, Any]:
+    """The 3-D viewer's data for one site: the cloud (at most MAX_VIEW_POINTS, a seeded
+    random subset) in metres from `centre` (x, y: ENU east, north of the site centre; z:
+    above the ground fit's height at the centre), its colours, the ground fit
+    z = c0 + c1 x + c2 y + c3 x^2 + c4 x y + c5 y^2 (x, y from the centre, as verdict.json's
+    ground_coefficients) shifted to the same datum, the judged rise, the cameras' frustums
+    (`cameras`: {"centre": [x, y, z], "corners": 4 x [x, y, z]} in ENU)."""
+    import base64
+
+    n = len(xyz)
+    idx = np.arange(n)
+    if n > MAX_VIEW_POINTS:
+        idx = np.sort(np.random.default_rng(seed).choice(n, MAX_VIEW_POINTS, replace=False))
+    z0 = float(ground[0]) if ground else 0.0
+    shift = np.array([centre[0], centre[1], z0])
+    pts = (np.asarray(xyz, float)[idx] - shift).astype("<f4")
+    if rgb is None:
+        col = np.full((len(idx), 3), 170, np.uint8)
+    else:
+        col = np.asarray(rgb, np.uint8)[idx]
+    g = [0.0] + [float(c) for c in ground[1:6]] if ground else [0.0] * 6
+    doc: dict[str, Any] = {
+        "site": site_id, "points": len(idx), "points_in_cloud": n, "note": note,
+        "positions": base64.b64encode(pts.tobytes()).decode("ascii"),
+        "colours": base64.b64encode(np.ascontiguousarray(col).tobytes()).decode("ascii"),
+        "ground": g, "radius_m": float(radius_m), "origin_enu_m": [float(v) for v in shift],
+        "cameras": [], "rise": None}
+    for c in cameras or []:
+        doc["cameras"].append({"centre": [float(v) for v in np.asarray(c["centre"]) - shift],
+                               "corners": [[float(v) for v in np.asarray(k) - shift]
+                                           for k in c["corners"]]})
+    if rise:
+        cx, cy = np.asarray(rise["centre_enu_m"], float)[:2] - shift[:2]
+        doc["rise"] = {"x": float(cx), "y": float(cy), "height_m": float(rise["height_m"]),
+                       "base_diameter_m": float(rise["base_diameter_m"])}
+    return doc
+
+
+def site_viewer_doc(tree: RunTree, row: dict[str, Any]) -> dict[str, Any] | None:
+    """viewer_doc for a visited site of the survey: its dense cloud (else the sparse one),
+    verdict.json's site centre, ground fit and rise, recon.json's cameras."""
+    from mound.ply import read_ply
+
+    files = row.get("files") or {}
+    cloud = None
+    if files.get("dense") and (tree.root / files["dense"] / "dense.ply").is_file():
+        cloud = tree.root / files["dense"] / "dense.ply"
+    elif files.get("recon") and (tree.root / files["recon"] / "points.ply").is_file():
+        cloud = tree.root / files["recon"] / "points.ply"
+    if cloud is None:
         return None
-    out_dir = tree.root / "map"
+    xyz, rgb = read_ply(cloud)
+    m: dict[str, Any] = {}
+    if files.get("verdict") and (tree.root / files["verdict"]).is_file():
+        m = json.loads((tree.root / files["verdict"]).read_text()).get("measurements") or {}
+    centre = np.array(m.get("site_centre_enu_m") or np.median(xyz[:, :2], axis=0), float)
+    ground = m.get("ground_coefficients") or [float(np.median(xyz[:, 2]))] + [0.0] * 5
+    radius = float(m.get("site_radius_m") or np.percentile(
+        np.hypot(*(xyz[:, :2] - centre).T), 80))
+    cameras = []
+    if files.get("recon") and (tree.root / files["recon"] / "recon.json").is_file():
+        recon = json.loads((tree.root / files["recon"] / "recon.json").read_text())
+        K = np.array(recon["camera"]["K"], float)
+        w, h = recon["camera"]["width"], recon["camera"]["height"]
+        for im in recon.get("images", []):
+            if not im.get("registered"):
+                continue
+            R = np.array(im["cam_from_world"]["R"], float)
+            c = np.array(im["centre"], float)
+            corners = []
+            for u, v in ((0, 0), (w, 0), (w, h), (0, h)):
+                ray = np.array([(u - K[0, 2]) / K[0, 0], (v - K[1, 2]) / K[1, 1], 1.0])
+                corners.append(c + R.T @ (ray * FRUSTUM_DEPTH_M))
+            cameras.append({"centre": c, "corners": corners})
+    note = f"{cloud.name}: {len(xyz):,} points"
+    return viewer_doc(row["id"], xyz, rgb, np.array([centre[0], centre[1]]),
+                      ground, radius, m.get("rise"), cameras, note)
+
+
+def write_viewer_data(out_dir: Path, doc: dict[str, Any]) -> Path:
+    """map/sites/<id>.js: the viewer's data as a script (site3d.html#<id> loads it)."""
+    path = out_dir / "sites" / f"{doc['site']}.js"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    write_atomic(path, "window.MOUND_SITE = " + json.dumps(doc, separators=(",", ":")) + ";\n")
+    return path
+
+
+def copy_web_files(root: Path) -> Path:
+    """Leaflet, three.js and the pages' own scripts into root/map/; root/site3d.html."""
+    out_dir = root / "map"
     if out_dir.exists():
         shutil.rmtree(out_dir)
     (out_dir / "leaflet").mkdir(parents=True)
     shutil.copy2(LEAFLET_DIR / "leaflet.js", out_dir / "leaflet" / "leaflet.js")
     shutil.copy2(LEAFLET_DIR / "leaflet.css", out_dir / "leaflet" / "leaflet.css")
     shutil.copytree(LEAFLET_DIR / "images", out_dir / "leaflet" / "images")
+    (out_dir / "three").mkdir()
+    shutil.copy2(THREE_JS, out_dir / "three" / "three.min.js")
+    for js in ("webmap.js", "site3d.js"):
+        shutil.copy2(Path(__file__).with_name(js), out_dir / js)
+    write_atomic(root / "site3d.html", SITE_PAGE)
+    return out_dir
+
+
+def write_map(tree: RunTree, summary: dict[str, Any], sites_doc: dict[str, Any],
+              plan: dict[str, Any] | None, basemap: str | None = None) -> Path | None:
+    """DIR/map.html and DIR/map/ (Leaflet, survey.js, overlays); None (and nothing
+    written) when Leaflet is not installed (tools/setup.sh installs it)."""
+    if not leaflet_available():
+        return None
+    out_dir = copy_web_files(tree.root)
     data = map_data(tree, summary, sites_doc, plan, out_dir)
     data["basemap"] = basemap
+    for r in summary["sites"]:
+        if r.get("visited"):
+            doc = site_viewer_doc(tree, r)
+            if doc is not None:
+                write_viewer_data(out_dir, doc)
+                for s in data["sites"]:
+                    if s["id"] == r["id"]:
+                        s["card"]["viewer"] = f"site3d.html#{r['id']}"
     write_atomic(out_dir / "survey.js",
                  "window.MOUND_SURVEY = " + json.dumps(data, separators=(",", ":")) + ";\n")
-    shutil.copy2(Path(__file__).with_name("webmap.js"), out_dir / "webmap.js")
     page = tree.root / "map.html"
     write_atomic(page, PAGE)
     return page
@@ -184,6 +297,39 @@ PAGE = """<!DOCTYPE html>
 <script src="map/leaflet/leaflet.js"></script>
 <script src="map/survey.js"></script>
 <script src="map/webmap.js"></script>
+</body>
+</html>
+"""
+
+SITE_PAGE = """<!DOCTYPE html>
+<html lang="en">
+<head>
+<meta charset="utf-8">
+<title>Site in 3-D</title>
+<meta name="viewport" content="width=device-width, initial-scale=1">
+<style>
+  html, body { height: 100%; margin: 0; font: 14px/1.4 system-ui, sans-serif; overflow: hidden; }
+  #view { position: absolute; inset: 0; }
+  #panel { position: absolute; top: 8px; left: 8px; background: rgba(255,255,255,0.92);
+           padding: 8px 10px; border-radius: 4px; max-width: 360px; }
+  #panel button { margin: 2px 4px 2px 0; }
+  #measure-out { font-weight: bold; }
+</style>
+</head>
+<body>
+<div id="view"></div>
+<div id="panel">
+  <div id="title">Site</div>
+  <div id="note"></div>
+  <button id="colour">colour: RGB</button>
+  <button id="measure">measure</button>
+  <button id="reset">reset view</button>
+  <div id="measure-out"></div>
+  <div>drag: turn · shift-drag or right-drag: pan · wheel: zoom</div>
+  <div><a href="map.html">back to the map</a></div>
+</div>
+<script src="map/three/three.min.js"></script>
+<script src="map/site3d.js"></script>
 </body>
 </html>
 """
