@@ -64,3 +64,20 @@ def test_survey_on_two_kazanlak_stamps(tmp_path: Path, shared_data: Path) -> Non
                 assert res["simulated"]["height_m"] == pytest.approx(s["truth"]["height_m"])
     html = (out / "report.html").read_text()
     assert "report/scene.png" in html and (out / "report" / "scene.png").stat().st_size > 5000
+    # The map carries each scene's p(mound) where its GeoTIFF lies (WGS84, to 1 m).
+    from rasterio.warp import transform_bounds
+
+    js = (out / "map" / "survey.js").read_text()
+    data = json.loads(js[js.index("=") + 1:].strip().rstrip(";"))
+    scenes = [o for o in data["overlays"] if o["name"] == "scene_p_mound"]
+    tifs = sorted(out.glob("scene/*/p_mound.tif"))
+    assert len(scenes) == len(tifs) > 0
+    for o in scenes:
+        with rasterio.open(out / o["tif"]) as src:
+            west, south, east, north = transform_bounds(src.crs, "EPSG:4326", *src.bounds)
+        (s_, w_), (n_, e_) = o["bounds"]
+        m = 111_320.0
+        c = m * np.cos(np.radians(south))
+        assert max(abs(s_ - south) * m, abs(n_ - north) * m,
+                   abs(w_ - west) * c, abs(e_ - east) * c) < 1.0
+        assert (out / o["png"]).stat().st_size > 1000

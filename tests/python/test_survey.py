@@ -267,6 +267,10 @@ def test_map_page_in_headless_chromium(survey: dict[str, Any], tmp_path: Path) -
     assert int(attr("markers")) == len(sites)
     plan = json.loads((out / "plan.json").read_text())
     assert int(attr("paths")) == len(plan.get("flights") or [plan])
+    footprints = sum(f["properties"].get("kind") == "image_footprint"
+                     for gj in out.glob("mission*.geojson")
+                     for f in json.loads(gj.read_text())["features"])
+    assert int(attr("footprints")) == footprints > 0
     overlays = json.loads(attr("overlays"))
     visited = [r for r in summary["sites"] if r["visited"] and r.get("files", {}).get("rasters")]
     assert len(overlays) == 2 * len(visited) > 0  # orthophoto and relief model per site

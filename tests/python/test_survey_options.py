@@ -43,6 +43,7 @@ def test_a_parser_option_without_a_field_is_a_bug() -> None:
     ({"scene": ("s.tif",)}, "--home"),
     ({"learn": True, "learn_weight": 0.0}, "--learn-weight"),
     ({"dense_size": 8}, "--dense-size"),
+    ({"basemap": "tiles.example.org"}, "--basemap"),
 ])
 def test_check_names_the_option(options: dict[str, object], flag: str,
                                 tmp_path: Path) -> None:

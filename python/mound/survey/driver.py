@@ -151,6 +151,10 @@ def build_parser() -> argparse.ArgumentParser:
                    "(default: one per core)")
     g.add_argument("--site-threads", type=int, default=D.site_threads,
                    help="threads of each site's tools (one task per worker thread)")
+    g = p.add_argument_group("report")
+    g.add_argument("--basemap", metavar="URL", help="map.html: tiles from your own tile server "
+                   "under the overlays (https://HOST/{z}/{x}/{y}.png); default: none, the "
+                   "page works offline")
     g = p.add_argument_group("run")
     g.add_argument("--force", action="store_true", help="redo every stage")
     g.add_argument("--rerun-from", choices=STAGES,

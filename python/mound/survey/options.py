@@ -69,6 +69,8 @@ class SurveyOptions:
     scheduler: str | None = None
     workers: int | None = None
     site_threads: int = 1
+    # report
+    basemap: str | None = None          # a tile URL for map.html ({z}/{x}/{y}); None: no tiles
     # run
     force: bool = False
     rerun_from: str | None = None
@@ -158,6 +160,11 @@ class SurveyOptions:
             from mound.args import parse_lat_lon
 
             parse_lat_lon(self.home)
+        if self.basemap is not None and not (
+                self.basemap.startswith(("http://", "https://", "file://"))
+                and all(k in self.basemap for k in ("{z}", "{x}", "{y}"))):
+            raise UsageError("--basemap: a tile URL with {z}, {x} and {y} "
+                             "(http://, https:// or file://)")
         if not 1 <= self.flights <= 64:
             raise UsageError("--flights: 1 .. 64")
         if self.dem:

@@ -68,14 +68,19 @@
   }
 
   // Overlays first (under the sites).
-  const ortho = L.layerGroup(), relief = L.layerGroup();
+  const ortho = L.layerGroup(), relief = L.layerGroup(), scene = L.layerGroup();
   const drawn = [];
   for (const o of D.overlays) {
     const layer = L.imageOverlay(o.png, o.bounds, { opacity: o.name === "lrm" ? 0.8 : 1 });
-    (o.name === "lrm" ? relief : ortho).addLayer(layer);
+    (o.name === "lrm" ? relief : o.name === "scene_p_mound" ? scene : ortho).addLayer(layer);
     drawn.push({ site: o.site, name: o.name, layer });
   }
+  scene.addTo(map);
   ortho.addTo(map);
+  const footprints = L.layerGroup();
+  for (const ring of D.footprints || []) {
+    footprints.addLayer(L.polygon(ring, { color: "#1565c0", weight: 1, fillOpacity: 0.03 }));
+  }
 
   const flights = L.layerGroup();
   const paths = [];
@@ -104,10 +109,12 @@
   sites.addTo(map);
   L.marker([D.home.lat, D.home.lon], { title: "home" }).bindTooltip("home").addTo(map);
 
-  L.control.layers(null, {
-    "sites (p(mound))": sites, "flights": flights, "orthophotos": ortho,
-    "relief models (LRM)": relief,
-  }, { collapsed: false }).addTo(map);
+  const layers = {
+    "sites (p(mound))": sites, "flights": flights, "image footprints": footprints,
+    "orthophotos": ortho, "relief models (LRM)": relief,
+  };
+  if (D.overlays.some((o) => o.name === "scene_p_mound")) layers["scene p(mound)"] = scene;
+  L.control.layers(null, layers, { collapsed: false }).addTo(map);
   L.control.scale({ metric: true, imperial: false }).addTo(map);
   const legend = L.control({ position: "bottomleft" });
   legend.onAdd = () => {
@@ -127,6 +134,7 @@
   // What was drawn, for the tests.
   body.dataset.markers = String(markers.length);
   body.dataset.paths = String(paths.length);
+  body.dataset.footprints = String((D.footprints || []).length);
   body.dataset.overlays = JSON.stringify(drawn.map((d) => {
     const b = d.layer.getBounds();
     return { site: d.site, name: d.name, bounds: [[b.getSouth(), b.getWest()], [b.getNorth(), b.getEast()]] };

@@ -45,8 +45,9 @@ def _lat_lon(origin: Origin, x: float, y: float) -> tuple[float, float]:
 def overlay_png(tif: Path, out_png: Path, kind: str) -> tuple[list[list[float]], str] | None:
     """The GeoTIFF reprojected to WGS84 (EPSG:4326) as a PNG with transparency, and its
     bounds [[south, west], [north, east]]; None when the file is missing or has no CRS.
-    kind: "rgb" (an orthophoto, its alpha band kept) or "relief" (a single band, coloured
-    blue-white-red over ±its 98th absolute percentile)."""
+    kind: "rgb" (an orthophoto, its alpha band kept), "relief" (a single band, coloured
+    blue-white-red over ±its 98th absolute percentile) or "prob" (p(mound) of a scene,
+    the map's colour ramp, more opaque where higher)."""
     import rasterio
     from PIL import Image
     from rasterio.warp import Resampling, calculate_default_transform, reproject
@@ -71,7 +72,19 @@ def overlay_png(tif: Path, out_png: Path, kind: str) -> tuple[list[list[float]],
                       src_transform=src.transform, src_crs=src.crs, dst_transform=transform,
                       dst_crs=dst_crs, resampling=Resampling.bilinear,
                       src_nodata=nodata, dst_nodata=np.nan)
-    if kind == "rgb":
+    if kind == "prob":  # p(mound) 0..1: the map's ramp, transparent where low or nodata
+        z = data[0]
+        ok = np.isfinite(z)
+        t = np.clip(np.nan_to_num(z), 0, 1)
+        ramp = np.array([[68, 1, 84], [59, 82, 139], [33, 145, 140], [94, 201, 98],
+                         [253, 231, 37]], float)
+        k = t * (len(ramp) - 1)
+        lo = np.floor(k).astype(int).clip(0, len(ramp) - 2)
+        f = (k - lo)[..., None]
+        rgb = (ramp[lo] * (1 - f) + ramp[lo + 1] * f).round().astype(np.uint8)
+        alpha = np.where(ok, (60 + 170 * t).round(), 0).astype(np.uint8)
+        rgba = np.dstack([rgb, alpha])
+    elif kind == "rgb":
         rgb = np.nan_to_num(data[:3]).clip(0, 255).astype(np.uint8).transpose(1, 2, 0)
         if bands >= 4:
             alpha = np.nan_to_num(data[3]).clip(0, 255).astype(np.uint8)
@@ -129,6 +142,19 @@ def map_data(tree: RunTree, summary: dict[str, Any], sites_doc: dict[str, Any],
                     overlays.append({"site": s["id"], "name": name,
                                      "tif": f"{rasters}/{name}.tif",
                                      "png": f"map/overlays/{png.name}", "bounds": got[0]})
+    for k, tif in enumerate(sorted(tree.root.glob("scene/*/p_mound.tif"))):
+        png = out_dir / "overlays" / f"scene{k:02d}_p_mound.png"
+        got = overlay_png(tif, png, "prob")
+        if got:
+            overlays.append({"site": None, "name": "scene_p_mound",
+                             "tif": str(tif.relative_to(tree.root)),
+                             "png": f"map/overlays/{png.name}", "bounds": got[0]})
+    footprints = []
+    for gj in sorted(tree.root.glob("mission*.geojson")):
+        for f in json.loads(gj.read_text()).get("features", []):
+            if f.get("properties", {}).get("kind") == "image_footprint":
+                ring = f["geometry"]["coordinates"][0]
+                footprints.append([[float(c[1]), float(c[0])] for c in ring])
     flights = []
     if plan is not None:
         fl = plan.get("flights") or [{"tour": plan["tour"], "cost_m": plan.get("cost_m")}]
@@ -138,6 +164,7 @@ def map_data(tree: RunTree, summary: dict[str, Any], sites_doc: dict[str, Any],
     return {"schema": "mound.map", "version": 1,
             "home": {"id": home["id"], "lat": pos[home["id"]][0], "lon": pos[home["id"]][1]},
             "sites": sites, "flights": flights, "overlays": overlays,
+            "footprints": footprints,
             "budget_m": plan.get("budget_m") if plan else None,
             "metrics": summary.get("metrics", {})}
 
