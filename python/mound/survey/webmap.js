@@ -7,6 +7,8 @@
 (function () {
   const errors = [];
   window.addEventListener("error", (e) => errors.push(String(e.message || e)));
+  const consoleError = console.error.bind(console);
+  console.error = (...a) => { errors.push(a.map(String).join(" ")); consoleError(...a); };
   const D = window.MOUND_SURVEY;
   const body = document.body;
   if (!D || !window.L) {
