@@ -12,7 +12,7 @@ APT_PACKAGES=(
   build-essential cmake ninja-build pkg-config git
   nlohmann-json3-dev libgtest-dev libeigen3-dev libopencv-dev libceres-dev
   libpcl-dev libopenmpi-dev
-  chromium
+  chromium firefox-esr
   clang libclang-rt-14-dev
   python3 python3-venv python3-dev
 )

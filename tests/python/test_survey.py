@@ -295,6 +295,19 @@ def test_map_page_in_headless_chromium(survey: dict[str, Any], tmp_path: Path) -
     assert 'data-errors="[]"' in vbody and 'data-ready="1"' in vbody, vbody[:300]
     nonblank = int(vbody.split('data-nonblank="')[1].split('"')[0])
     assert nonblank > 50_000, nonblank
+    # Firefox, which the tests can only photograph: the page's own check (markers, paths,
+    # the clicked card, no error) paints a green square, else a red one.
+    firefox = shutil.which("firefox")
+    if firefox:
+        profile = tmp_path / "firefox"
+        profile.mkdir()
+        shot = tmp_path / "firefox.png"
+        r = subprocess.run([firefox, "--headless", "--no-remote", "-profile", str(profile),
+                            "--window-size=1200,800", "--screenshot", str(shot), url],
+                           capture_output=True, text=True, timeout=120)
+        assert r.returncode == 0 and shot.is_file(), r.stderr[-2000:]
+        pixel = np.asarray(Image.open(shot).convert("RGB"))[60, 60]
+        assert tuple(pixel) == (0, 255, 0), pixel
     # Shipped with the page: nothing loads from the network.
     page = (out / "map.html").read_text() + (out / "map" / "webmap.js").read_text()
     assert "http://" not in page.replace("http://www.w3.org", "") and "https://" not in page

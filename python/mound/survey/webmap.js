@@ -30,6 +30,13 @@
   const VERDICT = { mound: "#ff7f00", no_mound: "#000000", failed: "#e7298a" };
   const FLIGHT = ["#555555", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#bcbd22"];
 
+  function selftestBanner(ok) {
+    const div = document.createElement("div");
+    div.id = "selftest";
+    div.style.cssText = `position:fixed;top:0;left:0;width:120px;height:120px;z-index:10000;background:${ok ? "#00ff00" : "#ff0000"}`;
+    body.appendChild(div);
+  }
+
   function fmt(v) {
     if (typeof v === "number") return Number.isInteger(v) ? String(v) : v.toFixed(3);
     if (typeof v === "boolean") return v ? "yes" : "no";
@@ -150,6 +157,11 @@
       body.dataset.cardSite = card.dataset.site || "";
       body.dataset.cardVerdict = card.dataset.verdict || "";
     }
+    // For browsers the tests can only photograph (Firefox's --screenshot): a green square
+    // when the page drew what its data holds without error, else a red one.
+    const ok = errors.length === 0 && markers.length === D.sites.length &&
+      paths.length === D.flights.length && (!first || card.dataset.site === first.siteId);
+    selftestBanner(ok);
   }
   body.dataset.errors = JSON.stringify(errors);
   body.dataset.ready = "1";
