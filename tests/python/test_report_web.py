@@ -8,42 +8,23 @@ from __future__ import annotations
 
 import json
 import math
-import shutil
-import subprocess
-from html import unescape
 from pathlib import Path
 
 import numpy as np
 import pytest
+from pages import CHROMIUM, body_data
 
 from mound.survey import webmap
 
-CHROMIUM = shutil.which("chromium")
 pytestmark = [
     pytest.mark.skipif(CHROMIUM is None, reason="Debian chromium not installed (tools/setup.sh)"),
-    pytest.mark.skipif(not webmap.leaflet_available(),
+    pytest.mark.skipif(not webmap.web_libraries_available(),
                        reason="the report's JavaScript is not installed (tools/setup.sh)"),
 ]
 
 
-def body_attrs(html: str) -> dict[str, str]:
-    body = html[html.index("<body"):]
-    body = body[:body.index(">")]
-    out = {}
-    for part in body.split(' data-')[1:]:
-        key, _, value = part.partition('="')
-        out[key] = unescape(value[:value.index('"')])
-    return out
-
-
 def load(page: Path, fragment: str, profile: Path) -> dict[str, str]:
-    r = subprocess.run([str(CHROMIUM), "--headless", "--no-sandbox", "--disable-gpu",
-                        f"--user-data-dir={profile}", "--window-size=1200,800",
-                        "--virtual-time-budget=10000", "--dump-dom",
-                        page.resolve().as_uri() + "#" + fragment],
-                       capture_output=True, text=True, timeout=120)
-    assert r.returncode == 0, r.stderr[-2000:]
-    return body_attrs(r.stdout)
+    return body_data(page.resolve().as_uri() + "#" + fragment, profile)
 
 
 def test_site_viewer_draws_and_measures_a_known_distance(tmp_path: Path) -> None:
@@ -67,7 +48,6 @@ def test_site_viewer_draws_and_measures_a_known_distance(tmp_path: Path) -> None
     out = webmap.copy_web_files(tmp_path)
     webmap.write_viewer_data(out, doc)
     got = load(tmp_path / "site3d.html", "test/selftest", tmp_path / "profile")
-    assert got["ready"] == "1"
     assert json.loads(got["errors"]) == []
     assert int(got["points"]) == len(xyz)
     assert int(got["nonblank"]) > 10_000
@@ -80,7 +60,6 @@ def test_site_viewer_draws_and_measures_a_known_distance(tmp_path: Path) -> None
 def test_viewer_refuses_a_bad_address(tmp_path: Path) -> None:
     webmap.copy_web_files(tmp_path)
     got = load(tmp_path / "site3d.html", "../../etc", tmp_path / "profile")
-    assert got["ready"] == "1"
     assert "no site" in got["errors"]
     got = load(tmp_path / "site3d.html", "nosuchsite", tmp_path / "profile2")
     assert "did not load" in got["errors"]

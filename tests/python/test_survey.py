@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 import pytest
 import rasterio
+from pages import body_data
 from PIL import Image
 
 from mound.classify.metrics import detection_error_rates, says_mound
@@ -238,8 +239,6 @@ def test_map_page_in_headless_chromium(survey: dict[str, Any], tmp_path: Path) -
     """map.html from file:// (no server, no network): no console error, one marker per
     site, one path per flight, each overlay where its GeoTIFF lies in WGS84 (to 1 m), and a
     click on the first visited site opens its card with its verdict."""
-    from html import unescape
-
     from rasterio.warp import transform_bounds
 
     out: Path = survey["out"]
@@ -247,21 +246,12 @@ def test_map_page_in_headless_chromium(survey: dict[str, Any], tmp_path: Path) -
     assert summary["map"] == "map.html"
     assert 'href="map.html"' in (out / "report.html").read_text()
     url = (out / "map.html").resolve().as_uri() + "#selftest"
-    base = [str(CHROMIUM), "--headless", "--no-sandbox", "--disable-gpu",
-            f"--user-data-dir={tmp_path / 'profile'}"]
-    dom = subprocess.run([*base, "--virtual-time-budget=10000", "--dump-dom", url],
-                         capture_output=True, text=True, timeout=120)
-    assert dom.returncode == 0, dom.stderr[-2000:]
-    body = dom.stdout[dom.stdout.index("<body"):]
-    body = body[:body.index(">")]
+    data = body_data(url, tmp_path / "profile")
 
     def attr(name: str) -> str:
-        key = f'data-{name}="'
-        assert key in body, (name, body[:300])
-        start = body.index(key) + len(key)
-        return unescape(body[start:body.index('"', start)])
+        assert name in data, (name, sorted(data))
+        return data[name]
 
-    assert attr("ready") == "1"
     assert json.loads(attr("errors")) == []
     sites = json.loads((out / "sites.json").read_text())["sites"]
     assert int(attr("markers")) == len(sites)
@@ -287,14 +277,10 @@ def test_map_page_in_headless_chromium(survey: dict[str, Any], tmp_path: Path) -
     assert attr("card-site") == first["id"]
     assert attr("card-verdict") == first.get("verdict", "")
     # The first visited site in 3-D: its cloud, drawn without error.
-    viewer = subprocess.run([*base, "--window-size=1200,800", "--virtual-time-budget=10000",
-                             "--dump-dom", (out / "site3d.html").resolve().as_uri()
-                             + "#" + first["id"]], capture_output=True, text=True, timeout=120)
-    assert viewer.returncode == 0, viewer.stderr[-2000:]
-    vbody = viewer.stdout[viewer.stdout.index("<body"):]
-    assert 'data-errors="[]"' in vbody and 'data-ready="1"' in vbody, vbody[:300]
-    nonblank = int(vbody.split('data-nonblank="')[1].split('"')[0])
-    assert nonblank > 50_000, nonblank
+    viewer = body_data((out / "site3d.html").resolve().as_uri() + "#" + first["id"],
+                       tmp_path / "profile3d")
+    assert json.loads(viewer["errors"]) == []
+    assert int(viewer["nonblank"]) > 50_000, viewer["nonblank"]
     # Firefox, which the tests can only photograph: the page's own check (markers, paths,
     # the clicked card, no error) paints a green square, else a red one.
     firefox = shutil.which("firefox")

@@ -14,7 +14,7 @@ from typing import Any, Literal
 
 from mound import native
 from mound.args import UsageError
-from mound.uav.terrain import TerrainSpec
+from mound.uav.terrain import TerrainSpec, spec_from_args
 
 ScanPattern = Literal["raster", "orbit", "both"]
 Algo = Literal["alns", "newalg", "newalg-ls", "greedy", "tsiligirides", "glv"]
@@ -102,11 +102,8 @@ class SurveyOptions:
                 for k, v in dataclasses.asdict(self).items()}
 
     def terrain_spec(self) -> TerrainSpec:
-        spec = TerrainSpec(clearance_m=self.clearance_m, scan_clearance_m=self.scan_clearance_m,
-                           footprint_m=self.footprint_m, climb_factor=self.climb_factor,
-                           descent_factor=self.descent_factor)
-        spec.validate()
-        return spec
+        """The terrain options as the aircraft's TerrainSpec (validated)."""
+        return spec_from_args(self)
 
     def check(self) -> None:
         """UsageError naming the option (as the command line spells it) when the options

@@ -11,14 +11,9 @@
 
 (function () {
   const body = document.body;
-  const errors = [];
-  window.addEventListener("error", (e) => errors.push(String(e.message || e)));
-  const consoleError = console.error.bind(console);
-  console.error = (...a) => { errors.push(a.map(String).join(" ")); consoleError(...a); };
-  function finish() {
-    body.dataset.errors = JSON.stringify(errors);
-    body.dataset.ready = "1";
-  }
+  const page = window.MOUND_PAGE;
+  const errors = page.errors;
+  const finish = page.finish;
 
   const [siteId, mode] = decodeURIComponent(location.hash.slice(1)).split("/");
   if (!siteId || !/^[A-Za-z0-9_-][A-Za-z0-9_.-]*$/.test(siteId)) {
@@ -272,14 +267,10 @@
       }
       body.dataset.measured = out.dataset.distance || "";
       body.dataset.above = out.dataset.above || "";
-      // For browsers the tests can only photograph (Firefox's --screenshot): green when
-      // the measurement matches the data's expected distance to 1 %, else red.
+      // Green when the measurement matches the data's expected distance to 1 % (pagecheck.js).
       const d = Number(out.dataset.distance);
-      const ok = errors.length === 0 && nonblank > 10000 && D.test_expect_m > 0 &&
-        Math.abs(d - D.test_expect_m) < 0.01 * D.test_expect_m;
-      const div = document.createElement("div");
-      div.style.cssText = `position:fixed;top:0;left:0;width:120px;height:120px;z-index:10000;background:${ok ? "#00ff00" : "#ff0000"}`;
-      body.appendChild(div);
+      page.banner(errors.length === 0 && nonblank > 10000 && D.test_expect_m > 0 &&
+        Math.abs(d - D.test_expect_m) < 0.01 * D.test_expect_m);
     }
   }
 })();

@@ -5,16 +5,13 @@
 "use strict";
 
 (function () {
-  const errors = [];
-  window.addEventListener("error", (e) => errors.push(String(e.message || e)));
-  const consoleError = console.error.bind(console);
-  console.error = (...a) => { errors.push(a.map(String).join(" ")); consoleError(...a); };
+  const page = window.MOUND_PAGE;
+  const errors = page.errors;
   const D = window.MOUND_SURVEY;
   const body = document.body;
   if (!D || !window.L) {
     errors.push(!D ? "map/survey.js did not load" : "map/leaflet/leaflet.js did not load");
-    body.dataset.errors = JSON.stringify(errors);
-    body.dataset.ready = "1";
+    page.finish();
     return;
   }
 
@@ -29,13 +26,6 @@
   }
   const VERDICT = { mound: "#ff7f00", no_mound: "#000000", failed: "#e7298a" };
   const FLIGHT = ["#555555", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#bcbd22"];
-
-  function selftestBanner(ok) {
-    const div = document.createElement("div");
-    div.id = "selftest";
-    div.style.cssText = `position:fixed;top:0;left:0;width:120px;height:120px;z-index:10000;background:${ok ? "#00ff00" : "#ff0000"}`;
-    body.appendChild(div);
-  }
 
   function fmt(v) {
     if (typeof v === "number") return Number.isInteger(v) ? String(v) : v.toFixed(3);
@@ -157,12 +147,10 @@
       body.dataset.cardSite = card.dataset.site || "";
       body.dataset.cardVerdict = card.dataset.verdict || "";
     }
-    // For browsers the tests can only photograph (Firefox's --screenshot): a green square
-    // when the page drew what its data holds without error, else a red one.
+    // Green when the page drew what its data holds without error (pagecheck.js).
     const ok = errors.length === 0 && markers.length === D.sites.length &&
       paths.length === D.flights.length && (!first || card.dataset.site === first.siteId);
-    selftestBanner(ok);
+    page.banner(ok);
   }
-  body.dataset.errors = JSON.stringify(errors);
-  body.dataset.ready = "1";
+  page.finish();
 })();

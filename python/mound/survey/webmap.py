@@ -33,7 +33,8 @@ MAX_VIEW_POINTS = 100_000  # the 3-D viewer's cloud, decimated to at most this m
 FRUSTUM_DEPTH_M = 4.0  # how far the cameras' frustums reach in the viewer
 
 
-def leaflet_available() -> bool:
+def web_libraries_available() -> bool:
+    """Leaflet and three.js installed (tools/setup.sh, npm ci in tools/web)."""
     return (LEAFLET_DIR / "leaflet.js").is_file() and THREE_JS.is_file()
 
 
@@ -42,7 +43,7 @@ def _lat_lon(origin: Origin, x: float, y: float) -> tuple[float, float]:
     return float(llh[0]), float(llh[1])
 
 
-def overlay_png(tif: Path, out_png: Path, kind: str) -> tuple[list[list[float]], str] | None:
+def overlay_png(tif: Path, out_png: Path, kind: str) -> list[list[float]] | None:
     """The GeoTIFF reprojected to WGS84 (EPSG:4326) as a PNG with transparency, and its
     bounds [[south, west], [north, east]]; None when the file is missing or has no CRS.
     kind: "rgb" (an orthophoto, its alpha band kept), "relief" (a single band, coloured
@@ -105,7 +106,7 @@ def overlay_png(tif: Path, out_png: Path, kind: str) -> tuple[list[list[float]],
     Image.fromarray(rgba, "RGBA").save(out_png)
     west, north = transform * (0, 0)
     east, south = transform * (w, h)
-    return [[float(south), float(west)], [float(north), float(east)]], kind
+    return [[float(south), float(west)], [float(north), float(east)]]
 
 
 def map_data(tree: RunTree, summary: dict[str, Any], sites_doc: dict[str, Any],
@@ -121,6 +122,14 @@ def map_data(tree: RunTree, summary: dict[str, Any], sites_doc: dict[str, Any],
             pos.setdefault(w["id"], _lat_lon(origin, w["x_m"], w["y_m"]))
     sites = []
     overlays = []
+
+    def overlay(tif: Path, name: str, kind: str, site: str | None, png_name: str) -> None:
+        png = out_dir / "overlays" / png_name
+        bounds = overlay_png(tif, png, kind)
+        if bounds:
+            overlays.append({"site": site, "name": name, "tif": str(tif.relative_to(tree.root)),
+                             "png": f"map/overlays/{png_name}", "bounds": bounds})
+
     for s in sites_doc["sites"]:
         r = rows.get(s["id"], {})
         lat, lon = pos[s["id"]]
@@ -133,22 +142,12 @@ def map_data(tree: RunTree, summary: dict[str, Any], sites_doc: dict[str, Any],
         files = r.get("files") or {}
         card["files"] = {k: v for k, v in files.items() if isinstance(v, str)}
         sites.append({"id": s["id"], "lat": lat, "lon": lon, "card": card})
-        rasters = files.get("rasters")
-        if rasters:
+        if files.get("rasters"):
             for name, kind in (("orthophoto", "rgb"), ("lrm", "relief")):
-                png = out_dir / "overlays" / f"{s['id']}_{name}.png"
-                got = overlay_png(tree.root / rasters / f"{name}.tif", png, kind)
-                if got:
-                    overlays.append({"site": s["id"], "name": name,
-                                     "tif": f"{rasters}/{name}.tif",
-                                     "png": f"map/overlays/{png.name}", "bounds": got[0]})
+                overlay(tree.root / files["rasters"] / f"{name}.tif", name, kind, s["id"],
+                        f"{s['id']}_{name}.png")
     for k, tif in enumerate(sorted(tree.root.glob("scene/*/p_mound.tif"))):
-        png = out_dir / "overlays" / f"scene{k:02d}_p_mound.png"
-        got = overlay_png(tif, png, "prob")
-        if got:
-            overlays.append({"site": None, "name": "scene_p_mound",
-                             "tif": str(tif.relative_to(tree.root)),
-                             "png": f"map/overlays/{png.name}", "bounds": got[0]})
+        overlay(tif, "scene_p_mound", "prob", None, f"scene{k:02d}_p_mound.png")
     footprints = []
     for gj in sorted(tree.root.glob("mission*.geojson")):
         for f in json.loads(gj.read_text()).get("features", []):
@@ -270,7 +269,7 @@ def copy_web_files(root: Path) -> Path:
     shutil.copytree(LEAFLET_DIR / "images", out_dir / "leaflet" / "images")
     (out_dir / "three").mkdir()
     shutil.copy2(THREE_JS, out_dir / "three" / "three.min.js")
-    for js in ("webmap.js", "site3d.js"):
+    for js in ("pagecheck.js", "webmap.js", "site3d.js"):
         shutil.copy2(Path(__file__).with_name(js), out_dir / js)
     write_atomic(root / "site3d.html", SITE_PAGE)
     return out_dir
@@ -278,21 +277,20 @@ def copy_web_files(root: Path) -> Path:
 
 def write_map(tree: RunTree, summary: dict[str, Any], sites_doc: dict[str, Any],
               plan: dict[str, Any] | None, basemap: str | None = None) -> Path | None:
-    """DIR/map.html and DIR/map/ (Leaflet, survey.js, overlays); None (and nothing
-    written) when Leaflet is not installed (tools/setup.sh installs it)."""
-    if not leaflet_available():
+    """DIR/map.html, DIR/site3d.html and DIR/map/ (Leaflet, three.js, survey.js, the
+    sites' clouds, overlays); None (and nothing written) when the libraries are not
+    installed (tools/setup.sh installs them)."""
+    if not web_libraries_available():
         return None
     out_dir = copy_web_files(tree.root)
     data = map_data(tree, summary, sites_doc, plan, out_dir)
     data["basemap"] = basemap
+    cards = {s["id"]: s["card"] for s in data["sites"]}
     for r in summary["sites"]:
-        if r.get("visited"):
-            doc = site_viewer_doc(tree, r)
-            if doc is not None:
-                write_viewer_data(out_dir, doc)
-                for s in data["sites"]:
-                    if s["id"] == r["id"]:
-                        s["card"]["viewer"] = f"site3d.html#{r['id']}"
+        doc = site_viewer_doc(tree, r) if r.get("visited") else None
+        if doc is not None:
+            write_viewer_data(out_dir, doc)
+            cards[r["id"]]["viewer"] = f"site3d.html#{r['id']}"
     write_atomic(out_dir / "survey.js",
                  "window.MOUND_SURVEY = " + json.dumps(data, separators=(",", ":")) + ";\n")
     page = tree.root / "map.html"
@@ -321,6 +319,7 @@ PAGE = """<!DOCTYPE html>
 <div id="map"></div>
 <div id="card"><h2>Survey map</h2><p>Click a site for its card.</p>
 <p><a href="report.html">the full report</a></p></div>
+<script src="map/pagecheck.js"></script>
 <script src="map/leaflet/leaflet.js"></script>
 <script src="map/survey.js"></script>
 <script src="map/webmap.js"></script>
@@ -355,6 +354,7 @@ SITE_PAGE = """<!DOCTYPE html>
   <div>drag: turn · shift-drag or right-drag: pan · wheel: zoom</div>
   <div><a href="map.html">back to the map</a></div>
 </div>
+<script src="map/pagecheck.js"></script>
 <script src="map/three/three.min.js"></script>
 <script src="map/site3d.js"></script>
 </body>
