@@ -121,10 +121,8 @@ class Search {
 
   std::mt19937_64& Rng() { return rng_; }
   uint64_t Ticks() const { return N_.costs.Ticks(); }
-  double Limit() const { return N_.limit; }
   // Sites flown by the other flights of a multi-flight plan: never inserted into this one.
   void SetTaken(const std::vector<char>& taken) { taken_ = taken; }
-  void ClearTaken() { std::fill(taken_.begin(), taken_.end(), 0); }
   std::vector<char>& Blocked() { return blocked_; }
 
   // Moves between two flights that keep both within the budget and shorten them together

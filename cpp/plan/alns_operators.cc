@@ -423,11 +423,15 @@ bool Replace::Apply(const Neighbourhood& N, RouteState& state, Solution* s,
   return any;
 }
 
+namespace {
+
+// Cost of leaving out r[p] (the edge that replaces it counted).
 double Saving(const Neighbourhood& N, const std::vector<int>& r, int p) {
   const Costs& C = N.costs;
   return C(r[p - 1], r[p]) + C(r[p], r[p + 1]) - C(r[p - 1], r[p + 1]);
 }
 
+// The cheapest place for v in r: (extra cost, insert before index).
 std::pair<double, int> CheapestInsertion(const Neighbourhood& N, const std::vector<int>& r, int v) {
   const Costs& C = N.costs;
   double best = std::numeric_limits<double>::infinity();
@@ -441,6 +445,8 @@ std::pair<double, int> CheapestInsertion(const Neighbourhood& N, const std::vect
   }
   return {best, at};
 }
+
+}  // namespace
 
 bool Relocate(const Neighbourhood& N, Solution* a, Solution* b) {
   const OpInstance& inst = N.inst;

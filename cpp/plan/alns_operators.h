@@ -133,11 +133,6 @@ class Replace {
   std::vector<double> save_, edge_;
 };
 
-// Cost of leaving out r[p] (the edge that replaces it counted).
-double Saving(const Neighbourhood& N, const std::vector<int>& r, int p);
-// The cheapest place for v in r: (extra cost, insert before index).
-std::pair<double, int> CheapestInsertion(const Neighbourhood& N, const std::vector<int>& r, int v);
-
 // Between two flights, within the budget, shortening them together (rewards unchanged):
 // a site of a moved into b where that costs less than it saves in a ...
 bool Relocate(const Neighbourhood& N, Solution* a, Solution* b);
