@@ -7,6 +7,7 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 
@@ -61,6 +62,22 @@ std::string ReadFile(const std::string& path, size_t max_bytes) {
   }
   if (in.bad()) throw InputError(path + ": read error");
   return out;
+}
+
+std::string ResolveDataFile(const std::string& base, const std::string& rel,
+                            const std::string& where) {
+  if (rel.empty()) throw InputError(where + ": empty path");
+  const std::filesystem::path p(rel);
+  const std::string file = p.is_absolute() ? rel : (std::filesystem::path(base) / rel).string();
+  std::error_code ec;
+  const auto status = std::filesystem::status(file, ec);
+  if (ec || !std::filesystem::exists(status)) {
+    throw InputError(where + ": " + file + ": no such file");
+  }
+  if (!std::filesystem::is_regular_file(status)) {
+    throw InputError(where + ": " + file + ": not a regular file");
+  }
+  return file;
 }
 
 }  // namespace mound

@@ -19,4 +19,11 @@ constexpr size_t kMaxReadBytes = size_t{1} << 30;
 // more than `max_bytes` (an endless device, a runaway file).
 std::string ReadFile(const std::string& path, size_t max_bytes = kMaxReadBytes);
 
+// A data file named inside a job file: `rel` absolute, or relative to the job's folder
+// `base`. It must exist and be a regular file (not a device, a pipe or a folder), so that an
+// endless input such as /dev/zero is refused before it is read; InputError "where: ..."
+// otherwise.
+std::string ResolveDataFile(const std::string& base, const std::string& rel,
+                            const std::string& where);
+
 }  // namespace mound

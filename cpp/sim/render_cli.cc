@@ -17,7 +17,7 @@
 #include "common/atomic_file.h"
 #include "common/cli_args.h"
 #include "common/error.h"
-#include "sim/npy.h"
+#include "common/npy.h"
 #include "sim/render.h"
 #include "sim/render_job.h"
 

@@ -7,8 +7,8 @@
 #include "common/atomic_file.h"
 #include "common/error.h"
 #include "common/json_util.h"
+#include "common/npy.h"
 #include "geometry/json_io.h"
-#include "sim/npy.h"
 
 namespace mound::sim {
 namespace {
@@ -21,26 +21,9 @@ double RequirePositive(const json& obj, const std::string& key, const std::strin
   return v;
 }
 
-// A data file named by the job: absolute, or relative to the job's folder; it must be a
-// regular file (not a device, a pipe or a folder), so that an endless input such as
-// /dev/zero is refused before it is read.
-std::string Resolve(const std::string& base, const std::string& rel, const std::string& where) {
-  if (rel.empty()) throw InputError(where + ": empty path");
-  const std::filesystem::path p(rel);
-  const std::string file = p.is_absolute() ? rel : (std::filesystem::path(base) / rel).string();
-  std::error_code ec;
-  const auto status = std::filesystem::status(file, ec);
-  if (ec || !std::filesystem::exists(status)) {
-    throw InputError(where + ": " + file + ": no such file");
-  }
-  if (!std::filesystem::is_regular_file(status)) {
-    throw InputError(where + ": " + file + ": not a regular file");
-  }
-  return file;
-}
-
 Heightfield LoadHeightfield(const json& h, const std::string& dir) {
-  const std::string file = Resolve(dir, RequireString(h, "npy", "heightfield"), "heightfield.npy");
+  const std::string file =
+      ResolveDataFile(dir, RequireString(h, "npy", "heightfield"), "heightfield.npy");
   const NpyArray a = ReadNpy(file);
   if (a.descr == "|u1" || a.shape.size() != 2 || a.shape[0] < 2 || a.shape[1] < 2 ||
       a.shape[0] > 100000 || a.shape[1] > 100000) {
@@ -62,7 +45,7 @@ Heightfield LoadHeightfield(const json& h, const std::string& dir) {
 }
 
 Texture LoadTexture(const json& t, const std::string& dir) {
-  const std::string file = Resolve(dir, RequireString(t, "npy", "texture"), "texture.npy");
+  const std::string file = ResolveDataFile(dir, RequireString(t, "npy", "texture"), "texture.npy");
   NpyArray a = ReadNpy(file);
   if (a.descr != "|u1" || a.shape.size() != 3 || a.shape[2] != 3 || a.shape[0] < 1 ||
       a.shape[1] < 1 || a.shape[0] > 100000 || a.shape[1] > 100000) {

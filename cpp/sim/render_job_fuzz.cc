@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "common/fuzz_check.h"
-#include "sim/npy.h"
+#include "common/npy.h"
 #include "sim/render_job.h"
 
 namespace {
@@ -21,8 +21,7 @@ std::string Dir() {
     const auto d = std::filesystem::temp_directory_path() /
                    ("mound_render_job_fuzz." + std::to_string(::getpid()));
     std::filesystem::create_directories(d);
-    mound::sim::WriteNpyFloat32((d / "heightfield.npy").string(), {4, 5},
-                                std::vector<float>(20, 0.5f));
+    mound::WriteNpyFloat32((d / "heightfield.npy").string(), {4, 5}, std::vector<float>(20, 0.5f));
     // A uint8 (2, 2, 3) texture, written by hand (the writer does float32 only).
     std::string header = "{'descr': '|u1', 'fortran_order': False, 'shape': (2, 2, 3), }";
     header += std::string(64 - (10 + header.size() + 1) % 64, ' ') + "\n";

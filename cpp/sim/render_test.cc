@@ -8,7 +8,7 @@
 #include <functional>
 
 #include "common/error.h"
-#include "sim/npy.h"
+#include "common/npy.h"
 #include "sim/render.h"
 
 namespace mound::sim {

@@ -86,7 +86,7 @@ def test_the_plan_example_is_shortened_but_keeps_its_ends() -> None:
 
 
 def test_one_version_everywhere() -> None:
-    """pyproject.toml holds the version; the package and both C++ tools report it."""
+    """pyproject.toml holds the version; the package and every C++ tool report it."""
     import subprocess
     import tomllib
 
@@ -96,7 +96,7 @@ def test_one_version_everywhere() -> None:
     want = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))["project"][
         "version"]
     assert mound.__version__ == want
-    for tool in ("mound_plan", "mound_recon", "mound_render"):
+    for tool in ("mound_plan", "mound_recon", "mound_render", "mound_scene"):
         out = subprocess.run([str(build_dir() / tool), "--version"], capture_output=True,
                              text=True, check=True).stdout.split()
         assert out == [tool, want]

@@ -33,7 +33,7 @@ from typing import Any
 from mkdocs.exceptions import PluginError
 
 ROOT = Path(__file__).resolve().parents[2]
-NATIVE = ("mound_plan", "mound_recon", "mound_render")
+NATIVE = ("mound_plan", "mound_recon", "mound_render", "mound_scene")
 MARKER = re.compile(r"<!-- (help|help-tree|run|include|layers): ([^>]*?) -->")
 
 

@@ -67,7 +67,7 @@ def cmd_score(args: argparse.Namespace) -> int:
                              limit=args.candidates, min_sep_m=args.min_separation_m, aoi=aoi,
                              aoi_path=args.aoi, home=parse_lat_lon(args.home), block=args.block,
                              threads=args.threads, scheduler=args.scheduler,
-                             progress=progress)
+                             progress=progress, engine=args.engine)
     t = doc["timings"]
     print(f"{doc['counts']['scored']} of {doc['counts']['cells']} cells scored, "
           f"{doc['counts']['candidates']} candidates, {t['wall_s']:.2f} s "
@@ -132,6 +132,9 @@ def add_parser(sub: Any, parser_class: Any) -> None:
     s.add_argument("--block", type=int,
                    help="block side, output cells (default: 1024 scene pixels' worth)")
     s.add_argument("--scheduler", help="Dask scheduler address (default: local threads)")
+    s.add_argument("--engine", choices=("native", "numpy"), default="native",
+                   help="multiscale features: the compiled kernel (mound_scene) or the numpy "
+                   "reference it is tested against")
     common(s)
     s.set_defaults(func=cmd_score)
 

@@ -110,7 +110,12 @@ class FeatureSpec:
         """Pixels of context needed on each side of a block's core."""
         if self.kind == "paper":
             return self.factor(res_m)
-        return self._px(self.background_m, res_m) + stride + 1
+        return self.reach_px(res_m) + stride + 1
+
+    def reach_px(self, res_m: float) -> int:
+        """multiscale: the half-side of the widest window, the background's or the outer
+        ring's of the largest radius (2 r)."""
+        return max(self._px(self.background_m, res_m), 2 * self._px(self.radii_m[-1], res_m))
 
     def cell_px(self, res_m: float, stride: int) -> int:
         """The output grid's step in pixels."""

@@ -1,5 +1,6 @@
 // NumPy .npy arrays (format version 1.0/2.0/3.0, C order, little-endian): the way the Python
-// side hands dense grids (heightfields, textures) to the C++ tools and gets depth maps back.
+// side hands dense grids (heightfields, textures, scene blocks) to the C++ tools and gets depth
+// maps and logits back.
 // Reference: numpy/lib/format.py ("magic string, header length, a Python dict literal
 // with descr, fortran_order and shape, padded to 64 bytes, then the raw data").
 #pragma once
@@ -9,7 +10,7 @@
 #include <string>
 #include <vector>
 
-namespace mound::sim {
+namespace mound {
 
 struct NpyArray {
   std::string descr;  // "<f4", "<f8" or "|u1"
@@ -27,8 +28,10 @@ NpyArray ReadNpy(const std::string& path);
 // The same from a stream; `path` names it in error messages.
 NpyArray ParseNpy(std::istream& in, const std::string& path);
 
-// Writes a float32 array atomically.
+// Write a float32 / float64 array atomically (`values` holds the product of `shape`).
 void WriteNpyFloat32(const std::string& path, const std::vector<size_t>& shape,
                      const std::vector<float>& values);
+void WriteNpyFloat64(const std::string& path, const std::vector<size_t>& shape,
+                     const std::vector<double>& values);
 
-}  // namespace mound::sim
+}  // namespace mound

@@ -5,12 +5,12 @@
 #include <string>
 
 #include "common/fuzz_check.h"
-#include "sim/npy.h"
+#include "common/npy.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   std::istringstream in(std::string(reinterpret_cast<const char*>(data), size));
   mound::fuzz::ExpectValueOrInputError([&] {
-    const mound::sim::NpyArray a = mound::sim::ParseNpy(in, "fuzz.npy");
+    const mound::NpyArray a = mound::ParseNpy(in, "fuzz.npy");
     const auto v = a.AsDouble();
     if (v.size() != a.Count()) std::abort();
   });

@@ -1,4 +1,4 @@
-#include "sim/npy.h"
+#include "common/npy.h"
 
 #include <algorithm>
 #include <cctype>
@@ -9,7 +9,7 @@
 #include "common/atomic_file.h"
 #include "common/error.h"
 
-namespace mound::sim {
+namespace mound {
 namespace {
 
 size_t ElementSize(const std::string& descr) {
@@ -161,12 +161,15 @@ NpyArray ParseNpy(std::istream& in, const std::string& path) {
   return a;
 }
 
-void WriteNpyFloat32(const std::string& path, const std::vector<size_t>& shape,
-                     const std::vector<float>& values) {
+namespace {
+
+void WriteNpy(const std::string& path, const std::vector<size_t>& shape, const char* descr,
+              const void* data, size_t bytes) {
   std::string dims;
   for (size_t i = 0; i < shape.size(); ++i) dims += (i ? ", " : "") + std::to_string(shape[i]);
   if (shape.size() == 1) dims += ",";
-  std::string header = "{'descr': '<f4', 'fortran_order': False, 'shape': (" + dims + "), }";
+  std::string header =
+      std::string("{'descr': '") + descr + "', 'fortran_order': False, 'shape': (" + dims + "), }";
   const size_t total = 10 + header.size() + 1;
   header += std::string((64 - total % 64) % 64, ' ') + "\n";
   std::string out = "\x93NUMPY";
@@ -175,8 +178,20 @@ void WriteNpyFloat32(const std::string& path, const std::vector<size_t>& shape,
   out += static_cast<char>(header.size() & 0xff);
   out += static_cast<char>(header.size() >> 8);
   out += header;
-  out.append(reinterpret_cast<const char*>(values.data()), values.size() * sizeof(float));
+  out.append(static_cast<const char*>(data), bytes);
   WriteFileAtomic(path, out);
 }
 
-}  // namespace mound::sim
+}  // namespace
+
+void WriteNpyFloat32(const std::string& path, const std::vector<size_t>& shape,
+                     const std::vector<float>& values) {
+  WriteNpy(path, shape, "<f4", values.data(), values.size() * sizeof(float));
+}
+
+void WriteNpyFloat64(const std::string& path, const std::vector<size_t>& shape,
+                     const std::vector<double>& values) {
+  WriteNpy(path, shape, "<f8", values.data(), values.size() * sizeof(double));
+}
+
+}  // namespace mound

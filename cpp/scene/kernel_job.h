@@ -1,0 +1,34 @@
+// The scoring kernel's job file (mound.scene_kernel v1, written per block by
+// python/mound/scene/native_kernel.py): a block of pixels, the cells to score, the features'
+// geometry in pixels and the model. Loading validates every field and reports the first
+// problem as an InputError naming it ("model.std[3]: must be > 0").
+//
+// {"schema": "mound.scene_kernel", "version": 1,
+//  "block": "block.npy",                      // (bands, rows, cols) float32/64, NaN = nodata
+//  "cells": {"halo": 52, "stride": 1, "rows": 1026, "cols": 1026},
+//  "features": {"kind": "multiscale", "radii_px": [3, 6, 12, 24], "background_px": 48,
+//               "red_band": 2, "nir_band": 3, "min_valid": 0.95},  // bands 0-based or null
+//  "model": {"basis": "hinge", "clip": true, "mean": [...], "std": [...],
+//            "weights": [...]}}              // F or 3F weights, then the bias
+//
+// The block's path is relative to the job file's folder.
+#pragma once
+
+#include <string>
+
+#include "scene/multiscale.h"
+
+namespace mound::scene {
+
+struct KernelJob {
+  PixelBlock block;
+  MultiscaleSpec spec;
+  LinearModel model;
+  CellGrid cells;
+};
+
+KernelJob LoadKernelJob(const std::string& path);
+// `text` read from `path`; the block is resolved in `dir`.
+KernelJob ParseKernelJob(const std::string& text, const std::string& path, const std::string& dir);
+
+}  // namespace mound::scene

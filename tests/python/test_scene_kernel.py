@@ -1,0 +1,171 @@
+"""The compiled scoring kernel (`mound_scene`, cpp/scene/) against the numpy reference
+(features.py, model.py): the same features and logits on blocks with and without NDVI, at
+stride 1 and 3, with nodata holes and edges, float32 and float64 pixels; and the same
+rasters and candidates from `mound scene score --engine native|numpy`. Bad kernel jobs exit
+2 naming the field."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+import rasterio
+from scenes import WEST, make_scene
+
+from mound.classify.features import Standardizer
+from mound.cli import main as mound_main
+from mound.paths import build_dir
+from mound.scene import kernel
+from mound.scene.features import FeatureSpec
+from mound.scene.model import SceneModel
+
+
+def _block(rng: np.random.Generator, bands: int, rows: int, cols: int) -> np.ndarray:
+    yy, xx = np.mgrid[0:rows, 0:cols]
+    base = 300 + 20 * np.sin(yy / 7.0) + 15 * np.cos(xx / 5.0)
+    disc = np.hypot(yy - rows / 2, xx - cols / 2) < 8
+    out = np.stack([base * (0.8 + 0.2 * b) + 5 * rng.standard_normal((rows, cols))
+                    + 40 * disc for b in range(bands)])
+    return out.astype(np.float32).astype(np.float64)
+
+
+def _spec(labels: list[str]) -> FeatureSpec:
+    return FeatureSpec("multiscale", radii_m=(2.0, 4.0, 8.0), background_m=16.0,
+                       band_labels=labels)
+
+
+def _model(spec: FeatureSpec, basis: str, rng: np.random.Generator, x: np.ndarray
+           ) -> SceneModel:
+    ok = np.isfinite(x).all(axis=1)
+    mean, std = x[ok].mean(axis=0), x[ok].std(axis=0) * 0.3 + 1e-3  # some cells clip
+    n = len(spec.names())
+    w = rng.standard_normal(n * (3 if basis == "hinge" else 1) + 1)
+    return SceneModel(bands=[{"index": k + 1, "name": b} for k, b in
+                             enumerate(spec.band_labels)],
+                      spec=spec, basis=basis, scaler=Standardizer(mean, std), w=w, res_m=1.0)
+
+
+CASES = [  # labels, stride, nodata, float64
+    (["blue", "green", "red", "nir"], 1, False, False),
+    (["blue", "green", "red", "nir"], 3, True, False),
+    (["band1", "band2"], 1, True, True),
+    (["pan"], 2, False, False),
+]
+
+
+@pytest.mark.parametrize(("labels", "stride", "nodata", "f64"), CASES)
+def test_kernel_equals_the_numpy_reference(labels: list[str], stride: int, nodata: bool,
+                                           f64: bool) -> None:
+    rng = np.random.default_rng(len(labels) * 10 + stride)
+    spec = _spec(labels)
+    halo = spec.halo_px(1.0, stride)
+    n, m = 9, 11
+    rows, cols = n * stride + 2 * halo, m * stride + 2 * halo
+    block = _block(rng, len(labels), rows, cols)
+    if nodata:
+        block[:, :7, :] = np.nan                 # a nodata edge: some cells lose windows
+        block[:, rows // 2, cols // 2 + 3] = np.nan  # a hole at a cell's centre
+        block[0, 30:33, 40:44] = np.nan          # a hole in one band only
+    if f64:
+        block += rng.uniform(0, 1e-3, block.shape)  # not float32-exact: sent as float64
+    ref = spec.compute(block, 1.0, halo, stride, n, m)
+    got = kernel.features(block, spec, 1.0, halo, stride, n, m)
+    assert got.shape == ref.shape == (n * m, len(spec.names()))
+    assert (np.isnan(got) == np.isnan(ref)).all()
+    if nodata:
+        assert np.isnan(ref).all(axis=1).any() and np.isfinite(ref).all(axis=1).any()
+    ok = np.isfinite(ref)
+    assert np.allclose(got[ok], ref[ok], rtol=1e-9, atol=1e-9)
+    for basis in ("hinge", "none"):
+        model = _model(spec, basis, rng, ref)
+        want = model.logit(ref)
+        lg = kernel.logits(block, model, 1.0, halo, stride, n, m).ravel()
+        assert (np.isnan(lg) == np.isnan(want)).all()
+        fin = np.isfinite(want)
+        assert np.allclose(lg[fin], want[fin], rtol=1e-9, atol=1e-8)
+
+
+def test_engines_give_the_same_rasters_and_candidates(tmp_path: Path) -> None:
+    """`mound scene score` with the compiled kernel and with the numpy reference, on a
+    scene with a nodata border (the model: fitted on another scene)."""
+    train = tmp_path / "train.tif"
+    mounds = make_scene(train, seed=3)
+    from scenes import write_labels
+
+    labels = write_labels(tmp_path / "known.geojson", mounds)
+    model = tmp_path / "model.json"
+    assert mound_main(["scene", "train", str(train), "--labels", str(labels), "--out",
+                       str(model), "--negatives-per-scene", "300", "--folds", "2",
+                       "--l2", "0.1"]) == 0
+    scene = tmp_path / "test.tif"
+    make_scene(scene, seed=4, n_mounds=3, nodata_border=20, west=WEST + 3000)
+    out = {}
+    for engine in ("native", "numpy"):
+        d = tmp_path / engine
+        assert mound_main(["scene", "score", str(scene), "--model", str(model), "--out",
+                           str(d), "--engine", engine, "--candidates", "10", "--block",
+                           "64"]) == 0
+        with rasterio.open(d / "p_mound.tif") as ds:
+            p = ds.read(1)
+        cands = json.loads((d / "candidates.geojson").read_text())["features"]
+        doc = json.loads((d / "scene.json").read_text())
+        assert doc["timings"]["engine"] == engine
+        out[engine] = (p, [(c["properties"]["row"], c["properties"]["col"]) for c in cands])
+    (pn, cn), (pr, cr) = out["native"], out["numpy"]
+    assert ((pn == -9999) == (pr == -9999)).all() and (pn == -9999).any()
+    assert np.allclose(pn, pr, atol=1e-6)
+    assert cn == cr and len(cn) == 10
+
+
+def _tool(args: list[str], cwd: Path) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([str(build_dir() / "mound_scene"), *args], cwd=cwd,
+                          capture_output=True, text=True, timeout=60)
+
+
+def test_bad_kernel_jobs_exit_2_naming_the_field(tmp_path: Path) -> None:
+    rng = np.random.default_rng(0)
+    spec = _spec(["red", "nir"])
+    block = _block(rng, 2, 60, 60)
+    np.save(tmp_path / "block.npy", block.astype(np.float32))
+    model = _model(spec, "hinge", rng, np.ones((4, len(spec.names()))))
+    good = kernel._job(spec, 1.0, spec.halo_px(1.0, 1), 1, 2, 2, model)
+    (tmp_path / "job.json").write_text(json.dumps(good))
+    ok = _tool(["job.json", "--logits", "l.npy"], tmp_path)
+    assert ok.returncode == 0, ok.stderr
+    assert json.loads(ok.stdout)["cells"] == 4 and np.load(tmp_path / "l.npy").shape == (2, 2)
+
+    def bad(edit: dict[str, object], field: str) -> None:
+        job = json.loads(json.dumps(good))
+        for path, value in edit.items():
+            obj = job
+            *parents, key = path.split(".")
+            for p in parents:
+                obj = obj[p]
+            if value is None:
+                del obj[key]
+            else:
+                obj[key] = value
+        (tmp_path / "bad.json").write_text(json.dumps(job))
+        r = _tool(["bad.json", "--logits", "out.npy"], tmp_path)
+        assert r.returncode == 2, (edit, r.stderr)
+        assert field in r.stderr and len(r.stderr.strip().splitlines()) == 1, r.stderr
+        assert not (tmp_path / "out.npy").exists()
+
+    bad({"model.std": [1.0] * (len(spec.names()) - 1) + [0.0]}, "model.std")
+    bad({"model.weights": [0.0] * 3}, "model.weights")
+    bad({"model.basis": "cubic"}, "model.basis")
+    bad({"features.radii_px": [4, 2]}, "features.radii_px")
+    bad({"features.background_px": 3}, "features.background_px")
+    bad({"features.nir_band": 5}, "features.nir_band")
+    bad({"features.kind": "paper"}, "features.kind")
+    bad({"cells.rows": 500}, "cells.rows")
+    bad({"block": "missing.npy"}, "block")
+    bad({"block": "."}, "block")
+    bad({"schema": "mound.render"}, "schema")
+    (tmp_path / "wrong.npy").write_bytes(b"\x93NUMPY\x01\x00garbage")
+    bad({"block": "wrong.npy"}, "wrong.npy")
+    r = _tool(["job.json"], tmp_path)
+    assert r.returncode == 2 and "--logits" in r.stderr
