@@ -3,12 +3,14 @@
 
 Tiles the 40 Kazanlak IKONOS stamps (each flipped/transposed at random) into one
 SIZE x SIZE 4-band float32 GeoTIFF (tiled, DEFLATE), learns a model on the stamps, then
-scores the big scene (a) on local threads and (b) on a separately started Dask scheduler
-with 2 workers (one thread each), REPS times each: wall time min / median, peak RSS of the
-scoring process (and of the workers), Mpx/s. The reference in the same script is the local
-run: the Dask line prints its ratio to it.
+scores the big scene with the compiled kernel (`mound_scene`) (a) on local threads and
+(b) on a separately started Dask scheduler with 2 workers (one thread each), REPS times
+each, and (c) with the numpy reference engine on local threads (`--engine numpy`, REF_REPS
+times: the reference system of the same script; every line prints its speed-up over it):
+wall time min / median, peak RSS of the scoring process (and of the workers), Mpx/s.
 
-    .venv/bin/python tools/bench/bench_scene.py [--size 10000] [--reps 2] [--stride-m 1]
+    .venv/bin/python tools/bench/bench_scene.py [--size 10000] [--reps 2] [--ref-reps 1]
+        [--stride-m 1]
 """
 
 from __future__ import annotations
@@ -93,6 +95,7 @@ def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--size", type=int, default=10_000)
     ap.add_argument("--reps", type=int, default=2)
+    ap.add_argument("--ref-reps", type=int, default=1, help="runs of the numpy reference")
     ap.add_argument("--stride-m", type=float, default=1.0)
     ap.add_argument("--work", default=None)
     a = ap.parse_args()
@@ -115,9 +118,12 @@ def main() -> None:
     base = [str(VENV / "mound"), "scene", "score", str(scene), "--model", str(model),
             "--stride-m", str(a.stride_m), "--candidates", "200"]
     rows = {}
+    reference = [run([*base, "--out", str(work / f"numpy{k}"), "--threads", "2", "--engine",
+                      "numpy"]) for k in range(a.ref_reps)]
+    rows["numpy reference, 2 threads"] = reference
     local = [run([*base, "--out", str(work / f"local{k}"), "--threads", "2"])
              for k in range(a.reps)]
-    rows["local, 2 threads"] = local
+    rows["kernel, 2 threads"] = local
     sched = subprocess.Popen([str(VENV / "dask"), "scheduler", "--port", "8799",
                               "--dashboard-address", ":0", "--no-show"],
                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
@@ -128,14 +134,20 @@ def main() -> None:
                for _ in range(2)]
     time.sleep(6)
     try:
-        rows["Dask scheduler + 2 workers"] = [
+        rows["kernel, Dask + 2 workers"] = [
             run([*base, "--out", str(work / f"dask{k}"), "--scheduler",
                  "tcp://127.0.0.1:8799"]) for k in range(a.reps)]
         worker_rss = max(rss_gb(w.pid) for w in workers)
     finally:
         for p in (*workers, sched):
             p.terminate()
-    ref = float(np.median([w for w, _ in local]))
+        for p in (*workers, sched):  # a worker still closing would join the next run's
+            try:
+                p.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                p.kill()
+                p.wait()
+    ref = float(np.median([w for w, _ in reference]))
     print(f"scoring {a.size} x {a.size} px ({mpx:.0f} Mpx), stride {a.stride_m:g} m, "
           f"{os.cpu_count()} cores, {a.reps} runs each")
     for name, rs in rows.items():
@@ -143,7 +155,7 @@ def main() -> None:
         med = float(np.median(walls))
         print(f"  {name:<28} wall min {min(walls):7.1f} s, median {med:7.1f} s; "
               f"{mpx / med:5.2f} Mpx/s (median); peak RSS {max(r for _, r in rs):.2f} GB; "
-              f"{ref / med:.2f} x the local run")
+              f"{ref / med:.2f} x the numpy reference")
     print(f"  Dask workers' peak RSS {worker_rss:.2f} GB each")
 
 
