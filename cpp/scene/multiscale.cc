@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <optional>
 #include <set>
 
 #include "common/error.h"
@@ -13,8 +14,7 @@ namespace {
 
 constexpr double kNan = std::numeric_limits<double>::quiet_NaN();
 constexpr double kClip = 6.0;  // model.py's CLIP
-// Cells evaluated together: a row's intermediate arrays stay in the L1 cache.
-constexpr int kChunk = 256;
+constexpr double kInf = std::numeric_limits<double>::infinity();
 
 // A summed-area table with a zero first row and column. Built one row at a time as numpy's
 // _sat does (np.cumsum down axis 0, then along axis 1: each row's prefix sums run over the
@@ -29,7 +29,7 @@ class Sat {
     const int cols = static_cast<int>(column_.size());
     for (int j = 0; j < cols; ++j) column_[j] += v[j];
     double run = 0;
-    for (int j = 0; j < cols; ++j) r[j] = run = (j == 0 ? column_[0] : run + column_[j]);
+    for (int j = 0; j < cols; ++j) r[j] = run += column_[j];
   }
   const double* Row(int i) const { return p_.data() + static_cast<size_t>(i) * w1_; }
   double* Row(int i) { return p_.data() + static_cast<size_t>(i) * w1_; }
@@ -69,7 +69,7 @@ void Box(const Sat& p, const RowCells& rc, int top, int bottom, int left, int ri
 // The block's channels (bands, NDVI), their squares and valid pixels as tables.
 struct Tables {
   std::vector<Sat> p1, p2;
-  std::vector<Sat> count;  // empty when every pixel is valid
+  std::optional<Sat> count;  // none when every pixel is valid
   std::vector<unsigned char> valid;
   int cols = 0;
 };
@@ -98,7 +98,7 @@ Tables BuildTables(const PixelBlock& b, const MultiscaleSpec& spec) {
     t.p1.emplace_back(b.rows, b.cols);
     t.p2.emplace_back(b.rows, b.cols);
   }
-  if (!uniform) t.count.emplace_back(b.rows, b.cols);
+  if (!uniform) t.count.emplace(b.rows, b.cols);
   // One pass over the block, a row at a time: each channel's row (0 where a pixel is not
   // valid; NDVI from the band values), its square and the valid flags into the tables.
   std::vector<double> row(b.cols), sq(b.cols);
@@ -122,7 +122,7 @@ Tables BuildTables(const PixelBlock& b, const MultiscaleSpec& spec) {
     }
     if (!uniform) {
       for (int j = 0; j < b.cols; ++j) row[j] = ok[j] ? 1.0 : 0.0;
-      t.count[0].AddRow(i + 1, row.data());
+      t.count->AddRow(i + 1, row.data());
     }
   }
   return t;
@@ -136,11 +136,11 @@ class InvCounts {
  public:
   InvCounts(const Tables& t, const RowCells& rc, int top, int bottom, int left, int right)
       : counts_(rc.m), values_(rc.m) {
-    if (t.count.empty()) {
+    if (!t.count) {
       std::fill(counts_.begin(), counts_.end(),
                 static_cast<double>((top + bottom + 1) * (left + right + 1)));
     } else {
-      Box(t.count[0], rc, top, bottom, left, right, counts_.data());
+      Box(*t.count, rc, top, bottom, left, right, counts_.data());
     }
     for (int l = 0; l < rc.m; ++l) values_[l] = 1.0 / counts_[l];
   }
@@ -263,18 +263,17 @@ void FeatureRow(const Tables& t, const MultiscaleSpec& spec, const RowCells& rc,
 
 // The model folded for one pass per feature (model.py's _folded): logit = const +
 // sum_f w_x x_f - w_c clip(x_f, mean -+ std) + w_m max(|x_f - mean|, std), x_f clipped to
-// mean +- 6 std.
+// mean +- 6 std (+-inf: a model without clipping).
 struct Folded {
   std::vector<double> w_x, w_c, w_m, mean, std, lo, hi;
   double constant = 0;
-  bool hinge = false, clip = true;
+  bool hinge = false;
 };
 
 Folded Fold(const LinearModel& model) {
   const size_t n = model.mean.size();
   Folded f;
   f.hinge = model.basis == Basis::kHinge;
-  f.clip = model.clip;
   f.mean = model.mean;
   f.std = model.std;
   double constant = model.weights.back();
@@ -296,8 +295,8 @@ Folded Fold(const LinearModel& model) {
     f.w_x.push_back(w1[k] / f.std[k]);
     f.w_c.push_back(a[k] / f.std[k]);
     f.w_m.push_back(b[k] / f.std[k]);
-    f.lo.push_back(f.mean[k] - kClip * f.std[k]);
-    f.hi.push_back(f.mean[k] + kClip * f.std[k]);
+    f.lo.push_back(model.clip ? f.mean[k] - kClip * f.std[k] : -kInf);
+    f.hi.push_back(model.clip ? f.mean[k] + kClip * f.std[k] : kInf);
     w_mean += w1[k] / f.std[k] * f.mean[k];
   }
   f.constant = constant - w_mean;
@@ -422,42 +421,36 @@ std::vector<double> Logits(const PixelBlock& block, const MultiscaleSpec& spec,
   const Folded fm = Fold(model);
   const int m = cells.cols;
   std::vector<double> out(static_cast<size_t>(cells.rows) * m);
-  std::vector<unsigned char> enough(kChunk);
-  std::vector<double> finite(kChunk);
+  std::vector<unsigned char> enough(m);
+  std::vector<double> finite(m);
+  double* fin = finite.data();
   for (int k = 0; k < cells.rows; ++k) {
-    for (int l0 = 0; l0 < m; l0 += kChunk) {
-      const int mc = std::min(kChunk, m - l0);
-      const RowCells rc{cells.First() + k * cells.stride, cells.First() + l0 * cells.stride,
-                        cells.stride, mc};
-      double* acc = out.data() + static_cast<size_t>(k) * m + l0;
-      std::fill(acc, acc + mc, fm.constant);
-      std::fill(finite.begin(), finite.end(), 0.0);
-      double* fin = finite.data();
-      // One pass per feature: fin becomes NaN once a feature is not finite (x * 0).
-      FeatureRow(t, spec, rc, enough, [&](int f, const double* v) {
-        const double wx = fm.w_x[f];
-        const double lo = fm.clip ? fm.lo[f] : -std::numeric_limits<double>::infinity();
-        const double hi = fm.clip ? fm.hi[f] : std::numeric_limits<double>::infinity();
-        if (fm.hinge) {
-          const double wc = fm.w_c[f], wm = fm.w_m[f], mu = fm.mean[f], sd = fm.std[f];
-          const double clo = mu - sd, chi = mu + sd;
-          for (int l = 0; l < mc; ++l) {
-            fin[l] += v[l] * 0.0;
-            const double x = std::min(std::max(v[l], lo), hi);
-            const double xc = std::min(std::max(x, clo), chi);
-            const double dev = std::max(std::fabs(x - mu), sd);
-            acc[l] += wx * x + wm * dev - wc * xc;
-          }
-        } else {
-          for (int l = 0; l < mc; ++l) {
-            fin[l] += v[l] * 0.0;
-            acc[l] += wx * std::min(std::max(v[l], lo), hi);
-          }
+    const RowCells rc{cells.First() + k * cells.stride, cells.First(), cells.stride, m};
+    double* acc = out.data() + static_cast<size_t>(k) * m;
+    std::fill(acc, acc + m, fm.constant);
+    std::fill(finite.begin(), finite.end(), 0.0);
+    // One pass per feature: fin becomes NaN once a feature is not finite (x * 0).
+    FeatureRow(t, spec, rc, enough, [&](int f, const double* v) {
+      const double wx = fm.w_x[f], lo = fm.lo[f], hi = fm.hi[f];
+      if (fm.hinge) {
+        const double wc = fm.w_c[f], wm = fm.w_m[f], mu = fm.mean[f], sd = fm.std[f];
+        const double clo = mu - sd, chi = mu + sd;
+        for (int l = 0; l < m; ++l) {
+          fin[l] += v[l] * 0.0;
+          const double x = std::min(std::max(v[l], lo), hi);
+          const double xc = std::min(std::max(x, clo), chi);
+          const double dev = std::max(std::fabs(x - mu), sd);
+          acc[l] += wx * x + wm * dev - wc * xc;
         }
-      });
-      for (int l = 0; l < mc; ++l) {
-        if (!enough[l] || finite[l] != 0.0) acc[l] = kNan;
+      } else {
+        for (int l = 0; l < m; ++l) {
+          fin[l] += v[l] * 0.0;
+          acc[l] += wx * std::min(std::max(v[l], lo), hi);
+        }
       }
+    });
+    for (int l = 0; l < m; ++l) {
+      if (!enough[l] || finite[l] != 0.0) acc[l] = kNan;
     }
   }
   return out;

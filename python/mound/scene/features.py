@@ -103,8 +103,12 @@ class FeatureSpec:
         """paper: pixels per coarse cell."""
         return max(1, round(self.resample_m / res_m))
 
-    def _px(self, metres: float, res_m: float) -> int:
-        return max(1, round(metres / res_m))
+    def window_px(self, res_m: float) -> tuple[list[int], int]:
+        """multiscale: the radii and the background half-side in pixels at `res_m`."""
+        def px(metres: float) -> int:
+            return max(1, round(metres / res_m))
+
+        return [px(r) for r in self.radii_m], px(self.background_m)
 
     def halo_px(self, res_m: float, stride: int) -> int:
         """Pixels of context needed on each side of a block's core."""
@@ -115,7 +119,8 @@ class FeatureSpec:
     def reach_px(self, res_m: float) -> int:
         """multiscale: the half-side of the widest window, the background's or the outer
         ring's of the largest radius (2 r)."""
-        return max(self._px(self.background_m, res_m), 2 * self._px(self.radii_m[-1], res_m))
+        radii, background = self.window_px(res_m)
+        return max(background, 2 * radii[-1])
 
     def cell_px(self, res_m: float, stride: int) -> int:
         """The output grid's step in pixels."""
@@ -215,8 +220,7 @@ class MultiscaleTables:
         self.cnt_p = None if self.uniform else _sat(valid.astype(np.float64))
         self.p1 = [_sat(c) for c in chans]
         self.p2 = [_sat(c * c) for c in chans]
-        self.hs = [spec._px(r, res_m) for r in spec.radii_m]
-        self.hbg = spec._px(spec.background_m, res_m)
+        self.hs, self.hbg = spec.window_px(res_m)
         self.i0 = self.j0 = halo + stride // 2
         self.stride = stride
         self.m = m

@@ -31,8 +31,8 @@ ENGINES = ("native", "numpy")
 def _job(spec: FeatureSpec, res_m: float, halo: int, stride: int, n: int, m: int,
          model: SceneModel | None) -> dict[str, Any]:
     labels = spec.band_labels
-    feats = {"kind": "multiscale", "radii_px": [spec._px(r, res_m) for r in spec.radii_m],
-             "background_px": spec._px(spec.background_m, res_m),
+    radii, background = spec.window_px(res_m)
+    feats = {"kind": "multiscale", "radii_px": radii, "background_px": background,
              "red_band": labels.index("red") if spec.has_ndvi else None,
              "nir_band": labels.index("nir") if spec.has_ndvi else None,
              "min_valid": MIN_VALID}

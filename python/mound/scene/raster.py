@@ -11,6 +11,7 @@ value or is not finite (NaN in the arrays handed on). Nothing here writes.
 
 from __future__ import annotations
 
+import functools
 import math
 import os
 import threading
@@ -192,19 +193,14 @@ _readers = threading.local()
 # per process (and paused Dask workers at their memory limit). GDAL_CACHEMAX in the
 # environment wins.
 CACHE_BYTES = 256 * 2**20
-_cache_lock = threading.Lock()
-_cache_set = False
 
 
+@functools.cache
 def _bound_gdal_cache() -> None:
-    global _cache_set
-    with _cache_lock:
-        if not _cache_set:
-            if "GDAL_CACHEMAX" not in os.environ:
-                from rasterio.env import set_gdal_config
+    if "GDAL_CACHEMAX" not in os.environ:
+        from rasterio.env import set_gdal_config
 
-                set_gdal_config("GDAL_CACHEMAX", CACHE_BYTES)
-            _cache_set = True
+        set_gdal_config("GDAL_CACHEMAX", CACHE_BYTES)
 
 
 def _open_for_reading(path: Path) -> Any:
@@ -217,8 +213,7 @@ def _open_for_reading(path: Path) -> Any:
     _bound_gdal_cache()
     st = path.stat()
     key = (str(path), st.st_mtime_ns, st.st_size)
-    open_sets: dict[tuple[str, int, int], Any] = getattr(_readers, "open", None) or {}
-    _readers.open = open_sets
+    open_sets: dict[tuple[str, int, int], Any] = _readers.__dict__.setdefault("open", {})
     ds = open_sets.get(key)
     if ds is None or ds.closed:
         for k in [k for k in open_sets if k[0] == key[0]]:

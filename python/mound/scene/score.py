@@ -78,9 +78,16 @@ def features_block(scene: SceneInfo, bands: list[int], spec: FeatureSpec, cell: 
     """Features (n * m, F) of output cells [r0, r0 + n) x [c0, c0 + m); multiscale ones by
     the compiled kernel unless engine is "numpy" (the reference)."""
     block, halo = read_block(scene, bands, spec, cell, r0, c0, n, m)
-    if spec.kind == "multiscale" and engine == "native":
+    if _native(spec, engine):
         return kernel.features(block, spec, scene.res_m, halo, cell, n, m)
     return spec.compute(block, scene.res_m, halo, cell, n, m)
+
+
+def _native(spec: FeatureSpec, engine: str) -> bool:
+    """Whether the compiled kernel computes these features (multiscale, engine native)."""
+    if engine not in kernel.ENGINES:
+        raise InputError(f"--engine: expected {' or '.join(kernel.ENGINES)}, got {engine!r}")
+    return spec.kind == "multiscale" and engine == "native"
 
 
 CHUNK_CELLS = 16_384  # output cells evaluated at once: the intermediates stay in cache
@@ -94,22 +101,21 @@ def score_block(scene: SceneInfo, bands: list[int], model: SceneModel, grid: Out
     the compiled kernel (kernel.py) unless engine is "numpy" (the reference)."""
     n, m = nr + 2 * margin, nc + 2 * margin
     spec = model.spec
-    if engine not in kernel.ENGINES:
-        raise InputError(f"--engine: expected {' or '.join(kernel.ENGINES)}, got {engine!r}")
-    if spec.kind == "multiscale" and engine == "native":
+    if spec.kind == "multiscale":
         block, halo = read_block(scene, bands, spec, grid.cell, r0 - margin, c0 - margin, n, m)
-        logit = kernel.logits(block, model, scene.res_m, halo, grid.cell, n, m)
-    elif spec.kind == "multiscale":
-        block, halo = read_block(scene, bands, spec, grid.cell, r0 - margin, c0 - margin, n, m)
-        tables = spec.tables(block, scene.res_m, halo, grid.cell, m)
-        del block
-        logit = np.empty((n, m))
-        step = max(1, CHUNK_CELLS // m)
-        for k in range(0, n, step):
-            k1 = min(n, k + step)
-            logit[k:k1] = model.logit_fm(tables.rows(k, k1)).reshape(k1 - k, m)
+        if _native(spec, engine):
+            logit = kernel.logits(block, model, scene.res_m, halo, grid.cell, n, m)
+        else:
+            tables = spec.tables(block, scene.res_m, halo, grid.cell, m)
+            del block
+            logit = np.empty((n, m))
+            step = max(1, CHUNK_CELLS // m)
+            for k in range(0, n, step):
+                k1 = min(n, k + step)
+                logit[k:k1] = model.logit_fm(tables.rows(k, k1)).reshape(k1 - k, m)
     else:
-        feats = features_block(scene, bands, spec, grid.cell, r0 - margin, c0 - margin, n, m)
+        feats = features_block(scene, bands, spec, grid.cell, r0 - margin, c0 - margin, n, m,
+                               engine)
         logit = model.logit(feats).reshape(n, m)
     if aoi is not None:
         logit[~_aoi_mask(aoi, grid, r0 - margin, c0 - margin, n, m)] = np.nan
