@@ -46,6 +46,8 @@ nlohmann::json DistanceJson(const std::vector<double>& d) {
       {"histogram", {{"bin_width_m", top / 20}, {"counts", counts}, {"above_last_bin", above}}}};
 }
 
+constexpr const char* kShapeNames[] = {"paraboloid", "cone", "drum"};
+
 nlohmann::json RiseJson(const terrain::Detection& d, const terrain::Rise& t,
                         const terrain::VerdictModel& model) {
   nlohmann::json r = {{"centre_enu_m", {t.centre.x(), t.centre.y()}},
@@ -60,6 +62,13 @@ nlohmann::json RiseJson(const terrain::Detection& d, const terrain::Rise& t,
                       {"fill", t.fill},
                       {"flank_slope_rad", t.flank_slope_rad},
                       {"clipped", t.clipped},
+                      {"outside", t.outside},
+                      {"roughness", t.roughness},
+                      {"ring_high", t.ring_high},
+                      {"ring_spread", t.ring_spread},
+                      {"shape", kShapeNames[std::clamp(t.shape, 0, 2)]},
+                      {"ground_slope_rad", t.ground_slope_rad},
+                      {"ground_plane", {t.ground_plane[0], t.ground_plane[1], t.ground_plane[2]}},
                       {"offset_m", t.offset_m},
                       {"extent_m", t.extent_m}};
   const std::vector<double> f = terrain::VerdictFeatures(d, t);
@@ -185,13 +194,14 @@ void SiteVerdictOptions::Check() const {
 Coverage JudgeCoverage(const terrain::Detection& d, const terrain::Rise* judged, double radius_m) {
   Coverage c;
   c.rise_clipped = judged ? judged->clipped : 0.0;
+  c.rise_outside = judged ? judged->outside : 0.0;
   c.site_sag_m = d.site_sag_m;
   // A rise cut by the edge of the cloud, or a site domed all over (a mound wider than the
   // scan: no ground in sight): the scan did not see the whole rise. Domed means the site
   // falls >= 1 m from its centre in every direction and the ground fit bends with it
   // (>= 0.5 m): a tumulus inside the scan domes the site too, but the ground around it
   // keeps the ground fit level. A plane ground fit cannot bend: the site's fall decides.
-  const bool cut = judged && judged->clipped > 0.1;
+  const bool cut = judged && (judged->clipped > 0.1 || judged->outside > 0.1);
   const bool quadratic_ground = d.ground_coefficients.size() == 6 &&
                                 (d.ground_coefficients[3] != 0 || d.ground_coefficients[4] != 0 ||
                                  d.ground_coefficients[5] != 0);
@@ -208,7 +218,8 @@ Coverage JudgeCoverage(const terrain::Detection& d, const terrain::Rise* judged,
   w.precision(3);
   if (cut) {
     w << "the rise runs off the scanned site (" << 100 * judged->clipped
-      << " % of its outline on the edge of the " << 2 * radius_m << " m site)";
+      << " % of its outline on the edge of the " << 2 * radius_m << " m site, "
+      << 100 * judged->outside << " % of its fitted base beyond it)";
   } else {
     w << "the whole " << 2 * radius_m << " m site is domed (it falls " << d.site_sag_m
       << " m or more from its centre to its edge in every direction): no ground around the "
@@ -291,10 +302,13 @@ nlohmann::json SiteVerdictJson(const SiteVerdict& v, const terrain::VerdictModel
                        {"scan_needed_m", c.scan_needed_m},
                        {"message", c.message},
                        {"rise_clipped", c.rise_clipped},
+                       {"rise_outside", c.rise_outside},
                        {"site_sag_m", c.site_sag_m}};
   } else {
-    doc["coverage"] = {
-        {"status", c.status}, {"rise_clipped", c.rise_clipped}, {"site_sag_m", c.site_sag_m}};
+    doc["coverage"] = {{"status", c.status},
+                       {"rise_clipped", c.rise_clipped},
+                       {"rise_outside", c.rise_outside},
+                       {"site_sag_m", c.site_sag_m}};
   }
   why << "; p(mound) " << v.p_mound << " (threshold " << model.threshold << ")";
   doc["reason"] = why.str();

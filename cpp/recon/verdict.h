@@ -93,13 +93,14 @@ struct SiteVerdictOptions {
 };
 
 // Whether the scan saw the judged rise whole: "whole", "no_rise", or "clipped" (the rise
-// runs off the cloud's edge, > 10 % of its outline there, or the whole site is domed, a
-// mound wider than the scan) with the scan diameter that would see it whole.
+// runs off the cloud's edge: > 10 % of its footprint's outline there or > 10 % of its
+// fitted base outside the site; or the whole site is domed, a mound wider than the scan)
+// with the scan diameter that would see it whole.
 struct Coverage {
   std::string status;
   double scan_needed_m = 0;  // clipped only: rounded up to 10 m
   std::string message;       // clipped only
-  double rise_clipped = 0, site_sag_m = 0;
+  double rise_clipped = 0, rise_outside = 0, site_sag_m = 0;
 };
 Coverage JudgeCoverage(const terrain::Detection& d, const terrain::Rise* judged, double radius_m);
 

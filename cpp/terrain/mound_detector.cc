@@ -8,9 +8,12 @@
 
 #include "common/error.h"
 #include "common/stats.h"
+#include "terrain/rise_fit.h"
 
 namespace mound::terrain {
 namespace {
+
+using internal::HeightGrid;
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
@@ -30,16 +33,6 @@ Eigen::Vector2d Fall(const Eigen::Matrix<double, 6, 1>& q) {
   const Eigen::Vector2d ev = Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(H).eigenvalues();
   return {-ev[1] / 2, -ev[0] / 2};
 }
-
-struct Grid {
-  int w = 0, h = 0;
-  double cell = 0;
-  Eigen::Vector2d origin;  // centre of cell (0, 0) relative to the site centre
-  std::vector<double> z;   // NaN: no data
-  double& At(int i, int j) { return z[static_cast<size_t>(j) * w + i]; }
-  double Get(int i, int j) const { return z[static_cast<size_t>(j) * w + i]; }
-  Eigen::Vector2d Centre(int i, int j) const { return origin + cell * Eigen::Vector2d(i, j); }
-};
 
 }  // namespace
 
@@ -70,7 +63,8 @@ Detection DetectMound(const std::vector<Eigen::Vector3d>& points, const Eigen::V
   d.cell_m = o.cell_m > 0 ? o.cell_m
                           : std::clamp(std::sqrt(area / (site.size() / 4.0)), 0.25,
                                        std::max(0.25, radius_m / 25));
-  Grid g;
+  HeightGrid g;
+  g.radius = radius_m;
   g.cell = d.cell_m;
   g.w = g.h = 2 * static_cast<int>(std::ceil(radius_m / g.cell)) + 1;
   g.origin = -Eigen::Vector2d(g.w / 2, g.h / 2) * g.cell;
@@ -109,7 +103,7 @@ Detection DetectMound(const std::vector<Eigen::Vector3d>& points, const Eigen::V
         for (int b = std::max(0, j - 1); b <= std::min(g.h - 1, j + 1); ++b)
           for (int a = std::max(0, i - 1); a <= std::min(g.w - 1, i + 1); ++a)
             if ((a != i || b != j) && measured[static_cast<size_t>(b) * g.w + a])
-              nb.push_back(g.Get(a, b));
+              nb.push_back(g.z[g.Index(a, b)]);
         if (nb.size() < 3) continue;
         dep[k] = g.z[k] - Median(nb);
         all.push_back(std::fabs(dep[k]));
@@ -134,8 +128,8 @@ Detection DetectMound(const std::vector<Eigen::Vector3d>& points, const Eigen::V
         int n = 0;
         for (const auto& [di, dj] : {std::pair{1, 0}, {-1, 0}, {0, 1}, {0, -1}}) {
           const int a = i + di, b = j + dj;
-          if (a < 0 || b < 0 || a >= g.w || b >= g.h || std::isnan(g.Get(a, b))) continue;
-          s += g.Get(a, b);
+          if (a < 0 || b < 0 || a >= g.w || b >= g.h || std::isnan(g.z[g.Index(a, b)])) continue;
+          s += g.z[g.Index(a, b)];
           ++n;
         }
         if (n > 0) {
@@ -227,169 +221,90 @@ Detection DetectMound(const std::vector<Eigen::Vector3d>& points, const Eigen::V
   d.ground_coefficients = {coef[0],           coef[1] / s,       coef[2] / s,
                            coef[3] / (s * s), coef[4] / (s * s), coef[5] / (s * s)};
 
-  // Relief and the rises above the threshold.
-  std::vector<double> relief(g.z.size(), kNaN);
-  for (size_t k = 0; k < g.z.size(); ++k) {
-    if (!inside[k] || std::isnan(g.z[k])) continue;
-    const Eigen::Vector2d p = xy(k);
-    relief[k] = g.z[k] - Basis(p.x(), p.y()).dot(coef);
-  }
-  std::vector<int> label(g.z.size(), -1);
-  std::vector<std::vector<size_t>> comps;
-  for (size_t k = 0; k < g.z.size(); ++k) {
-    if (label[k] >= 0 || !(relief[k] > o.relief_threshold_m)) continue;
-    std::vector<size_t> stack = {k}, comp;
-    label[k] = static_cast<int>(comps.size());
-    while (!stack.empty()) {
-      const size_t c = stack.back();
-      stack.pop_back();
-      comp.push_back(c);
-      const int i = static_cast<int>(c % g.w), j = static_cast<int>(c / g.w);
-      for (const auto& [di, dj] : {std::pair{1, 0}, {-1, 0}, {0, 1}, {0, -1}}) {
-        const int a = i + di, b = j + dj;
-        if (a < 0 || b < 0 || a >= g.w || b >= g.h) continue;
-        const size_t n = static_cast<size_t>(b) * g.w + a;
-        if (label[n] < 0 && relief[n] > o.relief_threshold_m) {
-          label[n] = label[k];
-          stack.push_back(n);
+  g.inside = inside;
+  g.measured = measured;
+  // Candidates: the components of the relief over the site's ground fit (the 8 most
+  // prominent), and the scale-space peaks of the heights (rise_fit.h).
+  std::vector<internal::Candidate> candidates;
+  {
+    std::vector<double> relief(g.z.size(), kNaN);
+    for (size_t k = 0; k < g.z.size(); ++k) {
+      if (!inside[k] || std::isnan(g.z[k])) continue;
+      const Eigen::Vector2d p = xy(k);
+      relief[k] = g.z[k] - Basis(p.x(), p.y()).dot(coef);
+    }
+    std::vector<int> label(g.z.size(), -1);
+    std::vector<std::pair<double, internal::Candidate>> comps;
+    for (size_t k = 0; k < g.z.size(); ++k) {
+      if (label[k] >= 0 || !(relief[k] > o.relief_threshold_m)) continue;
+      std::vector<size_t> stack = {k};
+      label[k] = static_cast<int>(comps.size());
+      double sum = 0, top = 0;
+      Eigen::Vector2d c = Eigen::Vector2d::Zero();
+      int n = 0;
+      while (!stack.empty()) {
+        const size_t q = stack.back();
+        stack.pop_back();
+        ++n;
+        sum += relief[q];
+        top = std::max(top, relief[q]);
+        c += relief[q] * g.Centre(q);
+        const int i = static_cast<int>(q % g.w), j = static_cast<int>(q / g.w);
+        for (const auto& [di, dj] : {std::pair{1, 0}, {-1, 0}, {0, 1}, {0, -1}}) {
+          const int a = i + di, b = j + dj;
+          if (a < 0 || b < 0 || a >= g.w || b >= g.h) continue;
+          const size_t m = g.Index(a, b);
+          if (label[m] < 0 && relief[m] > o.relief_threshold_m) {
+            label[m] = label[k];
+            stack.push_back(m);
+          }
         }
       }
+      const double area = n * g.cell * g.cell;
+      comps.push_back({top * area, {c / sum, std::sqrt(area / M_PI)}});
+      if (n < 4) comps.back().first = -1;  // a few cells: noise
     }
-    comps.push_back(std::move(comp));
+    std::sort(comps.begin(), comps.end(),
+              [](const auto& a, const auto& b) { return a.first > b.first; });
+    for (const auto& [prominence, c] : comps) {
+      if (prominence < 0) break;
+      ++d.rises;
+      if (candidates.size() < 8) candidates.push_back(c);
+    }
   }
-  const double cell_area = g.cell * g.cell;
+  for (const internal::Candidate& c :
+       internal::ScaleSpaceCandidates(g, o.relief_threshold_m, 2 * kMaxJudgedRises))
+    candidates.push_back(c);
+  // Each candidate fitted and measured over its own ground; rises that converged to the
+  // same dome (centres within a third of the larger radius, radii within 35 %) kept once,
+  // the most prominent (height x area) first.
   std::vector<Rise> rises;
-  for (const auto& comp : comps) {
-    if (comp.size() < 4) continue;  // a few cells: noise
+  for (const internal::Candidate& c : candidates) {
     Rise r;
-    r.cells = static_cast<int>(comp.size());
-    r.area_m2 = comp.size() * cell_area;
-    std::vector<double> h;
-    Eigen::Vector2d c = Eigen::Vector2d::Zero();
-    double wsum = 0;
-    for (size_t k : comp) {
-      h.push_back(relief[k]);
-      r.volume_m3 += relief[k] * cell_area;
-      const Eigen::Vector2d p = g.Centre(static_cast<int>(k % g.w), static_cast<int>(k / g.w));
-      c += relief[k] * p;
-      wsum += relief[k];
-    }
-    c /= wsum;
-    r.height_m = Quantile(h, 0.99);
-    Eigen::Matrix2d M = Eigen::Matrix2d::Zero();
-    for (size_t k : comp) {
-      const Eigen::Vector2d p = g.Centre(static_cast<int>(k % g.w), static_cast<int>(k / g.w)) - c;
-      M += p * p.transpose();
-    }
-    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es(M / comp.size());
-    r.roundness = es.eigenvalues()[1] > 0
-                      ? std::sqrt(std::max(0.0, es.eigenvalues()[0]) / es.eigenvalues()[1])
-                      : 0;
-    // Dome fit over the cells within 1.5 equivalent radii (a paraboloid of revolution,
-    // clipped at zero): grid search on R, H in closed form.
-    const double r_eq = std::sqrt(r.area_m2 / M_PI);
-    std::vector<std::pair<double, double>> prof;  // (radius, relief)
-    const int reach = static_cast<int>(std::ceil(1.5 * r_eq / g.cell)) + 1;
-    const Eigen::Vector2d cc = (c - g.origin) / g.cell;
-    for (int j = static_cast<int>(cc.y()) - reach; j <= static_cast<int>(cc.y()) + reach; ++j)
-      for (int i = static_cast<int>(cc.x()) - reach; i <= static_cast<int>(cc.x()) + reach; ++i) {
-        if (i < 0 || j < 0 || i >= g.w || j >= g.h) continue;
-        const double rel = relief[static_cast<size_t>(j) * g.w + i];
-        const double rad = (g.Centre(i, j) - c).norm();
-        if (!std::isnan(rel) && rad <= 1.5 * r_eq) prof.emplace_back(rad, rel);
-      }
-    double mean = 0;
-    for (const auto& pr : prof) mean += pr.second;
-    mean /= std::max<size_t>(1, prof.size());
-    double tot = 0;
-    for (const auto& pr : prof) tot += (pr.second - mean) * (pr.second - mean);
-    double best_r2 = -1e9;
-    for (double R = 0.5 * r_eq; R <= 1.5 * r_eq + 1e-9; R += r_eq / 40) {
-      double fh = 0, ff = 0;
-      for (const auto& [rad, rel] : prof) {
-        const double f = std::max(0.0, 1 - rad * rad / (R * R));
-        fh += f * rel;
-        ff += f * f;
-      }
-      if (!(ff > 0)) continue;
-      const double H = fh / ff;
-      double res = 0;
-      for (const auto& [rad, rel] : prof) {
-        const double e = rel - H * std::max(0.0, 1 - rad * rad / (R * R));
-        res += e * e;
-      }
-      const double r2 = tot > 0 ? 1 - res / tot : 0;
-      if (r2 > best_r2) {
-        best_r2 = r2;
-        r.base_diameter_m = 2 * R;
-        r.dome_height_m = H;
-      }
-    }
-    r.dome_r2 = best_r2;
-    // Radial symmetry: the relief about its mean in rings of one cell (or R/20) around c.
-    {
-      const double ring = std::max(g.cell, r_eq / 20);
-      std::vector<double> sum(static_cast<size_t>(1.5 * r_eq / ring) + 2, 0.0),
-          cnt(sum.size(), 0.0);
-      for (const auto& [rad, rel] : prof) {
-        const size_t b = std::min(sum.size() - 1, static_cast<size_t>(rad / ring));
-        sum[b] += rel;
-        cnt[b] += 1;
-      }
-      double sse = 0;
-      for (const auto& [rad, rel] : prof) {
-        const size_t b = std::min(sum.size() - 1, static_cast<size_t>(rad / ring));
-        const double e = rel - sum[b] / cnt[b];
-        sse += e * e;
-      }
-      r.symmetry = tot > 0 ? 1 - sse / tot : 0;
-    }
-    r.fill =
-        r.base_diameter_m > 0 ? r.area_m2 / (M_PI * r.base_diameter_m * r.base_diameter_m / 4) : 0;
-    // Flank slope, outline on the site's edge, extent.
-    std::vector<double> slopes;
-    int outline = 0, on_edge = 0;
-    for (size_t k : comp) {
-      const int i = static_cast<int>(k % g.w), j = static_cast<int>(k / g.w);
-      auto rel = [&](int a, int b) {
-        return (a < 0 || b < 0 || a >= g.w || b >= g.h) ? kNaN
-                                                        : relief[static_cast<size_t>(b) * g.w + a];
-      };
-      const double gx = (rel(i + 1, j) - rel(i - 1, j)) / (2 * g.cell);
-      const double gy = (rel(i, j + 1) - rel(i, j - 1)) / (2 * g.cell);
-      if (std::isfinite(gx) && std::isfinite(gy)) slopes.push_back(std::hypot(gx, gy));
-      bool boundary = false, edge = false;
-      for (const auto& [di, dj] : {std::pair{1, 0}, {-1, 0}, {0, 1}, {0, -1}}) {
-        const int a = i + di, b = j + dj;
-        const bool out =
-            a < 0 || b < 0 || a >= g.w || b >= g.h || !inside[static_cast<size_t>(b) * g.w + a];
-        if (out || label[static_cast<size_t>(b) * g.w + a] != label[k]) boundary = true;
-        if (out) edge = true;
-      }
-      outline += boundary ? 1 : 0;
-      on_edge += edge ? 1 : 0;
-      r.extent_m = std::max(r.extent_m, g.Centre(i, j).norm());
-    }
-    r.flank_slope_rad = slopes.empty() ? 0 : std::atan(Quantile(slopes, 0.9));
-    r.clipped = outline > 0 ? static_cast<double>(on_edge) / outline : 0;
-    r.offset_m = c.norm();
-    r.centre = centre + c;
-    rises.push_back(r);
+    if (internal::MeasureRise(g, c, o.relief_threshold_m, &r)) rises.push_back(r);
   }
-  d.rises = static_cast<int>(rises.size());
-  std::sort(rises.begin(), rises.end(), [](const Rise& a, const Rise& b) {
-    return a.height_m * a.area_m2 > b.height_m * b.area_m2;  // the most prominent first
+  std::stable_sort(rises.begin(), rises.end(), [](const Rise& a, const Rise& b) {
+    return a.height_m * a.area_m2 > b.height_m * b.area_m2;
   });
-  if (rises.size() > kMaxJudgedRises) rises.resize(kMaxJudgedRises);
-  d.judged = std::move(rises);
+  for (const Rise& r : rises) {
+    if (d.judged.size() >= kMaxJudgedRises) break;
+    const bool seen = std::any_of(d.judged.begin(), d.judged.end(), [&](const Rise& q) {
+      const double big = std::max(q.base_diameter_m, r.base_diameter_m);
+      const double small = std::min(q.base_diameter_m, r.base_diameter_m);
+      return (q.centre - r.centre).norm() < big / 6 && big < 1.35 * small;
+    });
+    if (!seen) d.judged.push_back(r);
+  }
+  for (Rise& r : d.judged) r.centre += centre;
   return d;
 }
 
 const std::vector<std::string>& VerdictFeatureNames() {
   static const std::vector<std::string> names = {
-      "log_height", "log_diameter", "log_aspect",  "dome_r2",  "roundness",
-      "symmetry",   "fill",         "flank_slope", "clipped",  "offset",
-      "log_snr",    "coverage",     "log_rises",   "site_sag", "site_ridge"};
+      "log_height",  "log_diameter", "log_aspect", "dome_r2",    "roundness", "symmetry",
+      "fill",        "flank_slope",  "clipped",    "outside",    "offset",    "log_snr",
+      "coverage",    "log_rises",    "site_sag",   "site_ridge", "roughness", "ring_high",
+      "ring_spread", "ground_slope", "shape_cone", "shape_drum"};
   return names;
 }
 
@@ -409,12 +324,19 @@ std::vector<double> VerdictFeatures(const Detection& d, const Rise& t) {
           std::clamp(t.fill, 0.0, 4.0),
           t.flank_slope_rad,
           t.clipped,
+          t.outside,
           t.offset_m / d.radius_m,
           std::log(h / std::max(d.ground_noise_m, 0.01)),
           d.cells_inside > 0 ? static_cast<double>(d.cells_with_points) / d.cells_inside : 0,
           std::log1p(static_cast<double>(d.rises)),
           SignedLog(d.site_sag_m),
-          SignedLog(d.site_ridge_m)};
+          SignedLog(d.site_ridge_m),
+          std::clamp(t.roughness, 0.0, 5.0),
+          std::clamp(t.ring_high, -2.0, 2.0),
+          std::clamp(t.ring_spread, 0.0, 4.0),
+          t.ground_slope_rad,
+          t.shape == 1 ? 1.0 : 0.0,
+          t.shape == 2 ? 1.0 : 0.0};
 }
 
 }  // namespace mound::terrain

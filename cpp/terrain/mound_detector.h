@@ -9,17 +9,19 @@
 //      next fit — so that a rise (or a pit) does not pull the ground up (the idea of
 //      progressive ground filters, with a low-order surface in place of the morphological
 //      one).
-//   3. Relief: cell height minus ground; rises: 4-connected components of cells higher than
-//      `relief_threshold_m`.
-//   4. Each rise: its height (99th percentile of the relief), a radially symmetric dome
-//      h(r) = H (1 - r^2 / R^2) fitted around its centroid (base diameter 2R, and R^2 of the
-//      fit), its volume (sum of relief x cell area), its roundness (square root of the ratio
-//      of the second moments' eigenvalues: 1 for a disc).
-//      Also: its radial symmetry (R^2 of a free radial profile about its centroid), fill
-//      (area over the disc of its base diameter), flank slope (90th percentile of the
-//      relief's gradient, radians), clipping (the share of its outline on the edge of the
-//      site: a rise cut by the edge of the cloud is clipped, not elongated), offset from the
-//      site centre, and the extent a scan would need to see it whole.
+//   3. Candidate rises: the components of the relief over that ground (cells higher than
+//      `relief_threshold_m`), and the scale-space peaks of the heights themselves, which
+//      see a tumulus where one ground surface for the whole site bends under it.
+//   4. Each candidate fitted over its own ground (rise_fit.h): a plane plus a dome
+//      (paraboloid, cone or drum) of height H and base radius R within 1.5 R of its
+//      centre, centre and R searched; then over that local plane its height (99th
+//      percentile of the relief), footprint (area, volume, roundness, fill), radial
+//      symmetry, flank slope, the fit's roughness, the relief of the frame around it by
+//      sector (a ridge or a terrace runs on through it; a tumulus's foot is level all
+//      round), clipping (the share of the footprint's outline on the edge of the site,
+//      and of the base disc outside it: a rise cut by the edge of the cloud is clipped, not
+//      elongated), offset from the site centre, and the extent a scan would need to see it
+//      whole.
 //   5. Decision (verdict_model.h): each of the most prominent rises scored by a logistic
 //      regression on its VerdictFeatures(), learned on a grid of simulated sites
 //      (`mound recon train-verdict`); the site's p(mound) the highest, calibrated on the
@@ -47,20 +49,36 @@ struct DetectorOptions {
 
 struct Rise {
   Eigen::Vector2d centre = Eigen::Vector2d::Zero();  // ENU metres
-  double height_m = 0, base_diameter_m = 0, dome_height_m = 0, dome_r2 = 0;
-  double area_m2 = 0, volume_m3 = 0, roundness = 0;
-  double symmetry = 0;         // R^2 of the relief about its radial mean profile
-  double fill = 0;             // area / (pi (base diameter / 2)^2)
-  double flank_slope_rad = 0;  // 90th percentile of |grad relief| over the rise, as an angle
-  double clipped = 0;          // share of the outline's cells on the site's edge
-  double offset_m = 0;         // centroid's distance from the site centre
-  double extent_m = 0;         // farthest cell of the rise from the site centre
+  // From the local fit (rise_fit.h): the dome's base diameter 2 R, height H, the share of
+  // the window's departure from a plane it explains (dome_r2), its shape (0 paraboloid,
+  // 1 cone, 2 drum), the slope of the local ground plane.
+  double base_diameter_m = 0, dome_height_m = 0, dome_r2 = 0;
+  int shape = 0;
+  double ground_slope_rad = 0;
+  // The local ground plane z = g0 + g1 (x - centre x) + g2 (y - centre y), the cloud's z.
+  Eigen::Vector3d ground_plane = Eigen::Vector3d::Zero();
+  // Over the local plane: height (99th percentile of the relief within R); the footprint
+  // (relief above max(threshold, height / 4), grown from the peak within 3 R): its area,
+  // volume, roundness (square root of the ratio of its second moments' eigenvalues: 1 for
+  // a disc) and fill (area / pi R^2).
+  double height_m = 0, area_m2 = 0, volume_m3 = 0, roundness = 0, fill = 0;
+  double symmetry = 0;         // R^2 of the relief about its radial mean profile (r <= 1.5 R)
+  double flank_slope_rad = 0;  // 90th percentile of |grad relief| over the footprint, as an angle
+  double clipped = 0;          // share of the footprint's outline on the site's edge
+  double outside = 0;          // share of the base disc outside the site
+  double roughness = 0;        // RMS of the fit's residual within R, over H
+  // The frame R < r <= 1.5 R in 8 sectors: the highest sector's mean relief and the spread
+  // between the highest and the lowest, over the height (~0 around a tumulus, high along a
+  // ridge, a terrace or a hillock's long axis).
+  double ring_high = 0, ring_spread = 0;
+  double offset_m = 0;  // centre's distance from the site centre
+  double extent_m = 0;  // farthest point of the rise (footprint or base disc) from the centre
   int cells = 0;
 };
 
 // The rises judged (the most prominent first): a scan of real ground holds natural rises
 // too, often larger than the tumulus, so each is scored and the site's p is the highest.
-inline constexpr size_t kMaxJudgedRises = 8;
+inline constexpr size_t kMaxJudgedRises = 12;
 
 struct Detection {
   std::vector<Rise> judged;  // the kMaxJudgedRises most prominent (height x area), in order

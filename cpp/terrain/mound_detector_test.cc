@@ -37,6 +37,12 @@ TEST(DetectMound, FindsAndMeasuresADome) {
   EXPECT_NEAR(r.volume_m3, M_PI * 400 * 6 / 2, 500);
   EXPECT_GT(r.roundness, 0.9);
   EXPECT_GT(r.dome_r2, 0.9);
+  EXPECT_EQ(r.shape, 0);  // the paraboloid it is
+  EXPECT_LT(r.roughness, 0.1);
+  EXPECT_LT(std::fabs(r.ring_high), 0.1);  // its foot level all round
+  EXPECT_LT(r.ring_spread, 0.1);
+  EXPECT_EQ(r.outside, 0);
+  EXPECT_LT(r.ground_slope_rad, 0.06);  // the ground slopes 3 % and 2 %, and undulates
   EXPECT_LT(d.ground_noise_m, 0.2);
   // The dome inside the site domes the whole site's quadratic, but the ground fit around it
   // stays level.
@@ -50,6 +56,16 @@ TEST(DetectMound, FlatGroundHasNoRiseAndARidgeIsElongated) {
   const Detection ridge = DetectMound(SyntheticSite(0, 0, true, 3), {0, 0}, 58, DetectorOptions{});
   ASSERT_TRUE(ridge.Tallest() != nullptr);
   EXPECT_LT(ridge.Tallest()->roundness, 0.3);  // 80 m long, 6 m wide
+  // Every rise on it is elongated; a dome fitted across it (narrower than the ridge is long)
+  // has the ridge running on through the frame around it, high there in two sectors only.
+  int across = 0;
+  for (const Rise& r : ridge.judged) {
+    EXPECT_LT(r.roundness, 0.3);
+    if (r.base_diameter_m > 40) continue;
+    ++across;
+    EXPECT_GT(r.ring_spread, 0.3);
+  }
+  EXPECT_GT(across, 0);
 }
 
 TEST(DetectMound, ADomeWiderThanTheSiteIsClippedNotElongated) {
@@ -69,6 +85,7 @@ TEST(DetectMound, ADomeWiderThanTheSiteIsClippedNotElongated) {
   ASSERT_TRUE(off.Tallest() != nullptr);
   EXPECT_GT(off.Tallest()->clipped, 0.2);
   EXPECT_GT(off.Tallest()->extent_m, 38);
+  EXPECT_GT(off.Tallest()->outside, 0.1);
   const std::vector<double> f = VerdictFeatures(off);
   ASSERT_EQ(f.size(), VerdictFeatureNames().size());
   EXPECT_EQ(f[8], off.Tallest()->clipped);

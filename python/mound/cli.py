@@ -401,7 +401,8 @@ def cmd_sim_grid(args: argparse.Namespace) -> int:
         shared = datasets.cache_dir() / "dem" / "TM1_564_146.tif"
         dem = str(shared) if shared.is_file() else None
     doc = grid.make_grid(args.out, args.sites, args.seed, tuple(args.size), dem,
-                         args.threads, args.workers, args.remeasure, progress)
+                         args.threads, args.workers, args.remeasure, progress,
+                         pattern=args.pattern, dense=args.dense)
     ok = sum(1 for r in doc["rows"] if r.get("status") == "ok")
     print(f"{ok} of {doc['sites']} sites measured in {doc['wall_s']:.0f} s -> "
           f"{args.out}/grid.json")
@@ -706,6 +707,11 @@ def build_parser() -> argparse.ArgumentParser:
                     "laser DEM when present)")
     sg.add_argument("--workers", type=int, default=2, help="sites at once")
     sg.add_argument("--threads", type=int, default=1, help="threads per site")
+    sg.add_argument("--pattern", choices=("raster", "both"), default="raster",
+                    help="raster: the survey's scan (default); both: the full 40-image "
+                    "flight (the raster and an oblique orbit)")
+    sg.add_argument("--dense", action="store_true",
+                    help="densify each site (mound_recon densify) and judge the dense cloud")
     sg.add_argument("--remeasure", action="store_true",
                     help="rerun only the verdicts (after a change of the detector)")
     sg.set_defaults(func=cmd_sim_grid)

@@ -123,3 +123,8 @@ def test_grid_draws_are_seeded_and_span_the_field(shared_data: Path) -> None:
     assert kinds == set(terrain.CONFUSERS)
     assert any(s.terrain.dem_path for s in a) and any(s.terrain.slope_deg > 0 for s in a)
     assert all(s.scan_diameter_m == grid.SCAN_M and s.pattern == "raster" for s in a)
+    # the full flight draws the same sites, flown with the raster and the orbit
+    rng = np.random.default_rng([1, 2026])
+    full = [grid.draw(rng, k, dem, (320, 240), pattern="both") for k in range(3)]
+    assert [replace(s, pattern="raster") for s in full] == a[:3]
+    assert all(s.pattern == "both" for s in full)

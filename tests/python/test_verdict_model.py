@@ -69,6 +69,17 @@ def test_training_recovers_a_known_model_with_calibrated_probabilities() -> None
         vm.probability(model, held), np.array([r["truth"]["mound"] for r in held], float))) < 1e-12
 
 
+def test_rise_labels_the_tumulus_its_own_and_leaves_out_what_overlaps_it() -> None:
+    truth = {"mound": True, "kind": "tumulus", "diameter_m": 40.0, "centre_enu_m": [10.0, 0.0]}
+    rises = [{"centre_enu_m": [12.0, 3.0], "base_diameter_m": 36.0},   # the tumulus
+             {"centre_enu_m": [20.0, 30.0], "base_diameter_m": 120.0},  # covers it: unknown
+             {"centre_enu_m": [10.0, 5.0], "base_diameter_m": 6.0},    # a pit's rim on it
+             {"centre_enu_m": [-50.0, 0.0], "base_diameter_m": 30.0}]  # clear of it
+    assert vm.rise_labels({"truth": truth, "rises": rises}) == [True, None, None, False]
+    flat = {**truth, "mound": False, "kind": "hillock"}
+    assert vm.rise_labels({"truth": flat, "rises": rises}) == [False] * 4
+
+
 def test_training_refuses_too_little_or_one_class() -> None:
     rows = synthetic(200, 3)
     with pytest.raises(InputError, match="both"):
@@ -122,15 +133,7 @@ CASES = {
 }
 
 
-# Known misses of the shipped model (issue 26 stays open): on the preset's undulating ground
-# the quadratic ground of a 128 m cloud bends under these mounds and their ground, and the
-# judged rise is a 110 m blob of both (measured 3-5 m high, clipped): p 0.41-0.68 < 0.87.
-MISSED = {"conical", "drum", "ploughed"}
-
-
-@pytest.mark.parametrize("name", [pytest.param(
-    n, marks=pytest.mark.xfail(n in MISSED, reason="issue 26: the ground bends under the "
-                               "mound on a wide cloud", strict=False)) for n in CASES])
+@pytest.mark.parametrize("name", list(CASES))
 @pytest.mark.slow
 def test_each_shape_and_confuser_is_decided_right(name: str, tmp_path: Path,
                                                   mound_recon: Path, mound_render: Path) -> None:
@@ -151,9 +154,7 @@ def test_a_mound_wider_than_the_scan_is_a_mound_with_a_coverage_warning(
     assert cov["status"] == "clipped" and cov["scan_needed_m"] > 60, cov
     assert "would see it whole" in cov["message"]
     assert v["measurements"]["site_sag_m"] > 2  # domed all over: no ground in sight
-    if v["label"] != "mound":  # issue 26: the shipped model misses it (p ~0.2)
-        pytest.xfail(f"issue 26: a mound wider than the scan judged no mound (p "
-                     f"{v['p_mound']:.2f}); the coverage warning stands")
+    assert v["label"] == "mound", v["p_mound"]
 
 
 @pytest.mark.slow

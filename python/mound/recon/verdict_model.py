@@ -6,8 +6,9 @@ on the standardised detector features that `mound_recon verdict` writes for each
 rise of a site (measurements.judged_rises[].features: the most prominent rises, since a
 scan of real ground holds natural rises, often larger than the tumulus; the names and
 their order are the detector's, VerdictFeatureNames() in cpp/terrain), on a linear or
-hinge basis. A rise is a positive when it is the tumulus's own (`mound_rise`: the nearest
-to the true centre, within max(8 m, the radius)); every other rise is a negative. A site's
+hinge basis. A rise is a positive when it is the tumulus's own, a negative when it lies
+clear of any tumulus, and left out of the fit when it overlaps one otherwise
+(`rise_labels`). A site's
 score is its highest rise's; that score is Platt-calibrated on the sites (folded into the
 weights: the file stays one logistic regression and a max). Sites without a rise get
 `p_no_rise`, the share of mounds among the training sites without one (Laplace-smoothed).
@@ -80,19 +81,29 @@ def load_grid(folder: str | Path) -> list[dict[str, Any]]:
     return out
 
 
-def mound_rise(row: dict[str, Any]) -> int | None:
-    """Which judged rise of a tumulus site is the tumulus: the nearest to its true centre,
-    within max(8 m, its radius); None when no rise is (too low, or not seen)."""
+def rise_labels(row: dict[str, Any]) -> list[bool | None]:
+    """What each judged rise of a site is, for training: on a site without a tumulus every
+    rise is a negative. On a tumulus site a rise is the tumulus's (a positive) when its
+    centre lies within max(8 m, the tumulus's radius) of the true centre and it is at least
+    0.4 x the tumulus's diameter across; a rise that overlaps the tumulus otherwise (a pit's
+    rim, a shoulder, the tumulus with the ground around it) is left out (None: no truth
+    says whether it is the mound), and one clear of it is a negative."""
     t = row["truth"]
-    if not t["mound"]:
-        return None
-    best, dist = None, max(8.0, t["diameter_m"] / 2)
-    for k, r in enumerate(row["rises"]):
+    out: list[bool | None] = []
+    for r in row["rises"]:
+        if not t["mound"]:
+            out.append(False)
+            continue
         d = math.hypot(r["centre_enu_m"][0] - t["centre_enu_m"][0],
                        r["centre_enu_m"][1] - t["centre_enu_m"][1])
-        if d <= dist:
-            best, dist = k, d
-    return best
+        size = float(r.get("base_diameter_m", t["diameter_m"]))
+        if d <= max(8.0, t["diameter_m"] / 2) and size >= 0.4 * t["diameter_m"]:
+            out.append(True)
+        elif d < (t["diameter_m"] + size) / 2:
+            out.append(None)
+        else:
+            out.append(False)
+    return out
 
 
 def expand(z: np.ndarray, basis: str) -> np.ndarray:
@@ -144,8 +155,7 @@ def train(rows: list[dict[str, Any]], names: list[str], sources: list[str],
                          f"classes (got {len(sites)}, {int(y_site.sum())} mounds)")
     feats, site_of, y = [], [], []
     for i, r in enumerate(sites):
-        pos = mound_rise(r)
-        for k, rise in enumerate(r["rises"]):
+        for rise, label in zip(r["rises"], rise_labels(r), strict=True):
             missing = [n for n in names if n not in rise["features"]]
             if missing:
                 raise InputError(f"{r['grid']}/{r['dir']}/verdict.json: features: no "
@@ -153,13 +163,18 @@ def train(rows: list[dict[str, Any]], names: list[str], sources: list[str],
                                  "mound sim grid --remeasure)")
             feats.append([float(rise["features"][n]) for n in names])
             site_of.append(i)
-            y.append(k == pos)
-    x, site_idx, y_rise = np.array(feats), np.array(site_of), np.array(y)
+            y.append(label)
+    # every rise counts in its site's score; only those with a label are fitted
+    x_all, site_idx = np.array(feats), np.array(site_of)
+    fitted = np.array([v is not None for v in y])
+    x, y_rise = x_all[fitted], np.array([bool(v) for v in y])[fitted]
     mean = x.mean(axis=0)
     std = np.where(x.std(axis=0) > 0, x.std(axis=0), 1.0)
-    z = (x - mean) / std
+    z_all = (x_all - mean) / std
+    z = z_all[fitted]
     fold_of_site = _folds(len(sites), 5, seed)
-    folds = fold_of_site[site_idx]
+    folds_all = fold_of_site[site_idx]
+    folds = folds_all[fitted]
     cv = {}
     oof_by: dict[tuple[str, float], np.ndarray] = {}
     for basis in BASES:
@@ -168,7 +183,8 @@ def train(rows: list[dict[str, Any]], names: list[str], sources: list[str],
             for k in range(5):
                 tr = folds != k
                 w = _fit(z[tr], y_rise[tr], l2, basis)
-                sc = _site_scores(z[~tr], site_idx[~tr], len(sites), w, basis)
+                out = folds_all == k
+                sc = _site_scores(z_all[out], site_idx[out], len(sites), w, basis)
                 oof = np.where(fold_of_site == k, sc, oof)
             a, b = _platt(oof, y_site)
             p = expit(a * oof + b)
@@ -195,7 +211,8 @@ def train(rows: list[dict[str, Any]], names: list[str], sources: list[str],
         "weights": (a * w[:-1]).tolist(), "bias": float(a * w[-1] + b),
         "threshold": thr, "p_no_rise": (m_nr + 1) / (n_nr + 2),
         "trained": {"grids": sources, "sites": len(measured), "with_rise": len(sites),
-                    "rises": len(x), "mound_rises": int(y_rise.sum()),
+                    "rises": len(x_all), "fitted_rises": len(x),
+                    "mound_rises": int(y_rise.sum()),
                     "mounds": int(y_site.sum()), "no_rise": n_nr, "no_rise_mounds": m_nr,
                     "basis": basis, "l2": l2,
                     "cv_log_loss": {f"{k[0]} {k[1]:g}": v for k, v in cv.items()},
@@ -235,6 +252,11 @@ def _old_rule(r: dict[str, Any]) -> bool:
                 and rise["roundness"] >= 0.6 and rise["dome_r2"] >= 0.6)
 
 
+def _reach_m(truth: dict[str, Any]) -> float:
+    """How far from the site centre a tumulus reaches (its centre's offset + its radius)."""
+    return math.hypot(*truth["centre_enu_m"][:2]) + truth["diameter_m"] / 2
+
+
 def _rate(flags: list[bool]) -> float | None:
     return float(np.mean(flags)) if flags else None
 
@@ -261,6 +283,8 @@ def evaluate(model: dict[str, Any], rows: list[dict[str, Any]]) -> dict[str, Any
     clipped = [k for k in big if measured[k]["verdict"].get("coverage", {}).get("status")
                == "clipped"]
     wider = [k for k in big if measured[k]["truth"]["diameter_m"] > 60]
+    beyond = [k for k in wider if _reach_m(measured[k]["truth"]) > float(
+        measured[k]["verdict"].get("measurements", {}).get("site_radius_m", math.inf))]
     return {
         "sites": len(rows), "measured": len(measured),
         "failed": [r["dir"] for r in rows if not r["measured"]],
@@ -276,7 +300,10 @@ def evaluate(model: dict[str, Any], rows: list[dict[str, Any]]) -> dict[str, Any
         "goal_no_mound": {"sites": len(neg), "false_alarms": int(sum(lab[k] for k in neg)),
                           "rate": _rate([bool(lab[k]) for k in neg])},
         "wider_than_scan": {"sites": len(wider), "right": int(sum(lab[k] for k in wider)),
-                            "coverage_warned": int(sum(1 for k in wider if k in clipped))},
+                            "coverage_warned": int(sum(1 for k in wider if k in clipped)),
+                            "beyond_the_cloud": len(beyond),
+                            "beyond_the_cloud_warned": int(sum(1 for k in beyond
+                                                               if k in clipped))},
         "auc": roc_auc(p, y.astype(float)),
         "brier": float(np.mean((p - y) ** 2)),
         "ece": expected_calibration_error(p, y.astype(float)),

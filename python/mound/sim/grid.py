@@ -20,8 +20,11 @@ The draws (half of the sites carry a tumulus):
   centre;
 - ground (either class): undulating (45 %), on a slope of 2-15 degrees (30 %) or a patch of
   the 1 m laser DEM (25 %, `dem`; skipped when no DEM is given);
-- flight: the survey's (a raster scan of `scan_m`, 60 m, at 60 m), sun azimuth 0-360
-  degrees at 25-70 degrees elevation, lens of 60-84 degrees horizontal field of view.
+- flight: the survey's (a raster scan of `scan_m`, 60 m, at 60 m; `pattern="both"`: the
+  full 40-image flight, the raster and an orbit of oblique images), sun azimuth 0-360
+  degrees at 25-70 degrees elevation, lens of 60-84 degrees horizontal field of view;
+- cloud: the sparse cloud of `mound_recon reconstruct`, or with `dense=True` the dense
+  cloud of `mound_recon densify` (dense/dense.ply), which the verdict then judges.
 """
 
 from __future__ import annotations
@@ -84,7 +87,7 @@ def _confuser(rng: np.random.Generator, kind: str, seed: int) -> terrain.Confuse
 
 
 def draw(rng: np.random.Generator, seed: int, dem: str | None, size: tuple[int, int],
-         scan_m: float = SCAN_M, texel_m: float = 0.1) -> sim.SimSpec:
+         scan_m: float = SCAN_M, texel_m: float = 0.1, pattern: str = "raster") -> sim.SimSpec:
     """One site of the grid (see the module text)."""
     over: dict[str, Any] = {"seed": seed, "resolution_m": 0.5}
     mound = bool(rng.random() < 0.5)
@@ -130,12 +133,12 @@ def draw(rng: np.random.Generator, seed: int, dem: str | None, size: tuple[int, 
         lighting=Lighting(math.radians(float(rng.uniform(0, 360))),
                           math.radians(float(rng.uniform(25, 70)))),
         width_px=size[0], height_px=size[1],
-        hfov_rad=math.radians(float(rng.uniform(60, 84))), pattern="raster",
+        hfov_rad=math.radians(float(rng.uniform(60, 84))), pattern=pattern,
         scan_diameter_m=scan_m, seed=seed, texel_m=texel_m)
 
 
 def _site(out: Path, spec: sim.SimSpec, threads: int, remeasure: bool,
-          verdict_args: tuple[str, ...] = ()) -> dict[str, Any]:
+          dense: bool = False) -> dict[str, Any]:
     simdir, recon, verdict = out / "sim", out / "recon", out / "verdict.json"
     row: dict[str, Any] = {"dir": out.name, "truth": spec.terrain.truth()}
     times: dict[str, float] = {}
@@ -163,6 +166,19 @@ def _site(out: Path, spec: sim.SimSpec, threads: int, remeasure: bool,
             except ToolNoResultError:
                 pass  # recon.json says why; the verdict then says status failed
             times["reconstruct"] = time.perf_counter() - t
+        verdict_args: list[str] = []
+        if dense:
+            cloud = out / "dense" / "dense.ply"
+            if not cloud.exists() and (recon / "points.ply").exists():
+                t = time.perf_counter()
+                try:
+                    native.run_tool("mound_recon", [
+                        "densify", str(recon), "--out", str(out / "dense"), "--threads",
+                        str(threads)], 1800, log=out / "log.txt")
+                except ToolNoResultError:
+                    pass  # no dense cloud: the verdict then says status failed
+                times["densify"] = time.perf_counter() - t
+            verdict_args = ["--cloud", str(cloud)]
         t = time.perf_counter()
         try:
             native.run_tool("mound_recon", ["verdict", str(recon), "--out", str(verdict),
@@ -181,7 +197,8 @@ def _site(out: Path, spec: sim.SimSpec, threads: int, remeasure: bool,
 
 def make_grid(out: str | Path, sites: int, seed: int, size: tuple[int, int] = (640, 480),
               dem: str | None = None, threads: int = 1, workers: int = 1,
-              remeasure: bool = False, progress: Any = None) -> dict[str, Any]:
+              remeasure: bool = False, progress: Any = None, pattern: str = "raster",
+              dense: bool = False) -> dict[str, Any]:
     """Draws and runs the grid (see the module text); returns grid.json's document."""
     if not 1 <= sites <= 100_000:
         raise InputError("--sites: must be 1 .. 100,000")
@@ -190,12 +207,12 @@ def make_grid(out: str | Path, sites: int, seed: int, size: tuple[int, int] = (6
     root = Path(out)
     root.mkdir(parents=True, exist_ok=True)
     rng = np.random.default_rng([seed, 2026])
-    specs = [draw(rng, 100_000 * seed + k, dem, size) for k in range(sites)]
+    specs = [draw(rng, 100_000 * seed + k, dem, size, pattern=pattern) for k in range(sites)]
     start = time.perf_counter()
     rows: list[dict[str, Any]] = [{}] * sites
 
     def one(k: int) -> None:
-        rows[k] = _site(root / f"{k:04d}", specs[k], threads, remeasure)
+        rows[k] = _site(root / f"{k:04d}", specs[k], threads, remeasure, dense)
         if progress:
             progress(k, rows[k])
 
@@ -208,7 +225,8 @@ def make_grid(out: str | Path, sites: int, seed: int, size: tuple[int, int] = (6
         for k in range(sites):
             one(k)
     doc = {"schema": SCHEMA, "version": VERSION, "seed": seed, "sites": sites,
-           "flight": {"pattern": "raster", "scan_m": SCAN_M, "image_size": list(size)},
+           "flight": {"pattern": pattern, "scan_m": SCAN_M, "image_size": list(size)},
+           "cloud": "dense" if dense else "sparse",
            "dem": dem, "wall_s": time.perf_counter() - start,
            "rows": [{**r, "spec": _spec_doc(s)} for r, s in zip(rows, specs, strict=True)]}
     write_json(root / "grid.json", doc)

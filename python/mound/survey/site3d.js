@@ -92,7 +92,8 @@
     const cloud = new THREE.Points(geom, new THREE.PointsMaterial({ size: 2, sizeAttenuation: false, vertexColors: true }));
     scene.add(cloud);
 
-    // The ground fit over the site (a wire grid) and the rise as a paraboloid dome on it.
+    // The ground fit over the site (a wire grid) and the rise as a paraboloid dome on its own
+    // ground plane (verdict.json's rise.ground_plane; the site's ground fit without one).
     const lines = [];
     const N = 20;
     for (let a = 0; a <= N; ++a) {
@@ -109,14 +110,16 @@
     for (const l of lines) groundGroup.add(new THREE.Line(new THREE.BufferGeometry().setFromPoints(l), groundMat));
     scene.add(groundGroup);
     if (D.rise) {
-      const { x, y, height_m: h, base_diameter_m: d } = D.rise;
+      const { x, y, height_m: h, base_diameter_m: d, plane } = D.rise;
+      // the dome on the rise's own ground plane where verdict.json gives it
+      const baseZ = plane ? (u, v) => plane[0] + plane[1] * (u - x) + plane[2] * (v - y) : groundZ;
       const domeMat = new THREE.LineBasicMaterial({ color: 0xff6f00 });
       for (let k = 0; k < 12; ++k) {  // meridians
         const a = (2 * Math.PI * k) / 12, pts = [];
         for (let j = 0; j <= 16; ++j) {
           const r = (d / 2) * (j / 16);
           const u = x + r * Math.cos(a), v = y + r * Math.sin(a);
-          pts.push(new THREE.Vector3(u, v, groundZ(u, v) + h * (1 - (4 * r * r) / (d * d))));
+          pts.push(new THREE.Vector3(u, v, baseZ(u, v) + h * (1 - (4 * r * r) / (d * d))));
         }
         scene.add(new THREE.Line(new THREE.BufferGeometry().setFromPoints(pts), domeMat));
       }

@@ -206,6 +206,9 @@ def viewer_doc(site_id: str, xyz: np.ndarray, rgb: np.ndarray | None, centre: np
         cx, cy = np.asarray(rise["centre_enu_m"], float)[:2] - shift[:2]
         doc["rise"] = {"x": float(cx), "y": float(cy), "height_m": float(rise["height_m"]),
                        "base_diameter_m": float(rise["base_diameter_m"])}
+        plane = rise.get("ground_plane")  # the rise's own ground: z at its centre, slopes
+        if isinstance(plane, list) and len(plane) == 3:
+            doc["rise"]["plane"] = [float(plane[0]) - z0, float(plane[1]), float(plane[2])]
     return doc
 
 

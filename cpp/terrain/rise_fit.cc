@@ -1,0 +1,377 @@
+#include "terrain/rise_fit.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+
+#include "common/stats.h"
+
+namespace mound::terrain::internal {
+namespace {
+
+constexpr int kShapes = 3;  // paraboloid, cone, drum
+
+double Phi(int shape, double t) {
+  if (t >= 1) return 0;
+  if (shape == 0) return 1 - t * t;
+  if (shape == 1) return 1 - t;
+  return std::min(1.0, 2 * (1 - t));
+}
+
+// Summed-area tables of the site's heights and of its valid cells.
+struct Tables {
+  int w = 0, h = 0;
+  std::vector<double> sum, count;  // (w + 1) x (h + 1)
+  explicit Tables(const HeightGrid& g) : w(g.w), h(g.h) {
+    sum.assign(static_cast<size_t>(w + 1) * (h + 1), 0.0);
+    count = sum;
+    for (int j = 0; j < h; ++j)
+      for (int i = 0; i < w; ++i) {
+        const double z = g.z[g.Index(i, j)];
+        const bool ok = g.inside[g.Index(i, j)] && !std::isnan(z);
+        const size_t a = At(i + 1, j + 1);
+        sum[a] = (ok ? z : 0) + sum[At(i, j + 1)] + sum[At(i + 1, j)] - sum[At(i, j)];
+        count[a] = (ok ? 1 : 0) + count[At(i, j + 1)] + count[At(i + 1, j)] - count[At(i, j)];
+      }
+  }
+  size_t At(int i, int j) const { return static_cast<size_t>(j) * (w + 1) + i; }
+  // Sum and count over the cells within half-width b of (i, j), clipped to the grid.
+  std::pair<double, double> Box(int i, int j, int b) const {
+    const int i0 = std::max(0, i - b), j0 = std::max(0, j - b);
+    const int i1 = std::min(w, i + b + 1), j1 = std::min(h, j + b + 1);
+    if (i0 >= i1 || j0 >= j1) return {0, 0};
+    auto s = [&](const std::vector<double>& t) {
+      return t[At(i1, j1)] - t[At(i0, j1)] - t[At(i1, j0)] + t[At(i0, j0)];
+    };
+    return {s(sum), s(count)};
+  }
+};
+
+struct Fit {
+  Eigen::Vector2d centre = Eigen::Vector2d::Zero();
+  double radius = 0, window = 0, q = -std::numeric_limits<double>::infinity(), H = 0;
+  int shape = 0;
+  Eigen::Vector3d plane = Eigen::Vector3d::Zero();  // z = a + b x + c y, x, y from the centre
+};
+
+// The best shape's plane + dome fit at (c, R); q = -inf when too few cells or H <= 0.
+Fit FitAt(const HeightGrid& g, const Eigen::Vector2d& c, double R) {
+  Fit best;
+  best.centre = c;
+  best.radius = R;
+  const double rho = std::max(1.5 * R, R + 3 * g.cell);
+  best.window = rho;
+  const int stride = std::max(1, static_cast<int>(rho / (g.cell * 35)));
+  const Eigen::Vector2d q = (c - g.origin) / g.cell;
+  const int reach = static_cast<int>(std::ceil(rho / g.cell));
+  const int ci = static_cast<int>(std::lround(q.x())), cj = static_cast<int>(std::lround(q.y()));
+  // Normal equations of [1, x, y] and of each shape's phi.
+  Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d b = Eigen::Vector3d::Zero();
+  std::array<Eigen::Vector3d, kShapes> ap{};
+  std::array<double, kShapes> pp{}, pz{};
+  for (auto& v : ap) v.setZero();
+  double zz = 0, z0 = std::numeric_limits<double>::quiet_NaN();
+  int n = 0, in_disc = 0;
+  for (int j = std::max(0, cj - reach); j <= std::min(g.h - 1, cj + reach); j += stride)
+    for (int i = std::max(0, ci - reach); i <= std::min(g.w - 1, ci + reach); i += stride) {
+      const size_t k = g.Index(i, j);
+      if (!g.measured[k] || !g.inside[k]) continue;
+      const Eigen::Vector2d d = g.Centre(i, j) - c;
+      const double r = d.norm();
+      if (r > rho) continue;
+      if (std::isnan(z0)) z0 = g.z[k];
+      const double z = g.z[k] - z0;
+      const Eigen::Vector3d f(1, d.x() / rho, d.y() / rho);
+      A += f * f.transpose();
+      b += f * z;
+      zz += z * z;
+      for (int s = 0; s < kShapes; ++s) {
+        const double p = Phi(s, r / R);
+        ap[s] += f * p;
+        pp[s] += p * p;
+        pz[s] += p * z;
+      }
+      ++n;
+      in_disc += r <= R ? 1 : 0;
+    }
+  if (n < 16 || in_disc < 6) return best;
+  const Eigen::LDLT<Eigen::Matrix3d> plane(A);
+  const Eigen::Vector3d x3 = plane.solve(b);
+  const double sse_plane = zz - b.dot(x3);
+  if (!(sse_plane > 1e-12 * (zz + 1))) return best;
+  for (int s = 0; s < kShapes; ++s) {
+    Eigen::Matrix4d M;
+    M.topLeftCorner<3, 3>() = A;
+    M.topRightCorner<3, 1>() = ap[s];
+    M.bottomLeftCorner<1, 3>() = ap[s].transpose();
+    M(3, 3) = pp[s];
+    Eigen::Vector4d v;
+    v << b, pz[s];
+    const Eigen::Vector4d x = M.ldlt().solve(v);
+    if (!x.allFinite() || !(x[3] > 0)) continue;
+    const double qs = 1 - (zz - v.dot(x)) / sse_plane;
+    if (qs > best.q) {
+      best.q = qs;
+      best.H = x[3];
+      best.shape = s;
+      best.plane = {x[0] + z0, x[1] / rho, x[2] / rho};
+    }
+  }
+  return best;
+}
+
+// Coordinate descent over the radius (factors of 1.15) and the centre (a 5 x 5 lattice,
+// halved each round).
+Fit Refine(const HeightGrid& g, const Candidate& start) {
+  const double r_min = std::max(2.0 * g.cell, 2.0), r_max = 1.25 * g.radius;
+  Fit best = FitAt(g, start.centre, std::clamp(start.radius_m, r_min, r_max));
+  double step = std::max(g.cell, best.radius / 8);
+  for (int round = 0; round < 4; ++round) {
+    const Fit at = best;
+    for (int m = -4; m <= 4; ++m) {
+      const double R = std::clamp(at.radius * std::pow(1.15, m), r_min, r_max);
+      const Fit f = FitAt(g, at.centre, R);
+      if (f.q > best.q) best = f;
+    }
+    const Fit mid = best;
+    for (int b = -2; b <= 2; ++b)
+      for (int a = -2; a <= 2; ++a) {
+        Eigen::Vector2d c = mid.centre + step * Eigen::Vector2d(a, b);
+        if (c.norm() > g.radius) c *= g.radius / c.norm();
+        const Fit f = FitAt(g, c, mid.radius);
+        if (f.q > best.q) best = f;
+      }
+    step = std::max(g.cell / 2, step / 2);
+  }
+  return best;
+}
+
+}  // namespace
+
+std::vector<Candidate> ScaleSpaceCandidates(const HeightGrid& g, double min_contrast_m,
+                                            size_t max_count) {
+  const Tables t(g);
+  std::vector<double> radii;
+  for (double R = std::max(2.5, 2 * g.cell); R <= g.radius; R *= 1.3) radii.push_back(R);
+  const size_t nc = g.z.size();
+  std::vector<double> resp(radii.size() * nc, -std::numeric_limits<double>::infinity());
+  for (size_t s = 0; s < radii.size(); ++s) {
+    const int a = std::max(1, static_cast<int>(std::lround(0.5 * radii[s] / g.cell)));
+    const int b1 = std::max(a + 1, static_cast<int>(std::lround(radii[s] / g.cell)));
+    const int b2 = std::max(b1 + 1, static_cast<int>(std::lround(1.5 * radii[s] / g.cell)));
+    const double full_in = (2.0 * a + 1) * (2.0 * a + 1);
+    const double full_ring = (2.0 * b2 + 1) * (2.0 * b2 + 1) - (2.0 * b1 + 1) * (2.0 * b1 + 1);
+    for (int j = 0; j < g.h; ++j)
+      for (int i = 0; i < g.w; ++i) {
+        if (!g.inside[g.Index(i, j)]) continue;
+        const auto [si, ni] = t.Box(i, j, a);
+        const auto [s1, n1] = t.Box(i, j, b1);
+        const auto [s2, n2] = t.Box(i, j, b2);
+        if (ni < 0.5 * full_in || n2 - n1 < 0.2 * full_ring) continue;
+        resp[s * nc + g.Index(i, j)] = si / ni - (s2 - s1) / (n2 - n1);
+      }
+  }
+  struct Peak {
+    double score;
+    Candidate c;
+  };
+  std::vector<Peak> peaks;
+  for (size_t s = 0; s < radii.size(); ++s)
+    for (int j = 0; j < g.h; ++j)
+      for (int i = 0; i < g.w; ++i) {
+        const double v = resp[s * nc + g.Index(i, j)];
+        if (!(v > min_contrast_m)) continue;
+        bool top = true;
+        for (int ds = -1; ds <= 1 && top; ++ds) {
+          const long ss = static_cast<long>(s) + ds;
+          if (ss < 0 || ss >= static_cast<long>(radii.size())) continue;
+          for (int dj = -1; dj <= 1 && top; ++dj)
+            for (int di = -1; di <= 1 && top; ++di) {
+              if (!ds && !di && !dj) continue;
+              const int a = i + di, b = j + dj;
+              if (a < 0 || b < 0 || a >= g.w || b >= g.h) continue;
+              if (resp[ss * nc + g.Index(a, b)] > v) top = false;
+            }
+        }
+        if (top) peaks.push_back({v * radii[s], {g.Centre(i, j), radii[s]}});
+      }
+  std::sort(peaks.begin(), peaks.end(),
+            [](const Peak& a, const Peak& b) { return a.score > b.score; });
+  std::vector<Candidate> out;
+  for (const Peak& p : peaks) {
+    if (out.size() >= max_count) break;
+    out.push_back(p.c);
+  }
+  return out;
+}
+
+bool MeasureRise(const HeightGrid& g, const Candidate& start, double relief_threshold_m,
+                 Rise* out) {
+  const Fit f = Refine(g, start);
+  if (!std::isfinite(f.q) || !(f.H > 0)) return false;
+  const Eigen::Vector2d c = f.centre;
+  const double R = f.radius, rho = f.window;
+  auto relief = [&](size_t k) {
+    const Eigen::Vector2d d = g.Centre(k) - c;
+    return g.z[k] - (f.plane[0] + f.plane[1] * d.x() + f.plane[2] * d.y());
+  };
+  Rise r;
+  r.centre = c;
+  r.base_diameter_m = 2 * R;
+  r.dome_height_m = f.H;
+  r.dome_r2 = f.q;
+  r.shape = f.shape;
+  r.ground_slope_rad = std::atan(std::hypot(f.plane[1], f.plane[2]));
+  r.ground_plane = f.plane;
+  // Within the base: the height (99th percentile of the relief), the fit's residual, and
+  // the peak cell the footprint grows from.
+  std::vector<double> disc, resid;
+  size_t peak = g.z.size();
+  double peak_rel = -std::numeric_limits<double>::infinity();
+  // Rings (radial profile, symmetry) and the 8 sectors of the frame R < r <= rho.
+  const double ring_w = std::max(g.cell, R / 20);
+  const size_t bins = static_cast<size_t>(rho / ring_w) + 2;
+  std::vector<double> rsum(bins, 0.0), rcnt(bins, 0.0);
+  std::array<double, 8> sec_sum{}, sec_cnt{};
+  std::vector<std::pair<size_t, double>> window;  // (ring, relief) of measured cells
+  for (size_t k = 0; k < g.z.size(); ++k) {
+    if (!g.inside[k] || std::isnan(g.z[k])) continue;
+    const Eigen::Vector2d d = g.Centre(k) - c;
+    const double rad = d.norm();
+    if (rad > rho) continue;
+    const double rel = relief(k);
+    if (rad <= std::max(R / 2, g.cell) && rel > peak_rel) {
+      peak_rel = rel;
+      peak = k;
+    }
+    if (!g.measured[k]) continue;
+    if (rad <= R) {
+      disc.push_back(rel);
+      resid.push_back(rel - f.H * Phi(f.shape, rad / R));
+    } else {
+      const int s = static_cast<int>(std::floor((std::atan2(d.y(), d.x()) + M_PI) / (M_PI / 4)));
+      sec_sum[std::clamp(s, 0, 7)] += rel;
+      sec_cnt[std::clamp(s, 0, 7)] += 1;
+    }
+    const size_t b = std::min(bins - 1, static_cast<size_t>(rad / ring_w));
+    rsum[b] += rel;
+    rcnt[b] += 1;
+    window.emplace_back(b, rel);
+  }
+  if (disc.empty() || peak == g.z.size()) return false;
+  r.height_m = Quantile(disc, 0.99);
+  const double h = std::max(r.height_m, 0.05);
+  double ss = 0;
+  for (double e : resid) ss += e * e;
+  r.roughness = std::sqrt(ss / resid.size()) / std::max(f.H, 0.05);
+  {
+    double mean = 0;
+    for (const auto& [b, rel] : window) mean += rel;
+    mean /= window.size();
+    double tot = 0, sse = 0;
+    for (const auto& [b, rel] : window) {
+      tot += (rel - mean) * (rel - mean);
+      sse += (rel - rsum[b] / rcnt[b]) * (rel - rsum[b] / rcnt[b]);
+    }
+    r.symmetry = tot > 0 ? 1 - sse / tot : 0;
+  }
+  double hi = -std::numeric_limits<double>::infinity(), lo = -hi;
+  for (int s = 0; s < 8; ++s)
+    if (sec_cnt[s] > 0) {
+      hi = std::max(hi, sec_sum[s] / sec_cnt[s]);
+      lo = std::min(lo, sec_sum[s] / sec_cnt[s]);
+    }
+  r.ring_high = std::isfinite(hi) ? hi / h : 0;
+  r.ring_spread = std::isfinite(hi) ? (hi - lo) / h : 0;
+  // The share of the base disc outside the site (on a lattice of the disc).
+  {
+    int all = 0, off = 0;
+    for (int b = -12; b <= 12; ++b)
+      for (int a = -12; a <= 12; ++a) {
+        const Eigen::Vector2d p = c + R * Eigen::Vector2d(a, b) / 12;
+        if ((p - c).norm() > R) continue;
+        ++all;
+        off += p.norm() > g.radius ? 1 : 0;
+      }
+    r.outside = all ? static_cast<double>(off) / all : 0;
+  }
+  // The footprint: the 4-connected cells of relief above max(threshold, a quarter of the
+  // height) grown from the peak, within 3 R of the centre (a ridge runs on; a tumulus
+  // ends at its foot).
+  const double level = std::max(relief_threshold_m, 0.25 * r.height_m);
+  const double reach = std::max(3 * R, rho);
+  std::vector<char> in(g.z.size(), 0);
+  std::vector<size_t> comp, stack;
+  if (relief(peak) > level) {
+    stack.push_back(peak);
+    in[peak] = 1;
+  }
+  while (!stack.empty()) {
+    const size_t k = stack.back();
+    stack.pop_back();
+    comp.push_back(k);
+    const int i = static_cast<int>(k % g.w), j = static_cast<int>(k / g.w);
+    for (const auto& [di, dj] : {std::pair{1, 0}, {-1, 0}, {0, 1}, {0, -1}}) {
+      const int a = i + di, b = j + dj;
+      if (a < 0 || b < 0 || a >= g.w || b >= g.h) continue;
+      const size_t n = g.Index(a, b);
+      if (in[n] || !g.inside[n] || std::isnan(g.z[n])) continue;
+      if ((g.Centre(n) - c).norm() > reach || !(relief(n) > level)) continue;
+      in[n] = 1;
+      stack.push_back(n);
+    }
+  }
+  const double cell_area = g.cell * g.cell;
+  r.cells = static_cast<int>(comp.size());
+  r.area_m2 = comp.size() * cell_area;
+  r.fill = r.area_m2 / (M_PI * R * R);
+  if (!comp.empty()) {
+    Eigen::Vector2d m = Eigen::Vector2d::Zero();
+    for (size_t k : comp) m += g.Centre(k);
+    m /= comp.size();
+    Eigen::Matrix2d M = Eigen::Matrix2d::Zero();
+    std::vector<double> slopes;
+    int outline = 0, on_edge = 0;
+    for (size_t k : comp) {
+      const double rel = relief(k);
+      r.volume_m3 += rel * cell_area;
+      const Eigen::Vector2d p = g.Centre(k) - m;
+      M += p * p.transpose();
+      const int i = static_cast<int>(k % g.w), j = static_cast<int>(k / g.w);
+      auto at = [&](int a, int b) {
+        if (a < 0 || b < 0 || a >= g.w || b >= g.h) return std::numeric_limits<double>::quiet_NaN();
+        const size_t n = g.Index(a, b);
+        return g.inside[n] && !std::isnan(g.z[n]) ? relief(n)
+                                                  : std::numeric_limits<double>::quiet_NaN();
+      };
+      const double gx = (at(i + 1, j) - at(i - 1, j)) / (2 * g.cell);
+      const double gy = (at(i, j + 1) - at(i, j - 1)) / (2 * g.cell);
+      if (std::isfinite(gx) && std::isfinite(gy)) slopes.push_back(std::hypot(gx, gy));
+      bool boundary = false, edge = false;
+      for (const auto& [di, dj] : {std::pair{1, 0}, {-1, 0}, {0, 1}, {0, -1}}) {
+        const int a = i + di, b = j + dj;
+        const bool off = a < 0 || b < 0 || a >= g.w || b >= g.h || !g.inside[g.Index(a, b)];
+        if (off || !in[g.Index(a, b)]) boundary = true;
+        if (off) edge = true;
+      }
+      outline += boundary ? 1 : 0;
+      on_edge += edge ? 1 : 0;
+      r.extent_m = std::max(r.extent_m, g.Centre(k).norm());
+    }
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es(M / comp.size());
+    r.roundness = es.eigenvalues()[1] > 0
+                      ? std::sqrt(std::max(0.0, es.eigenvalues()[0]) / es.eigenvalues()[1])
+                      : 0;
+    r.flank_slope_rad = slopes.empty() ? 0 : std::atan(Quantile(slopes, 0.9));
+    r.clipped = outline > 0 ? static_cast<double>(on_edge) / outline : 0;
+  }
+  r.extent_m = std::max(r.extent_m, c.norm() + R);
+  r.offset_m = c.norm();
+  *out = r;
+  return true;
+}
+
+}  // namespace mound::terrain::internal

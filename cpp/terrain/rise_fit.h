@@ -1,0 +1,60 @@
+// The rises of a site, each measured against its own ground (internal to the detector).
+//
+// A rise is found twice over, so that neither way's blind spot loses it:
+//   - scale-space candidates: the centre-surround contrast of the height grid (the mean of
+//     a box of half-width R/2 less the mean of the frame between boxes of half-width R and
+//     1.5 R, from summed-area tables), at radii R from 2.5 m to the site's radius in steps
+//     of 1.3; local maxima over position and radius (the blob detector of scale-space
+//     theory, with boxes in place of Gaussians). It sees a tumulus on undulating or curved
+//     ground, where a single ground surface for the whole site bends under it;
+//   - the components of the relief over the whole site's ground fit (centroid, equivalent
+//     radius).
+// Each candidate is then fitted locally: within rho = max(1.5 R, R + 3 cells) of a centre
+// c, the heights are a plane plus a dome of height H and base radius R,
+//   z = a + b x + c y + H phi(|p - c| / R),
+// phi a paraboloid (1 - t^2), a cone (1 - t) or a flat-topped drum (min(1, 2 (1 - t))), all
+// zero beyond R; linear least squares for (a, b, c, H) at each (c, R, phi), searched over c
+// and R by coordinate descent, keeping the fit whose dome explains most of the window's
+// departure from a plane (q = 1 - SSE(plane + dome) / SSE(plane), with H > 0).
+// The measurements then use the relief over that local plane (see Rise in
+// mound_detector.h).
+#pragma once
+
+#include <Eigen/Core>
+#include <vector>
+
+#include "terrain/mound_detector.h"
+
+namespace mound::terrain::internal {
+
+struct HeightGrid {
+  int w = 0, h = 0;
+  double cell = 0;
+  double radius = 0;           // the site's radius, m
+  Eigen::Vector2d origin;      // centre of cell (0, 0) relative to the site centre
+  std::vector<double> z;       // NaN: outside the site or no data even after filling
+  std::vector<bool> measured;  // the cell holds points (not filled)
+  std::vector<bool> inside;    // the cell's centre lies within the site
+  size_t Index(int i, int j) const { return static_cast<size_t>(j) * w + i; }
+  Eigen::Vector2d Centre(int i, int j) const { return origin + cell * Eigen::Vector2d(i, j); }
+  Eigen::Vector2d Centre(size_t k) const {
+    return Centre(static_cast<int>(k % w), static_cast<int>(k / w));
+  }
+};
+
+struct Candidate {
+  Eigen::Vector2d centre;  // relative to the site centre, m
+  double radius_m = 0;
+};
+
+// Scale-space candidates (the strongest `max_count` local maxima with a contrast above
+// `min_contrast_m`, by contrast x radius).
+std::vector<Candidate> ScaleSpaceCandidates(const HeightGrid& g, double min_contrast_m,
+                                            size_t max_count);
+
+// The rise a candidate converges to, measured (Rise's fields, centre relative to the site
+// centre), or false when no dome with H > 0 fits there. `relief_threshold_m` the lowest
+// relief that counts as the rise's footprint.
+bool MeasureRise(const HeightGrid& g, const Candidate& start, double relief_threshold_m, Rise* out);
+
+}  // namespace mound::terrain::internal
