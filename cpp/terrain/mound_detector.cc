@@ -304,7 +304,7 @@ const std::vector<std::string>& VerdictFeatureNames() {
       "log_height",  "log_diameter", "log_aspect", "dome_r2",    "roundness", "symmetry",
       "fill",        "flank_slope",  "clipped",    "outside",    "offset",    "log_snr",
       "coverage",    "log_rises",    "site_sag",   "site_ridge", "roughness", "ring_high",
-      "ring_spread", "ground_slope", "shape_cone", "shape_drum"};
+      "ring_spread", "ground_slope", "shape_cone", "shape_drum", "flat_top"};
   return names;
 }
 
@@ -336,7 +336,8 @@ std::vector<double> VerdictFeatures(const Detection& d, const Rise& t) {
           std::clamp(t.ring_spread, 0.0, 4.0),
           t.ground_slope_rad,
           t.shape == 1 ? 1.0 : 0.0,
-          t.shape == 2 ? 1.0 : 0.0};
+          t.shape == 2 ? 1.0 : 0.0,
+          t.flat_top};
 }
 
 }  // namespace mound::terrain

@@ -67,6 +67,9 @@ struct Rise {
   double clipped = 0;          // share of the footprint's outline on the site's edge
   double outside = 0;          // share of the base disc outside the site
   double roughness = 0;        // RMS of the fit's residual within R, over H
+  // The share of the footprint within 15 % of the height from the top: a roof is flat
+  // (~1), a dome's top is small (a spherical cap 0.45 x as high as wide: ~0.2).
+  double flat_top = 0;
   // The frame R < r <= 1.5 R in 8 sectors: the highest sector's mean relief and the spread
   // between the highest and the lowest, over the height (~0 around a tumulus, high along a
   // ridge, a terrace or a hillock's long axis).

@@ -335,9 +335,11 @@ bool MeasureRise(const HeightGrid& g, const Candidate& start, double relief_thre
     Eigen::Matrix2d M = Eigen::Matrix2d::Zero();
     std::vector<double> slopes;
     int outline = 0, on_edge = 0;
+    int top = 0;
     for (size_t k : comp) {
       const double rel = relief(k);
       r.volume_m3 += rel * cell_area;
+      top += rel >= 0.85 * r.height_m ? 1 : 0;
       const Eigen::Vector2d p = g.Centre(k) - m;
       M += p * p.transpose();
       const int i = static_cast<int>(k % g.w), j = static_cast<int>(k / g.w);
@@ -366,6 +368,7 @@ bool MeasureRise(const HeightGrid& g, const Candidate& start, double relief_thre
                       ? std::sqrt(std::max(0.0, es.eigenvalues()[0]) / es.eigenvalues()[1])
                       : 0;
     r.flank_slope_rad = slopes.empty() ? 0 : std::atan(Quantile(slopes, 0.9));
+    r.flat_top = static_cast<double>(top) / comp.size();
     r.clipped = outline > 0 ? static_cast<double>(on_edge) / outline : 0;
   }
   r.extent_m = std::max(r.extent_m, c.norm() + R);

@@ -447,6 +447,13 @@ def _print_verdict_report(r: dict[str, Any]) -> None:
     for key, c in r["per_group"].items():
         print(f"  {key:<24} {c['right']:>3}/{c['sites']:<3} right (old rule "
               f"{c['old_rule_right']})")
+    w = r["wider_than_scan"]
+    print(f"  tumuli wider than the 60 m scan: {w['right']}/{w['sites']} right; reaching past "
+          f"the cloud: {w['beyond_the_cloud']}, of them {w['beyond_the_cloud_warned']} "
+          "flagged clipped")
+    print("  other thresholds (tumuli >= 2 m x 15 m found; false alarms): " + "; ".join(
+        f"{o['threshold']:g}: {o['mounds_2m_15m_found']}/{g['sites']}, "
+        f"{o['false_alarms']}/{n['sites']}" for o in r["operating_points"]))
     lim = r["detection_limit"]["limit"] or []
     print("  detection limit (>= 95 % of the mounds at least this high and wide detected): "
           + ("; ".join(f"{c['height_m_at_least']:g} m x {c['diameter_m_at_least']:g} m "

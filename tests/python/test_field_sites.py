@@ -128,3 +128,37 @@ def test_grid_draws_are_seeded_and_span_the_field(shared_data: Path) -> None:
     full = [grid.draw(rng, k, dem, (320, 240), pattern="both") for k in range(3)]
     assert [replace(s, pattern="raster") for s in full] == a[:3]
     assert all(s.pattern == "both" for s in full)
+
+
+@pytest.mark.slow
+def test_a_grid_of_the_full_flight_judged_on_its_dense_cloud(
+        tmp_path: Path, mound_recon: Path, mound_render: Path) -> None:
+    """`mound sim grid --pattern both --dense`: each site flown with the raster and the
+    orbit, densified, and judged on the dense cloud; the grid says so, and --remeasure
+    judges the same dense cloud again without flying or densifying anew."""
+    import json
+
+    from mound.cli import main
+
+    out = tmp_path / "g"
+    assert main(["sim", "grid", "--out", str(out), "--sites", "1", "--seed", "7",
+                 "--pattern", "both", "--dense", "--workers", "1", "--threads", "2",
+                 "--dem", str(tmp_path / "none.tif")]) == 2  # a DEM that is not there
+    assert main(["sim", "grid", "--out", str(out), "--sites", "1", "--seed", "7",
+                 "--pattern", "both", "--dense", "--workers", "1", "--threads", "2"]) == 0
+    doc = json.loads((out / "grid.json").read_text())
+    assert doc["flight"]["pattern"] == "both" and doc["cloud"] == "dense"
+    patterns = {im["pattern"] for im in json.loads(
+        (out / "0000" / "sim" / "poses.json").read_text())["images"]}
+    assert patterns == {"raster", "orbit"}, patterns
+    v = json.loads((out / "0000" / "verdict.json").read_text())
+    assert v["status"] == "ok" and v["cloud"].endswith("dense/dense.ply")
+    dense_points = v["measurements"]["cells_with_points"]
+    stamp = (out / "0000" / "dense" / "dense.ply").stat().st_mtime_ns
+    assert main(["sim", "grid", "--out", str(out), "--sites", "1", "--seed", "7",
+                 "--pattern", "both", "--dense", "--remeasure", "--workers", "1"]) == 0
+    again = json.loads((out / "0000" / "verdict.json").read_text())
+    assert again["cloud"] == v["cloud"]
+    assert again["measurements"]["cells_with_points"] == dense_points
+    assert (out / "0000" / "dense" / "dense.ply").stat().st_mtime_ns == stamp
+    assert "densify" in again["grid_times_s"] and "reconstruct" in again["grid_times_s"]

@@ -43,6 +43,7 @@ VERSION = 1
 L2_GRID = (1e-4, 1e-3, 1e-2, 1e-1)
 BASES = ("linear", "hinge")
 MAX_FA = 0.01
+OPERATING_THRESHOLDS = (0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 0.95)
 
 
 def load_grid(folder: str | Path) -> list[dict[str, Any]]:
@@ -310,6 +311,12 @@ def evaluate(model: dict[str, Any], rows: list[dict[str, Any]]) -> dict[str, Any
         "reliability": [{k: (None if isinstance(v, float) and not math.isfinite(v) else v)
                          for k, v in r.items()} for r in reliability(p, y.astype(float))],
         "per_group": per,
+        # what another threshold would give: the goal's mounds found, the false alarms
+        "operating_points": [
+            {"threshold": t, "mounds_2m_15m_found": int(sum(p[k] >= t for k in big)),
+             "false_alarms": int(sum(p[k] >= t for k in neg)),
+             "mounds_found": int(sum(p[k] >= t for k in range(len(y)) if y[k]))}
+            for t in OPERATING_THRESHOLDS],
         "detection_limit": detection_limit(measured, lab),
         "errors": [{"dir": measured[k]["dir"], "truth": measured[k]["truth"],
                     "p_mound": float(p[k])} for k in range(len(y)) if lab[k] != y[k]],
