@@ -481,10 +481,26 @@ def cmd_recon_eval_verdict(args: argparse.Namespace) -> int:
               f"learned verdict on {tot['agree']}; right on {tot['paper_right']} (learned: "
               f"{tot['learned_right']}); {tot['paper_false_alarms']} false alarms, "
               f"{tot['paper_missed']} missed; {tot['paper_failed']} failed (ICP)")
-    if args.report:
-        write_json(Path(args.report), report)
     if args.figure:
         vm.figure(report, args.figure)
+    if args.detection_figure:
+        panels = [(vm.grid_label(g), vm.evaluate(model, vm.load_grid(g))) for g in args.grids]
+        report["per_grid"] = [{"grid": str(g), "label": label,
+                               "detection_limit": r["detection_limit"],
+                               "goal_no_mound": r["goal_no_mound"],
+                               "goal_mounds_2m_15m": r["goal_mounds_2m_15m"]}
+                              for g, (label, r) in zip(args.grids, panels, strict=True)]
+        for label, r in panels:
+            lim = r["detection_limit"]["limit"] or []
+            print(f"  {label}: {r['goal_mounds_2m_15m']['right']}/"
+                  f"{r['goal_mounds_2m_15m']['sites']} tumuli >= 2 m x 15 m, false alarms "
+                  f"{r['goal_no_mound']['false_alarms']}/{r['goal_no_mound']['sites']}; "
+                  ">= 95 % from " + (", ".join(f"{c['height_m_at_least']:g} m x "
+                                               f"{c['diameter_m_at_least']:g} m" for c in lim)
+                                     or "none"))
+        vm.detection_figure(panels, args.detection_figure)
+    if args.report:
+        write_json(Path(args.report), report)
     return 0
 
 
@@ -685,6 +701,8 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--model", required=True)
     ev.add_argument("--report", help="report (JSON)")
     ev.add_argument("--figure", help="reliability diagram and detection limit (PNG)")
+    ev.add_argument("--detection-figure", help="the detection rate over height x diameter, "
+                    "one panel per grid (PNG)")
     ev.add_argument("--paper", action="store_true",
                     help="also run the paper's test (--reference) on every site and count "
                     "how often it agrees")

@@ -453,6 +453,53 @@ def figure(report: dict[str, Any], out: str | Path) -> None:
     plt.close(fig)
 
 
+def grid_label(folder: str | Path) -> str:
+    """How a grid was flown and which cloud was judged, from its grid.json."""
+    try:
+        doc = json.loads((Path(folder) / "grid.json").read_text())
+    except (OSError, json.JSONDecodeError):
+        return Path(folder).name
+    flight = doc.get("flight") or {}
+    w, h = (flight.get("image_size") or [0, 0])[:2]
+    what = "full flight (raster + orbit)" if flight.get("pattern") == "both" else \
+        "survey flight (raster)"
+    return f"{what}, {doc.get('cloud', 'sparse')} cloud, {w} x {h}"
+
+
+def detection_figure(panels: list[tuple[str, dict[str, Any]]], out: str | Path) -> None:
+    """The detection rate over height x diameter, one panel per grid (its label, its
+    report), with each grid's false alarms and detection limit in the title."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    nh, nd = len(HEIGHT_BINS) - 1, len(DIAMETER_BINS) - 1
+    fig, axes = plt.subplots(1, len(panels), figsize=(5.2 * len(panels), 4.6), squeeze=False)
+    for ax, (label, rep) in zip(axes[0], panels, strict=True):
+        rate = np.full((nh, nd), np.nan)
+        for k, c in enumerate(rep["detection_limit"]["table"]):
+            if c["mounds"]:
+                rate[k // nd, k % nd] = c["detected"] / c["mounds"]
+                ax.text(k % nd, k // nd, f"{c['detected']}/{c['mounds']}", ha="center",
+                        va="center", fontsize=8)
+        ax.imshow(rate, origin="lower", cmap="RdYlGn", vmin=0, vmax=1, aspect="auto")
+        ax.set_xticks(range(nd), [f"{DIAMETER_BINS[j]:g}-{DIAMETER_BINS[j + 1]:g}"
+                                  for j in range(nd)])
+        ax.set_yticks(range(nh), [f"{HEIGHT_BINS[i]:g}-{HEIGHT_BINS[i + 1]:g}"
+                                  for i in range(nh)])
+        ax.set_xlabel("diameter, m")
+        ax.set_ylabel("height, m")
+        fa = rep["goal_no_mound"]
+        lim = rep["detection_limit"]["limit"] or []
+        ax.set_title(f"{label}\nfalse alarms {fa['false_alarms']}/{fa['sites']}; >= 95 % from "
+                     + (", ".join(f"{c['height_m_at_least']:g} m x {c['diameter_m_at_least']:g} m"
+                                  for c in lim) or "none"), fontsize=9)
+    fig.tight_layout()
+    fig.savefig(out, dpi=100)
+    plt.close(fig)
+
+
 def feature_names_of(rows: list[dict[str, Any]]) -> list[str]:
     for r in rows:
         if r["measured"] and r.get("rises"):
