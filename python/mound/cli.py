@@ -402,7 +402,7 @@ def cmd_sim_grid(args: argparse.Namespace) -> int:
         dem = str(shared) if shared.is_file() else None
     doc = grid.make_grid(args.out, args.sites, args.seed, tuple(args.size), dem,
                          args.threads, args.workers, args.remeasure, progress,
-                         pattern=args.pattern, dense=args.dense)
+                         pattern=args.pattern, dense=args.dense, card=args.card)
     ok = sum(1 for r in doc["rows"] if r.get("status") == "ok")
     print(f"{ok} of {doc['sites']} sites measured in {doc['wall_s']:.0f} s -> "
           f"{args.out}/grid.json")
@@ -737,6 +737,10 @@ def build_parser() -> argparse.ArgumentParser:
                     "flight (the raster and an oblique orbit)")
     sg.add_argument("--dense", action="store_true",
                     help="densify each site (mound_recon densify) and judge the dense cloud")
+    sg.add_argument("--card", action="store_true",
+                    help="reconstruct each site as from the aircraft's photo card (JPEGs "
+                    "with EXIF, the lens self-calibrated) instead of the simulator's "
+                    "calibration")
     sg.add_argument("--remeasure", action="store_true",
                     help="rerun only the verdicts (after a change of the detector)")
     sg.set_defaults(func=cmd_sim_grid)

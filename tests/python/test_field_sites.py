@@ -131,11 +131,12 @@ def test_grid_draws_are_seeded_and_span_the_field(shared_data: Path) -> None:
 
 
 @pytest.mark.slow
-def test_a_grid_of_the_full_flight_judged_on_its_dense_cloud(
+def test_a_grid_of_the_full_flight_from_the_card_judged_on_its_dense_cloud(
         tmp_path: Path, mound_recon: Path, mound_render: Path) -> None:
-    """`mound sim grid --pattern both --dense`: each site flown with the raster and the
-    orbit, densified, and judged on the dense cloud; the grid says so, and --remeasure
-    judges the same dense cloud again without flying or densifying anew."""
+    """`mound sim grid --pattern both --dense --card`: each site flown with the raster and
+    the orbit, its images JPEGs with EXIF reconstructed as from the aircraft's card (EXIF
+    GPS and focal length), densified, and judged on the dense cloud; the grid says so, and
+    --remeasure judges the same dense cloud again without flying or densifying anew."""
     import json
 
     from mound.cli import main
@@ -145,9 +146,14 @@ def test_a_grid_of_the_full_flight_judged_on_its_dense_cloud(
                  "--pattern", "both", "--dense", "--workers", "1", "--threads", "2",
                  "--dem", str(tmp_path / "none.tif")]) == 2  # a DEM that is not there
     assert main(["sim", "grid", "--out", str(out), "--sites", "1", "--seed", "7",
-                 "--pattern", "both", "--dense", "--workers", "1", "--threads", "2"]) == 0
+                 "--pattern", "both", "--dense", "--card", "--workers", "1", "--threads",
+                 "2"]) == 0
     doc = json.loads((out / "grid.json").read_text())
     assert doc["flight"]["pattern"] == "both" and doc["cloud"] == "dense"
+    assert doc["camera"] == "exif"
+    recon = json.loads((out / "0000" / "recon" / "recon.json").read_text())
+    assert recon["inputs"]["gps_source"] == "exif"
+    assert recon["inputs"]["camera_source"].startswith("exif")
     patterns = {im["pattern"] for im in json.loads(
         (out / "0000" / "sim" / "poses.json").read_text())["images"]}
     assert patterns == {"raster", "orbit"}, patterns
@@ -156,7 +162,8 @@ def test_a_grid_of_the_full_flight_judged_on_its_dense_cloud(
     dense_points = v["measurements"]["cells_with_points"]
     stamp = (out / "0000" / "dense" / "dense.ply").stat().st_mtime_ns
     assert main(["sim", "grid", "--out", str(out), "--sites", "1", "--seed", "7",
-                 "--pattern", "both", "--dense", "--remeasure", "--workers", "1"]) == 0
+                 "--pattern", "both", "--dense", "--card", "--remeasure", "--workers",
+                 "1"]) == 0
     again = json.loads((out / "0000" / "verdict.json").read_text())
     assert again["cloud"] == v["cloud"]
     assert again["measurements"]["cells_with_points"] == dense_points

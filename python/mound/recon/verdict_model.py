@@ -463,7 +463,8 @@ def grid_label(folder: str | Path) -> str:
     w, h = (flight.get("image_size") or [0, 0])[:2]
     what = "full flight (raster + orbit)" if flight.get("pattern") == "both" else \
         "survey flight (raster)"
-    return f"{what}, {doc.get('cloud', 'sparse')} cloud, {w} x {h}"
+    camera = ", photo card (EXIF, lens self-calibrated)" if doc.get("camera") == "exif" else ""
+    return f"{what}, {doc.get('cloud', 'sparse')} cloud{camera}, {w} x {h}"
 
 
 def detection_figure(panels: list[tuple[str, dict[str, Any]]], out: str | Path) -> None:

@@ -24,7 +24,12 @@ The draws (half of the sites carry a tumulus):
   full 40-image flight, the raster and an orbit of oblique images), sun azimuth 0-360
   degrees at 25-70 degrees elevation, lens of 60-84 degrees horizontal field of view;
 - cloud: the sparse cloud of `mound_recon reconstruct`, or with `dense=True` the dense
-  cloud of `mound_recon densify` (dense/dense.ply), which the verdict then judges.
+  cloud of `mound_recon densify` (dense/dense.ply), which the verdict then judges;
+- camera: the simulator's calibration (camera.json, poses.json), or with `card=True` the
+  photo card's (JPEGs with EXIF GPS and focal length; `reconstruct --gps exif` levels the
+  model by the images and self-calibrates f, k1, k2, as the survey's `--photos` does: a
+  nadir flight's self-calibration domes the model by up to a metre, which the verdict has
+  to tell from a wide low tumulus).
 """
 
 from __future__ import annotations
@@ -138,7 +143,7 @@ def draw(rng: np.random.Generator, seed: int, dem: str | None, size: tuple[int, 
 
 
 def _site(out: Path, spec: sim.SimSpec, threads: int, remeasure: bool,
-          dense: bool = False) -> dict[str, Any]:
+          dense: bool = False, card: bool = False) -> dict[str, Any]:
     simdir, recon, verdict = out / "sim", out / "recon", out / "verdict.json"
     row: dict[str, Any] = {"dir": out.name, "truth": spec.terrain.truth()}
     times: dict[str, float] = {}
@@ -156,12 +161,23 @@ def _site(out: Path, spec: sim.SimSpec, threads: int, remeasure: bool,
         if not (recon / "recon.json").exists():
             t = time.perf_counter()
             sim.simulate(spec, simdir, threads=threads)
+            # as from the aircraft's card: JPEGs whose EXIF carries the GPS and the focal
+            # length, the lens self-calibrated (f, k1, k2) in the bundle adjustment
+            camera = ["--gps", "exif"]
+            if card:
+                from datetime import datetime
+
+                from mound.sim.card import site_jpegs
+
+                site_jpegs(simdir, datetime(2026, 6, 1, 9, 0, 0))
+            else:
+                camera = ["--camera", str(simdir / "camera.json"), "--gps",
+                          str(simdir / "poses.json")]
             times["simulate"] = time.perf_counter() - t
             t = time.perf_counter()
             try:
                 native.run_tool("mound_recon", [
-                    "reconstruct", str(simdir / "images"), "--out", str(recon), "--camera",
-                    str(simdir / "camera.json"), "--gps", str(simdir / "poses.json"),
+                    "reconstruct", str(simdir / "images"), "--out", str(recon), *camera,
                     "--threads", str(threads)], 1800, log=out / "log.txt")
             except ToolNoResultError:
                 pass  # recon.json says why; the verdict then says status failed
@@ -198,7 +214,7 @@ def _site(out: Path, spec: sim.SimSpec, threads: int, remeasure: bool,
 def make_grid(out: str | Path, sites: int, seed: int, size: tuple[int, int] = (640, 480),
               dem: str | None = None, threads: int = 1, workers: int = 1,
               remeasure: bool = False, progress: Any = None, pattern: str = "raster",
-              dense: bool = False) -> dict[str, Any]:
+              dense: bool = False, card: bool = False) -> dict[str, Any]:
     """Draws and runs the grid (see the module text); returns grid.json's document."""
     if not 1 <= sites <= 100_000:
         raise InputError("--sites: must be 1 .. 100,000")
@@ -212,7 +228,7 @@ def make_grid(out: str | Path, sites: int, seed: int, size: tuple[int, int] = (6
     rows: list[dict[str, Any]] = [{}] * sites
 
     def one(k: int) -> None:
-        rows[k] = _site(root / f"{k:04d}", specs[k], threads, remeasure, dense)
+        rows[k] = _site(root / f"{k:04d}", specs[k], threads, remeasure, dense, card)
         if progress:
             progress(k, rows[k])
 
@@ -227,6 +243,7 @@ def make_grid(out: str | Path, sites: int, seed: int, size: tuple[int, int] = (6
     doc = {"schema": SCHEMA, "version": VERSION, "seed": seed, "sites": sites,
            "flight": {"pattern": pattern, "scan_m": SCAN_M, "image_size": list(size)},
            "cloud": "dense" if dense else "sparse",
+           "camera": "exif" if card else "calibrated",
            "dem": dem, "wall_s": time.perf_counter() - start,
            "rows": [{**r, "spec": _spec_doc(s)} for r, s in zip(rows, specs, strict=True)]}
     write_json(root / "grid.json", doc)
