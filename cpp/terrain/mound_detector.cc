@@ -78,7 +78,11 @@ Detection DetectMound(const std::vector<Eigen::Vector3d>& points, const Eigen::V
       bins[static_cast<size_t>(j) * g.w + i].push_back(p.z());
   }
   g.z.assign(bins.size(), kNaN);
-  std::vector<bool> inside(bins.size(), false), measured(bins.size(), false);
+  // Which cells lie within the site, and which hold points (not filled): the grid's own.
+  g.inside.assign(bins.size(), false);
+  g.measured.assign(bins.size(), false);
+  std::vector<bool>& inside = g.inside;
+  std::vector<bool>& measured = g.measured;
   for (int j = 0; j < g.h; ++j)
     for (int i = 0; i < g.w; ++i) {
       const size_t k = static_cast<size_t>(j) * g.w + i;
@@ -221,8 +225,6 @@ Detection DetectMound(const std::vector<Eigen::Vector3d>& points, const Eigen::V
   d.ground_coefficients = {coef[0],           coef[1] / s,       coef[2] / s,
                            coef[3] / (s * s), coef[4] / (s * s), coef[5] / (s * s)};
 
-  g.inside = inside;
-  g.measured = measured;
   // Candidates: the components of the relief over the site's ground fit (the 8 most
   // prominent), and the scale-space peaks of the heights (rise_fit.h).
   std::vector<internal::Candidate> candidates;

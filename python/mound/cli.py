@@ -465,7 +465,8 @@ def cmd_recon_eval_verdict(args: argparse.Namespace) -> int:
     from mound.recon import verdict_model as vm
 
     model = read_json(args.model, vm.SCHEMA, vm.VERSION)
-    report = vm.evaluate(model, [r for g in args.grids for r in vm.load_grid(g)])
+    grids = [vm.load_grid(g) for g in args.grids]  # read once: merged and per grid
+    report = vm.evaluate(model, [r for rows in grids for r in rows])
     _print_verdict_report(report)
     if args.paper:
         import tempfile
@@ -484,7 +485,8 @@ def cmd_recon_eval_verdict(args: argparse.Namespace) -> int:
     if args.figure:
         vm.figure(report, args.figure)
     if args.detection_figure:
-        panels = [(vm.grid_label(g), vm.evaluate(model, vm.load_grid(g))) for g in args.grids]
+        panels = [(vm.grid_label(g), vm.evaluate(model, rows))
+                  for g, rows in zip(args.grids, grids, strict=True)]
         report["per_grid"] = [{"grid": str(g), "label": label,
                                "detection_limit": r["detection_limit"],
                                "goal_no_mound": r["goal_no_mound"],
