@@ -60,6 +60,9 @@ Summary Adjust(Problem* p, const Options& o) {
     throw InternalError("ba::Adjust: fixed_view out of range");
   for (int v : o.constant_views)
     if (v < 0 || v >= nv) throw InternalError("ba::Adjust: constant_views: view out of range");
+  if (o.intrinsics_prior && !(o.intrinsics_prior->f_px > 0 && o.intrinsics_prior->f_sd > 0 &&
+                              o.intrinsics_prior->k_sd > 0))
+    throw InternalError("ba::Adjust: intrinsics_prior: f_px, f_sd and k_sd must be > 0");
   Summary s;
   s.initial_rmse_px = RmseReprojection(*p);
   std::vector<PoseBlocks> poses;
@@ -84,6 +87,12 @@ Summary Adjust(Problem* p, const Options& o) {
                                poses[ob.view].rotation.data(), poses[ob.view].translation.data(),
                                p->points[ob.point].data());
     }
+  }
+  if (o.refine_intrinsics && o.intrinsics_prior && problem.HasParameterBlock(intrinsics.data())) {
+    const IntrinsicsPrior& q = *o.intrinsics_prior;
+    // the prior is not robustified: it is a belief about the lens, not an observation
+    problem.AddResidualBlock(IntrinsicsPriorError::Create(q.f_px, q.k1, q.k2, q.f_sd, q.k_sd),
+                             nullptr, intrinsics.data());
   }
   std::vector<bool> constant(nv, false);
   if (o.fixed_view >= 0) constant[o.fixed_view] = true;

@@ -7,10 +7,12 @@
 // translation; the scale is fixed by keeping the length of `scale_view`'s translation
 // (a sphere manifold on it), so with the fixed view at the origin the baseline keeps
 // its length. Intrinsics are fixed (calibrated camera) unless `refine_intrinsics`, which
-// refines the shared focal length and k1, k2 (self-calibration from EXIF's starting values).
+// refines the shared focal length and k1, k2 (self-calibration from EXIF's starting values),
+// optionally held by a Gaussian prior about the camera's values (`IntrinsicsPrior`).
 #pragma once
 
 #include <Eigen/Core>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -32,6 +34,19 @@ struct Problem {
   std::vector<Observation> observations;
 };
 
+// A prior on the refined intrinsics, as OpenSfM's bundle adjustment has (its focal and
+// radial-distortion standard deviations): three residuals (f - f0) / (f_sd f0),
+// (k1 - k1_0) / k_sd, (k2 - k2_0) / k_sd beside the reprojection errors (pixels, so one
+// prior sigma weighs as a one-pixel error). Directions the images determine are decided by
+// thousands of observations; one they barely see stays at the prior. Over flat ground seen
+// only from above, k1 and f trade against a bend of the whole model (the "doming" of nadir
+// blocks): without a prior, noise decides the bend.
+struct IntrinsicsPrior {
+  double f_px = 0, k1 = 0, k2 = 0;  // the prior's mean (EXIF's focal length, no distortion)
+  double f_sd = 0.01;               // relative standard deviation of the focal length
+  double k_sd = 0.01;               // standard deviation of k1 and of k2
+};
+
 struct Options {
   double huber_px = 1.0;
   int max_iterations = 100;
@@ -42,6 +57,8 @@ struct Options {
   std::vector<int> constant_views;
   int threads = 1;
   bool refine_intrinsics = false;  // f (fy / fx kept), k1, k2 of the shared camera
+  // With refine_intrinsics: held about these values (none: free, as COLMAP's self-calibration).
+  std::optional<IntrinsicsPrior> intrinsics_prior;
   double max_time_s = 1e9;
   // Stops when the cost changes by less than this fraction in an iteration (Ceres'
   // function_tolerance); the mapper's adjustments on the way use 1e-6.

@@ -90,4 +90,26 @@ class ReprojectionErrorWithIntrinsics {
   std::array<double, geometry::CameraModel::kNumParams> fixed_;
 };
 
+// The prior on the refined intrinsics block [f, k1, k2] (bundle_adjuster.h's
+// IntrinsicsPrior): three residuals, each the parameter's departure in prior sigmas.
+class IntrinsicsPriorError {
+ public:
+  IntrinsicsPriorError(double f_px, double k1, double k2, double f_sd, double k_sd)
+      : mean_{f_px, k1, k2}, sd_{f_sd * f_px, k_sd, k_sd} {}
+
+  template <typename T>
+  bool operator()(const T* intrinsics, T* residual) const {
+    for (int i = 0; i < 3; ++i) residual[i] = (intrinsics[i] - T(mean_[i])) / T(sd_[i]);
+    return true;
+  }
+
+  static ceres::CostFunction* Create(double f_px, double k1, double k2, double f_sd, double k_sd) {
+    return new ceres::AutoDiffCostFunction<IntrinsicsPriorError, 3, 3>(
+        new IntrinsicsPriorError(f_px, k1, k2, f_sd, k_sd));
+  }
+
+ private:
+  std::array<double, 3> mean_, sd_;
+};
+
 }  // namespace mound::ba

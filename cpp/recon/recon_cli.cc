@@ -32,7 +32,7 @@ constexpr const char* kUsage =
     "                   [--gps poses.json|exif] [--max-image-size PX] [--max-features N]\n"
     "                   [--features sift|klt] [--matching auto|exhaustive|sequential|retrieval]\n"
     "                   [--matcher flann|cascade] [--window N] [--neighbours N]\n"
-    "                   [--align level|full]\n"
+    "                   [--align level|full] [--lens prior|free|fixed]\n"
     "                   [--threads N] [--seed N]\n"
     "       mound_recon densify RECON_DIR --out OUT_DIR [--resolution-m R] [--threads N]\n"
     "                   [--max-image-size PX] [--source-views N] [--window PX] [--min-ncc C]\n"
@@ -51,6 +51,11 @@ constexpr const char* kUsage =
     "  --out DIR            recon.json, points.ply, cameras.txt, images.txt, points3D.txt\n"
     "  --camera FILE        mound.camera v1 JSON (the simulator's) or a K.txt (3 x 3);\n"
     "                       without it: EXIF focal length, refined with k1, k2 in BA\n"
+    "  --lens L             with EXIF's camera: prior (default: f, k1, k2 refined, held\n"
+    "                       about EXIF's f and no distortion, sd 1 % and 0.01, as\n"
+    "                       OpenSfM: a nadir block's self-calibration otherwise domes the\n"
+    "                       model), free (refined freely, as COLMAP) or fixed (EXIF's\n"
+    "                       as it is, as ODM's --use-fixed-camera-params)\n"
     "  --gps FILE|exif      mound.poses v1 (images[].file + gps_enu_m) or the photos' EXIF\n"
     "                       GPS (ENU metres around the first photo, WGS84)\n"
     "  --align A            level: the vertical from the images (the cameras' mean viewing\n"
@@ -120,10 +125,10 @@ constexpr const char* kUsage =
     "that allowed no result (recon.json says \"status\": \"failed\" and why).\n";
 
 int RunReconstruct(const std::vector<std::string>& args) {
-  const Args a = ParseArgs(
-      args, 1,
-      {"--out", "--camera", "--gps", "--max-image-size", "--max-features", "--matching",
-       "--matcher", "--window", "--neighbours", "--threads", "--seed", "--features", "--align"});
+  const Args a = ParseArgs(args, 1,
+                           {"--out", "--camera", "--gps", "--max-image-size", "--max-features",
+                            "--matching", "--matcher", "--window", "--neighbours", "--threads",
+                            "--seed", "--features", "--align", "--lens"});
   if (a.positional.size() != 1)
     throw InputError("reconstruct: expected exactly one IMAGES_DIR (see --help)");
   if (!a.Has("--out")) throw InputError("--out: the output directory is required");
@@ -152,6 +157,7 @@ int RunReconstruct(const std::vector<std::string>& args) {
   o.window = static_cast<int>(num("--window", 0, 10000, o.window));
   o.neighbours = static_cast<int>(num("--neighbours", 1, 10000, o.neighbours));
   if (a.Has("--align")) o.align = ParseEnum(a, "--align", kAlignNames);
+  if (a.Has("--lens")) o.lens = ParseEnum(a, "--lens", kLensNames);
   o.threads = static_cast<int>(num("--threads", 1, 256, DefaultThreads()));
   o.seed = static_cast<uint64_t>(num("--seed", 0, 1LL << 62, 1));
   o.tool = kVersion;

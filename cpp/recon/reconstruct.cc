@@ -63,6 +63,10 @@ void ReconstructOptions::Check() const {
   if (threads < 1) throw InputError("--threads: must be >= 1");
   if (gps == GpsSource::kPosesFile && poses_file.empty())
     throw InputError("--gps: the poses file is empty");
+  if (lens && *lens != Lens::kFixed && !camera_file.empty())
+    throw InputError(
+        "--lens: a --camera file is a calibrated lens, held fixed (--lens "
+        "prior and free refine EXIF's)");
 }
 
 ReconstructResult Reconstruct(const ReconstructOptions& o) {
@@ -134,8 +138,9 @@ ReconstructResult Reconstruct(const ReconstructOptions& o) {
     std::optional<double> f = FocalPx(exif[0], W, &how);
     camera_source = f ? "exif (" + how + ")" : "default (1.2 x the longer side)";
     camera.fx = camera.fy = f.value_or(1.2 * std::max(W, H));
-    refine = true;
+    refine = o.lens.value_or(Lens::kPrior) != Lens::kFixed;
   }
+  const Lens lens = o.lens.value_or(o.camera_file.empty() ? Lens::kPrior : Lens::kFixed);
   if (exif_gps) {
     GpsPositions g;
     g.source = "exif";
@@ -208,6 +213,7 @@ ReconstructResult Reconstruct(const ReconstructOptions& o) {
                         {"status", "ok"}};
   doc["inputs"] = {{"images", n},
                    {"camera_source", camera_source},
+                   {"lens", NameOf(lens, kLensNames)},
                    {"gps_source", gps ? gps->source : "none"},
                    {"pairs_matched", pair_list.size()},
                    {"pairs_verified", useful_pairs},
@@ -219,6 +225,10 @@ ReconstructResult Reconstruct(const ReconstructOptions& o) {
   sfm::MapperOptions mo;
   mo.max_error_px = 4.0;  // COLMAP's filter threshold, full-resolution pixels
   mo.refine_intrinsics = refine;
+  if (lens == Lens::kPrior) {
+    mo.focal_prior_sd = 0.01;
+    mo.distortion_prior_sd = 0.01;
+  }
   mo.threads = threads;
   mo.seed = seed;
   t0 = Clock::now();

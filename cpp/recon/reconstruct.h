@@ -26,6 +26,11 @@ enum class Matching { kAuto, kExhaustive, kSequential, kRetrieval };
 enum class GpsSource { kNone, kExif, kPosesFile };
 // kAuto: kLevel with EXIF GPS (consumer GPS heights drift), else kFull.
 enum class Align { kAuto, kLevel, kFull };
+// The lens when the camera comes from EXIF: refined in bundle adjustment with a prior
+// about EXIF's values (f sd 1 %, k1 and k2 sd 0.01, OpenSfM's defaults: the default),
+// refined freely (COLMAP's self-calibration), or held at EXIF's values (ODM's
+// --use-fixed-camera-params).
+enum class Lens { kPrior, kFree, kFixed };
 
 // Their names in flags and in recon.json.
 inline constexpr EnumName<FeatureKind> kFeatureKindNames[] = {{FeatureKind::kSift, "sift"},
@@ -37,6 +42,8 @@ inline constexpr EnumName<Matching> kMatchingNames[] = {{Matching::kAuto, "auto"
 inline constexpr EnumName<sfm::MatcherKind> kMatcherNames[] = {
     {sfm::MatcherKind::kFlann, "flann"}, {sfm::MatcherKind::kCascadeHash, "cascade"}};
 inline constexpr EnumName<Align> kAlignNames[] = {{Align::kLevel, "level"}, {Align::kFull, "full"}};
+inline constexpr EnumName<Lens> kLensNames[] = {
+    {Lens::kPrior, "prior"}, {Lens::kFree, "free"}, {Lens::kFixed, "fixed"}};
 
 struct ReconstructOptions {
   std::string images_dir;
@@ -50,6 +57,7 @@ struct ReconstructOptions {
   int window = 8;      // sequential: images ahead; auto, retrieval: at most 3
   int neighbours = 8;  // nearest (by GPS) or most similar images per image
   Align align = Align::kAuto;
+  std::optional<Lens> lens;  // none: prior with EXIF (a camera file is calibrated: fixed)
   int threads = 1;
   uint64_t seed = 1;
   std::string tool;  // recon.json's "tool"

@@ -44,7 +44,7 @@ class Mapper {
  public:
   Mapper(const std::vector<ImageFeatures>& f, const std::vector<VerifiedPair>& pairs,
          const geometry::CameraModel& camera, const MapperOptions& o)
-      : f_(f), pairs_(pairs), o_(o) {
+      : f_(f), pairs_(pairs), o_(o), prior_(camera) {
     const int n = static_cast<int>(f.size());
     r_.camera = camera;
     r_.registered.assign(n, false);
@@ -378,6 +378,11 @@ class Mapper {
     // and a focal length 0.03 px apart; with a known camera it changed nothing.
     bo.function_tolerance = 1e-6;
     bo.refine_intrinsics = o_.refine_intrinsics && r_.NumRegistered() >= 3;
+    if (bo.refine_intrinsics && o_.focal_prior_sd > 0 && o_.distortion_prior_sd > 0) {
+      // about the starting (EXIF) camera, not the last adjustment's: the prior does not drift
+      bo.intrinsics_prior = ba::IntrinsicsPrior{prior_.fx, prior_.dist[0], prior_.dist[1],
+                                                o_.focal_prior_sd, o_.distortion_prior_sd};
+    }
     Solve(&sp, bo);
     ++r_.ba_runs;
   }
@@ -491,6 +496,7 @@ class Mapper {
   const std::vector<ImageFeatures>& f_;
   const std::vector<VerifiedPair>& pairs_;
   MapperOptions o_;
+  geometry::CameraModel prior_;  // the starting camera: the intrinsics prior's mean
   Reconstruction r_;
   std::vector<std::vector<TrackElement>> tracks_;
   std::vector<std::vector<int>> track_of_;  // per image, per keypoint

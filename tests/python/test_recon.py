@@ -198,6 +198,9 @@ def bad_inputs(site: Path, tmp: Path) -> list[tuple[str, list[str], int, str]]:
         ("camera of other images", [str(images), "--camera", str(wrong_cam)], 2, "width x height"),
         ("GPS of a missing image", [str(images), "--gps", str(ghost)], 2, "9999.png"),
         ("bad option", [str(images), "--matching", "psychic"], 2, "--matching"),
+        ("bad lens", [str(images), "--lens", "loose"], 2, "--lens"),
+        ("lens of a calibrated camera", [str(images), "--camera", str(site / "camera.json"),
+                                         "--lens", "free"], 2, "--lens"),
     ]
 
 
