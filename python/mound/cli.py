@@ -741,7 +741,7 @@ def build_parser() -> argparse.ArgumentParser:
                     help="densify each site (mound_recon densify) and judge the dense cloud")
     sg.add_argument("--card", action="store_true",
                     help="reconstruct each site as from the aircraft's photo card (JPEGs "
-                    "with EXIF, the lens self-calibrated) instead of the simulator's "
+                    "with EXIF, the lens refined about EXIF's values) instead of the simulator's "
                     "calibration")
     sg.add_argument("--remeasure", action="store_true",
                     help="rerun only the verdicts (after a change of the detector)")

@@ -119,6 +119,12 @@ def test_grid_draws_are_seeded_and_span_the_field(shared_data: Path) -> None:
     assert any(m.diameter_m > 60 for m in mounds)  # wider than the 60 m scan
     assert max(np.hypot(m.mound_x_m, m.mound_y_m) for m in mounds) > 10
     assert all(np.hypot(m.mound_x_m, m.mound_y_m) <= grid.SCAN_M / 4 + 1e-9 for m in mounds)
+    # no tumulus steeper than earth stands (many draws sit on the limit)
+    share = [m.drum_height_m / m.height_m if m.profile == "drum" else 0.0 for m in mounds]
+    assert all(m.height_m <= grid.max_height(m.profile, m.diameter_m, q) * (1 + 1e-9)
+               for m, q in zip(mounds, share, strict=True))
+    assert sum(m.height_m >= grid.max_height(m.profile, m.diameter_m, q) * (1 - 1e-9)
+               for m, q in zip(mounds, share, strict=True)) > 10
     kinds = {s.terrain.confusers[0].kind for s in a if s.terrain.confusers}
     assert kinds == set(terrain.CONFUSERS)
     assert any(s.terrain.dem_path for s in a) and any(s.terrain.slope_deg > 0 for s in a)
@@ -128,6 +134,20 @@ def test_grid_draws_are_seeded_and_span_the_field(shared_data: Path) -> None:
     full = [grid.draw(rng, k, dem, (320, 240), pattern="both") for k in range(3)]
     assert [replace(s, pattern="raster") for s in full] == a[:3]
     assert all(s.pattern == "both" for s in full)
+
+
+@pytest.mark.parametrize("profile", terrain.PROFILES)
+def test_the_highest_tumulus_drawn_has_flanks_at_the_angle_of_repose(profile: str) -> None:
+    """max_height's closed forms against the simulator's own radial profile: at that height
+    the steepest flank (a drum's vertical wall aside) is the angle of repose."""
+    d, share = 40.0, 0.3
+    h = grid.max_height(profile, d, share)
+    spec = terrain.preset("bin_tepe", profile=profile, diameter_m=d, height_m=h,
+                          drum_height_m=share * h, erosion_m=0.0)
+    r = np.linspace(0.0, d / 2 - 1e-6, 200_001)
+    z = terrain._radial_profile(spec, r)
+    slope = np.degrees(np.arctan(np.abs(np.diff(z) / np.diff(r))))
+    assert abs(float(slope.max()) - grid.REPOSE_DEG) < 0.3, (profile, float(slope.max()))
 
 
 @pytest.mark.slow

@@ -463,7 +463,7 @@ def grid_label(folder: str | Path) -> str:
     w, h = (flight.get("image_size") or [0, 0])[:2]
     what = "full flight (raster + orbit)" if flight.get("pattern") == "both" else \
         "survey flight (raster)"
-    camera = ", photo card (EXIF, lens self-calibrated)" if doc.get("camera") == "exif" else ""
+    camera = ", photo card (EXIF, lens held by a prior)" if doc.get("camera") == "exif" else ""
     return f"{what}, {doc.get('cloud', 'sparse')} cloud{camera}, {w} x {h}"
 
 

@@ -12,7 +12,9 @@ redone; `remeasure=True` reruns only the verdicts (after a change of the detecto
 
 The draws (half of the sites carry a tumulus):
 - tumulus: profile conical / spherical cap / drum / ploughed; height log-uniform in
-  0.5-25 m, diameter log-uniform in 10-150 m (height at most 0.45 x diameter); centre off
+  0.5-25 m, diameter log-uniform in 10-150 m, the height at most what the profile allows
+  with flanks no steeper than earth stands (`max_height`: 35 degrees, the angle of repose
+  of loose earth; a drum's retaining wall is vertical, its cap obeys the rule); centre off
   the scan centre by up to half the scan's radius; erosion 0.5-5 m; a looters' pit (20 %)
   or trench (15 %);
 - no mound: bare ground (25 %) or one confuser (75 %): an elongated hillock, a ridge, a
@@ -27,9 +29,8 @@ The draws (half of the sites carry a tumulus):
   cloud of `mound_recon densify` (dense/dense.ply), which the verdict then judges;
 - camera: the simulator's calibration (camera.json, poses.json), or with `card=True` the
   photo card's (JPEGs with EXIF GPS and focal length; `reconstruct --gps exif` levels the
-  model by the images and self-calibrates f, k1, k2, as the survey's `--photos` does: a
-  nadir flight's self-calibration domes the model by up to a metre, which the verdict has
-  to tell from a wide low tumulus).
+  model by the images and refines f, k1, k2 about EXIF's values, as the survey's
+  `--photos` does).
 """
 
 from __future__ import annotations
@@ -53,6 +54,27 @@ from mound.sim.appearance import Lighting
 SCHEMA = "mound.verdict_grid"
 VERSION = 1
 SCAN_M = 60.0
+REPOSE_DEG = 35.0  # the steepest flank loose earth stands at (angle of repose, 30-35 deg)
+
+
+def max_height(profile: str, diameter_m: float, drum_share: float = 0.0) -> float:
+    """The highest tumulus of `profile` and `diameter_m` whose flanks are nowhere steeper
+    than REPOSE_DEG (before erosion, which only flattens them): a cone h <= r tan(a); a
+    spherical cap meets its base at 2 atan(h / r), so h <= r tan(a / 2); a ploughed cap
+    (cut at 60 % and scaled back, its flank 1 / 0.6 as steep) h <= r tan(atan(0.6 tan a) / 2);
+    a drum's cap of the height above its wall (`drum_share` of h) as a spherical cap's.
+    An earthen mound steeper than that slumps: the previous grid's limit of h <= 0.45 d
+    drew near-hemispheres with 84-degree flanks, no tumulus's form."""
+    a = math.radians(REPOSE_DEG)
+    r = diameter_m / 2
+    if profile == "conical":
+        return r * math.tan(a)
+    if profile == "ploughed":
+        return r * math.tan(math.atan(0.6 * math.tan(a)) / 2)
+    cap = r * math.tan(a / 2)
+    if profile == "drum":
+        return cap / (1 - drum_share)
+    return cap
 
 
 def _log_uniform(rng: np.random.Generator, lo: float, hi: float) -> float:
@@ -99,15 +121,17 @@ def draw(rng: np.random.Generator, seed: int, dem: str | None, size: tuple[int, 
     over["mound"] = mound
     extent = 0.0
     if mound:
+        profile = str(rng.choice(terrain.PROFILES))
         d = _log_uniform(rng, 10, 150)
-        h = min(_log_uniform(rng, 0.5, 25), 0.45 * d)
+        drum_share = float(rng.uniform(0.2, 0.5)) if profile == "drum" else 0.0
+        h = min(_log_uniform(rng, 0.5, 25), max_height(profile, d, drum_share))
         x, y = _in_disc(rng, scan_m / 4)
-        over.update(profile=str(rng.choice(terrain.PROFILES)), diameter_m=d, height_m=h,
+        over.update(profile=profile, diameter_m=d, height_m=h,
                     mound_x_m=x, mound_y_m=y, erosion_m=float(rng.uniform(0.5, 5)))
-        if over["profile"] == "ploughed":  # spread by the plough: at least a tenth of D
+        if profile == "ploughed":  # spread by the plough: at least a tenth of D
             over["erosion_m"] = max(over["erosion_m"], d / 10)
-        if over["profile"] == "drum":
-            over["drum_height_m"] = float(rng.uniform(0.2, 0.5)) * h
+        if profile == "drum":
+            over["drum_height_m"] = drum_share * h
         k = rng.random()
         if k < 0.2 and d > 12:
             pr = float(rng.uniform(0.1, 0.25)) * d
@@ -162,7 +186,7 @@ def _site(out: Path, spec: sim.SimSpec, threads: int, remeasure: bool,
             t = time.perf_counter()
             sim.simulate(spec, simdir, threads=threads)
             # as from the aircraft's card: JPEGs whose EXIF carries the GPS and the focal
-            # length, the lens self-calibrated (f, k1, k2) in the bundle adjustment
+            # length, the lens (f, k1, k2) refined about EXIF's values (--lens prior)
             camera = ["--gps", "exif"]
             if card:
                 from datetime import datetime
