@@ -152,6 +152,25 @@ TEST(VerdictModel, HingeBasisAndTheHighestRiseDecide) {
   EXPECT_THROW(ParseVerdictModel(doc, "m.json"), InputError);
 }
 
+// z_clip bounds each standardised feature before the basis: a rise far outside the
+// training data scores as one at the bound, not on the weights' extrapolation.
+TEST(VerdictModel, ZClipBoundsEachStandardisedFeature) {
+  const size_t n = VerdictFeatureNames().size();
+  std::vector<double> f(n, 0.0);
+  f[0] = 10.0;  // log_height, 10 sigmas out
+  nlohmann::json doc = ModelDoc();
+  EXPECT_DOUBLE_EQ(ParseVerdictModel(doc, "m.json").Score(f), -1.0 + 2.0 * 10.0);
+  doc["z_clip"] = nullptr;  // as absent
+  EXPECT_DOUBLE_EQ(ParseVerdictModel(doc, "m.json").Score(f), -1.0 + 2.0 * 10.0);
+  doc["z_clip"] = 3.0;
+  const VerdictModel m = ParseVerdictModel(doc, "m.json");
+  EXPECT_DOUBLE_EQ(m.Score(f), -1.0 + 2.0 * 3.0);
+  f[0] = -10.0;
+  EXPECT_DOUBLE_EQ(m.Score(f), -1.0 - 2.0 * 3.0);
+  f[0] = 1.5;  // inside the bound: unchanged
+  EXPECT_DOUBLE_EQ(m.Score(f), -1.0 + 2.0 * 1.5);
+}
+
 TEST(VerdictModel, RefusesMalformedModelsNamingTheField) {
   auto refused = [](nlohmann::json doc, const std::string& field) {
     try {
@@ -186,6 +205,11 @@ TEST(VerdictModel, RefusesMalformedModelsNamingTheField) {
   d = ModelDoc();
   d["mean"][1] = "x";
   refused(d, "mean");
+  d = ModelDoc();
+  d["z_clip"] = 0.0;
+  refused(d, "z_clip");
+  d["z_clip"] = "3";
+  refused(d, "z_clip");
 }
 
 TEST(DetectMound, TooFewPointsOrBadRadius) {

@@ -42,7 +42,8 @@ double VerdictModel::Score(const std::vector<double>& f) const {
   if (f.size() != n || index.size() != n) throw InternalError("VerdictModel: feature count");
   double s = bias;
   for (size_t k = 0; k < n; ++k) {
-    const double z = (f[index[k]] - mean[k]) / std[k];
+    double z = (f[index[k]] - mean[k]) / std[k];
+    if (z_clip > 0) z = std::clamp(z, -z_clip, z_clip);
     s += weights[k] * z;
     if (hinge)
       s += weights[n + k] * std::max(z - 1, 0.0) + weights[2 * n + k] * std::max(-z - 1, 0.0);
@@ -103,6 +104,11 @@ VerdictModel ParseVerdictModel(const nlohmann::json& doc, const std::string& sou
   if (doc.contains("basis") && basis != "linear" && basis != "hinge")
     throw InputError(source + ": basis: expected \"linear\" or \"hinge\"");
   m.hinge = basis == "hinge";
+  if (doc.contains("z_clip") && !doc["z_clip"].is_null()) {
+    m.z_clip = Number(doc, "z_clip", source);
+    if (!(m.z_clip > 0 && m.z_clip <= 1e6))
+      throw InputError(source + ": z_clip: must be > 0 (within 1e6), or absent");
+  }
   m.mean = Numbers(doc, "mean", n, source);
   m.std = Numbers(doc, "std", n, source);
   m.weights = Numbers(doc, "weights", m.hinge ? 3 * n : n, source);

@@ -7,8 +7,10 @@
 //    "mean": [...], "std": [...] (the standardisation),
 //    "weights": [...], "bias": b, "threshold": t (label mound when p >= t),
 //    "p_no_rise": p (a site with no rise above the relief threshold), ...}
-//   s(rise) = b + w . phi(z), z_k = (f_k - mean_k) / std_k, phi the "basis": "linear" (z)
-//   or "hinge" (z, max(z - 1, 0), max(-z - 1, 0); 3 x the weights);
+//   s(rise) = b + w . phi(z), z_k = (f_k - mean_k) / std_k bounded to [-c, c] when the
+//   file gives "z_clip": c (> 0; a hinge is linear beyond the training data, so a feature
+//   far outside it would otherwise score on an extrapolation), phi the "basis": "linear"
+//   (z) or "hinge" (z, max(z - 1, 0), max(-z - 1, 0); 3 x the weights);
 //   p(site) = 1 / (1 + exp(-max over the judged rises of s)) (the Platt calibration of the
 //   site's highest score folded into w and b)
 // The default model ships in the repository (data/verdict_model.json) and is compiled into
@@ -28,6 +30,7 @@ struct VerdictModel {
   std::vector<double> mean, std, weights;
   std::vector<size_t> index;  // the detector's position of each of the model's features
   bool hinge = false;
+  double z_clip = 0;  // 0: z unbounded
   double bias = 0, threshold = 0.5, p_no_rise = 0;
   nlohmann::json doc;  // the whole file (its figures travel into verdict.json)
 

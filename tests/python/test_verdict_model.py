@@ -69,6 +69,27 @@ def test_training_recovers_a_known_model_with_calibrated_probabilities() -> None
         vm.probability(model, held), np.array([r["truth"]["mound"] for r in held], float))) < 1e-12
 
 
+def test_z_clip_scores_a_feature_beyond_the_data_as_one_at_the_bound() -> None:
+    """A model with z_clip (as the C++ VerdictModel::Score, mound_detector_test): each
+    standardised feature bounded before the basis; the hinge's extrapolation stops there."""
+    model = {"features": NAMES, "mean": [0.0, 1.0, 5.0], "std": [1.0, 2.0, 1.0],
+             "basis": "hinge", "weights": [1.0, 0, 0, 0.5, 0, 0, 0, 0, 0], "bias": -1.0,
+             "p_no_rise": 0.1, "z_clip": 3.0}
+
+    def p_at(a: float, m: dict[str, Any]) -> float:
+        row = {"rises": [{"features": {"a": a, "b": 1.0, "c": 5.0}}]}
+        return float(vm.probability(m, [row])[0])
+
+    def sigma(s: float) -> float:
+        return float(1 / (1 + np.exp(-s)))
+
+    assert p_at(9.0, model) == pytest.approx(p_at(3.0, model)) == pytest.approx(
+        sigma(-1 + 3 + 0.5 * 2))
+    assert p_at(2.0, model) == pytest.approx(sigma(-1 + 2 + 0.5 * 1))
+    unclipped = {k: v for k, v in model.items() if k != "z_clip"}
+    assert p_at(9.0, unclipped) == pytest.approx(sigma(-1 + 9 + 0.5 * 8))
+
+
 def test_rise_labels_the_tumulus_its_own_and_leaves_out_what_overlaps_it() -> None:
     truth = {"mound": True, "kind": "tumulus", "diameter_m": 40.0, "centre_enu_m": [10.0, 0.0]}
     rises = [{"centre_enu_m": [12.0, 3.0], "base_diameter_m": 36.0},   # the tumulus

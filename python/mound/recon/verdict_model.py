@@ -12,8 +12,11 @@ clear of any tumulus, and left out of the fit when it overlaps one otherwise
 score is its highest rise's; that score is Platt-calibrated on the sites (folded into the
 weights: the file stays one logistic regression and a max). Sites without a rise get
 `p_no_rise`, the share of mounds among the training sites without one (Laplace-smoothed).
-Basis and L2 penalty are chosen by 5-fold cross-validation over sites (the sites' log loss
-after calibration). The threshold is the lowest p >= 0.5 whose out-of-fold false-alarm
+Basis, L2 penalty and `z_clip` are chosen by 5-fold cross-validation over sites (the sites'
+log loss after calibration). `z_clip` c bounds each standardised feature to [-c, c] before
+the basis: a hinge is linear beyond the data, and a rise whose feature lies far outside the
+training range (a torn cloud's, a real site's) would otherwise score on an extrapolation;
+none leaves them as they are. The threshold is the lowest p >= 0.5 whose out-of-fold false-alarm
 rate is <= 1 %.
 
 Evaluation on a held-out grid (other seeds: other sites, sun and lens): accuracy, false
@@ -42,6 +45,7 @@ SCHEMA = "mound.verdict_model"
 VERSION = 1
 L2_GRID = (1e-4, 1e-3, 1e-2, 1e-1)
 BASES = ("linear", "hinge")
+Z_CLIPS: tuple[float | None, ...] = (None, 3.0)
 MAX_FA = 0.01
 OPERATING_THRESHOLDS = (0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 0.95)
 
@@ -107,20 +111,24 @@ def rise_labels(row: dict[str, Any]) -> list[bool | None]:
     return out
 
 
-def expand(z: np.ndarray, basis: str) -> np.ndarray:
-    """The basis on standardised features: `linear` z itself; `hinge` z, max(z - 1, 0) and
-    max(-z - 1, 0) per feature (a piecewise-linear response, still a logistic regression)."""
+def expand(z: np.ndarray, basis: str, z_clip: float | None = None) -> np.ndarray:
+    """The basis on standardised features, each first bounded to [-z_clip, z_clip] when
+    given: `linear` z itself; `hinge` z, max(z - 1, 0) and max(-z - 1, 0) per feature (a
+    piecewise-linear response, still a logistic regression)."""
+    if z_clip is not None:
+        z = np.clip(z, -z_clip, z_clip)
     return z if basis == "linear" else hinge_basis(z)
 
 
-def _fit(z: np.ndarray, y: np.ndarray, l2: float, basis: str) -> np.ndarray:
-    d = np.hstack([expand(z, basis), np.ones((len(z), 1))])
+def _fit(z: np.ndarray, y: np.ndarray, l2: float, basis: str,
+         z_clip: float | None) -> np.ndarray:
+    d = np.hstack([expand(z, basis, z_clip), np.ones((len(z), 1))])
     f = logistic.fit(d, np.where(y, 1.0, -1.0), solver="lbfgs", l2=l2, tol=1e-7)
     return np.asarray(f.w)
 
 
-def _logit(w: np.ndarray, z: np.ndarray, basis: str) -> np.ndarray:
-    return expand(z, basis) @ w[:-1] + w[-1]
+def _logit(w: np.ndarray, z: np.ndarray, basis: str, z_clip: float | None) -> np.ndarray:
+    return expand(z, basis, z_clip) @ w[:-1] + w[-1]
 
 
 def _folds(n: int, k: int, seed: int) -> np.ndarray:
@@ -134,9 +142,9 @@ def _platt(s: np.ndarray, y: np.ndarray) -> tuple[float, float]:
 
 
 def _site_scores(z: np.ndarray, site_of: np.ndarray, n_sites: int, w: np.ndarray,
-                 basis: str) -> np.ndarray:
+                 basis: str, z_clip: float | None) -> np.ndarray:
     """Each site's highest rise score (-inf for a site without a rise)."""
-    s = _logit(w, z, basis)
+    s = _logit(w, z, basis, z_clip)
     out = np.full(n_sites, -np.inf)
     np.maximum.at(out, site_of, s)
     return out
@@ -176,29 +184,32 @@ def train(rows: list[dict[str, Any]], names: list[str], sources: list[str],
     fold_of_site = _folds(len(sites), 5, seed)
     folds_all = fold_of_site[site_idx]
     folds = folds_all[fitted]
-    cv = {}
-    oof_by: dict[tuple[str, float], np.ndarray] = {}
+    cv: dict[tuple[str, float, float | None], float] = {}
+    oof_by: dict[tuple[str, float, float | None], np.ndarray] = {}
     for basis in BASES:
         for l2 in L2_GRID:
-            oof = np.full(len(sites), -np.inf)
-            for k in range(5):
-                tr = folds != k
-                w = _fit(z[tr], y_rise[tr], l2, basis)
-                out = folds_all == k
-                sc = _site_scores(z_all[out], site_idx[out], len(sites), w, basis)
-                oof = np.where(fold_of_site == k, sc, oof)
-            a, b = _platt(oof, y_site)
-            p = expit(a * oof + b)
-            cv[(basis, l2)] = float(-np.mean(np.where(y_site, np.log(np.clip(p, 1e-12, 1)),
-                                                      np.log(np.clip(1 - p, 1e-12, 1)))))
-            oof_by[(basis, l2)] = oof
-    basis, l2 = min(cv, key=lambda k: cv[k])
-    a, b = _platt(oof_by[(basis, l2)], y_site)
+            for z_clip in Z_CLIPS:
+                oof = np.full(len(sites), -np.inf)
+                for k in range(5):
+                    tr = folds != k
+                    w = _fit(z[tr], y_rise[tr], l2, basis, z_clip)
+                    out = folds_all == k
+                    sc = _site_scores(z_all[out], site_idx[out], len(sites), w, basis, z_clip)
+                    oof = np.where(fold_of_site == k, sc, oof)
+                a, b = _platt(oof, y_site)
+                p = expit(a * oof + b)
+                key = (basis, l2, z_clip)
+                cv[key] = float(-np.mean(np.where(y_site, np.log(np.clip(p, 1e-12, 1)),
+                                                  np.log(np.clip(1 - p, 1e-12, 1)))))
+                oof_by[key] = oof
+    best = min(cv, key=lambda k: cv[k])
+    basis, l2, z_clip = best
+    a, b = _platt(oof_by[best], y_site)
     if not a > 0:
         raise InputError("train-verdict: the rises' scores do not rank the sites (Platt slope "
                          f"{a:.3g} <= 0): more or other training sites are needed")
-    p_oof = expit(a * oof_by[(basis, l2)] + b)
-    w = _fit(z, y_rise, l2, basis)
+    p_oof = expit(a * oof_by[best] + b)
+    w = _fit(z, y_rise, l2, basis, z_clip)
     # threshold: the lowest p >= 0.5 with an out-of-fold false-alarm rate <= MAX_FA
     neg = p_oof[~y_site]
     thr = 0.5
@@ -209,22 +220,25 @@ def train(rows: list[dict[str, Any]], names: list[str], sources: list[str],
     return {
         "schema": SCHEMA, "version": VERSION, "features": names,
         "mean": mean.tolist(), "std": std.tolist(), "basis": basis,
+        **({"z_clip": z_clip} if z_clip is not None else {}),
         "weights": (a * w[:-1]).tolist(), "bias": float(a * w[-1] + b),
         "threshold": thr, "p_no_rise": (m_nr + 1) / (n_nr + 2),
         "trained": {"grids": sources, "sites": len(measured), "with_rise": len(sites),
                     "rises": len(x_all), "fitted_rises": len(x),
                     "mound_rises": int(y_rise.sum()),
                     "mounds": int(y_site.sum()), "no_rise": n_nr, "no_rise_mounds": m_nr,
-                    "basis": basis, "l2": l2,
-                    "cv_log_loss": {f"{k[0]} {k[1]:g}": v for k, v in cv.items()},
+                    "basis": basis, "l2": l2, "z_clip": z_clip,
+                    "cv_log_loss": {f"{k[0]} {k[1]:g}"
+                                    + (f" clip {k[2]:g}" if k[2] is not None else ""): v
+                                    for k, v in cv.items()},
                     "platt": {"a": a, "b": b},
                     "out_of_fold": {"auc": roc_auc(p_oof, y_site.astype(float)),
                                     "ece": expected_calibration_error(p_oof,
                                                                       y_site.astype(float)),
                                     "false_alarm_rate": float(np.mean(neg >= thr)),
                                     "detection_rate": float(np.mean(p_oof[y_site] >= thr))},
-                    "method": "logistic regression on the judged rises (L-BFGS, basis and L2 "
-                              "by 5-fold CV over sites), the site's highest rise score "
+                    "method": "logistic regression on the judged rises (L-BFGS, basis, L2 and "
+                              "z_clip by 5-fold CV over sites), the site's highest rise score "
                               "Platt-calibrated on out-of-fold predictions"},
     }
 
@@ -236,6 +250,7 @@ def probability(model: dict[str, Any], rows: list[dict[str, Any]]) -> np.ndarray
     mean, std = np.array(model["mean"]), np.array(model["std"])
     w = np.array(model["weights"])
     basis = model.get("basis", "linear")
+    z_clip = model.get("z_clip")
     out = np.empty(len(rows))
     for k, r in enumerate(rows):
         rises = r.get("rises") or []
@@ -243,7 +258,8 @@ def probability(model: dict[str, Any], rows: list[dict[str, Any]]) -> np.ndarray
             out[k] = model["p_no_rise"]
             continue
         f = np.array([[float(q["features"][n]) for n in names] for q in rises])
-        out[k] = expit(model["bias"] + float(np.max(expand((f - mean) / std, basis) @ w)))
+        out[k] = expit(model["bias"]
+                       + float(np.max(expand((f - mean) / std, basis, z_clip) @ w)))
     return out
 
 
