@@ -118,10 +118,10 @@ ReconstructResult Reconstruct(const ReconstructOptions& o) {
   timings["features_s"] = Since(t0);
   const int W = features[0].width, H = features[0].height;
 
-  // The camera: a file, or EXIF (refined in bundle adjustment).
+  // The camera: a file (calibrated, fixed), or EXIF (--lens: refined in bundle adjustment
+  // about EXIF's values by default).
   geometry::CameraModel camera;
   std::string camera_source;
-  bool refine = false;
   std::vector<Exif> exif(n);
   if (exif_gps || o.camera_file.empty()) {
     for (int i = 0; i < n; ++i) exif[i] = ReadExif(dir + "/" + files[i]);
@@ -138,8 +138,8 @@ ReconstructResult Reconstruct(const ReconstructOptions& o) {
     std::optional<double> f = FocalPx(exif[0], W, &how);
     camera_source = f ? "exif (" + how + ")" : "default (1.2 x the longer side)";
     camera.fx = camera.fy = f.value_or(1.2 * std::max(W, H));
-    refine = o.lens.value_or(Lens::kPrior) != Lens::kFixed;
   }
+  // Check() refuses prior and free with a camera file
   const Lens lens = o.lens.value_or(o.camera_file.empty() ? Lens::kPrior : Lens::kFixed);
   if (exif_gps) {
     GpsPositions g;
@@ -224,7 +224,7 @@ ReconstructResult Reconstruct(const ReconstructOptions& o) {
                    {"matcher", NameOf(o.matcher, kMatcherNames)}};
   sfm::MapperOptions mo;
   mo.max_error_px = 4.0;  // COLMAP's filter threshold, full-resolution pixels
-  mo.refine_intrinsics = refine;
+  mo.refine_intrinsics = lens != Lens::kFixed;
   if (lens == Lens::kPrior) {
     mo.focal_prior_sd = 0.01;
     mo.distortion_prior_sd = 0.01;

@@ -35,8 +35,9 @@ struct MapperOptions {
   int local_ba_iterations = 25;
   double global_ba_growth = 1.6;
   bool refine_intrinsics = false;  // f, k1, k2 in bundle adjustment (EXIF intrinsics)
-  // With refine_intrinsics: each adjustment holds f, k1, k2 about the starting camera's
-  // values with these standard deviations (ba::IntrinsicsPrior; relative for f); 0: free.
+  // With refine_intrinsics: each global adjustment (the only ones that refine the lens)
+  // holds f, k1, k2 about the starting camera's values with these standard deviations
+  // (ba::IntrinsicsPrior; relative for f); 0: free.
   double focal_prior_sd = 0, distortion_prior_sd = 0;
   int threads = 1;
   uint64_t seed = 1;
