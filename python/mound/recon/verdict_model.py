@@ -28,6 +28,7 @@ same sites; and the detection limit, the detection rate over height x diameter.
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
 from pathlib import Path
@@ -186,22 +187,20 @@ def train(rows: list[dict[str, Any]], names: list[str], sources: list[str],
     folds = folds_all[fitted]
     cv: dict[tuple[str, float, float | None], float] = {}
     oof_by: dict[tuple[str, float, float | None], np.ndarray] = {}
-    for basis in BASES:
-        for l2 in L2_GRID:
-            for z_clip in Z_CLIPS:
-                oof = np.full(len(sites), -np.inf)
-                for k in range(5):
-                    tr = folds != k
-                    w = _fit(z[tr], y_rise[tr], l2, basis, z_clip)
-                    out = folds_all == k
-                    sc = _site_scores(z_all[out], site_idx[out], len(sites), w, basis, z_clip)
-                    oof = np.where(fold_of_site == k, sc, oof)
-                a, b = _platt(oof, y_site)
-                p = expit(a * oof + b)
-                key = (basis, l2, z_clip)
-                cv[key] = float(-np.mean(np.where(y_site, np.log(np.clip(p, 1e-12, 1)),
-                                                  np.log(np.clip(1 - p, 1e-12, 1)))))
-                oof_by[key] = oof
+    for key in itertools.product(BASES, L2_GRID, Z_CLIPS):
+        basis, l2, z_clip = key
+        oof = np.full(len(sites), -np.inf)
+        for k in range(5):
+            tr = folds != k
+            w = _fit(z[tr], y_rise[tr], l2, basis, z_clip)
+            out = folds_all == k
+            sc = _site_scores(z_all[out], site_idx[out], len(sites), w, basis, z_clip)
+            oof = np.where(fold_of_site == k, sc, oof)
+        a, b = _platt(oof, y_site)
+        p = expit(a * oof + b)
+        cv[key] = float(-np.mean(np.where(y_site, np.log(np.clip(p, 1e-12, 1)),
+                                          np.log(np.clip(1 - p, 1e-12, 1)))))
+        oof_by[key] = oof
     best = min(cv, key=lambda k: cv[k])
     basis, l2, z_clip = best
     a, b = _platt(oof_by[best], y_site)

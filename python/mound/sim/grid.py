@@ -61,7 +61,8 @@ def max_height(profile: str, diameter_m: float, drum_share: float = 0.0) -> floa
     """The highest tumulus of `profile` and `diameter_m` whose flanks are nowhere steeper
     than REPOSE_DEG (before erosion, which only flattens them): a cone h <= r tan(a); a
     spherical cap meets its base at 2 atan(h / r), so h <= r tan(a / 2); a ploughed cap
-    (cut at 60 % and scaled back, its flank 1 / 0.6 as steep) h <= r tan(atan(0.6 tan a) / 2);
+    (cut at terrain.PLOUGH_CUT, 60 %, and scaled back, its flank 1 / 0.6 as steep)
+    h <= r tan(atan(0.6 tan a) / 2);
     a drum's cap of the height above its wall (`drum_share` of h) as a spherical cap's.
     An earthen mound steeper than that slumps: the previous grid's limit of h <= 0.45 d
     drew near-hemispheres with 84-degree flanks, no tumulus's form."""
@@ -70,7 +71,7 @@ def max_height(profile: str, diameter_m: float, drum_share: float = 0.0) -> floa
     if profile == "conical":
         return r * math.tan(a)
     if profile == "ploughed":
-        return r * math.tan(math.atan(0.6 * math.tan(a)) / 2)
+        return r * math.tan(math.atan(terrain.PLOUGH_CUT * math.tan(a)) / 2)
     cap = r * math.tan(a / 2)
     if profile == "drum":
         return cap / (1 - drum_share)

@@ -37,6 +37,7 @@ from mound.errors import InputError
 
 PROFILES = ("conical", "spherical_cap", "drum", "ploughed")
 CONFUSERS = ("hillock", "ridge", "ditch", "terrace", "trees", "building", "haystack")
+PLOUGH_CUT = 0.6  # a ploughed cap is cut at this share of its height, then scaled back
 
 
 @dataclass(frozen=True)
@@ -199,11 +200,11 @@ def _radial_profile(spec: TerrainSpec, r: np.ndarray) -> np.ndarray:
     elif spec.profile == "spherical_cap":
         big_r = (radius ** 2 + h ** 2) / (2 * h)  # sphere radius of a cap of height h
         z = np.where(r < radius, np.sqrt(np.clip(big_r ** 2 - r ** 2, 0, None)) - (big_r - h), 0)
-    elif spec.profile == "ploughed":  # a cap flattened at 60 % of its height
+    elif spec.profile == "ploughed":  # a cap flattened at PLOUGH_CUT of its height
         big_r = (radius ** 2 + h ** 2) / (2 * h)
         cap = np.where(r < radius, np.sqrt(np.clip(big_r ** 2 - r ** 2, 0, None))
                        - (big_r - h), 0)
-        z = np.minimum(cap, 0.6 * h) / 0.6
+        z = np.minimum(cap, PLOUGH_CUT * h) / PLOUGH_CUT
     else:  # drum: vertical-sided drum, then a cap of the remaining height
         cap_h = h - spec.drum_height_m
         big_r = (radius ** 2 + cap_h ** 2) / (2 * cap_h)
