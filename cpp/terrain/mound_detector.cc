@@ -70,6 +70,9 @@ Detection DetectMound(const std::vector<Eigen::Vector3d>& points, const Eigen::V
   g.origin = -Eigen::Vector2d(g.w / 2, g.h / 2) * g.cell;
   d.grid_width = g.w;
   d.grid_height = g.h;
+  g.points.reserve(site.size());
+  for (const Eigen::Vector3d& p : site)
+    g.points.emplace_back(p.x() - centre.x(), p.y() - centre.y(), p.z());
   std::vector<std::vector<double>> bins(static_cast<size_t>(g.w) * g.h);
   for (const Eigen::Vector3d& p : site) {
     const Eigen::Vector2d q = (p.head<2>() - centre - g.origin) / g.cell;
@@ -303,10 +306,11 @@ Detection DetectMound(const std::vector<Eigen::Vector3d>& points, const Eigen::V
 
 const std::vector<std::string>& VerdictFeatureNames() {
   static const std::vector<std::string> names = {
-      "log_height",  "log_diameter", "log_aspect", "dome_r2",    "roundness", "symmetry",
-      "fill",        "flank_slope",  "clipped",    "outside",    "offset",    "log_snr",
-      "coverage",    "log_rises",    "site_sag",   "site_ridge", "roughness", "ring_high",
-      "ring_spread", "ground_slope", "shape_cone", "shape_drum", "flat_top"};
+      "log_height", "log_diameter", "log_aspect",  "dome_r2",     "roundness",
+      "symmetry",   "fill",         "flank_slope", "clipped",     "outside",
+      "offset",     "log_snr",      "coverage",    "log_rises",   "site_sag",
+      "site_ridge", "roughness",    "ring_high",   "ring_spread", "ground_slope",
+      "shape_cone", "shape_drum",   "flat_top",    "point_top",   "point_spread"};
   return names;
 }
 
@@ -339,7 +343,9 @@ std::vector<double> VerdictFeatures(const Detection& d, const Rise& t) {
           t.ground_slope_rad,
           t.shape == 1 ? 1.0 : 0.0,
           t.shape == 2 ? 1.0 : 0.0,
-          t.flat_top};
+          t.flat_top,
+          std::clamp(t.point_top, 0.0, 5.0),
+          std::clamp(t.point_spread, 0.0, 5.0)};
 }
 
 }  // namespace mound::terrain

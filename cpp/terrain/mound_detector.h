@@ -18,7 +18,9 @@
 //      percentile of the relief), footprint (area, volume, roundness, fill), radial
 //      symmetry, flank slope, the fit's roughness, the relief of the frame around it by
 //      sector (a ridge or a terrace runs on through it; a tumulus's foot is level all
-//      round), clipping (the share of the footprint's outline on the edge of the site,
+//      round), the cloud's own points over the dome (their top and their spread about
+//      it: the cells' medians smooth a haystack or a crown into a low dome, its points do
+//      not lie on one), clipping (the share of the footprint's outline on the edge of the site,
 //      and of the base disc outside it: a rise cut by the edge of the cloud is clipped, not
 //      elongated), offset from the site centre, and the extent a scan would need to see it
 //      whole.
@@ -74,6 +76,13 @@ struct Rise {
   // between the highest and the lowest, over the height (~0 around a tumulus, high along a
   // ridge, a terrace or a hillock's long axis).
   double ring_high = 0, ring_spread = 0;
+  // From the cloud's points rather than the grid's cell medians: the 95th percentile of the
+  // points' relief within R / 2, over the height (~1 on a dome; a haystack's or a tree's
+  // top stands far above the median of its cells: 3-4), and the robust spread (1.4826 x
+  // MAD) of the points' residual about the fitted dome within R, over the height (< 0.15
+  // on an earthen dome; a roof above ground, a canopy, a terrace's two levels: 0.2-0.5).
+  // From the cells when fewer than 3 (top) or 5 (spread) points fall there.
+  double point_top = 1, point_spread = 0;
   double offset_m = 0;  // centre's distance from the site centre
   double extent_m = 0;  // farthest point of the rise (footprint or base disc) from the centre
   int cells = 0;

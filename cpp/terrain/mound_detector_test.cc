@@ -13,6 +13,7 @@
 #include <random>
 
 #include "common/error.h"
+#include "terrain/rise_fit.h"
 #include "terrain/synthetic_site.h"
 
 namespace mound::terrain {
@@ -48,6 +49,70 @@ TEST(DetectMound, FindsAndMeasuresADome) {
   // stays level.
   EXPECT_GT(d.site_sag_m, 1.0);
   EXPECT_LT(d.ground_sag_m, 0.5);
+}
+
+// A sparse cloud (one point in 16, as an SfM model's): a tumulus's points lie on the dome
+// fitted to its cells; a haystack's (a 6 m x 6 m block 4 m high on the same ground) do not.
+TEST(DetectMound, ADomesPointsLieOnItsDomeAndABlocksDoNot) {
+  auto sparse = [](const std::vector<Eigen::Vector3d>& p, bool block) {
+    std::vector<Eigen::Vector3d> out;
+    for (size_t i = 0; i < p.size(); i += 16) {
+      Eigen::Vector3d q = p[i];
+      if (block && std::fabs(q.x() - 5) < 3 && std::fabs(q.y() + 3) < 3) q.z() += 4.0;
+      out.push_back(q);
+    }
+    return out;
+  };
+  const Detection dome =
+      DetectMound(sparse(SyntheticSite(4.0, 30.0, false, 4), false), {0, 0}, 58, {});
+  ASSERT_TRUE(dome.Tallest() != nullptr);
+  const Rise& t = *dome.Tallest();
+  EXPECT_LT((t.centre - Eigen::Vector2d(5, -3)).norm(), 2.0);
+  EXPECT_NEAR(t.point_top, 1.0, 0.1);
+  EXPECT_LT(t.point_spread, 0.1);
+  const Detection stack = DetectMound(sparse(SyntheticSite(0, 0, false, 4), true), {0, 0}, 58, {});
+  const auto near = std::find_if(stack.judged.begin(), stack.judged.end(), [](const Rise& r) {
+    return (r.centre - Eigen::Vector2d(5, -3)).norm() < 3 && r.base_diameter_m < 20;
+  });
+  ASSERT_TRUE(near != stack.judged.end());
+  EXPECT_NEAR(near->height_m, 4.0, 0.5);
+  EXPECT_GT(near->point_spread, 0.2);
+}
+
+// Where the cells' medians smooth a narrow tall object into a low dome (a crown, a
+// haystack's roof over a few cells of ground), its points keep the roof apart: a grid of a
+// 1 m x 12 m paraboloid over level ground, and points on that dome (point_top 1, no
+// spread) or on level ground with a roof 4 m up within 2 m of the centre.
+TEST(MeasureRise, ThePointsTopAndSpreadComeFromThePointsNotTheCells) {
+  internal::HeightGrid g;
+  g.radius = 30;
+  g.cell = 1;
+  g.w = g.h = 61;
+  g.origin = Eigen::Vector2d(-30, -30);
+  for (int j = 0; j < g.h; ++j)
+    for (int i = 0; i < g.w; ++i) {
+      const double r = g.Centre(i, j).norm();
+      g.z.push_back(r < 6 ? 1.0 - r * r / 36 : 0.0);
+      g.inside.push_back(r <= g.radius);
+      g.measured.push_back(r <= g.radius);
+    }
+  std::vector<Eigen::Vector3d> dome, roof;
+  for (double y = -29.75; y < 30; y += 0.5)
+    for (double x = -29.75; x < 30; x += 0.5) {
+      const double r = std::hypot(x, y);
+      dome.emplace_back(x, y, r < 6 ? 1.0 - r * r / 36 : 0.0);
+      roof.emplace_back(x, y, r < 2 ? 4.0 : 0.0);
+    }
+  Rise on_dome, with_roof;
+  g.points = dome;
+  ASSERT_TRUE(internal::MeasureRise(g, {{0, 0}, 6}, 0.3, &on_dome));
+  g.points = roof;
+  ASSERT_TRUE(internal::MeasureRise(g, {{0, 0}, 6}, 0.3, &with_roof));
+  EXPECT_NEAR(on_dome.height_m, with_roof.height_m, 1e-12);  // the same cells
+  EXPECT_NEAR(on_dome.point_top, 1.0, 0.05);
+  EXPECT_LT(on_dome.point_spread, 0.05);
+  EXPECT_GT(with_roof.point_top, 3.5);  // the roof 4 m over a rise of the cells ~1 m
+  EXPECT_GT(with_roof.point_spread, 0.3);
 }
 
 TEST(DetectMound, FlatGroundHasNoRiseAndARidgeIsElongated) {

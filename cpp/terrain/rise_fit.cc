@@ -267,6 +267,23 @@ bool MeasureRise(const HeightGrid& g, const Candidate& start, double relief_thre
   double ss = 0;
   for (double e : resid) ss += e * e;
   r.roughness = std::sqrt(ss / resid.size()) / std::max(f.H, 0.05);
+  {  // the points' own relief and residual (Rise::point_top, point_spread)
+    std::vector<double> core, point_resid;
+    for (const Eigen::Vector3d& p : g.points) {
+      const Eigen::Vector2d d = p.head<2>() - c;
+      const double rad = d.norm();
+      if (rad > R) continue;
+      const double rel = p.z() - (f.plane[0] + f.plane[1] * d.x() + f.plane[2] * d.y());
+      point_resid.push_back(rel - f.H * Phi(f.shape, rad / R));
+      if (rad <= R / 2) core.push_back(rel);
+    }
+    if (core.size() < 3) core = disc;
+    r.point_top = Quantile(core, 0.95) / h;
+    if (point_resid.size() < 5) point_resid = resid;
+    const double med = Median(point_resid);
+    for (double& e : point_resid) e = std::fabs(e - med);
+    r.point_spread = 1.4826 * Median(point_resid) / h;
+  }
   {
     double mean = 0;
     for (const auto& [b, rel] : window) mean += rel;

@@ -35,6 +35,10 @@ struct HeightGrid {
   std::vector<double> z;       // NaN: outside the site or no data even after filling
   std::vector<bool> measured;  // the cell holds points (not filled)
   std::vector<bool> inside;    // the cell's centre lies within the site
+  // The site's points themselves (x, y relative to the site centre): the cells hold their
+  // medians, which smooth a narrow tall object (a haystack's roof over a few cells of
+  // ground) into a low dome; the points keep its roof apart from its ground.
+  std::vector<Eigen::Vector3d> points;
   size_t Index(int i, int j) const { return static_cast<size_t>(j) * w + i; }
   Eigen::Vector2d Centre(int i, int j) const { return origin + cell * Eigen::Vector2d(i, j); }
   Eigen::Vector2d Centre(size_t k) const {
