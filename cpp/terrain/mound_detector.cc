@@ -238,33 +238,20 @@ Detection DetectMound(const std::vector<Eigen::Vector3d>& points, const Eigen::V
       const Eigen::Vector2d p = xy(k);
       relief[k] = g.z[k] - Basis(p.x(), p.y()).dot(coef);
     }
-    std::vector<int> label(g.z.size(), -1);
+    std::vector<char> seen(g.z.size(), 0);
     std::vector<std::pair<double, internal::Candidate>> comps;
+    const auto above = [&](size_t k) { return relief[k] > o.relief_threshold_m; };
     for (size_t k = 0; k < g.z.size(); ++k) {
-      if (label[k] >= 0 || !(relief[k] > o.relief_threshold_m)) continue;
-      std::vector<size_t> stack = {k};
-      label[k] = static_cast<int>(comps.size());
+      const std::vector<size_t> comp = internal::GrowRegion(g, k, &seen, above);
+      if (comp.empty()) continue;
       double sum = 0, top = 0;
       Eigen::Vector2d c = Eigen::Vector2d::Zero();
-      int n = 0;
-      while (!stack.empty()) {
-        const size_t q = stack.back();
-        stack.pop_back();
-        ++n;
+      for (size_t q : comp) {
         sum += relief[q];
         top = std::max(top, relief[q]);
         c += relief[q] * g.Centre(q);
-        const int i = static_cast<int>(q % g.w), j = static_cast<int>(q / g.w);
-        for (const auto& [di, dj] : {std::pair{1, 0}, {-1, 0}, {0, 1}, {0, -1}}) {
-          const int a = i + di, b = j + dj;
-          if (a < 0 || b < 0 || a >= g.w || b >= g.h) continue;
-          const size_t m = g.Index(a, b);
-          if (label[m] < 0 && relief[m] > o.relief_threshold_m) {
-            label[m] = label[k];
-            stack.push_back(m);
-          }
-        }
       }
+      const size_t n = comp.size();
       const double area = n * g.cell * g.cell;
       comps.push_back({top * area, {c / sum, std::sqrt(area / M_PI)}});
       if (n < 4) comps.back().first = -1;  // a few cells: noise

@@ -321,26 +321,10 @@ bool MeasureRise(const HeightGrid& g, const Candidate& start, double relief_thre
   const double level = std::max(relief_threshold_m, 0.25 * r.height_m);
   const double reach = std::max(3 * R, rho);
   std::vector<char> in(g.z.size(), 0);
-  std::vector<size_t> comp, stack;
-  if (relief(peak) > level) {
-    stack.push_back(peak);
-    in[peak] = 1;
-  }
-  while (!stack.empty()) {
-    const size_t k = stack.back();
-    stack.pop_back();
-    comp.push_back(k);
-    const int i = static_cast<int>(k % g.w), j = static_cast<int>(k / g.w);
-    for (const auto& [di, dj] : {std::pair{1, 0}, {-1, 0}, {0, 1}, {0, -1}}) {
-      const int a = i + di, b = j + dj;
-      if (a < 0 || b < 0 || a >= g.w || b >= g.h) continue;
-      const size_t n = g.Index(a, b);
-      if (in[n] || !g.inside[n] || std::isnan(g.z[n])) continue;
-      if ((g.Centre(n) - c).norm() > reach || !(relief(n) > level)) continue;
-      in[n] = 1;
-      stack.push_back(n);
-    }
-  }
+  const std::vector<size_t> comp = GrowRegion(g, peak, &in, [&](size_t n) {
+    return g.inside[n] && !std::isnan(g.z[n]) && (g.Centre(n) - c).norm() <= reach &&
+           relief(n) > level;
+  });
   const double cell_area = g.cell * g.cell;
   r.cells = static_cast<int>(comp.size());
   r.area_m2 = comp.size() * cell_area;

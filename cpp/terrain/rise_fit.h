@@ -21,6 +21,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <utility>
 #include <vector>
 
 #include "terrain/mound_detector.h"
@@ -45,6 +46,34 @@ struct HeightGrid {
     return Centre(static_cast<int>(k % w), static_cast<int>(k / w));
   }
 };
+
+// The 4-connected cells reachable from `seed` through cells that `accept(k)` admits, the
+// seed first (nothing when it is not admitted), each marked in `visited` (w x h, cells
+// already marked are not entered), in the order a depth-first stack takes them.
+template <class Accept>
+std::vector<size_t> GrowRegion(const HeightGrid& g, size_t seed, std::vector<char>* visited,
+                               Accept accept) {
+  std::vector<size_t> region, stack;
+  std::vector<char>& in = *visited;
+  if (in[seed] || !accept(seed)) return region;
+  in[seed] = 1;
+  stack.push_back(seed);
+  while (!stack.empty()) {
+    const size_t k = stack.back();
+    stack.pop_back();
+    region.push_back(k);
+    const int i = static_cast<int>(k % g.w), j = static_cast<int>(k / g.w);
+    for (const auto& [di, dj] : {std::pair{1, 0}, {-1, 0}, {0, 1}, {0, -1}}) {
+      const int a = i + di, b = j + dj;
+      if (a < 0 || b < 0 || a >= g.w || b >= g.h) continue;
+      const size_t n = g.Index(a, b);
+      if (in[n] || !accept(n)) continue;
+      in[n] = 1;
+      stack.push_back(n);
+    }
+  }
+  return region;
+}
 
 struct Candidate {
   Eigen::Vector2d centre;  // relative to the site centre, m
