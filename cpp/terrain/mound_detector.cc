@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <sstream>
+#include <utility>
 
 #include "common/error.h"
 #include "common/stats.h"
@@ -49,9 +50,12 @@ Detection DetectMound(const std::vector<Eigen::Vector3d>& points, const Eigen::V
                       double radius_m, const DetectorOptions& o) {
   o.Check();
   if (!(radius_m > 0)) throw InputError("site radius must be > 0");
+  // The site's points, x and y from its centre (HeightGrid::points).
   std::vector<Eigen::Vector3d> site;
-  for (const Eigen::Vector3d& p : points)
-    if ((p.head<2>() - centre).norm() <= radius_m) site.push_back(p);
+  for (const Eigen::Vector3d& p : points) {
+    const Eigen::Vector2d d = p.head<2>() - centre;
+    if (d.norm() <= radius_m) site.emplace_back(d.x(), d.y(), p.z());
+  }
   if (site.size() < 100) {
     throw NoResultError("only " + std::to_string(site.size()) + " points within " +
                         std::to_string(radius_m) +
@@ -70,16 +74,14 @@ Detection DetectMound(const std::vector<Eigen::Vector3d>& points, const Eigen::V
   g.origin = -Eigen::Vector2d(g.w / 2, g.h / 2) * g.cell;
   d.grid_width = g.w;
   d.grid_height = g.h;
-  g.points.reserve(site.size());
-  for (const Eigen::Vector3d& p : site)
-    g.points.emplace_back(p.x() - centre.x(), p.y() - centre.y(), p.z());
   std::vector<std::vector<double>> bins(static_cast<size_t>(g.w) * g.h);
   for (const Eigen::Vector3d& p : site) {
-    const Eigen::Vector2d q = (p.head<2>() - centre - g.origin) / g.cell;
+    const Eigen::Vector2d q = (p.head<2>() - g.origin) / g.cell;
     const int i = static_cast<int>(std::lround(q.x())), j = static_cast<int>(std::lround(q.y()));
     if (i >= 0 && j >= 0 && i < g.w && j < g.h)
       bins[static_cast<size_t>(j) * g.w + i].push_back(p.z());
   }
+  g.points = std::move(site);
   g.z.assign(bins.size(), kNaN);
   // Which cells lie within the site, and which hold points (not filled): the grid's own.
   g.inside.assign(bins.size(), false);

@@ -81,7 +81,7 @@ struct Rise {
   // top stands far above the median of its cells: 3-4), and the robust spread (1.4826 x
   // MAD) of the points' residual about the fitted dome within R, over the height (< 0.15
   // on an earthen dome; a roof above ground, a canopy, a terrace's two levels: 0.2-0.5).
-  // From the cells when fewer than 3 (top) or 5 (spread) points fall there.
+  // From the cells within R when fewer than 3 (top) or 5 (spread) points fall there.
   double point_top = 1, point_spread = 0;
   double offset_m = 0;  // centre's distance from the site centre
   double extent_m = 0;  // farthest point of the rise (footprint or base disc) from the centre
