@@ -165,11 +165,16 @@ int RunVerdict(const std::vector<std::string>& args) {
     }
     const std::optional<Eigen::Vector2d> centre = CameraCentre(recon, dir + "/recon.json");
     if (!centre) fail("no registered image");
-    const terrain::VerdictModel model = a.Has("--model")
-                                            ? terrain::LoadVerdictModel(a.options.at("--model"))
-                                            : terrain::DefaultVerdictModel();
-    const std::string model_file =
-        a.Has("--model") ? a.options.at("--model") : "default (data/verdict_model.json)";
+    // --model sparse | dense | FILE; by default the built-in model of the cloud judged:
+    // the sparse one for points.ply, the dense one for --cloud (densify's dense.ply).
+    const std::string model_arg =
+        a.Has("--model") ? a.options.at("--model") : (a.Has("--cloud") ? "dense" : "sparse");
+    const terrain::VerdictModel* built_in = terrain::BuiltInVerdictModel(model_arg);
+    const terrain::VerdictModel model = built_in ? *built_in : terrain::LoadVerdictModel(model_arg);
+    const std::string model_file = !built_in ? model_arg
+                                   : model_arg == "dense"
+                                       ? "built-in dense (data/verdict_model_dense.json)"
+                                       : "built-in sparse (data/verdict_model.json)";
     try {
       doc.update(SiteVerdictJson(JudgeSite(cloud.xyz, *centre, site, model), model, model_file,
                                  site.detector));

@@ -68,6 +68,23 @@ TEST(PaperTest, ACloudOnItsReferenceIsAMoundAndAShiftedOneIsNot) {
   EXPECT_DOUBLE_EQ(j["measurements"]["mu_m"].get<double>(), bare.decision.mu_m);
 }
 
+TEST(JudgeSite, TheBuiltInModelsAreTheSparseAndTheDenseClouds) {
+  EXPECT_EQ(terrain::BuiltInVerdictModel("sparse"), &terrain::DefaultVerdictModel());
+  EXPECT_EQ(terrain::BuiltInVerdictModel("dense"), &terrain::DenseVerdictModel());
+  EXPECT_EQ(terrain::BuiltInVerdictModel("verdict_model.json"), nullptr);
+  EXPECT_EQ(terrain::DefaultVerdictModel().doc["trained"]["cloud"], "sparse");
+  EXPECT_EQ(terrain::DenseVerdictModel().doc["trained"]["cloud"], "dense");
+  // the dense model also finds the constructed tumulus (80,000 points over 120 m: about half
+  // as dense as densify's cloud of a survey site)
+  SiteVerdictOptions o;
+  o.radius_m = 40;
+  const terrain::VerdictModel& dense = terrain::DenseVerdictModel();
+  const SiteVerdict mound = JudgeSite(SyntheticSite(5, 30, false, 4), {0, 0}, o, dense);
+  EXPECT_TRUE(mound.mound) << mound.p_mound;
+  const SiteVerdict bare = JudgeSite(SyntheticSite(0, 0, false, 5), {0, 0}, o, dense);
+  EXPECT_FALSE(bare.mound) << bare.p_mound;
+}
+
 TEST(JudgeSite, TheDefaultModelFindsATumulusAndNotBareGround) {
   const terrain::VerdictModel model = terrain::DefaultVerdictModel();
   SiteVerdictOptions o;

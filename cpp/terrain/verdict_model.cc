@@ -155,4 +155,17 @@ const VerdictModel& DefaultVerdictModel() {
   return m;
 }
 
+const VerdictModel& DenseVerdictModel() {
+  static const VerdictModel m =
+      ParseVerdictModel(nlohmann::json::parse(kDenseVerdictModelJson),
+                        "the dense cloud's verdict model (data/verdict_model_dense.json)");
+  return m;
+}
+
+const VerdictModel* BuiltInVerdictModel(const std::string& name) {
+  if (name == "sparse") return &DefaultVerdictModel();
+  if (name == "dense") return &DenseVerdictModel();
+  return nullptr;
+}
+
 }  // namespace mound::terrain

@@ -13,8 +13,11 @@
 //   (z) or "hinge" (z, max(z - 1, 0), max(-z - 1, 0); 3 x the weights);
 //   p(site) = 1 / (1 + exp(-max over the judged rises of s)) (the Platt calibration of the
 //   site's highest score folded into w and b)
-// The default model ships in the repository (data/verdict_model.json) and is compiled into
-// the tool; --model replaces it.
+// Two models ship in the repository and are compiled into the tool, learned on the same
+// simulated sites judged on two clouds: data/verdict_model.json on the sparse cloud of
+// `reconstruct` (the default), data/verdict_model_dense.json on the dense cloud of
+// `densify` as the survey densifies (depth maps 320 px, 0.25 m voxels); --model picks one or
+// reads another.
 #pragma once
 
 #include <nlohmann/json.hpp>
@@ -46,6 +49,10 @@ struct VerdictModel {
 // detector's (a model made for another detector).
 VerdictModel ParseVerdictModel(const nlohmann::json& doc, const std::string& source);
 VerdictModel LoadVerdictModel(const std::string& path);
-const VerdictModel& DefaultVerdictModel();
+const VerdictModel& DefaultVerdictModel();  // the sparse cloud's
+const VerdictModel& DenseVerdictModel();    // the dense cloud's
+// The built-in model called `name` ("sparse": DefaultVerdictModel, "dense":
+// DenseVerdictModel), or nullptr for any other name.
+const VerdictModel* BuiltInVerdictModel(const std::string& name);
 
 }  // namespace mound::terrain

@@ -402,7 +402,8 @@ def cmd_sim_grid(args: argparse.Namespace) -> int:
         dem = str(shared) if shared.is_file() else None
     doc = grid.make_grid(args.out, args.sites, args.seed, tuple(args.size), dem,
                          args.threads, args.workers, args.remeasure, progress,
-                         pattern=args.pattern, dense=args.dense, card=args.card)
+                         pattern=args.pattern, dense=args.dense, card=args.card,
+                         flights_from=args.flights_from)
     ok = sum(1 for r in doc["rows"] if r.get("status") == "ok")
     print(f"{ok} of {doc['sites']} sites measured in {doc['wall_s']:.0f} s -> "
           f"{args.out}/grid.json")
@@ -465,8 +466,16 @@ def cmd_recon_eval_verdict(args: argparse.Namespace) -> int:
     from mound.recon import verdict_model as vm
 
     model = read_json(args.model, vm.SCHEMA, vm.VERSION)
+    dense_model = read_json(args.dense_model, vm.SCHEMA, vm.VERSION) if args.dense_model \
+        else model
     grids = [vm.load_grid(g) for g in args.grids]  # read once: merged and per grid
-    report = vm.evaluate(model, [r for rows in grids for r in rows])
+    # each grid by the model of its cloud; the merged report of the grids --model judges
+    models = [dense_model if vm.grid_cloud(g) == "dense" else model for g in args.grids]
+    merged = [r for m, rows in zip(models, grids, strict=True) if m is model for r in rows]
+    if not merged:
+        raise InputError("eval-verdict: every grid is of dense clouds: give their model as "
+                         "--model")
+    report = vm.evaluate(model, merged)
     _print_verdict_report(report)
     if args.paper:
         import tempfile
@@ -485,13 +494,16 @@ def cmd_recon_eval_verdict(args: argparse.Namespace) -> int:
     if args.figure:
         vm.figure(report, args.figure)
     if args.detection_figure:
-        panels = [(vm.grid_label(g), vm.evaluate(model, rows))
-                  for g, rows in zip(args.grids, grids, strict=True)]
+        panels = [(vm.grid_label(g), vm.evaluate(m, rows))
+                  for g, m, rows in zip(args.grids, models, grids, strict=True)]
         report["per_grid"] = [{"grid": str(g), "label": label,
+                               "model": args.model if m is model else args.dense_model,
                                "detection_limit": r["detection_limit"],
                                "goal_no_mound": r["goal_no_mound"],
-                               "goal_mounds_2m_15m": r["goal_mounds_2m_15m"]}
-                              for g, (label, r) in zip(args.grids, panels, strict=True)]
+                               "goal_mounds_2m_15m": r["goal_mounds_2m_15m"],
+                               "auc": r["auc"], "ece": r["ece"]}
+                              for g, m, (label, r) in zip(args.grids, models, panels,
+                                                          strict=True)]
         for label, r in panels:
             lim = r["detection_limit"]["limit"] or []
             print(f"  {label}: {r['goal_mounds_2m_15m']['right']}/"
@@ -701,6 +713,10 @@ def build_parser() -> argparse.ArgumentParser:
     ev = rc.add_parser("eval-verdict", help="judge a verdict model on grids of measured sites")
     ev.add_argument("grids", nargs="+")
     ev.add_argument("--model", required=True)
+    ev.add_argument("--dense-model", help="the model for the grids of dense clouds (their "
+                    "grid.json says so; default: --model), e.g. data/verdict_model_dense.json; "
+                    "the merged report is then of the other grids, each grid's own in "
+                    "per_grid with --detection-figure")
     ev.add_argument("--report", help="report (JSON)")
     ev.add_argument("--figure", help="reliability diagram and detection limit (PNG)")
     ev.add_argument("--detection-figure", help="the detection rate over height x diameter, "
@@ -743,6 +759,10 @@ def build_parser() -> argparse.ArgumentParser:
                     help="reconstruct each site as from the aircraft's photo card (JPEGs "
                     "with EXIF, the lens refined about EXIF's values) instead of the simulator's "
                     "calibration")
+    sg.add_argument("--flights-from", metavar="GRID",
+                    help="take each site's flight and reconstruction from this grid (the same "
+                    "--seed, --size, --pattern and --card): e.g. --dense on a sparse grid's "
+                    "sites without flying them again")
     sg.add_argument("--remeasure", action="store_true",
                     help="rerun only the verdicts (after a change of the detector)")
     sg.set_defaults(func=cmd_sim_grid)

@@ -180,6 +180,13 @@ def test_a_grid_of_the_full_flight_from_the_card_judged_on_its_dense_cloud(
     v = json.loads((out / "0000" / "verdict.json").read_text())
     assert v["status"] == "ok" and v["cloud"].endswith("dense/dense.ply")
     dense_points = v["measurements"]["cells_with_points"]
+    # densified as the survey densifies its sites (the verdict's dense model is learned so)
+    from mound.survey.options import SurveyOptions
+    from mound.survey.site_work import DENSE_RESOLUTION_M
+
+    opts = json.loads((out / "0000" / "dense" / "dense.json").read_text())["options"]
+    assert opts["max_image_size"] == SurveyOptions().dense_size
+    assert opts["resolution_m"] == DENSE_RESOLUTION_M
     stamp = (out / "0000" / "dense" / "dense.ply").stat().st_mtime_ns
     assert main(["sim", "grid", "--out", str(out), "--sites", "1", "--seed", "7",
                  "--pattern", "both", "--dense", "--card", "--remeasure", "--workers",
@@ -189,3 +196,34 @@ def test_a_grid_of_the_full_flight_from_the_card_judged_on_its_dense_cloud(
     assert again["measurements"]["cells_with_points"] == dense_points
     assert (out / "0000" / "dense" / "dense.ply").stat().st_mtime_ns == stamp
     assert "densify" in again["grid_times_s"] and "reconstruct" in again["grid_times_s"]
+
+
+@pytest.mark.slow
+def test_a_dense_grid_from_a_sparse_grids_flights(
+        tmp_path: Path, mound_recon: Path, mound_render: Path,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """`mound sim grid --dense --flights-from GRID`: the sites of a sparse grid densified and
+    judged on their dense clouds without flying or reconstructing them again; a grid of
+    other draws is refused naming the field."""
+    import json
+
+    from mound.cli import main
+
+    sparse, dense = tmp_path / "s", tmp_path / "d"
+    common = ["--sites", "1", "--workers", "1", "--threads", "2"]
+    assert main(["sim", "grid", "--out", str(sparse), "--seed", "5", *common]) == 0
+    capsys.readouterr()
+    assert main(["sim", "grid", "--out", str(dense), "--seed", "6", *common, "--dense",
+                 "--flights-from", str(sparse)]) == 2  # other draws
+    err = capsys.readouterr().err
+    assert "--flights-from" in err and "seed is 5" in err and err.count("\n") == 1, err
+    assert not dense.exists()
+    assert main(["sim", "grid", "--out", str(dense), "--seed", "5", *common, "--dense",
+                 "--flights-from", str(sparse)]) == 0
+    assert (dense / "0000" / "recon").is_symlink()
+    assert (dense / "0000" / "recon").resolve() == (sparse / "0000" / "recon").resolve()
+    v = json.loads((dense / "0000" / "verdict.json").read_text())
+    assert v["status"] == "ok" and v["cloud"].endswith("dense/dense.ply")
+    assert v["model"]["trained"]["cloud"] == "dense"
+    assert set(v["grid_times_s"]) == {"densify", "verdict"}  # nothing flown again
+    assert json.loads((dense / "grid.json").read_text())["cloud"] == "dense"

@@ -173,6 +173,9 @@ def test_every_artefact_of_the_run(survey: dict[str, Any]) -> None:
         assert row["verdict_p_mound"] == verdict["p_mound"]
         assert (row["verdict_p_mound"] >= verdict["model"]["threshold"]) == (
             row["verdict"] == "mound")
+        # judged on the site's dense cloud, by the model learned on dense clouds
+        assert row["verdict_cloud"] == "dense" and verdict["cloud"].endswith("dense/dense.ply")
+        assert verdict["model"]["trained"]["cloud"] == "dense"
         for key in ("thumbnails", "cloud", "relief", "terrain"):
             assert (out / row["files"][key]).is_file()
         # The dense cloud and the site's GeoTIFFs from it: UTM zone 35 north at Bin Tepe,
@@ -500,6 +503,9 @@ def test_the_photo_card_gives_the_same_verdicts(survey: dict[str, Any], tmp_path
         v = json.loads((run / "sites" / x["id"] / "recon" / "verdict.json").read_text())
         assert abs(v["measurements"]["ground_sag_m"]) < 0.3, x["id"]
         assert x["verdict"] == first[x["id"]]["verdict"], x["id"]
+        # no dense cloud (--dense-size 0): the sparse cloud, by the sparse cloud's model
+        assert x["verdict_cloud"] == "sparse" and v["cloud"].endswith("recon/points.ply")
+        assert v["model"]["trained"]["cloud"] == "sparse"
     truth = json.loads((tmp_path / "truth.json").read_text())
     card_doc = json.loads((run / "photos" / "photos.json").read_text())
     assert {f["file"]: (f["site"], f["reason"]) for f in truth["files"]} == {

@@ -72,6 +72,8 @@ def test_reference_free_verdicts(tumulus: tuple[Path, Path], flat: tuple[Path, P
 
 DEFAULT_MODEL = json.loads((Path(__file__).resolve().parents[2] / "data" /
                             "verdict_model.json").read_text())
+DENSE_MODEL = json.loads((Path(__file__).resolve().parents[2] / "data" /
+                          "verdict_model_dense.json").read_text())
 
 
 @pytest.mark.slow
@@ -87,6 +89,20 @@ def test_the_verdict_model_file_round_trips(tumulus: tuple[Path, Path], tmp_path
     default = json.loads((tmp_path / "d.json").read_text())
     row = {"rises": default["measurements"]["judged_rises"], "measured": True}
     assert default["p_mound"] == pytest.approx(probability(DEFAULT_MODEL, [row])[0], abs=1e-12)
+    assert default["model"]["file"].startswith("built-in sparse")
+    # another cloud (--cloud: densify's) is judged by the dense model unless --model says
+    # otherwise; the same cloud gives the same rises, so the p differ by the model alone
+    cloud = ["--cloud", str(recon / "points.ply")]
+    r = run_recon(["verdict", str(recon), "--out", str(tmp_path / "dd.json"), *cloud])
+    assert r.returncode == 0, r.stderr
+    dense = json.loads((tmp_path / "dd.json").read_text())
+    assert dense["model"]["file"].startswith("built-in dense")
+    assert dense["model"]["threshold"] == DENSE_MODEL["threshold"]
+    assert dense["p_mound"] == pytest.approx(probability(DENSE_MODEL, [row])[0], abs=1e-12)
+    r = run_recon(["verdict", str(recon), "--out", str(tmp_path / "ds.json"), *cloud,
+                   "--model", "sparse"])
+    assert r.returncode == 0, r.stderr
+    assert json.loads((tmp_path / "ds.json").read_text())["p_mound"] == default["p_mound"]
     changed = json.loads(json.dumps(DEFAULT_MODEL))
     changed["weights"][0] += 0.5
     changed["bias"] -= 0.25

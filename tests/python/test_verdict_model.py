@@ -1,6 +1,7 @@
 """The verdict model (issue 26): training recovers a known logistic model and its
 probabilities are calibrated; the held-out report counts what it says; and each tumulus
-shape and confuser class, flown and reconstructed, is decided right by the shipped model."""
+shape and confuser class, flown and reconstructed, is decided right by the shipped models
+(the sparse cloud's and the dense cloud's)."""
 
 from __future__ import annotations
 
@@ -111,8 +112,13 @@ def test_training_refuses_too_little_or_one_class() -> None:
 
 # -- the real pipeline: sim site -> mound_recon reconstruct -> verdict (shipped model) -----
 
-def _case(tmp: Path, spec: terrain.TerrainSpec, seed: int) -> dict[str, Any]:
+def _case(tmp: Path, spec: terrain.TerrainSpec, seed: int,
+          dense: bool = False) -> dict[str, Any]:
+    """The site flown, reconstructed and judged on its sparse cloud by the sparse model;
+    with `dense` also densified as the survey densifies (mound.sim.grid.DENSIFY_ARGS) and
+    judged on that cloud by the dense model (verdict_dense.json)."""
     from mound import native
+    from mound.sim.grid import DENSIFY_ARGS
 
     site = sim.SimSpec(terrain=spec, width_px=320, height_px=240, pattern="raster",
                        scan_diameter_m=60.0, seed=seed, texel_m=0.1)
@@ -123,6 +129,12 @@ def _case(tmp: Path, spec: terrain.TerrainSpec, seed: int) -> dict[str, Any]:
                                     "--gps", str(s / "poses.json"), "--threads", "2"])
     native.run_tool("mound_recon", ["verdict", str(tmp / "recon"), "--out",
                                     str(tmp / "verdict.json")])
+    if dense:
+        native.run_tool("mound_recon", ["densify", str(tmp / "recon"), "--out",
+                                        str(tmp / "dense"), "--threads", "2", *DENSIFY_ARGS])
+        native.run_tool("mound_recon", ["verdict", str(tmp / "recon"), "--cloud",
+                                        str(tmp / "dense" / "dense.ply"), "--out",
+                                        str(tmp / "verdict_dense.json")])
     return json.loads((tmp / "verdict.json").read_text())
 
 
@@ -159,10 +171,14 @@ CASES = {
 def test_each_shape_and_confuser_is_decided_right(name: str, tmp_path: Path,
                                                   mound_recon: Path, mound_render: Path) -> None:
     spec = CASES[name]
-    v = _case(tmp_path, spec, seed=11)
+    v = _case(tmp_path, spec, seed=11, dense=True)
     assert v["status"] == "ok", v.get("reason")
     want = "mound" if spec.mound else "no_mound"
     assert v["label"] == want, (name, v["p_mound"], v["reason"])
+    # the survey's own verdict: the dense cloud, by the model learned on dense clouds
+    d = json.loads((tmp_path / "verdict_dense.json").read_text())
+    assert d["status"] == "ok" and d["model"]["trained"]["cloud"] == "dense"
+    assert d["label"] == want, (name, d["p_mound"], d["reason"])
 
 
 @pytest.mark.slow

@@ -216,13 +216,15 @@ def train(rows: list[dict[str, Any]], names: list[str], sources: list[str],
         thr = round(thr + 0.01, 2)
     n_nr = len(no_rise)
     m_nr = sum(1 for r in no_rise if r["truth"]["mound"])
+    clouds = sorted({grid_cloud(g) for g in sources})
     return {
         "schema": SCHEMA, "version": VERSION, "features": names,
         "mean": mean.tolist(), "std": std.tolist(), "basis": basis,
         **({"z_clip": z_clip} if z_clip is not None else {}),
         "weights": (a * w[:-1]).tolist(), "bias": float(a * w[-1] + b),
         "threshold": thr, "p_no_rise": (m_nr + 1) / (n_nr + 2),
-        "trained": {"grids": sources, "sites": len(measured), "with_rise": len(sites),
+        "trained": {"grids": sources, "cloud": clouds[0] if len(clouds) == 1 else "mixed",
+                    "sites": len(measured), "with_rise": len(sites),
                     "rises": len(x_all), "fitted_rises": len(x),
                     "mound_rises": int(y_rise.sum()),
                     "mounds": int(y_site.sum()), "no_rise": n_nr, "no_rise_mounds": m_nr,
@@ -468,6 +470,14 @@ def figure(report: dict[str, Any], out: str | Path) -> None:
     plt.close(fig)
 
 
+def grid_cloud(folder: str | Path) -> str:
+    """The cloud a grid's verdicts judged (`sparse` or `dense`), from its grid.json."""
+    try:
+        return str(json.loads((Path(folder) / "grid.json").read_text()).get("cloud", "sparse"))
+    except (OSError, json.JSONDecodeError):
+        return "sparse"
+
+
 def grid_label(folder: str | Path) -> str:
     """How a grid was flown and which cloud was judged, from its grid.json."""
     try:
@@ -479,7 +489,7 @@ def grid_label(folder: str | Path) -> str:
     what = "full flight (raster + orbit)" if flight.get("pattern") == "both" else \
         "survey flight (raster)"
     camera = ", photo card (EXIF, lens held by a prior)" if doc.get("camera") == "exif" else ""
-    return f"{what}, {doc.get('cloud', 'sparse')} cloud{camera}, {w} x {h}"
+    return f"{what}, {doc.get('cloud', 'sparse')} cloud{camera}, {w} x {h}, seed {doc.get('seed')}"
 
 
 def detection_figure(panels: list[tuple[str, dict[str, Any]]], out: str | Path) -> None:
@@ -491,8 +501,12 @@ def detection_figure(panels: list[tuple[str, dict[str, Any]]], out: str | Path) 
     import matplotlib.pyplot as plt
 
     nh, nd = len(HEIGHT_BINS) - 1, len(DIAMETER_BINS) - 1
-    fig, axes = plt.subplots(1, len(panels), figsize=(5.2 * len(panels), 4.6), squeeze=False)
-    for ax, (label, rep) in zip(axes[0], panels, strict=True):
+    cols = min(3, len(panels))
+    rows = -(-len(panels) // cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(5.2 * cols, 4.6 * rows), squeeze=False)
+    for ax in axes.flat[len(panels):]:
+        ax.axis("off")
+    for ax, (label, rep) in zip(axes.flat, panels, strict=False):
         rate = np.full((nh, nd), np.nan)
         for k, c in enumerate(rep["detection_limit"]["table"]):
             if c["mounds"]:

@@ -31,6 +31,10 @@ The draws (half of the sites carry a tumulus):
   photo card's (JPEGs with EXIF GPS and focal length; `reconstruct --gps exif` levels the
   model by the images and refines f, k1, k2 about EXIF's values, as the survey's
   `--photos` does).
+
+`flights_from=GRID` takes each site's flight and reconstruction from another grid of the
+same seed, flight and camera (links to its NNNN/sim and NNNN/recon; nothing is flown or
+reconstructed anew): the dense clouds of a sparse grid's sites, in minutes.
 """
 
 from __future__ import annotations
@@ -54,6 +58,9 @@ from mound.sim.appearance import Lighting
 SCHEMA = "mound.verdict_grid"
 VERSION = 1
 SCAN_M = 60.0
+# the survey's densify (mound.survey: options.dense_size, site_work.DENSE_RESOLUTION_M):
+# depth maps 320 px on their longer side, points merged on 0.25 m voxels
+DENSIFY_ARGS = ("--max-image-size", "320", "--resolution-m", "0.25")
 REPOSE_DEG = 35.0  # the steepest flank loose earth stands at (angle of repose, 30-35 deg)
 
 
@@ -215,7 +222,7 @@ def _site(out: Path, spec: sim.SimSpec, threads: int, remeasure: bool,
                 try:
                     native.run_tool("mound_recon", [
                         "densify", str(recon), "--out", str(out / "dense"), "--threads",
-                        str(threads)], 1800, log=out / "log.txt")
+                        str(threads), *DENSIFY_ARGS], 1800, log=out / "log.txt")
                 except ToolNoResultError:
                     pass  # no dense cloud: the verdict then says status failed
                 times["densify"] = time.perf_counter() - t
@@ -239,14 +246,24 @@ def _site(out: Path, spec: sim.SimSpec, threads: int, remeasure: bool,
 def make_grid(out: str | Path, sites: int, seed: int, size: tuple[int, int] = (640, 480),
               dem: str | None = None, threads: int = 1, workers: int = 1,
               remeasure: bool = False, progress: Any = None, pattern: str = "raster",
-              dense: bool = False, card: bool = False) -> dict[str, Any]:
+              dense: bool = False, card: bool = False,
+              flights_from: str | Path | None = None) -> dict[str, Any]:
     """Draws and runs the grid (see the module text); returns grid.json's document."""
     if not 1 <= sites <= 100_000:
         raise InputError("--sites: must be 1 .. 100,000")
     if dem is not None and not Path(dem).is_file():
         raise InputError(f"--dem: no file {dem}")
     root = Path(out)
+    if flights_from is not None:
+        _check_flights_from(Path(flights_from), root, sites, seed, size, pattern, card, dem)
     root.mkdir(parents=True, exist_ok=True)
+    if flights_from is not None:
+        for k in range(sites):
+            site, src = root / f"{k:04d}", Path(flights_from).resolve() / f"{k:04d}"
+            site.mkdir(exist_ok=True)
+            for part in ("sim", "recon"):
+                if not (site / part).exists():
+                    (site / part).symlink_to(src / part, target_is_directory=True)
     rng = np.random.default_rng([seed, 2026])
     specs = [draw(rng, 100_000 * seed + k, dem, size, pattern=pattern) for k in range(sites)]
     start = time.perf_counter()
@@ -269,10 +286,37 @@ def make_grid(out: str | Path, sites: int, seed: int, size: tuple[int, int] = (6
            "flight": {"pattern": pattern, "scan_m": SCAN_M, "image_size": list(size)},
            "cloud": "dense" if dense else "sparse",
            "camera": "exif" if card else "calibrated",
-           "dem": dem, "wall_s": time.perf_counter() - start,
+           "dem": dem, **({"flights_from": str(flights_from)} if flights_from else {}),
+           "wall_s": time.perf_counter() - start,
            "rows": [{**r, "spec": _spec_doc(s)} for r, s in zip(rows, specs, strict=True)]}
     write_json(root / "grid.json", doc)
     return doc
+
+
+def _check_flights_from(src: Path, out: Path, sites: int, seed: int, size: tuple[int, int],
+                        pattern: str, card: bool, dem: str | None) -> None:
+    """InputError (naming --flights-from and the field) unless src is a finished grid of the
+    same draws (seed, DEM), flight and camera with at least `sites` sites, and not the grid
+    itself."""
+    try:
+        doc = json.loads((src / "grid.json").read_text())
+    except (OSError, json.JSONDecodeError):
+        raise InputError(f"--flights-from: {src}/grid.json: no finished grid there") from None
+    if src.resolve() == out.resolve():
+        raise InputError("--flights-from: the grid itself")
+    flight = doc.get("flight") or {}
+    want = {"seed": seed, "flight.pattern": pattern, "flight.image_size": list(size),
+            "camera": "exif" if card else "calibrated", "dem": dem}
+    have = {"seed": doc.get("seed"), "flight.pattern": flight.get("pattern"),
+            "flight.image_size": flight.get("image_size"), "camera": doc.get("camera"),
+            "dem": doc.get("dem")}
+    for key, value in want.items():
+        if have[key] != value:
+            raise InputError(f"--flights-from: {src}/grid.json: {key} is {have[key]!r}, this "
+                             f"grid's is {value!r}")
+    if not isinstance(doc.get("sites"), int) or doc["sites"] < sites:
+        raise InputError(f"--flights-from: {src}/grid.json: sites is {doc.get('sites')!r}, "
+                         f"fewer than {sites}")
 
 
 def _spec_doc(spec: sim.SimSpec) -> dict[str, Any]:

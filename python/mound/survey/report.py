@@ -56,8 +56,8 @@ def site_rows(tree: RunTree, sites_doc: dict[str, Any], plan: dict[str, Any] | N
                 row["verdict"] = result["verdict"]
                 row["final_label"] = result["verdict"]
                 row["label_source"] = "3-D verdict"
-                for k in ("confidence", "verdict_p_mound", "coverage", "method", "reason",
-                          "rise", "distance_m"):
+                for k in ("confidence", "verdict_p_mound", "verdict_cloud", "coverage",
+                          "method", "reason", "rise", "distance_m"):
                     if k in result:
                         row[k] = result[k]
             else:
@@ -208,6 +208,9 @@ def _site_card(r: dict[str, Any]) -> str:
     else:
         prob = (f'p(mound) {_fmt(r["verdict_p_mound"])}, calibrated'
                 if "verdict_p_mound" in r else f'confidence {_fmt(r.get("confidence"))}')
+        if r.get("verdict_cloud"):
+            prob += f', judged on the {e(str(r["verdict_cloud"]))} cloud'
+
         parts.append(f'<p>{e(str(r.get("reason", "")))} ({prob}, method '
                      f'{e(str(r.get("method", "")))})</p>')
         cov = r.get("coverage")

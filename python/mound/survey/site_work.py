@@ -1,5 +1,7 @@
 """The 3-D work of one visited site, as one task: images (simulated, or the UAV's photos),
-`mound_recon reconstruct`, `mound_recon verdict`, the site's pictures for the report.
+`mound_recon reconstruct`, `mound_recon densify`, `mound_recon verdict` (on the dense
+cloud with the dense cloud's model when there is one, else on the sparse cloud), the
+site's GeoTIFFs and pictures for the report.
 
 `process_site(job)` runs on a Dask worker (or in the driver's process); it never raises
 for a failing site: the row it returns (and writes to DIR/sites/<id>/site_result.json,
@@ -160,16 +162,27 @@ def _process_site(job: SiteJob) -> dict[str, Any]:
             timings["reconstruct"] = time.perf_counter() - t0
             if (t.recon / "recon.json").is_file():
                 row["recon"] = _recon_summary(t.recon)
+        stage = "densify"
+        dense = _densify(job, row)
         stage = "verdict"
+        # The reference-free verdict judges the dense cloud when there is one (mound_recon
+        # then scores it with the model learned on dense clouds); the paper's test
+        # (--reference) the sparse cloud, as it always has.
+        judged = dense if dense is not None and not job.verdict_args else None
         t0 = time.perf_counter()
-        native.run_tool("mound_recon", ["verdict", str(t.recon), "--out", str(t.verdict),
-                                        *job.verdict_args], job.timeout_s, log=t.log)
+        native.run_tool("mound_recon", [
+            "verdict", str(t.recon), "--out", str(t.verdict), *job.verdict_args,
+            *(["--cloud", str(judged)] if judged is not None else [])],
+            job.timeout_s, log=t.log)
         timings["verdict"] = time.perf_counter() - t0
         row.update(_verdict_summary(read_json(t.verdict, "mound.verdict", 1)))
+        row["verdict_cloud"] = "sparse" if judged is None else "dense"
         row["status"] = "ok"
         row["files"] = {"images": _rel(images, root), "recon": _rel(t.recon, root),
                         "verdict": _rel(t.verdict, root)}
-        _rasters(job, row)
+        if dense is not None:
+            row["files"]["dense"] = _rel(t.dense, root)
+        _rasters(job, row, dense)
     except (InputError, NoResultError) as e:
         # The site's input allowed no result: the same input will fail the same way.
         row.update(reason=f"{stage}: {_reason(e, t)}", retry=False)
@@ -189,29 +202,37 @@ def _process_site(job: SiteJob) -> dict[str, Any]:
     return row
 
 
-def _rasters(job: SiteJob, row: dict[str, Any]) -> None:
-    """The dense cloud (mound_recon densify, when job.dense_args) and the DSM, DTM, relief
-    model, hillshade and orthophoto GeoTIFFs of a metric model in sites/ID/rasters/
-    (mound.recon.rasters, which refuses a model without a metric ENU frame): from the dense
-    cloud at DENSE_CELL_M, else from the sparse one at RASTER_CELL_M. The verdict stands
-    without them; the row says why they are missing."""
+def _densify(job: SiteJob, row: dict[str, Any]) -> Path | None:
+    """The dense cloud (mound_recon densify, when job.dense_args), or None: not asked for,
+    or densify failed (row["dense_error"] says why; the verdict and the GeoTIFFs then use
+    the sparse cloud)."""
+    if not job.dense_args:
+        return None
+    t = job.tree
+    t0 = time.perf_counter()
+    cloud = None
+    try:
+        native.run_tool("mound_recon", ["densify", str(t.recon), "--out", str(t.dense),
+                                        "--threads", str(job.threads), *job.dense_args],
+                        job.timeout_s, log=t.log)
+        doc = read_json(t.dense / "dense.json", "mound.dense", 1)
+        row["dense"] = {"points": doc["points"], "options": doc["options"]}
+        cloud = t.dense / "dense.ply"
+    except (InputError, NoResultError, ToolError, ToolTimeout, OSError) as e:
+        row["dense_error"] = _reason(e, t)
+    row["timings_s"]["densify"] = time.perf_counter() - t0
+    return cloud
+
+
+def _rasters(job: SiteJob, row: dict[str, Any], dense: Path | None) -> None:
+    """The DSM, DTM, relief model, hillshade and orthophoto GeoTIFFs of a metric model in
+    sites/ID/rasters/ (mound.recon.rasters, which refuses a model without a metric ENU
+    frame): from the dense cloud at DENSE_CELL_M, else from the sparse one at
+    RASTER_CELL_M. The verdict stands without them; the row says why they are missing."""
     from mound.recon import rasters
 
     t = job.tree
-    cloud, cell = None, RASTER_CELL_M
-    if job.dense_args:
-        t0 = time.perf_counter()
-        try:
-            native.run_tool("mound_recon", ["densify", str(t.recon), "--out", str(t.dense),
-                                            "--threads", str(job.threads), *job.dense_args],
-                            job.timeout_s, log=t.log)
-            doc = read_json(t.dense / "dense.json", "mound.dense", 1)
-            row["dense"] = {"points": doc["points"], "options": doc["options"]}
-            row["files"]["dense"] = _rel(t.dense, Path(job.run_root))
-            cloud, cell = t.dense / "dense.ply", DENSE_CELL_M
-        except (InputError, NoResultError, ToolError, ToolTimeout, OSError) as e:
-            row["dense_error"] = _reason(e, t)
-        row["timings_s"]["densify"] = time.perf_counter() - t0
+    cloud, cell = (dense, DENSE_CELL_M) if dense is not None else (None, RASTER_CELL_M)
     t0 = time.perf_counter()
     try:
         doc = rasters.from_recon(t.recon, t.rasters, resolution_m=cell, cloud=cloud)
