@@ -30,6 +30,7 @@
 #include <array>
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "geometry/camera_model.h"
@@ -89,6 +90,14 @@ struct DenseCloud {
   std::vector<int> support;            // fused pixels merged into the point
   std::vector<int> consistent_pixels;  // per image, pixels that passed the consistency check
 };
+
+// The heights an image's planes sweep, from the heights of the sparse points it sees
+// (>= 1): their 1st to 99th percentile, widened through every point that continues the
+// points beyond it without a gap wider than half that span (a mound's top, a pit's
+// floor: a few points, but each near the next), not to a stray point beyond such a gap;
+// then padded by a tenth of the span, or by `min_pad` when that is more. The percentiles
+// alone cut a tumulus's top out of the sweep: its few points lie above the 99th.
+std::pair<double, double> SweptHeightRange(std::vector<double> heights, double min_pad);
 
 // The source views of every image (`count` per image, best first) by the view score.
 std::vector<std::vector<int>> SelectSourceViews(const DenseInput& in, int count);

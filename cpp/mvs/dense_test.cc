@@ -90,6 +90,26 @@ double Percentile(std::vector<double> v, double q) {
   return v[static_cast<size_t>(q * (v.size() - 1))];
 }
 
+TEST(Dense, TheSweepReachesAMoundsTopButNotAStrayPoint) {
+  // 2,000 points of undulating ground (+-0.5 m), a 5 m cone's 15 points continuing them up
+  // to its top, two stray points 40 m up and one 30 m down
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> ground(-0.5, 0.5);
+  std::vector<double> h;
+  for (int i = 0; i < 2000; ++i) h.push_back(ground(rng));
+  for (int i = 1; i <= 15; ++i) h.push_back(0.5 + 4.5 * i / 15.0);
+  h.insert(h.end(), {40.0, 41.0, -30.0});
+  const auto [lo, hi] = SweptHeightRange(h, 0.3);
+  EXPECT_GE(hi, 5.0);  // the top, padded
+  EXPECT_LT(hi, 6.0);  // not the strays
+  EXPECT_GT(lo, -1.0);
+  EXPECT_LT(lo, -0.5);
+  // without the cone: the percentiles' span, padded by min_pad (more than a tenth of it)
+  std::vector<double> flat(h.begin(), h.begin() + 2000);
+  const auto [flo, fhi] = SweptHeightRange(flat, 0.3);
+  EXPECT_NEAR(fhi - flo, 0.98 + 0.6, 0.03);
+}
+
 TEST(Dense, SourceViewsAreTheOverlappingNeighbours) {
   const Site& s = RenderedSite();
   const auto sources = SelectSourceViews(s.input, 4);

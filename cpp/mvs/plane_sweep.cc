@@ -105,6 +105,25 @@ std::vector<std::vector<int>> SelectSourceViews(const DenseInput& in, int count)
   return out;
 }
 
+std::pair<double, double> SweptHeightRange(std::vector<double> heights, double min_pad) {
+  std::sort(heights.begin(), heights.end());
+  const double lo0 = Quantile(heights, 0.01), hi0 = Quantile(heights, 0.99);
+  const double gap = 0.5 * (hi0 - lo0);
+  double lo = lo0, hi = hi0;
+  for (const double h : heights) {  // upwards from the 99th percentile, while continuous
+    if (h <= hi) continue;
+    if (h - hi > gap) break;
+    hi = h;
+  }
+  for (auto it = heights.rbegin(); it != heights.rend(); ++it) {  // downwards likewise
+    if (*it >= lo) continue;
+    if (lo - *it > gap) break;
+    lo = *it;
+  }
+  const double pad = std::max(0.1 * (hi0 - lo0), min_pad);
+  return {lo - pad, hi + pad};
+}
+
 namespace {
 
 DepthMap Sweep(const DenseInput& in, int ref, const std::vector<int>& sources,
@@ -142,10 +161,9 @@ DepthMap Sweep(const DenseInput& in, int ref, const std::vector<int>& sources,
     m.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     return m;
   }
-  const double lo0 = Quantile(heights, 0.01), hi0 = Quantile(heights, 0.99);
   const Eigen::Vector3d Cr = Tr.Centre();
-  const double pad = std::max(0.1 * (hi0 - lo0), 0.01 * std::fabs(up.dot(Cr) - 0.5 * (lo0 + hi0)));
-  const double lo = lo0 - pad, hi = hi0 + pad;
+  const double mid = 0.5 * (Quantile(heights, 0.01) + Quantile(heights, 0.99));
+  const auto [lo, hi] = SweptHeightRange(heights, 0.01 * std::fabs(up.dot(Cr) - mid));
 
   std::vector<std::shared_ptr<const ScaledImage>> S;
   std::vector<geometry::Rigid3d> rel;  // source_from_ref

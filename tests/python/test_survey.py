@@ -639,3 +639,35 @@ def test_two_flights_over_the_dem(tmp_path: Path) -> None:
                for f in m)
     html = (out / "report.html").read_text()
     assert "mission map, flight 2" in html and "transit legs over the DEM, flight 1" in html
+
+
+@pytest.mark.slow
+def test_a_dense_cloud_that_allows_no_verdict_leaves_it_to_the_sparse_one(
+        tmp_path: Path, mound_recon: Path, mound_render: Path) -> None:
+    """A site's work judges its dense cloud; when that cloud allows no verdict (here
+    densify's voxels 50 m wide leave a handful of points), the sparse cloud is judged and
+    the row says why the dense one was not."""
+    from mound.sim import site as sim
+    from mound.sim import terrain
+    from mound.survey.site_work import SiteJob, process_site
+
+    spec = sim.SimSpec(terrain=terrain.preset("bin_tepe", resolution_m=0.5, diameter_m=30.0,
+                                              height_m=4.0),
+                       width_px=320, height_px=240, pattern="raster", scan_diameter_m=60.0,
+                       seed=3, texel_m=0.1)
+    sim.simulate(spec, tmp_path / "sim", threads=2)
+    photos = tmp_path / "sim" / "images"  # the photos, with their camera and poses
+    for name in ("camera.json", "poses.json"):
+        shutil.copy(tmp_path / "sim" / name, photos / name)
+    job = SiteJob(site={"id": "s1", "x_m": 0.0, "y_m": 0.0}, index=0,
+                  run_root=str(tmp_path / "run"), origin={"lat": 38.57, "lon": 27.99,
+                                                          "alt_m": 95.0},
+                  key="k", images_dir=str(photos), threads=2, figures=False,
+                  dense_args=("--max-image-size", "320", "--resolution-m", "50"))
+    row = process_site(job)
+    assert row["status"] == "ok", row.get("reason")
+    assert row["dense"]["points"] < 100
+    assert row["verdict_cloud"] == "sparse" and "points" in row["dense_verdict_error"]
+    assert row["verdict"] == "mound", row["reason"]
+    v = json.loads((tmp_path / "run" / "sites" / "s1" / "recon" / "verdict.json").read_text())
+    assert v["cloud"].endswith("recon/points.ply") and v["model"]["trained"]["cloud"] == "sparse"

@@ -1,7 +1,7 @@
 """The 3-D work of one visited site, as one task: images (simulated, or the UAV's photos),
 `mound_recon reconstruct`, `mound_recon densify`, `mound_recon verdict` (on the dense
-cloud with the dense cloud's model when there is one, else on the sparse cloud), the
-site's GeoTIFFs and pictures for the report.
+cloud with the dense cloud's model when there is one and it allows a verdict, else on the
+sparse cloud), the site's GeoTIFFs and pictures for the report.
 
 `process_site(job)` runs on a Dask worker (or in the driver's process); it never raises
 for a failing site: the row it returns (and writes to DIR/sites/<id>/site_result.json,
@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from mound import native
-from mound.errors import InputError, NoResultError, ToolError, ToolTimeout
+from mound.errors import InputError, NoResultError, ToolError, ToolNoResultError, ToolTimeout
 from mound.jsonio import read_json, write_json
 from mound.photos.sort import MIN_PHOTOS
 from mound.survey.tree import SiteTree
@@ -170,10 +170,17 @@ def _process_site(job: SiteJob) -> dict[str, Any]:
         # (--reference) the sparse cloud, as it always has.
         judged = dense if dense is not None and not job.verdict_args else None
         t0 = time.perf_counter()
-        native.run_tool("mound_recon", [
-            "verdict", str(t.recon), "--out", str(t.verdict), *job.verdict_args,
-            *(["--cloud", str(judged)] if judged is not None else [])],
-            job.timeout_s, log=t.log)
+        if judged is not None:
+            try:
+                native.run_tool("mound_recon", ["verdict", str(t.recon), "--out",
+                                                str(t.verdict), "--cloud", str(judged)],
+                                job.timeout_s, log=t.log)
+            except ToolNoResultError as e:  # e.g. too few dense points on the site
+                row["dense_verdict_error"] = _reason(e, t)
+                judged = None
+        if judged is None:
+            native.run_tool("mound_recon", ["verdict", str(t.recon), "--out", str(t.verdict),
+                                            *job.verdict_args], job.timeout_s, log=t.log)
         timings["verdict"] = time.perf_counter() - t0
         row.update(_verdict_summary(read_json(t.verdict, "mound.verdict", 1)))
         row["verdict_cloud"] = "sparse" if judged is None else "dense"
