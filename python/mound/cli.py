@@ -386,6 +386,7 @@ def terrain_confusers() -> tuple[str, ...]:
 
 
 def cmd_sim_grid(args: argparse.Namespace) -> int:
+    from mound.paths import shared_data_dir
     from mound.sim import grid
 
     if args.workers < 1 or args.threads < 1:
@@ -396,10 +397,17 @@ def cmd_sim_grid(args: argparse.Namespace) -> int:
         print(f"{row['dir']}: {row['truth']['kind']:<9} {row.get('status')} "
               f"({sum(t.values()):.1f} s)", flush=True)
 
-    dem = args.dem
-    if dem is None:
-        shared = datasets.cache_dir() / "dem" / "TM1_564_146.tif"
-        dem = str(shared) if shared.is_file() else None
+    dem = None if args.dem == "none" else args.dem
+    if args.dem is None:
+        # A quarter of the draws are terrain patches of the DEM: without it the same seed
+        # would draw another grid, so a missing default is an error, not a quiet change.
+        here = [p / "dem" / grid.DEFAULT_DEM for p in (datasets.cache_dir(), shared_data_dir())]
+        found = [p for p in here if p.is_file()]
+        if not found:
+            raise InputError(f"--dem: no DEM at {here[0]} nor {here[1]}: pass --dem FILE "
+                             f"(the 1 m laser DEM, {grid.DEFAULT_DEM}), or --dem none to "
+                             "draw the grid without terrain patches (another grid)")
+        dem = str(found[0])
     doc = grid.make_grid(args.out, args.sites, args.seed, tuple(args.size), dem,
                          args.threads, args.workers, args.remeasure, progress,
                          pattern=args.pattern, dense=args.dense, card=args.card,
@@ -746,8 +754,9 @@ def build_parser() -> argparse.ArgumentParser:
     sg.add_argument("--seed", type=int, default=1, help="another seed: another grid")
     sg.add_argument("--size", type=int, nargs=2, default=(320, 240), metavar=("W", "H"),
                     help="image size (small: the grid runs in minutes)")
-    sg.add_argument("--dem", help="a DEM for real terrain patches (default: the shared 1 m "
-                    "laser DEM when present)")
+    sg.add_argument("--dem", help="a DEM for real terrain patches (default: the 1 m laser "
+                    "DEM in $MOUND_DATA/dem or ../shared/data/dem, an error when neither "
+                    "holds it); none: no terrain patches (other draws)")
     sg.add_argument("--workers", type=int, default=2, help="sites at once")
     sg.add_argument("--threads", type=int, default=1, help="threads per site")
     sg.add_argument("--pattern", choices=("raster", "both"), default="raster",

@@ -150,6 +150,29 @@ def test_the_highest_tumulus_drawn_has_flanks_at_the_angle_of_repose(profile: st
     assert abs(float(slope.max()) - grid.REPOSE_DEG) < 0.3, (profile, float(slope.max()))
 
 
+def test_a_grid_without_its_dem_is_refused_not_drawn_otherwise(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str],
+        mound_recon: Path, mound_render: Path) -> None:
+    """A quarter of a grid's draws are patches of the laser DEM: where the default DEM is
+    in neither data folder, `mound sim grid` exits 2 naming --dem (before, the same seed
+    quietly drew another grid without terrain patches) and makes no grid; `--dem none`
+    draws that other grid on purpose, and grid.json says it has no DEM."""
+    import json
+
+    from mound.cli import main
+
+    monkeypatch.setenv("MOUND_DATA", str(tmp_path / "cache"))
+    monkeypatch.setenv("MOUND_SHARED_DATA", str(tmp_path / "shared"))
+    out = tmp_path / "g"
+    assert main(["sim", "grid", "--out", str(out), "--sites", "1", "--seed", "7"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--dem" in err and "--dem none" in err, err
+    assert not out.exists()
+    assert main(["sim", "grid", "--out", str(out), "--sites", "1", "--seed", "7", "--dem",
+                 "none", "--workers", "1", "--threads", "2"]) == 0
+    assert json.loads((out / "grid.json").read_text())["dem"] is None
+
+
 @pytest.mark.slow
 def test_a_grid_of_the_full_flight_from_the_card_judged_on_its_dense_cloud(
         tmp_path: Path, mound_recon: Path, mound_render: Path) -> None:

@@ -61,6 +61,7 @@ SCAN_M = 60.0
 # the survey's densify (mound.survey: options.dense_size, site_work.DENSE_RESOLUTION_M):
 # depth maps 320 px on their longer side, points merged on 0.25 m voxels
 DENSIFY_ARGS = ("--max-image-size", "320", "--resolution-m", "0.25")
+DEFAULT_DEM = "TM1_564_146.tif"  # the 1 m airborne-laser DEM (../shared/data/dem)
 REPOSE_DEG = 35.0  # the steepest flank loose earth stands at (angle of repose, 30-35 deg)
 
 
