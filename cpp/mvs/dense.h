@@ -95,9 +95,10 @@ struct DenseCloud {
 // (>= 1): their 1st to 99th percentile, widened through every point that continues the
 // points beyond it without a gap wider than half that span (a mound's top, a pit's
 // floor: a few points, but each near the next), not to a stray point beyond such a gap;
-// then padded by a tenth of the span, or by `min_pad` when that is more. The percentiles
-// alone cut a tumulus's top out of the sweep: its few points lie above the 99th.
-std::pair<double, double> SweptHeightRange(std::vector<double> heights, double min_pad);
+// then padded by a tenth of the span, or by 1 % of `camera_height` above the percentiles'
+// middle when that is more. The percentiles alone cut a tumulus's top out of the sweep:
+// its few points lie above the 99th.
+std::pair<double, double> SweptHeightRange(std::vector<double> heights, double camera_height);
 
 // The source views of every image (`count` per image, best first) by the view score.
 std::vector<std::vector<int>> SelectSourceViews(const DenseInput& in, int count);

@@ -99,14 +99,16 @@ TEST(Dense, TheSweepReachesAMoundsTopButNotAStrayPoint) {
   for (int i = 0; i < 2000; ++i) h.push_back(ground(rng));
   for (int i = 1; i <= 15; ++i) h.push_back(0.5 + 4.5 * i / 15.0);
   h.insert(h.end(), {40.0, 41.0, -30.0});
-  const auto [lo, hi] = SweptHeightRange(h, 0.3);
+  // the camera 30 m above the ground's middle: a 0.3 m pad at least
+  const auto [lo, hi] = SweptHeightRange(h, 30.0);
   EXPECT_GE(hi, 5.0);  // the top, padded
   EXPECT_LT(hi, 6.0);  // not the strays
   EXPECT_GT(lo, -1.0);
   EXPECT_LT(lo, -0.5);
-  // without the cone: the percentiles' span, padded by min_pad (more than a tenth of it)
+  // without the cone: the percentiles' span, padded by 1 % of the camera's height (more
+  // than a tenth of the span)
   std::vector<double> flat(h.begin(), h.begin() + 2000);
-  const auto [flo, fhi] = SweptHeightRange(flat, 0.3);
+  const auto [flo, fhi] = SweptHeightRange(flat, 30.0);
   EXPECT_NEAR(fhi - flo, 0.98 + 0.6, 0.03);
 }
 

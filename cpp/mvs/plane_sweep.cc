@@ -105,9 +105,10 @@ std::vector<std::vector<int>> SelectSourceViews(const DenseInput& in, int count)
   return out;
 }
 
-std::pair<double, double> SweptHeightRange(std::vector<double> heights, double min_pad) {
+std::pair<double, double> SweptHeightRange(std::vector<double> heights, double camera_height) {
   std::sort(heights.begin(), heights.end());
   const double lo0 = Quantile(heights, 0.01), hi0 = Quantile(heights, 0.99);
+  const double min_pad = 0.01 * std::fabs(camera_height - 0.5 * (lo0 + hi0));
   const double gap = 0.5 * (hi0 - lo0);
   double lo = lo0, hi = hi0;
   for (const double h : heights) {  // upwards from the 99th percentile, while continuous
@@ -162,8 +163,7 @@ DepthMap Sweep(const DenseInput& in, int ref, const std::vector<int>& sources,
     return m;
   }
   const Eigen::Vector3d Cr = Tr.Centre();
-  const double mid = 0.5 * (Quantile(heights, 0.01) + Quantile(heights, 0.99));
-  const auto [lo, hi] = SweptHeightRange(heights, 0.01 * std::fabs(up.dot(Cr) - mid));
+  const auto [lo, hi] = SweptHeightRange(heights, up.dot(Cr));
 
   std::vector<std::shared_ptr<const ScaledImage>> S;
   std::vector<geometry::Rigid3d> rel;  // source_from_ref

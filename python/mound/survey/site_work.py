@@ -169,18 +169,20 @@ def _process_site(job: SiteJob) -> dict[str, Any]:
         # then scores it with the model learned on dense clouds); the paper's test
         # (--reference) the sparse cloud, as it always has.
         judged = dense if dense is not None and not job.verdict_args else None
+
+        def verdict(*args: str) -> None:
+            native.run_tool("mound_recon", ["verdict", str(t.recon), "--out", str(t.verdict),
+                                            *args], job.timeout_s, log=t.log)
+
         t0 = time.perf_counter()
         if judged is not None:
             try:
-                native.run_tool("mound_recon", ["verdict", str(t.recon), "--out",
-                                                str(t.verdict), "--cloud", str(judged)],
-                                job.timeout_s, log=t.log)
+                verdict("--cloud", str(judged))
             except ToolNoResultError as e:  # e.g. too few dense points on the site
                 row["dense_verdict_error"] = _reason(e, t)
                 judged = None
         if judged is None:
-            native.run_tool("mound_recon", ["verdict", str(t.recon), "--out", str(t.verdict),
-                                            *job.verdict_args], job.timeout_s, log=t.log)
+            verdict(*job.verdict_args)
         timings["verdict"] = time.perf_counter() - t0
         row.update(_verdict_summary(read_json(t.verdict, "mound.verdict", 1)))
         row["verdict_cloud"] = "sparse" if judged is None else "dense"
