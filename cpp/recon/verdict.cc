@@ -72,8 +72,11 @@ nlohmann::json RiseJson(const terrain::Detection& d, const terrain::Rise& t,
                       {"shape", kShapeNames[std::clamp(t.shape, 0, 2)]},
                       {"ground_slope_rad", t.ground_slope_rad},
                       {"ground_plane", {t.ground_plane[0], t.ground_plane[1], t.ground_plane[2]}},
+                      {"ground", t.curved_ground ? "curved" : "plane"},
                       {"offset_m", t.offset_m},
                       {"extent_m", t.extent_m}};
+  if (t.curved_ground)
+    r["ground_curvature"] = {t.ground_curvature[0], t.ground_curvature[1], t.ground_curvature[2]};
   const std::vector<double> f = terrain::VerdictFeatures(d, t);
   nlohmann::json feats = nlohmann::json::object();
   for (size_t k = 0; k < f.size(); ++k) feats[terrain::VerdictFeatureNames()[k]] = f[k];

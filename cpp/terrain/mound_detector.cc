@@ -17,6 +17,8 @@ namespace {
 using internal::HeightGrid;
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+// Over a curved ground a candidate's radius is held within this factor of its own.
+constexpr double kOwnScale = 1.4;
 
 double SignedLog(double x) { return std::copysign(std::log1p(std::fabs(x)), x); }
 
@@ -269,25 +271,36 @@ Detection DetectMound(const std::vector<Eigen::Vector3d>& points, const Eigen::V
   for (const internal::Candidate& c :
        internal::ScaleSpaceCandidates(g, o.relief_threshold_m, 2 * kMaxJudgedRises))
     candidates.push_back(c);
-  // Each candidate fitted and measured over its own ground; rises that converged to the
-  // same dome (centres within a third of the larger radius, radii within 35 %) kept once,
-  // the most prominent (height x area) first.
-  std::vector<Rise> rises;
+  // Each candidate fitted and measured over its own ground twice: over a plane, its radius
+  // free, and over a quadratic at its own scale (radius within 1/1.4-1.4 x the
+  // candidate's), where that window (2 R) fits within the site — a tumulus on a hill's
+  // top or shoulder, or among the undulations of rough ground, stands on ground that
+  // bends, and over a plane its fit runs out to the larger dome of the hill or takes the
+  // ground's swell in with it. Of each kind, rises that converged to the same dome
+  // (centres within a sixth of the larger diameter, diameters within 35 %) kept once, the
+  // most prominent (height x area) first, kMaxJudgedRises of each.
+  std::vector<Rise> flat, curved;
   for (const internal::Candidate& c : candidates) {
     Rise r;
-    if (internal::MeasureRise(g, c, o.relief_threshold_m, &r)) rises.push_back(r);
+    if (internal::MeasureRise(g, c, o.relief_threshold_m, &r)) flat.push_back(r);
+    if (2 * kOwnScale * c.radius_m <= radius_m &&
+        internal::MeasureRise(g, c, o.relief_threshold_m, &r, {true, kOwnScale}))
+      curved.push_back(r);
   }
-  std::stable_sort(rises.begin(), rises.end(), [](const Rise& a, const Rise& b) {
-    return a.height_m * a.area_m2 > b.height_m * b.area_m2;
-  });
-  for (const Rise& r : rises) {
-    if (d.judged.size() >= kMaxJudgedRises) break;
-    const bool seen = std::any_of(d.judged.begin(), d.judged.end(), [&](const Rise& q) {
-      const double big = std::max(q.base_diameter_m, r.base_diameter_m);
-      const double small = std::min(q.base_diameter_m, r.base_diameter_m);
-      return (q.centre - r.centre).norm() < big / 6 && big < 1.35 * small;
+  for (std::vector<Rise>* rises : {&flat, &curved}) {
+    std::stable_sort(rises->begin(), rises->end(), [](const Rise& a, const Rise& b) {
+      return a.height_m * a.area_m2 > b.height_m * b.area_m2;
     });
-    if (!seen) d.judged.push_back(r);
+    const size_t first = d.judged.size();
+    for (const Rise& r : *rises) {
+      if (d.judged.size() - first >= kMaxJudgedRises) break;
+      const bool seen = std::any_of(d.judged.begin() + first, d.judged.end(), [&](const Rise& q) {
+        const double big = std::max(q.base_diameter_m, r.base_diameter_m);
+        const double small = std::min(q.base_diameter_m, r.base_diameter_m);
+        return (q.centre - r.centre).norm() < big / 6 && big < 1.35 * small;
+      });
+      if (!seen) d.judged.push_back(r);
+    }
   }
   for (Rise& r : d.judged) r.centre += centre;
   return d;

@@ -57,12 +57,19 @@ struct Rise {
   double base_diameter_m = 0, dome_height_m = 0, dome_r2 = 0;
   int shape = 0;
   double ground_slope_rad = 0;
-  // The local ground plane z = g0 + g1 (x - centre x) + g2 (y - centre y), the cloud's z.
+  // The local ground plane z = g0 + g1 (x - centre x) + g2 (y - centre y), the cloud's z
+  // (over a curved ground its tangent plane at the centre).
   Eigen::Vector3d ground_plane = Eigen::Vector3d::Zero();
-  // Over the local plane: height (99th percentile of the relief within R); the footprint
-  // (relief above max(threshold, height / 4), grown from the peak within 3 R): its area,
-  // volume, roundness (square root of the ratio of its second moments' eigenvalues: 1 for
-  // a disc) and fill (area / pi R^2).
+  // Measured over a quadratic local ground at its candidate's own scale (a tumulus on a
+  // hill, measured apart from the hill; see DetectMound):
+  // the ground is then ground_plane + d (x - cx)^2 + e (x - cx)(y - cy) + f (y - cy)^2,
+  // ground_curvature = (d, e, f) in 1/m; zero over a plane.
+  bool curved_ground = false;
+  Eigen::Vector3d ground_curvature = Eigen::Vector3d::Zero();
+  // Over the local ground (plane or quadratic): height (99th percentile of the relief within R);
+  // the footprint (relief above max(threshold, height / 4), grown from the peak within 3 R): its
+  // area, volume, roundness (square root of the ratio of its second moments' eigenvalues: 1 for a
+  // disc) and fill (area / pi R^2).
   double height_m = 0, area_m2 = 0, volume_m3 = 0, roundness = 0, fill = 0;
   double symmetry = 0;         // R^2 of the relief about its radial mean profile (r <= 1.5 R)
   double flank_slope_rad = 0;  // 90th percentile of |grad relief| over the footprint, as an angle
@@ -90,10 +97,13 @@ struct Rise {
 
 // The rises judged (the most prominent first): a scan of real ground holds natural rises
 // too, often larger than the tumulus, so each is scored and the site's p is the highest.
+// Up to this many measured over a plane, then up to as many over a curved ground.
 inline constexpr size_t kMaxJudgedRises = 12;
 
 struct Detection {
-  std::vector<Rise> judged;  // the kMaxJudgedRises most prominent (height x area), in order
+  // The kMaxJudgedRises most prominent (height x area) over a plane, in order, then those
+  // over a curved ground (Rise::curved_ground), in order.
+  std::vector<Rise> judged;
   // The most prominent rise, or nullptr when none rose above the relief threshold.
   const Rise* Tallest() const { return judged.empty() ? nullptr : &judged.front(); }
   int rises = 0;  // components above the relief threshold

@@ -121,10 +121,17 @@ TEST(DetectMound, FlatGroundHasNoRiseAndARidgeIsElongated) {
   const Detection ridge = DetectMound(SyntheticSite(0, 0, true, 3), {0, 0}, 58, DetectorOptions{});
   ASSERT_TRUE(ridge.Tallest() != nullptr);
   EXPECT_LT(ridge.Tallest()->roundness, 0.3);  // 80 m long, 6 m wide
-  // Every rise on it is elongated; a dome fitted across it (narrower than the ridge is long)
-  // has the ridge running on through the frame around it, high there in two sectors only.
+  // Every rise on it over a plane is elongated; a dome fitted across it (narrower than the
+  // ridge is long) has the ridge running on through the frame around it, high there in two
+  // sectors only. Over a curved ground the ridge's cross-profile is ground, and what is
+  // left is no dome.
   int across = 0;
   for (const Rise& r : ridge.judged) {
+    if (r.curved_ground) {
+      EXPECT_LT(r.dome_r2, 0.6);
+      EXPECT_LT(r.symmetry, 0.6);
+      continue;
+    }
     EXPECT_LT(r.roundness, 0.3);
     if (r.base_diameter_m > 40) continue;
     ++across;
@@ -154,6 +161,43 @@ TEST(DetectMound, ADomeWiderThanTheSiteIsClippedNotElongated) {
   const std::vector<double> f = VerdictFeatures(off);
   ASSERT_EQ(f.size(), VerdictFeatureNames().size());
   EXPECT_EQ(f[8], off.Tallest()->clipped);
+}
+
+// A tumulus on a hill (Bin Tepe's stand on a ridge): 3 m high and 24 m across, 7 m from
+// the top of a 10 m high, 140 m wide hill. Measured at its own scale over a ground that
+// bends, the tumulus is the rise and the hill its ground; the hill alone, measured so,
+// has no rise.
+TEST(DetectMound, ATumulusOnAHillIsMeasuredApartFromTheHill) {
+  auto site = [](bool tumulus) {
+    std::mt19937_64 rng(7);
+    std::uniform_real_distribution<double> u(-60, 60);
+    std::normal_distribution<double> noise(0, 0.03);
+    std::vector<Eigen::Vector3d> p;
+    for (int i = 0; i < 80000; ++i) {
+      const double x = u(rng), y = u(rng);
+      double z = 80 + 0.02 * x + noise(rng);
+      const double rh = std::hypot(x + 10, y - 4) / 70;
+      if (rh < 1) z += 10 * (1 - rh * rh);
+      const double rt = std::hypot(x + 4, y - 1) / 12;
+      if (tumulus && rt < 1) z += 3 * (1 - rt * rt);
+      p.emplace_back(x, y, z);
+    }
+    return p;
+  };
+  const Detection d = DetectMound(site(true), {0, 0}, 58, DetectorOptions{});
+  const Rise* own = nullptr;
+  for (const Rise& r : d.judged)
+    if (r.curved_ground && (r.centre - Eigen::Vector2d(-4, 1)).norm() < 3) own = &r;
+  ASSERT_TRUE(own != nullptr);
+  EXPECT_NEAR(own->height_m, 3.0, 0.6);
+  EXPECT_NEAR(own->base_diameter_m, 24.0, 5.0);
+  EXPECT_GT(own->dome_r2, 0.8);
+  EXPECT_GT(own->roundness, 0.8);
+  // the ground under it bends down away from the hill's top: negative curvature
+  EXPECT_LT(own->ground_curvature[0] + own->ground_curvature[2], 0);
+  const Detection hill = DetectMound(site(false), {0, 0}, 58, DetectorOptions{});
+  for (const Rise& r : hill.judged)
+    if (r.curved_ground) EXPECT_LT(r.height_m, 0.5);
 }
 
 nlohmann::json ModelDoc() {

@@ -53,24 +53,37 @@ struct Fit {
   Eigen::Vector2d centre = Eigen::Vector2d::Zero();
   double radius = 0, window = 0, q = -std::numeric_limits<double>::infinity(), H = 0;
   int shape = 0;
-  Eigen::Vector3d plane = Eigen::Vector3d::Zero();  // z = a + b x + c y, x, y from the centre
+  // The local ground z = a + b x + c y + d x^2 + e x y + f y^2, x, y from the centre (m);
+  // d = e = f = 0 over a plane.
+  Eigen::Matrix<double, 6, 1> ground = Eigen::Matrix<double, 6, 1>::Zero();
+  double Ground(const Eigen::Vector2d& d) const {
+    return ground[0] + ground[1] * d.x() + ground[2] * d.y() + ground[3] * d.x() * d.x() +
+           ground[4] * d.x() * d.y() + ground[5] * d.y() * d.y();
+  }
 };
 
-// The best shape's plane + dome fit at (c, R); q = -inf when too few cells or H <= 0.
+// The best shape's ground + dome fit at (c, R); q = -inf when too few cells or H <= 0.
+// The ground a plane (P = 3) within rho = max(1.5 R, R + 3 cells), or a quadratic (P = 6)
+// within rho = max(2 R, R + 4 cells): the frame beyond the dome must pin its curvature.
+template <int P>
 Fit FitAt(const HeightGrid& g, const Eigen::Vector2d& c, double R) {
+  using VecP = Eigen::Matrix<double, P, 1>;
+  using MatP = Eigen::Matrix<double, P, P>;
+  using VecQ = Eigen::Matrix<double, P + 1, 1>;
+  using MatQ = Eigen::Matrix<double, P + 1, P + 1>;
   Fit best;
   best.centre = c;
   best.radius = R;
-  const double rho = std::max(1.5 * R, R + 3 * g.cell);
+  const double rho = P == 3 ? std::max(1.5 * R, R + 3 * g.cell) : std::max(2.0 * R, R + 4 * g.cell);
   best.window = rho;
   const int stride = std::max(1, static_cast<int>(rho / (g.cell * 35)));
   const Eigen::Vector2d q = (c - g.origin) / g.cell;
   const int reach = static_cast<int>(std::ceil(rho / g.cell));
   const int ci = static_cast<int>(std::lround(q.x())), cj = static_cast<int>(std::lround(q.y()));
-  // Normal equations of [1, x, y] and of each shape's phi.
-  Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
-  Eigen::Vector3d b = Eigen::Vector3d::Zero();
-  std::array<Eigen::Vector3d, kShapes> ap{};
+  // Normal equations of the ground's basis and of each shape's phi.
+  MatP A = MatP::Zero();
+  VecP b = VecP::Zero();
+  std::array<VecP, kShapes> ap{};
   std::array<double, kShapes> pp{}, pz{};
   for (auto& v : ap) v.setZero();
   double zz = 0, z0 = std::numeric_limits<double>::quiet_NaN();
@@ -84,7 +97,12 @@ Fit FitAt(const HeightGrid& g, const Eigen::Vector2d& c, double R) {
       if (r > rho) continue;
       if (std::isnan(z0)) z0 = g.z[k];
       const double z = g.z[k] - z0;
-      const Eigen::Vector3d f(1, d.x() / rho, d.y() / rho);
+      const double u = d.x() / rho, v = d.y() / rho;
+      VecP f;
+      if constexpr (P == 3)
+        f << 1, u, v;
+      else
+        f << 1, u, v, u * u, u * v, v * v;
       A += f * f.transpose();
       b += f * z;
       zz += z * z;
@@ -97,43 +115,60 @@ Fit FitAt(const HeightGrid& g, const Eigen::Vector2d& c, double R) {
       ++n;
       in_disc += r <= R ? 1 : 0;
     }
-  if (n < 16 || in_disc < 6) return best;
-  const Eigen::LDLT<Eigen::Matrix3d> plane(A);
-  const Eigen::Vector3d x3 = plane.solve(b);
-  const double sse_plane = zz - b.dot(x3);
-  if (!(sse_plane > 1e-12 * (zz + 1))) return best;
+  if (n < 16 + 4 * (P - 3) || in_disc < 6) return best;
+  const Eigen::LDLT<MatP> ground(A);
+  const VecP xg = ground.solve(b);
+  const double sse_ground = zz - b.dot(xg);
+  if (!xg.allFinite() || !(sse_ground > 1e-12 * (zz + 1))) return best;
   for (int s = 0; s < kShapes; ++s) {
-    Eigen::Matrix4d M;
-    M.topLeftCorner<3, 3>() = A;
-    M.topRightCorner<3, 1>() = ap[s];
-    M.bottomLeftCorner<1, 3>() = ap[s].transpose();
-    M(3, 3) = pp[s];
-    Eigen::Vector4d v;
+    MatQ M;
+    M.template topLeftCorner<P, P>() = A;
+    M.template topRightCorner<P, 1>() = ap[s];
+    M.template bottomLeftCorner<1, P>() = ap[s].transpose();
+    M(P, P) = pp[s];
+    VecQ v;
     v << b, pz[s];
-    const Eigen::Vector4d x = M.ldlt().solve(v);
-    if (!x.allFinite() || !(x[3] > 0)) continue;
-    const double qs = 1 - (zz - v.dot(x)) / sse_plane;
+    const VecQ x = M.ldlt().solve(v);
+    if (!x.allFinite() || !(x[P] > 0)) continue;
+    const double qs = 1 - (zz - v.dot(x)) / sse_ground;
     if (qs > best.q) {
       best.q = qs;
-      best.H = x[3];
+      best.H = x[P];
       best.shape = s;
-      best.plane = {x[0] + z0, x[1] / rho, x[2] / rho};
+      best.ground.setZero();
+      best.ground[0] = x[0] + z0;
+      best.ground[1] = x[1] / rho;
+      best.ground[2] = x[2] / rho;
+      if constexpr (P == 6) {
+        best.ground[3] = x[3] / (rho * rho);
+        best.ground[4] = x[4] / (rho * rho);
+        best.ground[5] = x[5] / (rho * rho);
+      }
     }
   }
   return best;
 }
 
+Fit FitAt(const HeightGrid& g, const Eigen::Vector2d& c, double R, bool curved) {
+  return curved ? FitAt<6>(g, c, R) : FitAt<3>(g, c, R);
+}
+
 // Coordinate descent over the radius (factors of 1.15) and the centre (a 5 x 5 lattice,
 // halved each round).
-Fit Refine(const HeightGrid& g, const Candidate& start) {
-  const double r_min = std::max(2.0 * g.cell, 2.0), r_max = 1.25 * g.radius;
-  Fit best = FitAt(g, start.centre, std::clamp(start.radius_m, r_min, r_max));
+Fit Refine(const HeightGrid& g, const Candidate& start, const FitOptions& o) {
+  double r_min = std::max(2.0 * g.cell, 2.0), r_max = 1.25 * g.radius;
+  if (o.radius_factor > 0) {
+    r_min = std::max(r_min, start.radius_m / o.radius_factor);
+    r_max = std::min(r_max, std::max(r_min, start.radius_m * o.radius_factor));
+  }
+  const bool curved = o.curved_ground;
+  Fit best = FitAt(g, start.centre, std::clamp(start.radius_m, r_min, r_max), curved);
   double step = std::max(g.cell, best.radius / 8);
   for (int round = 0; round < 4; ++round) {
     const Fit at = best;
     for (int m = -4; m <= 4; ++m) {
       const double R = std::clamp(at.radius * std::pow(1.15, m), r_min, r_max);
-      const Fit f = FitAt(g, at.centre, R);
+      const Fit f = FitAt(g, at.centre, R, curved);
       if (f.q > best.q) best = f;
     }
     const Fit mid = best;
@@ -141,7 +176,7 @@ Fit Refine(const HeightGrid& g, const Candidate& start) {
       for (int a = -2; a <= 2; ++a) {
         Eigen::Vector2d c = mid.centre + step * Eigen::Vector2d(a, b);
         if (c.norm() > g.radius) c *= g.radius / c.norm();
-        const Fit f = FitAt(g, c, mid.radius);
+        const Fit f = FitAt(g, c, mid.radius, curved);
         if (f.q > best.q) best = f;
       }
     step = std::max(g.cell / 2, step / 2);
@@ -208,24 +243,23 @@ std::vector<Candidate> ScaleSpaceCandidates(const HeightGrid& g, double min_cont
   return out;
 }
 
-bool MeasureRise(const HeightGrid& g, const Candidate& start, double relief_threshold_m,
-                 Rise* out) {
-  const Fit f = Refine(g, start);
+bool MeasureRise(const HeightGrid& g, const Candidate& start, double relief_threshold_m, Rise* out,
+                 const FitOptions& o) {
+  const Fit f = Refine(g, start, o);
   if (!std::isfinite(f.q) || !(f.H > 0)) return false;
   const Eigen::Vector2d c = f.centre;
   const double R = f.radius, rho = f.window;
-  auto relief = [&](size_t k) {
-    const Eigen::Vector2d d = g.Centre(k) - c;
-    return g.z[k] - (f.plane[0] + f.plane[1] * d.x() + f.plane[2] * d.y());
-  };
+  auto relief = [&](size_t k) { return g.z[k] - f.Ground(g.Centre(k) - c); };
   Rise r;
   r.centre = c;
   r.base_diameter_m = 2 * R;
   r.dome_height_m = f.H;
   r.dome_r2 = f.q;
   r.shape = f.shape;
-  r.ground_slope_rad = std::atan(std::hypot(f.plane[1], f.plane[2]));
-  r.ground_plane = f.plane;
+  r.ground_slope_rad = std::atan(std::hypot(f.ground[1], f.ground[2]));
+  r.ground_plane = f.ground.head<3>();  // over a curved ground: its tangent at the centre
+  r.curved_ground = o.curved_ground;
+  r.ground_curvature = f.ground.tail<3>();
   // Within the base: the height (99th percentile of the relief), the fit's residual, and
   // the peak cell the footprint grows from.
   std::vector<double> disc, resid;
@@ -273,7 +307,7 @@ bool MeasureRise(const HeightGrid& g, const Candidate& start, double relief_thre
       const Eigen::Vector2d d = p.head<2>() - c;
       const double rad = d.norm();
       if (rad > R) continue;
-      const double rel = p.z() - (f.plane[0] + f.plane[1] * d.x() + f.plane[2] * d.y());
+      const double rel = p.z() - f.Ground(d);
       point_resid.push_back(rel - f.H * Phi(f.shape, rad / R));
       if (rad <= R / 2) core.push_back(rel);
     }

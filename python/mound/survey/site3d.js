@@ -110,9 +110,14 @@
     for (const l of lines) groundGroup.add(new THREE.Line(new THREE.BufferGeometry().setFromPoints(l), groundMat));
     scene.add(groundGroup);
     if (D.rise) {
-      const { x, y, height_m: h, base_diameter_m: d, plane } = D.rise;
-      // the dome on the rise's own ground plane where verdict.json gives it
-      const baseZ = plane ? (u, v) => plane[0] + plane[1] * (u - x) + plane[2] * (v - y) : groundZ;
+      const { x, y, height_m: h, base_diameter_m: d, plane, curvature } = D.rise;
+      // the dome on the rise's own ground where verdict.json gives it: a plane, or a
+      // quadratic for a rise measured over a curved ground
+      const c = curvature || [0, 0, 0];
+      const baseZ = plane
+        ? (u, v) => plane[0] + plane[1] * (u - x) + plane[2] * (v - y) +
+            c[0] * (u - x) * (u - x) + c[1] * (u - x) * (v - y) + c[2] * (v - y) * (v - y)
+        : groundZ;
       const domeMat = new THREE.LineBasicMaterial({ color: 0xff6f00 });
       for (let k = 0; k < 12; ++k) {  // meridians
         const a = (2 * Math.PI * k) / 12, pts = [];

@@ -209,6 +209,10 @@ def viewer_doc(site_id: str, xyz: np.ndarray, rgb: np.ndarray | None, centre: np
         plane = rise.get("ground_plane")  # the rise's own ground: z at its centre, slopes
         if isinstance(plane, list) and len(plane) == 3:
             doc["rise"]["plane"] = [float(plane[0]) - z0, float(plane[1]), float(plane[2])]
+            # a rise measured over a curved ground: its quadratic terms (1/m)
+            curv = rise.get("ground_curvature")
+            if isinstance(curv, list) and len(curv) == 3:
+                doc["rise"]["curvature"] = [float(v) for v in curv]
     return doc
 
 
