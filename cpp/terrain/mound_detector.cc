@@ -14,6 +14,7 @@
 namespace mound::terrain {
 namespace {
 
+using internal::Basis;
 using internal::HeightGrid;
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
@@ -21,12 +22,6 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kOwnScale = 1.4;
 
 double SignedLog(double x) { return std::copysign(std::log1p(std::fabs(x)), x); }
-
-Eigen::Matrix<double, 6, 1> Basis(double x, double y) {
-  Eigen::Matrix<double, 6, 1> b;
-  b << 1, x, y, x * x, x * y, y * y;
-  return b;
-}
 
 // How far the quadratic q (Basis order, x and y in units of the radius) falls from the
 // centre to the radius along its least and its most falling direction, m.

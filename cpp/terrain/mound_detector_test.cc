@@ -196,8 +196,10 @@ TEST(DetectMound, ATumulusOnAHillIsMeasuredApartFromTheHill) {
   // the ground under it bends down away from the hill's top: negative curvature
   EXPECT_LT(own->ground_curvature[0] + own->ground_curvature[2], 0);
   const Detection hill = DetectMound(site(false), {0, 0}, 58, DetectorOptions{});
-  for (const Rise& r : hill.judged)
-    if (r.curved_ground) EXPECT_LT(r.height_m, 0.5);
+  for (const Rise& r : hill.judged) {
+    if (!r.curved_ground) continue;
+    EXPECT_LT(r.height_m, 0.5);
+  }
 }
 
 nlohmann::json ModelDoc() {

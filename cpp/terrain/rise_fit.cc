@@ -53,8 +53,10 @@ struct Fit {
   Eigen::Vector2d centre = Eigen::Vector2d::Zero();
   double radius = 0, window = 0, q = -std::numeric_limits<double>::infinity(), H = 0;
   int shape = 0;
-  // The local ground z = a + b x + c y + d x^2 + e x y + f y^2, x, y from the centre (m);
-  // d = e = f = 0 over a plane.
+  // The local ground over Basis(x, y), x, y from the centre (m): z = a + b x + c y + d x^2
+  // + e x y + f y^2; d = e = f = 0 over a plane. Summed term by term in this order, as the
+  // shipped models were measured (Basis(..).dot sums otherwise, and the last bits move a
+  // few rises' centre searches).
   Eigen::Matrix<double, 6, 1> ground = Eigen::Matrix<double, 6, 1>::Zero();
   double Ground(const Eigen::Vector2d& d) const {
     return ground[0] + ground[1] * d.x() + ground[2] * d.y() + ground[3] * d.x() * d.x() +
@@ -97,12 +99,7 @@ Fit FitAt(const HeightGrid& g, const Eigen::Vector2d& c, double R) {
       if (r > rho) continue;
       if (std::isnan(z0)) z0 = g.z[k];
       const double z = g.z[k] - z0;
-      const double u = d.x() / rho, v = d.y() / rho;
-      VecP f;
-      if constexpr (P == 3)
-        f << 1, u, v;
-      else
-        f << 1, u, v, u * u, u * v, v * v;
+      const VecP f = Basis(d.x() / rho, d.y() / rho).template head<P>();
       A += f * f.transpose();
       b += f * z;
       zz += z * z;

@@ -79,6 +79,14 @@ std::vector<size_t> GrowRegion(const HeightGrid& g, size_t seed, std::vector<cha
   return region;
 }
 
+// The quadratic basis [1, x, y, x^2, x y, y^2] (its first 3 terms: a plane), shared by the
+// site's ground fit and each rise's local ground.
+inline Eigen::Matrix<double, 6, 1> Basis(double x, double y) {
+  Eigen::Matrix<double, 6, 1> b;
+  b << 1, x, y, x * x, x * y, y * y;
+  return b;
+}
+
 struct Candidate {
   Eigen::Vector2d centre;  // relative to the site centre, m
   double radius_m = 0;
