@@ -227,8 +227,8 @@ Detection DetectMound(const std::vector<Eigen::Vector3d>& points, const Eigen::V
   d.ground_coefficients = {coef[0],           coef[1] / s,       coef[2] / s,
                            coef[3] / (s * s), coef[4] / (s * s), coef[5] / (s * s)};
 
-  // Candidates: the components of the relief over the site's ground fit (the 8 most
-  // prominent), and the scale-space peaks of the heights (rise_fit.h).
+  // Candidates: the components of the relief over the site's ground fit (the
+  // kReliefCandidates most prominent), and the scale-space peaks of the heights (rise_fit.h).
   std::vector<internal::Candidate> candidates;
   {
     std::vector<double> relief(g.z.size(), kNaN);
@@ -260,11 +260,11 @@ Detection DetectMound(const std::vector<Eigen::Vector3d>& points, const Eigen::V
     for (const auto& [prominence, c] : comps) {
       if (prominence < 0) break;
       ++d.rises;
-      if (candidates.size() < 8) candidates.push_back(c);
+      if (candidates.size() < kReliefCandidates) candidates.push_back(c);
     }
   }
   for (const internal::Candidate& c :
-       internal::ScaleSpaceCandidates(g, o.relief_threshold_m, 2 * kMaxJudgedRises))
+       internal::ScaleSpaceCandidates(g, o.relief_threshold_m, kScaleSpaceCandidates))
     candidates.push_back(c);
   // Each candidate fitted and measured over its own ground twice: over a plane, its radius
   // free, and over a quadratic at its own scale (radius within 1/1.4-1.4 x the
@@ -273,7 +273,7 @@ Detection DetectMound(const std::vector<Eigen::Vector3d>& points, const Eigen::V
   // bends, and over a plane its fit runs out to the larger dome of the hill or takes the
   // ground's swell in with it. Of each kind, rises that converged to the same dome
   // (centres within a sixth of the larger diameter, diameters within 35 %) kept once, the
-  // most prominent (height x area) first, kMaxJudgedRises of each.
+  // most prominent (height x area) first: every distinct rise is judged.
   std::vector<Rise> flat, curved;
   for (const internal::Candidate& c : candidates) {
     Rise r;

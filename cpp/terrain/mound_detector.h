@@ -95,13 +95,19 @@ struct Rise {
   int cells = 0;
 };
 
-// The rises judged (the most prominent first): a scan of real ground holds natural rises
-// too, often larger than the tumulus, so each is scored and the site's p is the highest.
-// Up to this many measured over a plane, then up to as many over a curved ground.
-inline constexpr size_t kMaxJudgedRises = 12;
+// The candidate rises (the centres and radii the rise fit starts from): the most
+// prominent components of the relief over the site's ground, then the strongest peaks of
+// the heights' scale space.
+inline constexpr size_t kReliefCandidates = 8;
+inline constexpr size_t kScaleSpaceCandidates = 24;
+// The rises judged: a scan of real ground holds natural rises too, often larger and more
+// prominent than the tumulus, so every distinct rise measured is scored and the site's p
+// is the highest (a cap on their number, most prominent first, dropped the tumulus on
+// rough ground). At most this many of each kind of ground, which is every candidate.
+inline constexpr size_t kMaxJudgedRises = kReliefCandidates + kScaleSpaceCandidates;
 
 struct Detection {
-  // The kMaxJudgedRises most prominent (height x area) over a plane, in order, then those
+  // The distinct rises over a plane, most prominent (height x area) first, then those
   // over a curved ground (Rise::curved_ground), in order.
   std::vector<Rise> judged;
   // The most prominent rise, or nullptr when none rose above the relief threshold.

@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <random>
 
 #include "common/error.h"
@@ -20,6 +21,17 @@ namespace mound::terrain {
 namespace {
 
 using testing::SyntheticSite;
+
+// An empty square grid over a site of `radius` m (cells of `cell` m), the site's centre
+// the middle cell's.
+internal::HeightGrid SquareGrid(double radius, double cell) {
+  internal::HeightGrid g;
+  g.radius = radius;
+  g.cell = cell;
+  g.w = g.h = 2 * static_cast<int>(std::lround(radius / cell)) + 1;
+  g.origin = Eigen::Vector2d(-radius, -radius);
+  return g;
+}
 
 TEST(DetectMound, FindsAndMeasuresADome) {
   const Detection d =
@@ -84,11 +96,7 @@ TEST(DetectMound, ADomesPointsLieOnItsDomeAndABlocksDoNot) {
 // 1 m x 12 m paraboloid over level ground, and points on that dome (point_top 1, no
 // spread) or on level ground with a roof 4 m up within 2 m of the centre.
 TEST(MeasureRise, ThePointsTopAndSpreadComeFromThePointsNotTheCells) {
-  internal::HeightGrid g;
-  g.radius = 30;
-  g.cell = 1;
-  g.w = g.h = 61;
-  g.origin = Eigen::Vector2d(-30, -30);
+  internal::HeightGrid g = SquareGrid(30, 1);
   for (int j = 0; j < g.h; ++j)
     for (int i = 0; i < g.w; ++i) {
       const double r = g.Centre(i, j).norm();
@@ -124,12 +132,15 @@ TEST(DetectMound, FlatGroundHasNoRiseAndARidgeIsElongated) {
   // Every rise on it over a plane is elongated; a dome fitted across it (narrower than the
   // ridge is long) has the ridge running on through the frame around it, high there in two
   // sectors only. Over a curved ground the ridge's cross-profile is ground, and what is
-  // left is no dome.
+  // left is no dome (nor symmetric, but at its ends).
   int across = 0;
   for (const Rise& r : ridge.judged) {
     if (r.curved_ground) {
       EXPECT_LT(r.dome_r2, 0.6);
-      EXPECT_LT(r.symmetry, 0.6);
+      // at the ridge's rounded ends (x = +-40 m) its cross-profile ends in a half dome
+      if (std::fabs(std::fabs(r.centre.x()) - 40) > 6) {
+        EXPECT_LT(r.symmetry, 0.6);
+      }
       continue;
     }
     EXPECT_LT(r.roundness, 0.3);
@@ -200,6 +211,50 @@ TEST(DetectMound, ATumulusOnAHillIsMeasuredApartFromTheHill) {
     if (!r.curved_ground) continue;
     EXPECT_LT(r.height_m, 0.5);
   }
+}
+
+// The scale space on a hillside (a laser-DEM site): a broad hill rising off the site's
+// edge (15 m over 110 m), a 2 m x 20 m tumulus below it, a few knolls. The hill's
+// strongest response, at the largest scales, is a plateau of maxima strung along the edge
+// of the frame; taken one by one they filled the 24 candidates and the tumulus was never
+// fitted. One candidate per blob: the tumulus is among the strongest few.
+TEST(ScaleSpaceCandidates, OnePerBlobSoASmallTumulusBelowAHillIsACandidate) {
+  internal::HeightGrid g = SquareGrid(61, 0.5);
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> noise(0, 0.03);
+  const std::vector<Eigen::Vector4d> knolls = {
+      {-35, -30, 8, 1.0}, {30, -40, 10, 1.2}, {-40, 10, 6, 0.8}, {40, 5, 7, 0.9}};
+  for (int j = 0; j < g.h; ++j)
+    for (int i = 0; i < g.w; ++i) {
+      const Eigen::Vector2d c = g.Centre(i, j);
+      const double rh = (c - Eigen::Vector2d(-5, 75)).norm() / 110;
+      double z = 20 + noise(rng) + (rh < 1 ? 15 * (1 - rh * rh) : 0);
+      const double rt = (c - Eigen::Vector2d(8, -6)).norm() / 10;
+      if (rt < 1) z += 2 * (1 - rt * rt);
+      for (const Eigen::Vector4d& k : knolls) {
+        const double r = (c - k.head<2>()).norm() / k[2];
+        if (r < 1) z += k[3] * (1 - r * r);
+      }
+      const bool in = c.norm() <= g.radius;
+      g.z.push_back(in ? z : std::numeric_limits<double>::quiet_NaN());
+      g.inside.push_back(in);
+      g.measured.push_back(in);
+    }
+  const std::vector<internal::Candidate> c = internal::ScaleSpaceCandidates(g, 0.3, 24);
+  int rank = -1;
+  for (size_t k = 0; k < c.size(); ++k)
+    if (rank < 0 && (c[k].centre - Eigen::Vector2d(8, -6)).norm() < 3 && c[k].radius_m > 5 &&
+        c[k].radius_m < 20)
+      rank = static_cast<int>(k);
+  EXPECT_GE(rank, 0) << "the tumulus is not among the " << c.size() << " candidates";
+  EXPECT_LT(rank, 6);
+  for (size_t a = 0; a < c.size(); ++a)
+    for (size_t b = a + 1; b < c.size(); ++b) {
+      const double big = std::max(c[a].radius_m, c[b].radius_m);
+      const double small = std::min(c[a].radius_m, c[b].radius_m);
+      EXPECT_FALSE((c[a].centre - c[b].centre).norm() < big / 2 && big < 1.3 * small)
+          << "candidates " << a << " and " << b << " are one blob";
+    }
 }
 
 nlohmann::json ModelDoc() {

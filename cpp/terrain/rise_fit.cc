@@ -232,10 +232,19 @@ std::vector<Candidate> ScaleSpaceCandidates(const HeightGrid& g, double min_cont
       }
   std::sort(peaks.begin(), peaks.end(),
             [](const Peak& a, const Peak& b) { return a.score > b.score; });
+  // One candidate per blob: a peak within half the larger radius of a stronger one kept,
+  // at a scale within two steps of it (1.3^2), is the same blob (the ties of a plateau,
+  // the maxima strung along the edge of the valid frame at the largest scales) and is
+  // left out; a small rise on a large one keeps its own.
   std::vector<Candidate> out;
   for (const Peak& p : peaks) {
     if (out.size() >= max_count) break;
-    out.push_back(p.c);
+    const bool same = std::any_of(out.begin(), out.end(), [&](const Candidate& q) {
+      const double big = std::max(q.radius_m, p.c.radius_m);
+      const double small = std::min(q.radius_m, p.c.radius_m);
+      return (q.centre - p.c.centre).norm() < big / 2 && big < 1.3 * 1.3 * small * 1.001;
+    });
+    if (!same) out.push_back(p.c);
   }
   return out;
 }

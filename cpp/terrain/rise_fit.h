@@ -93,7 +93,8 @@ struct Candidate {
 };
 
 // Scale-space candidates (the strongest `max_count` local maxima with a contrast above
-// `min_contrast_m`, by contrast x radius).
+// `min_contrast_m`, by contrast x radius, one per blob: a weaker maximum near a stronger
+// one at a like scale is left out).
 std::vector<Candidate> ScaleSpaceCandidates(const HeightGrid& g, double min_contrast_m,
                                             size_t max_count);
 
