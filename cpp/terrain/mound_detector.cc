@@ -288,7 +288,6 @@ Detection DetectMound(const std::vector<Eigen::Vector3d>& points, const Eigen::V
     });
     const size_t first = d.judged.size();
     for (const Rise& r : *rises) {
-      if (d.judged.size() - first >= kMaxJudgedRises) break;
       const bool seen = std::any_of(d.judged.begin() + first, d.judged.end(), [&](const Rise& q) {
         const double big = std::max(q.base_diameter_m, r.base_diameter_m);
         const double small = std::min(q.base_diameter_m, r.base_diameter_m);

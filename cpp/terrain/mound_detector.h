@@ -100,15 +100,12 @@ struct Rise {
 // the heights' scale space.
 inline constexpr size_t kReliefCandidates = 8;
 inline constexpr size_t kScaleSpaceCandidates = 24;
-// The rises judged: a scan of real ground holds natural rises too, often larger and more
-// prominent than the tumulus, so every distinct rise measured is scored and the site's p
-// is the highest (a cap on their number, most prominent first, dropped the tumulus on
-// rough ground). At most this many of each kind of ground, which is every candidate.
-inline constexpr size_t kMaxJudgedRises = kReliefCandidates + kScaleSpaceCandidates;
 
 struct Detection {
-  // The distinct rises over a plane, most prominent (height x area) first, then those
-  // over a curved ground (Rise::curved_ground), in order.
+  // Every distinct rise measured (a scan of real ground holds natural rises too, often
+  // larger and more prominent than the tumulus, so each is judged and the site's p is the
+  // highest): those over a plane, most prominent (height x area) first, then those over a
+  // curved ground (Rise::curved_ground), in order.
   std::vector<Rise> judged;
   // The most prominent rise, or nullptr when none rose above the relief threshold.
   const Rise* Tallest() const { return judged.empty() ? nullptr : &judged.front(); }

@@ -12,6 +12,8 @@ namespace mound::terrain::internal {
 namespace {
 
 constexpr int kShapes = 3;  // paraboloid, cone, drum
+// The scale space's radii: from 2.5 m (or 2 cells) up to the site's radius in this factor.
+constexpr double kScaleStep = 1.3;
 
 double Phi(int shape, double t) {
   if (t >= 1) return 0;
@@ -187,7 +189,7 @@ std::vector<Candidate> ScaleSpaceCandidates(const HeightGrid& g, double min_cont
                                             size_t max_count) {
   const Tables t(g);
   std::vector<double> radii;
-  for (double R = std::max(2.5, 2 * g.cell); R <= g.radius; R *= 1.3) radii.push_back(R);
+  for (double R = std::max(2.5, 2 * g.cell); R <= g.radius; R *= kScaleStep) radii.push_back(R);
   const size_t nc = g.z.size();
   std::vector<double> resp(radii.size() * nc, -std::numeric_limits<double>::infinity());
   for (size_t s = 0; s < radii.size(); ++s) {
@@ -233,7 +235,7 @@ std::vector<Candidate> ScaleSpaceCandidates(const HeightGrid& g, double min_cont
   std::sort(peaks.begin(), peaks.end(),
             [](const Peak& a, const Peak& b) { return a.score > b.score; });
   // One candidate per blob: a peak within half the larger radius of a stronger one kept,
-  // at a scale within two steps of it (1.3^2), is the same blob (the ties of a plateau,
+  // at a scale within two steps of it (kScaleStep^2), is the same blob (the ties of a plateau,
   // the maxima strung along the edge of the valid frame at the largest scales) and is
   // left out; a small rise on a large one keeps its own.
   std::vector<Candidate> out;
@@ -242,7 +244,8 @@ std::vector<Candidate> ScaleSpaceCandidates(const HeightGrid& g, double min_cont
     const bool same = std::any_of(out.begin(), out.end(), [&](const Candidate& q) {
       const double big = std::max(q.radius_m, p.c.radius_m);
       const double small = std::min(q.radius_m, p.c.radius_m);
-      return (q.centre - p.c.centre).norm() < big / 2 && big < 1.3 * 1.3 * small * 1.001;
+      return (q.centre - p.c.centre).norm() < big / 2 &&
+             big < kScaleStep * kScaleStep * small * 1.001;  // 1.001: two steps exactly
     });
     if (!same) out.push_back(p.c);
   }
