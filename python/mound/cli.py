@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 import time
 from pathlib import Path
@@ -434,7 +435,8 @@ def cmd_recon_train_verdict(args: argparse.Namespace) -> int:
         report = vm.evaluate(model, held)
         model["heldout"] = {k: report[k] for k in (
             "sites", "measured", "accuracy", "false_alarm_rate", "missed_rate", "auc",
-            "brier", "ece", "goal_mounds_2m_15m", "goal_no_mound", "old_rule_accuracy")}
+            "brier", "ece", "calibration", "goal_mounds_2m_15m", "goal_no_mound",
+            "old_rule_accuracy")}
         model["heldout"]["grids"] = [str(Path(g)) for g in args.heldout]
         _print_verdict_report(report)
         if args.report:
@@ -448,11 +450,18 @@ def cmd_recon_train_verdict(args: argparse.Namespace) -> int:
 
 def _print_verdict_report(r: dict[str, Any]) -> None:
     g, n = r["goal_mounds_2m_15m"], r["goal_no_mound"]
+    c = r["calibration"]
     print(f"held-out: {r['measured']} of {r['sites']} sites measured; accuracy "
           f"{r['accuracy']:.3f} (old rule {r['old_rule_accuracy']:.3f}); AUC {r['auc']:.3f}, "
-          f"Brier {r['brier']:.3f}, ECE {r['ece']:.3f}")
-    print(f"  mounds >= 2 m high and >= 15 m across: {g['right']}/{g['sites']} right; "
-          f"no mound: {n['false_alarms']}/{n['sites']} false alarms")
+          f"Brier {r['brier']:.3f}, ECE {r['ece']:.3f} (a calibrated forecast on these sites: "
+          f"<= {c['ece_if_calibrated_95']:.3f} in 95 % of draws; p = {c['p_value']:.2f})")
+
+    def ci(d: dict[str, Any]) -> str:
+        lo, hi = d["rate_95ci"] or (math.nan, math.nan)
+        return f"95 % interval {100 * lo:.1f}-{100 * hi:.1f} %"
+
+    print(f"  mounds >= 2 m high and >= 15 m across: {g['right']}/{g['sites']} right "
+          f"({ci(g)}); no mound: {n['false_alarms']}/{n['sites']} false alarms ({ci(n)})")
     for key, c in r["per_group"].items():
         print(f"  {key:<24} {c['right']:>3}/{c['sites']:<3} right (old rule "
               f"{c['old_rule_right']})")

@@ -12,7 +12,11 @@ from typing import Any
 import numpy as np
 import pytest
 
-from mound.classify.metrics import expected_calibration_error
+from mound.classify.metrics import (
+    clopper_pearson,
+    ece_consistency,
+    expected_calibration_error,
+)
 from mound.errors import InputError
 from mound.recon import verdict_model as vm
 from mound.sim import site as sim
@@ -68,6 +72,39 @@ def test_training_recovers_a_known_model_with_calibrated_probabilities() -> None
         labels == np.array([r["truth"]["mound"] for r in held])))
     assert abs(report["ece"] - expected_calibration_error(
         vm.probability(model, held), np.array([r["truth"]["mound"] for r in held], float))) < 1e-12
+    # the held-out synthetic sites are drawn as the model assumes: calibrated, so the ECE
+    # lies within what chance gives a calibrated forecast on them
+    cal = report["calibration"]
+    assert cal["ece"] == report["ece"] and cal["p_value"] > 0.01
+    assert cal["ece_if_calibrated_95"] > 0
+    g = report["goal_no_mound"]
+    lo, hi = g["rate_95ci"]
+    assert lo <= g["rate"] <= hi
+
+
+def test_a_rate_s_exact_interval_and_the_calibration_test() -> None:
+    """Clopper-Pearson: n of n has the lower bound (alpha/2)^(1/n) (78 of 78 cannot show
+    99 %), 0 of n the upper bound 1 - (alpha/2)^(1/n); the interval holds its level."""
+    assert clopper_pearson(78, 78) == pytest.approx((0.025 ** (1 / 78), 1.0))
+    assert clopper_pearson(78, 78)[0] < 0.99
+    assert clopper_pearson(0, 175) == pytest.approx((0.0, 1 - 0.025 ** (1 / 175)))
+    lo, hi = clopper_pearson(75, 78)
+    assert 0.89 < lo < 75 / 78 < hi < 0.993
+    rng = np.random.default_rng(3)
+    k = rng.binomial(40, 0.9, size=2000)
+    cover = np.mean([clopper_pearson(int(x), 40)[0] <= 0.9 <= clopper_pearson(int(x), 40)[1]
+                     for x in k])
+    assert cover >= 0.95
+    with pytest.raises(ValueError):
+        clopper_pearson(3, 2)
+    # a calibrated forecast passes the consistency test, an overconfident one fails it
+    p = rng.random(400)
+    y = (rng.random(400) < p).astype(float)
+    assert ece_consistency(p, y, draws=500)["p_value"] > 0.05
+    sharp = np.clip(1.6 * (p - 0.5) + 0.5, 0, 1)  # pushed away from 0.5: overconfident
+    y_flat = (rng.random(400) < np.clip(0.6 * (p - 0.5) + 0.5, 0, 1)).astype(float)
+    bad = ece_consistency(sharp, y_flat, draws=500)
+    assert bad["p_value"] < 0.01 and bad["ece"] > bad["ece_if_calibrated_95"]
 
 
 def test_z_clip_scores_a_feature_beyond_the_data_as_one_at_the_bound() -> None:

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
-from scipy.stats import rankdata
+from scipy.stats import beta, rankdata
 
 # The paper's decision rule, in one place: the classifier labels a site a mound when
 # p(mound) >= 0.5 (Table I's error rates, the survey's labels of sites not flown).
@@ -59,6 +59,33 @@ def expected_calibration_error(p: np.ndarray, y: np.ndarray, bins: int = 10) -> 
     n = len(p)
     return float(sum(r["count"] / n * abs(r["mean_p"] - r["observed"])
                      for r in reliability(p, y, bins) if r["count"]))
+
+
+def clopper_pearson(k: int, n: int, level: float = 0.95) -> tuple[float, float]:
+    """The exact (Clopper-Pearson) two-sided interval of a rate of k successes in n trials:
+    it covers the true rate in at least `level` of repeated samples. 78 of 78 gives
+    [0.954, 1]: no sample of 78 can show a rate of 99 %."""
+    if not 0 <= k <= n or n == 0:
+        raise ValueError(f"clopper_pearson: need 0 <= k <= n, n > 0 (got k={k}, n={n})")
+    a = (1 - level) / 2
+    lo = 0.0 if k == 0 else float(beta.ppf(a, k, n - k + 1))
+    hi = 1.0 if k == n else float(beta.ppf(1 - a, k + 1, n - k))
+    return lo, hi
+
+
+def ece_consistency(p: np.ndarray, y: np.ndarray, bins: int = 10, draws: int = 2000,
+                    seed: int = 0) -> dict[str, float]:
+    """Is an ECE distinguishable from that of a calibrated forecast? Consistency resampling
+    (Broecker and Smith 2007): outcomes drawn from p itself are calibrated by construction,
+    and their ECE is what sampling alone gives on these forecasts. Returns the observed ECE,
+    the 95th percentile of the calibrated draws' ECE, and the fraction of draws at or above
+    the observed one (a p-value: small means miscalibrated)."""
+    rng = np.random.default_rng(seed)
+    obs = expected_calibration_error(p, y, bins)
+    null = np.array([expected_calibration_error(p, (rng.random(len(p)) < p).astype(float), bins)
+                     for _ in range(draws)])
+    return {"ece": obs, "ece_if_calibrated_95": float(np.quantile(null, 0.95)),
+            "p_value": float(np.mean(null >= obs))}
 
 
 def summary(p: np.ndarray, y: np.ndarray) -> dict[str, float]:

@@ -39,7 +39,13 @@ from scipy.special import expit
 
 from mound.classify import logistic
 from mound.classify.features import hinge_basis
-from mound.classify.metrics import expected_calibration_error, reliability, roc_auc
+from mound.classify.metrics import (
+    clopper_pearson,
+    ece_consistency,
+    expected_calibration_error,
+    reliability,
+    roc_auc,
+)
 from mound.errors import InputError
 
 SCHEMA = "mound.verdict_model"
@@ -279,6 +285,11 @@ def _rate(flags: list[bool]) -> float | None:
     return float(np.mean(flags)) if flags else None
 
 
+def _interval(k: int, n: int) -> list[float] | None:
+    """The rate's exact 95 % interval (Clopper-Pearson); None over no site."""
+    return list(clopper_pearson(k, n)) if n else None
+
+
 def evaluate(model: dict[str, Any], rows: list[dict[str, Any]]) -> dict[str, Any]:
     measured = [r for r in rows if r["measured"]]
     p = probability(model, measured)
@@ -314,9 +325,11 @@ def evaluate(model: dict[str, Any], rows: list[dict[str, Any]]) -> dict[str, Any
         "old_rule_missed_rate": _rate([not old[k] for k in range(len(y)) if y[k]]),
         "goal_mounds_2m_15m": {"sites": len(big), "right": int(sum(lab[k] for k in big)),
                                "rate": _rate([bool(lab[k]) for k in big]),
+                               "rate_95ci": _interval(int(sum(lab[k] for k in big)), len(big)),
                                "old_rule_rate": _rate([bool(old[k]) for k in big])},
         "goal_no_mound": {"sites": len(neg), "false_alarms": int(sum(lab[k] for k in neg)),
-                          "rate": _rate([bool(lab[k]) for k in neg])},
+                          "rate": _rate([bool(lab[k]) for k in neg]),
+                          "rate_95ci": _interval(int(sum(lab[k] for k in neg)), len(neg))},
         "wider_than_scan": {"sites": len(wider), "right": int(sum(lab[k] for k in wider)),
                             "coverage_warned": int(sum(1 for k in wider if k in clipped)),
                             "beyond_the_cloud": len(beyond),
@@ -325,6 +338,8 @@ def evaluate(model: dict[str, Any], rows: list[dict[str, Any]]) -> dict[str, Any
         "auc": roc_auc(p, y.astype(float)),
         "brier": float(np.mean((p - y) ** 2)),
         "ece": expected_calibration_error(p, y.astype(float)),
+        # the ECE beside what a calibrated forecast would show on these sites by chance
+        "calibration": ece_consistency(p, y.astype(float)),
         "reliability": [{k: (None if isinstance(v, float) and not math.isfinite(v) else v)
                          for k, v in r.items()} for r in reliability(p, y.astype(float))],
         "per_group": per,
