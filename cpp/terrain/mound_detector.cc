@@ -18,8 +18,6 @@ using internal::Basis;
 using internal::HeightGrid;
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-// Over a curved ground a candidate's radius is held within this factor of its own.
-constexpr double kOwnScale = 1.4;
 
 double SignedLog(double x) { return std::copysign(std::log1p(std::fabs(x)), x); }
 
@@ -267,8 +265,8 @@ Detection DetectMound(const std::vector<Eigen::Vector3d>& points, const Eigen::V
        internal::ScaleSpaceCandidates(g, o.relief_threshold_m, kScaleSpaceCandidates))
     candidates.push_back(c);
   // Each candidate fitted and measured over its own ground twice: over a plane, its radius
-  // free, and over a quadratic at its own scale (radius within 1/1.4-1.4 x the
-  // candidate's), where that window (2 R) fits within the site — a tumulus on a hill's
+  // free, and over a quadratic at its own scale (radius within kOwnScale of the
+  // candidate's), where that window fits within the site (CurvedGroundFits) — a tumulus on a hill's
   // top or shoulder, or among the undulations of rough ground, stands on ground that
   // bends, and over a plane its fit runs out to the larger dome of the hill or takes the
   // ground's swell in with it. Of each kind, rises that converged to the same dome
@@ -278,8 +276,8 @@ Detection DetectMound(const std::vector<Eigen::Vector3d>& points, const Eigen::V
   for (const internal::Candidate& c : candidates) {
     Rise r;
     if (internal::MeasureRise(g, c, o.relief_threshold_m, &r)) flat.push_back(r);
-    if (2 * kOwnScale * c.radius_m <= radius_m &&
-        internal::MeasureRise(g, c, o.relief_threshold_m, &r, {true, kOwnScale}))
+    if (internal::CurvedGroundFits(g, c) &&
+        internal::MeasureRise(g, c, o.relief_threshold_m, &r, /*curved_ground=*/true))
       curved.push_back(r);
   }
   for (std::vector<Rise>* rises : {&flat, &curved}) {

@@ -154,13 +154,12 @@ Fit FitAt(const HeightGrid& g, const Eigen::Vector2d& c, double R, bool curved) 
 
 // Coordinate descent over the radius (factors of 1.15) and the centre (a 5 x 5 lattice,
 // halved each round).
-Fit Refine(const HeightGrid& g, const Candidate& start, const FitOptions& o) {
+Fit Refine(const HeightGrid& g, const Candidate& start, bool curved) {
   double r_min = std::max(2.0 * g.cell, 2.0), r_max = 1.25 * g.radius;
-  if (o.radius_factor > 0) {
-    r_min = std::max(r_min, start.radius_m / o.radius_factor);
-    r_max = std::min(r_max, std::max(r_min, start.radius_m * o.radius_factor));
+  if (curved) {  // held near the candidate's own scale
+    r_min = std::max(r_min, start.radius_m / kOwnScale);
+    r_max = std::min(r_max, std::max(r_min, start.radius_m * kOwnScale));
   }
-  const bool curved = o.curved_ground;
   Fit best = FitAt(g, start.centre, std::clamp(start.radius_m, r_min, r_max), curved);
   double step = std::max(g.cell, best.radius / 8);
   for (int round = 0; round < 4; ++round) {
@@ -253,8 +252,8 @@ std::vector<Candidate> ScaleSpaceCandidates(const HeightGrid& g, double min_cont
 }
 
 bool MeasureRise(const HeightGrid& g, const Candidate& start, double relief_threshold_m, Rise* out,
-                 const FitOptions& o) {
-  const Fit f = Refine(g, start, o);
+                 bool curved_ground) {
+  const Fit f = Refine(g, start, curved_ground);
   if (!std::isfinite(f.q) || !(f.H > 0)) return false;
   const Eigen::Vector2d c = f.centre;
   const double R = f.radius, rho = f.window;
@@ -267,7 +266,7 @@ bool MeasureRise(const HeightGrid& g, const Candidate& start, double relief_thre
   r.shape = f.shape;
   r.ground_slope_rad = std::atan(std::hypot(f.ground[1], f.ground[2]));
   r.ground_plane = f.ground.head<3>();  // over a curved ground: its tangent at the centre
-  r.curved_ground = o.curved_ground;
+  r.curved_ground = curved_ground;
   r.ground_curvature = f.ground.tail<3>();
   // Within the base: the height (99th percentile of the relief), the fit's residual, and
   // the peak cell the footprint grows from.

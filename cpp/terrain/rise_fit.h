@@ -16,10 +16,10 @@
 // zero beyond R; linear least squares for (a, b, c, H) at each (c, R, phi), searched over c
 // and R by coordinate descent, keeping the fit whose dome explains most of the window's
 // departure from a plane (q = 1 - SSE(plane + dome) / SSE(plane), with H > 0).
-// With FitOptions::curved_ground the ground is a quadratic (a + b x + c y + d x^2 + e x y
-// + f y^2) within rho = max(2 R, R + 4 cells), q its share explained likewise, and R held
-// near the candidate's own (FitOptions::radius_factor): a tumulus on a hill, measured with
-// the hill as its ground.
+// Over a curved ground the ground is a quadratic (a + b x + c y + d x^2 + e x y + f y^2)
+// within rho = max(2 R, R + 4 cells), q its share explained likewise, and R held within
+// kOwnScale of the candidate's own: a tumulus on a hill, measured with the hill as its
+// ground.
 // The measurements then use the relief over that local ground (see Rise in
 // mound_detector.h).
 #pragma once
@@ -98,19 +98,22 @@ struct Candidate {
 std::vector<Candidate> ScaleSpaceCandidates(const HeightGrid& g, double min_contrast_m,
                                             size_t max_count);
 
-struct FitOptions {
-  // The local ground a quadratic (fitted within 2 R) instead of a plane (within 1.5 R):
-  // a tumulus on a hill's top or shoulder stands on ground that bends under it.
-  bool curved_ground = false;
-  // > 0: the radius held within [start / factor, start x factor] (the candidate's own
-  // scale); 0: free (up to 1.25 x the site's radius).
-  double radius_factor = 0;
-};
+// Over a curved ground a candidate's radius is held within this factor of its own (over a
+// plane it is free, up to 1.25 x the site's radius).
+constexpr double kOwnScale = 1.4;
+
+// Whether a candidate may be fitted over a curved ground: the quadratic's window (2 R) at
+// the largest radius it may take there (kOwnScale x the candidate's) lies within the site,
+// so that the frame beyond the dome pins the ground's curvature.
+inline bool CurvedGroundFits(const HeightGrid& g, const Candidate& c) {
+  return 2 * kOwnScale * c.radius_m <= g.radius;
+}
 
 // The rise a candidate converges to, measured (Rise's fields, centre relative to the site
 // centre), or false when no dome with H > 0 fits there. `relief_threshold_m` the lowest
-// relief that counts as the rise's footprint.
+// relief that counts as the rise's footprint; `curved_ground`: the local ground a quadratic
+// (within 2 R, the radius near the candidate's own) instead of a plane (within 1.5 R).
 bool MeasureRise(const HeightGrid& g, const Candidate& start, double relief_threshold_m, Rise* out,
-                 const FitOptions& o = {});
+                 bool curved_ground = false);
 
 }  // namespace mound::terrain::internal
