@@ -63,6 +63,8 @@ def test_training_recovers_a_known_model_with_calibrated_probabilities() -> None
     assert 0.5 <= model["threshold"] < 1
     oof = model["trained"]["out_of_fold"]
     assert oof["false_alarm_rate"] <= vm.MAX_FA
+    # calibration and threshold from the out-of-fold scores of every split into folds
+    assert model["trained"]["cv_repeats"] == vm.CV_REPEATS > 1
     report = vm.evaluate(model, held)
     assert report["measured"] == len(held)
     neg = [r for r in held if not r["truth"]["mound"]]
