@@ -165,6 +165,7 @@ int RunVerdict(const std::vector<std::string>& args) {
     }
     const std::optional<Eigen::Vector2d> centre = CameraCentre(recon, dir + "/recon.json");
     if (!centre) fail("no registered image");
+    site.cameras = CameraCentres(recon, dir + "/recon.json");
     // --model sparse | dense | FILE; by default the built-in model of the cloud judged:
     // the sparse one for points.ply, the dense one for --cloud (densify's dense.ply).
     const std::string model_arg =

@@ -250,6 +250,28 @@ SiteVerdict JudgeSite(const std::vector<Eigen::Vector3d>& cloud, const Eigen::Ve
     r.reserve(cloud.size());
     for (const auto& p : cloud) r.push_back((p.head<2>() - centre).norm());
     v.radius_m = Quantile(r, 0.8);
+    if (!options.cameras.empty()) {
+      // the ground: the points' median height under the cameras' track (all of them when
+      // none lies there)
+      double track = 0;
+      for (const Eigen::Vector3d& p : options.cameras)
+        track = std::max(track, (p.head<2>() - centre).norm());
+      std::vector<double> under, all;
+      for (const auto& p : cloud) {
+        all.push_back(p.z());
+        if ((p.head<2>() - centre).norm() <= track) under.push_back(p.z());
+      }
+      const double reach =
+          CameraReach(options.cameras, centre, Median(under.empty() ? all : under));
+      if (v.radius_m > reach) {
+        std::ostringstream why;
+        why.precision(3);
+        why << "a torn reconstruction: 20 % of the cloud lies more than " << v.radius_m
+            << " m from the scan's centre, beyond the " << reach
+            << " m its cameras could see; not judged (reconstruct the site again)";
+        throw NoResultError(why.str());
+      }
+    }
   }
   v.detection = terrain::DetectMound(cloud, centre, v.radius_m, options.detector);
   size_t best = 0;
@@ -326,24 +348,40 @@ nlohmann::json SiteVerdictJson(const SiteVerdict& v, const terrain::VerdictModel
   return doc;
 }
 
-std::optional<Eigen::Vector2d> CameraCentre(const nlohmann::json& recon, const std::string& path) {
+std::vector<Eigen::Vector3d> CameraCentres(const nlohmann::json& recon, const std::string& path) {
   const nlohmann::json& images = RequireField(recon, "images", "");
   if (!images.is_array()) throw InputError(path + ": images: expected an array");
-  Eigen::Vector2d c = Eigen::Vector2d::Zero();
-  int n = 0;
+  std::vector<Eigen::Vector3d> out;
   for (size_t k = 0; k < images.size(); ++k) {
     const std::string at = "images[" + std::to_string(k) + "]";
     if (!images[k].is_object() || !images[k].value("registered", false)) continue;
     const nlohmann::json& centre = RequireField(images[k], "centre", at);
     if (!centre.is_array() || centre.size() != 3 || !centre[0].is_number() ||
-        !centre[1].is_number()) {
+        !centre[1].is_number() || !centre[2].is_number()) {
       throw InputError(path + ": " + at + ".centre: expected [x, y, z]");
     }
-    c += Eigen::Vector2d(centre[0].get<double>(), centre[1].get<double>());
-    ++n;
+    const Eigen::Vector3d c(centre[0].get<double>(), centre[1].get<double>(),
+                            centre[2].get<double>());
+    if (!c.allFinite()) throw InputError(path + ": " + at + ".centre: expected finite numbers");
+    out.push_back(c);
   }
-  if (n == 0) return std::nullopt;
-  return c / n;
+  return out;
+}
+
+std::optional<Eigen::Vector2d> CameraCentre(const nlohmann::json& recon, const std::string& path) {
+  const std::vector<Eigen::Vector3d> cameras = CameraCentres(recon, path);
+  if (cameras.empty()) return std::nullopt;
+  Eigen::Vector2d c = Eigen::Vector2d::Zero();
+  for (const Eigen::Vector3d& p : cameras) c += p.head<2>();
+  return c / static_cast<double>(cameras.size());
+}
+
+double CameraReach(const std::vector<Eigen::Vector3d>& cameras, const Eigen::Vector2d& centre,
+                   double ground_z) {
+  double reach = 0;
+  for (const Eigen::Vector3d& p : cameras)
+    reach = std::max(reach, (p.head<2>() - centre).norm() + 2 * std::max(p.z() - ground_z, 0.0));
+  return reach;
 }
 
 }  // namespace mound::recon

@@ -88,6 +88,12 @@ struct SiteVerdictOptions {
   // The site's radius; unset: the 80th percentile of the points' horizontal distance from
   // the site centre.
   std::optional<double> radius_m;
+  // The registered cameras' centres (ENU, m). Given, and the radius not: a cloud whose
+  // radius exceeds what they could see (CameraReach over the median height of the points
+  // under their track) is a
+  // torn reconstruction — points strewn hundreds of metres off — and is not judged
+  // (NoResultError): its rises lie beyond anything the model learned from.
+  std::vector<Eigen::Vector3d> cameras;
   terrain::DetectorOptions detector;
   void Check() const;  // InputError naming the field
 };
@@ -124,8 +130,16 @@ nlohmann::json SiteVerdictJson(const SiteVerdict& v, const terrain::VerdictModel
                                const std::string& model_file,
                                const terrain::DetectorOptions& detector);
 
-// The horizontal centre of the registered cameras of a recon.json (the flight is centred on
-// the candidate site); nothing when no image is registered. InputError naming the field.
+// The centres of the registered cameras of a recon.json (ENU, m). InputError naming the
+// field.
+std::vector<Eigen::Vector3d> CameraCentres(const nlohmann::json& recon, const std::string& path);
+// Their horizontal centre (the flight is centred on the candidate site); nothing when no
+// image is registered.
 std::optional<Eigen::Vector2d> CameraCentre(const nlohmann::json& recon, const std::string& path);
+// The farthest from `centre` that the cameras could see of ground at height `ground_z`:
+// over the cameras, the horizontal distance plus twice the height above that ground (a
+// lens up to 127 degrees across, looking straight down; 0 without a camera).
+double CameraReach(const std::vector<Eigen::Vector3d>& cameras, const Eigen::Vector2d& centre,
+                   double ground_z);
 
 }  // namespace mound::recon

@@ -108,6 +108,35 @@ TEST(JudgeSite, TheDefaultModelFindsATumulusAndNotBareGround) {
               std::sqrt(0.8 * 14400 / M_PI), 0.5);
 }
 
+// A torn reconstruction (points strewn hundreds of metres off, as a bad bundle adjustment
+// leaves them) reaches beyond what its cameras could see and is not judged; the same site
+// whole is.
+TEST(JudgeSite, ATornCloudBeyondItsCamerasReachIsNotJudged) {
+  const terrain::VerdictModel& model = terrain::DefaultVerdictModel();
+  SiteVerdictOptions o;
+  for (double x : {-30.0, 0.0, 30.0})
+    for (double y : {-30.0, 0.0, 30.0}) o.cameras.emplace_back(x, y, 60.0);  // 60 m up
+  // a track reaching 42.4 m, 60 m above the ground: it sees within 42.4 + 120 m
+  EXPECT_NEAR(CameraReach(o.cameras, {0, 0}, 0.0), std::hypot(30, 30) + 120, 1e-9);
+  EXPECT_NEAR(CameraReach(o.cameras, {0, 0}, 70.0), std::hypot(30, 30), 1e-9);  // above them
+  std::vector<Eigen::Vector3d> cloud = SyntheticSite(5, 30, false, 4);
+  EXPECT_NO_THROW(JudgeSite(cloud, {0, 0}, o, model));
+  const size_t n = cloud.size();
+  for (size_t k = 0; k < n / 2; ++k) {  // half the points torn 300-600 m away, 200 m down
+    const double a = 0.01 * static_cast<double>(k);
+    cloud[k] = Eigen::Vector3d(std::cos(a), std::sin(a), 0) * (300 + static_cast<double>(k % 300)) +
+               Eigen::Vector3d(0, 0, -200);
+  }
+  try {
+    JudgeSite(cloud, {0, 0}, o, model);
+    ADD_FAILURE() << "judged a torn cloud";
+  } catch (const NoResultError& e) {
+    EXPECT_NE(std::string(e.what()).find("torn reconstruction"), std::string::npos) << e.what();
+  }
+  o.radius_m = 40;  // a radius given: the site is the user's, not the cloud's extent
+  EXPECT_NO_THROW(JudgeSite(cloud, {0, 0}, o, model));
+}
+
 TEST(JudgeCoverage, AClippedRiseAsksForAWiderScan) {
   terrain::Detection d;
   terrain::Rise r;

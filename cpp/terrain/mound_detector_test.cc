@@ -337,6 +337,39 @@ TEST(VerdictModel, ZClipBoundsEachStandardisedFeature) {
   EXPECT_DOUBLE_EQ(m.Score(f), -1.0 + 2.0 * 1.5);
 }
 
+// hinge_products: after the hinge, each pair's product of the two standardised features,
+// each factor bounded to +-product_clip (after z_clip), by its own weight.
+TEST(VerdictModel, ProductsOfTwoFeaturesScoreByTheirOwnWeights) {
+  const size_t n = VerdictFeatureNames().size();
+  nlohmann::json doc = ModelDoc();
+  doc["basis"] = "hinge_products";
+  doc["products"] = nlohmann::json::array({nlohmann::json::array({"log_height", "log_diameter"}),
+                                           nlohmann::json::array({"log_diameter", "roundness"})});
+  doc["product_clip"] = 2.0;
+  std::vector<double> w(3 * n + 2, 0.0);
+  w[3 * n] = 0.5;
+  w[3 * n + 1] = -1.0;
+  doc["weights"] = w;
+  const VerdictModel m = ParseVerdictModel(doc, "m.json");
+  const std::vector<std::string>& names = VerdictFeatureNames();
+  auto at = [&](const char* name) {
+    return static_cast<size_t>(std::find(names.begin(), names.end(), name) - names.begin());
+  };
+  std::vector<double> f(n, 0.0);
+  f[at("log_height")] = 1.5;
+  f[at("log_diameter")] = 4.0;  // bounded to 2 in the products
+  f[at("roundness")] = -0.5;
+  EXPECT_DOUBLE_EQ(m.Score(f), -1.0 + 0.5 * 1.5 * 2.0 - 1.0 * 2.0 * -0.5);
+  doc["z_clip"] = 1.0;  // z_clip first, then product_clip
+  EXPECT_DOUBLE_EQ(ParseVerdictModel(doc, "m.json").Score(f), -1.0 + 0.5 * 1.0 - 1.0 * -0.5);
+  // the pairs name the model's features, whatever their order in the file
+  nlohmann::json rev = doc;
+  std::vector<std::string> r = names;
+  std::reverse(r.begin(), r.end());
+  rev["features"] = r;
+  EXPECT_DOUBLE_EQ(ParseVerdictModel(rev, "r.json").Score(f), -1.0 + 0.5 * 1.0 - 1.0 * -0.5);
+}
+
 TEST(VerdictModel, RefusesMalformedModelsNamingTheField) {
   auto refused = [](nlohmann::json doc, const std::string& field) {
     try {
@@ -376,6 +409,31 @@ TEST(VerdictModel, RefusesMalformedModelsNamingTheField) {
   refused(d, "z_clip");
   d["z_clip"] = "3";
   refused(d, "z_clip");
+  d = ModelDoc();
+  d["products"] = nlohmann::json::array({nlohmann::json::array({"log_height", "log_diameter"})});
+  refused(d, "products");  // only with hinge_products
+  const size_t n = VerdictFeatureNames().size();
+  d["basis"] = "hinge_products";
+  d["product_clip"] = 3.0;
+  d["weights"] = std::vector<double>(3 * n + 1, 0.0);
+  EXPECT_NO_THROW(ParseVerdictModel(d, "m.json"));
+  d["weights"] = std::vector<double>(3 * n, 0.0);
+  refused(d, "weights");  // one per pair after the hinge's
+  d["weights"] = std::vector<double>(3 * n + 1, 0.0);
+  for (const nlohmann::json& bad :
+       {nlohmann::json::array(),
+        nlohmann::json::array({nlohmann::json::array({"log_height", "log_width"})}),
+        nlohmann::json::array({nlohmann::json::array({"log_height", "log_height"})}),
+        nlohmann::json::array({nlohmann::json::array({"log_height"})}),
+        nlohmann::json::array({nlohmann::json::array({1, 2})}), nlohmann::json("log_height")}) {
+    d["products"] = bad;
+    refused(d, "products");
+  }
+  d["products"] = nlohmann::json::array({nlohmann::json::array({"log_height", "log_diameter"})});
+  d["product_clip"] = 0.0;
+  refused(d, "product_clip");
+  d.erase("product_clip");
+  refused(d, "product_clip");
 }
 
 TEST(DetectMound, TooFewPointsOrBadRadius) {

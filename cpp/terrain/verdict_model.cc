@@ -41,13 +41,18 @@ double VerdictModel::Score(const std::vector<double>& f) const {
   const size_t n = mean.size();
   if (f.size() != n || index.size() != n) throw InternalError("VerdictModel: feature count");
   double s = bias;
+  std::vector<double> zs(n);
   for (size_t k = 0; k < n; ++k) {
     double z = (f[index[k]] - mean[k]) / std[k];
     if (z_clip > 0) z = std::clamp(z, -z_clip, z_clip);
+    zs[k] = z;
     s += weights[k] * z;
     if (hinge)
       s += weights[n + k] * std::max(z - 1, 0.0) + weights[2 * n + k] * std::max(-z - 1, 0.0);
   }
+  for (size_t p = 0; p < products.size(); ++p)
+    s += weights[3 * n + p] * std::clamp(zs[products[p].first], -product_clip, product_clip) *
+         std::clamp(zs[products[p].second], -product_clip, product_clip);
   return s;
 }
 
@@ -101,9 +106,30 @@ VerdictModel ParseVerdictModel(const nlohmann::json& doc, const std::string& sou
   const std::string basis = doc.contains("basis") && doc["basis"].is_string()
                                 ? doc["basis"].get<std::string>()
                                 : "linear";
-  if (doc.contains("basis") && basis != "linear" && basis != "hinge")
-    throw InputError(source + ": basis: expected \"linear\" or \"hinge\"");
-  m.hinge = basis == "hinge";
+  if (doc.contains("basis") && basis != "linear" && basis != "hinge" && basis != "hinge_products")
+    throw InputError(source + ": basis: expected \"linear\", \"hinge\" or \"hinge_products\"");
+  m.hinge = basis != "linear";
+  if (basis == "hinge_products") {
+    if (!doc.contains("products") || !doc["products"].is_array() || doc["products"].empty())
+      throw InputError(source + ": products: expected a list of pairs of feature names");
+    for (const auto& pair : doc["products"]) {
+      size_t at[2] = {n, n};
+      for (int e = 0; e < 2 && pair.is_array() && pair.size() == 2; ++e)
+        if (pair[e].is_string()) {
+          const auto it =
+              std::find(m.features.begin(), m.features.end(), pair[e].get<std::string>());
+          at[e] = static_cast<size_t>(it - m.features.begin());
+        }
+      if (at[0] >= n || at[1] >= n || at[0] == at[1])
+        throw InputError(source + ": products: each a pair of two of the model's features");
+      m.products.emplace_back(at[0], at[1]);
+    }
+    m.product_clip = Number(doc, "product_clip", source);
+    if (!(m.product_clip > 0 && m.product_clip <= 1e6))
+      throw InputError(source + ": product_clip: must be > 0 (within 1e6)");
+  } else if (doc.contains("products")) {
+    throw InputError(source + ": products: only with basis \"hinge_products\"");
+  }
   if (doc.contains("z_clip") && !doc["z_clip"].is_null()) {
     m.z_clip = Number(doc, "z_clip", source);
     if (!(m.z_clip > 0 && m.z_clip <= 1e6))
@@ -111,7 +137,7 @@ VerdictModel ParseVerdictModel(const nlohmann::json& doc, const std::string& sou
   }
   m.mean = Numbers(doc, "mean", n, source);
   m.std = Numbers(doc, "std", n, source);
-  m.weights = Numbers(doc, "weights", m.hinge ? 3 * n : n, source);
+  m.weights = Numbers(doc, "weights", (m.hinge ? 3 * n : n) + m.products.size(), source);
   // Bounded, so that every score is a finite number (huge weights of both signs would
   // make inf - inf).
   for (double s : m.std)

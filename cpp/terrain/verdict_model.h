@@ -10,7 +10,10 @@
 //   s(rise) = b + w . phi(z), z_k = (f_k - mean_k) / std_k bounded to [-c, c] when the
 //   file gives "z_clip": c (> 0; a hinge is linear beyond the training data, so a feature
 //   far outside it would otherwise score on an extrapolation), phi the "basis": "linear"
-//   (z) or "hinge" (z, max(z - 1, 0), max(-z - 1, 0); 3 x the weights);
+//   (z), "hinge" (z, max(z - 1, 0), max(-z - 1, 0); 3 x the weights) or "hinge_products"
+//   (the hinge's, then per pair [a, b] of "products" — two of the model's feature names —
+//   z_a z_b, each factor bounded to [-q, q] with q the file's "product_clip" (> 0);
+//   3 x the features + the pairs' weights);
 //   p(site) = 1 / (1 + exp(-max over the judged rises of s)) (the Platt calibration of the
 //   site's highest score folded into w and b)
 // Two models ship in the repository and are compiled into the tool, learned on the same
@@ -22,6 +25,7 @@
 
 #include <nlohmann/json.hpp>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "terrain/mound_detector.h"
@@ -34,6 +38,9 @@ struct VerdictModel {
   std::vector<size_t> index;  // the detector's position of each of the model's features
   bool hinge = false;
   double z_clip = 0;  // 0: z unbounded
+  // hinge_products: the model's positions of each pair's two features, and their bound
+  std::vector<std::pair<size_t, size_t>> products;
+  double product_clip = 0;
   double bias = 0, threshold = 0.5, p_no_rise = 0;
   nlohmann::json doc;  // the whole file (its figures travel into verdict.json)
 

@@ -130,6 +130,25 @@ def test_z_clip_scores_a_feature_beyond_the_data_as_one_at_the_bound() -> None:
     assert p_at(9.0, unclipped) == pytest.approx(sigma(-1 + 9 + 0.5 * 8))
 
 
+def test_products_of_the_rise_s_form_score_as_the_tool_does() -> None:
+    """hinge_products (as VerdictModel::Score, mound_detector_test): after the hinge's
+    terms, per pair the product of the two standardised features, each factor bounded to
+    +-product_clip after z_clip; the pairs are every two PRODUCT_FEATURES present."""
+    names = ["roughness", "x", "log_height", "log_diameter"]
+    assert vm.product_pairs(names) == ((2, 3), (2, 0), (3, 0))
+    assert vm.product_pairs(["x", "log_height"]) == ()
+    model = {"features": names, "mean": [0.0] * 4, "std": [1.0] * 4,
+             "basis": "hinge_products", "products": [["log_height", "log_diameter"]],
+             "product_clip": vm.PRODUCT_CLIP, "weights": [0.0] * 12 + [0.5], "bias": -1.0,
+             "p_no_rise": 0.1}
+    row = {"rises": [{"features": {"roughness": 0.0, "x": 0.0, "log_height": 2.0,
+                                   "log_diameter": 5.0}}]}
+    assert vm.probability(model, [row])[0] == pytest.approx(
+        1 / (1 + np.exp(-(-1 + 0.5 * 2.0 * 3.0))))
+    with pytest.raises(InputError, match="product_clip"):
+        vm.probability({**model, "product_clip": 2.0}, [row])
+
+
 def test_rise_labels_the_tumulus_its_own_and_leaves_out_what_overlaps_it() -> None:
     truth = {"mound": True, "kind": "tumulus", "diameter_m": 40.0, "centre_enu_m": [10.0, 0.0]}
     rises = [{"centre_enu_m": [12.0, 3.0], "base_diameter_m": 36.0},   # the tumulus
@@ -218,6 +237,13 @@ def test_each_shape_and_confuser_is_decided_right(name: str, tmp_path: Path,
     d = json.loads((tmp_path / "verdict_dense.json").read_text())
     assert d["status"] == "ok" and d["model"]["trained"]["cloud"] == "dense"
     assert d["label"] == want, (name, d["p_mound"], d["reason"])
+    # the trainer's formula (Python) gives the tool's p (C++) on the real rises, for both
+    # shipped models (the dense one with products of features)
+    root = Path(__file__).resolve().parents[2] / "data"
+    for doc, model in ((v, "verdict_model.json"), (d, "verdict_model_dense.json")):
+        m = json.loads((root / model).read_text())
+        row = {"rises": doc["measurements"]["judged_rises"]}
+        assert vm.probability(m, [row])[0] == pytest.approx(doc["p_mound"], abs=1e-9)
 
 
 @pytest.mark.slow

@@ -6,18 +6,20 @@ on the standardised detector features that `mound_recon verdict` writes for each
 rise of a site (measurements.judged_rises[].features: the most prominent rises, since a
 scan of real ground holds natural rises, often larger than the tumulus; the names and
 their order are the detector's, VerdictFeatureNames() in cpp/terrain), on a linear or
-hinge basis. A rise is a positive when it is the tumulus's own, a negative when it lies
+hinge basis, or the hinge basis with the products of every two of the rise's form and place
+features (`hinge_products`, PRODUCT_FEATURES). A rise is a positive when it is the
+tumulus's own, a negative when it lies
 clear of any tumulus, and left out of the fit when it overlaps one otherwise
 (`rise_labels`). A site's
 score is its highest rise's; that score is Platt-calibrated on the sites (folded into the
 weights: the file stays one logistic regression and a max). Sites without a rise get
 `p_no_rise`, the share of mounds among the training sites without one (Laplace-smoothed).
-Basis, L2 penalty and `z_clip` are chosen by 5-fold cross-validation over sites (the sites'
-log loss after calibration). `z_clip` c bounds each standardised feature to [-c, c] before
-the basis: a hinge is linear beyond the data, and a rise whose feature lies far outside the
-training range (a torn cloud's, a real site's) would otherwise score on an extrapolation;
-none leaves them as they are. The chosen model's out-of-fold scores are then taken over
-CV_REPEATS splits of the sites into folds (the first the selection's): the Platt
+Basis and L2 penalty are chosen by 5-fold cross-validation over sites (the sites' log loss
+after calibration). `z_clip` c bounds each standardised feature to [-c, c] before the
+basis (c = 3, Z_CLIPS): a hinge is linear beyond the data, a product grows as the square,
+and a rise whose feature lies far outside the training range (a torn cloud's, a real
+site's) would otherwise score on an extrapolation. The chosen model's out-of-fold scores
+are then taken over CV_REPEATS splits of the sites into folds (the first the selection's): the Platt
 calibration is fitted on all of them, and the threshold is the lowest p >= 0.5 whose
 out-of-fold false-alarm rate over them is <= 1 % — one split's rate rests on the three or
 four highest of some 360 negatives and moves with the split by several hundredths.
@@ -54,8 +56,19 @@ from mound.errors import InputError
 SCHEMA = "mound.verdict_model"
 VERSION = 1
 L2_GRID = (1e-4, 1e-3, 1e-2, 1e-1)
-BASES = ("linear", "hinge")
-Z_CLIPS: tuple[float | None, ...] = (None, 3.0)
+BASES = ("linear", "hinge", "hinge_products")
+# `hinge_products`: the hinge basis and the products of every two of these features (the
+# rise's form — size, shape, fit, texture — and its place in the scan), each factor bounded
+# to +-PRODUCT_CLIP: the additive hinge model scores a steep flank alike on a 7 m haystack
+# and a 20 m cone, a low rise alike smooth or rough; the products let one feature's weight
+# depend on another's value.
+PRODUCT_FEATURES = ("log_height", "log_diameter", "log_aspect", "dome_r2", "roundness",
+                    "symmetry", "roughness", "flank_slope", "offset", "clipped")
+PRODUCT_CLIP = 3.0
+# Each standardised feature is bounded to +-3 before the basis, not chosen by CV: CV on
+# simulated sites cannot judge what unbounded scores do on a site unlike them (their CV log
+# losses differ by 0.0005 on the dense grid).
+Z_CLIPS: tuple[float | None, ...] = (3.0,)
 MAX_FA = 0.01
 CV_REPEATS = 10  # splits of the sites into folds for the calibration and threshold
 OPERATING_THRESHOLDS = (0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 0.95)
@@ -122,24 +135,44 @@ def rise_labels(row: dict[str, Any]) -> list[bool | None]:
     return out
 
 
-def expand(z: np.ndarray, basis: str, z_clip: float | None = None) -> np.ndarray:
+Pairs = tuple[tuple[int, int], ...]
+
+
+def product_pairs(names: list[str]) -> Pairs:
+    """The (i, j) positions in `names` of every two PRODUCT_FEATURES, in that order."""
+    idx = [names.index(n) for n in PRODUCT_FEATURES if n in names]
+    return tuple((a, b) for k, a in enumerate(idx) for b in idx[k + 1:])
+
+
+def expand(z: np.ndarray, basis: str, z_clip: float | None = None,
+           pairs: Pairs = ()) -> np.ndarray:
     """The basis on standardised features, each first bounded to [-z_clip, z_clip] when
     given: `linear` z itself; `hinge` z, max(z - 1, 0) and max(-z - 1, 0) per feature (a
-    piecewise-linear response, still a logistic regression)."""
+    piecewise-linear response, still a logistic regression); `hinge_products` that and, per
+    pair (i, j), z_i z_j with each factor bounded to +-PRODUCT_CLIP."""
     if z_clip is not None:
         z = np.clip(z, -z_clip, z_clip)
-    return z if basis == "linear" else hinge_basis(z)
+    if basis == "linear":
+        return z
+    if basis == "hinge":
+        return hinge_basis(z)
+    if basis != "hinge_products" or not pairs:
+        raise ValueError(f"expand: basis {basis!r} (hinge_products needs pairs)")
+    zc = np.clip(z, -PRODUCT_CLIP, PRODUCT_CLIP)
+    a, b = np.array(pairs).T
+    return np.hstack([hinge_basis(z), zc[:, a] * zc[:, b]])
 
 
 def _fit(z: np.ndarray, y: np.ndarray, l2: float, basis: str,
-         z_clip: float | None) -> np.ndarray:
-    d = np.hstack([expand(z, basis, z_clip), np.ones((len(z), 1))])
+         z_clip: float | None, pairs: Pairs = ()) -> np.ndarray:
+    d = np.hstack([expand(z, basis, z_clip, pairs), np.ones((len(z), 1))])
     f = logistic.fit(d, np.where(y, 1.0, -1.0), solver="lbfgs", l2=l2, tol=1e-7)
     return np.asarray(f.w)
 
 
-def _logit(w: np.ndarray, z: np.ndarray, basis: str, z_clip: float | None) -> np.ndarray:
-    return expand(z, basis, z_clip) @ w[:-1] + w[-1]
+def _logit(w: np.ndarray, z: np.ndarray, basis: str, z_clip: float | None,
+           pairs: Pairs = ()) -> np.ndarray:
+    return expand(z, basis, z_clip, pairs) @ w[:-1] + w[-1]
 
 
 def _folds(n: int, k: int, seed: int) -> np.ndarray:
@@ -153,9 +186,9 @@ def _platt(s: np.ndarray, y: np.ndarray) -> tuple[float, float]:
 
 
 def _site_scores(z: np.ndarray, site_of: np.ndarray, n_sites: int, w: np.ndarray,
-                 basis: str, z_clip: float | None) -> np.ndarray:
+                 basis: str, z_clip: float | None, pairs: Pairs = ()) -> np.ndarray:
     """Each site's highest rise score (-inf for a site without a rise)."""
-    s = _logit(w, z, basis, z_clip)
+    s = _logit(w, z, basis, z_clip, pairs)
     out = np.full(n_sites, -np.inf)
     np.maximum.at(out, site_of, s)
     return out
@@ -192,20 +225,27 @@ def train(rows: list[dict[str, Any]], names: list[str], sources: list[str],
     std = np.where(x.std(axis=0) > 0, x.std(axis=0), 1.0)
     z_all = (x_all - mean) / std
     z = z_all[fitted]
-    fold_of_site = _folds(len(sites), 5, seed)
-    folds_all = fold_of_site[site_idx]
-    folds = folds_all[fitted]
-    cv: dict[tuple[str, float, float | None], float] = {}
-    oof_by: dict[tuple[str, float, float | None], np.ndarray] = {}
-    for key in itertools.product(BASES, L2_GRID, Z_CLIPS):
+    pairs = product_pairs(names)
+
+    def out_of_fold(split: int, key: tuple[str, float, float | None]) -> np.ndarray:
+        """Each site's score by the model fitted on the other folds of split `split`."""
         basis, l2, z_clip = key
+        fold_of_site = _folds(len(sites), 5, seed + split)
+        folds_all = fold_of_site[site_idx]
+        folds = folds_all[fitted]
         oof = np.full(len(sites), -np.inf)
         for k in range(5):
-            tr = folds != k
-            w = _fit(z[tr], y_rise[tr], l2, basis, z_clip)
+            w = _fit(z[folds != k], y_rise[folds != k], l2, basis, z_clip, pairs)
             out = folds_all == k
-            sc = _site_scores(z_all[out], site_idx[out], len(sites), w, basis, z_clip)
+            sc = _site_scores(z_all[out], site_idx[out], len(sites), w, basis, z_clip, pairs)
             oof = np.where(fold_of_site == k, sc, oof)
+        return oof
+
+    cv: dict[tuple[str, float, float | None], float] = {}
+    oof_by: dict[tuple[str, float, float | None], np.ndarray] = {}
+    bases = [b for b in BASES if b != "hinge_products" or pairs]  # none without the features
+    for key in itertools.product(bases, L2_GRID, Z_CLIPS):
+        oof = out_of_fold(0, key)
         a, b = _platt(oof, y_site)
         p = expit(a * oof + b)
         cv[key] = float(-np.mean(np.where(y_site, np.log(np.clip(p, 1e-12, 1)),
@@ -214,25 +254,14 @@ def train(rows: list[dict[str, Any]], names: list[str], sources: list[str],
     best = min(cv, key=lambda k: cv[k])
     basis, l2, z_clip = best
     # the chosen model's out-of-fold scores over CV_REPEATS splits (the first the one above)
-    oofs = [oof_by[best]]
-    for rep in range(1, CV_REPEATS):
-        fold_r = _folds(len(sites), 5, seed + rep)
-        fold_r_all = fold_r[site_idx]
-        oof = np.full(len(sites), -np.inf)
-        for k in range(5):
-            w = _fit(z[fold_r_all[fitted] != k], y_rise[fold_r_all[fitted] != k], l2, basis,
-                     z_clip)
-            out = fold_r_all == k
-            sc = _site_scores(z_all[out], site_idx[out], len(sites), w, basis, z_clip)
-            oof = np.where(fold_r == k, sc, oof)
-        oofs.append(oof)
+    oofs = [oof_by[best]] + [out_of_fold(rep, best) for rep in range(1, CV_REPEATS)]
     s_oof, y_oof = np.concatenate(oofs), np.tile(y_site, len(oofs))
     a, b = _platt(s_oof, y_oof)
     if not a > 0:
         raise InputError("train-verdict: the rises' scores do not rank the sites (Platt slope "
                          f"{a:.3g} <= 0): more or other training sites are needed")
     p_oof = expit(a * s_oof + b)
-    w = _fit(z, y_rise, l2, basis, z_clip)
+    w = _fit(z, y_rise, l2, basis, z_clip, pairs)
     # threshold: the lowest p >= 0.5 with an out-of-fold false-alarm rate <= MAX_FA
     neg = p_oof[~y_oof]
     thr = 0.5
@@ -245,6 +274,8 @@ def train(rows: list[dict[str, Any]], names: list[str], sources: list[str],
         "schema": SCHEMA, "version": VERSION, "features": names,
         "mean": mean.tolist(), "std": std.tolist(), "basis": basis,
         **({"z_clip": z_clip} if z_clip is not None else {}),
+        **({"products": [[names[i], names[j]] for i, j in pairs],
+            "product_clip": PRODUCT_CLIP} if basis == "hinge_products" else {}),
         "weights": (a * w[:-1]).tolist(), "bias": float(a * w[-1] + b),
         "threshold": thr, "p_no_rise": (m_nr + 1) / (n_nr + 2),
         "trained": {"grids": sources, "cloud": clouds[0] if len(clouds) == 1 else "mixed",
@@ -278,6 +309,12 @@ def probability(model: dict[str, Any], rows: list[dict[str, Any]]) -> np.ndarray
     w = np.array(model["weights"])
     basis = model.get("basis", "linear")
     z_clip = model.get("z_clip")
+    pairs = tuple((names.index(i), names.index(j)) for i, j in model.get("products", [])
+                  if i in names and j in names)
+    if basis == "hinge_products" and (not pairs or len(pairs) != len(model.get("products") or [])):
+        raise InputError("verdict model: products: expected pairs of the model's features")
+    if basis == "hinge_products" and model.get("product_clip") != PRODUCT_CLIP:
+        raise InputError(f"verdict model: product_clip: expected {PRODUCT_CLIP}")
     out = np.empty(len(rows))
     for k, r in enumerate(rows):
         rises = r.get("rises") or []
@@ -286,7 +323,7 @@ def probability(model: dict[str, Any], rows: list[dict[str, Any]]) -> np.ndarray
             continue
         f = np.array([[float(q["features"][n]) for n in names] for q in rises])
         out[k] = expit(model["bias"]
-                       + float(np.max(expand((f - mean) / std, basis, z_clip) @ w)))
+                       + float(np.max(expand((f - mean) / std, basis, z_clip, pairs) @ w)))
     return out
 
 
