@@ -257,9 +257,9 @@ SiteVerdict JudgeSite(const std::vector<Eigen::Vector3d>& cloud, const Eigen::Ve
       for (const Eigen::Vector3d& p : options.cameras)
         track = std::max(track, (p.head<2>() - centre).norm());
       std::vector<double> under, all;
-      for (const auto& p : cloud) {
-        all.push_back(p.z());
-        if ((p.head<2>() - centre).norm() <= track) under.push_back(p.z());
+      for (size_t k = 0; k < cloud.size(); ++k) {
+        all.push_back(cloud[k].z());
+        if (r[k] <= track) under.push_back(cloud[k].z());  // r: the distances above
       }
       const double reach =
           CameraReach(options.cameras, centre, Median(under.empty() ? all : under));

@@ -90,9 +90,8 @@ struct SiteVerdictOptions {
   std::optional<double> radius_m;
   // The registered cameras' centres (ENU, m). Given, and the radius not: a cloud whose
   // radius exceeds what they could see (CameraReach over the median height of the points
-  // under their track) is a
-  // torn reconstruction — points strewn hundreds of metres off — and is not judged
-  // (NoResultError): its rises lie beyond anything the model learned from.
+  // under their track) is a torn reconstruction — points strewn hundreds of metres off —
+  // and is not judged (NoResultError): its rises lie beyond anything the model learned from.
   std::vector<Eigen::Vector3d> cameras;
   terrain::DetectorOptions detector;
   void Check() const;  // InputError naming the field

@@ -266,8 +266,8 @@ Detection DetectMound(const std::vector<Eigen::Vector3d>& points, const Eigen::V
     candidates.push_back(c);
   // Each candidate fitted and measured over its own ground twice: over a plane, its radius
   // free, and over a quadratic at its own scale (radius within kOwnScale of the
-  // candidate's), where that window fits within the site (CurvedGroundFits) — a tumulus on a hill's
-  // top or shoulder, or among the undulations of rough ground, stands on ground that
+  // candidate's), where that window fits within the site (CurvedGroundFits) — a tumulus on
+  // a hill's top or shoulder, or among the undulations of rough ground, stands on ground that
   // bends, and over a plane its fit runs out to the larger dome of the hill or takes the
   // ground's swell in with it. Of each kind, rises that converged to the same dome
   // (centres within a sixth of the larger diameter, diameters within 35 %) kept once, the

@@ -450,11 +450,11 @@ def cmd_recon_train_verdict(args: argparse.Namespace) -> int:
 
 def _print_verdict_report(r: dict[str, Any]) -> None:
     g, n = r["goal_mounds_2m_15m"], r["goal_no_mound"]
-    c = r["calibration"]
+    cal = r["calibration"]
     print(f"held-out: {r['measured']} of {r['sites']} sites measured; accuracy "
           f"{r['accuracy']:.3f} (old rule {r['old_rule_accuracy']:.3f}); AUC {r['auc']:.3f}, "
           f"Brier {r['brier']:.3f}, ECE {r['ece']:.3f} (a calibrated forecast on these sites: "
-          f"<= {c['ece_if_calibrated_95']:.3f} in 95 % of draws; p = {c['p_value']:.2f})")
+          f"<= {cal['ece_if_calibrated_95']:.3f} in 95 % of draws; p = {cal['p_value']:.2f})")
 
     def ci(d: dict[str, Any]) -> str:
         lo, hi = d["rate_95ci"] or (math.nan, math.nan)

@@ -19,8 +19,8 @@ after calibration). `z_clip` c bounds each standardised feature to [-c, c] befor
 basis (c = 3, Z_CLIPS): a hinge is linear beyond the data, a product grows as the square,
 and a rise whose feature lies far outside the training range (a torn cloud's, a real
 site's) would otherwise score on an extrapolation. The chosen model's out-of-fold scores
-are then taken over CV_REPEATS splits of the sites into folds (the first the selection's): the Platt
-calibration is fitted on all of them, and the threshold is the lowest p >= 0.5 whose
+are then taken over CV_REPEATS splits of the sites into folds (the first the selection's):
+the Platt calibration is fitted on all of them, and the threshold is the lowest p >= 0.5 whose
 out-of-fold false-alarm rate over them is <= 1 % — one split's rate rests on the three or
 four highest of some 360 negatives and moves with the split by several hundredths.
 
