@@ -59,6 +59,14 @@ const Site& RenderedSite() {
                              ("mound_dense_test_" + std::to_string(::getpid())))
                                 .string();
     std::filesystem::create_directories(dir);
+    // the images are removed when the test binary exits
+    static const struct RemoveAtExit {
+      std::string dir;
+      ~RemoveAtExit() {
+        std::error_code ec;
+        std::filesystem::remove_all(dir, ec);
+      }
+    } remove_at_exit{dir};
     sim::RenderSettings rs;
     rs.noise_sigma = 1.0;
     rs.keep_geometry = true;
