@@ -93,10 +93,12 @@ int RunVerdict(const std::vector<std::string>& args) {
   const Args a = ParseArgs(
       args, 1,
       {"--out", "--reference", "--radius", "--threshold-ratio", "--model", "--ground-order",
-       "--relief-threshold", "--init", "--max-points", "--seed", "--cloud"},
+       "--relief-threshold", "--init", "--max-points", "--seed", "--cloud", "--second-look"},
       {"--no-scale"});
   if (a.positional.size() != 1)
     throw InputError("verdict: expected exactly one RECON_DIR (see --help)");
+  if (a.Has("--second-look") && a.Has("--reference"))
+    throw InputError("--second-look: only for the reference-free verdict, not --reference");
   if (!a.Has("--out")) throw InputError("--out: the verdict file is required");
   const std::string dir = a.positional[0], out = a.options.at("--out");
   // Flags to options, checked before anything is read.
@@ -124,6 +126,16 @@ int RunVerdict(const std::vector<std::string>& args) {
       const double g = ParseNumber(a.options.at("--ground-order"), "--ground-order");
       if (g != 1 && g != 2) throw InputError("--ground-order: 1 (a plane) or 2 (a quadratic)");
       site.detector.ground_order = static_cast<int>(g);
+    }
+    if (a.Has("--second-look")) {
+      const std::string first = a.options.at("--second-look"), at = "--second-look: " + first;
+      std::string text;
+      try {
+        text = ReadFile(first);
+      } catch (const InputError& e) {
+        throw InputError(std::string("--second-look: ") + e.what());
+      }
+      site.first_look_p = FirstLookP(ParseJson(text, at), at);
     }
     site.Check();
   }

@@ -194,6 +194,8 @@ nlohmann::json PaperVerdictJson(const PaperVerdict& v, double threshold_ratio) {
 void SiteVerdictOptions::Check() const {
   if (radius_m && (!(*radius_m > 0) || !std::isfinite(*radius_m)))
     throw InputError("radius_m: must be > 0");
+  if (first_look_p && !(*first_look_p >= 0 && *first_look_p <= 1))
+    throw InputError("first_look_p: must be in [0, 1]");
   detector.Check();
 }
 
@@ -240,6 +242,10 @@ Coverage JudgeCoverage(const terrain::Detection& d, const terrain::Rise* judged,
 SiteVerdict JudgeSite(const std::vector<Eigen::Vector3d>& cloud, const Eigen::Vector2d& centre,
                       const SiteVerdictOptions& options, const terrain::VerdictModel& model) {
   options.Check();
+  if (options.first_look_p && !model.second_look)
+    throw InputError(
+        "--second-look: the model has no second_look (train it on a grid flown with "
+        "mound sim grid --second-look)");
   SiteVerdict v;
   v.centre = centre;
   if (options.radius_m) {
@@ -275,8 +281,14 @@ SiteVerdict JudgeSite(const std::vector<Eigen::Vector3d>& cloud, const Eigen::Ve
   }
   v.detection = terrain::DetectMound(cloud, centre, v.radius_m, options.detector);
   size_t best = 0;
-  v.p_mound = model.Probability(v.detection, &best);
+  v.model_p = v.p_mound = model.Probability(v.detection, &best);
   v.mound = v.p_mound >= model.threshold;
+  if (options.first_look_p) {
+    v.second_look = true;
+    v.first_p = *options.first_look_p;
+    v.p_mound = model.SecondLookProbability(v.first_p, v.model_p);
+    v.mound = v.p_mound >= model.second_look->threshold;
+  }
   if (!v.detection.judged.empty()) v.judged = best;
   v.coverage =
       JudgeCoverage(v.detection, v.judged ? &v.detection.judged[*v.judged] : nullptr, v.radius_m);
@@ -338,14 +350,55 @@ nlohmann::json SiteVerdictJson(const SiteVerdict& v, const terrain::VerdictModel
                        {"rise_outside", c.rise_outside},
                        {"site_sag_m", c.site_sag_m}};
   }
-  why << "; p(mound) " << v.p_mound << " (threshold " << model.threshold << ")";
+  const double threshold = v.second_look ? model.second_look->threshold : model.threshold;
+  if (v.second_look) {
+    why << "; a second look: the model's p " << v.model_p << " of this flight, " << v.first_p
+        << " of the first; both together p(mound) " << v.p_mound << " (threshold " << threshold
+        << ")";
+    doc["look"] = "second";
+    doc["model_p_mound"] = v.model_p;
+    doc["first_look_p_mound"] = v.first_p;
+  } else {
+    why << "; p(mound) " << v.p_mound << " (threshold " << threshold << ")";
+    doc["look"] = "first";
+  }
+  if (model.second_look && !v.second_look) {
+    const terrain::SecondLook& l = *model.second_look;
+    const bool advised = model.SecondLookAdvised(v.p_mound);
+    doc["second_look"] = {{"advised", advised}, {"p_low", l.p_low}, {"scan_factor", l.scan_factor}};
+    if (advised) {
+      std::ostringstream say;
+      say.precision(3);
+      say << "undecided (p " << v.p_mound << " in [" << l.p_low << ", " << model.threshold
+          << ")): fly the site again with a scan " << l.scan_factor
+          << " x as wide and judge that flight with --second-look";
+      doc["second_look"]["message"] = say.str();
+      why << "; " << say.str();
+    }
+  }
   doc["reason"] = why.str();
   doc["measurements"] = m;
   doc["model"] = {{"file", model_file},
-                  {"threshold", model.threshold},
+                  {"threshold", threshold},
                   {"relief_threshold_m", detector.relief_threshold_m}};
   if (model.doc.contains("trained")) doc["model"]["trained"] = model.doc["trained"];
   return doc;
+}
+
+double FirstLookP(const nlohmann::json& verdict, const std::string& path) {
+  if (!verdict.is_object() || verdict.value("schema", "") != "mound.verdict")
+    throw InputError(path + ": schema: expected \"mound.verdict\"");
+  if (verdict.value("status", "") != "ok")
+    throw InputError(path + ": status: the first look was not judged");
+  if (verdict.value("method", "") != "reference_free_model")
+    throw InputError(path + ": method: expected reference_free_model");
+  if (verdict.value("look", "first") != "first")
+    throw InputError(path + ": look: a second look's verdict, not the first's");
+  if (!verdict.contains("p_mound") || !verdict["p_mound"].is_number())
+    throw InputError(path + ": p_mound: expected a number");
+  const double p = verdict["p_mound"].get<double>();
+  if (!(p >= 0 && p <= 1)) throw InputError(path + ": p_mound: must be in [0, 1]");
+  return p;
 }
 
 std::vector<Eigen::Vector3d> CameraCentres(const nlohmann::json& recon, const std::string& path) {

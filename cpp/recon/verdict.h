@@ -93,6 +93,11 @@ struct SiteVerdictOptions {
   // under their track) is a torn reconstruction — points strewn hundreds of metres off —
   // and is not judged (NoResultError): its rises lie beyond anything the model learned from.
   std::vector<Eigen::Vector3d> cameras;
+  // Set: the cloud is a second look (a flight with a scan second_look.scan_factor x as wide
+  // over a site the first left undecided), this the first flight's p_mound; the site is
+  // decided by both (VerdictModel::SecondLookProbability), a mound at
+  // second_look.threshold. The model must have a second_look (InputError otherwise).
+  std::optional<double> first_look_p;
   terrain::DetectorOptions detector;
   void Check() const;  // InputError naming the field
 };
@@ -115,6 +120,9 @@ struct SiteVerdict {
   terrain::Detection detection;
   double p_mound = 0;            // calibrated: the highest of the judged rises' p
   bool mound = false;            // p_mound >= the model's threshold
+  bool second_look = false;      // a second look: p_mound of both flights, its threshold
+  double model_p = 0;            // the model's p of this flight alone
+  double first_p = 0;            // a second look: the first flight's p_mound
   std::optional<size_t> judged;  // the rise that decided, in detection.judged
   Coverage coverage;
 };
@@ -131,6 +139,10 @@ nlohmann::json SiteVerdictJson(const SiteVerdict& v, const terrain::VerdictModel
 
 // The centres of the registered cameras of a recon.json (ENU, m). InputError naming the
 // field.
+// The first flight's p_mound from its verdict.json (`path` names it in errors): a
+// reference-free first look that was judged; InputError naming the field otherwise.
+double FirstLookP(const nlohmann::json& verdict, const std::string& path);
+
 std::vector<Eigen::Vector3d> CameraCentres(const nlohmann::json& recon, const std::string& path);
 // Their horizontal centre (the flight is centred on the candidate site); nothing when no
 // image is registered.

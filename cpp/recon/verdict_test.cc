@@ -108,6 +108,72 @@ TEST(JudgeSite, TheDefaultModelFindsATumulusAndNotBareGround) {
               std::sqrt(0.8 * 14400 / M_PI), 0.5);
 }
 
+// A first look in the model's undecided band advises a second, wider flight; that flight,
+// judged with the first's p, is decided by both at the second look's threshold.
+TEST(JudgeSite, ASecondLookDecidesTheSiteByBothFlightsAtItsThreshold) {
+  terrain::VerdictModel model = terrain::DenseVerdictModel();
+  SiteVerdictOptions o;
+  o.radius_m = 40;
+  const std::vector<Eigen::Vector3d> cloud = SyntheticSite(1.5, 20, false, 4);
+  const SiteVerdict first = JudgeSite(cloud, {0, 0}, o, model);
+  // a band around this site's p
+  nlohmann::json doc = model.doc;
+  doc["threshold"] = (1 + first.p_mound) / 2;
+  doc["second_look"] = {{"p_low", first.p_mound / 2},
+                        {"threshold", 0.3},
+                        {"scan_factor", 2.0},
+                        {"combine", {{"first", 0.25}, {"second", 0.5}, {"bias", 0.0}}}};
+  model = terrain::ParseVerdictModel(doc, "m.json");
+  const SiteVerdict again = JudgeSite(cloud, {0, 0}, o, model);
+  EXPECT_FALSE(again.mound);  // below the first look's threshold
+  const nlohmann::json j = SiteVerdictJson(again, model, "m.json", o.detector);
+  EXPECT_EQ(j["look"], "first");
+  EXPECT_EQ(j["second_look"]["advised"], true);
+  EXPECT_EQ(j["second_look"]["scan_factor"], 2.0);
+  EXPECT_NE(j["second_look"]["message"].get<std::string>().find("--second-look"),
+            std::string::npos);
+  o.first_look_p = 0.2;  // the same cloud as the second flight's, a first flight's p 0.2
+  const SiteVerdict second = JudgeSite(cloud, {0, 0}, o, model);
+  EXPECT_TRUE(second.second_look);
+  EXPECT_NEAR(second.model_p, first.p_mound, 1e-12);
+  const double logit = std::log(first.p_mound / (1 - first.p_mound));
+  EXPECT_NEAR(second.p_mound, 1 / (1 + std::exp(-(0.25 * std::log(0.25) + 0.5 * logit))), 1e-12);
+  EXPECT_EQ(second.mound, second.p_mound >= 0.3);
+  const nlohmann::json k = SiteVerdictJson(second, model, "m.json", o.detector);
+  EXPECT_EQ(k["look"], "second");
+  EXPECT_EQ(k["model"]["threshold"], 0.3);
+  EXPECT_NEAR(k["model_p_mound"].get<double>(), first.p_mound, 1e-12);
+  EXPECT_EQ(k["first_look_p_mound"], 0.2);
+  EXPECT_FALSE(k.contains("second_look"));  // no third look
+  // a model without a second look cannot judge one
+  EXPECT_THROW(JudgeSite(cloud, {0, 0}, o, terrain::DefaultVerdictModel()), InputError);
+  o.first_look_p = 1.5;
+  EXPECT_THROW(JudgeSite(cloud, {0, 0}, o, model), InputError);
+  // the first look's p from its verdict.json, refused naming the field when it is not one
+  const nlohmann::json fv = {{"schema", "mound.verdict"},
+                             {"status", "ok"},
+                             {"method", "reference_free_model"},
+                             {"look", "first"},
+                             {"p_mound", 0.45}};
+  EXPECT_EQ(FirstLookP(fv, "v.json"), 0.45);
+  for (const auto& [key, value] :
+       std::vector<std::pair<std::string, nlohmann::json>>{{"look", "second"},
+                                                           {"status", "failed"},
+                                                           {"method", "paper_reference"},
+                                                           {"p_mound", 1.5},
+                                                           {"p_mound", "0.4"},
+                                                           {"schema", "mound.recon"}}) {
+    nlohmann::json bad = fv;
+    bad[key] = value;
+    try {
+      FirstLookP(bad, "v.json");
+      ADD_FAILURE() << "accepted a first look with a bad " << key;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("v.json: " + key), std::string::npos) << e.what();
+    }
+  }
+}
+
 // A torn reconstruction (points strewn hundreds of metres off, as a bad bundle adjustment
 // leaves them) reaches beyond what its cameras could see and is not judged; the same site
 // whole is.

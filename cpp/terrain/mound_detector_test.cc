@@ -370,55 +370,57 @@ TEST(VerdictModel, ProductsOfTwoFeaturesScoreByTheirOwnWeights) {
   EXPECT_DOUBLE_EQ(ParseVerdictModel(rev, "r.json").Score(f), -1.0 + 0.5 * 1.0 - 1.0 * -0.5);
 }
 
+// The model is refused with an InputError that names `field`.
+void ExpectRefused(const nlohmann::json& doc, const std::string& field) {
+  try {
+    ParseVerdictModel(doc, "m.json");
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();
+    return;
+  }
+  ADD_FAILURE() << "accepted a model with a bad " << field;
+}
+
 TEST(VerdictModel, RefusesMalformedModelsNamingTheField) {
-  auto refused = [](nlohmann::json doc, const std::string& field) {
-    try {
-      ParseVerdictModel(doc, "m.json");
-    } catch (const InputError& e) {
-      EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();
-      return;
-    }
-    ADD_FAILURE() << "accepted a model with a bad " << field;
-  };
   nlohmann::json d = ModelDoc();
   d["schema"] = "mound.scene_model";
-  refused(d, "schema");
+  ExpectRefused(d, "schema");
   d = ModelDoc();
   d["features"][0] = "log_width";
-  refused(d, "features");  // made for other features
+  ExpectRefused(d, "features");  // made for other features
   d = ModelDoc();
   d["features"][1] = d["features"][0];
-  refused(d, "features");  // one twice, another missing
+  ExpectRefused(d, "features");  // one twice, another missing
   d = ModelDoc();
   d["weights"].erase(0);
-  refused(d, "weights");
+  ExpectRefused(d, "weights");
   d = ModelDoc();
   d["std"][2] = 0.0;
-  refused(d, "std");
+  ExpectRefused(d, "std");
   d = ModelDoc();
   d.erase("bias");
-  refused(d, "bias");
+  ExpectRefused(d, "bias");
   d = ModelDoc();
   d["threshold"] = 1.5;
-  refused(d, "threshold");
+  ExpectRefused(d, "threshold");
   d = ModelDoc();
   d["mean"][1] = "x";
-  refused(d, "mean");
+  ExpectRefused(d, "mean");
   d = ModelDoc();
   d["z_clip"] = 0.0;
-  refused(d, "z_clip");
+  ExpectRefused(d, "z_clip");
   d["z_clip"] = "3";
-  refused(d, "z_clip");
+  ExpectRefused(d, "z_clip");
   d = ModelDoc();
   d["products"] = nlohmann::json::array({nlohmann::json::array({"log_height", "log_diameter"})});
-  refused(d, "products");  // only with hinge_products
+  ExpectRefused(d, "products");  // only with hinge_products
   const size_t n = VerdictFeatureNames().size();
   d["basis"] = "hinge_products";
   d["product_clip"] = 3.0;
   d["weights"] = std::vector<double>(3 * n + 1, 0.0);
   EXPECT_NO_THROW(ParseVerdictModel(d, "m.json"));
   d["weights"] = std::vector<double>(3 * n, 0.0);
-  refused(d, "weights");  // one per pair after the hinge's
+  ExpectRefused(d, "weights");  // one per pair after the hinge's
   d["weights"] = std::vector<double>(3 * n + 1, 0.0);
   for (const nlohmann::json& bad :
        {nlohmann::json::array(),
@@ -427,13 +429,74 @@ TEST(VerdictModel, RefusesMalformedModelsNamingTheField) {
         nlohmann::json::array({nlohmann::json::array({"log_height"})}),
         nlohmann::json::array({nlohmann::json::array({1, 2})}), nlohmann::json("log_height")}) {
     d["products"] = bad;
-    refused(d, "products");
+    ExpectRefused(d, "products");
   }
   d["products"] = nlohmann::json::array({nlohmann::json::array({"log_height", "log_diameter"})});
   d["product_clip"] = 0.0;
-  refused(d, "product_clip");
+  ExpectRefused(d, "product_clip");
   d.erase("product_clip");
-  refused(d, "product_clip");
+  ExpectRefused(d, "product_clip");
+}
+
+// The second look: advised in [p_low, threshold), its p the model's recalibrated on the logit.
+TEST(VerdictModel, ASecondLookIsAdvisedInItsBandAndRecalibratesTheModelsP) {
+  nlohmann::json d = ModelDoc();
+  d["threshold"] = 0.8;
+  EXPECT_FALSE(ParseVerdictModel(d, "m.json").second_look);  // optional
+  EXPECT_FALSE(ParseVerdictModel(d, "m.json").SecondLookAdvised(0.6));
+  d["second_look"] = {{"p_low", 0.4},
+                      {"threshold", 0.65},
+                      {"scan_factor", 2.0},
+                      {"combine", {{"first", 1.0}, {"second", 0.5}, {"bias", -1.0}}}};
+  const VerdictModel m = ParseVerdictModel(d, "m.json");
+  ASSERT_TRUE(m.second_look);
+  EXPECT_EQ(m.second_look->threshold, 0.65);
+  EXPECT_EQ(m.second_look->scan_factor, 2.0);
+  EXPECT_FALSE(m.SecondLookAdvised(0.39));
+  EXPECT_TRUE(m.SecondLookAdvised(0.4));
+  EXPECT_TRUE(m.SecondLookAdvised(0.79));
+  EXPECT_FALSE(m.SecondLookAdvised(0.8));  // decided by the first look
+  // first p 0.6 (logit log 1.5), second 0.9 (logit log 9): log 1.5 + 0.5 log 9 - 1
+  EXPECT_NEAR(m.SecondLookProbability(0.6, 0.9),
+              1 / (1 + std::exp(-(std::log(1.5) + 0.5 * std::log(9.0) - 1))), 1e-12);
+  EXPECT_GT(m.SecondLookProbability(0.6, 1.0), 0.99);  // finite at the ends
+  EXPECT_LT(m.SecondLookProbability(0.6, 0.0), 1e-3);
+  // the second flight's p counts for the site: a higher one, a higher p
+  EXPECT_GT(m.SecondLookProbability(0.5, 0.8), m.SecondLookProbability(0.5, 0.7));
+}
+
+TEST(VerdictModel, RefusesAMalformedSecondLookNamingTheField) {
+  nlohmann::json d = ModelDoc();  // threshold 0.5
+  const nlohmann::json good = {{"p_low", 0.2},
+                               {"threshold", 0.65},
+                               {"scan_factor", 2.0},
+                               {"combine", {{"first", 1.0}, {"second", 0.5}, {"bias", -1.0}}}};
+  d["second_look"] = good;
+  EXPECT_NO_THROW(ParseVerdictModel(d, "m.json"));
+  d["second_look"] = "yes";
+  ExpectRefused(d, "second_look");
+  for (const auto& [key, value] :
+       std::vector<std::pair<std::string, nlohmann::json>>{{"p_low", 0.5},  // not below 0.5
+                                                           {"p_low", 0.0},
+                                                           {"threshold", 1.0},
+                                                           {"scan_factor", 1.0},
+                                                           {"scan_factor", "2"}}) {
+    d["second_look"] = good;
+    d["second_look"][key] = value;
+    ExpectRefused(d, "second_look: " + key);
+  }
+  d["second_look"] = good;
+  d["second_look"]["combine"]["second"] = 0.0;  // the second flight must count
+  ExpectRefused(d, "second_look.combine: second");
+  d["second_look"] = good;
+  d["second_look"]["combine"].erase("bias");
+  ExpectRefused(d, "second_look.combine: bias");
+  d["second_look"] = good;
+  d["second_look"]["combine"]["first"] = 1e9;
+  ExpectRefused(d, "second_look.combine: first");
+  d["second_look"] = good;
+  d["second_look"].erase("combine");
+  ExpectRefused(d, "second_look");
 }
 
 TEST(DetectMound, TooFewPointsOrBadRadius) {

@@ -73,6 +73,19 @@ double VerdictModel::Probability(const Detection& d, size_t* best) const {
   return 1 / (1 + std::exp(-top));
 }
 
+bool VerdictModel::SecondLookAdvised(double p) const {
+  return second_look && p >= second_look->p_low && p < threshold;
+}
+
+double VerdictModel::SecondLookProbability(double p_first, double p_second) const {
+  auto logit = [](double p) {
+    const double q = std::clamp(p, 1e-12, 1 - 1e-12);
+    return std::log(q / (1 - q));
+  };
+  const SecondLook& l = *second_look;
+  return 1 / (1 + std::exp(-(l.first * logit(p_first) + l.second * logit(p_second) + l.bias)));
+}
+
 VerdictModel ParseVerdictModel(const nlohmann::json& doc, const std::string& source) {
   if (!doc.is_object()) throw InputError(source + ": expected a JSON object");
   if (!doc.contains("schema") || doc["schema"] != "mound.verdict_model")
@@ -156,6 +169,32 @@ VerdictModel ParseVerdictModel(const nlohmann::json& doc, const std::string& sou
     throw InputError(source + ": threshold: must be in (0, 1)");
   if (!(m.p_no_rise >= 0 && m.p_no_rise <= 1))
     throw InputError(source + ": p_no_rise: must be in [0, 1]");
+  if (doc.contains("second_look")) {
+    const nlohmann::json& sl = doc["second_look"];
+    const std::string at = source + ": second_look";
+    if (!sl.is_object() || !sl.contains("combine") || !sl["combine"].is_object())
+      throw InputError(at +
+                       ": expected {p_low, threshold, scan_factor, combine: {first, "
+                       "second, bias}}");
+    SecondLook l;
+    l.p_low = Number(sl, "p_low", at);
+    l.threshold = Number(sl, "threshold", at);
+    l.scan_factor = Number(sl, "scan_factor", at);
+    l.first = Number(sl["combine"], "first", at + ".combine");
+    l.second = Number(sl["combine"], "second", at + ".combine");
+    l.bias = Number(sl["combine"], "bias", at + ".combine");
+    if (!(l.p_low > 0 && l.p_low < m.threshold))
+      throw InputError(at + ": p_low: must be in (0, threshold)");
+    if (!(l.threshold > 0 && l.threshold < 1))
+      throw InputError(at + ": threshold: must be in (0, 1)");
+    if (!(l.scan_factor > 1 && l.scan_factor <= 100))
+      throw InputError(at + ": scan_factor: must be in (1, 100]");
+    if (!(l.second > 0 && l.second <= 1e6))
+      throw InputError(at + ".combine: second: must be in (0, 1e6]");
+    if (!(std::fabs(l.first) <= 1e6) || !(std::fabs(l.bias) <= 1e6))
+      throw InputError(at + ".combine: first, bias: must be within +-1e6");
+    m.second_look = l;
+  }
   m.doc = doc;
   return m;
 }

@@ -16,6 +16,12 @@
 //   3 x the features + the pairs' weights);
 //   p(site) = 1 / (1 + exp(-max over the judged rises of s)) (the Platt calibration of the
 //   site's highest score folded into w and b)
+// and optionally "second_look": {"p_low": l, "threshold": t2, "scan_factor": k,
+//   "combine": {"first": c1, "second": c2, "bias": c0}}: a site whose p lies in
+//   [l, threshold) is undecided by its flight; flown again with a scan k x as wide, it is
+//   decided by both flights, p = 1 / (1 + exp(-(c1 logit(p1) + c2 logit(p2) + c0))) with p1
+//   and p2 this model's p of the first and the wider flight (c2 > 0), a mound when >= t2
+//   (`SecondLookProbability`).
 // Two models ship in the repository and are compiled into the tool, learned on the same
 // simulated sites judged on two clouds: data/verdict_model.json on the sparse cloud of
 // `reconstruct` (the default), data/verdict_model_dense.json on the dense cloud of
@@ -24,6 +30,7 @@
 #pragma once
 
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -31,6 +38,12 @@
 #include "terrain/mound_detector.h"
 
 namespace mound::terrain {
+
+// The second look of a site its flight left undecided (see above).
+struct SecondLook {
+  double p_low = 0, threshold = 0.5, scan_factor = 2;
+  double first = 0, second = 1, bias = 0;  // "combine"
+};
 
 struct VerdictModel {
   std::vector<std::string> features;
@@ -42,6 +55,7 @@ struct VerdictModel {
   std::vector<std::pair<size_t, size_t>> products;
   double product_clip = 0;
   double bias = 0, threshold = 0.5, p_no_rise = 0;
+  std::optional<SecondLook> second_look;
   nlohmann::json doc;  // the whole file (its figures travel into verdict.json)
 
   double Score(const std::vector<double>& f) const;  // s of one rise's features
@@ -49,6 +63,11 @@ struct VerdictModel {
   // p(mound) of a detection: the highest over its judged rises, or p_no_rise without one;
   // `best` (if given) the index in d.judged of the rise that gave it.
   double Probability(const Detection& d, size_t* best = nullptr) const;
+  // Whether a first look's p leaves the site undecided: in [second_look.p_low, threshold).
+  bool SecondLookAdvised(double p) const;
+  // The second look's calibrated p from this model's p of the first flight and of the
+  // wider one (requires second_look).
+  double SecondLookProbability(double p_first, double p_second) const;
 };
 
 // Throws InputError naming `source` and the field: a wrong schema or version, missing or

@@ -412,7 +412,7 @@ def cmd_sim_grid(args: argparse.Namespace) -> int:
     doc = grid.make_grid(args.out, args.sites, args.seed, tuple(args.size), dem,
                          args.threads, args.workers, args.remeasure, progress,
                          pattern=args.pattern, dense=args.dense, card=args.card,
-                         flights_from=args.flights_from)
+                         flights_from=args.flights_from, second_look=args.second_look)
     ok = sum(1 for r in doc["rows"] if r.get("status") == "ok")
     print(f"{ok} of {doc['sites']} sites measured in {doc['wall_s']:.0f} s -> "
           f"{args.out}/grid.json")
@@ -430,6 +430,15 @@ def cmd_recon_train_verdict(args: argparse.Namespace) -> int:
     print(f"trained on {t['sites']} sites ({t['with_rise']} with a rise, {t['mounds']} mounds): "
           f"l2 {t['l2']:g}, out-of-fold AUC {t['out_of_fold']['auc']:.3f}, ECE "
           f"{t['out_of_fold']['ece']:.3f}; threshold {model['threshold']:.2f}")
+    sl = model.get("second_look")
+    if sl:
+        o = sl["trained"]["out_of_fold"]
+        print(f"second look (a scan {sl['scan_factor']:g} x as wide) for p in "
+              f"[{sl['p_low']:g}, {model['threshold']:.2f}), a mound at {sl['threshold']:.2f}: "
+              f"out of fold {o['flights']:.1f} flights, goal tumuli "
+              f"{o['goal_found_first_look']:.1f} -> {o['goal_found']:.1f} of "
+              f"{o['goal_sites']}, false alarms "
+              f"{o['false_alarms_first_look']:.1f} -> {o['false_alarms']:.1f} of {o['negatives']}")
     if args.heldout:
         held = [r for g in args.heldout for r in vm.load_grid(g)]
         report = vm.evaluate(model, held)
@@ -437,6 +446,9 @@ def cmd_recon_train_verdict(args: argparse.Namespace) -> int:
             "sites", "measured", "accuracy", "false_alarm_rate", "missed_rate", "auc",
             "brier", "ece", "calibration", "goal_mounds_2m_15m", "goal_no_mound",
             "old_rule_accuracy")}
+        if "two_looks" in report:
+            model["heldout"]["two_looks"] = {k: v for k, v in report["two_looks"].items()
+                                             if k not in ("second_looks", "errors")}
         model["heldout"]["grids"] = [str(Path(g)) for g in args.heldout]
         _print_verdict_report(report)
         if args.report:
@@ -472,6 +484,14 @@ def _print_verdict_report(r: dict[str, Any]) -> None:
     print("  other thresholds (tumuli >= 2 m x 15 m found; false alarms): " + "; ".join(
         f"{o['threshold']:g}: {o['mounds_2m_15m_found']}/{g['sites']}, "
         f"{o['false_alarms']}/{n['sites']}" for o in r["operating_points"]))
+    two = r.get("two_looks")
+    if two:
+        g2, n2, c2 = two["goal_mounds_2m_15m"], two["goal_no_mound"], two["calibration"]
+        print(f"  with the second look (p in [{two['p_low']:g}, {r['threshold']:.2f}): "
+              f"{two['flown']} of {two['band']} flown again, a mound at "
+              f"{two['threshold']:.2f}): mounds >= 2 m x 15 m {g2['right']}/{g2['sites']} "
+              f"({ci(g2)}); no mound {n2['false_alarms']}/{n2['sites']} false alarms "
+              f"({ci(n2)}); ECE {two['ece']:.3f} (p = {c2['p_value']:.2f})")
     lim = r["detection_limit"]["limit"] or []
     print("  detection limit (>= 95 % of the mounds at least this high and wide detected): "
           + ("; ".join(f"{c['height_m_at_least']:g} m x {c['diameter_m_at_least']:g} m "
@@ -783,6 +803,10 @@ def build_parser() -> argparse.ArgumentParser:
                     "sites without flying them again")
     sg.add_argument("--remeasure", action="store_true",
                     help="rerun only the verdicts (after a change of the detector)")
+    sg.add_argument("--second-look", action="store_true",
+                    help="fly each site the first verdict leaves undecided again with a scan "
+                    "twice as wide (NNNN/second/): what train-verdict learns the second "
+                    "look's calibration from")
     sg.set_defaults(func=cmd_sim_grid)
     sf = simp.add_parser("figures", help="contact sheet and 3-D plot of a simulated site")
     sf.add_argument("site")

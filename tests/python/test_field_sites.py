@@ -250,3 +250,46 @@ def test_a_dense_grid_from_a_sparse_grids_flights(
     assert v["model"]["trained"]["cloud"] == "dense"
     assert set(v["grid_times_s"]) == {"densify", "verdict"}  # nothing flown again
     assert json.loads((dense / "grid.json").read_text())["cloud"] == "dense"
+
+
+@pytest.mark.slow
+def test_a_grid_flies_a_second_look_at_the_sites_its_first_leaves_undecided(
+        tmp_path: Path, mound_recon: Path, mound_render: Path) -> None:
+    """`mound sim grid --second-look`: a site whose first p_mound lies in SECOND_LOOK_P is
+    flown again in NNNN/second/ with the same terrain, light and lens and a scan twice as
+    wide; the others are not; load_grid carries the second look's rises."""
+    import json
+
+    from mound.cli import main
+    from mound.recon import verdict_model as vm
+
+    out = tmp_path / "g"
+    assert main(["sim", "grid", "--out", str(out), "--sites", "2", "--seed", "7", "--dem",
+                 "none", "--workers", "1", "--threads", "2", "--second-look"]) == 0
+    doc = json.loads((out / "grid.json").read_text())
+    assert doc["second_look"]["scan_factor"] == grid.SECOND_LOOK_FACTOR
+    rows = {r["dir"]: r for r in vm.load_grid(out)}
+    flown = 0
+    for k in range(2):
+        site = out / f"{k:04d}"
+        p = json.loads((site / "verdict.json").read_text())["p_mound"]
+        undecided = grid.SECOND_LOOK_P[0] <= p < grid.SECOND_LOOK_P[1]
+        assert (site / "second" / "verdict.json").is_file() == undecided, (k, p)
+        assert ("second" in doc["rows"][k]) == undecided
+        if not undecided:
+            assert rows[site.name]["second"] is None
+            continue
+        flown += 1
+        first = json.loads((site / "sim" / "site.json").read_text())
+        second = json.loads((site / "second" / "sim" / "site.json").read_text())
+        assert second["sim"]["scan_diameter_m"] == 2 * first["sim"]["scan_diameter_m"]
+        assert second["terrain"]["size_m"] >= grid.SITE_PER_SCAN * 2 * grid.SCAN_M
+        for key in ("seed", "mound", "ground_relief_m"):
+            assert second["terrain"][key] == first["terrain"][key]
+        assert second["lighting"] == first["lighting"]
+        v2 = json.loads((site / "second" / "verdict.json").read_text())
+        assert v2["status"] == "ok"
+        assert v2["measurements"]["site_radius_m"] > 1.5 * json.loads(
+            (site / "verdict.json").read_text())["measurements"]["site_radius_m"]
+        assert rows[site.name]["second"]["rises"] == v2["measurements"]["judged_rises"]
+    assert flown >= 1

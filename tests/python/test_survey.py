@@ -671,3 +671,44 @@ def test_a_dense_cloud_that_allows_no_verdict_leaves_it_to_the_sparse_one(
     assert row["verdict"] == "mound", row["reason"]
     v = json.loads((tmp_path / "run" / "sites" / "s1" / "recon" / "verdict.json").read_text())
     assert v["cloud"].endswith("recon/points.ply") and v["model"]["trained"]["cloud"] == "sparse"
+
+
+@pytest.mark.slow
+def test_a_site_the_first_flight_leaves_undecided_is_flown_again_wider(
+        tmp_path: Path, mound_recon: Path, mound_render: Path) -> None:
+    """The second look (issue 26): a site whose verdict advises it is flown again with a scan
+    twice as wide (the same simulated site), reconstructed, densified and judged with
+    `verdict --second-look`, which then decides the site; the first verdict stays in the
+    row. Photos cannot be flown again: the row says a second card is needed."""
+    from mound.survey.site_work import SiteJob, _second_look
+
+    job = SiteJob(site={"id": "s1", "x_m": 0.0, "y_m": 0.0, "truth": {"mound": True}},
+                  index=0, run_root=str(tmp_path / "run"),
+                  origin={"lat": 38.57, "lon": 27.99, "alt_m": 95.0}, key="k",
+                  image_size=(320, 240), threads=2, figures=False,
+                  dense_args=("--max-image-size", "320", "--resolution-m", "0.25"))
+    # what the first flight's verdict left (its p in the band)
+    job.tree.verdict.parent.mkdir(parents=True)
+    job.tree.verdict.write_text(json.dumps({
+        "schema": "mound.verdict", "version": 1, "status": "ok", "look": "first",
+        "method": "reference_free_model", "p_mound": 0.6, "label": "no_mound"}))
+    row: dict[str, Any] = {"verdict": "no_mound", "verdict_p_mound": 0.6, "reason": "first"}
+    _second_look(job, row, {"advised": True, "scan_factor": 2.0, "message": "undecided"}, True)
+    look = row["second_look"]
+    assert look["flown"], look.get("reason")
+    assert look["scan_m"] == 2 * job.site_diameter_m
+    assert row["first_look"] == {"verdict": "no_mound", "verdict_p_mound": 0.6,
+                                 "reason": "first"}
+    v = json.loads((tmp_path / "run" / look["verdict_file"]).read_text())
+    assert v["look"] == "second" and v["cloud"].endswith("second/dense/dense.ply")
+    assert row["verdict_p_mound"] == v["p_mound"] == look["p_mound"]
+    assert row["verdict"] == v["label"]
+    assert "second look" in v["reason"] and v["first_look_p_mound"] == 0.6
+    assert 0 <= v["model_p_mound"] <= 1
+    photos = SiteJob(site=job.site, index=0, run_root=str(tmp_path / "run2"),
+                     origin=job.origin, key="k", images_dir=str(tmp_path))
+    row = {"verdict": "no_mound"}
+    _second_look(photos, row, {"advised": True, "scan_factor": 2.0, "message": "undecided"},
+                 True)
+    assert not row["second_look"]["flown"] and "card" in row["second_look"]["reason"]
+    assert row["verdict"] == "no_mound" and "first_look" not in row

@@ -25,23 +25,26 @@ from mound.sim import terrain
 NAMES = ["a", "b", "c"]
 
 
+def _site(k: int, f: dict[str, float], mound: bool) -> dict[str, Any]:
+    """A measured site of one rise with features `f` (a 3 m x 20 m cone when a mound)."""
+    return {"dir": f"{k:04d}", "measured": True, "grid": "g", "features": f,
+            "rises": [{"features": f, "centre_enu_m": [1.0, -2.0]}],
+            "truth": {"mound": mound, "kind": "tumulus" if mound else "flat",
+                      "profile": "conical", "height_m": 3.0, "diameter_m": 20.0,
+                      "centre_enu_m": [0.0, 0.0]},
+            "verdict": {"coverage": {"status": "whole"}},
+            "rise": {"height_m": 3.0, "base_diameter_m": 20.0, "roundness": 0.9,
+                     "dome_r2": 0.9}}
+
+
 def synthetic(n: int, seed: int) -> list[dict[str, Any]]:
     """Sites whose truth follows p = sigma(2 a - b - 0.5) exactly; c is noise."""
     rng = np.random.default_rng(seed)
     x = rng.normal(size=(n, 3)) * [1.0, 2.0, 1.0] + [0.0, 1.0, 5.0]
     p = 1 / (1 + np.exp(-(2 * x[:, 0] - x[:, 1] - 0.5)))
     y = rng.random(n) < p
-    rows = []
-    for k in range(n):
-        f = dict(zip(NAMES, x[k].tolist(), strict=True))
-        rows.append({"dir": f"{k:04d}", "measured": True, "grid": "g", "features": f,
-                     "rises": [{"features": f, "centre_enu_m": [1.0, -2.0]}],
-                     "truth": {"mound": bool(y[k]), "kind": "tumulus" if y[k] else "flat",
-                               "profile": "conical", "height_m": 3.0, "diameter_m": 20.0,
-                               "centre_enu_m": [0.0, 0.0]},
-                     "verdict": {"coverage": {"status": "whole"}},
-                     "rise": {"height_m": 3.0, "base_diameter_m": 20.0, "roundness": 0.9,
-                              "dome_r2": 0.9}})
+    rows = [_site(k, dict(zip(NAMES, x[k].tolist(), strict=True)), bool(y[k]))
+            for k in range(n)]
     for k in range(n // 20):  # sites without a rise: 1 in 4 a mound
         rows.append({"dir": f"n{k}", "measured": True, "grid": "g", "features": None,
                      "rises": [],
@@ -82,6 +85,62 @@ def test_training_recovers_a_known_model_with_calibrated_probabilities() -> None
     g = report["goal_no_mound"]
     lo, hi = g["rate_95ci"]
     assert lo <= g["rate"] <= hi
+
+
+def two_looks(n: int, seed: int, second_noise: float = 0.3) -> list[dict[str, Any]]:
+    """Sites whose truth follows sigma(3 z) of a hidden z; the first flight measures a = z +
+    N(0, 1), the second (wider) flight a = z + N(0, second_noise): sites the first leaves
+    undecided, the second decides better."""
+    rng = np.random.default_rng(seed)
+    z = rng.normal(size=n) * 1.5
+    y = rng.random(n) < 1 / (1 + np.exp(-3 * z))
+    rows = []
+    for k in range(n):
+        first = {"a": float(z[k] + rng.normal()), "b": float(rng.normal()), "c": 0.0}
+        second = {"a": float(z[k] + second_noise * rng.normal()), "b": float(rng.normal()),
+                  "c": 0.0}
+        rows.append({**_site(k, first, bool(y[k])), "second": {
+            "measured": True, "rises": [{"features": second, "centre_enu_m": [1.0, -2.0]}]}})
+    return rows
+
+
+def test_a_second_look_decides_the_sites_the_first_leaves_undecided() -> None:
+    model = vm.train(two_looks(2000, 3), NAMES, ["g"])
+    sl = model["second_look"]
+    assert 0 < sl["p_low"] < model["threshold"] and 0.5 <= sl["threshold"] < 1
+    assert sl["combine"]["second"] > 0 and sl["scan_factor"] == vm.SECOND_LOOK_FACTOR
+    o = sl["trained"]["out_of_fold"]
+    # the sharper second measurement finds more tumuli within the same false-alarm budget
+    assert o["goal_found"] > o["goal_found_first_look"] + 10
+    assert o["false_alarms"] <= vm.MAX_FA * o["negatives"]
+    assert 0 < o["flights"] < 2000 / 2
+    held = two_looks(2000, 4)
+    report = vm.evaluate(model, held)
+    two = report["two_looks"]
+    assert two["flown"] == two["band"] > 0 and not two["not_flown"]
+    assert two["accuracy"] > report["accuracy"]
+    assert two["goal_mounds_2m_15m"]["right"] > report["goal_mounds_2m_15m"]["right"]
+    assert two["goal_no_mound"]["rate"] <= 2 * vm.MAX_FA
+    assert two["calibration"]["p_value"] > 0.01  # the second look's p is calibrated too
+    p1 = vm.probability(model, held)
+    for s in two["second_looks"]:
+        k = int(s["dir"])
+        assert sl["p_low"] <= p1[k] < model["threshold"]
+        assert s["p_second"] == pytest.approx(float(vm.second_look_p(
+            model, p1[k], vm.probability(model, [held[k]["second"]])[0])))
+        assert s["label"] == (s["p_second"] >= sl["threshold"])
+    # a site in the band whose second look was not flown keeps its first verdict
+    k = two["second_looks"][0]["dir"]
+    for r in held:
+        if r["dir"] == k:
+            r["second"] = None
+    again = vm.evaluate(model, held)["two_looks"]
+    assert again["not_flown"] == [k] and again["flown"] == two["flown"] - 1
+    # a second look that measures nothing finds next to nothing more, if it is kept at all
+    blind = vm.train(two_looks(2000, 3, second_noise=100.0), NAMES, ["g"]).get("second_look")
+    if blind:
+        o = blind["trained"]["out_of_fold"]
+        assert o["goal_found"] - o["goal_found_first_look"] < 5
 
 
 def test_a_rate_s_exact_interval_and_the_calibration_test() -> None:

@@ -32,6 +32,13 @@ The draws (half of the sites carry a tumulus):
   model by the images and refines f, k1, k2 about EXIF's values, as the survey's
   `--photos` does).
 
+`second_look=True` flies a second look (issue 26) at every site whose first verdict leaves it
+undecided, p_mound in SECOND_LOOK_P (wider than any model's band, so that a retrained
+model finds its band's sites flown): the same site flown again with a scan SECOND_LOOK_FACTOR
+x as wide (`wider`), reconstructed and judged in GRID/NNNN/second/ as above. On a DEM patch
+near the laser DEM's edge the wider site cannot be drawn (second/ then holds no verdict; the
+evaluation counts the site as not flown again and keeps its first verdict).
+
 `flights_from=GRID` takes each site's flight and reconstruction from another grid of the
 same seed, flight and camera (links to its NNNN/sim and NNNN/recon; nothing is flown or
 reconstructed anew): the dense clouds of a sparse grid's sites, in minutes.
@@ -42,7 +49,7 @@ from __future__ import annotations
 import json
 import math
 import time
-from dataclasses import asdict
+from dataclasses import asdict, replace
 from pathlib import Path
 from typing import Any
 
@@ -62,6 +69,13 @@ SCAN_M = 60.0
 # depth maps 320 px on their longer side, points merged on 0.25 m voxels
 DENSIFY_ARGS = ("--max-image-size", "320", "--resolution-m", "0.25")
 DEFAULT_DEM = "TM1_564_146.tif"  # the 1 m airborne-laser DEM (../shared/data/dem)
+# The second look: sites whose first p_mound lies in SECOND_LOOK_P are flown again with a
+# scan SECOND_LOOK_FACTOR x as wide (the model's own band, second_look.p_low .. threshold, lies
+# within it); the site drawn SITE_PER_SCAN x the scan across (as the first look's 160 m for
+# its 60 m).
+SECOND_LOOK_FACTOR = 2.0
+SECOND_LOOK_P = (0.05, 0.995)
+SITE_PER_SCAN = 2.7
 REPOSE_DEG = 35.0  # the steepest flank loose earth stands at (angle of repose, 30-35 deg)
 
 
@@ -175,6 +189,22 @@ def draw(rng: np.random.Generator, seed: int, dem: str | None, size: tuple[int, 
         scan_diameter_m=scan_m, seed=seed, texel_m=texel_m)
 
 
+def wider(spec: sim.SimSpec, factor: float = SECOND_LOOK_FACTOR) -> sim.SimSpec:
+    """The same site (terrain, light, lens, seed) flown with a scan `factor` x as wide, on a
+    site drawn SITE_PER_SCAN x that scan across (at least the first look's)."""
+    scan = spec.scale_m * factor
+    size = max(spec.terrain.size_m, math.ceil(scan * SITE_PER_SCAN / 4) * 4)
+    return replace(spec, scan_diameter_m=scan, terrain=replace(spec.terrain, size_m=size))
+
+
+def _first_p(verdict: Path) -> float | None:
+    try:
+        p = json.loads(verdict.read_text()).get("p_mound")
+    except (OSError, json.JSONDecodeError):
+        return None
+    return float(p) if isinstance(p, int | float) else None
+
+
 def _site(out: Path, spec: sim.SimSpec, threads: int, remeasure: bool,
           dense: bool = False, card: bool = False) -> dict[str, Any]:
     simdir, recon, verdict = out / "sim", out / "recon", out / "verdict.json"
@@ -248,7 +278,8 @@ def make_grid(out: str | Path, sites: int, seed: int, size: tuple[int, int] = (6
               dem: str | None = None, threads: int = 1, workers: int = 1,
               remeasure: bool = False, progress: Any = None, pattern: str = "raster",
               dense: bool = False, card: bool = False,
-              flights_from: str | Path | None = None) -> dict[str, Any]:
+              flights_from: str | Path | None = None,
+              second_look: bool = False) -> dict[str, Any]:
     """Draws and runs the grid (see the module text); returns grid.json's document."""
     if not 1 <= sites <= 100_000:
         raise InputError("--sites: must be 1 .. 100,000")
@@ -272,6 +303,12 @@ def make_grid(out: str | Path, sites: int, seed: int, size: tuple[int, int] = (6
 
     def one(k: int) -> None:
         rows[k] = _site(root / f"{k:04d}", specs[k], threads, remeasure, dense, card)
+        p = _first_p(root / f"{k:04d}" / "verdict.json")
+        if second_look and p is not None and SECOND_LOOK_P[0] <= p < SECOND_LOOK_P[1]:
+            second = _site(root / f"{k:04d}" / "second", wider(specs[k]), threads, remeasure,
+                           dense, card)
+            rows[k]["second"] = {"status": second.get("status"), "times": second.get("times"),
+                                 **({"reason": second["reason"]} if "reason" in second else {})}
         if progress:
             progress(k, rows[k])
 
@@ -285,6 +322,8 @@ def make_grid(out: str | Path, sites: int, seed: int, size: tuple[int, int] = (6
             one(k)
     doc = {"schema": SCHEMA, "version": VERSION, "seed": seed, "sites": sites,
            "flight": {"pattern": pattern, "scan_m": SCAN_M, "image_size": list(size)},
+           **({"second_look": {"scan_factor": SECOND_LOOK_FACTOR,
+                               "first_p": list(SECOND_LOOK_P)}} if second_look else {}),
            "cloud": "dense" if dense else "sparse",
            "camera": "exif" if card else "calibrated",
            "dem": dem, **({"flights_from": str(flights_from)} if flights_from else {}),

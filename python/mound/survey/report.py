@@ -57,7 +57,8 @@ def site_rows(tree: RunTree, sites_doc: dict[str, Any], plan: dict[str, Any] | N
                 row["final_label"] = result["verdict"]
                 row["label_source"] = "3-D verdict"
                 for k in ("confidence", "verdict_p_mound", "verdict_cloud", "coverage",
-                          "method", "reason", "rise", "distance_m"):
+                          "method", "reason", "rise", "distance_m", "second_look",
+                          "first_look"):
                     if k in result:
                         row[k] = result[k]
             else:
@@ -213,6 +214,16 @@ def _site_card(r: dict[str, Any]) -> str:
 
         parts.append(f'<p>{e(str(r.get("reason", "")))} ({prob}, method '
                      f'{e(str(r.get("method", "")))})</p>')
+        look = r.get("second_look")
+        if isinstance(look, dict) and look.get("flown"):
+            first = r.get("first_look") or {}
+            parts.append(f'<p>second look (a scan of {_fmt(look.get("scan_m"), 0)} m; the first '
+                         f'flight left it undecided at p(mound) '
+                         f'{_fmt(first.get("verdict_p_mound"))}): '
+                         f'{_label(str(r["verdict"]))}</p>')
+        elif isinstance(look, dict):
+            parts.append(f'<p class="failed">second look advised, not flown: '
+                         f'{e(str(look.get("reason", "")))}</p>')
         cov = r.get("coverage")
         if isinstance(cov, dict) and cov.get("status") == "clipped":
             parts.append(f'<p class="failed">coverage: {e(str(cov.get("message", "")))}</p>')

@@ -184,13 +184,20 @@ def _process_site(job: SiteJob) -> dict[str, Any]:
         if judged is None:
             verdict(*job.verdict_args)
         timings["verdict"] = time.perf_counter() - t0
-        row.update(_verdict_summary(read_json(t.verdict, "mound.verdict", 1)))
+        first = read_json(t.verdict, "mound.verdict", 1)
+        row.update(_verdict_summary(first))
         row["verdict_cloud"] = "sparse" if judged is None else "dense"
         row["status"] = "ok"
         row["files"] = {"images": _rel(images, root), "recon": _rel(t.recon, root),
                         "verdict": _rel(t.verdict, root)}
         if dense is not None:
             row["files"]["dense"] = _rel(t.dense, root)
+        advice = first.get("second_look")
+        if isinstance(advice, dict) and advice.get("advised"):
+            stage = "second look"
+            t0 = time.perf_counter()
+            _second_look(job, row, advice, judged is not None)
+            timings["second_look"] = time.perf_counter() - t0
         _rasters(job, row, dense)
     except (InputError, NoResultError) as e:
         # The site's input allowed no result: the same input will fail the same way.
@@ -209,6 +216,57 @@ def _process_site(job: SiteJob) -> dict[str, Any]:
     timings["total"] = time.perf_counter() - start
     write_json(t.result, row)
     return row
+
+
+def _second_look(job: SiteJob, row: dict[str, Any], advice: dict[str, Any],
+                 dense: bool) -> None:
+    """A site the first verdict left undecided (p_mound in the model's second_look band)
+    flown again with a scan advice["scan_factor"] x as wide (simulated: the same site and
+    seed, mound.sim.grid.wider; photos: the report asks for the flight), reconstructed,
+    densified as the first and judged with `verdict --second-look FIRST_VERDICT`: both
+    flights then decide the site (row["first_look"] keeps the first verdict). A second
+    look that fails leaves the first verdict standing; row["second_look"] says why."""
+    look: dict[str, Any] = {"advised": True, "scan_factor": advice.get("scan_factor"),
+                            "flown": False}
+    row["second_look"] = look
+    if job.images_dir:
+        look["reason"] = (f"{advice.get('message', 'undecided')}: a second card of the site "
+                          "is needed")
+        return
+    from mound.sim import site as sim
+    from mound.sim.card import survey_site_spec
+    from mound.sim.grid import wider
+
+    t = job.tree.second
+    t.root.mkdir(parents=True, exist_ok=True)
+    try:
+        spec, _ = survey_site_spec(job.site, job.index, job.origin, job.sim_seed,
+                                   job.image_size, job.pattern, job.site_diameter_m,
+                                   job.terrain)
+        spec = wider(spec, float(advice["scan_factor"]))
+        look["scan_m"] = spec.scale_m
+        sim.simulate(spec, t.sim, threads=job.threads)
+        native.run_tool("mound_recon", [
+            "reconstruct", str(t.sim / "images"), "--out", str(t.recon), "--gps",
+            str(t.sim / "poses.json"), "--camera", str(t.sim / "camera.json"), "--threads",
+            str(job.threads), *job.recon_args], job.timeout_s, log=t.log)
+        args = ["verdict", str(t.recon), "--out", str(t.verdict), "--second-look",
+                str(job.tree.verdict)]
+        if dense:
+            native.run_tool("mound_recon", ["densify", str(t.recon), "--out", str(t.dense),
+                                            "--threads", str(job.threads), *job.dense_args],
+                            job.timeout_s, log=t.log)
+            args += ["--cloud", str(t.dense / "dense.ply")]
+        native.run_tool("mound_recon", args, job.timeout_s, log=t.log)
+        second = _verdict_summary(read_json(t.verdict, "mound.verdict", 1))
+    except (InputError, NoResultError, ToolTimeout, ToolError, OSError) as e:
+        look["reason"] = _reason(e, t)
+        return
+    row["first_look"] = {k: row[k] for k in ("verdict", "confidence", "verdict_p_mound",
+                                              "reason", "rise") if k in row}
+    row.update({k: v for k, v in second.items() if k != "coverage"})
+    look.update(flown=True, p_mound=second.get("verdict_p_mound"),
+                verdict_file=_rel(t.verdict, Path(job.run_root)))
 
 
 def _densify(job: SiteJob, row: dict[str, Any]) -> Path | None:

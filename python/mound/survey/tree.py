@@ -9,7 +9,8 @@
     DIR/mission.json         the mission's summary (mound.mission v1)
     DIR/sites/<id>/          per visited site: sim/ (simulated flight), recon/ (mound_recon
                              reconstruct + verdict.json), dense/ (densify), rasters/
-                             (GeoTIFFs), figures, site_result.json, log.txt
+                             (GeoTIFFs), figures, site_result.json, log.txt; second/ the
+                             same for a second, wider flight the first verdict advised
     DIR/summary.json         mound.survey v1
     DIR/report.html, report.md, report/ (the report's pictures)
 """
@@ -155,3 +156,8 @@ class SiteTree:
     @property
     def terrain_png(self) -> Path:
         return self.root / "terrain.png"
+
+    @property
+    def second(self) -> SiteTree:
+        """The second look's files (a wider flight over a site the first left undecided)."""
+        return SiteTree(self.root / "second")
