@@ -386,13 +386,18 @@ nlohmann::json SiteVerdictJson(const SiteVerdict& v, const terrain::VerdictModel
 }
 
 double FirstLookP(const nlohmann::json& verdict, const std::string& path) {
-  if (!verdict.is_object() || verdict.value("schema", "") != "mound.verdict")
+  // a field's text; "?" when absent or not a string (`fallback` when absent)
+  auto text = [&](const char* key, const char* fallback) -> std::string {
+    if (!verdict.is_object() || !verdict.contains(key)) return fallback;
+    return verdict[key].is_string() ? verdict[key].get<std::string>() : "?";
+  };
+  if (text("schema", "?") != "mound.verdict")
     throw InputError(path + ": schema: expected \"mound.verdict\"");
-  if (verdict.value("status", "") != "ok")
+  if (text("status", "?") != "ok")
     throw InputError(path + ": status: the first look was not judged");
-  if (verdict.value("method", "") != "reference_free_model")
+  if (text("method", "?") != "reference_free_model")
     throw InputError(path + ": method: expected reference_free_model");
-  if (verdict.value("look", "first") != "first")
+  if (text("look", "first") != "first")
     throw InputError(path + ": look: a second look's verdict, not the first's");
   if (!verdict.contains("p_mound") || !verdict["p_mound"].is_number())
     throw InputError(path + ": p_mound: expected a number");

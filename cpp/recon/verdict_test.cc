@@ -162,7 +162,9 @@ TEST(JudgeSite, ASecondLookDecidesTheSiteByBothFlightsAtItsThreshold) {
                                                            {"method", "paper_reference"},
                                                            {"p_mound", 1.5},
                                                            {"p_mound", "0.4"},
-                                                           {"schema", "mound.recon"}}) {
+                                                           {"schema", "mound.recon"},
+                                                           {"schema", 7},
+                                                           {"look", nullptr}}) {
     nlohmann::json bad = fv;
     bad[key] = value;
     try {
