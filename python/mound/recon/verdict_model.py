@@ -40,7 +40,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from scipy.special import expit
+from scipy.special import expit, logit
 
 from mound.classify import logistic
 from mound.classify.features import hinge_basis
@@ -216,6 +216,16 @@ def _site_scores(z: np.ndarray, site_of: np.ndarray, n_sites: int, w: np.ndarray
     return out
 
 
+def _features(rise: dict[str, Any], names: list[str], where: str) -> list[float]:
+    """A judged rise's features in the order of `names`; InputError naming the verdict file
+    `where` when one is missing (measured by another detector)."""
+    missing = [n for n in names if n not in rise["features"]]
+    if missing:
+        raise InputError(f"{where}: features: no {missing[0]!r} (remeasure the grid with this "
+                         "detector: mound sim grid --remeasure)")
+    return [float(rise["features"][n]) for n in names]
+
+
 def train(rows: list[dict[str, Any]], names: list[str], sources: list[str],
           seed: int = 0) -> dict[str, Any]:
     """The model document from measured training sites (see the module text): a logistic
@@ -231,12 +241,7 @@ def train(rows: list[dict[str, Any]], names: list[str], sources: list[str],
     feats, site_of, y = [], [], []
     for i, r in enumerate(sites):
         for rise, label in zip(r["rises"], rise_labels(r), strict=True):
-            missing = [n for n in names if n not in rise["features"]]
-            if missing:
-                raise InputError(f"{r['grid']}/{r['dir']}/verdict.json: features: no "
-                                 f"{missing[0]!r} (remeasure the grid with this detector: "
-                                 "mound sim grid --remeasure)")
-            feats.append([float(rise["features"][n]) for n in names])
+            feats.append(_features(rise, names, f"{r['grid']}/{r['dir']}/verdict.json"))
             site_of.append(i)
             y.append(label)
     # every rise counts in its site's score; only those with a label are fitted
@@ -252,9 +257,8 @@ def train(rows: list[dict[str, Any]], names: list[str], sources: list[str],
     feats2, site_of2 = [], []
     for i, r in enumerate(sites):
         for rise in (r.get("second") or {}).get("rises", []):
-            if all(n in rise["features"] for n in names):
-                feats2.append([float(rise["features"][n]) for n in names])
-                site_of2.append(i)
+            feats2.append(_features(rise, names, f"{r['grid']}/{r['dir']}/second/verdict.json"))
+            site_of2.append(i)
     z2_all = (np.array(feats2).reshape(-1, len(names)) - mean) / std
     site_idx2 = np.array(site_of2, dtype=int)
 
@@ -469,6 +473,18 @@ def _interval(k: int, n: int) -> list[float] | None:
     return list(clopper_pearson(k, n)) if n else None
 
 
+def _goal_rates(lab: np.ndarray, big: list[int], neg: list[int]) -> dict[str, Any]:
+    """The issue's goals under labels `lab`: the goal's tumuli (`big`) found and the sites
+    without a mound (`neg`) called one, each with its exact 95 % interval."""
+    right, fa = int(sum(lab[k] for k in big)), int(sum(lab[k] for k in neg))
+    return {"goal_mounds_2m_15m": {"sites": len(big), "right": right,
+                                   "rate": _rate([bool(lab[k]) for k in big]),
+                                   "rate_95ci": _interval(right, len(big))},
+            "goal_no_mound": {"sites": len(neg), "false_alarms": fa,
+                              "rate": _rate([bool(lab[k]) for k in neg]),
+                              "rate_95ci": _interval(fa, len(neg))}}
+
+
 def evaluate(model: dict[str, Any], rows: list[dict[str, Any]]) -> dict[str, Any]:
     measured = [r for r in rows if r["measured"]]
     p = probability(model, measured)
@@ -493,6 +509,8 @@ def evaluate(model: dict[str, Any], rows: list[dict[str, Any]]) -> dict[str, Any
     wider = [k for k in big if measured[k]["truth"]["diameter_m"] > 60]
     beyond = [k for k in wider if _reach_m(measured[k]["truth"]) > float(
         measured[k]["verdict"].get("measurements", {}).get("site_radius_m", math.inf))]
+    goal = _goal_rates(lab, big, neg)
+    goal["goal_mounds_2m_15m"]["old_rule_rate"] = _rate([bool(old[k]) for k in big])
     return {
         "sites": len(rows), "measured": len(measured),
         "failed": [r["dir"] for r in rows if not r["measured"]],
@@ -502,13 +520,7 @@ def evaluate(model: dict[str, Any], rows: list[dict[str, Any]]) -> dict[str, Any
         "missed_rate": _rate([not lab[k] for k in range(len(y)) if y[k]]),
         "old_rule_false_alarm_rate": _rate([bool(old[k]) for k in neg]),
         "old_rule_missed_rate": _rate([not old[k] for k in range(len(y)) if y[k]]),
-        "goal_mounds_2m_15m": {"sites": len(big), "right": int(sum(lab[k] for k in big)),
-                               "rate": _rate([bool(lab[k]) for k in big]),
-                               "rate_95ci": _interval(int(sum(lab[k] for k in big)), len(big)),
-                               "old_rule_rate": _rate([bool(old[k]) for k in big])},
-        "goal_no_mound": {"sites": len(neg), "false_alarms": int(sum(lab[k] for k in neg)),
-                          "rate": _rate([bool(lab[k]) for k in neg]),
-                          "rate_95ci": _interval(int(sum(lab[k] for k in neg)), len(neg))},
+        **goal,
         "wider_than_scan": {"sites": len(wider), "right": int(sum(lab[k] for k in wider)),
                             "coverage_warned": int(sum(1 for k in wider if k in clipped)),
                             "beyond_the_cloud": len(beyond),
@@ -541,12 +553,9 @@ def second_look_p(model: dict[str, Any], p_first: float | np.ndarray,
     """The second look's calibrated p from the model's p of the first flight and of the
     wider one (the formula of mound_recon verdict --second-look)."""
     c = model["second_look"]["combine"]
-
-    def logit(p: float | np.ndarray) -> np.ndarray:
-        q = np.clip(np.asarray(p, dtype=float), 1e-12, 1 - 1e-12)
-        return np.log(q / (1 - q))
-
-    return expit(c["first"] * logit(p_first) + c["second"] * logit(p_second) + c["bias"])
+    q1, q2 = (np.clip(np.asarray(q, dtype=float), 1e-12, 1 - 1e-12)
+              for q in (p_first, p_second))
+    return expit(c["first"] * logit(q1) + c["second"] * logit(q2) + c["bias"])
 
 
 def two_looks(model: dict[str, Any], measured: list[dict[str, Any]], p: np.ndarray,
@@ -565,17 +574,10 @@ def two_looks(model: dict[str, Any], measured: list[dict[str, Any]], p: np.ndarr
                            probability(model, [measured[k]["second"] for k in flown]))
         for k, q in zip(flown, p2, strict=True):
             final_p[k], lab[k] = q, q >= sl["threshold"]
-    goal_right = int(sum(lab[k] for k in big))
-    fa = int(sum(lab[k] for k in neg))
     return {"p_low": sl["p_low"], "threshold": sl["threshold"],
             "band": len(band), "flown": len(flown),
             "not_flown": [measured[k]["dir"] for k in band if k not in flown],
-            "goal_mounds_2m_15m": {"sites": len(big), "right": goal_right,
-                                   "rate": _rate([bool(lab[k]) for k in big]),
-                                   "rate_95ci": _interval(goal_right, len(big))},
-            "goal_no_mound": {"sites": len(neg), "false_alarms": fa,
-                              "rate": _rate([bool(lab[k]) for k in neg]),
-                              "rate_95ci": _interval(fa, len(neg))},
+            **_goal_rates(lab, big, neg),
             "accuracy": float(np.mean(lab == y)),
             "ece": expected_calibration_error(final_p, y.astype(float)),
             "calibration": ece_consistency(final_p, y.astype(float)),

@@ -151,13 +151,10 @@ def _process_site(job: SiteJob) -> dict[str, Any]:
             images, camera, gps = _simulate(job, row)
             timings["simulate"] = time.perf_counter() - t0
         stage = "reconstruct"
-        args = ["reconstruct", str(images), "--out", str(t.recon), "--gps", gps,
-                "--threads", str(job.threads), *job.recon_args]
-        if camera is not None:
-            args += ["--camera", str(camera)]
         t0 = time.perf_counter()
         try:
-            native.run_tool("mound_recon", args, job.timeout_s, log=t.log)
+            native.run_tool("mound_recon", _reconstruct_args(job, images, t, gps, camera),
+                            job.timeout_s, log=t.log)
         finally:
             timings["reconstruct"] = time.perf_counter() - t0
             if (t.recon / "recon.json").is_file():
@@ -246,16 +243,13 @@ def _second_look(job: SiteJob, row: dict[str, Any], advice: dict[str, Any],
         spec = wider(spec, float(advice["scan_factor"]))
         look["scan_m"] = spec.scale_m
         sim.simulate(spec, t.sim, threads=job.threads)
-        native.run_tool("mound_recon", [
-            "reconstruct", str(t.sim / "images"), "--out", str(t.recon), "--gps",
-            str(t.sim / "poses.json"), "--camera", str(t.sim / "camera.json"), "--threads",
-            str(job.threads), *job.recon_args], job.timeout_s, log=t.log)
+        native.run_tool("mound_recon", _reconstruct_args(
+            job, t.sim / "images", t, str(t.sim / "poses.json"), t.sim / "camera.json"),
+            job.timeout_s, log=t.log)
         args = ["verdict", str(t.recon), "--out", str(t.verdict), "--second-look",
                 str(job.tree.verdict)]
         if dense:
-            native.run_tool("mound_recon", ["densify", str(t.recon), "--out", str(t.dense),
-                                            "--threads", str(job.threads), *job.dense_args],
-                            job.timeout_s, log=t.log)
+            native.run_tool("mound_recon", _densify_args(job, t), job.timeout_s, log=t.log)
             args += ["--cloud", str(t.dense / "dense.ply")]
         native.run_tool("mound_recon", args, job.timeout_s, log=t.log)
         second = _verdict_summary(read_json(t.verdict, "mound.verdict", 1))
@@ -269,6 +263,20 @@ def _second_look(job: SiteJob, row: dict[str, Any], advice: dict[str, Any],
                 verdict_file=_rel(t.verdict, Path(job.run_root)))
 
 
+def _reconstruct_args(job: SiteJob, images: Path, t: SiteTree, gps: str,
+                      camera: Path | None) -> list[str]:
+    """`mound_recon reconstruct` of `images` into t.recon, as the survey runs it."""
+    args = ["reconstruct", str(images), "--out", str(t.recon), "--gps", gps,
+            "--threads", str(job.threads), *job.recon_args]
+    return args + (["--camera", str(camera)] if camera is not None else [])
+
+
+def _densify_args(job: SiteJob, t: SiteTree) -> list[str]:
+    """`mound_recon densify` of t.recon into t.dense, as the survey runs it."""
+    return ["densify", str(t.recon), "--out", str(t.dense), "--threads", str(job.threads),
+            *job.dense_args]
+
+
 def _densify(job: SiteJob, row: dict[str, Any]) -> Path | None:
     """The dense cloud (mound_recon densify, when job.dense_args), or None: not asked for,
     or densify failed (row["dense_error"] says why; the verdict and the GeoTIFFs then use
@@ -279,9 +287,7 @@ def _densify(job: SiteJob, row: dict[str, Any]) -> Path | None:
     t0 = time.perf_counter()
     cloud = None
     try:
-        native.run_tool("mound_recon", ["densify", str(t.recon), "--out", str(t.dense),
-                                        "--threads", str(job.threads), *job.dense_args],
-                        job.timeout_s, log=t.log)
+        native.run_tool("mound_recon", _densify_args(job, t), job.timeout_s, log=t.log)
         doc = read_json(t.dense / "dense.json", "mound.dense", 1)
         row["dense"] = {"points": doc["points"], "options": doc["options"]}
         cloud = t.dense / "dense.ply"
