@@ -135,7 +135,7 @@ int RunVerdict(const std::vector<std::string>& args) {
       } catch (const InputError& e) {
         throw InputError(std::string("--second-look: ") + e.what());
       }
-      site.first_look_p = FirstLookP(ParseJson(text, at), at);
+      site.first_look_p = terrain::FirstLookP(ParseJson(text, at), at);
     }
     site.Check();
   }

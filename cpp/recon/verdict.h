@@ -139,10 +139,6 @@ nlohmann::json SiteVerdictJson(const SiteVerdict& v, const terrain::VerdictModel
 
 // The centres of the registered cameras of a recon.json (ENU, m). InputError naming the
 // field.
-// The first flight's p_mound from its verdict.json (`path` names it in errors): a
-// reference-free first look that was judged; InputError naming the field otherwise.
-double FirstLookP(const nlohmann::json& verdict, const std::string& path);
-
 std::vector<Eigen::Vector3d> CameraCentres(const nlohmann::json& recon, const std::string& path);
 // Their horizontal centre (the flight is centred on the candidate site); nothing when no
 // image is registered.

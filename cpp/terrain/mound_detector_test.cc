@@ -499,6 +499,42 @@ TEST(VerdictModel, RefusesAMalformedSecondLookNamingTheField) {
   ExpectRefused(d, "second_look");
 }
 
+// The first look's p from its verdict.json (what --second-look reads), refused naming the
+// field when the file is not a judged reference-free first look.
+TEST(VerdictModel, FirstLookPReadsAJudgedFirstLookAndRefusesOthers) {
+  const nlohmann::json fv = {{"schema", "mound.verdict"},
+                             {"status", "ok"},
+                             {"method", "reference_free_model"},
+                             {"look", "first"},
+                             {"p_mound", 0.45}};
+  EXPECT_EQ(FirstLookP(fv, "v.json"), 0.45);
+  for (const auto& [key, value] :
+       std::vector<std::pair<std::string, nlohmann::json>>{{"look", "second"},
+                                                           {"status", "failed"},
+                                                           {"method", "paper_reference"},
+                                                           {"p_mound", 1.5},
+                                                           {"p_mound", "0.4"},
+                                                           {"schema", "mound.recon"},
+                                                           {"schema", 7},
+                                                           {"look", nullptr}}) {
+    nlohmann::json bad = fv;
+    bad[key] = value;
+    try {
+      FirstLookP(bad, "v.json");
+      ADD_FAILURE() << "accepted a first look with a bad " << key;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("v.json: " + key), std::string::npos) << e.what();
+    }
+  }
+  EXPECT_THROW(FirstLookP(nlohmann::json::array(), "v.json"), InputError);
+  nlohmann::json no_p = fv;
+  no_p.erase("p_mound");
+  EXPECT_THROW(FirstLookP(no_p, "v.json"), InputError);
+  nlohmann::json no_look = fv;  // a verdict from before the second look: a first look
+  no_look.erase("look");
+  EXPECT_EQ(FirstLookP(no_look, "v.json"), 0.45);
+}
+
 TEST(DetectMound, TooFewPointsOrBadRadius) {
   std::vector<Eigen::Vector3d> few(50, Eigen::Vector3d::Zero());
   EXPECT_THROW(DetectMound(few, {0, 0}, 10, DetectorOptions{}), NoResultError);

@@ -233,4 +233,25 @@ const VerdictModel* BuiltInVerdictModel(const std::string& name) {
   return nullptr;
 }
 
+double FirstLookP(const nlohmann::json& verdict, const std::string& path) {
+  // a field's text; "?" when absent or not a string (`fallback` when absent)
+  auto text = [&](const char* key, const char* fallback) -> std::string {
+    if (!verdict.is_object() || !verdict.contains(key)) return fallback;
+    return verdict[key].is_string() ? verdict[key].get<std::string>() : "?";
+  };
+  if (text("schema", "?") != "mound.verdict")
+    throw InputError(path + ": schema: expected \"mound.verdict\"");
+  if (text("status", "?") != "ok")
+    throw InputError(path + ": status: the first look was not judged");
+  if (text("method", "?") != "reference_free_model")
+    throw InputError(path + ": method: expected reference_free_model");
+  if (text("look", "first") != "first")
+    throw InputError(path + ": look: a second look's verdict, not the first's");
+  if (!verdict.contains("p_mound") || !verdict["p_mound"].is_number())
+    throw InputError(path + ": p_mound: expected a number");
+  const double p = verdict["p_mound"].get<double>();
+  if (!(p >= 0 && p <= 1)) throw InputError(path + ": p_mound: must be in [0, 1]");
+  return p;
+}
+
 }  // namespace mound::terrain

@@ -70,6 +70,11 @@ struct VerdictModel {
   double SecondLookProbability(double p_first, double p_second) const;
 };
 
+// The first flight's p_mound from its verdict.json (`path` names it in errors; what
+// `mound_recon verdict --second-look` reads): a reference-free first look that was judged;
+// InputError naming the field otherwise (a field absent or not of its type included).
+double FirstLookP(const nlohmann::json& verdict, const std::string& path);
+
 // Throws InputError naming `source` and the field: a wrong schema or version, missing or
 // non-finite numbers, arrays of the wrong length, std <= 0, or features other than the
 // detector's (a model made for another detector).

@@ -1,9 +1,12 @@
 // libFuzzer target: the verdict model reader (mound.verdict_model JSON, outside files that
-// `mound_recon verdict --model` reads): a model or an InputError, and a read model's
-// probabilities are finite numbers in [0, 1].
+// `mound_recon verdict --model` reads) and the first look's reader (the verdict.json that
+// `verdict --second-look` reads): each a value or an InputError; a read model's
+// probabilities, and a read first look's p, are finite numbers in [0, 1], and so is the
+// second look's p from them.
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <string>
 
 #include "common/fuzz_check.h"
@@ -11,17 +14,32 @@
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string text(reinterpret_cast<const char*>(data), size);
+  nlohmann::json doc;
+  try {
+    doc = nlohmann::json::parse(text);
+  } catch (const nlohmann::json::exception&) {
+    return 0;  // not JSON: the loaders' InputError
+  }
+  auto in_unit = [](double p) {
+    if (!(p >= 0 && p <= 1)) std::abort();
+  };
+  std::optional<double> first;
   mound::fuzz::ExpectValueOrInputError([&] {
-    nlohmann::json doc;
-    try {
-      doc = nlohmann::json::parse(text);
-    } catch (const nlohmann::json::exception&) {
-      return;  // not JSON: LoadVerdictModel's InputError
-    }
+    first = mound::terrain::FirstLookP(doc, "verdict.json");
+    in_unit(*first);
+  });
+  mound::fuzz::ExpectValueOrInputError([&] {
     const mound::terrain::VerdictModel m = mound::terrain::ParseVerdictModel(doc, "model.json");
     const std::vector<double> f(mound::terrain::VerdictFeatureNames().size(), 0.5);
     const double p = m.Probability(f);
-    if (!(p >= 0 && p <= 1)) std::abort();
+    in_unit(p);
+    if (m.second_look) {
+      const double q = first.value_or(p);
+      (void)m.SecondLookAdvised(q);
+      in_unit(m.SecondLookProbability(q, p));
+      in_unit(m.SecondLookProbability(0.0, 1.0));
+      in_unit(m.SecondLookProbability(1.0, 0.0));
+    }
   });
   return 0;
 }

@@ -674,6 +674,50 @@ def test_a_dense_cloud_that_allows_no_verdict_leaves_it_to_the_sparse_one(
 
 
 @pytest.mark.slow
+def test_the_second_looks_advised_become_a_mission_in_the_report(
+        survey: dict[str, Any], tmp_path: Path) -> None:
+    """The sites whose verdict advised a second look get a mission of their own
+    (DIR/second_look/: the wider scan over them within the budget, read back with the
+    mission reader), and the report says so; a rerun in which no verdict advises one leaves
+    no stale mission behind."""
+    from mound.survey import report
+
+    run = tmp_path / "run"
+    shutil.copytree(survey["out"], run)
+    args = driver.SurveyOptions.from_namespace(driver.build_parser().parse_args(
+        ["--out", str(run), *SMALL]))
+    ctx = driver.Context(args, driver.RunTree(run), driver.Ledger(run / "stages.json"))
+    plan = json.loads((run / "plan.json").read_text())
+    visited = sorted(mission_items.visited_ids(plan))
+    rows = [{"id": s, "second_look": {"advised": True, "scan_factor": 2.0}} for s in visited]
+    made, note = driver.second_look_missions(ctx, rows, run / "plan.json", run / "sites.json")
+    assert "second_look/mission.json" in made and all((run / f).is_file() for f in made)
+    doc = json.loads((run / "second_look" / "mission.json").read_text())
+    sl = doc["second_look"]
+    assert sl["sites"] and sorted(sl["flown"] + [r["id"] for r in sl["refused"]]) == visited
+    assert sl["site_diameter_m"] == 2 * plan["scan"]["scale_m"]
+    # the small budget (3,000 m) takes one flight per wide scan; each within it
+    assert doc["flights"] and all(f["flight_distance_m"] <= doc["budget_m"]
+                                  for f in doc["flights"])
+    for f in doc["flights"]:
+        assert f"second_look/{f['file']}" in made
+        items, home, _ = mission_files.read_mission(run / "second_look" / f["file"])
+        assert abs(home.lat_deg - plan["origin"]["lat"]) < 1e-6
+        assert sum(1 for it in items if it.command == mission_items.DO_SET_CAM_TRIGG_DIST
+                   and it.params[0] > 0) >= len(f["sites"])
+    assert f"second looks advised for {len(visited)} sites" in note
+    print(f"[second look] {note.removeprefix('; ')}")
+    summary = report.build_summary(ctx.tree, args, [], time.time())
+    text = report.render_html(ctx.tree, summary)
+    png = next(f for f in made if f.endswith(".png"))
+    assert "Second looks advised for" in text and png in text
+    assert "Second looks advised for" in report.render_md(summary)
+    made, note = driver.second_look_missions(ctx, [{"id": visited[0]}], run / "plan.json",
+                                             run / "sites.json")
+    assert made == [] and note == "" and not (run / "second_look").exists()
+
+
+@pytest.mark.slow
 def test_a_site_the_first_flight_leaves_undecided_is_flown_again_wider(
         tmp_path: Path, mound_recon: Path, mound_render: Path) -> None:
     """The second look (issue 26): a site whose verdict advises it is flown again with a scan

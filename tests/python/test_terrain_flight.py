@@ -12,6 +12,7 @@ import json
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -121,6 +122,23 @@ def clearance_along(raw: tuple[np.ndarray, object], a: np.ndarray, b: np.ndarray
     col = np.floor(np.asarray(col)).astype(int)
     row = np.floor(np.asarray(row)).astype(int)
     return float(np.min(p[:, 2] - highest[row, col]))
+
+
+def energy_and_clearance(raw: tuple[np.ndarray, object], mission_file: Path, spec: Any,
+                         highest: np.ndarray) -> tuple[float, float]:
+    """A mission file's energy (horizontal metres plus the climb and descent factors times
+    the metres climbed and descended, home to home), recomputed from its items, and the
+    lowest clearance of its level legs over the highest terrain within the footprint."""
+    pts, _ = flown_points(mission_file)
+    pts = np.vstack([pts, pts[:1]])
+    d = np.diff(pts, axis=0)
+    energy = float(np.hypot(d[:, 0], d[:, 1]).sum()
+                   + spec.climb_factor * np.clip(d[:, 2], 0, None).sum()
+                   + spec.descent_factor * np.clip(-d[:, 2], 0, None).sum())
+    level = [(a, b) for a, b in itertools.pairwise(pts[1:-1])
+             if np.hypot(*(b[:2] - a[:2])) >= 0.5]
+    return energy, min(clearance_along(raw, a, b, spec.footprint_m, highest)
+                       for a, b in level)
 
 
 @pytest.fixture(scope="module")
@@ -418,18 +436,10 @@ def test_three_flights_each_clear_of_the_terrain_and_under_budget(flown, raw, de
     highest = maximum_filter(raw[0], size=2 * fp + 1, mode="nearest")
     seen: set[str] = set()
     for f in flights:
-        mission_file = tmp_path / f"m_{f['flight']}.plan"
-        pts, _ = flown_points(mission_file)
-        pts = np.vstack([pts, pts[:1]])
-        d = np.diff(pts, axis=0)
-        energy = float(np.hypot(d[:, 0], d[:, 1]).sum()
-                       + spec.climb_factor * np.clip(d[:, 2], 0, None).sum()
-                       + spec.descent_factor * np.clip(-d[:, 2], 0, None).sum())
+        energy, clearance = energy_and_clearance(raw, tmp_path / f"m_{f['flight']}.plan",
+                                                 spec, highest)
         assert energy <= f["cost_m"] + 0.5 <= p["budget_m"] + 0.5
-        level = [(a, b) for a, b in itertools.pairwise(pts[1:-1])
-                 if np.hypot(*(b[:2] - a[:2])) >= 0.5]
-        assert min(clearance_along(raw, a, b, spec.footprint_m, highest)
-                   for a, b in level) >= spec.scan_clearance_m - 0.05
+        assert clearance >= spec.scan_clearance_m - 0.05
         ids = set(f["tour"][1:-1])
         assert not ids & seen
         seen |= ids
@@ -555,3 +565,52 @@ def test_a_plan_made_over_a_dem_is_not_flown_without_it(flown) -> None:
     would fly heights above home, the terrain unchecked)."""
     with pytest.raises(InputError, match="plan.terrain: .*build its mission with --dem"):
         mission_items.build(flown["plan"], Origin.from_doc(flown["doc"]["origin"]))
+
+
+def test_second_looks_are_flown_wider_within_the_budget_and_clear_of_the_terrain(
+        flown, raw, dem_path, tmp_path) -> None:
+    """The second look's missions (issue 26): the sites a verdict left undecided, flown again
+    with a scan twice as wide over the DEM, in the tour's order, as many flights as the
+    budget needs; each flight within the budget (its energy recomputed from the written
+    file) and clear of the terrain; a budget no wide scan fits refuses every site, naming
+    why, and flies nothing lower."""
+    from mound.uav.second_look import advised_sites, second_look_flights
+
+    p, spec = flown["plan"], flown["spec"]
+    tour = list(p["tour"][1:-1])
+    chosen = tour[::2][:4]
+    rows = [{"id": s, "second_look": {"advised": s in chosen, "scan_factor": 2.0}}
+            for s in tour]
+    ids, factor = advised_sites(rows)
+    assert sorted(ids) == sorted(chosen) and factor == 2.0
+    with pytest.raises(InputError, match="r00.second_look.scan_factor"):
+        advised_sites([{"id": "r00", "second_look": {"advised": True, "scan_factor": "2"}}])
+    dem = mission_items.TerrainInput(str(dem_path), "egm96", spec)
+    fp = int(np.ceil(spec.footprint_m))
+    highest = maximum_filter(raw[0], size=2 * fp + 1, mode="nearest")
+    for budget in (5000.0, 2500.0):
+        doc = {**flown["terrain_doc"], "budget_m": budget}
+        flights, refused, wide = second_look_flights(doc, p, ids, factor, dem)
+        assert wide.scan.scale_m == 2 * mission_items.plan_scan(p).scale_m
+        flown_ids = [s["id"] for m in flights for s in m.sites]
+        assert sorted(flown_ids + [r["id"] for r in refused]) == sorted(chosen)
+        assert flown_ids == [s for s in tour if s in flown_ids]  # the tour's order
+        for k, m in enumerate(flights):
+            assert m.spec.scan.scale_m == wide.scan.scale_m
+            out = tmp_path / f"second_{budget:.0f}_{k}.plan"
+            mission_files.write_plan(out, m)
+            energy, clearance = energy_and_clearance(raw, out, spec, highest)
+            assert energy <= budget + 0.5
+            assert clearance >= spec.scan_clearance_m - 0.05
+        print(f"[second look] budget {budget:.0f} m: {len(flights)} flights "
+              f"{[[s['id'] for s in m.sites] for m in flights]}, energy "
+              f"{[round(m.terrain['energy_m']) for m in flights]} m, refused "
+              f"{[r['id'] for r in refused]}")
+        if budget == 5000.0:  # all four in one flight
+            assert not refused and len(flights) == 1
+        else:  # a tighter budget: a flight per site, the farthest alone over it
+            assert len(flights) > 1 and all("budget" in r["reason"] for r in refused)
+    doc = {**flown["terrain_doc"], "budget_m": 600.0}
+    flights, refused, _ = second_look_flights(doc, p, ids, factor, dem)
+    assert not flights and [r["id"] for r in refused] == [s for s in tour if s in chosen]
+    assert all("budget" in r["reason"] and "never flown lower" in r["reason"] for r in refused)

@@ -26,6 +26,7 @@ import argparse
 import functools
 import json
 import os
+import shutil
 import sys
 import time
 import uuid
@@ -721,13 +722,72 @@ def stage_sites3d(ctx: Context) -> str:
     jobs = site_jobs(ctx)
 
     def work() -> tuple[list[str], str, bool]:
-        _rows, note, complete = run_jobs(ctx, jobs)
+        rows, note, complete = run_jobs(ctx, jobs)
         root = ctx.tree.root.resolve()
         outputs = [str(j.tree.result.relative_to(root)) for j in jobs]
-        return outputs, note, complete
+        made, said = second_look_missions(ctx, list(rows.values()), ctx.tree.plan,
+                                          ctx.tree.sites)
+        return outputs + made, note + said, complete
 
     return run_stage(ctx, "sites3d", {"plan": ctx.keys["plan"], "photos": ctx.keys["photos"],
                                       "sites": [j.key for j in jobs]}, work)
+
+
+def second_look_missions(ctx: Context, rows: list[dict[str, Any]], plan_path: Path,
+                         sites_path: Path) -> tuple[list[str], str]:
+    """The missions of the second looks the verdicts advised (mound.uav.second_look) in
+    DIR/second_look/: mission.plan, .waypoints, .geojson per flight (mission_2.plan, ...
+    when they take several) and mission.json (mound.mission v1 with `second_look`: the
+    sites, the scan factor, the sites refused and why). A real aircraft flies them; the
+    survey's simulated sites were flown again at once. Returns the files and a note."""
+    from mound.survey import figures
+    from mound.uav import files as mission_files
+    from mound.uav.second_look import advised_sites, second_look_flights
+
+    t = ctx.tree
+    out = t.second_look
+    if out.is_dir():  # an earlier run's missions: the verdicts decide again
+        shutil.rmtree(out)
+    ids, factor = advised_sites(rows)
+    if not ids or factor is None:
+        return [], ""
+    plan = read_json(plan_path, "mound.plan", 1)
+    sites_doc = read_json(sites_path, "mound.sites", 1)
+    flights, refused, spec = second_look_flights(sites_doc, plan, ids, factor,
+                                                 mission_terrain(ctx.args))
+    out.mkdir(parents=True)
+    made: list[str] = []
+    summaries = []
+    several = len(flights) > 1
+    for k, m in enumerate(flights, start=1):
+        files = {name: mission_files.flight_path(out / name, k if several else None)
+                 for name in ("mission.plan", "mission.waypoints", "mission.geojson")}
+        mission_files.write_plan(files["mission.plan"], m, ctx.args.firmware)
+        mission_files.write_wpl(files["mission.waypoints"], m)
+        mission_files.write_geojson(files["mission.geojson"], m)
+        png = out / (f"mission_{k}.png" if several else "mission.png")
+        figures.mission_map(m.nav_enu, m.footprints, m.sites, png)
+        made += [str(p.relative_to(t.root)) for p in (*files.values(), png)]
+        summaries.append({**m.summary(), "flight": k, "file": files["mission.plan"].name})
+    summary: dict[str, Any] = {
+        "schema": "mound.mission", "version": 1,
+        "origin": summaries[0]["origin"] if summaries else plan.get("origin"),
+        "items": sum(x["items"] for x in summaries),
+        "flight_distance_m": sum(x["flight_distance_m"] for x in summaries),
+        "budget_m": float(sites_doc["budget_m"]), "flights": summaries,
+        "second_look": {"sites": ids, "scan_factor": factor,
+                        "site_diameter_m": spec.scan.scale_m,
+                        "flown": [s["id"] for f in summaries for s in f["sites"]],
+                        "refused": refused}}
+    write_json(out / "mission.json", summary)
+    made.append(str((out / "mission.json").relative_to(t.root)))
+    note = (f"; second looks advised for {len(ids)} sites: {len(flights)} mission"
+            f"{'s' if several else ''} with a {spec.scan.scale_m:.0f} m scan, "
+            f"{summary['flight_distance_m']:.0f} m in all (second_look/)"
+            + (f", {len(refused)} refused ({refused[0]['id']}: {refused[0]['reason']})"
+               if refused else ""))
+    ctx.say(f"[second look]{note[1:]}")
+    return made, note
 
 
 def stage_report(ctx: Context, started: float) -> str:

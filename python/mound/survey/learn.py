@@ -89,7 +89,7 @@ def _write_mission(ctx: Any, plan: dict[str, Any], out: Path) -> None:
 
 def stage_learn(ctx: Any) -> str:
     """The sites3d stage, flight by flight, with the classifier learning in between."""
-    from mound.survey.driver import run_jobs, run_stage, site_jobs
+    from mound.survey.driver import run_jobs, run_stage, second_look_missions, site_jobs
 
     a = ctx.args
     t = ctx.tree
@@ -114,6 +114,7 @@ def stage_learn(ctx: Any) -> str:
         history: list[dict[str, Any]] = []
         flights_flown: list[dict[str, Any]] = []
         outputs: list[str] = []
+        all_rows: list[dict[str, Any]] = []
         complete = True
         stopped = ""
         root = t.root.resolve()
@@ -151,6 +152,7 @@ def stage_learn(ctx: Any) -> str:
             jobs = site_jobs(ctx, flight)
             rows, note, done = run_jobs(ctx, jobs, f"flight {k}")
             complete = complete and done
+            all_rows += rows.values()
             outputs += [str(j.tree.result.relative_to(root)) for j in jobs]
             ids = [j.site["id"] for j in jobs]
             flown += ids
@@ -206,10 +208,13 @@ def stage_learn(ctx: Any) -> str:
             "evaluation": "sat.tst without the field's rows", "flights": history,
             "stopped": stopped})
         outputs += ["learn/learn.json", "learn/plan_flown.json", "learn/sites_final.json"]
+        made, said = second_look_missions(ctx, all_rows, t.final_plan(True),
+                                          t.final_sites(True))
+        outputs += made
         note = (f"{len(history)} flights, {len(flown)} sites flown, "
                 f"{len(ex_y)} verdicts learned; held-out AUC {auc0:.4f} -> "
                 f"{history[-1]['held_out_auc'] if history else auc0:.4f}"
-                + (f"; {stopped}" if stopped else ""))
+                + (f"; {stopped}" if stopped else "") + said)
         return outputs, note, complete
 
     return run_stage(ctx, "sites3d", {"plan": ctx.keys["plan"], "photos": ctx.keys["photos"],

@@ -151,7 +151,34 @@ def build_summary(tree: RunTree, args: SurveyOptions, stages: list[dict[str, Any
                 "lowest_clearance_m": f["terrain"]["lowest_clearance_m"]}
                if f.get("terrain", {}).get("checked") else {})
             for f in mission.get("flights", [])]
+    second = _load(tree.second_look / "mission.json", "mound.mission")
+    if second:
+        doc["second_look_missions"] = {
+            **{k: second["second_look"].get(k)
+               for k in ("sites", "scan_factor", "site_diameter_m", "flown", "refused")},
+            "flight_distance_m": second.get("flight_distance_m"),
+            "flights": [{k: f.get(k) for k in ("flight", "file", "items", "flight_distance_m")}
+                        | {"sites": [x["id"] for x in f.get("sites", [])]}
+                        for f in second.get("flights", [])],
+            "folder": "second_look"}
     return doc
+
+
+def _second_look_text(s: dict[str, Any]) -> str:
+    """The second looks' missions in a sentence (plain text; empty without any)."""
+    sl = s.get("second_look_missions")
+    if not sl:
+        return ""
+    flights = sl["flights"]
+    text = (f"Second looks advised for {len(sl['sites'])} sites ({', '.join(sl['sites'])}): "
+            f"{len(flights)} mission{'s' if len(flights) != 1 else ''} with a "
+            f"{_fmt(sl['site_diameter_m'], 0)} m scan ({_fmt(sl['scan_factor'], 1)} x as wide), "
+            f"{_fmt(sl['flight_distance_m'], 0)} m in all, in {sl['folder']}/ ("
+            + "; ".join(f"{f['file']}: {', '.join(f['sites'])}, "
+                        f"{_fmt(f['flight_distance_m'], 0)} m" for f in flights) + ").")
+    for r in sl.get("refused") or []:
+        text += f" {r['id']} refused: {r['reason']}."
+    return text
 
 
 def _fmt(v: Any, digits: int = 3) -> str:
@@ -408,6 +435,12 @@ def render_html(tree: RunTree, s: dict[str, Any]) -> str:
         maps += _img(f"report/{png.name}", what + (f", flight {flight}" if flight else ""))
     if (tree.report_dir / "scene.png").is_file():
         maps += _img("report/scene.png", "p(mound) over the scene, candidates and tour")
+    for png in sorted((tree.second_look).glob("mission*.png")):
+        flight = png.stem.partition("_")[2]
+        maps += _img(f"second_look/{png.name}",
+                     "second-look mission" + (f", flight {flight}" if flight else ""))
+    if s.get("second_look_missions"):
+        head += f"<p>{e(_second_look_text(s))}</p>"
     cards = "".join(_site_card(r) for r in visited)
     extra = ""
     if s.get("photos"):
@@ -449,7 +482,8 @@ def render_md(s: dict[str, Any]) -> str:
              f"Tour: {m['visited']} sites, reward {m['reward']:.2f} bits, "
              f"{m['cost_m']:.0f} m of {m['budget_m']:.0f} m. 3-D verdicts: {m['judged']} of "
              f"{m['visited']} ({m['failed']} failed), {m['verdicts_correct']} of "
-             f"{m['verdicts_with_truth']} right.", "",
+             f"{m['verdicts_with_truth']} right."
+             + (f" {_second_look_text(s)}" if s.get("second_look_missions") else ""), "",
              "| labels | eps_MD | eps_FA |", "|---|---|---|",
              f"| classifier alone | {_fmt(m['classifier_only']['eps_md'])} | "
              f"{_fmt(m['classifier_only']['eps_fa'])} |",

@@ -11,6 +11,8 @@
                              reconstruct + verdict.json), dense/ (densify), rasters/
                              (GeoTIFFs), figures, site_result.json, log.txt; second/ the
                              same for a second, wider flight the first verdict advised
+    DIR/second_look/         the missions of the second looks advised (mission.plan, ...,
+                             mission.json), for the aircraft to fly them
     DIR/summary.json         mound.survey v1
     DIR/report.html, report.md, report/ (the report's pictures)
 """
@@ -63,6 +65,12 @@ class RunTree:
         from mound.uav.files import flight_path
 
         return flight_path(self.root / name, flight)
+
+    @property
+    def second_look(self) -> Path:
+        """The second looks' missions (mission.plan, ... and mission.json), when the
+        verdicts advised one."""
+        return self.root / "second_look"
 
     @property
     def mission_summary(self) -> Path:

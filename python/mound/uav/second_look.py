@@ -1,0 +1,116 @@
+"""The second look's missions: the sites a first verdict left undecided (verdict.json
+`second_look.advised`, mound.verdict_model's `second_look` band) flown again with a scan
+`scan_factor` x as wide, as MAVLink missions an aircraft can fly.
+
+The survey simulates a second look at once; a real aircraft needs a mission, and the wider
+scan (4 x the area for a scan 2 x as wide) must fit a flight's budget like any other. The
+sites are taken in the order the survey's tour visited them (a tour restricted to some of
+its sites is never longer, by the triangle inequality), home and end as the survey's, each
+scanned with the survey's own scan (the plan's ScanSpec) scaled `scan_factor` x — the
+flight mound.sim.grid.wider simulates. Flights are filled in that order: a site joins the
+current flight when the mission built with it (mission_items.build, over the DEM when there
+is one: heights that clear the terrain, energy within the budget) still passes, else it
+opens the next flight. A site whose second look alone cannot be flown (its wide scan
+breaks the budget, or the terrain check refuses it) is refused with the reason: never
+flown lower, never over budget.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from typing import Any
+
+from mound.errors import InputError
+from mound.geometry.geodesy import Origin
+from mound.uav.mission_items import Mission, MissionSpec, TerrainInput, build, plan_scan
+
+
+def advised_sites(rows: list[dict[str, Any]]) -> tuple[list[str], float | None]:
+    """The ids of the site rows whose first verdict advised a second look, and its scan
+    factor (the widest asked for; None without one)."""
+    ids, factors = [], []
+    for r in rows:
+        look = r.get("second_look")
+        if isinstance(look, dict) and look.get("advised"):
+            f = look.get("scan_factor")
+            if not (isinstance(f, int | float) and math.isfinite(f) and f >= 1):
+                raise InputError(f"sites: {r.get('id')}.second_look.scan_factor: expected a "
+                                 f"number >= 1, got {f!r:.40}")
+            ids.append(str(r["id"]))
+            factors.append(float(f))
+    return ids, (max(factors) if factors else None)
+
+
+def _visit_order(plan: dict[str, Any] | None) -> list[str]:
+    tours = (plan.get("flights") or [{"tour": plan.get("tour", [])}]) if plan else []
+    out: list[str] = []
+    for f in tours:
+        for node in (f.get("tour") or [])[1:-1]:
+            if node not in out:
+                out.append(str(node))
+    return out
+
+
+def second_look_flights(sites_doc: dict[str, Any], plan: dict[str, Any] | None,
+                        ids: list[str], scan_factor: float,
+                        terrain: TerrainInput | None = None
+                        ) -> tuple[list[Mission], list[dict[str, str]], MissionSpec]:
+    """The missions that fly the second looks of `ids` (see the module text), the sites
+    refused ({id, reason}) and the wider scan's MissionSpec."""
+    origin = Origin.from_doc((plan or sites_doc).get("origin") or {}, "plan: origin")
+    scan = plan_scan(plan) if plan else None
+    base = MissionSpec(scan=scan) if scan is not None else MissionSpec()
+    spec = replace(base, scan=replace(base.scan, scale_m=base.scan.scale_m * scan_factor))
+    spec.validate()
+    cost = spec.scan.site_cost_m()
+    by_id = {str(s["id"]): s for s in sites_doc["sites"]}
+    home = sites_doc["home"]
+    end = sites_doc.get("end") or home
+    closed = end["id"] == home["id"]
+    budget = float(sites_doc["budget_m"])
+    order = _visit_order(plan)
+    hx, hy = float(home["x_m"]), float(home["y_m"])
+    ids = sorted(ids, key=lambda i: (order.index(i) if i in order else len(order),
+                                     math.hypot(by_id[i]["x_m"] - hx, by_id[i]["y_m"] - hy)))
+
+    def mission(visit: list[str]) -> Mission:
+        wps = [{"id": home["id"], "x_m": hx, "y_m": hy, "kind": "home"}]
+        wps += [{"id": i, "x_m": float(by_id[i]["x_m"]), "y_m": float(by_id[i]["y_m"]),
+                 "kind": "site", "scan_cost_m": cost} for i in visit]
+        if not closed:
+            wps.append({"id": end["id"], "x_m": float(end["x_m"]), "y_m": float(end["y_m"]),
+                        "kind": "end"})
+        doc = {"tour": [home["id"], *visit, end["id"]], "waypoints": wps, "closed": closed,
+               "budget_m": budget, **({"terrain": plan["terrain"]}
+                                      if plan and "terrain" in plan else {})}
+        return build(doc, origin, spec, terrain)
+
+    def attempt(visit: list[str]) -> Mission | str:
+        try:
+            return mission(visit)
+        except InputError as e:
+            return str(e)
+
+    flights: list[Mission] = []
+    refused: list[dict[str, str]] = []
+    current: list[str] = []
+    best: Mission | None = None
+    for i in ids:
+        if i not in by_id:
+            raise InputError(f"second look: site {i!r} is not in the sites document")
+        got = attempt([*current, i])
+        if isinstance(got, Mission):
+            best, current = got, [*current, i]
+            continue
+        if best is not None:  # the flight so far is full: flown; the site opens the next
+            flights.append(best)
+            current, best = [], None
+            got = attempt([i])
+            if isinstance(got, Mission):
+                best, current = got, [i]
+                continue
+        refused.append({"id": i, "reason": got})
+    if best is not None:
+        flights.append(best)
+    return flights, refused, spec
