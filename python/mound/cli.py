@@ -369,7 +369,8 @@ def cmd_sim_flight(args: argparse.Namespace) -> int:
     spec = CardSpec(start=_start_time(args.start_time), speed_mps=args.speed,
                     transit_every_s=args.transit_every_s, sim_seed=args.sim_seed,
                     image_size=tuple(args.image_size), pattern=args.scan_pattern,
-                    site_diameter_m=args.site_diameter, threads=args.threads)
+                    site_diameter_m=args.site_diameter, threads=args.threads,
+                    scan_factor=args.scan_factor)
     truth = write_card(args.plan, sites, args.out, spec)
     if args.truth:
         write_json(args.truth, truth)
@@ -732,6 +733,10 @@ def build_parser() -> argparse.ArgumentParser:
     sfl.add_argument("--site-diameter", type=float, default=60.0,
                      help="as the survey's --site-diameter, m")
     sfl.add_argument("--threads", type=int, help="render threads (default: all cores)")
+    sfl.add_argument("--scan-factor", type=float, default=1.0,
+                     help="each site flown with a scan this many times as wide: the card of "
+                     "a survey's second looks (PLAN: its second_look/plan.json, --sites its "
+                     "sites.json, the factor its second_look/mission.json's scan_factor)")
     sfl.set_defaults(func=cmd_sim_flight)
     rc = sub.add_parser("recon", help="the 3-D stage (Python side)").add_subparsers(
         dest="cmd", required=True, parser_class=Parser)

@@ -470,6 +470,8 @@ def test_help_and_usage_errors(capsys: pytest.CaptureFixture[str]) -> None:
     assert "--spacing" in capsys.readouterr().err
     assert driver.main(["--images-root", "/nonexistent/photos"]) == 2
     assert "--images-root" in capsys.readouterr().err
+    assert driver.main(["--second-photos", str(REPO_ROOT)]) == 2  # without the first card
+    assert "--second-photos goes with --photos" in capsys.readouterr().err
 
 
 @pytest.mark.slow
@@ -675,7 +677,7 @@ def test_a_dense_cloud_that_allows_no_verdict_leaves_it_to_the_sparse_one(
 
 @pytest.mark.slow
 def test_the_second_looks_advised_become_a_mission_in_the_report(
-        survey: dict[str, Any], tmp_path: Path) -> None:
+        survey: dict[str, Any], tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """The sites whose verdict advised a second look get a mission of their own
     (DIR/second_look/: the wider scan over them within the budget, read back with the
     mission reader), and the report says so; a rerun in which no verdict advises one leaves
@@ -712,9 +714,33 @@ def test_the_second_looks_advised_become_a_mission_in_the_report(
     png = next(f for f in made if f.endswith(".png"))
     assert "Second looks advised for" in text and png in text
     assert "Second looks advised for" in report.render_md(summary)
+    # their card (mound sim flight --scan-factor: the wider flights, transit frames between)
+    # sorts exactly into the second looks' sites by second_look/plan.json's wide scan
+    from mound.photos.sort import SortSpec, sort_card
+
+    card = tmp_path / "card2"
+    assert cli_main(["sim", "flight", str(run / "second_look" / "plan.json"), "--sites",
+                     str(run / "sites.json"), "--out", str(card), "--image-size", "320", "240",
+                     "--scan-factor", "2", "--truth", str(tmp_path / "truth2.json")]) == 0
+    truth = json.loads((tmp_path / "truth2.json").read_text())
+    assert {f["site"] for f in truth["files"] if f["site"]} == set(sl["flown"])
+    sorted_card = sort_card(str(card), str(run / "second_look" / "plan.json"),
+                            str(run / "photos_second"), SortSpec())
+    assert {f["file"]: (f["site"], f["reason"]) for f in truth["files"]} == {
+        f["file"]: (f["site"], f["reason"]) for f in sorted_card["photos"]}
+    assert all(v["status"] == "ok" for v in sorted_card["sites"].values())
+    jobs = driver.site_jobs(driver.Context(driver.SurveyOptions.from_namespace(
+        driver.build_parser().parse_args(["--out", str(run), *SMALL, "--photos", str(card),
+                                          "--second-photos", str(card)])),
+        driver.RunTree(run), driver.Ledger(run / "stages.json")))
+    assert {j.site["id"] for j in jobs if j.second_images_dir} == set(sl["flown"])
     made, note = driver.second_look_missions(ctx, [{"id": visited[0]}], run / "plan.json",
                                              run / "sites.json")
     assert made == [] and note == "" and not (run / "second_look").exists()
+    # a second card with no second looks to sort it by: exit 2, naming the option
+    assert driver.main(["--out", str(run), *SMALL, "--photos", str(card), "--second-photos",
+                        str(card), "--dense-size", "0"]) == 2
+    assert "--second-photos: no second looks" in capsys.readouterr().err
 
 
 @pytest.mark.slow
@@ -754,5 +780,33 @@ def test_a_site_the_first_flight_leaves_undecided_is_flown_again_wider(
     row = {"verdict": "no_mound"}
     _second_look(photos, row, {"advised": True, "scan_factor": 2.0, "message": "undecided"},
                  True)
-    assert not row["second_look"]["flown"] and "card" in row["second_look"]["reason"]
+    assert not row["second_look"]["flown"] and "--second-photos" in row["second_look"]["reason"]
     assert row["verdict"] == "no_mound" and "first_look" not in row
+    # The second card (--second-photos): the same wider flight as the aircraft writes it,
+    # JPEGs whose EXIF carries the GPS and the focal length (no poses or camera file),
+    # sorted into the site's folder: reconstructed from them and judged as the second look.
+    from datetime import datetime
+
+    from mound.sim.card import site_jpegs
+
+    shutil.copytree(job.tree.second.sim, tmp_path / "wide")
+    site_jpegs(tmp_path / "wide", datetime(2026, 6, 1, 10, 0, 0))
+    card = tmp_path / "second_card"
+    card.mkdir()
+    for f in (tmp_path / "wide" / "images").glob("*.jpg"):
+        shutil.copy(f, card / f.name)
+    job2 = SiteJob(site=job.site, index=0, run_root=str(tmp_path / "run3"), origin=job.origin,
+                   key="k", images_dir=str(tmp_path), second_images_dir=str(card),
+                   image_size=(320, 240), threads=2, figures=False, dense_args=job.dense_args)
+    job2.tree.verdict.parent.mkdir(parents=True)
+    shutil.copy(job.tree.verdict, job2.tree.verdict)
+    row = {"verdict": "no_mound", "verdict_p_mound": 0.6, "reason": "first"}
+    _second_look(job2, row, {"advised": True, "scan_factor": 2.0, "message": "undecided"},
+                 True)
+    look = row["second_look"]
+    assert look["flown"] and look["source"] == "photos", look.get("reason")
+    recon = json.loads((job2.tree.second.recon / "recon.json").read_text())
+    assert recon["inputs"]["gps_source"] == "exif" and recon["status"] == "ok"
+    v = json.loads((tmp_path / "run3" / look["verdict_file"]).read_text())
+    assert v["look"] == "second" and v["first_look_p_mound"] == 0.6
+    assert row["verdict_p_mound"] == v["p_mound"] and row["first_look"]["reason"] == "first"

@@ -5,7 +5,8 @@
   noisy GPS, altitude above the WGS84 origin's datum), the capture time, make and model,
   the focal length with the focal plane resolution (a 1/2.3" sensor, 6.17 mm wide) and the
   35 mm equivalent. `mound sim site --jpeg` does this.
-- `write_card(plan, sites, out, spec)` writes the photos of a planned survey, flight by
+- `write_card(plan, sites, out, spec)` writes the photos of a planned survey (or, with
+  `spec.scan_factor`, of its second looks: the survey's second_look/plan.json), flight by
   flight, as they come off the aircraft: `OUT/DCIM/100MEDIA/DJI_NNNN.JPG`, each visited
   site's scan rendered the way the survey driver simulates it (`survey_site_spec`: the same
   terrain, mound height and seeds), and transit frames shot every `transit_every_s` along
@@ -187,11 +188,16 @@ class CardSpec:
     site_diameter_m: float = 60.0
     quality: int = 95
     threads: int | None = None
+    # a second look's card (the survey's second_look/plan.json): each site flown with a
+    # scan this many times as wide (mound.sim.grid.wider), 1: the survey's own scan
+    scan_factor: float = 1.0
 
     def validate(self) -> None:
         for name in ("speed_mps", "shot_every_s", "between_flights_s", "site_diameter_m"):
             if not (math.isfinite(getattr(self, name)) and getattr(self, name) > 0):
                 raise InputError(f"--{name.replace('_', '-')}: must be > 0")
+        if not (math.isfinite(self.scan_factor) and 1 <= self.scan_factor <= 10):
+            raise InputError("--scan-factor: must be in [1, 10]")
         if not (math.isfinite(self.transit_every_s) and self.transit_every_s >= 0):
             raise InputError("--transit-every-s: must be >= 0")
         if not 1 <= self.quality <= 100:
@@ -272,6 +278,10 @@ def write_card(plan_path: str, sites_path: str, out_dir: str, spec: CardSpec | N
             site_spec, _ = survey_site_spec(by_id[b_id], index[b_id], sites_doc["origin"],
                                             spec.sim_seed, spec.image_size, spec.pattern,
                                             spec.site_diameter_m)
+            if spec.scan_factor != 1:
+                from mound.sim.grid import wider
+
+                site_spec = wider(site_spec, spec.scan_factor)
             with tempfile.TemporaryDirectory(prefix="card_site_") as tmp:
                 sim.simulate(site_spec, tmp, threads=spec.threads)
                 shots = site_jpegs(tmp, when, spec.shot_every_s, spec.quality)

@@ -10,12 +10,16 @@ inputs and options are unchanged (ledger.py):
     mission    the tour as a MAVLink mission (.plan, .waypoints, .geojson), uploaded and
                read back with --connect
     photos     with --photos CARD: the aircraft's card sorted into the visited sites
-               (mound photos sort: photos.json, photos/<site id>/)
+               (mound photos sort: photos.json, photos/<site id>/); with --second-photos
+               the card of the second looks too (photos_second/)
     sites3d    per visited site on Dask: its flight simulated from the site's hidden truth
                (or the photos of --photos / --images-root), mound_recon reconstruct,
                mound_recon verdict, the site's pictures; a failing site is reported and the
                rest go on. With --learn, flight by flight: after each, the verdicts
-               retrain the classifier and the next flight is re-planned (learn.py)
+               retrain the classifier and the next flight is re-planned (learn.py).
+               A site the verdict leaves undecided is flown again wider (simulated, or
+               from --second-photos); the missions of those second looks are written to
+               second_look/
     report     final labels (the 3-D verdict where visited, the classifier's elsewhere),
                eps_MD / eps_FA, summary.json (mound.survey v1), report.html, report.md
 """
@@ -121,6 +125,10 @@ def build_parser() -> argparse.ArgumentParser:
                    "of it): sorted into the visited sites by EXIF GPS and time (mound photos "
                    "sort), each site's folder reconstructed; default: simulate each visited "
                    "site's flight from its hidden truth")
+    g.add_argument("--second-photos", metavar="CARD_DIR", help="with --photos: the card of "
+                   "the second looks the first verdicts advised (second_look/mission.plan of "
+                   "the run before), sorted by second_look/plan.json; each such site is then "
+                   "decided by both flights")
     g.add_argument("--camera", help="with --photos: the camera (mound.camera v1) instead of "
                    "the photos' EXIF")
     g.add_argument("--images-root", help="the UAV's photos sorted by hand: one folder per "
@@ -586,11 +594,26 @@ def stage_photos(ctx: Context) -> str:
         note = (f"{len(doc['photos'])} files on the card: {counts}; {ok} of "
                 f"{len(doc['sites'])} visited sites with enough photos"
                 + (f" (too few: {', '.join(few)})" if few else ""))
-        return ["photos/photos.json"], note, True
+        made = ["photos/photos.json"]
+        if a.second_photos:
+            plan2 = ctx.tree.second_look / "plan.json"
+            if not plan2.is_file():
+                raise InputError(f"--second-photos: no second looks to sort it by ({plan2} "
+                                 "is missing: the run before advised none, or has not run)")
+            second = sort_card(a.second_photos, str(plan2), str(ctx.tree.second_photos),
+                               SortSpec(site_diameter_m=a.site_diameter), a.camera)
+            ok2 = [k for k, v in second["sites"].items() if v["status"] == "ok"]
+            note += (f"; second card: {len(second['photos'])} files, {len(ok2)} of "
+                     f"{len(second['sites'])} second looks with enough photos")
+            made.append(str((ctx.tree.second_photos / "photos.json").relative_to(
+                ctx.tree.root)))
+        return made, note, True
 
     material = {"plan": ctx.keys["plan"], "card": _card_digest(Path(a.photos)),
                 "camera": _digest_files([a.camera]) if a.camera else None,
-                "diameter": a.site_diameter}
+                "diameter": a.site_diameter,
+                "second_card": _card_digest(Path(a.second_photos)) if a.second_photos
+                else None}
     return run_stage(ctx, "photos", material, work)
 
 
@@ -654,14 +677,18 @@ def site_jobs(ctx: Context, plan: dict[str, Any] | None = None) -> list[Any]:
         ter = ({"dem": str(Path(a.dem).resolve()), "vertical": sites_doc["terrain"]["vertical"],
                 "ground_amsl_m": grounds[s["id"]]} if a.dem and s["id"] in grounds else None)
         images = str((photos / s["id"]).resolve()) if photos else None
+        second = ctx.tree.second_photos / s["id"]
+        second_images = (str(second.resolve()) if a.second_photos and second.is_dir()
+                         else None)
         key = digest({"site": {k: s.get(k) for k in ("id", "x_m", "y_m", "truth", "simulate")},
                       "index": index, "options": options, "images": images,
                       "images_digest": _folder_digest(Path(images)) if images else None,
+                      **({"second_images": _folder_digest(second)} if second_images else {}),
                       "reference": sha256_of(Path(a.reference)) if a.reference else None,
                       "terrain": ter and {**ter, "dem": ctx.terrain}})
         jobs.append(SiteJob(site=s, index=index, run_root=str(root), run_id=ctx.run_id,
                             origin=sites_doc["origin"], key=key, images_dir=images,
-                            terrain=ter, **options))
+                            second_images_dir=second_images, terrain=ter, **options))
     return jobs
 
 
@@ -781,6 +808,29 @@ def second_look_missions(ctx: Context, rows: list[dict[str, Any]], plan_path: Pa
                         "refused": refused}}
     write_json(out / "mission.json", summary)
     made.append(str((out / "mission.json").relative_to(t.root)))
+    # the flights as a plan (mound.plan v1): what `mound sim flight` writes a card of and
+    # --second-photos sorts the second card by
+    reward = {str(x["id"]): float(x.get("reward", 0.0)) for x in sites_doc["sites"]}
+    tours = [[plan["tour"][0], *(x["id"] for x in m.sites), plan["tour"][-1]]
+             for m in flights]
+    sl_plan = {"schema": "mound.plan", "version": 1, "origin": plan["origin"],
+               "algo": "second_look", "closed": plan.get("closed", True),
+               "budget_m": float(sites_doc["budget_m"]), "scan": spec.scan.to_doc(),
+               "tour": tours[0] if tours else [plan["tour"][0], plan["tour"][-1]],
+               "waypoints": [w for w in plan.get("waypoints", [])
+                             if w.get("kind") in ("home", "end")]
+               + [{"id": x["id"], "x_m": x["x_m"], "y_m": x["y_m"], "kind": "site",
+                   "scan_cost_m": spec.scan.site_cost_m()} for m in flights for x in m.sites],
+               "n_visited": sum(len(m.sites) for m in flights),
+               "reward": sum(reward.get(x["id"], 0.0) for m in flights for x in m.sites),
+               "cost_m": summary["flight_distance_m"],
+               "flights": [{"tour": tour, "reward": sum(reward.get(x["id"], 0.0)
+                                                        for x in m.sites),
+                            "cost_m": m.flight_distance_m,
+                            "budget_left_m": m.budget_m - m.flight_distance_m}
+                           for tour, m in zip(tours, flights, strict=True)]}
+    write_json(out / "plan.json", sl_plan)
+    made.append(str((out / "plan.json").relative_to(t.root)))
     note = (f"; second looks advised for {len(ids)} sites: {len(flights)} mission"
             f"{'s' if several else ''} with a {spec.scan.scale_m:.0f} m scan, "
             f"{summary['flight_distance_m']:.0f} m in all (second_look/)"

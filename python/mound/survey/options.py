@@ -55,6 +55,7 @@ class SurveyOptions:
     firmware: Firmware = "px4"
     # 3-D stage
     photos: str | None = None
+    second_photos: str | None = None
     camera: str | None = None
     images_root: str | None = None
     learn: bool = False
@@ -131,6 +132,10 @@ class SurveyOptions:
             raise UsageError("--photos and --images-root: give the card or the sorted folders")
         if self.camera and not self.photos:
             raise UsageError("--camera goes with --photos")
+        if self.second_photos and not self.photos:
+            raise UsageError("--second-photos goes with --photos (the first card)")
+        if self.second_photos and not Path(self.second_photos).is_dir():
+            raise UsageError(f"--second-photos: {self.second_photos} is not a folder")
         if self.camera and not Path(self.camera).is_file():
             raise UsageError(f"--camera: {self.camera} not found")
         if self.learn:

@@ -14,7 +14,7 @@ from __future__ import annotations
 import os
 import socket
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -43,6 +43,7 @@ class SiteJob:
     key: str                        # digest of everything below and the site row
     run_id: str = ""                # tags the tools of this run (native.tagged)
     images_dir: str | None = None   # the UAV's photos; None: simulate the flight
+    second_images_dir: str | None = None  # with photos: the second look's (--second-photos)
     image_size: tuple[int, int] = (640, 480)
     pattern: str = "raster"
     site_diameter_m: float = 60.0
@@ -219,33 +220,42 @@ def _second_look(job: SiteJob, row: dict[str, Any], advice: dict[str, Any],
                  dense: bool) -> None:
     """A site the first verdict left undecided (p_mound in the model's second_look band)
     flown again with a scan advice["scan_factor"] x as wide (simulated: the same site and
-    seed, mound.sim.grid.wider; photos: the report asks for the flight), reconstructed,
+    seed, mound.sim.grid.wider; photos: the second card sorted into the site's folder,
+    --second-photos, else the report asks for that flight), reconstructed,
     densified as the first and judged with `verdict --second-look FIRST_VERDICT`: both
     flights then decide the site (row["first_look"] keeps the first verdict). A second
     look that fails leaves the first verdict standing; row["second_look"] says why."""
     look: dict[str, Any] = {"advised": True, "scan_factor": advice.get("scan_factor"),
                             "flown": False}
     row["second_look"] = look
-    if job.images_dir:
+    if job.images_dir and not job.second_images_dir:
         look["reason"] = (f"{advice.get('message', 'undecided')}: a second card of the site "
-                          "is needed")
+                          "is needed (fly second_look/mission.plan, then run again with "
+                          "--second-photos CARD)")
         return
-    from mound.sim import site as sim
-    from mound.sim.card import survey_site_spec
-    from mound.sim.grid import wider
-
     t = job.tree.second
     t.root.mkdir(parents=True, exist_ok=True)
     try:
-        spec, _ = survey_site_spec(job.site, job.index, job.origin, job.sim_seed,
-                                   job.image_size, job.pattern, job.site_diameter_m,
-                                   job.terrain)
-        spec = wider(spec, float(advice["scan_factor"]))
-        look["scan_m"] = spec.scale_m
-        sim.simulate(spec, t.sim, threads=job.threads)
-        native.run_tool("mound_recon", _reconstruct_args(
-            job, t.sim / "images", t, str(t.sim / "poses.json"), t.sim / "camera.json"),
-            job.timeout_s, log=t.log)
+        look["scan_m"] = job.site_diameter_m * float(advice["scan_factor"])
+        if job.images_dir:  # the second card, sorted into the site's folder
+            images, camera, gps = _photos(replace(job, images_dir=job.second_images_dir))
+            look["source"] = "photos"
+        else:
+            from mound.sim import site as sim
+            from mound.sim.card import survey_site_spec
+            from mound.sim.grid import wider
+
+            spec, _ = survey_site_spec(job.site, job.index, job.origin, job.sim_seed,
+                                       job.image_size, job.pattern, job.site_diameter_m,
+                                       job.terrain)
+            spec = wider(spec, float(advice["scan_factor"]))
+            look["scan_m"] = spec.scale_m
+            look["source"] = "simulated"
+            sim.simulate(spec, t.sim, threads=job.threads)
+            images, camera, gps = t.sim / "images", t.sim / "camera.json", str(
+                t.sim / "poses.json")
+        native.run_tool("mound_recon", _reconstruct_args(job, images, t, gps, camera),
+                        job.timeout_s, log=t.log)
         args = ["verdict", str(t.recon), "--out", str(t.verdict), "--second-look",
                 str(job.tree.verdict)]
         if dense:

@@ -12,7 +12,8 @@
                              (GeoTIFFs), figures, site_result.json, log.txt; second/ the
                              same for a second, wider flight the first verdict advised
     DIR/second_look/         the missions of the second looks advised (mission.plan, ...,
-                             mission.json), for the aircraft to fly them
+                             mission.json, plan.json), for the aircraft to fly them
+    DIR/photos_second/       their card sorted into the sites (--second-photos)
     DIR/summary.json         mound.survey v1
     DIR/report.html, report.md, report/ (the report's pictures)
 """
@@ -71,6 +72,11 @@ class RunTree:
         """The second looks' missions (mission.plan, ... and mission.json), when the
         verdicts advised one."""
         return self.root / "second_look"
+
+    @property
+    def second_photos(self) -> Path:
+        """The second card sorted into the second looks' sites (--second-photos)."""
+        return self.root / "photos_second"
 
     @property
     def mission_summary(self) -> Path:
