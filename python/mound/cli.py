@@ -440,6 +440,10 @@ def cmd_recon_train_verdict(args: argparse.Namespace) -> int:
               f"{o['goal_found_first_look']:.1f} -> {o['goal_found']:.1f} of "
               f"{o['goal_sites']}, false alarms "
               f"{o['false_alarms_first_look']:.1f} -> {o['false_alarms']:.1f} of {o['negatives']}")
+    elif t.get("second_look_not_kept"):
+        n = t["second_look_not_kept"]
+        print(f"second look not kept (p in [{n['p_low']:g}, {model['threshold']:.2f}), "
+              f"{n['out_of_fold']['flights']:.1f} flights out of fold): {n['why']}")
     if args.heldout:
         held = [r for g in args.heldout for r in vm.load_grid(g)]
         report = vm.evaluate(model, held)
