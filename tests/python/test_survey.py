@@ -714,6 +714,13 @@ def test_the_second_looks_advised_become_a_mission_in_the_report(
     png = next(f for f in made if f.endswith(".png"))
     assert "Second looks advised for" in text and png in text
     assert "Second looks advised for" in report.render_md(summary)
+    if CHROMIUM is not None:  # the map draws them: one dashed path per flight, no error
+        report.write_reports(ctx.tree, summary)
+        data = body_data((run / "map.html").resolve().as_uri() + "#selftest",
+                         tmp_path / "profile")
+        assert json.loads(data["errors"]) == []
+        assert int(data["second-looks"]) == len(doc["flights"]) > 0
+        assert int(data["paths"]) == len(plan.get("flights") or [plan])
     # their card (mound sim flight --scan-factor: the wider flights, transit frames between)
     # sorts exactly into the second looks' sites by second_look/plan.json's wide scan
     from mound.photos.sort import SortSpec, sort_card

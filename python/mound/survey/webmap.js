@@ -44,7 +44,7 @@
       ["p(mound), satellite", c.p_mound], ["reward, bits", c.reward], ["visited", c.visited],
       ["3-D verdict", c.verdict], ["p(mound) after the flight", c.verdict_p_mound],
       ["confidence", c.confidence], ["final label", c.final_label],
-      ["label from", c.label_source], ["truth", c.truth],
+      ["label from", c.label_source], ["truth", c.truth], ["second look", c.second_look],
     ];
     for (const [k, v] of Object.entries(c.measurements || {})) rows.push([k, v]);
     if (c.failure) rows.push(["failure", c.failure]);
@@ -90,6 +90,16 @@
     paths.push(line);
   });
   flights.addTo(map);
+  // The second looks' missions (second_look/): the undecided sites flown again, wider.
+  const seconds = L.layerGroup();
+  const secondPaths = [];
+  (D.second_looks || []).forEach((f) => {
+    const line = L.polyline(f.path, { color: "#ef6c00", weight: 2, dashArray: "6 4" });
+    line.bindTooltip(`second look, flight ${f.flight}${f.cost_m ? `: ${Math.round(f.cost_m)} m` : ""}`);
+    seconds.addLayer(line);
+    secondPaths.push(line);
+  });
+  seconds.addTo(map);
 
   const sites = L.layerGroup();
   const markers = [];
@@ -113,6 +123,7 @@
     "orthophotos": ortho, "relief models (LRM)": relief,
   };
   if (D.overlays.some((o) => o.name === "scene_p_mound")) layers["scene p(mound)"] = scene;
+  if (secondPaths.length) layers["second looks"] = seconds;
   L.control.layers(null, layers, { collapsed: false }).addTo(map);
   L.control.scale({ metric: true, imperial: false }).addTo(map);
   const legend = L.control({ position: "bottomleft" });
@@ -133,6 +144,7 @@
   // What was drawn, for the tests.
   body.dataset.markers = String(markers.length);
   body.dataset.paths = String(paths.length);
+  body.dataset.secondLooks = String(secondPaths.length);
   body.dataset.footprints = String((D.footprints || []).length);
   body.dataset.overlays = JSON.stringify(drawn.map((d) => {
     const b = d.layer.getBounds();
@@ -149,7 +161,9 @@
     }
     // Green when the page drew what its data holds without error (pagecheck.js).
     const ok = errors.length === 0 && markers.length === D.sites.length &&
-      paths.length === D.flights.length && (!first || card.dataset.site === first.siteId);
+      paths.length === D.flights.length &&
+      secondPaths.length === (D.second_looks || []).length &&
+      (!first || card.dataset.site === first.siteId);
     page.banner(ok);
   }
   page.finish();

@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from mound.geometry.geodesy import Origin, enu_to_geodetic
-from mound.jsonio import write_atomic
+from mound.jsonio import read_json, write_atomic
 from mound.paths import REPO_ROOT
 from mound.survey.tree import RunTree
 
@@ -139,6 +139,12 @@ def map_data(tree: RunTree, summary: dict[str, Any], sites_doc: dict[str, Any],
         rise = r.get("rise") or {}
         card["measurements"] = {k: rise[k] for k in ("height_m", "base_diameter_m",
                                                        "roundness") if k in rise}
+        look = r.get("second_look")
+        if isinstance(look, dict):
+            card["second_look"] = (
+                f"flown ({look.get('source', 'simulated')}, a {look.get('scan_m', 0):.0f} m "
+                f"scan): p(mound) {look.get('p_mound', 0):.3f} after both flights"
+                if look.get("flown") else f"advised, not flown: {look.get('reason', '')}")
         files = r.get("files") or {}
         card["files"] = {k: v for k, v in files.items() if isinstance(v, str)}
         sites.append({"id": s["id"], "lat": lat, "lon": lon, "card": card})
@@ -160,7 +166,14 @@ def map_data(tree: RunTree, summary: dict[str, Any], sites_doc: dict[str, Any],
         for k, f in enumerate(fl):
             flights.append({"flight": k + 1, "cost_m": f.get("cost_m"),
                             "path": [list(pos[i]) for i in f["tour"] if i in pos]})
-    return {"schema": "mound.map", "version": 1,
+    # the second looks' missions (second_look/plan.json), when the verdicts advised any
+    second_looks = []
+    sl_plan = tree.second_look / "plan.json"
+    if sl_plan.is_file():
+        for k, f in enumerate(read_json(sl_plan, "mound.plan", 1).get("flights") or []):
+            second_looks.append({"flight": k + 1, "cost_m": f.get("cost_m"),
+                                 "path": [list(pos[i]) for i in f["tour"] if i in pos]})
+    return {"schema": "mound.map", "version": 1, "second_looks": second_looks,
             "home": {"id": home["id"], "lat": pos[home["id"]][0], "lon": pos[home["id"]][1]},
             "sites": sites, "flights": flights, "overlays": overlays,
             "footprints": footprints,
