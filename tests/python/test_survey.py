@@ -715,7 +715,15 @@ def test_the_second_looks_advised_become_a_mission_in_the_report(
     assert "Second looks advised for" in text and png in text
     assert "Second looks advised for" in report.render_md(summary)
     if CHROMIUM is not None:  # the map draws them: one dashed path per flight, no error
+        rows = {r["id"]: r for r in summary["sites"]}
+        rows[visited[0]]["second_look"] = {"advised": True, "flown": True, "source": "photos",
+                                           "scan_m": 120.0, "p_mound": 0.9}
+        rows[visited[1]]["second_look"] = {"advised": True, "flown": False,
+                                           "reason": "a second card of the site is needed"}
         report.write_reports(ctx.tree, summary)
+        js = (run / "map" / "survey.js").read_text()
+        assert "flown (photos, a 120 m scan): p(mound) 0.900 after both flights" in js
+        assert "advised, not flown: a second card of the site is needed" in js
         data = body_data((run / "map.html").resolve().as_uri() + "#selftest",
                          tmp_path / "profile")
         assert json.loads(data["errors"]) == []

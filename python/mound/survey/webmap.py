@@ -141,9 +141,12 @@ def map_data(tree: RunTree, summary: dict[str, Any], sites_doc: dict[str, Any],
                                                        "roundness") if k in rise}
         look = r.get("second_look")
         if isinstance(look, dict):
+            scan, p = look.get("scan_m"), look.get("p_mound")
             card["second_look"] = (
-                f"flown ({look.get('source', 'simulated')}, a {look.get('scan_m', 0):.0f} m "
-                f"scan): p(mound) {look.get('p_mound', 0):.3f} after both flights"
+                f"flown ({look.get('source', 'simulated')}"
+                + (f", a {scan:.0f} m scan" if isinstance(scan, int | float) else "") + ")"
+                + (f": p(mound) {p:.3f} after both flights" if isinstance(p, int | float)
+                   else "")
                 if look.get("flown") else f"advised, not flown: {look.get('reason', '')}")
         files = r.get("files") or {}
         card["files"] = {k: v for k, v in files.items() if isinstance(v, str)}
