@@ -614,3 +614,5 @@ def test_second_looks_are_flown_wider_within_the_budget_and_clear_of_the_terrain
     flights, refused, _ = second_look_flights(doc, p, ids, factor, dem)
     assert not flights and [r["id"] for r in refused] == [s for s in tour if s in chosen]
     assert all("budget" in r["reason"] and "never flown lower" in r["reason"] for r in refused)
+    with pytest.raises(InputError, match="site 'nowhere' is not in the sites document"):
+        second_look_flights(doc, p, [*ids, "nowhere"], factor, dem)

@@ -69,6 +69,9 @@ def second_look_flights(sites_doc: dict[str, Any], plan: dict[str, Any] | None,
     end = sites_doc.get("end") or home
     closed = end["id"] == home["id"]
     budget = float(sites_doc["budget_m"])
+    for i in ids:
+        if i not in by_id:
+            raise InputError(f"second look: site {i!r} is not in the sites document")
     order = _visit_order(plan)
     hx, hy = float(home["x_m"]), float(home["y_m"])
     ids = sorted(ids, key=lambda i: (order.index(i) if i in order else len(order),
@@ -97,8 +100,6 @@ def second_look_flights(sites_doc: dict[str, Any], plan: dict[str, Any] | None,
     current: list[str] = []
     best: Mission | None = None
     for i in ids:
-        if i not in by_id:
-            raise InputError(f"second look: site {i!r} is not in the sites document")
         got = attempt([*current, i])
         if isinstance(got, Mission):
             best, current = got, [*current, i]
