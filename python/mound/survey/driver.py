@@ -498,10 +498,39 @@ def mission_terrain(a: SurveyOptions) -> Any:
     return mission_items.TerrainInput(a.dem, a.dem_vertical, a.terrain_spec())
 
 
+def write_missions(missions: list[tuple[int | None, Any]], folder: Path, png_folder: Path,
+                   firmware: str) -> tuple[list[Path], dict[str, Any]]:
+    """Each flight's mission (k None: the only one) as FOLDER/mission.plan, .waypoints,
+    .geojson (mission_K.* of several) and its map PNG_FOLDER/mission.png (mission_K.png);
+    returns the files and the mound.mission summary: the only flight's own, or of several
+    their totals, each under `flights`."""
+    from mound.survey import figures
+    from mound.uav import files as mission_files
+
+    written: list[Path] = []
+    summaries = []
+    for k, m in missions:
+        files = {name: mission_files.flight_path(folder / name, k)
+                 for name in ("mission.plan", "mission.waypoints", "mission.geojson")}
+        mission_files.write_plan(files["mission.plan"], m, firmware)
+        mission_files.write_wpl(files["mission.waypoints"], m)
+        mission_files.write_geojson(files["mission.geojson"], m)
+        png = mission_files.flight_path(png_folder / "mission.png", k)
+        figures.mission_map(m.nav_enu, m.footprints, m.sites, png)
+        written += [*files.values(), png]
+        summaries.append({**m.summary(), "flight": k or 1, "file": files["mission.plan"].name})
+    summary = dict(summaries[0]) if len(summaries) == 1 else {
+        "schema": "mound.mission", "version": 1, "origin": summaries[0]["origin"],
+        "items": sum(x["items"] for x in summaries),
+        "flight_distance_m": sum(x["flight_distance_m"] for x in summaries),
+        "budget_m": summaries[0]["budget_m"], "terrain": summaries[0]["terrain"]}
+    summary["flights"] = summaries
+    return written, summary
+
+
 def stage_mission(ctx: Context) -> str:
     from mound.geometry.geodesy import Origin
     from mound.survey import figures
-    from mound.uav import files as mission_files
     from mound.uav import mission_items
     from mound.uav.upload import upload_mission
 
@@ -522,20 +551,11 @@ def stage_mission(ctx: Context) -> str:
         missions = [(f["flight"] if several else None,
                      mission_items.build(f, origin, spec, terrain)) for f in flights]
         t.report_dir.mkdir(parents=True, exist_ok=True)
-        made: list[str] = []
-        summaries = []
+        written, summary = write_missions(missions, t.root, t.report_dir, a.firmware)
+        made = [str(p.relative_to(t.root)) for p in written]
         notes = []
         for k, m in missions:
-            files = {name: t.flight_file(name, k) for name in
-                     ("mission.plan", "mission.waypoints", "mission.geojson")}
-            mission_files.write_plan(files["mission.plan"], m, a.firmware)
-            mission_files.write_wpl(files["mission.waypoints"], m)
-            mission_files.write_geojson(files["mission.geojson"], m)
             tag = "" if k is None else f"_{k}"
-            figures.mission_map(m.nav_enu, m.footprints, m.sites,
-                                t.report_dir / f"mission{tag}.png")
-            made += [p.name for p in files.values()] + [f"report/mission{tag}.png"]
-            one = {**m.summary(), "flight": k or 1, "file": files["mission.plan"].name}
             note = (f"{'' if k is None else f'flight {k}: '}{len(m.items)} MAVLink items, "
                     f"{len(m.sites)} sites, flight {m.flight_distance_m:.0f} m of "
                     f"{m.budget_m:.0f} m")
@@ -544,14 +564,7 @@ def stage_mission(ctx: Context) -> str:
                 made.append(f"report/legs{tag}.png")
                 note += (f", over the DEM: energy {m.terrain['energy_m']:.0f} m, lowest "
                          f"transit clearance {m.terrain['lowest_clearance_m']:.1f} m")
-            summaries.append(one)
             notes.append(note)
-        summary = dict(summaries[0]) if not several else {
-            "schema": "mound.mission", "version": 1, "origin": summaries[0]["origin"],
-            "items": sum(x["items"] for x in summaries),
-            "flight_distance_m": sum(x["flight_distance_m"] for x in summaries),
-            "budget_m": summaries[0]["budget_m"], "terrain": summaries[0]["terrain"]}
-        summary["flights"] = summaries
         note = "; ".join(notes)
         if missions[0][1].terrain is None:
             note += "; terrain not checked (no --dem)"
@@ -767,8 +780,6 @@ def second_look_missions(ctx: Context, rows: list[dict[str, Any]], plan_path: Pa
     when they take several) and mission.json (mound.mission v1 with `second_look`: the
     sites, the scan factor, the sites refused and why). A real aircraft flies them; the
     survey's simulated sites were flown again at once. Returns the files and a note."""
-    from mound.survey import figures
-    from mound.uav import files as mission_files
     from mound.uav.second_look import advised_sites, second_look_flights
 
     t = ctx.tree
@@ -783,29 +794,18 @@ def second_look_missions(ctx: Context, rows: list[dict[str, Any]], plan_path: Pa
     flights, refused, spec = second_look_flights(sites_doc, plan, ids, factor,
                                                  mission_terrain(ctx.args))
     out.mkdir(parents=True)
-    made: list[str] = []
-    summaries = []
     several = len(flights) > 1
-    for k, m in enumerate(flights, start=1):
-        files = {name: mission_files.flight_path(out / name, k if several else None)
-                 for name in ("mission.plan", "mission.waypoints", "mission.geojson")}
-        mission_files.write_plan(files["mission.plan"], m, ctx.args.firmware)
-        mission_files.write_wpl(files["mission.waypoints"], m)
-        mission_files.write_geojson(files["mission.geojson"], m)
-        png = out / (f"mission_{k}.png" if several else "mission.png")
-        figures.mission_map(m.nav_enu, m.footprints, m.sites, png)
-        made += [str(p.relative_to(t.root)) for p in (*files.values(), png)]
-        summaries.append({**m.summary(), "flight": k, "file": files["mission.plan"].name})
-    summary: dict[str, Any] = {
-        "schema": "mound.mission", "version": 1,
-        "origin": summaries[0]["origin"] if summaries else plan.get("origin"),
-        "items": sum(x["items"] for x in summaries),
-        "flight_distance_m": sum(x["flight_distance_m"] for x in summaries),
-        "budget_m": float(sites_doc["budget_m"]), "flights": summaries,
-        "second_look": {"sites": ids, "scan_factor": factor,
-                        "site_diameter_m": spec.scan.scale_m,
-                        "flown": [s["id"] for f in summaries for s in f["sites"]],
-                        "refused": refused}}
+    written, summary = write_missions(
+        [(k if several else None, m) for k, m in enumerate(flights, start=1)], out, out,
+        ctx.args.firmware) if flights else ([], {
+            "schema": "mound.mission", "version": 1, "origin": plan.get("origin"),
+            "items": 0, "flight_distance_m": 0.0, "budget_m": float(sites_doc["budget_m"]),
+            "flights": []})
+    made = [str(p.relative_to(t.root)) for p in written]
+    summary["second_look"] = {"sites": ids, "scan_factor": factor,
+                              "site_diameter_m": spec.scan.scale_m,
+                              "flown": [x["id"] for m in flights for x in m.sites],
+                              "refused": refused}
     write_json(out / "mission.json", summary)
     made.append(str((out / "mission.json").relative_to(t.root)))
     # the flights as a plan (mound.plan v1): what `mound sim flight` writes a card of and

@@ -248,8 +248,7 @@ def _second_look(job: SiteJob, row: dict[str, Any], advice: dict[str, Any],
             spec, _ = survey_site_spec(job.site, job.index, job.origin, job.sim_seed,
                                        job.image_size, job.pattern, job.site_diameter_m,
                                        job.terrain)
-            spec = wider(spec, float(advice["scan_factor"]))
-            look["scan_m"] = spec.scale_m
+            spec = wider(spec, float(advice["scan_factor"]))  # its scale_m: look["scan_m"]
             look["source"] = "simulated"
             sim.simulate(spec, t.sim, threads=job.threads)
             images, camera, gps = t.sim / "images", t.sim / "camera.json", str(

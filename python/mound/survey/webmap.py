@@ -163,19 +163,18 @@ def map_data(tree: RunTree, summary: dict[str, Any], sites_doc: dict[str, Any],
             if f.get("properties", {}).get("kind") == "image_footprint":
                 ring = f["geometry"]["coordinates"][0]
                 footprints.append([[float(c[1]), float(c[0])] for c in ring])
-    flights = []
-    if plan is not None:
-        fl = plan.get("flights") or [{"tour": plan["tour"], "cost_m": plan.get("cost_m")}]
-        for k, f in enumerate(fl):
-            flights.append({"flight": k + 1, "cost_m": f.get("cost_m"),
-                            "path": [list(pos[i]) for i in f["tour"] if i in pos]})
+    def paths(flights: list[dict[str, Any]]) -> list[dict[str, Any]]:
+        """Each flight ({tour, cost_m}) as a path of WGS84 points."""
+        return [{"flight": k + 1, "cost_m": f.get("cost_m"),
+                 "path": [list(pos[i]) for i in f["tour"] if i in pos]}
+                for k, f in enumerate(flights)]
+
+    flights = paths(plan.get("flights") or [{"tour": plan["tour"], "cost_m": plan.get(
+        "cost_m")}]) if plan is not None else []
     # the second looks' missions (second_look/plan.json), when the verdicts advised any
-    second_looks = []
     sl_plan = tree.second_look / "plan.json"
-    if sl_plan.is_file():
-        for k, f in enumerate(read_json(sl_plan, "mound.plan", 1).get("flights") or []):
-            second_looks.append({"flight": k + 1, "cost_m": f.get("cost_m"),
-                                 "path": [list(pos[i]) for i in f["tour"] if i in pos]})
+    second_looks = (paths(read_json(sl_plan, "mound.plan", 1).get("flights") or [])
+                    if sl_plan.is_file() else [])
     return {"schema": "mound.map", "version": 1, "second_looks": second_looks,
             "home": {"id": home["id"], "lat": pos[home["id"]][0], "lon": pos[home["id"]][1]},
             "sites": sites, "flights": flights, "overlays": overlays,

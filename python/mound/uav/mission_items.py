@@ -287,12 +287,17 @@ def flight_plans(plan: dict[str, Any]) -> list[dict[str, Any]]:
     return out
 
 
+def visit_order(plan: dict[str, Any]) -> list[str]:
+    """The sites the plan's flights visit, each once, in the order they are flown."""
+    ids: dict[str, None] = {}
+    for f in plan.get("flights") or [{"tour": plan.get("tour", [])}]:
+        ids.update(dict.fromkeys(f.get("tour", [])[1:-1]))
+    return list(ids)
+
+
 def visited_ids(plan: dict[str, Any]) -> set[str]:
     """The sites any flight of the plan visits."""
-    ids: set[str] = set()
-    for f in plan.get("flights") or [{"tour": plan.get("tour", [])}]:
-        ids |= set(f.get("tour", [])[1:-1])
-    return ids
+    return set(visit_order(plan))
 
 
 def plan_scan(plan: dict[str, Any], where: str = "plan") -> ScanSpec | None:

@@ -23,7 +23,14 @@ from typing import Any
 
 from mound.errors import InputError
 from mound.geometry.geodesy import Origin
-from mound.uav.mission_items import Mission, MissionSpec, TerrainInput, build, plan_scan
+from mound.uav.mission_items import (
+    Mission,
+    MissionSpec,
+    TerrainInput,
+    build,
+    plan_scan,
+    visit_order,
+)
 
 
 def advised_sites(rows: list[dict[str, Any]]) -> tuple[list[str], float | None]:
@@ -40,16 +47,6 @@ def advised_sites(rows: list[dict[str, Any]]) -> tuple[list[str], float | None]:
             ids.append(str(r["id"]))
             factors.append(float(f))
     return ids, (max(factors) if factors else None)
-
-
-def _visit_order(plan: dict[str, Any] | None) -> list[str]:
-    tours = (plan.get("flights") or [{"tour": plan.get("tour", [])}]) if plan else []
-    out: list[str] = []
-    for f in tours:
-        for node in (f.get("tour") or [])[1:-1]:
-            if node not in out:
-                out.append(str(node))
-    return out
 
 
 def second_look_flights(sites_doc: dict[str, Any], plan: dict[str, Any] | None,
@@ -72,9 +69,9 @@ def second_look_flights(sites_doc: dict[str, Any], plan: dict[str, Any] | None,
     for i in ids:
         if i not in by_id:
             raise InputError(f"second look: site {i!r} is not in the sites document")
-    order = _visit_order(plan)
+    rank = {i: k for k, i in enumerate(visit_order(plan) if plan else [])}
     hx, hy = float(home["x_m"]), float(home["y_m"])
-    ids = sorted(ids, key=lambda i: (order.index(i) if i in order else len(order),
+    ids = sorted(ids, key=lambda i: (rank.get(i, len(rank)),
                                      math.hypot(by_id[i]["x_m"] - hx, by_id[i]["y_m"] - hy)))
 
     def mission(visit: list[str]) -> Mission:
