@@ -146,7 +146,10 @@ TEST(JudgeSite, ASecondLookDecidesTheSiteByBothFlightsAtItsThreshold) {
   EXPECT_EQ(k["first_look_p_mound"], 0.2);
   EXPECT_FALSE(k.contains("second_look"));  // no third look
   // a model without a second look cannot judge one
-  EXPECT_THROW(JudgeSite(cloud, {0, 0}, o, terrain::DefaultVerdictModel()), InputError);
+  nlohmann::json one_look = terrain::DefaultVerdictModel().doc;
+  one_look.erase("second_look");
+  EXPECT_THROW(JudgeSite(cloud, {0, 0}, o, terrain::ParseVerdictModel(one_look, "one.json")),
+               InputError);
   o.first_look_p = 1.5;
   EXPECT_THROW(JudgeSite(cloud, {0, 0}, o, model), InputError);
 }

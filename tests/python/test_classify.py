@@ -37,6 +37,48 @@ def test_gradient_matches_finite_differences(l2: float) -> None:
     np.testing.assert_allclose(grad, fd, rtol=1e-6, atol=1e-9)
 
 
+@pytest.mark.parametrize("mix,tau", [(0.3, 0.25), (1.0, 1.0), (0.5, 0.05)])
+def test_the_bag_loss_gradient_matches_finite_differences(mix: float, tau: float) -> None:
+    rng = np.random.default_rng(3)
+    x = np.hstack([rng.normal(size=(60, 4)), np.ones((60, 1))])
+    bags = rng.integers(0, 12, 60)
+    y = np.where(bags % 3 == 0, 1.0, -1.0)  # one label per bag
+    w = rng.normal(size=5)
+    _, grad = logistic.loss_and_grad_bags(w, x, y, bags, mix, tau, 1e-2)
+    h = 1e-6
+    fd = np.array([
+        (logistic.loss_and_grad_bags(w + h * e, x, y, bags, mix, tau, 1e-2)[0]
+         - logistic.loss_and_grad_bags(w - h * e, x, y, bags, mix, tau, 1e-2)[0]) / (2 * h)
+        for e in np.eye(5)
+    ])
+    np.testing.assert_allclose(grad, fd, rtol=1e-5, atol=1e-8)
+
+
+def test_the_bag_loss_scores_a_bag_by_its_highest_row() -> None:
+    rng = np.random.default_rng(4)
+    x = np.hstack([rng.normal(size=(40, 3)), np.ones((40, 1))])
+    y = np.where(rng.random(40) < 0.5, 1.0, -1.0)
+    w = rng.normal(size=4)
+    # mix 0 is the plain loss; bags of one row give the plain loss whatever the mix
+    plain = logistic.loss_and_grad(w, x, y, 0.1)
+    for mix, bags in ((0.0, np.zeros(40, int) + (y > 0)), (0.7, np.arange(40))):
+        mixed = logistic.loss_and_grad_bags(w, x, y, bags, mix, 0.5, 0.1)
+        assert mixed[0] == pytest.approx(plain[0])
+        np.testing.assert_allclose(mixed[1], plain[1], atol=1e-12)
+    # one negative bag of every row: as tau -> 0 its loss is that of the highest row
+    neg = -np.ones(40)
+    top = float(np.max(x @ w))
+    loss, _ = logistic.loss_and_grad_bags(w, x, neg, np.zeros(40, int), 1.0, 1e-3)
+    assert loss == pytest.approx(np.logaddexp(0.0, top), abs=1e-2)
+    fit = logistic.fit_bags(x, neg * np.sign(x[:, 0]), (x[:, 0] > 0).astype(int), 0.5, 0.25,
+                            l2=1e-2)
+    assert fit.converged or fit.grad_norm < 1e-5
+    with pytest.raises(ValueError, match="one label"):
+        logistic.fit_bags(x, y, np.zeros(40, int), 0.5, 0.25)
+    with pytest.raises(ValueError, match="mix"):
+        logistic.fit_bags(x, y, np.arange(40), 1.5, 0.25)
+
+
 @pytest.mark.slow
 def test_gradient_descent_and_lbfgs_reach_the_same_weights(trn: statlog.Split) -> None:
     x = trn.x[:, band_columns(coarse.DEFAULT_BAND)]

@@ -8,7 +8,8 @@ the bias, which is the last component):
 
 `fit_gd` is plain gradient descent with the constant step 1/L, L = lambda_max(X^T X)/(4n)
 + l2 the Lipschitz constant of the gradient (so every step decreases f), as the paper
-trains its classifier; `fit_lbfgs` minimises the same f with scipy's L-BFGS-B.
+trains its classifier; `fit_lbfgs` minimises the same f with scipy's L-BFGS-B, and
+`fit_bags` that f mixed with a multiple-instance loss on bags of rows (loss_and_grad_bags).
 """
 
 from __future__ import annotations
@@ -32,6 +33,17 @@ class Fit:
     solver: str
 
 
+def _penalised(w: np.ndarray, loss: float, grad: np.ndarray,
+               l2: float) -> tuple[float, np.ndarray]:
+    """The loss and gradient plus the L2 penalty (l2/2) |w_{:-1}|^2, not on the bias."""
+    if l2 > 0:
+        reg = w.copy()
+        reg[-1] = 0.0
+        loss += 0.5 * l2 * float(reg @ reg)
+        grad = grad + l2 * reg
+    return loss, grad
+
+
 def loss_and_grad(w: np.ndarray, x: np.ndarray, y: np.ndarray, l2: float = 0.0,
                   weight: np.ndarray | None = None) -> tuple[float, np.ndarray]:
     """Paper (coarse search): the mean logistic loss (1/n) sum log(1 + exp(-y w^T x)),
@@ -44,12 +56,63 @@ def loss_and_grad(w: np.ndarray, x: np.ndarray, y: np.ndarray, l2: float = 0.0,
     else:
         loss = float(np.mean(weight * np.logaddexp(0.0, -z)))
         grad = -(x.T @ (weight * y * expit(-z))) / x.shape[0]
-    if l2 > 0:
-        reg = w.copy()
-        reg[-1] = 0.0
-        loss += 0.5 * l2 * float(reg @ reg)
-        grad = grad + l2 * reg
-    return loss, grad
+    return _penalised(w, loss, grad, l2)
+
+
+def loss_and_grad_bags(w: np.ndarray, x: np.ndarray, y: np.ndarray, bags: np.ndarray,
+                       mix: float, tau: float, l2: float = 0.0) -> tuple[float, np.ndarray]:
+    """The per-row logistic loss mixed with a multiple-instance one: rows are grouped into
+    `bags` (integer ids; every row of a bag has the same label), a bag's score is the smooth
+    maximum S = tau log sum_i exp(w^T x_i / tau) of its rows' scores (-> the maximum as
+    tau -> 0) and it takes the logistic loss of S with its label. f(w) = (1 - mix) (1/n)
+    sum_i log(1 + exp(-y_i w^T x_i)) + mix (1/m) sum_bags log(1 + exp(-y_b S_b)) + the L2
+    penalty (not on the bias). A bag's gradient is spread over its rows by the softmax
+    weights exp((w^T x_i - S) / tau). Used where a decision is the maximum over rows (a
+    site's verdict is its highest rise's): the bag loss weighs a negative site's highest
+    rows, which decide, above its many low ones, which do not."""
+    f = x @ w
+    z = y * f
+    loss = (1 - mix) * float(np.mean(np.logaddexp(0.0, -z)))
+    grad = -(1 - mix) * (x.T @ (y * expit(-z))) / x.shape[0]
+    if mix > 0:
+        ub, inv = np.unique(bags, return_inverse=True)
+        m = len(ub)
+        top = np.full(m, -np.inf)
+        np.maximum.at(top, inv, f)
+        e = np.exp((f - top[inv]) / tau)
+        se = np.bincount(inv, e, m)
+        s = top + tau * np.log(se)
+        yb = np.zeros(m)
+        yb[inv] = y
+        zb = yb * s
+        loss += mix * float(np.mean(np.logaddexp(0.0, -zb)))
+        gs = -(yb * expit(-zb)) / m
+        grad = grad + mix * (x.T @ (gs[inv] * e / se[inv]))
+    return _penalised(w, loss, grad, l2)
+
+
+def fit_bags(x: np.ndarray, y: np.ndarray, bags: np.ndarray, mix: float, tau: float,
+             l2: float = 0.0, tol: float = 1e-6, max_iter: int = 10_000) -> Fit:
+    """Minimises loss_and_grad_bags with L-BFGS-B from w = 0 (mix = 0: fit_lbfgs's f)."""
+    if not 0 <= mix <= 1 or not tau > 0:
+        raise ValueError(f"fit_bags: mix {mix} (0..1), tau {tau} (> 0)")
+    bags = np.asarray(bags)
+    if len(bags) != len(y):
+        raise ValueError("fit_bags: one bag id per row")
+    _, inv = np.unique(bags, return_inverse=True)
+    lo, hi = np.full(inv.max(initial=-1) + 1, np.inf), np.full(inv.max(initial=-1) + 1, -np.inf)
+    np.minimum.at(lo, inv, y)
+    np.maximum.at(hi, inv, y)
+    if (lo != hi).any():
+        raise ValueError("fit_bags: every row of a bag has one label")
+    start = time.perf_counter()
+    res = minimize(loss_and_grad_bags, np.zeros(x.shape[1]), args=(x, y, bags, mix, tau, l2),
+                   jac=True, method="L-BFGS-B",
+                   options={"gtol": tol, "maxiter": max_iter, "ftol": 0.0})
+    loss, grad = loss_and_grad_bags(res.x, x, y, bags, mix, tau, l2)
+    gn = float(np.linalg.norm(grad))
+    return Fit(res.x, int(res.nit), gn <= tol, loss, gn, time.perf_counter() - start,
+               "lbfgs-bags")
 
 
 def lipschitz(x: np.ndarray, l2: float, weight: np.ndarray | None = None) -> float:

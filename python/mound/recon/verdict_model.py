@@ -10,11 +10,12 @@ hinge basis, or the hinge basis with the products of every two of the rise's for
 features (`hinge_products`, PRODUCT_FEATURES). A rise is a positive when it is the
 tumulus's own, a negative when it lies
 clear of any tumulus, and left out of the fit when it overlaps one otherwise
-(`rise_labels`). A site's
-score is its highest rise's; that score is Platt-calibrated on the sites (folded into the
+(`rise_labels`); the fit's loss is the rises' logistic loss, mixed with a multiple-instance
+one over the sites' bags of rises (MIL_MIXES: the site's decision is its highest rise's).
+A site's score is its highest rise's; that score is Platt-calibrated on the sites (folded into the
 weights: the file stays one logistic regression and a max). Sites without a rise get
 `p_no_rise`, the share of mounds among the training sites without one (Laplace-smoothed).
-Basis and L2 penalty are chosen by 5-fold cross-validation over sites (the sites' log loss
+Basis, L2 penalty and that mix are chosen by 5-fold cross-validation over sites (the sites' log loss
 after calibration). `z_clip` c bounds each standardised feature to [-c, c] before the
 basis (c = 3, Z_CLIPS): a hinge is linear beyond the data, a product grows as the square,
 and a rise whose feature lies far outside the training range (a torn cloud's, a real
@@ -70,6 +71,15 @@ PRODUCT_CLIP = 3.0
 # simulated sites cannot judge what unbounded scores do on a site unlike them (their CV log
 # losses differ by 0.0005 on the dense grid).
 Z_CLIPS: tuple[float | None, ...] = (3.0,)
+# The fit's loss: the rises' logistic loss mixed, with weight `mil` (chosen by CV), with a
+# multiple-instance one over the sites' bags of rises (mound.classify.logistic.fit_bags):
+# a site's decision is its highest rise's, and a bare site on real ground holds some thirty
+# natural rises, of which the few highest decide. Each site gives two bags, its tumulus's
+# rises and its other rises, scored by a smooth maximum of temperature MIL_TAU (in logits:
+# near the maximum, still smooth). On the dense training grid a mix of 0.3 lowered the CV
+# log loss from 0.167 to 0.161 and found 2.5 more of the goal's tumuli out of fold.
+MIL_MIXES = (0.0, 0.3, 0.5)
+MIL_TAU = 0.25
 MAX_FA = 0.01
 CV_REPEATS = 10  # splits of the sites into folds for the calibration and threshold
 OPERATING_THRESHOLDS = (0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 0.95)
@@ -190,9 +200,17 @@ def expand(z: np.ndarray, basis: str, z_clip: float | None = None,
 
 
 def _fit(z: np.ndarray, y: np.ndarray, l2: float, basis: str,
-         z_clip: float | None, pairs: Pairs = ()) -> np.ndarray:
+         z_clip: float | None, pairs: Pairs = (), bags: np.ndarray | None = None,
+         mil: float = 0.0) -> np.ndarray:
+    """The weights (bias last) on the rises `z` labelled `y`; with `mil` > 0 the loss mixes
+    in the multiple-instance one over `bags` (the rises' bag ids: site and label)."""
     d = np.hstack([expand(z, basis, z_clip, pairs), np.ones((len(z), 1))])
-    f = logistic.fit(d, np.where(y, 1.0, -1.0), solver="lbfgs", l2=l2, tol=1e-7)
+    if mil > 0:
+        if bags is None:
+            raise ValueError("_fit: mil > 0 needs the rises' bags")
+        f = logistic.fit_bags(d, np.where(y, 1.0, -1.0), bags, mil, MIL_TAU, l2=l2, tol=1e-7)
+    else:
+        f = logistic.fit(d, np.where(y, 1.0, -1.0), solver="lbfgs", l2=l2, tol=1e-7)
     return np.asarray(f.w)
 
 
@@ -231,7 +249,7 @@ def _features(rise: dict[str, Any], names: list[str], where: str) -> list[float]
 
 
 def train(rows: list[dict[str, Any]], names: list[str], sources: list[str],
-          seed: int = 0) -> dict[str, Any]:
+          seed: int = 0, mil_mixes: tuple[float, ...] = MIL_MIXES) -> dict[str, Any]:
     """The model document from measured training sites (see the module text): a logistic
     regression on the judged rises (the tumulus's own rise a positive, every other rise a
     negative), the site's score its highest rise's, Platt-calibrated on the sites."""
@@ -256,6 +274,7 @@ def train(rows: list[dict[str, Any]], names: list[str], sources: list[str],
     std = np.where(x.std(axis=0) > 0, x.std(axis=0), 1.0)
     z_all = (x_all - mean) / std
     z = z_all[fitted]
+    bags = site_idx[fitted] * 2 + y_rise  # a site's tumulus rises, and its other rises
     pairs = product_pairs(names)
     # the second looks' rises (mound sim grid --second-look), scored by the same folds' models
     feats2, site_of2 = [], []
@@ -266,18 +285,20 @@ def train(rows: list[dict[str, Any]], names: list[str], sources: list[str],
     z2_all = (np.array(feats2).reshape(-1, len(names)) - mean) / std
     site_idx2 = np.array(site_of2, dtype=int)
 
-    def out_of_fold(split: int, key: tuple[str, float, float | None]
-                    ) -> tuple[np.ndarray, np.ndarray]:
+    Key = tuple[str, float, float | None, float]
+
+    def out_of_fold(split: int, key: Key) -> tuple[np.ndarray, np.ndarray]:
         """Each site's score by the model fitted on the other folds of split `split`, and
         its second look's (-inf: none)."""
-        basis, l2, z_clip = key
+        basis, l2, z_clip, mil = key
         fold_of_site = _folds(len(sites), 5, seed + split)
         folds_all = fold_of_site[site_idx]
         folds = folds_all[fitted]
         oof = np.full(len(sites), -np.inf)
         oof2 = np.full(len(sites), -np.inf)
         for k in range(5):
-            w = _fit(z[folds != k], y_rise[folds != k], l2, basis, z_clip, pairs)
+            w = _fit(z[folds != k], y_rise[folds != k], l2, basis, z_clip, pairs,
+                     bags[folds != k], mil)
             out = folds_all == k
             sc = _site_scores(z_all[out], site_idx[out], len(sites), w, basis, z_clip, pairs)
             oof = np.where(fold_of_site == k, sc, oof)
@@ -288,11 +309,11 @@ def train(rows: list[dict[str, Any]], names: list[str], sources: list[str],
                 oof2 = np.where(fold_of_site == k, sc2, oof2)
         return oof, oof2
 
-    cv: dict[tuple[str, float, float | None], float] = {}
-    oof_by: dict[tuple[str, float, float | None], np.ndarray] = {}
+    cv: dict[Key, float] = {}
+    oof_by: dict[Key, np.ndarray] = {}
     bases = [b for b in BASES if b != "hinge_products" or pairs]  # none without the features
-    oof2_by: dict[tuple[str, float, float | None], np.ndarray] = {}
-    for key in itertools.product(bases, L2_GRID, Z_CLIPS):
+    oof2_by: dict[Key, np.ndarray] = {}
+    for key in itertools.product(bases, L2_GRID, Z_CLIPS, mil_mixes):
         oof, oof2_by[key] = out_of_fold(0, key)
         a, b = _platt(oof, y_site)
         p = expit(a * oof + b)
@@ -300,7 +321,7 @@ def train(rows: list[dict[str, Any]], names: list[str], sources: list[str],
                                           np.log(np.clip(1 - p, 1e-12, 1)))))
         oof_by[key] = oof
     best = min(cv, key=lambda k: cv[k])
-    basis, l2, z_clip = best
+    basis, l2, z_clip, mil = best
     # the chosen model's out-of-fold scores over CV_REPEATS splits (the first the one above)
     repeats = [(oof_by[best], oof2_by[best])] + [out_of_fold(rep, best)
                                                  for rep in range(1, CV_REPEATS)]
@@ -311,7 +332,7 @@ def train(rows: list[dict[str, Any]], names: list[str], sources: list[str],
         raise InputError("train-verdict: the rises' scores do not rank the sites (Platt slope "
                          f"{a:.3g} <= 0): more or other training sites are needed")
     p_oof = expit(a * s_oof + b)
-    w = _fit(z, y_rise, l2, basis, z_clip, pairs)
+    w = _fit(z, y_rise, l2, basis, z_clip, pairs, bags, mil)
     # threshold: the lowest p >= 0.5 with an out-of-fold false-alarm rate <= MAX_FA
     neg = p_oof[~y_oof]
     thr = 0.5
@@ -346,8 +367,10 @@ def train(rows: list[dict[str, Any]], names: list[str], sources: list[str],
                     "mound_rises": int(y_rise.sum()),
                     "mounds": int(y_site.sum()), "no_rise": n_nr, "no_rise_mounds": m_nr,
                     "basis": basis, "l2": l2, "z_clip": z_clip,
+                    "mil": mil, "mil_tau": MIL_TAU,
                     "cv_log_loss": {f"{k[0]} {k[1]:g}"
-                                    + (f" clip {k[2]:g}" if k[2] is not None else ""): v
+                                    + (f" clip {k[2]:g}" if k[2] is not None else "")
+                                    + (f" mil {k[3]:g}" if k[3] else ""): v
                                     for k, v in cv.items()},
                     "platt": {"a": a, "b": b},
                     "cv_repeats": len(oofs),
@@ -357,8 +380,9 @@ def train(rows: list[dict[str, Any]], names: list[str], sources: list[str],
                                                                       y_oof.astype(float)),
                                     "false_alarm_rate": float(np.mean(neg >= thr)),
                                     "detection_rate": float(np.mean(p_oof[y_oof] >= thr))},
-                    "method": "logistic regression on the judged rises (L-BFGS, basis, L2 and "
-                              "z_clip by 5-fold CV over sites), the site's highest rise score "
+                    "method": "logistic regression on the judged rises (L-BFGS, basis, L2, "
+                              "z_clip and the share of the sites' multiple-instance loss by "
+                              "5-fold CV over sites), the site's highest rise score "
                               "Platt-calibrated on out-of-fold predictions over "
                               f"{len(oofs)} splits into folds, the threshold from them"},
     }
