@@ -59,6 +59,42 @@ def loss_and_grad(w: np.ndarray, x: np.ndarray, y: np.ndarray, l2: float = 0.0,
     return _penalised(w, loss, grad, l2)
 
 
+def _bag_index(bags: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each row's bag numbered 0..m-1, and each bag's label; ValueError unless every row has
+    a bag and every row of a bag the same label."""
+    bags = np.asarray(bags)
+    if len(bags) != len(y):
+        raise ValueError("bags: one bag id per row")
+    ub, inv = np.unique(bags, return_inverse=True)
+    lo, hi = np.full(len(ub), np.inf), np.full(len(ub), -np.inf)
+    np.minimum.at(lo, inv, y)
+    np.maximum.at(hi, inv, y)
+    if (lo != hi).any():
+        raise ValueError("bags: every row of a bag has one label")
+    return inv, lo
+
+
+def _bag_loss_and_grad(w: np.ndarray, x: np.ndarray, y: np.ndarray, inv: np.ndarray,
+                       yb: np.ndarray, mix: float, tau: float,
+                       l2: float) -> tuple[float, np.ndarray]:
+    """loss_and_grad_bags on bags already numbered (`inv`, `yb`: _bag_index's)."""
+    f = x @ w
+    z = y * f
+    loss = (1 - mix) * float(np.mean(np.logaddexp(0.0, -z)))
+    grad = -(1 - mix) * (x.T @ (y * expit(-z))) / x.shape[0]
+    if mix > 0:
+        m = len(yb)
+        top = np.full(m, -np.inf)
+        np.maximum.at(top, inv, f)
+        e = np.exp((f - top[inv]) / tau)
+        se = np.bincount(inv, e, m)
+        zb = yb * (top + tau * np.log(se))
+        loss += mix * float(np.mean(np.logaddexp(0.0, -zb)))
+        gs = -(yb * expit(-zb)) / m
+        grad = grad + mix * (x.T @ (gs[inv] * e / se[inv]))
+    return _penalised(w, loss, grad, l2)
+
+
 def loss_and_grad_bags(w: np.ndarray, x: np.ndarray, y: np.ndarray, bags: np.ndarray,
                        mix: float, tau: float, l2: float = 0.0) -> tuple[float, np.ndarray]:
     """The per-row logistic loss mixed with a multiple-instance one: rows are grouped into
@@ -70,46 +106,21 @@ def loss_and_grad_bags(w: np.ndarray, x: np.ndarray, y: np.ndarray, bags: np.nda
     weights exp((w^T x_i - S) / tau). Used where a decision is the maximum over rows (a
     site's verdict is its highest rise's): the bag loss weighs a negative site's highest
     rows, which decide, above its many low ones, which do not."""
-    f = x @ w
-    z = y * f
-    loss = (1 - mix) * float(np.mean(np.logaddexp(0.0, -z)))
-    grad = -(1 - mix) * (x.T @ (y * expit(-z))) / x.shape[0]
-    if mix > 0:
-        ub, inv = np.unique(bags, return_inverse=True)
-        m = len(ub)
-        top = np.full(m, -np.inf)
-        np.maximum.at(top, inv, f)
-        e = np.exp((f - top[inv]) / tau)
-        se = np.bincount(inv, e, m)
-        s = top + tau * np.log(se)
-        yb = np.zeros(m)
-        yb[inv] = y
-        zb = yb * s
-        loss += mix * float(np.mean(np.logaddexp(0.0, -zb)))
-        gs = -(yb * expit(-zb)) / m
-        grad = grad + mix * (x.T @ (gs[inv] * e / se[inv]))
-    return _penalised(w, loss, grad, l2)
+    return _bag_loss_and_grad(w, x, y, *_bag_index(bags, y), mix, tau, l2)
 
 
 def fit_bags(x: np.ndarray, y: np.ndarray, bags: np.ndarray, mix: float, tau: float,
              l2: float = 0.0, tol: float = 1e-6, max_iter: int = 10_000) -> Fit:
-    """Minimises loss_and_grad_bags with L-BFGS-B from w = 0 (mix = 0: fit_lbfgs's f)."""
+    """Minimises loss_and_grad_bags with L-BFGS-B from w = 0 (mix = 0: fit_lbfgs's f); the
+    bags are numbered once, not at every step."""
     if not 0 <= mix <= 1 or not tau > 0:
         raise ValueError(f"fit_bags: mix {mix} (0..1), tau {tau} (> 0)")
-    bags = np.asarray(bags)
-    if len(bags) != len(y):
-        raise ValueError("fit_bags: one bag id per row")
-    _, inv = np.unique(bags, return_inverse=True)
-    lo, hi = np.full(inv.max(initial=-1) + 1, np.inf), np.full(inv.max(initial=-1) + 1, -np.inf)
-    np.minimum.at(lo, inv, y)
-    np.maximum.at(hi, inv, y)
-    if (lo != hi).any():
-        raise ValueError("fit_bags: every row of a bag has one label")
+    inv, yb = _bag_index(bags, y)
     start = time.perf_counter()
-    res = minimize(loss_and_grad_bags, np.zeros(x.shape[1]), args=(x, y, bags, mix, tau, l2),
-                   jac=True, method="L-BFGS-B",
+    res = minimize(_bag_loss_and_grad, np.zeros(x.shape[1]),
+                   args=(x, y, inv, yb, mix, tau, l2), jac=True, method="L-BFGS-B",
                    options={"gtol": tol, "maxiter": max_iter, "ftol": 0.0})
-    loss, grad = loss_and_grad_bags(res.x, x, y, bags, mix, tau, l2)
+    loss, grad = _bag_loss_and_grad(res.x, x, y, inv, yb, mix, tau, l2)
     gn = float(np.linalg.norm(grad))
     return Fit(res.x, int(res.nit), gn <= tol, loss, gn, time.perf_counter() - start,
                "lbfgs-bags")
