@@ -106,6 +106,46 @@ def test_a_dem_patch_is_the_real_ground(shared_data: Path) -> None:
         terrain.build(replace(spec, dem_x_m=564050.0))
 
 
+def test_a_second_look_near_the_dem_edge_continues_the_ground_across_it(
+        shared_data: Path) -> None:
+    """The second look's wider site near the DEM's edge (grid.wider: dem_extend): inside the
+    DEM it holds the DEM's heights, beyond the edge their point reflection about it (heights
+    and slopes run on, no fold at the edge); the first look's spec still refuses the site,
+    and a site whose centre is off the DEM is refused either way."""
+    from mound.geometry.dem import Dem
+
+    path = str(shared_data / DEM)
+    axis = np.linspace(-150.0, 150.0, 301)  # 1 m cells; x0 - 150 lies 86.5 m off the DEM
+    x0, y0 = 564064.0, 146500.0
+    with pytest.raises(InputError, match="lies off the DEM"):
+        terrain.dem_patch(path, x0, y0, axis, ground_m=0.0)
+    z = terrain.dem_patch(path, x0, y0, axis, ground_m=0.0, extend=True)
+    assert z.shape == (301, 301) and np.isfinite(z).all()
+    inside = axis >= -64.0  # the DEM's cell centres reach 563,999.5 + 0.5 = 564,000 (x0 - 64)
+    xx, yy = np.meshgrid(x0 + axis[inside], y0 + axis)
+    read = Dem.at(path, x0, y0, "egm96", margin_m=300).height_crs(xx, yy).reshape(xx.shape)
+    assert np.allclose(z[:, inside], read, atol=1e-9)  # the DEM itself where it holds
+    e = int(np.flatnonzero(inside)[0])  # the edge column
+    for d in (1, 10, 60):  # point reflection: z(e - d) + z(e + d) = 2 z(e) on every row
+        assert np.allclose(z[:, e - d] + z[:, e + d], 2 * z[:, e], atol=1e-9)
+    # no fold: the slope across the edge runs on (a mirror would turn it over)
+    step_in, step_out = z[:, e + 1] - z[:, e], z[:, e] - z[:, e - 1]
+    assert np.allclose(step_in, step_out, atol=1e-9)
+    assert np.abs(step_in).max() > 0.05  # there is a slope to run on
+    first = flat(mound=False, dem_path=path, dem_x_m=x0, dem_y_m=y0, resolution_m=2.0,
+                 size_m=300.0)
+    spec = grid.wider(replace(grid.draw(np.random.default_rng(0), 0, None, (320, 240)),
+                              terrain=first))
+    assert spec.terrain.dem_extend and not first.dem_extend
+    assert np.isfinite(terrain.build(spec.terrain).z_m).all()
+    with pytest.raises(InputError, match="lies off the DEM"):
+        terrain.build(first)
+    with pytest.raises(InputError, match="centre lies off the DEM"):
+        terrain.dem_patch(path, 563990.0, y0, axis, ground_m=0.0, extend=True)
+    flat_spec = grid.draw(np.random.default_rng(0), 0, None, (320, 240))
+    assert not flat_spec.terrain.dem_path and not grid.wider(flat_spec).terrain.dem_extend
+
+
 def test_grid_draws_are_seeded_and_span_the_field(shared_data: Path) -> None:
     dem = str(shared_data / DEM)
     rng = np.random.default_rng([1, 2026])

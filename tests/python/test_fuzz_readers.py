@@ -325,6 +325,9 @@ def _read_dem(path: Path) -> None:
 
     z = dem_patch(str(path), 564020.0, 146980.0, np.linspace(-10, 10, 21))
     assert z.shape == (21, 21) and np.isfinite(z).all()
+    # a second look's site wider than the DEM: continued across its edges
+    z = dem_patch(str(path), 564010.0, 146980.0, np.linspace(-40, 40, 41), extend=True)
+    assert z.shape == (41, 41) and np.isfinite(z).all()
 
 
 @FUZZ

@@ -224,6 +224,18 @@ class Dem:
         row = np.asarray(row, dtype=float).ravel() - self.row0 - 0.5
         return self._bilinear(col, row, np.column_stack([np.ravel(x), np.ravel(y)]), what)
 
+    def inside_crs(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """Whether each point given in the DEM's own CRS can be read (its bilinear cells lie
+        in the window read), as a boolean array shaped like x."""
+        col, row = self.inverse @ (np.asarray(x, dtype=float), np.asarray(y, dtype=float))
+        return ~self._off(np.asarray(col, dtype=float) - self.col0 - 0.5,
+                          np.asarray(row, dtype=float) - self.row0 - 0.5)
+
+    def _off(self, col: np.ndarray, row: np.ndarray) -> np.ndarray:
+        """Whether window coordinates (pixel centres at integers) lie off the window."""
+        h, w = self.z.shape
+        return np.asarray((col < 0) | (row < 0) | (col > w - 1) | (row > h - 1))
+
     def pixel(self, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(col, row) in the window, pixel centres at integers, of ENU points (n, 2)."""
         col, row = _to_pixel(np.asarray(xy, dtype=float).reshape(-1, 2), self.origin,
@@ -232,8 +244,7 @@ class Dem:
 
     def _check_inside(self, col: np.ndarray, row: np.ndarray, xy: np.ndarray,
                       what: str) -> None:
-        h, w = self.z.shape
-        out = (col < 0) | (row < 0) | (col > w - 1) | (row > h - 1)
+        out = self._off(col, row)
         if np.any(out):
             k = int(np.flatnonzero(out)[0])
             p = np.asarray(xy).reshape(-1, 2)[min(k, len(np.asarray(xy).reshape(-1, 2)) - 1)]

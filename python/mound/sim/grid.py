@@ -36,8 +36,9 @@ The draws (half of the sites carry a tumulus):
 undecided, p_mound in SECOND_LOOK_P (wider than any model's band, so that a retrained
 model finds its band's sites flown): the same site flown again with a scan SECOND_LOOK_FACTOR
 x as wide (`wider`), reconstructed and judged in GRID/NNNN/second/ as above. On a DEM patch
-near the laser DEM's edge the wider site cannot be drawn (second/ then holds no verdict; the
-evaluation counts the site as not flown again and keeps its first verdict).
+near the laser DEM's edge the wider site's part off the DEM is the DEM continued across its
+edge (`terrain.dem_patch`, `extend`); until 2026-11-26 such a site was not flown again
+(second/ held no verdict, and the evaluation kept its first verdict).
 
 `flights_from=GRID` takes each site's flight and reconstruction from another grid of the
 same seed, flight and camera (links to its NNNN/sim and NNNN/recon; nothing is flown or
@@ -191,10 +192,13 @@ def draw(rng: np.random.Generator, seed: int, dem: str | None, size: tuple[int, 
 
 def wider(spec: sim.SimSpec, factor: float = SECOND_LOOK_FACTOR) -> sim.SimSpec:
     """The same site (terrain, light, lens, seed) flown with a scan `factor` x as wide, on a
-    site drawn SITE_PER_SCAN x that scan across (at least the first look's)."""
+    site drawn SITE_PER_SCAN x that scan across (at least the first look's). On a DEM patch
+    the part of the wider site that lies off the laser DEM is its continuation across the
+    edge (terrain.dem_patch's point reflection): the field's second look would fly there."""
     scan = spec.scale_m * factor
     size = max(spec.terrain.size_m, math.ceil(scan * SITE_PER_SCAN / 4) * 4)
-    return replace(spec, scan_diameter_m=scan, terrain=replace(spec.terrain, size_m=size))
+    return replace(spec, scan_diameter_m=scan, terrain=replace(
+        spec.terrain, size_m=size, dem_extend=spec.terrain.dem_path is not None))
 
 
 def _first_p(verdict: Path) -> float | None:

@@ -95,6 +95,9 @@ class TerrainSpec:
     # are then read as dem_vertical ones (None: as they are).
     dem_ground_m: float | None = None
     dem_vertical: str | None = None
+    # Continue the patch beyond the DEM's edge (dem_patch's point reflection) rather than
+    # refuse the site: the second look's wider site near the edge (sim/grid.py, `wider`).
+    dem_extend: bool = False
     confusers: tuple[Confuser, ...] = ()
     seed: int = 0
 
@@ -261,18 +264,38 @@ def _confuser(c: Confuser, xx: np.ndarray, yy: np.ndarray, ground: np.ndarray
 
 
 def dem_patch(path: str, x0: float, y0: float, axis: np.ndarray,
-              ground_m: float | None = None, vertical: str | None = None) -> np.ndarray:
+              ground_m: float | None = None, vertical: str | None = None,
+              extend: bool = False) -> np.ndarray:
     """Heights of a DEM (any CRS; geometry/dem.py, the project's one DEM reader) on the
     site's grid, the patch centred on (x0, y0) in the DEM's CRS, its axes along the DEM's
     (north up); less `ground_m` (AMSL, with the heights read as `vertical` ones), or less
-    the patch's median height (then what the heights are above does not matter)."""
+    the patch's median height (then what the heights are above does not matter).
+
+    A site that reaches off the DEM is refused (InputError), unless `extend`: then the rows
+    and columns of the grid that the DEM holds are read and continued beyond its edge by
+    their point reflection about the edge (z(e + d) = 2 z(e) - z(e - d), row by row and
+    column by column): heights and slopes run on across the edge, with the DEM's own relief
+    turned over, so that no fold (a ridge or a valley) stands at the edge. Only the
+    simulator's second look draws such a site (a scan twice as wide about a site near the
+    DEM's edge); the DEM must hold its centre. Never used for flying: geometry/dem.py
+    refuses any point off the DEM."""
     from mound.geometry.dem import Dem
 
     dem = Dem.at(path, x0, y0, vertical or "egm96",
                  margin_m=float(np.abs(axis).max()) * 1.5 + 10)
-    xx, yy = np.meshgrid(x0 + axis, y0 + axis)  # grid row i is y = y0 + axis[i]
-    patch = dem.height_crs(xx, yy, f"a site {axis[-1] - axis[0]:g} m across at ({x0:g}, "
-                           f"{y0:g})").reshape(len(axis), len(axis))
+    what = f"a site {axis[-1] - axis[0]:g} m across at ({x0:g}, {y0:g})"
+    cols = rows = np.arange(len(axis))
+    if extend:
+        cols = np.flatnonzero(dem.inside_crs(x0 + axis, np.full(len(axis), y0)))
+        rows = np.flatnonzero(dem.inside_crs(np.full(len(axis), x0), y0 + axis))
+        if len(cols) < 2 or len(rows) < 2:
+            raise InputError(f"{path}: {what}: its centre lies off the DEM")
+    xx, yy = np.meshgrid(x0 + axis[cols], y0 + axis[rows])  # row i is y = y0 + axis[i]
+    patch = dem.height_crs(xx, yy, what).reshape(len(rows), len(cols))
+    if len(rows) < len(axis) or len(cols) < len(axis):
+        pad = ((int(rows[0]), len(axis) - 1 - int(rows[-1])),
+               (int(cols[0]), len(axis) - 1 - int(cols[-1])))
+        patch = np.pad(patch, pad, mode="reflect", reflect_type="odd")
     return patch - (np.median(patch) if ground_m is None else ground_m)
 
 
@@ -291,7 +314,7 @@ def build(spec: TerrainSpec) -> Heightfield:
     z = spec.ground_relief_m / 4 * ground
     if spec.dem_path is not None:
         z = dem_patch(spec.dem_path, spec.dem_x_m, spec.dem_y_m, axis, spec.dem_ground_m,
-                      spec.dem_vertical)
+                      spec.dem_vertical, extend=spec.dem_extend)
     if spec.slope_deg > 0:
         u, _ = _along_across(xx, yy, 0.0, 0.0, spec.slope_azimuth_deg)
         z = z + np.tan(np.deg2rad(spec.slope_deg)) * u
