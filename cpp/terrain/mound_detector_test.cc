@@ -438,6 +438,41 @@ TEST(VerdictModel, RefusesMalformedModelsNamingTheField) {
   ExpectRefused(d, "product_clip");
 }
 
+// The beta calibration of the site's score: p = 1 / (1 + exp(-(a ln q - b ln(1 - q) + c))),
+// q = 1 / (1 + exp(-s)); the identity at a = b = 1, c = 0; refused unless increasing.
+TEST(VerdictModel, ABetaCalibrationMapsTheHighestRisesScore) {
+  const Detection dome =
+      DetectMound(SyntheticSite(6.0, 40.0, false, 1), {0, 0}, 58, DetectorOptions{});
+  const double s = -1.0 + 2.0 * std::log(dome.Tallest()->height_m);  // ModelDoc's score
+  const double q = 1 / (1 + std::exp(-s));
+  nlohmann::json d = ModelDoc();
+  d["calibration"] = {{"method", "beta"}, {"a", 0.4}, {"b", 1.6}, {"c", -1.3}};
+  const VerdictModel m = ParseVerdictModel(d, "m.json");
+  EXPECT_NEAR(m.Probability(dome),
+              1 / (1 + std::exp(-(0.4 * std::log(q) - 1.6 * std::log(1 - q) - 1.3))), 1e-12);
+  EXPECT_EQ(m.Probability(Detection{}), 0.01);  // p_no_rise as it is
+  d["calibration"] = {{"method", "beta"}, {"a", 1.0}, {"b", 1.0}, {"c", 0.0}};
+  EXPECT_NEAR(ParseVerdictModel(d, "m.json").Probability(dome),
+              ParseVerdictModel(ModelDoc(), "m.json").Probability(dome), 1e-12);
+  // increasing and finite far out (softplus without overflow)
+  for (double x = -800; x < 800; x += 7) EXPECT_LT(m.Calibrated(x), m.Calibrated(x + 7)) << x;
+  EXPECT_TRUE(std::isfinite(m.Calibrated(1e6)) && std::isfinite(m.Calibrated(-1e6)));
+  for (const nlohmann::json& bad :
+       {nlohmann::json{{"method", "isotonic"}, {"a", 1.0}, {"b", 1.0}, {"c", 0.0}},
+        nlohmann::json{{"a", 1.0}, {"b", 1.0}, {"c", 0.0}}, nlohmann::json("beta")}) {
+    d["calibration"] = bad;
+    ExpectRefused(d, "calibration");
+  }
+  d["calibration"] = {{"method", "beta"}, {"a", -0.1}, {"b", 1.0}, {"c", 0.0}};
+  ExpectRefused(d, "calibration: a, b");
+  d["calibration"] = {{"method", "beta"}, {"a", 0.0}, {"b", 0.0}, {"c", 0.0}};
+  ExpectRefused(d, "calibration: a, b");  // constant: no ranking
+  d["calibration"] = {{"method", "beta"}, {"a", 1.0}, {"b", 1.0}};
+  ExpectRefused(d, "calibration: c");
+  d["calibration"] = {{"method", "beta"}, {"a", 1.0}, {"b", "1"}, {"c", 0.0}};
+  ExpectRefused(d, "calibration: b");
+}
+
 // The second look: advised in [p_low, threshold), its p the model's recalibrated on the logit.
 TEST(VerdictModel, ASecondLookIsAdvisedInItsBandAndRecalibratesTheModelsP) {
   nlohmann::json d = ModelDoc();

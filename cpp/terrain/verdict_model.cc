@@ -56,8 +56,15 @@ double VerdictModel::Score(const std::vector<double>& f) const {
   return s;
 }
 
+double VerdictModel::Calibrated(double s) const {
+  if (!beta) return s;
+  // softplus(x) = ln(1 + e^x), without overflow
+  auto softplus = [](double x) { return std::max(x, 0.0) + std::log1p(std::exp(-std::fabs(x))); };
+  return beta_b * softplus(s) - beta_a * softplus(-s) + beta_c;
+}
+
 double VerdictModel::Probability(const std::vector<double>& f) const {
-  return 1 / (1 + std::exp(-Score(f)));
+  return 1 / (1 + std::exp(-Calibrated(Score(f))));
 }
 
 double VerdictModel::Probability(const Detection& d, size_t* best) const {
@@ -70,7 +77,7 @@ double VerdictModel::Probability(const Detection& d, size_t* best) const {
       if (best) *best = k;
     }
   }
-  return 1 / (1 + std::exp(-top));
+  return 1 / (1 + std::exp(-Calibrated(top)));  // g increasing: the highest rise's p
 }
 
 bool VerdictModel::SecondLookAdvised(double p) const {
@@ -169,6 +176,20 @@ VerdictModel ParseVerdictModel(const nlohmann::json& doc, const std::string& sou
     throw InputError(source + ": threshold: must be in (0, 1)");
   if (!(m.p_no_rise >= 0 && m.p_no_rise <= 1))
     throw InputError(source + ": p_no_rise: must be in [0, 1]");
+  if (doc.contains("calibration")) {
+    const nlohmann::json& c = doc["calibration"];
+    const std::string at = source + ": calibration";
+    if (!c.is_object() || !c.contains("method") || c["method"] != "beta")
+      throw InputError(at + ": expected {\"method\": \"beta\", \"a\", \"b\", \"c\"}");
+    m.beta = true;
+    m.beta_a = Number(c, "a", at);
+    m.beta_b = Number(c, "b", at);
+    m.beta_c = Number(c, "c", at);
+    if (!(m.beta_a >= 0 && m.beta_b >= 0 && m.beta_a + m.beta_b > 0 && m.beta_a <= 1e6 &&
+          m.beta_b <= 1e6))
+      throw InputError(at + ": a, b: must be >= 0 (within 1e6), a + b > 0");
+    if (!(std::fabs(m.beta_c) <= 1e6)) throw InputError(at + ": c: must be within +-1e6");
+  }
   if (doc.contains("second_look")) {
     const nlohmann::json& sl = doc["second_look"];
     const std::string at = source + ": second_look";

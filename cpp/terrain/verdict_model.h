@@ -14,8 +14,12 @@
 //   (the hinge's, then per pair [a, b] of "products" — two of the model's feature names —
 //   z_a z_b, each factor bounded to [-q, q] with q the file's "product_clip" (> 0);
 //   3 x the features + the pairs' weights);
-//   p(site) = 1 / (1 + exp(-max over the judged rises of s)) (the Platt calibration of the
-//   site's highest score folded into w and b)
+//   p(site) = 1 / (1 + exp(-g(max over the judged rises of s))) (the Platt calibration of
+//   the site's highest score folded into w and b), g the identity or, when the file gives
+//   "calibration": {"method": "beta", "a": a, "b": b, "c": c} (a, b >= 0, a + b > 0), the
+//   beta calibration of q = 1 / (1 + exp(-s)): g(s) = a ln q - b ln(1 - q) + c
+//   = b softplus(s) - a softplus(-s) + c, increasing in s (Kull, Silva Filho and Flach
+//   2017)
 // and optionally "second_look": {"p_low": l, "threshold": t2, "scan_factor": k,
 //   "combine": {"first": c1, "second": c2, "bias": c0}}: a site whose p lies in
 //   [l, threshold) is undecided by its flight; flown again with a scan k x as wide, it is
@@ -55,10 +59,13 @@ struct VerdictModel {
   std::vector<std::pair<size_t, size_t>> products;
   double product_clip = 0;
   double bias = 0, threshold = 0.5, p_no_rise = 0;
+  bool beta = false;  // "calibration" (see above): g(s); else the identity
+  double beta_a = 1, beta_b = 1, beta_c = 0;
   std::optional<SecondLook> second_look;
   nlohmann::json doc;  // the whole file (its figures travel into verdict.json)
 
   double Score(const std::vector<double>& f) const;  // s of one rise's features
+  double Calibrated(double s) const;                 // g(s): the logit of p
   double Probability(const std::vector<double>& f) const;
   // p(mound) of a detection: the highest over its judged rises, or p_no_rise without one;
   // `best` (if given) the index in d.judged of the rise that gave it.
