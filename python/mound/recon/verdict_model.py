@@ -21,9 +21,11 @@ basis (c = 3, Z_CLIPS): a hinge is linear beyond the data, a product grows as th
 and a rise whose feature lies far outside the training range (a torn cloud's, a real
 site's) would otherwise score on an extrapolation. The chosen model's out-of-fold scores
 are then taken over CV_REPEATS splits of the sites into folds (the first the selection's):
-the Platt calibration is fitted on all of them, and the threshold is the lowest p >= 0.5 whose
-out-of-fold false-alarm rate over them is <= 1 % — one split's rate rests on the three or
-four highest of some 360 negatives and moves with the split by several hundredths.
+the Platt calibration is fitted on all of them, then a beta calibration of the Platt p
+(the file's "calibration", `_calibrated`: the site's highest score is not logistic in the
+truth), and the threshold is the lowest p >= 0.5 whose out-of-fold false-alarm rate over
+them is <= 1 % — one split's rate rests on the three or four highest of some 360
+negatives and moves with the split by several hundredths.
 
 Evaluation on a held-out grid (other seeds: other sites, sun and lens): accuracy, false
 alarms and missed detections per class, kind and profile; reliability table, Brier score
@@ -298,7 +300,8 @@ def train(rows: list[dict[str, Any]], names: list[str], sources: list[str],
           seed: int = 0, mil_mixes: tuple[float, ...] = MIL_MIXES) -> dict[str, Any]:
     """The model document from measured training sites (see the module text): a logistic
     regression on the judged rises (the tumulus's own rise a positive, every other rise a
-    negative), the site's score its highest rise's, Platt-calibrated on the sites."""
+    negative), the site's score its highest rise's, Platt- and beta-calibrated on the
+    sites."""
     measured = [r for r in rows if r["measured"]]
     sites = [r for r in measured if r["rises"]]
     no_rise = [r for r in measured if not r["rises"]]
