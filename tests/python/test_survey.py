@@ -825,3 +825,39 @@ def test_a_site_the_first_flight_leaves_undecided_is_flown_again_wider(
     v = json.loads((tmp_path / "run3" / look["verdict_file"]).read_text())
     assert v["look"] == "second" and v["first_look_p_mound"] == 0.6
     assert row["verdict_p_mound"] == v["p_mound"] and row["first_look"]["reason"] == "first"
+    # The second card given to a run whose first look is done: the site's key changes, its
+    # first look's (first_key) does not, so only the second look is flown; the first
+    # look's reconstruction, dense cloud, verdict and files stay as they were.
+    from dataclasses import replace
+
+    from mound.survey.site_work import process_site
+
+    job3 = replace(job2, run_root=str(tmp_path / "run4"), key="k2", first_key="f1")
+    t3 = job3.tree
+    t3.verdict.parent.mkdir(parents=True)
+    first = {"schema": "mound.verdict", "version": 1, "status": "ok", "look": "first",
+             "method": "reference_free_model", "p_mound": 0.6, "label": "no_mound",
+             "reason": "first", "second_look": {"advised": True, "scan_factor": 2.0,
+                                                "message": "undecided"}}
+    t3.verdict.write_text(json.dumps(first))
+    before = {"schema": "mound.survey_site", "version": 1, "id": "s1", "key": "k1",
+              "first_key": "f1", "status": "ok", "verdict_cloud": "dense",
+              "recon": {"status": "ok", "registered": 25}, "verdict": "mound",
+              "verdict_p_mound": 0.9, "second_look": {"flown": True, "p_mound": 0.9},
+              "files": {"images": "photos/s1", "recon": "sites/s1/recon",
+                        "verdict": "sites/s1/verdict.json"}}
+    t3.result.write_text(json.dumps(before))
+    row = process_site(job3)
+    assert row["status"] == "ok" and row["first_look_reused"], row
+    assert row["second_look"]["flown"] and row["second_look"]["source"] == "photos"
+    assert row["first_look"]["verdict_p_mound"] == 0.6  # the first verdict's, not 0.9
+    assert row["verdict_p_mound"] == row["second_look"]["p_mound"] != 0.9
+    assert row["recon"] == before["recon"] and row["files"]["recon"] == "sites/s1/recon"
+    # the first look was not reconstructed or densified again
+    assert not (t3.recon / "recon.json").exists() and not t3.dense.exists()
+    assert set(row["timings_s"]) == {"second_look", "total"}
+    assert json.loads(t3.result.read_text()) == row and row["key"] == "k2"
+    # another first look (another first card, here an empty one): the whole site again
+    row = process_site(replace(job3, first_key="f2"))
+    assert row["status"] == "failed" and row["reason"].startswith("images:")
+    assert "first_look_reused" not in row

@@ -288,5 +288,5 @@ def _write(doc: dict[str, Any], root: Path, out: Path, spec: SortSpec,
             else:
                 os.symlink(src, dst)
         if camera is not None:
-            shutil.copyfile(camera, folder / "camera.json")
+            shutil.copy2(camera, folder / "camera.json")  # its time kept: the site key
     write_json(out / "photos.json", doc)

@@ -693,14 +693,17 @@ def site_jobs(ctx: Context, plan: dict[str, Any] | None = None) -> list[Any]:
         second = ctx.tree.second_photos / s["id"]
         second_images = (str(second.resolve()) if a.second_photos and second.is_dir()
                          else None)
-        key = digest({"site": {k: s.get(k) for k in ("id", "x_m", "y_m", "truth", "simulate")},
-                      "index": index, "options": options, "images": images,
-                      "images_digest": _folder_digest(Path(images)) if images else None,
-                      **({"second_images": _folder_digest(second)} if second_images else {}),
-                      "reference": sha256_of(Path(a.reference)) if a.reference else None,
-                      "terrain": ter and {**ter, "dem": ctx.terrain}})
+        first = {"site": {k: s.get(k) for k in ("id", "x_m", "y_m", "truth", "simulate")},
+                 "index": index, "options": options, "images": images,
+                 "images_digest": _folder_digest(Path(images)) if images else None,
+                 "reference": sha256_of(Path(a.reference)) if a.reference else None,
+                 "terrain": ter and {**ter, "dem": ctx.terrain}}
+        # the second card changes the site's key, not its first look's (site_work reuses it)
+        key = digest({**first, **({"second_images": _folder_digest(second)}
+                                  if second_images else {})})
         jobs.append(SiteJob(site=s, index=index, run_root=str(root), run_id=ctx.run_id,
-                            origin=sites_doc["origin"], key=key, images_dir=images,
+                            origin=sites_doc["origin"], key=key, first_key=digest(first),
+                            images_dir=images,
                             second_images_dir=second_images, terrain=ter, **options))
     return jobs
 

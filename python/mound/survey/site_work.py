@@ -7,6 +7,11 @@ sparse cloud), the site's GeoTIFFs and pictures for the report.
 for a failing site: the row it returns (and writes to DIR/sites/<id>/site_result.json,
 `mound.survey_site` v1) says `status: failed` and why, and whether a rerun should try
 again (`retry`: a time-out, a crash, a killed tool) or not (the input allowed no result).
+
+A second card (--second-photos) changes the site's key but not its first look's
+(`first_key`): when the row of the run before ended ok with the same first look, its
+photos, reconstruction, dense cloud, verdict and GeoTIFFs are kept and only the second look
+is done (the row says `first_look_reused`).
 """
 
 from __future__ import annotations
@@ -41,6 +46,7 @@ class SiteJob:
     run_root: str                   # absolute path of the run directory
     origin: dict[str, float]        # the survey's WGS84 origin of x_m, y_m
     key: str                        # digest of everything below and the site row
+    first_key: str = ""             # the same less the second card: the first look's
     run_id: str = ""                # tags the tools of this run (native.tagged)
     images_dir: str | None = None   # the UAV's photos; None: simulate the flight
     second_images_dir: str | None = None  # with photos: the second look's (--second-photos)
@@ -138,12 +144,15 @@ def _process_site(job: SiteJob) -> dict[str, Any]:
     root = Path(job.run_root)
     t.root.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
+    reused = _first_look_of_before(job)
     row: dict[str, Any] = {"schema": SCHEMA, "version": VERSION, "id": job.site["id"],
-                           "key": job.key, "status": "failed",
+                           "key": job.key, "first_key": job.first_key, "status": "failed",
                            "source": "photos" if job.images_dir else "simulated",
                            "worker": f"{socket.gethostname()}:{os.getpid()}", "timings_s": {}}
     timings: dict[str, float] = row["timings_s"]
     stage = "images"
+    if reused is not None:
+        return _second_look_only(job, row, *reused, start)
     try:
         t0 = time.perf_counter()
         if job.images_dir:
@@ -212,6 +221,59 @@ def _process_site(job: SiteJob) -> dict[str, Any]:
             row["figures_error"] = repr(e)
         timings["figures"] = time.perf_counter() - t0
     timings["total"] = time.perf_counter() - start
+    write_json(t.result, row)
+    return row
+
+
+# What a site's row keeps of its first look when only the second look is done again.
+FIRST_LOOK_FIELDS = ("recon", "dense", "dense_error", "dense_verdict_error", "verdict_cloud",
+                     "files", "rasters", "rasters_error")
+
+
+def _first_look_of_before(job: SiteJob) -> tuple[dict[str, Any], dict[str, Any]] | None:
+    """With a second card: the run before's row and first verdict of the site when that run
+    ended ok with the same first look (first_key) and its first verdict is still there;
+    else None (the whole site is done again)."""
+    t = job.tree
+    if not job.second_images_dir or not job.first_key or not t.result.is_file():
+        return None
+    try:
+        before = read_json(t.result, SCHEMA, VERSION)
+        first = read_json(t.verdict, "mound.verdict", 1)
+    except (InputError, OSError):
+        return None
+    if (before.get("first_key") != job.first_key or before.get("status") != "ok"
+            or first.get("look", "first") != "first" or "label" not in first
+            or not isinstance(before.get("files"), dict)):
+        return None
+    return before, first
+
+
+def _second_look_only(job: SiteJob, row: dict[str, Any], before: dict[str, Any],
+                      first: dict[str, Any], start: float) -> dict[str, Any]:
+    """The site's row from its first look as the run before left it and the second look
+    flown from the second card (see the module text)."""
+    t = job.tree
+    root = Path(job.run_root)
+    row.update({k: before[k] for k in FIRST_LOOK_FIELDS if k in before})
+    row.update(_verdict_summary(first), first_look_reused=True, status="ok")
+    advice = first.get("second_look")
+    t0 = time.perf_counter()
+    try:
+        if isinstance(advice, dict) and advice.get("advised"):
+            _second_look(job, row, advice, row.get("verdict_cloud") == "dense")
+    except Exception as e:  # a bug; the first verdict stands, the row says what happened
+        row["second_look"] = {"advised": True, "flown": False,
+                              "reason": f"internal error {e!r}"}
+    row["timings_s"]["second_look"] = time.perf_counter() - t0
+    if job.figures:
+        t0 = time.perf_counter()
+        try:
+            row["files"].update(site_figures(job, root / row["files"]["images"], row))
+        except Exception as e:  # the verdict stands; the report shows what is missing
+            row["figures_error"] = repr(e)
+        row["timings_s"]["figures"] = time.perf_counter() - t0
+    row["timings_s"]["total"] = time.perf_counter() - start
     write_json(t.result, row)
     return row
 
