@@ -316,6 +316,7 @@ def test_a_grid_flies_a_second_look_at_the_sites_its_first_leaves_undecided(
         undecided = grid.SECOND_LOOK_P[0] <= p < grid.SECOND_LOOK_P[1]
         assert (site / "second" / "verdict.json").is_file() == undecided, (k, p)
         assert ("second" in doc["rows"][k]) == undecided
+        assert doc["rows"][k]["p_mound"] == p  # the first look's, read once
         if not undecided:
             assert rows[site.name]["second"] is None
             continue

@@ -201,11 +201,9 @@ def wider(spec: sim.SimSpec, factor: float = SECOND_LOOK_FACTOR) -> sim.SimSpec:
         spec.terrain, size_m=size, dem_extend=spec.terrain.dem_path is not None))
 
 
-def _first_p(verdict: Path) -> float | None:
-    try:
-        p = json.loads(verdict.read_text()).get("p_mound")
-    except (OSError, json.JSONDecodeError):
-        return None
+def _p_of(verdict: dict[str, Any]) -> float | None:
+    """A site's verdict's p_mound (None: not judged)."""
+    p = verdict.get("p_mound")
     return float(p) if isinstance(p, int | float) else None
 
 
@@ -216,7 +214,8 @@ def _site(out: Path, spec: sim.SimSpec, threads: int, remeasure: bool,
     times: dict[str, float] = {}
     if verdict.exists() and not remeasure:
         doc = json.loads(verdict.read_text())
-        row.update(status=doc.get("status"), times=doc.get("grid_times_s", {}))
+        row.update(status=doc.get("status"), times=doc.get("grid_times_s", {}),
+                   p_mound=_p_of(doc))
         return row
     if verdict.exists():  # remeasuring: keep the times of the flight and reconstruction
         try:
@@ -272,7 +271,7 @@ def _site(out: Path, spec: sim.SimSpec, threads: int, remeasure: bool,
         doc = json.loads(verdict.read_text())
         doc["grid_times_s"] = times
         write_json(verdict, doc)
-        row.update(status=doc.get("status"), times=times)
+        row.update(status=doc.get("status"), times=times, p_mound=_p_of(doc))
     except (InputError, NoResultError) as e:
         row.update(status="failed", reason=str(e))
     return row
@@ -307,7 +306,7 @@ def make_grid(out: str | Path, sites: int, seed: int, size: tuple[int, int] = (6
 
     def one(k: int) -> None:
         rows[k] = _site(root / f"{k:04d}", specs[k], threads, remeasure, dense, card)
-        p = _first_p(root / f"{k:04d}" / "verdict.json")
+        p = rows[k].get("p_mound")  # the first look's (grid.json's rows carry it)
         if second_look and p is not None and SECOND_LOOK_P[0] <= p < SECOND_LOOK_P[1]:
             second = _site(root / f"{k:04d}" / "second", wider(specs[k]), threads, remeasure,
                            dense, card)
