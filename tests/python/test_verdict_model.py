@@ -116,7 +116,8 @@ def test_a_beta_calibration_recovers_a_map_that_platt_cannot_follow() -> None:
     for bad in ({"method": "isotonic", "a": 1, "b": 1, "c": 0},
                 {"method": "beta", "a": -1, "b": 1, "c": 0},
                 {"method": "beta", "a": 0, "b": 0, "c": 0},
-                {"method": "beta", "a": 1, "b": 1}, "beta"):
+                {"method": "beta", "a": 1, "b": 1}, {"method": "beta", "a": 1, "b": True, "c": 0},
+                "beta"):
         with pytest.raises(InputError, match="calibration"):
             vm.probability({**model, "calibration": bad}, row)
 

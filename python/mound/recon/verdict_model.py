@@ -555,8 +555,8 @@ def probability(model: dict[str, Any], rows: list[dict[str, Any]]) -> np.ndarray
     cal = model.get("calibration")
     if cal is not None and not (
             isinstance(cal, dict) and cal.get("method") == "beta"
-            and all(isinstance(cal.get(x), int | float) and math.isfinite(cal[x])
-                    for x in "abc") and cal["a"] >= 0 and cal["b"] >= 0
+            and all(isinstance(cal.get(x), int | float) and not isinstance(cal[x], bool)
+                    and math.isfinite(cal[x]) for x in "abc") and cal["a"] >= 0 and cal["b"] >= 0
             and cal["a"] + cal["b"] > 0):
         raise InputError("verdict model: calibration: expected {\"method\": \"beta\", \"a\", "
                          "\"b\", \"c\"} with a, b >= 0 and a + b > 0")
