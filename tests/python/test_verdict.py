@@ -121,6 +121,8 @@ def test_the_verdict_model_file_round_trips(tumulus: tuple[Path, Path], tmp_path
         "threshold": (lambda d: d.__setitem__("threshold", 2.0), "threshold"),
         "schema": (lambda d: d.__setitem__("schema", "mound.scene_model"), "schema"),
         "nan": (lambda d: d["mean"].__setitem__(0, "nan"), "mean"),
+        "decreasing calibration": (lambda d: d.__setitem__(
+            "calibration", {"method": "beta", "a": -1.0, "b": 1.0, "c": 0.0}), "calibration"),
     }
     for name, (edit, field) in bad.items():
         doc = json.loads(json.dumps(DEFAULT_MODEL))
