@@ -219,17 +219,21 @@ class Dem:
     # ---- queries -------------------------------------------------------------------------
     def height_crs(self, x: np.ndarray, y: np.ndarray, what: str = "a point") -> np.ndarray:
         """Bilinear AMSL heights at points given in the DEM's own CRS."""
-        col, row = self.inverse @ (np.asarray(x, dtype=float), np.asarray(y, dtype=float))
-        col = np.asarray(col, dtype=float).ravel() - self.col0 - 0.5
-        row = np.asarray(row, dtype=float).ravel() - self.row0 - 0.5
-        return self._bilinear(col, row, np.column_stack([np.ravel(x), np.ravel(y)]), what)
+        col, row = self._window_crs(x, y)
+        return self._bilinear(col.ravel(), row.ravel(),
+                              np.column_stack([np.ravel(x), np.ravel(y)]), what)
 
     def inside_crs(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         """Whether each point given in the DEM's own CRS can be read (its bilinear cells lie
         in the window read), as a boolean array shaped like x."""
+        return ~self._off(*self._window_crs(x, y))
+
+    def _window_crs(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(col, row) in the window, pixel centres at integers, of points in the DEM's CRS
+        (shaped like x)."""
         col, row = self.inverse @ (np.asarray(x, dtype=float), np.asarray(y, dtype=float))
-        return ~self._off(np.asarray(col, dtype=float) - self.col0 - 0.5,
-                          np.asarray(row, dtype=float) - self.row0 - 0.5)
+        return (np.asarray(col, dtype=float) - self.col0 - 0.5,
+                np.asarray(row, dtype=float) - self.row0 - 0.5)
 
     def _off(self, col: np.ndarray, row: np.ndarray) -> np.ndarray:
         """Whether window coordinates (pixel centres at integers) lie off the window."""

@@ -380,8 +380,10 @@ def train(rows: list[dict[str, Any]], names: list[str], sources: list[str],
                          f"{a:.3g} <= 0): more or other training sites are needed")
     # the Platt logits recalibrated (beta calibration): the site's highest score is not
     # logistic in the truth (Platt alone over-states the low p and under-states the high)
-    cal = _fit_beta(a * s_oof + b, y_oof)
-    p_oof = expit(_calibrated(a * s_oof + b, cal))
+    u_oof = a * s_oof + b  # the Platt logits, CV_REPEATS splits end to end
+    cal = _fit_beta(u_oof, y_oof)
+    g_oof = _calibrated(u_oof, cal)
+    p_oof = expit(g_oof)
     w = _fit(z, y_rise, l2, basis, z_clip, pairs, bags, mil)
     # threshold: the lowest p >= 0.5 with an out-of-fold false-alarm rate <= MAX_FA
     neg = p_oof[~y_oof]
@@ -389,7 +391,7 @@ def train(rows: list[dict[str, Any]], names: list[str], sources: list[str],
     while thr < 0.99 and np.mean(neg >= thr) > MAX_FA:
         thr = round(thr + 0.01, 2)
     second = _second_look_rule(
-        _calibrated(a * np.stack(oofs) + b, cal),
+        g_oof.reshape(len(oofs), -1),
         _calibrated(a * np.stack([o2 for _, o2 in repeats]) + b, cal),
         thr, y_site, np.array([_goal(r["truth"]) for r in sites]))
     not_kept = None
@@ -427,7 +429,7 @@ def train(rows: list[dict[str, Any]], names: list[str], sources: list[str],
                                     + (f" mil {k[3]:g}" if k[3] else ""): v
                                     for k, v in cv.items()},
                     "platt": {"a": a, "b": b},
-                    "calibration_log_loss": {"platt": _log_loss(expit(a * s_oof + b), y_oof),
+                    "calibration_log_loss": {"platt": _log_loss(expit(u_oof), y_oof),
                                              "beta": _log_loss(p_oof, y_oof)},
                     "cv_repeats": len(oofs),
                     **({"second_look_not_kept": not_kept} if not_kept else {}),

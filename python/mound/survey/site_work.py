@@ -151,61 +151,66 @@ def _process_site(job: SiteJob) -> dict[str, Any]:
                            "worker": f"{socket.gethostname()}:{os.getpid()}", "timings_s": {}}
     timings: dict[str, float] = row["timings_s"]
     stage = "images"
-    if reused is not None:
-        return _second_look_only(job, row, *reused, start)
     try:
-        t0 = time.perf_counter()
-        if job.images_dir:
-            images, camera, gps = _photos(job)
+        if reused is not None:  # the first look as the run before left it (second card)
+            before, first = reused
+            row.update({k: before[k] for k in FIRST_LOOK_FIELDS if k in before})
+            row.update(_verdict_summary(first), first_look_reused=True, status="ok")
+            images, dense = root / row["files"]["images"], None
         else:
-            images, camera, gps = _simulate(job, row)
-            timings["simulate"] = time.perf_counter() - t0
-        stage = "reconstruct"
-        t0 = time.perf_counter()
-        try:
-            native.run_tool("mound_recon", _reconstruct_args(job, images, t, gps, camera),
-                            job.timeout_s, log=t.log)
-        finally:
-            timings["reconstruct"] = time.perf_counter() - t0
-            if (t.recon / "recon.json").is_file():
-                row["recon"] = _recon_summary(t.recon)
-        stage = "densify"
-        dense = _densify(job, row)
-        stage = "verdict"
-        # The reference-free verdict judges the dense cloud when there is one (mound_recon
-        # then scores it with the model learned on dense clouds); the paper's test
-        # (--reference) the sparse cloud, as it always has.
-        judged = dense if dense is not None and not job.verdict_args else None
-
-        def verdict(*args: str) -> None:
-            native.run_tool("mound_recon", ["verdict", str(t.recon), "--out", str(t.verdict),
-                                            *args], job.timeout_s, log=t.log)
-
-        t0 = time.perf_counter()
-        if judged is not None:
+            t0 = time.perf_counter()
+            if job.images_dir:
+                images, camera, gps = _photos(job)
+            else:
+                images, camera, gps = _simulate(job, row)
+                timings["simulate"] = time.perf_counter() - t0
+            stage = "reconstruct"
+            t0 = time.perf_counter()
             try:
-                verdict("--cloud", str(judged))
-            except ToolNoResultError as e:  # e.g. too few dense points on the site
-                row["dense_verdict_error"] = _reason(e, t)
-                judged = None
-        if judged is None:
-            verdict(*job.verdict_args)
-        timings["verdict"] = time.perf_counter() - t0
-        first = read_json(t.verdict, "mound.verdict", 1)
-        row.update(_verdict_summary(first))
-        row["verdict_cloud"] = "sparse" if judged is None else "dense"
-        row["status"] = "ok"
-        row["files"] = {"images": _rel(images, root), "recon": _rel(t.recon, root),
-                        "verdict": _rel(t.verdict, root)}
-        if dense is not None:
-            row["files"]["dense"] = _rel(t.dense, root)
+                native.run_tool("mound_recon", _reconstruct_args(job, images, t, gps, camera),
+                                job.timeout_s, log=t.log)
+            finally:
+                timings["reconstruct"] = time.perf_counter() - t0
+                if (t.recon / "recon.json").is_file():
+                    row["recon"] = _recon_summary(t.recon)
+            stage = "densify"
+            dense = _densify(job, row)
+            stage = "verdict"
+            # The reference-free verdict judges the dense cloud when there is one (mound_recon
+            # then scores it with the model learned on dense clouds); the paper's test
+            # (--reference) the sparse cloud, as it always has.
+            judged = dense if dense is not None and not job.verdict_args else None
+
+            def verdict(*args: str) -> None:
+                native.run_tool("mound_recon", ["verdict", str(t.recon), "--out", str(t.verdict),
+                                                *args], job.timeout_s, log=t.log)
+
+            t0 = time.perf_counter()
+            if judged is not None:
+                try:
+                    verdict("--cloud", str(judged))
+                except ToolNoResultError as e:  # e.g. too few dense points on the site
+                    row["dense_verdict_error"] = _reason(e, t)
+                    judged = None
+            if judged is None:
+                verdict(*job.verdict_args)
+            timings["verdict"] = time.perf_counter() - t0
+            first = read_json(t.verdict, "mound.verdict", 1)
+            row.update(_verdict_summary(first))
+            row["verdict_cloud"] = "sparse" if judged is None else "dense"
+            row["status"] = "ok"
+            row["files"] = {"images": _rel(images, root), "recon": _rel(t.recon, root),
+                            "verdict": _rel(t.verdict, root)}
+            if dense is not None:
+                row["files"]["dense"] = _rel(t.dense, root)
         advice = first.get("second_look")
         if isinstance(advice, dict) and advice.get("advised"):
             stage = "second look"
             t0 = time.perf_counter()
-            _second_look(job, row, advice, judged is not None)
+            _second_look(job, row, advice, row.get("verdict_cloud") == "dense")
             timings["second_look"] = time.perf_counter() - t0
-        _rasters(job, row, dense)
+        if reused is None:  # a kept first look keeps its GeoTIFFs
+            _rasters(job, row, dense)
     except (InputError, NoResultError) as e:
         # The site's input allowed no result: the same input will fail the same way.
         row.update(reason=f"{stage}: {_reason(e, t)}", retry=False)
@@ -247,35 +252,6 @@ def _first_look_of_before(job: SiteJob) -> tuple[dict[str, Any], dict[str, Any]]
             or not isinstance(before.get("files"), dict)):
         return None
     return before, first
-
-
-def _second_look_only(job: SiteJob, row: dict[str, Any], before: dict[str, Any],
-                      first: dict[str, Any], start: float) -> dict[str, Any]:
-    """The site's row from its first look as the run before left it and the second look
-    flown from the second card (see the module text)."""
-    t = job.tree
-    root = Path(job.run_root)
-    row.update({k: before[k] for k in FIRST_LOOK_FIELDS if k in before})
-    row.update(_verdict_summary(first), first_look_reused=True, status="ok")
-    advice = first.get("second_look")
-    t0 = time.perf_counter()
-    try:
-        if isinstance(advice, dict) and advice.get("advised"):
-            _second_look(job, row, advice, row.get("verdict_cloud") == "dense")
-    except Exception as e:  # a bug; the first verdict stands, the row says what happened
-        row["second_look"] = {"advised": True, "flown": False,
-                              "reason": f"internal error {e!r}"}
-    row["timings_s"]["second_look"] = time.perf_counter() - t0
-    if job.figures:
-        t0 = time.perf_counter()
-        try:
-            row["files"].update(site_figures(job, root / row["files"]["images"], row))
-        except Exception as e:  # the verdict stands; the report shows what is missing
-            row["figures_error"] = repr(e)
-        row["timings_s"]["figures"] = time.perf_counter() - t0
-    row["timings_s"]["total"] = time.perf_counter() - start
-    write_json(t.result, row)
-    return row
 
 
 def _second_look(job: SiteJob, row: dict[str, Any], advice: dict[str, Any],
