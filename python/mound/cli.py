@@ -431,6 +431,13 @@ def cmd_recon_train_verdict(args: argparse.Namespace) -> int:
     print(f"trained on {t['sites']} sites ({t['with_rise']} with a rise, {t['mounds']} mounds): "
           f"l2 {t['l2']:g}, out-of-fold AUC {t['out_of_fold']['auc']:.3f}, ECE "
           f"{t['out_of_fold']['ece']:.3f}; threshold {model['threshold']:.2f}")
+
+    def by_ground(gb: dict[str, Any]) -> str:
+        return (f"clear of their ground {gb['clear']['found']:.1f} of {gb['clear']['sites']}, "
+                f"masked by it {gb['masked']['found']:.1f} of {gb['masked']['sites']}")
+
+    print("  out of fold, goal tumuli found by the first look: "
+          + by_ground(t["out_of_fold"]["goal_found_by_ground"]))
     sl = model.get("second_look")
     if sl:
         o = sl["trained"]["out_of_fold"]
@@ -440,6 +447,8 @@ def cmd_recon_train_verdict(args: argparse.Namespace) -> int:
               f"{o['goal_found_first_look']:.1f} -> {o['goal_found']:.1f} of "
               f"{o['goal_sites']}, false alarms "
               f"{o['false_alarms_first_look']:.1f} -> {o['false_alarms']:.1f} of {o['negatives']}")
+        print("  out of fold, goal tumuli found with the second look: "
+              + by_ground(o["goal_found_by_ground"]))
     elif t.get("second_look_not_kept"):
         n = t["second_look_not_kept"]
         print(f"second look not kept (p in [{n['p_low']:g}, {model['threshold']:.2f}), "
@@ -479,6 +488,16 @@ def _print_verdict_report(r: dict[str, Any]) -> None:
 
     print(f"  mounds >= 2 m high and >= 15 m across: {g['right']}/{g['sites']} right "
           f"({ci(g)}); no mound: {n['false_alarms']}/{n['sites']} false alarms ({ci(n)})")
+    b = g["by_ground"]
+    print(f"    of them standing clear of their ground (prominence >= {b['clear_of_ground']:g} x "
+          f"the ground's clutter): {b['clear']['right']}/{b['clear']['sites']} right"
+          + (f" ({ci(b['clear'])})" if b["clear"]["sites"] else "")
+          + f"; masked by it: {b['masked']['right']}/{b['masked']['sites']}"
+          + "".join(f"{'; ' if i else ' ('}{t['dir']} {t['prominence_m']:.1f} m over "
+                    f"{t['ground_clutter_m']:.1f} m{'' if t['found'] else ' missed'}"
+                    for i, t in enumerate(b["masked"]["tumuli"]))
+          + (")" if b["masked"]["tumuli"] else "")
+          + (f"; relief unknown: {b['relief_unknown']}" if b["relief_unknown"] else ""))
     for key, c in r["per_group"].items():
         print(f"  {key:<24} {c['right']:>3}/{c['sites']:<3} right (old rule "
               f"{c['old_rule_right']})")
@@ -496,7 +515,9 @@ def _print_verdict_report(r: dict[str, Any]) -> None:
               f"{two['flown']} of {two['band']} flown again, a mound at "
               f"{two['threshold']:.2f}): mounds >= 2 m x 15 m {g2['right']}/{g2['sites']} "
               f"({ci(g2)}); no mound {n2['false_alarms']}/{n2['sites']} false alarms "
-              f"({ci(n2)}); ECE {two['ece']:.3f} (p = {c2['p_value']:.2f})")
+              f"({ci(n2)}); ECE {two['ece']:.3f} (p = {c2['p_value']:.2f}); standing clear "
+              f"of their ground {g2['by_ground']['clear']['right']}/"
+              f"{g2['by_ground']['clear']['sites']}")
     lim = r["detection_limit"]["limit"] or []
     print("  detection limit (>= 95 % of the mounds at least this high and wide detected): "
           + ("; ".join(f"{c['height_m_at_least']:g} m x {c['diameter_m_at_least']:g} m "

@@ -52,6 +52,42 @@ def test_slope_rises_towards_its_azimuth() -> None:
     assert float(hf.height_at(0.0, 50.0)) == pytest.approx(0.0, abs=1e-9)
 
 
+
+def test_a_tumulus_s_relief_is_measured_over_the_ground_around_it() -> None:
+    """terrain.mound_relief on the true surface: on flat ground a cone's prominence is the
+    95th percentile of its heights within R / 2 (H (1 - sqrt(0.05) / 2)) and the ground's
+    clutter nil; on a 10 degree slope the same (the ring's plane follows the slope); ground
+    that undulates at the tumulus's own scale raises the clutter until the tumulus no longer
+    stands clear of it; a ring off the surface gives no relief."""
+    from mound.recon.verdict_model import stands_clear
+
+    cone = dict(profile="conical", diameter_m=40.0, height_m=6.0, erosion_m=0.0,
+                mound_x_m=10.0, mound_y_m=-5.0)
+    want = 6.0 * (1 - np.sqrt(0.05) / 2)
+    for spec in (flat(**cone), flat(**cone, slope_deg=10.0, slope_azimuth_deg=30.0)):
+        rel = terrain.mound_relief(terrain.build(spec), (10.0, -5.0), 40.0)
+        assert rel is not None
+        assert rel["prominence_m"] == pytest.approx(want, rel=0.03)
+        assert rel["ground_clutter_m"] < 0.01
+        assert stands_clear({"relief": rel})
+    hf = terrain.build(flat(**cone))
+    xx, yy = np.meshgrid(hf.x_m, hf.y_m)
+    clutter = []
+    for amp in (0.5, 2.0, 4.0):  # a swell of the tumulus's own width across the ground
+        waves = terrain.Heightfield(hf.x_m, hf.y_m,
+                                    hf.z_m + amp * np.sin(2 * np.pi * (xx + 0.5 * yy) / 45.0))
+        rel = terrain.mound_relief(waves, (10.0, -5.0), 40.0)
+        assert rel is not None
+        clutter.append(rel["ground_clutter_m"])
+        assert stands_clear({"relief": rel}) == (rel["prominence_m"]
+                                                 >= 5 * rel["ground_clutter_m"])
+    assert clutter[0] < clutter[1] < clutter[2] and clutter[2] > 0.25 * 6.0
+    assert not stands_clear({"relief": rel})  # the 4 m swell masks the 6 m cone
+    assert stands_clear({"relief": None}) is None
+    assert terrain.mound_relief(hf, (0.0, 0.0), 400.0) is None  # its ring off the surface
+    assert terrain.mound_relief(hf, (0.0, 0.0), 0.0) is None
+
+
 @pytest.mark.parametrize("kind", terrain.CONFUSERS)
 def test_confusers_stand_where_and_how_they_are_said(kind: str) -> None:
     c = terrain.Confuser(kind, x_m=10.0, y_m=5.0, length_m=30.0, width_m=8.0, height_m=4.0,

@@ -88,6 +88,48 @@ def test_training_recovers_a_known_model_with_calibrated_probabilities() -> None
     assert lo <= g["rate"] <= hi
 
 
+
+def _with_relief(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Every third tumulus masked by its ground (1 m of clutter under 3 m), every fifth of
+    unknown relief, the others clear of it."""
+    for k, r in enumerate(rows):
+        if r["truth"]["mound"] and k % 5:
+            r["relief"] = {"prominence_m": 3.0, "ground_clutter_m": 1.0 if k % 3 == 0 else 0.2}
+    return rows
+
+
+def test_the_goal_s_tumuli_are_counted_apart_by_how_they_stand_of_their_ground() -> None:
+    """evaluate() and the training's out-of-fold block count the goal's tumuli that stand
+    clear of their ground apart from those it masks (prominence < 5 x clutter), the masked
+    ones listed; a tumulus of unknown relief is in neither."""
+    rows = _with_relief(synthetic(3000, 1))
+    model = vm.train(rows, NAMES, ["g"])
+    oof = model["trained"]["out_of_fold"]["goal_found_by_ground"]
+    fitted = [r for r in rows if r["rises"] and vm._goal(r["truth"])]
+    assert oof["clear_of_ground"] == vm.CLEAR_OF_GROUND == 5.0
+    assert oof["clear"]["sites"] == sum(vm.stands_clear(r) is True for r in fitted) > 0
+    assert oof["masked"]["sites"] == sum(vm.stands_clear(r) is False for r in fitted) > 0
+    for part in ("clear", "masked"):
+        assert 0 < oof[part]["found"] <= oof[part]["sites"]
+    held = _with_relief(synthetic(1000, 2))
+    report = vm.evaluate(model, held)
+    goal = report["goal_mounds_2m_15m"]
+    by = goal["by_ground"]
+    lab = vm.probability(model, held) >= model["threshold"]
+    for part, want in (("clear", True), ("masked", False)):
+        idx = [k for k, r in enumerate(held) if vm._goal(r["truth"])
+               and vm.stands_clear(r) is want]
+        assert by[part]["sites"] == len(idx)
+        assert by[part]["right"] == int(lab[idx].sum())
+        lo, hi = by[part]["rate_95ci"]
+        assert lo <= by[part]["rate"] <= hi
+    assert [t["dir"] for t in by["masked"]["tumuli"]] == [
+        r["dir"] for r in held if vm._goal(r["truth"]) and vm.stands_clear(r) is False]
+    assert by["relief_unknown"] == sum(1 for r in held if vm._goal(r["truth"])
+                                       and "relief" not in r) > 0
+    assert by["clear"]["sites"] + by["masked"]["sites"] + by["relief_unknown"] == goal["sites"]
+
+
 def test_a_beta_calibration_recovers_a_map_that_platt_cannot_follow() -> None:
     """Beta calibration of the Platt logits: the identity at a = b = 1, c = 0; where the
     truth's logit is b softplus(u) - a softplus(-u) + c (the steep top and flat bottom of a
@@ -378,6 +420,12 @@ def test_each_shape_and_confuser_is_decided_right(name: str, tmp_path: Path,
     assert v["status"] == "ok", v.get("reason")
     want = "mound" if spec.mound else "no_mound"
     assert v["label"] == want, (name, v["p_mound"], v["reason"])
+    truth = json.loads((tmp_path / "sim" / "truth.json").read_text())
+    if spec.mound:  # each of these stands clear of its ground
+        assert truth["relief"]["prominence_m"] > 0.5 * spec.height_m
+        assert vm.stands_clear(truth)
+    else:
+        assert "relief" not in truth
     # the survey's own verdict: the dense cloud, by the model learned on dense clouds
     d = json.loads((tmp_path / "verdict_dense.json").read_text())
     assert d["status"] == "ok" and d["model"]["trained"]["cloud"] == "dense"

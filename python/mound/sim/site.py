@@ -16,7 +16,9 @@ C++ z-buffer rasteriser `build/mound_render` and writes, all in the site's ENU f
     render.json       the render job (mound.render v1), to re-render with mound_render
     site.json         mound.sim_site v1: every parameter, the file list, timings
     truth.json        mound.sim_truth v1: mound or not, what stands there (tumulus and its
-                      profile, a confuser's kind, or flat), height, diameter, centre (ENU m)
+                      profile, a confuser's kind, or flat), height, diameter, centre (ENU m);
+                      a tumulus's relief: how far it stands out of its ground
+                      (terrain.mound_relief)
 """
 
 from __future__ import annotations
@@ -221,7 +223,11 @@ def _simulate(spec: SimSpec, out: Path, threads: int | None) -> dict[str, Any]:
                   "reference_points": int(len(xyz)), "render_threads": result["threads"]},
         "timings": timings,
     }
+    truth = spec.terrain.truth()
+    if spec.terrain.mound:  # how far it stands out of its ground (the true surface's)
+        truth["relief"] = terrain.mound_relief(
+            hf, (spec.terrain.mound_x_m, spec.terrain.mound_y_m), spec.terrain.diameter_m)
     write_json(out / "truth.json", {"schema": "mound.sim_truth", "version": 1, "frame": "enu",
-                                     "origin": spec.origin, **spec.terrain.truth()})
+                                     "origin": spec.origin, **truth})
     write_json(out / "site.json", site)
     return site

@@ -195,6 +195,41 @@ class Heightfield:
         return np.stack([xx.ravel(), yy.ravel(), self.z_m.ravel()], axis=1)
 
 
+
+# The ring of ground around a tumulus that mound_relief fits (R < r <= RELIEF_RING R, R the
+# base radius) and the fewest surface cells it must hold.
+RELIEF_RING = 1.3
+RELIEF_MIN_CELLS = 20
+
+
+def mound_relief(hf: Heightfield, centre_m: tuple[float, float] | list[float],
+                 diameter_m: float) -> dict[str, float] | None:
+    """How far a tumulus stands out of the ground around it, on the true surface (a truth of
+    the simulated site, not a measurement of its cloud): the ground is a plane fitted by least
+    squares to the surface in the ring R < r <= 1.3 R around the base (R the base radius);
+    `prominence_m` is the 95th percentile of the surface over that plane within R / 2 of the
+    centre, and `ground_clutter_m` the RMS of the ring about the plane: the ground's own
+    relief at the tumulus's scale, what a verdict has to tell the tumulus from. On flat
+    ground the prominence is the tumulus's height and the clutter near 0; a tumulus that
+    fills a hollow of its own size on a hillside stands no higher than the ground's
+    undulations around it. None when the ring holds fewer than 20 cells of the surface
+    (a tumulus wider than the simulated patch)."""
+    if not diameter_m > 0:
+        return None
+    xx, yy = np.meshgrid(hf.x_m - centre_m[0], hf.y_m - centre_m[1])
+    r = np.hypot(xx, yy)
+    radius = diameter_m / 2
+    ring = (r > radius) & (r <= RELIEF_RING * radius) & np.isfinite(hf.z_m)
+    inner = (r <= radius / 2) & np.isfinite(hf.z_m)
+    if ring.sum() < RELIEF_MIN_CELLS or not inner.any():
+        return None
+    a = np.column_stack([np.ones(int(ring.sum())), xx[ring], yy[ring]])
+    plane, *_ = np.linalg.lstsq(a, hf.z_m[ring], rcond=None)
+    above = hf.z_m[inner] - (plane[0] + plane[1] * xx[inner] + plane[2] * yy[inner])
+    return {"prominence_m": float(np.percentile(above, 95)),
+            "ground_clutter_m": float(np.sqrt(np.mean((hf.z_m[ring] - a @ plane) ** 2)))}
+
+
 def _radial_profile(spec: TerrainSpec, r: np.ndarray) -> np.ndarray:
     radius = spec.diameter_m / 2
     h = spec.height_m
