@@ -151,6 +151,10 @@ def build_parser() -> argparse.ArgumentParser:
                    "cloud; the site's GeoTIFFs then come from the sparse one)")
     g.add_argument("--reference", help="judge by the paper's test against this reference "
                    "mound (PLY) instead of the reference-free dome detector")
+    g.add_argument("--verdict-model", metavar="FILE",
+                   help="the dense cloud's verdict model (mound.verdict_model v1) in place of "
+                   "the built-in one, e.g. one remade by `mound recon train-verdict`; one "
+                   "with a second_look asks for second looks")
     g.add_argument("--site-timeout", type=float, default=D.site_timeout,
                    help="limit per tool run of a site, s")
     g = p.add_argument_group("scale-out")
@@ -679,7 +683,9 @@ def site_jobs(ctx: Context, plan: dict[str, Any] | None = None) -> list[Any]:
                               str(DENSE_RESOLUTION_M)) if a.dense_size > 0 else (),
                "verdict_args": ("--reference", str(Path(a.reference).resolve()))
                if a.reference else (), "threads": a.site_threads,
-               "timeout_s": a.site_timeout}
+               "timeout_s": a.site_timeout,
+               "dense_model": str(Path(a.verdict_model).resolve()) if a.verdict_model
+               else None}
     jobs = []
     grounds = {n["id"]: n["ground_amsl_m"]
                for n in (sites_doc.get("terrain") or {}).get("nodes", [])}
@@ -697,6 +703,8 @@ def site_jobs(ctx: Context, plan: dict[str, Any] | None = None) -> list[Any]:
                  "index": index, "options": options, "images": images,
                  "images_digest": _folder_digest(Path(images)) if images else None,
                  "reference": sha256_of(Path(a.reference)) if a.reference else None,
+                 **({"verdict_model": sha256_of(Path(a.verdict_model))}
+                    if a.verdict_model else {}),
                  "terrain": ter and {**ter, "dem": ctx.terrain}}
         # the second card changes the site's key, not its first look's (site_work reuses it)
         key = digest({**first, **({"second_images": _folder_digest(second)}

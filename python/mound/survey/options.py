@@ -65,6 +65,7 @@ class SurveyOptions:
     max_features: int = 4000
     dense_size: int = 320               # px; 0: no dense cloud
     reference: str | None = None        # PLY: the paper's test instead of the detector
+    verdict_model: str | None = None    # the dense cloud's verdict model; None: built in
     site_timeout: float = 1800.0        # s per tool run of a site
     # scale-out
     scheduler: str | None = None
@@ -150,6 +151,20 @@ class SurveyOptions:
                 raise UsageError("--learn-weight: must be > 0")
         if self.reference and not Path(self.reference).is_file():
             raise UsageError(f"--reference: {self.reference} not found")
+        if self.verdict_model:
+            if not Path(self.verdict_model).is_file():
+                raise UsageError(f"--verdict-model: {self.verdict_model} not found")
+            from mound.errors import InputError
+            from mound.jsonio import read_json
+
+            try:
+                read_json(self.verdict_model, "mound.verdict_model", 1)
+            except InputError as e:
+                raise UsageError(f"--verdict-model: {e}") from None
+            if self.dense_size == 0 or self.reference:
+                raise UsageError("--verdict-model: the dense cloud's model; it needs the dense "
+                                 "cloud (--dense-size > 0) and the reference-free verdict (no "
+                                 "--reference)")
         if self.sites and not Path(self.sites).is_file():
             raise UsageError(f"--sites: {self.sites} not found")
         if self.scene:

@@ -57,6 +57,7 @@ class SiteJob:
     recon_args: tuple[str, ...] = ()
     dense_args: tuple[str, ...] = ()  # mound_recon densify options; empty: no dense cloud
     verdict_args: tuple[str, ...] = ()
+    dense_model: str | None = None  # the dense cloud's verdict model file; None: built in
     threads: int = 1
     timeout_s: float = 1800.0
     figures: bool = True
@@ -67,6 +68,12 @@ class SiteJob:
     @property
     def tree(self) -> SiteTree:
         return SiteTree(Path(self.run_root) / "sites" / self.site["id"])
+
+
+def _model_args(job: SiteJob) -> tuple[str, ...]:
+    """mound_recon verdict's model for the dense cloud: the run's --verdict-model, or the
+    tool's built-in one."""
+    return ("--model", job.dense_model) if job.dense_model else ()
 
 
 def _rel(path: Path, root: Path) -> str:
@@ -188,7 +195,7 @@ def _process_site(job: SiteJob) -> dict[str, Any]:
             t0 = time.perf_counter()
             if judged is not None:
                 try:
-                    verdict("--cloud", str(judged))
+                    verdict("--cloud", str(judged), *_model_args(job))
                 except ToolNoResultError as e:  # e.g. too few dense points on the site
                     row["dense_verdict_error"] = _reason(e, t)
                     judged = None
@@ -297,7 +304,7 @@ def _second_look(job: SiteJob, row: dict[str, Any], advice: dict[str, Any],
                 str(job.tree.verdict)]
         if dense:
             native.run_tool("mound_recon", _densify_args(job, t), job.timeout_s, log=t.log)
-            args += ["--cloud", str(t.dense / "dense.ply")]
+            args += ["--cloud", str(t.dense / "dense.ply"), *_model_args(job)]
         native.run_tool("mound_recon", args, job.timeout_s, log=t.log)
         second = _verdict_summary(read_json(t.verdict, "mound.verdict", 1))
     except (InputError, NoResultError, ToolTimeout, ToolError, OSError) as e:
