@@ -489,14 +489,13 @@ def _print_verdict_report(r: dict[str, Any]) -> None:
     print(f"  mounds >= 2 m high and >= 15 m across: {g['right']}/{g['sites']} right "
           f"({ci(g)}); no mound: {n['false_alarms']}/{n['sites']} false alarms ({ci(n)})")
     b = g["by_ground"]
+    masked = "; ".join(f"{t['dir']} {t['prominence_m']:.1f} m over {t['ground_clutter_m']:.1f} m"
+                       + ("" if t["found"] else " missed") for t in b["masked"]["tumuli"])
     print(f"    of them standing clear of their ground (prominence >= {b['clear_of_ground']:g} x "
           f"the ground's clutter): {b['clear']['right']}/{b['clear']['sites']} right"
           + (f" ({ci(b['clear'])})" if b["clear"]["sites"] else "")
           + f"; masked by it: {b['masked']['right']}/{b['masked']['sites']}"
-          + "".join(f"{'; ' if i else ' ('}{t['dir']} {t['prominence_m']:.1f} m over "
-                    f"{t['ground_clutter_m']:.1f} m{'' if t['found'] else ' missed'}"
-                    for i, t in enumerate(b["masked"]["tumuli"]))
-          + (")" if b["masked"]["tumuli"] else "")
+          + (f" ({masked})" if masked else "")
           + (f"; relief unknown: {b['relief_unknown']}" if b["relief_unknown"] else ""))
     for key, c in r["per_group"].items():
         print(f"  {key:<24} {c['right']:>3}/{c['sites']:<3} right (old rule "

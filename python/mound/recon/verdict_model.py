@@ -93,13 +93,11 @@ SECOND_LOOK_P_MIN = SECOND_LOOK_P[0]
 SECOND_LOOK_P_LOWS = (0.05, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7)
 # A second look is kept only when, out of fold, it finds at least this many more tumuli
 # than the first look alone at as many false alarms (mean over the CV splits): flights
-# that change nothing are not asked for. Out of fold is nested (SECOND_LOOK_FOLDS): each
-# fold's sites decided by the second-look rule chosen on the other folds, since a rule
-# judged on the sites that chose it flatters itself. "As many":
-# the first look's ROC read at the two looks' false alarms (`_first_look_at`), since the
-# file's threshold lies on a 0.01 grid below the 1 % budget and a second look that
-# measures nothing would otherwise "find" the tumuli that the spare false alarms buy —
-# 6.8 of 1,023 on a synthetic grid whose second look is noise.
+# that change nothing are not asked for. Out of fold is nested (SECOND_LOOK_FOLDS). "As
+# many": the first look's ROC read at the two looks' false alarms (`_first_look_at`),
+# since the file's threshold lies on a 0.01 grid below the 1 % budget and a second look
+# that measures nothing would otherwise "find" the tumuli that the spare false alarms
+# buy — 6.8 of 1,023 on a synthetic grid whose second look is noise.
 MIN_SECOND_LOOK_GAIN = 1.0
 # The second look's own choices (band, threshold, combination) are judged nested: the sites
 # in this many folds, each labelled by the rule chosen on the others. Judged on the sites
@@ -117,6 +115,8 @@ SECOND_LOOK_FOLD_SEED = 7
 # tumuli under 5 lies on the laser DEM, found 4.5 of 12 times; at 5 or more, 176.2 of 178)
 # and checked on the held-out grid.
 CLEAR_OF_GROUND = 5.0
+# The goal's tumuli by ground, as stands_clear() says: (name, its value)
+GROUND_CLASSES = (("clear", True), ("masked", False))
 
 
 def load_grid(folder: str | Path) -> list[dict[str, Any]]:
@@ -429,7 +429,7 @@ def train(rows: list[dict[str, Any]], names: list[str], sources: list[str],
     goal_site = np.array([_goal(r["truth"]) for r in sites])
     # the goal's tumuli that stand clear of their ground, and those it masks (stands_clear)
     ground = {name: goal_site & np.array([stands_clear(r) is want for r in sites])
-              for name, want in (("clear", True), ("masked", False))}
+              for name, want in GROUND_CLASSES}
     second = _second_look_rule(
         g_oof.reshape(len(oofs), -1),
         _calibrated(a * np.stack([o2 for _, o2 in repeats]) + b, cal),
@@ -721,7 +721,7 @@ def _goal_rates(lab: np.ndarray, big: list[int], neg: list[int],
     (`stands_clear`), the masked ones listed with their relief."""
     right, fa = int(sum(lab[k] for k in big)), int(sum(lab[k] for k in neg))
     by_ground: dict[str, Any] = {"clear_of_ground": CLEAR_OF_GROUND}
-    for name, want in (("clear", True), ("masked", False)):
+    for name, want in GROUND_CLASSES:
         idx = [k for k in big if stands_clear(rows[k]) is want]
         found = int(sum(lab[k] for k in idx))
         by_ground[name] = {"sites": len(idx), "right": found,

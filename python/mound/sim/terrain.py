@@ -195,7 +195,6 @@ class Heightfield:
         return np.stack([xx.ravel(), yy.ravel(), self.z_m.ravel()], axis=1)
 
 
-
 # The ring of ground around a tumulus that mound_relief fits (R < r <= RELIEF_RING R, R the
 # base radius) and the fewest surface cells it must hold.
 RELIEF_RING = 1.3
