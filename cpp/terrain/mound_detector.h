@@ -72,7 +72,8 @@ struct Rise {
   // disc) and fill (area / pi R^2).
   double height_m = 0, area_m2 = 0, volume_m3 = 0, roundness = 0, fill = 0;
   double symmetry = 0;         // R^2 of the relief about its radial mean profile (r <= 1.5 R)
-  double flank_slope_rad = 0;  // 90th percentile of |grad relief| over the footprint, as an angle
+  double flank_slope_rad = 0;  // 90th percentile of the outward downhill slope of the relief
+                               // over the footprint, as an angle
   double clipped = 0;          // share of the footprint's outline on the site's edge
   double outside = 0;          // share of the base disc outside the site
   double roughness = 0;        // RMS of the fit's residual within R, over H

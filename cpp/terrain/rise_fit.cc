@@ -392,9 +392,15 @@ bool MeasureRise(const HeightGrid& g, const Candidate& start, double relief_thre
         return g.inside[n] && !std::isnan(g.z[n]) ? relief(n)
                                                   : std::numeric_limits<double>::quiet_NaN();
       };
+      // The flank's slope is the outward, downhill component of the gradient: a flank
+      // falls away from the centre, while the walls of a looters' trench through the top
+      // (or of a pit's far side) face across or inwards and would make a trenched tumulus
+      // as steep as a building.
       const double gx = (at(i + 1, j) - at(i - 1, j)) / (2 * g.cell);
       const double gy = (at(i, j + 1) - at(i, j - 1)) / (2 * g.cell);
-      if (std::isfinite(gx) && std::isfinite(gy)) slopes.push_back(std::hypot(gx, gy));
+      const Eigen::Vector2d out_dir = g.Centre(k) - c;
+      if (std::isfinite(gx) && std::isfinite(gy) && out_dir.norm() >= g.cell)
+        slopes.push_back(std::max(0.0, -Eigen::Vector2d(gx, gy).dot(out_dir.normalized())));
       bool boundary = false, edge = false;
       for (const auto& [di, dj] : {std::pair{1, 0}, {-1, 0}, {0, 1}, {0, -1}}) {
         const int a = i + di, b = j + dj;
