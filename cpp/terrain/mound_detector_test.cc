@@ -63,6 +63,17 @@ TEST(DetectMound, FindsAndMeasuresADome) {
   EXPECT_LT(d.ground_sag_m, 0.5);
 }
 
+// The block of the tests below: a 6 m x 6 m block 4 m high where SyntheticSite centres its
+// dome, (5, -3), raised on q if q lies on it; and the rise measured there (none: end).
+void RaiseBlock(Eigen::Vector3d* q) {
+  if (std::fabs(q->x() - 5) < 3 && std::fabs(q->y() + 3) < 3) q->z() += 4.0;
+}
+std::vector<Rise>::const_iterator BlockRise(const Detection& d) {
+  return std::find_if(d.judged.begin(), d.judged.end(), [](const Rise& r) {
+    return (r.centre - Eigen::Vector2d(5, -3)).norm() < 3 && r.base_diameter_m < 20;
+  });
+}
+
 // A looters' trench through the top (3 m wide, 3.6 m deep, V-shaped, along x as the
 // simulator cuts it) leaves the flank slope the untrenched dome's: its walls (gradient 2.4)
 // face across, not outwards, and no longer count (0.50 rad against 0.49; the |gradient|
@@ -77,7 +88,7 @@ TEST(DetectMound, ATrenchsWallsAreNoFlankAndABlocksAre) {
     }
   }
   for (Eigen::Vector3d q : SyntheticSite(0, 0, false, 6)) {
-    if (std::fabs(q.x() - 5) < 3 && std::fabs(q.y() + 3) < 3) q.z() += 4.0;
+    RaiseBlock(&q);
     block.push_back(q);
   }
   const Detection d = DetectMound(trenched, {0, 0}, 58, DetectorOptions{});
@@ -87,9 +98,7 @@ TEST(DetectMound, ATrenchsWallsAreNoFlankAndABlocksAre) {
   ASSERT_TRUE(whole.Tallest() != nullptr);
   EXPECT_NEAR(d.Tallest()->flank_slope_rad, whole.Tallest()->flank_slope_rad, 0.04);
   const Detection b = DetectMound(block, {0, 0}, 58, DetectorOptions{});
-  const auto roof = std::find_if(b.judged.begin(), b.judged.end(), [](const Rise& r) {
-    return (r.centre - Eigen::Vector2d(5, -3)).norm() < 3 && r.base_diameter_m < 20;
-  });
+  const auto roof = BlockRise(b);
   ASSERT_TRUE(roof != b.judged.end());
   EXPECT_GT(roof->flank_slope_rad, 0.9);
 }
@@ -101,7 +110,7 @@ TEST(DetectMound, ADomesPointsLieOnItsDomeAndABlocksDoNot) {
     std::vector<Eigen::Vector3d> out;
     for (size_t i = 0; i < p.size(); i += 16) {
       Eigen::Vector3d q = p[i];
-      if (block && std::fabs(q.x() - 5) < 3 && std::fabs(q.y() + 3) < 3) q.z() += 4.0;
+      if (block) RaiseBlock(&q);
       out.push_back(q);
     }
     return out;
@@ -114,9 +123,7 @@ TEST(DetectMound, ADomesPointsLieOnItsDomeAndABlocksDoNot) {
   EXPECT_NEAR(t.point_top, 1.0, 0.1);
   EXPECT_LT(t.point_spread, 0.1);
   const Detection stack = DetectMound(sparse(SyntheticSite(0, 0, false, 4), true), {0, 0}, 58, {});
-  const auto near = std::find_if(stack.judged.begin(), stack.judged.end(), [](const Rise& r) {
-    return (r.centre - Eigen::Vector2d(5, -3)).norm() < 3 && r.base_diameter_m < 20;
-  });
+  const auto near = BlockRise(stack);
   ASSERT_TRUE(near != stack.judged.end());
   EXPECT_NEAR(near->height_m, 4.0, 0.5);
   EXPECT_GT(near->point_spread, 0.2);
