@@ -417,6 +417,10 @@ def cmd_sim_grid(args: argparse.Namespace) -> int:
     ok = sum(1 for r in doc["rows"] if r.get("status") == "ok")
     print(f"{ok} of {doc['sites']} sites measured in {doc['wall_s']:.0f} s -> "
           f"{args.out}/grid.json")
+    if "earlier_tools" in doc:
+        print(f"note: {args.out}: verdicts made before were made by another build of "
+              "mound_recon (grid.json: earlier_tools); --remeasure judges every site with "
+              "this one", file=sys.stderr)
     return 0
 
 

@@ -17,11 +17,14 @@ from __future__ import annotations
 
 import collections
 import contextlib
+import hashlib
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 from collections.abc import Iterator
@@ -51,6 +54,8 @@ _live: dict[subprocess.Popen[bytes], str | None] = {}
 _ended: set[str] = set()
 _live_lock = threading.Lock()
 _local = threading.local()
+# The tools pinned by `pinned` (name -> the copy every run of it uses meanwhile).
+_pinned: dict[str, Path] = {}
 
 
 @contextlib.contextmanager
@@ -73,10 +78,43 @@ class ToolRun:
 
 
 def tool_path(name: str) -> Path:
-    path = build_dir() / name
+    path = _pinned.get(name) or build_dir() / name
     if not path.exists():
         raise FileNotFoundError(f"{path} not found: build the project first (make)")
     return path
+
+
+def sha256_of(path: str | Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for chunk in iter(lambda: f.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+@contextlib.contextmanager
+def pinned(*names: str) -> Iterator[dict[str, str]]:
+    """Inside the block every run of `names` (from any thread) runs a private copy of
+    build/<name> taken on entry, so that a rebuild meanwhile (make relinks the binary in
+    place) neither fails a run half-way (the file busy or half-written) nor judges one piece
+    of work with two builds. Yields each copy's sha256, for the work's record."""
+    with tempfile.TemporaryDirectory(prefix="mound-tools-") as tmp:
+        copies = {}
+        for name in names:
+            copies[name] = Path(tmp) / name
+            shutil.copy2(tool_path(name), copies[name])
+        with _live_lock:
+            before = {n: _pinned.get(n) for n in names}
+            _pinned.update(copies)
+        try:
+            yield {n: sha256_of(c) for n, c in copies.items()}
+        finally:
+            with _live_lock:
+                for n, old in before.items():
+                    if old is None:
+                        _pinned.pop(n, None)
+                    else:
+                        _pinned[n] = old
 
 
 def _end_group(proc: subprocess.Popen[bytes]) -> None:

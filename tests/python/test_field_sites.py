@@ -325,7 +325,28 @@ def test_a_dense_grid_from_a_sparse_grids_flights(
     assert v["status"] == "ok" and v["cloud"].endswith("dense/dense.ply")
     assert v["model"]["trained"]["cloud"] == "dense"
     assert set(v["grid_times_s"]) == {"densify", "verdict"}  # nothing flown again
-    assert json.loads((dense / "grid.json").read_text())["cloud"] == "dense"
+    doc = json.loads((dense / "grid.json").read_text())
+    assert doc["cloud"] == "dense"
+    # judged by a copy of this build's mound_recon, taken when the grid started (a rebuild
+    # meanwhile changes nothing in it), and the grid names that build
+    from mound import native
+
+    assert doc["tools"] == {"mound_recon": {"sha256": native.sha256_of(mound_recon)}}
+    ran = [ln for ln in (dense / "0000" / "log.txt").read_text().splitlines()
+           if ln.startswith("[native] pid") and " verdict " in ln]
+    assert ran and str(mound_recon) not in ran[0] and "/mound-tools-" in ran[0], ran
+    # resumed by another build without --remeasure: the earlier verdicts stay, and it says so
+    doc["tools"]["mound_recon"]["sha256"] = "0" * 64
+    (dense / "grid.json").write_text(json.dumps(doc))
+    capsys.readouterr()
+    assert main(["sim", "grid", "--out", str(dense), "--seed", "5", *common, "--dense",
+                 "--flights-from", str(sparse)]) == 0
+    again = json.loads((dense / "grid.json").read_text())
+    assert again["earlier_tools"] == {"mound_recon": {"sha256": "0" * 64}}
+    assert "another build of mound_recon" in capsys.readouterr().err
+    assert main(["sim", "grid", "--out", str(dense), "--seed", "5", *common, "--dense",
+                 "--flights-from", str(sparse), "--remeasure"]) == 0
+    assert "earlier_tools" not in json.loads((dense / "grid.json").read_text())
 
 
 @pytest.mark.slow

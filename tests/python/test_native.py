@@ -51,6 +51,23 @@ def test_bad_input_is_an_input_error_with_the_tools_message(tmp_path: Path,
 
 
 @pytest.mark.slow
+def test_a_pinned_tool_runs_a_copy_of_the_build_taken_on_entry(mound_plan: Path) -> None:
+    """native.pinned: inside the block a tool runs from a private copy of build/<name> (its
+    sha256 yielded, the bytes the build's), so that a rebuild meanwhile cannot reach a run;
+    after it, build/<name> again, and the copy is gone."""
+    built = native.tool_path("mound_plan")
+    with native.pinned("mound_plan") as digests:
+        copy = native.tool_path("mound_plan")
+        assert copy != built and copy.read_bytes() == built.read_bytes()
+        assert digests == {"mound_plan": native.sha256_of(built)}
+        run = native.run_tool("mound_plan", ["--help"], 60)
+        assert "usage" in (run.stdout + run.stderr).lower()
+        with native.pinned("mound_plan"):  # nested: the inner block's own copy
+            assert native.tool_path("mound_plan") not in (copy, built)
+        assert native.tool_path("mound_plan") == copy
+    assert native.tool_path("mound_plan") == built and not copy.exists()
+
+
 def test_a_time_limit_ends_the_tool(tmp_path: Path, mound_plan: Path) -> None:
     tsp = big_tsp(tmp_path / "big.tsp")
     log = tmp_path / "tsp.log"

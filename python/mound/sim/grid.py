@@ -7,8 +7,12 @@ the data the 3-D verdict is learned from (`mound recon train-verdict`) and judge
     recon/     mound_recon reconstruct (sparse cloud, georeferenced by the noisy GPS)
     verdict.json  mound_recon verdict (the detector's measurements and its p_mound)
 and GRID/grid.json (`mound.verdict_grid` v1): the draws, the truth and the status of every
-site, the flight and the time it took. Resumable: a site whose verdict exists is not
-redone; `remeasure=True` reruns only the verdicts (after a change of the detector).
+site, the flight and the time it took, and the sha256 of the mound_recon that ran (`tools`:
+the grid runs a copy of build/mound_recon taken when it starts, native.pinned, so a rebuild
+meanwhile changes nothing in it). Resumable: a site whose verdict exists is not redone;
+`remeasure=True` reruns only the verdicts (after a change of the detector). A grid resumed
+with another build and without `remeasure` keeps its earlier verdicts: grid.json then names
+the earlier build too (`earlier_tools`), and `mound sim grid` says so.
 
 The draws (half of the sites carry a tumulus):
 - tumulus: profile conical / spherical cap / drum / ploughed; height log-uniform in
@@ -315,15 +319,28 @@ def make_grid(out: str | Path, sites: int, seed: int, size: tuple[int, int] = (6
         if progress:
             progress(k, rows[k])
 
-    if workers > 1:
-        from concurrent.futures import ThreadPoolExecutor
+    # One build judges the whole grid: the sites run a copy of mound_recon taken now, so
+    # that a rebuild while the grid runs (make relinks build/mound_recon in place) fails no
+    # site half-way and mixes no two detectors (until 2026-11-27 a rebuild failed the sites
+    # running then with PermissionError).
+    earlier = None
+    try:
+        earlier = json.loads((root / "grid.json").read_text()).get("tools")
+    except (OSError, json.JSONDecodeError):
+        pass
+    with native.pinned("mound_recon") as digests:
+        if workers > 1:
+            from concurrent.futures import ThreadPoolExecutor
 
-        with ThreadPoolExecutor(max_workers=workers) as pool:
-            list(pool.map(one, range(sites)))
-    else:
-        for k in range(sites):
-            one(k)
-    doc = {"schema": SCHEMA, "version": VERSION, "seed": seed, "sites": sites,
+            with ThreadPoolExecutor(max_workers=workers) as pool:
+                list(pool.map(one, range(sites)))
+        else:
+            for k in range(sites):
+                one(k)
+    tools = {name: {"sha256": d} for name, d in digests.items()}
+    doc = {"schema": SCHEMA, "version": VERSION, "seed": seed, "sites": sites, "tools": tools,
+           **({"earlier_tools": earlier} if earlier and earlier != tools and not remeasure
+              else {}),
            "flight": {"pattern": pattern, "scan_m": SCAN_M, "image_size": list(size)},
            **({"second_look": {"scan_factor": SECOND_LOOK_FACTOR,
                                "first_p": list(SECOND_LOOK_P)}} if second_look else {}),
