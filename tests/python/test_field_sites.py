@@ -345,6 +345,10 @@ def test_a_dense_grid_from_a_sparse_grids_flights(
     assert again["earlier_tools"] == {"mound_recon": {"sha256": "0" * 64}}
     assert "another build of mound_recon" in capsys.readouterr().err
     assert main(["sim", "grid", "--out", str(dense), "--seed", "5", *common, "--dense",
+                 "--flights-from", str(sparse)]) == 0  # resumed again: still mixed
+    assert json.loads((dense / "grid.json").read_text())["earlier_tools"] == again[
+        "earlier_tools"]
+    assert main(["sim", "grid", "--out", str(dense), "--seed", "5", *common, "--dense",
                  "--flights-from", str(sparse), "--remeasure"]) == 0
     assert "earlier_tools" not in json.loads((dense / "grid.json").read_text())
 

@@ -323,10 +323,11 @@ def make_grid(out: str | Path, sites: int, seed: int, size: tuple[int, int] = (6
     # that a rebuild while the grid runs (make relinks build/mound_recon in place) fails no
     # site half-way and mixes no two detectors (until 2026-11-27 a rebuild failed the sites
     # running then with PermissionError).
-    earlier = None
+    earlier = None  # the build of the verdicts already there (the oldest one named)
     try:
-        earlier = json.loads((root / "grid.json").read_text()).get("tools")
-    except (OSError, json.JSONDecodeError):
+        before = json.loads((root / "grid.json").read_text())
+        earlier = before.get("earlier_tools") or before.get("tools")
+    except (OSError, json.JSONDecodeError, AttributeError):
         pass
     with native.pinned("mound_recon") as digests:
         if workers > 1:
