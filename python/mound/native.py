@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import collections
 import contextlib
-import hashlib
 import json
 import os
 import shutil
@@ -32,6 +31,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any
 
+from mound.datasets import sha256_of
 from mound.errors import (  # noqa: F401  (re-exported for callers: native.ToolError)
     EXIT_BAD_INPUT,
     EXIT_INTERNAL,
@@ -82,14 +82,6 @@ def tool_path(name: str) -> Path:
     if not path.exists():
         raise FileNotFoundError(f"{path} not found: build the project first (make)")
     return path
-
-
-def sha256_of(path: str | Path) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for chunk in iter(lambda: f.read(1 << 20), b""):
-            h.update(chunk)
-    return h.hexdigest()
 
 
 @contextlib.contextmanager

@@ -329,9 +329,9 @@ def test_a_dense_grid_from_a_sparse_grids_flights(
     assert doc["cloud"] == "dense"
     # judged by a copy of this build's mound_recon, taken when the grid started (a rebuild
     # meanwhile changes nothing in it), and the grid names that build
-    from mound import native
+    from mound.datasets import sha256_of
 
-    assert doc["tools"] == {"mound_recon": {"sha256": native.sha256_of(mound_recon)}}
+    assert doc["tools"] == {"mound_recon": {"sha256": sha256_of(mound_recon)}}
     ran = [ln for ln in (dense / "0000" / "log.txt").read_text().splitlines()
            if ln.startswith("[native] pid") and " verdict " in ln]
     assert ran and str(mound_recon) not in ran[0] and "/mound-tools-" in ran[0], ran

@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from mound import native
+from mound.datasets import sha256_of
 from mound.errors import InputError, ToolError, ToolInputError, ToolTimeout
 from mound.paths import REPO_ROOT
 
@@ -50,7 +51,6 @@ def test_bad_input_is_an_input_error_with_the_tools_message(tmp_path: Path,
     assert "[native] pid" in text and "home" in text and "exit 2" in text
 
 
-@pytest.mark.slow
 def test_a_pinned_tool_runs_a_copy_of_the_build_taken_on_entry(mound_plan: Path) -> None:
     """native.pinned: inside the block a tool runs from a private copy of build/<name> (its
     sha256 yielded, the bytes the build's), so that a rebuild meanwhile cannot reach a run;
@@ -59,7 +59,7 @@ def test_a_pinned_tool_runs_a_copy_of_the_build_taken_on_entry(mound_plan: Path)
     with native.pinned("mound_plan") as digests:
         copy = native.tool_path("mound_plan")
         assert copy != built and copy.read_bytes() == built.read_bytes()
-        assert digests == {"mound_plan": native.sha256_of(built)}
+        assert digests == {"mound_plan": sha256_of(built)}
         run = native.run_tool("mound_plan", ["--help"], 60)
         assert "usage" in (run.stdout + run.stderr).lower()
         with native.pinned("mound_plan"):  # nested: the inner block's own copy
@@ -68,6 +68,7 @@ def test_a_pinned_tool_runs_a_copy_of_the_build_taken_on_entry(mound_plan: Path)
     assert native.tool_path("mound_plan") == built and not copy.exists()
 
 
+@pytest.mark.slow
 def test_a_time_limit_ends_the_tool(tmp_path: Path, mound_plan: Path) -> None:
     tsp = big_tsp(tmp_path / "big.tsp")
     log = tmp_path / "tsp.log"
