@@ -295,6 +295,15 @@ TEST(ScaleSpaceCandidates, OnePerBlobSoASmallTumulusBelowAHillIsACandidate) {
     }
 }
 
+// The height of a detection's highest rise: ModelDoc's score rises with the height alone, so
+// the site's p is that rise's (not necessarily the most prominent one, Tallest(): over a
+// curved ground the same dome may be measured taller).
+double HighestRise(const Detection& d) {
+  double h = 0;
+  for (const Rise& r : d.judged) h = std::max(h, r.height_m);
+  return h;
+}
+
 nlohmann::json ModelDoc() {
   const size_t n = VerdictFeatureNames().size();
   nlohmann::json w = std::vector<double>(n, 0.0);
@@ -314,7 +323,7 @@ TEST(VerdictModel, AppliesTheLogisticRegression) {
   const VerdictModel m = ParseVerdictModel(ModelDoc(), "m.json");
   const Detection dome =
       DetectMound(SyntheticSite(6.0, 40.0, false, 1), {0, 0}, 58, DetectorOptions{});
-  const double h = dome.Tallest()->height_m;
+  const double h = HighestRise(dome);  // the site's p is its highest-scoring rise's
   EXPECT_NEAR(m.Probability(dome), 1 / (1 + std::exp(-(-1.0 + 2.0 * std::log(h)))), 1e-12);
   Detection none;
   EXPECT_EQ(m.Probability(none), 0.01);
@@ -481,7 +490,7 @@ TEST(VerdictModel, RefusesMalformedModelsNamingTheField) {
 TEST(VerdictModel, ABetaCalibrationMapsTheHighestRisesScore) {
   const Detection dome =
       DetectMound(SyntheticSite(6.0, 40.0, false, 1), {0, 0}, 58, DetectorOptions{});
-  const double s = -1.0 + 2.0 * std::log(dome.Tallest()->height_m);  // ModelDoc's score
+  const double s = -1.0 + 2.0 * std::log(HighestRise(dome));  // ModelDoc's score
   const double q = 1 / (1 + std::exp(-s));
   nlohmann::json d = ModelDoc();
   d["calibration"] = {{"method", "beta"}, {"a", 0.4}, {"b", 1.6}, {"c", -1.3}};
