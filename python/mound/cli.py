@@ -527,6 +527,35 @@ def _print_verdict_report(r: dict[str, Any]) -> None:
                        f"({c['detected']}/{c['mounds']})" for c in lim) or "none"))
 
 
+def cmd_recon_verdict_bound(args: argparse.Namespace) -> int:
+    from mound.jsonio import read_json, write_json
+    from mound.recon import verdict_bound as vb
+
+    if args.placements < 1:
+        raise InputError(f"--placements: {args.placements}: must be >= 1")
+    thresholds = None
+    if args.thresholds_from:
+        doc = read_json(args.thresholds_from, vb.SCHEMA, vb.VERSION)
+        thresholds = doc.get("thresholds")
+        if not isinstance(thresholds, dict) or not all(
+                isinstance(v, int | float) for v in thresholds.values()):
+            raise InputError(f"{args.thresholds_from}: thresholds: expected numbers by ground")
+    report = vb.judge(vb.measure(args.grids, args.placements, args.seed), thresholds)
+    g = report["goal_tumuli"]
+    print("oracle matched filter (centre and relief told; true surface), thresholds "
+          + ", ".join(f"{k} {v:.2f}" for k, v in report["thresholds"].items())
+          + (" (given)" if thresholds else ""))
+    for name in ("all", "clear", "masked", "on_dem", "on_synthetic"):
+        print(f"  goal tumuli {name}: {g[name]['found']} of {g[name]['sites']} found")
+    for k, v in report["null"].items():
+        if v["above_threshold"] is not None:
+            print(f"  null on {k} ground: {v['placements']} placements, "
+                  f"{100 * v['above_threshold']:.1f} % above its threshold")
+    if args.report:
+        write_json(args.report, report)
+    return 0
+
+
 def cmd_recon_eval_verdict(args: argparse.Namespace) -> int:
     from mound.jsonio import read_json, write_json
     from mound.recon import verdict_model as vm
@@ -796,6 +825,17 @@ def build_parser() -> argparse.ArgumentParser:
                     "how often it agrees")
     ev.add_argument("--paper-sites", type=int, help="at most this many sites for --paper")
     ev.set_defaults(func=cmd_recon_eval_verdict)
+    vb = rc.add_parser("verdict-bound", help="the oracle's ceiling: goal tumuli a matched "
+                       "filter told their centre, size and profile finds on the true surface at "
+                       "1 %% false alarms (mound.verdict_bound v1)")
+    vb.add_argument("grids", nargs="+", help="grid folders (mound sim grid)")
+    vb.add_argument("--report", help="report (JSON)")
+    vb.add_argument("--thresholds-from", help="judge against this report's thresholds (e.g. "
+                    "the training grids') instead of the grids' own null")
+    vb.add_argument("--placements", type=int, default=6,
+                    help="null placements per site without a tumulus (default 6)")
+    vb.add_argument("--seed", type=int, default=0)
+    vb.set_defaults(func=cmd_recon_verdict_bound)
     rr = rc.add_parser("rasters", help="DSM, DTM, local relief model, hillshade and "
                        "orthophoto GeoTIFFs (UTM) of a metric mound_recon model")
     rr.add_argument("recon_dir")

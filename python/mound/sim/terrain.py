@@ -333,6 +333,42 @@ def dem_patch(path: str, x0: float, y0: float, axis: np.ndarray,
     return patch - (np.median(patch) if ground_m is None else ground_m)
 
 
+def mound_profile(spec: TerrainSpec, r: np.ndarray, reach_m: float | None = None
+                  ) -> np.ndarray:
+    """The tumulus's height at distances `r` (m) from its centre: its radial profile
+    (`profile`, `height_m`, `diameter_m`, `drum_height_m`) blurred by erosion (a Gaussian of
+    sigma `erosion_m` along the radius), without its pit or trench; tabulated out to
+    `reach_m` (default the site's side), 0 beyond."""
+    rs = np.linspace(0, spec.size_m if reach_m is None else reach_m, 4096)
+    prof = _radial_profile(spec, rs)
+    erosion = spec.erosion_m
+    if erosion > 0:
+        step = rs[1] - rs[0]
+        k = np.arange(-int(4 * erosion / step), int(4 * erosion / step) + 1)
+        w = np.exp(-0.5 * (k * step / erosion) ** 2)
+        padded = np.concatenate([prof[len(k) // 2:0:-1], prof, np.zeros(len(k))])
+        prof = np.convolve(padded, w / w.sum(), mode="same")[len(k) // 2:len(k) // 2 + len(rs)]
+    return np.interp(r, rs, prof, right=0.0)
+
+
+def mound_added(spec: TerrainSpec, xx: np.ndarray, yy: np.ndarray,
+                reach_m: float | None = None) -> np.ndarray:
+    """The relief the tumulus adds to the ground at (xx, yy) (m, the site's frame): its
+    eroded profile about (mound_x_m, mound_y_m) (`mound_profile`), less its looters' pit
+    and trench."""
+    mound = mound_profile(spec, np.hypot(xx - spec.mound_x_m, yy - spec.mound_y_m), reach_m)
+    if spec.pit_radius_m > 0 and spec.pit_depth_m > 0:
+        rp = np.hypot(xx - spec.mound_x_m - spec.pit_offset_m, yy - spec.mound_y_m)
+        mound = mound - spec.pit_depth_m * np.clip(1 - rp / spec.pit_radius_m, 0, None)
+    if spec.trench_width_m > 0 and spec.trench_depth_m > 0:
+        u, v = _along_across(xx, yy, spec.mound_x_m, spec.mound_y_m, spec.trench_azimuth_deg)
+        cut = spec.trench_depth_m * np.clip(1 - 2 * np.abs(v) / spec.trench_width_m, 0, None)
+        # across the mound, no deeper than the mound stands
+        mound = np.where(np.abs(u) < spec.diameter_m / 2,
+                         np.maximum(mound - cut, np.minimum(mound, 0)), mound)
+    return mound
+
+
 def build(spec: TerrainSpec) -> Heightfield:
     spec.validate()
     n = int(round(spec.size_m / spec.resolution_m)) + 1
@@ -353,29 +389,7 @@ def build(spec: TerrainSpec) -> Heightfield:
         u, _ = _along_across(xx, yy, 0.0, 0.0, spec.slope_azimuth_deg)
         z = z + np.tan(np.deg2rad(spec.slope_deg)) * u
     if spec.mound:
-        r = np.hypot(xx - spec.mound_x_m, yy - spec.mound_y_m)
-        # Erosion: the radial profile blurred with a Gaussian of sigma erosion_m.
-        rs = np.linspace(0, spec.size_m, 4096)
-        prof = _radial_profile(spec, rs)
-        erosion = spec.erosion_m
-        if erosion > 0:
-            step = rs[1] - rs[0]
-            k = np.arange(-int(4 * erosion / step), int(4 * erosion / step) + 1)
-            w = np.exp(-0.5 * (k * step / erosion) ** 2)
-            padded = np.concatenate([prof[len(k) // 2:0:-1], prof, np.zeros(len(k))])
-            prof = np.convolve(padded, w / w.sum(), mode="same")[len(k) // 2:len(k) // 2 + len(rs)]
-        mound = np.interp(r, rs, prof)
-        if spec.pit_radius_m > 0 and spec.pit_depth_m > 0:
-            rp = np.hypot(xx - spec.mound_x_m - spec.pit_offset_m, yy - spec.mound_y_m)
-            mound -= spec.pit_depth_m * np.clip(1 - rp / spec.pit_radius_m, 0, None)
-        if spec.trench_width_m > 0 and spec.trench_depth_m > 0:
-            u, v = _along_across(xx, yy, spec.mound_x_m, spec.mound_y_m,
-                                 spec.trench_azimuth_deg)
-            cut = spec.trench_depth_m * np.clip(1 - 2 * np.abs(v) / spec.trench_width_m, 0, None)
-            # across the mound, no deeper than the mound stands
-            mound = np.where(np.abs(u) < spec.diameter_m / 2, np.maximum(mound - cut,
-                                                                         np.minimum(mound, 0)),
-                             mound)
+        mound = mound_added(spec, xx, yy)
         z = z + mound
     for c in spec.confusers:
         add, top = _confuser(c, xx, yy, z)

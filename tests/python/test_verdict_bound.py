@@ -1,0 +1,118 @@
+"""The oracle's ceiling for a shape verdict (`mound recon verdict-bound`): the matched
+filter finds a tumulus told its centre and relief, not one where there is none; the
+command reads a grid's true surfaces, judges them against the null of its sites without
+a tumulus (or another report's thresholds) and refuses what is no grid."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import asdict, replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mound.cli import main as mound_main
+from mound.recon import verdict_bound as vb
+from mound.sim import terrain
+
+FLAT = terrain.TerrainSpec(size_m=80.0, resolution_m=0.5, ground_relief_m=0.3, mound=False,
+                           seed=3)
+CONE = replace(FLAT, mound=True, profile="conical", height_m=3.0, diameter_m=30.0,
+               mound_x_m=4.0, mound_y_m=-3.0, erosion_m=1.0)
+DISC = ((0.0, 0.0), 38.0)
+
+
+def _tilted(hf: terrain.Heightfield) -> terrain.Heightfield:
+    """The surface on a 10 % slope with a bowl of 2 m over the site (the quadratic ground
+    the filter fits away)."""
+    xx, yy = np.meshgrid(hf.x_m, hf.y_m)
+    return terrain.Heightfield(hf.x_m, hf.y_m, hf.z_m + 0.1 * xx + 2.0 * (xx**2 + yy**2) / 40**2)
+
+
+def test_the_filter_finds_a_tumulus_it_is_told_of_and_none_where_there_is_none() -> None:
+    cone = _tilted(terrain.build(CONE))
+    ground = _tilted(terrain.build(FLAT))
+    at = (CONE.mound_x_m, CONE.mound_y_m)
+    found = vb.filter_output(cone, CONE, at, *DISC)
+    empty = vb.filter_output(ground, CONE, at, *DISC)
+    assert found is not None and empty is not None
+    assert found > 20 and abs(empty) < 5
+    # a looted tumulus: the filter is told its trench too, and still finds it
+    looted = replace(CONE, trench_width_m=4.0, trench_depth_m=2.0, trench_azimuth_deg=30.0)
+    out = vb.filter_output(_tilted(terrain.build(looted)), looted, at, *DISC)
+    assert out is not None and out > 20
+    # the window off the scanned site: no output
+    assert vb.filter_output(cone, CONE, (60.0, 60.0), (0.0, 0.0), 10.0) is None
+
+
+def _grid(root: Path, specs: list[terrain.TerrainSpec]) -> Path:
+    """A grid folder as `mound sim grid` writes it, without the flights: each site's true
+    surface (sim/site.json + heightfield.npy), its truth and a verdict naming the scanned
+    disc."""
+    rows = []
+    for k, spec in enumerate(specs):
+        site = root / f"{k:04d}"
+        (site / "sim").mkdir(parents=True)
+        hf = terrain.build(spec)
+        np.save(site / "sim" / "heightfield.npy", hf.z_m.astype(np.float32))
+        (site / "sim" / "site.json").write_text(json.dumps({"heightfield": {
+            "npy": "heightfield.npy", "x0_m": float(hf.x_m[0]), "y0_m": float(hf.y_m[0]),
+            "spacing_m": float(hf.x_m[1] - hf.x_m[0]), "shape": list(hf.z_m.shape)}}))
+        truth = {"mound": spec.mound, "kind": "tumulus" if spec.mound else "flat",
+                 "profile": spec.profile, "height_m": spec.height_m,
+                 "diameter_m": spec.diameter_m, "centre_enu_m": [spec.mound_x_m, spec.mound_y_m],
+                 "pit": False, "trench": False, "slope_deg": 0.0, "dem": False}
+        (site / "verdict.json").write_text(json.dumps({
+            "schema": "mound.verdict", "status": "ok", "measurements": {
+                "site_centre_enu_m": list(DISC[0]), "site_radius_m": DISC[1],
+                "judged_rises": []}}))
+        terrain_doc = {**asdict(spec), "confusers": []}
+        rows.append({"dir": site.name, "truth": truth, "status": "ok",
+                     "spec": {"terrain": terrain_doc}})
+    (root / "grid.json").write_text(json.dumps({"schema": "mound.verdict_grid",
+                                                "rows": rows}))
+    return root
+
+
+def test_the_command_judges_a_grid_against_its_own_null_and_another_s(tmp_path: Path) -> None:
+    tumuli = [replace(CONE, seed=s, mound_x_m=x) for s, x in ((4, 0.0), (5, 5.0), (6, -6.0))]
+    empty = [replace(FLAT, seed=s) for s in range(10, 16)]
+    grid = _grid(tmp_path / "grid", tumuli + empty)
+    report = tmp_path / "bound.json"
+    assert mound_main(["recon", "verdict-bound", str(grid), "--report", str(report),
+                       "--placements", "4"]) == 0
+    doc = json.loads(report.read_text())
+    assert doc["schema"] == vb.SCHEMA and doc["version"] == vb.VERSION
+    assert doc["null"]["synthetic"]["placements"] == 6 * 4
+    assert doc["null"]["dem"]["placements"] == 0 and doc["null"]["dem"]["above_threshold"] is None
+    assert set(doc["thresholds"]) == {"synthetic"} and not doc["thresholds_given"]
+    g = doc["goal_tumuli"]
+    assert g["all"] == g["on_synthetic"] == {"sites": 3, "found": 3}
+    assert g["clear"] == {"sites": 3, "found": 3} and g["masked"]["sites"] == 0
+    assert all(r["found"] and r["output"] > doc["thresholds"]["synthetic"]
+               for r in doc["rows"])
+    # judged against another report's thresholds: a threshold above every output finds none
+    strict = tmp_path / "strict.json"
+    strict.write_text(json.dumps({**doc, "thresholds": {"synthetic": 1e9}}))
+    again = tmp_path / "again.json"
+    assert mound_main(["recon", "verdict-bound", str(grid), "--report", str(again),
+                       "--thresholds-from", str(strict)]) == 0
+    doc2 = json.loads(again.read_text())
+    assert doc2["thresholds_given"] and doc2["goal_tumuli"]["all"] == {"sites": 3, "found": 0}
+
+
+def test_the_command_refuses_what_is_no_grid(tmp_path: Path,
+                                             capsys: pytest.CaptureFixture[str]) -> None:
+    assert mound_main(["recon", "verdict-bound", str(tmp_path)]) == 2
+    assert "grid.json" in capsys.readouterr().err
+    grid = _grid(tmp_path / "g", [replace(FLAT, seed=s) for s in range(3)])
+    assert mound_main(["recon", "verdict-bound", str(grid)]) == 2  # no tumulus to judge
+    assert "needs measured sites" in capsys.readouterr().err
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps({"schema": vb.SCHEMA, "version": 1, "thresholds": {"dem": "x"}}))
+    grid2 = _grid(tmp_path / "g2", [CONE, FLAT])
+    assert mound_main(["recon", "verdict-bound", str(grid2), "--thresholds-from",
+                       str(bad)]) == 2
+    assert "thresholds" in capsys.readouterr().err
+    assert mound_main(["recon", "verdict-bound", str(grid2), "--placements", "0"]) == 2
