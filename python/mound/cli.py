@@ -528,18 +528,12 @@ def _print_verdict_report(r: dict[str, Any]) -> None:
 
 
 def cmd_recon_verdict_bound(args: argparse.Namespace) -> int:
-    from mound.jsonio import read_json, write_json
+    from mound.jsonio import write_json
     from mound.recon import verdict_bound as vb
 
     if args.placements < 1:
         raise InputError(f"--placements: {args.placements}: must be >= 1")
-    thresholds = None
-    if args.thresholds_from:
-        doc = read_json(args.thresholds_from, vb.SCHEMA, vb.VERSION)
-        thresholds = doc.get("thresholds")
-        if not isinstance(thresholds, dict) or not all(
-                isinstance(v, int | float) for v in thresholds.values()):
-            raise InputError(f"{args.thresholds_from}: thresholds: expected numbers by ground")
+    thresholds = vb.read_thresholds(args.thresholds_from) if args.thresholds_from else None
     report = vb.judge(vb.measure(args.grids, args.placements, args.seed), thresholds)
     g = report["goal_tumuli"]
     print("oracle matched filter (centre and relief told; true surface), thresholds "

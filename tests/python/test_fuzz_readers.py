@@ -1,9 +1,10 @@
 """Property-based fuzzing (Hypothesis) of the Python readers of outside files: the user's
 sites (mound.sites and GeoJSON), plans (mission build), QGroundControl .plan and WPL
-missions, the Statlog data. From a valid file, Hypothesis replaces or deletes a value
-anywhere in it (with huge or non-finite numbers, wrong types, deep nesting, control
-characters) or splices random bytes into its text; every reader must answer with a value
-or an InputError (the commands' exit 2), never another exception (exit 1).
+missions, the Statlog data, the thresholds of a verdict-bound report. From a valid file,
+Hypothesis replaces or deletes a value anywhere in it (with huge or non-finite numbers,
+wrong types, deep nesting, control characters) or splices random bytes into its text;
+every reader must answer with a value or an InputError (the commands' exit 2), never
+another exception (exit 1).
 
 (The camera and GPS files of the 3-D stage are read by mound_recon, fuzzed with libFuzzer:
 cpp/recon/inputs_fuzz.cc.) CI runs MOUND_FUZZ_EXAMPLES (default 150) examples per reader
@@ -225,6 +226,10 @@ def test_the_fuzzed_seeds_are_valid() -> None:
     assert len(mission_files.read_mission(_file(QGC_PLAN, "m.plan"))[0]) > 5
     assert len(mission_files.read_mission(_file(WPL, "m.waypoints"))[0]) > 5
     assert len(statlog.parse(STATLOG_ROWS, "sat.trn").cls) == 6
+    from mound.recon.verdict_bound import read_thresholds
+
+    assert read_thresholds(_file(json.dumps(BOUND), "bound.json")) == {"dem": 5.35,
+                                                                        "synthetic": 6.36}
 
 
 @pytest.fixture(scope="module", autouse=True)
@@ -248,6 +253,18 @@ LABELS = {"type": "FeatureCollection", "features": [
 AOI = {"type": "FeatureCollection", "features": [
     {"type": "Feature", "properties": {}, "geometry": {"type": "Polygon", "coordinates": [
         [[25.24, 42.62], [25.26, 42.62], [25.26, 42.63], [25.24, 42.63], [25.24, 42.62]]]}}]}
+
+
+BOUND = {"schema": "mound.verdict_bound", "version": 1,
+         "thresholds": {"dem": 5.35, "synthetic": 6.36}, "goal_tumuli": {}}
+
+
+@FUZZ
+@given(mutated_json(BOUND))
+def test_verdict_bound_thresholds_reader(text: str) -> None:
+    from mound.recon.verdict_bound import read_thresholds
+
+    value_or_input_error(read_thresholds, _file(text, "bound.json"))
 
 
 @FUZZ

@@ -114,5 +114,10 @@ def test_the_command_refuses_what_is_no_grid(tmp_path: Path,
     grid2 = _grid(tmp_path / "g2", [CONE, FLAT])
     assert mound_main(["recon", "verdict-bound", str(grid2), "--thresholds-from",
                        str(bad)]) == 2
-    assert "thresholds" in capsys.readouterr().err
+    assert "thresholds.dem: expected a finite number" in capsys.readouterr().err
+    bad.write_text(json.dumps({"schema": vb.SCHEMA, "version": 1,
+                               "thresholds": {"marsh": 3.0}}))
+    assert mound_main(["recon", "verdict-bound", str(grid2), "--thresholds-from",
+                       str(bad)]) == 2
+    assert "thresholds.marsh" in capsys.readouterr().err
     assert mound_main(["recon", "verdict-bound", str(grid2), "--placements", "0"]) == 2

@@ -26,6 +26,7 @@ of the ground's relief would allow, so it is a ceiling for this class of filter 
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -41,6 +42,7 @@ WINDOW = 1.5          # the filter's window: r <= WINDOW x the tumulus's base ra
 FALSE_ALARMS = 0.01   # the null's share above the threshold
 PLACEMENTS = 6        # null placements per site without a tumulus
 MIN_CELLS = 50        # fewer cells of the window within the site: no output
+GROUNDS = ("dem", "synthetic")  # the kinds of ground, each with its own null
 
 
 def filter_output(hf: terrain.Heightfield, spec: terrain.TerrainSpec,
@@ -69,6 +71,25 @@ def filter_output(hf: terrain.Heightfield, spec: terrain.TerrainSpec,
     coef, *_ = np.linalg.lstsq(a, hf.z_m[w], rcond=None)
     rms = float(np.sqrt(np.mean((hf.z_m[w] - a @ coef) ** 2)))
     return float(coef[-1] / max(rms, 1e-6))
+
+
+def read_thresholds(path: str | Path) -> dict[str, float]:
+    """The thresholds of a `mound.verdict_bound` report (`--thresholds-from`): finite
+    numbers by kind of ground ("dem", "synthetic"); InputError naming the file and field."""
+    from mound.jsonio import read_json
+
+    doc = read_json(path, SCHEMA, VERSION)
+    thr = doc.get("thresholds")
+    if not isinstance(thr, dict) or not thr:
+        raise InputError(f"{path}: thresholds: expected numbers by kind of ground")
+    out = {}
+    for kind, v in thr.items():
+        if kind not in GROUNDS:
+            raise InputError(f"{path}: thresholds.{kind}: expected one of {', '.join(GROUNDS)}")
+        if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
+            raise InputError(f"{path}: thresholds.{kind}: expected a finite number")
+        out[kind] = float(v)
+    return out
 
 
 def _spec(row: dict[str, Any], where: str) -> terrain.TerrainSpec:
@@ -131,7 +152,7 @@ def measure(folders: list[str], placements: int = PLACEMENTS, seed: int = 0
         hf = terrain.load_site_heightfield(t.pop("site") / "sim")
         sp = t.pop("spec")
         t["output"] = filter_output(hf, sp, (sp.mound_x_m, sp.mound_y_m), *t.pop("disc"))
-    null: dict[str, list[float]] = {"dem": [], "synthetic": []}
+    null: dict[str, list[float]] = {k: [] for k in GROUNDS}
     for site, spec, (centre, radius) in empty:
         hf = terrain.load_site_heightfield(site / "sim")
         kind = "dem" if spec.dem_path is not None else "synthetic"
