@@ -111,10 +111,6 @@ def _site_disc(row: dict[str, Any]) -> tuple[tuple[float, float], float] | None:
     return (float(c[0]), float(c[1])), float(m["site_radius_m"])
 
 
-def _goal(truth: dict[str, Any]) -> bool:
-    return bool(truth["mound"]) and truth["height_m"] >= 2 and truth["diameter_m"] >= 15
-
-
 def measure(folders: list[str], placements: int = PLACEMENTS, seed: int = 0
             ) -> dict[str, Any]:
     """The oracle's outputs on the grids' goal tumuli (>= 2 m x 15 m) and its null (see the
@@ -138,7 +134,7 @@ def measure(folders: list[str], placements: int = PLACEMENTS, seed: int = 0
                 continue
             spec = _spec(row, f"{gpath}: {name}")
             truth = row["truth"]
-            if truth["mound"] and _goal(truth):
+            if vm._goal(truth):
                 profiles.append(spec)
                 tumuli.append({"grid": str(root), "dir": name, "site": site, "spec": spec,
                                "disc": disc, "dem": bool(truth.get("dem")),
