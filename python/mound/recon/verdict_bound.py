@@ -92,14 +92,9 @@ def read_thresholds(path: str | Path) -> dict[str, float]:
     return out
 
 
-def _spec(row: dict[str, Any], where: str) -> terrain.TerrainSpec:
-    try:
-        t = dict(row["spec"]["terrain"])
-        t["confusers"] = ()
-        return terrain.TerrainSpec(**t)
-    except (KeyError, TypeError) as e:
-        raise InputError(f"{where}: spec.terrain: not a simulated site's terrain ({e})") \
-            from None
+def _ground(spec: terrain.TerrainSpec) -> str:
+    """The kind of ground a site was drawn on (GROUNDS): the laser DEM's or the simulator's."""
+    return "dem" if spec.dem_path is not None else "synthetic"
 
 
 def _site_disc(row: dict[str, Any]) -> tuple[tuple[float, float], float] | None:
@@ -126,18 +121,17 @@ def measure(folders: list[str], placements: int = PLACEMENTS, seed: int = 0
         gpath = root / "grid.json"
         if not gpath.is_file():
             raise InputError(f"{root}: no grid.json (make one with `mound sim grid`)")
-        rows = {r["dir"]: r for r in vm.load_grid(root) if r["measured"]}
-        for name, row in sorted(rows.items()):
-            site = root / name
-            disc = _site_disc(row)
+        for row in vm.load_grid(root):
+            disc = _site_disc(row) if row["measured"] else None
             if disc is None:
                 continue
-            spec = _spec(row, f"{gpath}: {name}")
+            name, site = row["dir"], root / row["dir"]
+            spec = vm.site_terrain(row, f"{gpath}: {name}")
             truth = row["truth"]
             if vm._goal(truth):
                 profiles.append(spec)
                 tumuli.append({"grid": str(root), "dir": name, "site": site, "spec": spec,
-                               "disc": disc, "dem": bool(truth.get("dem")),
+                               "disc": disc, "ground": _ground(spec),
                                "clear": vm.stands_clear(row), "truth": truth})
             elif not truth["mound"]:
                 empty.append((site, spec, disc))
@@ -151,7 +145,7 @@ def measure(folders: list[str], placements: int = PLACEMENTS, seed: int = 0
     null: dict[str, list[float]] = {k: [] for k in GROUNDS}
     for site, spec, (centre, radius) in empty:
         hf = terrain.load_site_heightfield(site / "sim")
-        kind = "dem" if spec.dem_path is not None else "synthetic"
+        kind = _ground(spec)
         for _ in range(placements):
             prof = profiles[int(rng.integers(len(profiles)))]
             ang, rad = rng.uniform(0, 2 * np.pi), 0.5 * radius * np.sqrt(rng.uniform())
@@ -170,18 +164,16 @@ def judge(measured: dict[str, Any], thresholds: dict[str, float] | None = None
     null = {k: np.asarray(v, dtype=float) for k, v in measured["null"].items()}
     thr = dict(thresholds) if thresholds else {
         k: float(np.quantile(v, 1 - FALSE_ALARMS)) for k, v in null.items() if len(v)}
-    def kind(t: dict[str, Any]) -> str:
-        return "dem" if t["dem"] else "synthetic"
-    missing = sorted({kind(t) for t in measured["tumuli"]} - set(thr))
+    missing = sorted({t["ground"] for t in measured["tumuli"]} - set(thr))
     if missing:
         raise InputError(f"verdict-bound: no threshold for the {missing[0]} ground (no site "
                          "without a tumulus on it)")
     rows = []
     for t in measured["tumuli"]:
         out = t["output"]
-        rows.append({"grid": t["grid"], "dir": t["dir"], "ground": kind(t),
+        rows.append({"grid": t["grid"], "dir": t["dir"], "ground": t["ground"],
                      "clear": t["clear"], "output": out,
-                     "found": bool(out is not None and out > thr[kind(t)]),
+                     "found": bool(out is not None and out > thr[t["ground"]]),
                      "profile": t["truth"].get("profile"),
                      "height_m": t["truth"]["height_m"],
                      "diameter_m": t["truth"]["diameter_m"]})
@@ -209,6 +201,6 @@ def judge(measured: dict[str, Any], thresholds: dict[str, float] | None = None
             "clear": count([r for r in rows if r["clear"] is True]),
             "masked": count([r for r in rows if r["clear"] is False]),
             **{f"on_{k}": count([r for r in rows if r["ground"] == k])
-               for k in ("dem", "synthetic")}},
+               for k in GROUNDS}},
         "rows": rows,
     }

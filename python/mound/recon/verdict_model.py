@@ -166,6 +166,18 @@ def _relief(site: Path, truth: dict[str, Any]) -> dict[str, float] | None:
     return terrain.mound_relief(hf, truth["centre_enu_m"][:2], float(truth["diameter_m"]))
 
 
+def site_terrain(row: dict[str, Any], where: str) -> terrain.TerrainSpec:
+    """A grid row's terrain (its spec.terrain), without its confusers: the ground and the
+    tumulus the site was drawn with; InputError naming `where` when the row holds none."""
+    try:
+        t = dict(row["spec"]["terrain"])
+        t["confusers"] = ()
+        return terrain.TerrainSpec(**t)
+    except (KeyError, TypeError) as e:
+        raise InputError(f"{where}: spec.terrain: not a simulated site's terrain ({e})") \
+            from None
+
+
 def stands_clear(row: dict[str, Any]) -> bool | None:
     """Whether a tumulus stands clear of its ground: its prominence at least CLEAR_OF_GROUND
     times the ground's clutter (None: relief unknown)."""
@@ -868,9 +880,7 @@ def paper_agreement(folder: str | Path, model: dict[str, Any], work: str | Path,
     for row, spec_doc, q in zip(rows, grid["rows"], p, strict=True):
         if not row["measured"] or (limit is not None and len(sites) >= limit):
             continue
-        t = dict(spec_doc["spec"]["terrain"])
-        t["confusers"] = ()
-        spec = terrain.TerrainSpec(**t)
+        spec = site_terrain(spec_doc, f"{root / 'grid.json'}: {row['dir']}")
         if not spec.mound:
             spec = replace(spec, mound=True, profile="spherical_cap", diameter_m=40.0,
                            height_m=6.0, mound_x_m=0.0, mound_y_m=0.0, erosion_m=2.0)
