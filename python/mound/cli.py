@@ -533,10 +533,15 @@ def cmd_recon_verdict_bound(args: argparse.Namespace) -> int:
 
     if args.placements < 1:
         raise InputError(f"--placements: {args.placements}: must be >= 1")
-    thresholds = vb.read_thresholds(args.thresholds_from) if args.thresholds_from else None
-    report = vb.judge(vb.measure(args.grids, args.placements, args.seed), thresholds)
+    if args.ground_from and not args.whiten:
+        raise InputError("--ground-from: only with --whiten")
+    kind = "whitened" if args.whiten else "plain"
+    thresholds = (vb.read_thresholds(args.thresholds_from, kind) if args.thresholds_from
+                  else None)
+    report = vb.judge(vb.measure(args.grids, args.placements, args.seed, args.whiten,
+                                 args.ground_from), thresholds)
     g = report["goal_tumuli"]
-    print("oracle matched filter (centre and relief told; true surface), thresholds "
+    print(f"oracle {kind} matched filter (centre and relief told; true surface), thresholds "
           + ", ".join(f"{k} {v:.2f}" for k, v in report["thresholds"].items())
           + (" (given)" if thresholds else ""))
     for name in ("all", "clear", "masked", "on_dem", "on_synthetic"):
@@ -827,7 +832,15 @@ def build_parser() -> argparse.ArgumentParser:
     vb.add_argument("--thresholds-from", help="judge against this report's thresholds (e.g. "
                     "the training grids') instead of the grids' own null")
     vb.add_argument("--placements", type=int, default=6,
-                    help="null placements per site without a tumulus (default 6)")
+                    help="null placements per site without a tumulus (default 6; the plain "
+                    "filter's)")
+    vb.add_argument("--whiten", action="store_true",
+                    help="the whitened filter: the ground's covariance at each tumulus's "
+                    "window learned from sites without a tumulus (see the module text)")
+    vb.add_argument("--ground-from", nargs="+", metavar="GRID",
+                    help="with --whiten: learn the ground's covariance from these grids' "
+                    "sites without a tumulus (e.g. the training grids'), the null from the "
+                    "grids judged")
     vb.add_argument("--seed", type=int, default=0)
     vb.set_defaults(func=cmd_recon_verdict_bound)
     rr = rc.add_parser("rasters", help="DSM, DTM, local relief model, hillshade and "

@@ -255,7 +255,7 @@ AOI = {"type": "FeatureCollection", "features": [
         [[25.24, 42.62], [25.26, 42.62], [25.26, 42.63], [25.24, 42.63], [25.24, 42.62]]]}}]}
 
 
-BOUND = {"schema": "mound.verdict_bound", "version": 1,
+BOUND = {"schema": "mound.verdict_bound", "version": 1, "filter": "plain",
          "thresholds": {"dem": 5.35, "synthetic": 6.36}, "goal_tumuli": {}}
 
 
@@ -265,6 +265,7 @@ def test_verdict_bound_thresholds_reader(text: str) -> None:
     from mound.recon.verdict_bound import read_thresholds
 
     value_or_input_error(read_thresholds, _file(text, "bound.json"))
+    value_or_input_error(read_thresholds, _file(text, "bound.json"), "whitened")
 
 
 @FUZZ

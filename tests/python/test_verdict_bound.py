@@ -46,6 +46,35 @@ def test_the_filter_finds_a_tumulus_it_is_told_of_and_none_where_there_is_none()
     assert vb.filter_output(cone, CONE, (60.0, 60.0), (0.0, 0.0), 10.0) is None
 
 
+def test_the_whitened_filter_finds_a_told_tumulus_against_the_ground_s_covariance() -> None:
+    """Ground of one kind (the same undulation's statistics, other seeds): the whitened
+    filter's output is large for a told cone standing on it, its null (the same window on
+    other sites) is not, and a window off the site gives none."""
+    rng = np.random.default_rng(0)
+    rough = replace(FLAT, ground_relief_m=1.5)
+    ground = [(_tilted(terrain.build(replace(rough, seed=s))), (0.0, 0.0)) for s in range(20, 34)]
+    null = [(_tilted(terrain.build(replace(rough, seed=s))), (0.0, 0.0)) for s in range(40, 46)]
+    cone = replace(rough, mound=True, profile="conical", height_m=2.0, diameter_m=24.0,
+                   mound_x_m=4.0, mound_y_m=-3.0, erosion_m=1.0, seed=7)
+    got = vb.whitened_output(_tilted(terrain.build(cone)), cone, *DISC, ground, null, rng)
+    assert got is not None
+    out, nulls = got
+    assert len(nulls) == len(null) * vb.NULL_ROTATIONS
+    assert out > 10 and max(abs(v) for v in nulls) < 6
+    # a looted one: the filter is told its trench too
+    looted = replace(cone, trench_width_m=3.0, trench_depth_m=1.5, trench_azimuth_deg=30.0)
+    got = vb.whitened_output(_tilted(terrain.build(looted)), looted, *DISC, ground, null, rng)
+    assert got is not None and got[0] > 10
+    # the same ground without it
+    empty = _tilted(terrain.build(replace(rough, seed=7)))
+    got = vb.whitened_output(empty, cone, *DISC, ground, null, rng)
+    assert got is not None and abs(got[0]) < 6
+    # the window off the scanned site; too few ground windows for a covariance
+    assert vb.whitened_output(empty, replace(cone, mound_x_m=60.0, mound_y_m=60.0),
+                              (0.0, 0.0), 10.0, ground, null, rng) is None
+    assert vb.whitened_output(empty, cone, *DISC, ground[:2], null, rng) is None
+
+
 def _grid(root: Path, specs: list[terrain.TerrainSpec]) -> Path:
     """A grid folder as `mound sim grid` writes it, without the flights: each site's true
     surface (sim/site.json + heightfield.npy), its truth and a verdict naming the scanned
@@ -100,6 +129,36 @@ def test_the_command_judges_a_grid_against_its_own_null_and_another_s(tmp_path: 
                        "--thresholds-from", str(strict)]) == 0
     doc2 = json.loads(again.read_text())
     assert doc2["thresholds_given"] and doc2["goal_tumuli"]["all"] == {"sites": 3, "found": 0}
+    assert doc["filter"] == doc2["filter"] == "plain"
+
+
+def test_the_whitened_command_learns_the_ground_from_other_grids(tmp_path: Path) -> None:
+    """--whiten on a grid's own sites without a tumulus (half learn the covariance, half the
+    null), then a second grid judged with the first's ground (--ground-from) and
+    thresholds."""
+    rough = replace(FLAT, ground_relief_m=1.5)
+    cone = replace(CONE, ground_relief_m=1.5, height_m=2.5)
+    train = _grid(tmp_path / "train", [replace(cone, seed=s, mound_x_m=x)
+                                       for s, x in ((4, 0.0), (5, 5.0), (6, -6.0))]
+                  + [replace(rough, seed=s) for s in range(10, 38)])
+    report = tmp_path / "white.json"
+    assert mound_main(["recon", "verdict-bound", str(train), "--whiten", "--report",
+                       str(report)]) == 0
+    doc = json.loads(report.read_text())
+    assert doc["filter"] == "whitened" and "whitened" in doc["method"]
+    assert doc["null"]["synthetic"]["placements"] == 3 * 14 * vb.NULL_ROTATIONS
+    assert doc["goal_tumuli"]["all"] == {"sites": 3, "found": 3}
+    held = _grid(tmp_path / "held", [replace(cone, seed=s, mound_y_m=y)
+                                     for s, y in ((50, 4.0), (51, -5.0))]
+                 + [replace(rough, seed=s) for s in range(60, 64)])
+    out = tmp_path / "held.json"
+    assert mound_main(["recon", "verdict-bound", str(held), "--whiten", "--ground-from",
+                       str(train), "--thresholds-from", str(report), "--report",
+                       str(out)]) == 0
+    doc2 = json.loads(out.read_text())
+    assert doc2["thresholds"] == doc["thresholds"] and doc2["thresholds_given"]
+    assert doc2["null"]["synthetic"]["placements"] == 2 * 4 * vb.NULL_ROTATIONS
+    assert doc2["goal_tumuli"]["all"] == {"sites": 2, "found": 2}
 
 
 def test_the_command_refuses_what_is_no_grid(tmp_path: Path,
@@ -121,3 +180,17 @@ def test_the_command_refuses_what_is_no_grid(tmp_path: Path,
                        str(bad)]) == 2
     assert "thresholds.marsh" in capsys.readouterr().err
     assert mound_main(["recon", "verdict-bound", str(grid2), "--placements", "0"]) == 2
+    # the whitened filter: never against the plain one's thresholds, and --ground-from
+    # only with it
+    capsys.readouterr()
+    bad.write_text(json.dumps({"schema": vb.SCHEMA, "version": 1, "filter": "plain",
+                               "thresholds": {"synthetic": 3.0}}))
+    assert mound_main(["recon", "verdict-bound", str(grid2), "--whiten", "--thresholds-from",
+                       str(bad)]) == 2
+    assert "filter" in capsys.readouterr().err
+    assert mound_main(["recon", "verdict-bound", str(grid2), "--ground-from",
+                       str(grid2)]) == 2
+    assert "--ground-from" in capsys.readouterr().err
+    # a grid with one site without a tumulus: none left to learn the covariance from
+    assert mound_main(["recon", "verdict-bound", str(grid2), "--whiten"]) == 2
+    assert "covariance" in capsys.readouterr().err

@@ -19,9 +19,23 @@ output exceeds its kind's threshold.
 
 It is an oracle, not a detector: it knows where the tumulus is and what shape it has, so
 its count is a ceiling for a detector that has to search for both (which meets hills of
-the same size at every place it looks), and a floor on what the ground's shape hides. It is
-a least-squares matched filter against a quadratic ground, not the whitened one a model
-of the ground's relief would allow, so it is a ceiling for this class of filter only.
+the same size at every place it looks), and a floor on what the ground's shape hides.
+
+The plain filter treats the ground's departure from a quadratic as white. The whitened one
+(`whiten=True`, `--whiten`) knows the ground's second-order statistics at the tumulus's own
+window: the window's surface is read at a polar pattern (NR radii over r <= WINDOW R, NA
+azimuths, those within the scanned disc), its quadratic drift projected out, and the
+covariance of what is left estimated from the same window, at the same place in the scan,
+on the sites without a tumulus on the same kind of ground (rotated about the site centre
+NA times: the scanned disc is round; Ledoit-Wolf shrinkage). Its output is the
+generalised likelihood ratio's t for A x the told relief against Gaussian ground of that
+covariance up to an unknown scale (the whitened amplitude over the whitened residual's
+RMS, scale-free like the plain filter's). The sites without a tumulus are split at random
+into two halves: one estimates the covariance, the other gives the null (the same window
+on each of its sites, NULL_ROTATIONS random rotations); a held-out grid takes its
+covariance from the training grids' sites (`ground_from`) and its null from its own. The
+whitened filter is the optimal linear detector for Gaussian ground of that covariance; the
+laser DEM's hills are not Gaussian, so it too is a ceiling for its class only.
 """
 
 from __future__ import annotations
@@ -43,6 +57,10 @@ FALSE_ALARMS = 0.01   # the null's share above the threshold
 PLACEMENTS = 6        # null placements per site without a tumulus
 MIN_CELLS = 50        # fewer cells of the window within the site: no output
 GROUNDS = ("dem", "synthetic")  # the kinds of ground, each with its own null
+FILTERS = ("plain", "whitened")
+NR, NA = 12, 24       # the whitened filter's polar pattern: radii over r <= WINDOW R, azimuths
+NULL_ROTATIONS = 4    # the whitened null: random rotations of the window per site
+MIN_SAMPLES = 40      # fewer samples of the pattern within the site: no whitened output
 
 
 def filter_output(hf: terrain.Heightfield, spec: terrain.TerrainSpec,
@@ -73,12 +91,17 @@ def filter_output(hf: terrain.Heightfield, spec: terrain.TerrainSpec,
     return float(coef[-1] / max(rms, 1e-6))
 
 
-def read_thresholds(path: str | Path) -> dict[str, float]:
+def read_thresholds(path: str | Path, filter_kind: str = "plain") -> dict[str, float]:
     """The thresholds of a `mound.verdict_bound` report (`--thresholds-from`): finite
-    numbers by kind of ground ("dem", "synthetic"); InputError naming the file and field."""
+    numbers by kind of ground ("dem", "synthetic"), of the same filter (`filter`, "plain"
+    when absent); InputError naming the file and field."""
     from mound.jsonio import read_json
 
     doc = read_json(path, SCHEMA, VERSION)
+    kind = doc.get("filter", "plain")
+    if kind != filter_kind:
+        raise InputError(f"{path}: filter: {kind!r}: thresholds of another filter than the "
+                         f"{filter_kind} one asked for")
     thr = doc.get("thresholds")
     if not isinstance(thr, dict) or not thr:
         raise InputError(f"{path}: thresholds: expected numbers by kind of ground")
@@ -106,16 +129,100 @@ def _site_disc(row: dict[str, Any]) -> tuple[tuple[float, float], float] | None:
     return (float(c[0]), float(c[1])), float(m["site_radius_m"])
 
 
-def measure(folders: list[str], placements: int = PLACEMENTS, seed: int = 0
-            ) -> dict[str, Any]:
-    """The oracle's outputs on the grids' goal tumuli (>= 2 m x 15 m) and its null (see the
-    module text): {"tumuli": [...], "null": {"dem"|"synthetic": [...]}}."""
+def _sample(hf: terrain.Heightfield, pts: np.ndarray) -> np.ndarray:
+    """The surface at points (n, 2) (m, the site's frame), bilinear; NaN off the grid."""
+    from scipy.ndimage import map_coordinates
+
+    step = float(hf.x_m[1] - hf.x_m[0])
+    col, row = (pts[:, 0] - hf.x_m[0]) / step, (pts[:, 1] - hf.y_m[0]) / step
+    return map_coordinates(np.asarray(hf.z_m, dtype=float), [row, col], order=1,
+                           mode="constant", cval=np.nan)
+
+
+def _rotated(v: np.ndarray, angle: float) -> np.ndarray:
+    c, s = math.cos(angle), math.sin(angle)
+    return np.column_stack([c * v[:, 0] - s * v[:, 1], s * v[:, 0] + c * v[:, 1]])
+
+
+Ground = list[tuple[terrain.Heightfield, tuple[float, float]]]  # surfaces, site centres
+
+
+def whitened_output(hf: terrain.Heightfield, spec: terrain.TerrainSpec,
+                    site_centre_m: tuple[float, float], site_radius_m: float,
+                    ground: Ground, null: Ground, rng: np.random.Generator
+                    ) -> tuple[float, list[float]] | None:
+    """The whitened filter's output for the tumulus of `spec` at its own centre on `hf`,
+    and its null: the same window on each `null` site (NULL_ROTATIONS random rotations
+    about the site centre); the covariance from the same window on each `ground` site (NA
+    rotations). See the module text. None when fewer than MIN_SAMPLES samples of the
+    pattern lie within the site, or the told relief is none there."""
+    radius = spec.diameter_m / 2
+    rho = (np.arange(NR) + 0.5) / NR * WINDOW * radius
+    theta = np.arange(NA) * 2 * np.pi / NA
+    rr, tt = np.meshgrid(rho, theta, indexing="ij")
+    local = np.column_stack([(rr * np.cos(tt)).ravel(), (rr * np.sin(tt)).ravel()])
+    centre = np.array([spec.mound_x_m, spec.mound_y_m])
+    rel = centre + local - np.asarray(site_centre_m)  # the window about the site centre
+    keep = np.hypot(rel[:, 0], rel[:, 1]) <= site_radius_m
+    if int(keep.sum()) < MIN_SAMPLES:
+        return None
+    local, rel = local[keep], rel[keep]
+    pts = np.asarray(site_centre_m) + rel
+    told = terrain.mound_added(spec, pts[:, 0], pts[:, 1],
+                               reach_m=WINDOW * radius + 4 * spec.erosion_m)
+    if not told.max() > 0:
+        return None
+    x, y = local[:, 0] / radius, local[:, 1] / radius
+    drift = np.column_stack([np.ones_like(x), x, y, x * x, x * y, y * y])
+    q = np.linalg.svd(drift, full_matrices=True)[0][:, drift.shape[1]:]  # drift's complement
+
+    def windows(sites: Ground, angles: list[np.ndarray]) -> np.ndarray:
+        out = [_sample(g, np.concatenate([np.asarray(c) + _rotated(rel, a) for a in ang])
+                       ).reshape(len(ang), len(rel))
+               for (g, c), ang in zip(sites, angles, strict=True)]
+        w = np.concatenate(out)
+        return w[np.isfinite(w).all(axis=1)] @ q
+
+    u = windows(ground, [theta] * len(ground))
+    if len(u) <= q.shape[1]:
+        return None
+    mean = u.mean(axis=0)
+    cov = np.cov(u, rowvar=False)
+    d, n = cov.shape[0], len(u)
+    # Ledoit-Wolf shrinkage towards the scaled identity
+    target = np.trace(cov) / d
+    dev = u - mean
+    spread = float(((dev ** 2).T @ (dev ** 2) / n - cov ** 2).sum() / n)
+    lam = min(max(spread / max(float(((cov - target * np.eye(d)) ** 2).sum()), 1e-12), 0.0),
+              1.0)
+    chol = np.linalg.cholesky((1 - lam) * cov + lam * target * np.eye(d))
+    from scipy.linalg import solve_triangular
+
+    g = solve_triangular(chol, q.T @ (told / told.max()), lower=True)
+    gg = float(g @ g)
+
+    def t(vs: np.ndarray) -> np.ndarray:
+        yw = solve_triangular(chol, (vs - mean).T, lower=True).T
+        a = yw @ g / gg
+        res = yw - a[:, None] * g[None, :]
+        return a * math.sqrt(gg) / np.sqrt((res ** 2).sum(axis=1) / (d - 1))
+
+    own = _sample(hf, pts)
+    if not np.isfinite(own).all():
+        return None
+    angles = [rng.uniform(0, 2 * np.pi, NULL_ROTATIONS) for _ in null]
+    return float(t((own @ q)[None, :])[0]), [float(v) for v in t(windows(null, angles))]
+
+
+Empty = list[tuple[Path, terrain.TerrainSpec, tuple[tuple[float, float], float]]]
+
+
+def _read(folders: list[str]) -> tuple[list[dict[str, Any]], Empty]:
+    """The grids' measured goal tumuli and their sites without a tumulus."""
     from mound.recon import verdict_model as vm
 
-    rng = np.random.default_rng(seed)
     tumuli: list[dict[str, Any]] = []
-    empty: list[tuple[Path, terrain.TerrainSpec, tuple[tuple[float, float], float]]] = []
-    profiles: list[terrain.TerrainSpec] = []
+    empty: Empty = []
     for folder in folders:
         root = Path(folder)
         gpath = root / "grid.json"
@@ -129,20 +236,63 @@ def measure(folders: list[str], placements: int = PLACEMENTS, seed: int = 0
             spec = vm.site_terrain(row, f"{gpath}: {name}")
             truth = row["truth"]
             if vm._goal(truth):
-                profiles.append(spec)
                 tumuli.append({"grid": str(root), "dir": name, "site": site, "spec": spec,
                                "disc": disc, "ground": _ground(spec),
                                "clear": vm.stands_clear(row), "truth": truth})
             elif not truth["mound"]:
                 empty.append((site, spec, disc))
+    return tumuli, empty
+
+
+def _surfaces(empty: Empty) -> dict[str, Ground]:
+    """The true surfaces of sites without a tumulus, by kind of ground."""
+    out: dict[str, Ground] = {k: [] for k in GROUNDS}
+    for site, spec, (centre, _) in empty:
+        hf = terrain.load_site_heightfield(site / "sim")
+        out[_ground(spec)].append((terrain.Heightfield(hf.x_m, hf.y_m, hf.z_m.astype(float)),
+                                   centre))
+    return out
+
+
+def measure(folders: list[str], placements: int = PLACEMENTS, seed: int = 0,
+            whiten: bool = False, ground_from: list[str] | None = None) -> dict[str, Any]:
+    """The oracle's outputs on the grids' goal tumuli (>= 2 m x 15 m) and its null (see the
+    module text): {"tumuli": [...], "null": {"dem"|"synthetic": [...]}, "filter": ...}.
+    `whiten`: the whitened filter, its covariance from `ground_from`'s sites without a
+    tumulus (default: half of the grids' own, the other half the null)."""
+    rng = np.random.default_rng(seed)
+    tumuli, empty = _read(folders)
     if not tumuli or not empty:
         raise InputError(f"verdict-bound: {', '.join(folders)}: needs measured sites with a "
                          f"goal tumulus and without one (got {len(tumuli)} and {len(empty)})")
+    null: dict[str, list[float]] = {k: [] for k in GROUNDS}
+    if whiten:
+        own = _surfaces(empty)
+        if ground_from:
+            ground, nulls = _surfaces(_read(ground_from)[1]), own
+        else:
+            ground, nulls = {}, {}
+            for k, sites in own.items():
+                order = rng.permutation(len(sites))
+                ground[k] = [sites[i] for i in order[:len(sites) // 2]]
+                nulls[k] = [sites[i] for i in order[len(sites) // 2:]]
+        for t in tumuli:
+            kind = t["ground"]
+            if not ground[kind] or not nulls[kind]:
+                raise InputError(f"verdict-bound --whiten: no sites without a tumulus on "
+                                 f"{kind} ground to learn its covariance and null from")
+            sp, (centre, radius) = t.pop("spec"), t.pop("disc")
+            hf = terrain.load_site_heightfield(t.pop("site") / "sim")
+            got = whitened_output(hf, sp, centre, radius, ground[kind], nulls[kind], rng)
+            t["output"] = None if got is None else got[0]
+            if got is not None:
+                null[kind].extend(got[1])
+        return {"tumuli": tumuli, "null": null, "filter": "whitened"}
+    profiles = [t["spec"] for t in tumuli]
     for t in tumuli:
         hf = terrain.load_site_heightfield(t.pop("site") / "sim")
         sp = t.pop("spec")
         t["output"] = filter_output(hf, sp, (sp.mound_x_m, sp.mound_y_m), *t.pop("disc"))
-    null: dict[str, list[float]] = {k: [] for k in GROUNDS}
     for site, spec, (centre, radius) in empty:
         hf = terrain.load_site_heightfield(site / "sim")
         kind = _ground(spec)
@@ -153,7 +303,23 @@ def measure(folders: list[str], placements: int = PLACEMENTS, seed: int = 0
             out = filter_output(hf, prof, at, centre, radius)
             if out is not None:
                 null[kind].append(out)
-    return {"tumuli": tumuli, "null": null}
+    return {"tumuli": tumuli, "null": null, "filter": "plain"}
+
+
+METHODS = {
+    "plain": "matched filter told each tumulus's centre and the relief it adds (profile, "
+             "size, erosion, pit, trench), on the true surface: quadratic ground + A x that "
+             f"relief over r <= {WINDOW:g} R within the scanned site, output A / "
+             "RMS(residual); its null random profiles at random places on the sites without "
+             "a tumulus",
+    "whitened": "whitened matched filter told each tumulus's centre and the relief it adds, "
+                f"on the true surface: a polar pattern ({NR} radii over r <= {WINDOW:g} R, "
+                f"{NA} azimuths) within the scanned site, its quadratic drift projected out, "
+                "whitened by the covariance of the same window on half the sites without a "
+                "tumulus (or on the --ground-from grids'), output the generalised likelihood "
+                "ratio's t for A x that relief; its null the same window on the other sites "
+                "without a tumulus",
+}
 
 
 def judge(measured: dict[str, Any], thresholds: dict[str, float] | None = None
@@ -182,13 +348,10 @@ def judge(measured: dict[str, Any], thresholds: dict[str, float] | None = None
         return {"sites": len(sel), "found": sum(r["found"] for r in sel)}
     return {
         "schema": SCHEMA, "version": VERSION,
-        "method": "matched filter told each tumulus's centre and the relief it adds "
-                  "(profile, size, erosion, pit, trench), on the true surface: quadratic "
-                  "ground + A x that relief over r <= "
-                  f"{WINDOW:g} R within the scanned site, output A / RMS(residual); "
-                  f"threshold the {100 * (1 - FALSE_ALARMS):g}th percentile of its null "
-                  "(random profiles at random places on the sites without a tumulus) per "
-                  "kind of ground",
+        "filter": measured.get("filter", "plain"),
+        "method": (METHODS[measured.get("filter", "plain")]
+                   + f"; threshold the {100 * (1 - FALSE_ALARMS):g}th percentile of its null "
+                   "per kind of ground"),
         "grids": sorted({t["grid"] for t in measured["tumuli"]}),
         "false_alarms": FALSE_ALARMS,
         "thresholds": thr, "thresholds_given": bool(thresholds),
