@@ -155,7 +155,9 @@ def whitened_output(hf: terrain.Heightfield, spec: terrain.TerrainSpec,
     and its null: the same window on each `null` site (NULL_ROTATIONS random rotations
     about the site centre); the covariance from the same window on each `ground` site (NA
     rotations). See the module text. None when fewer than MIN_SAMPLES samples of the
-    pattern lie within the site, or the told relief is none there."""
+    pattern lie within the site (or on its surface), when the ground sites give no more
+    windows than the pattern has dimensions, or when the told relief is none there beyond
+    the window's quadratic drift."""
     radius = spec.diameter_m / 2
     rho = (np.arange(NR) + 0.5) / NR * WINDOW * radius
     theta = np.arange(NA) * 2 * np.pi / NA
@@ -200,6 +202,8 @@ def whitened_output(hf: terrain.Heightfield, spec: terrain.TerrainSpec,
 
     g = solve_triangular(chol, q.T @ (told / told.max()), lower=True)
     gg = float(g @ g)
+    if not gg > 1e-12:  # the told relief is the window's drift: nothing to tell it by
+        return None
 
     def t(vs: np.ndarray) -> np.ndarray:
         yw = solve_triangular(chol, (vs - mean).T, lower=True).T
