@@ -57,7 +57,6 @@ FALSE_ALARMS = 0.01   # the null's share above the threshold
 PLACEMENTS = 6        # null placements per site without a tumulus
 MIN_CELLS = 50        # fewer cells of the window within the site: no output
 GROUNDS = ("dem", "synthetic")  # the kinds of ground, each with its own null
-FILTERS = ("plain", "whitened")
 NR, NA = 12, 24       # the whitened filter's polar pattern: radii over r <= WINDOW R, azimuths
 NULL_ROTATIONS = 4    # the whitened null: random rotations of the window per site
 MIN_SAMPLES = 40      # fewer samples of the pattern within the site: no whitened output
