@@ -535,13 +535,19 @@ def cmd_recon_verdict_bound(args: argparse.Namespace) -> int:
         raise InputError(f"--placements: {args.placements}: must be >= 1")
     if args.ground_from and not args.whiten:
         raise InputError("--ground-from: only with --whiten")
+    if args.place_within and not args.whiten:
+        raise InputError("--place-within: only with --whiten")
+    if not (math.isfinite(args.place_within) and 0 <= args.place_within <= 30):
+        raise InputError(f"--place-within: {args.place_within}: expected 0 to 30 m")
     kind = "whitened" if args.whiten else "plain"
-    thresholds = (vb.read_thresholds(args.thresholds_from, kind) if args.thresholds_from
-                  else None)
+    thresholds = (vb.read_thresholds(args.thresholds_from, kind, args.place_within)
+                  if args.thresholds_from else None)
     report = vb.judge(vb.measure(args.grids, args.placements, args.seed, args.whiten,
-                                 args.ground_from), thresholds)
+                                 args.ground_from, args.place_within), thresholds)
     g = report["goal_tumuli"]
-    print(f"oracle {kind} matched filter (centre and relief told; true surface), thresholds "
+    told = (f"centre told within {args.place_within:g} m" if args.place_within
+            else "centre")
+    print(f"oracle {kind} matched filter ({told} and relief told; true surface), thresholds "
           + ", ".join(f"{k} {v:.2f}" for k, v in report["thresholds"].items())
           + (" (given)" if thresholds else ""))
     for name in ("all", "clear", "masked", "on_dem", "on_synthetic"):
@@ -841,6 +847,9 @@ def build_parser() -> argparse.ArgumentParser:
                     help="with --whiten: learn the ground's covariance from these grids' "
                     "sites without a tumulus (e.g. the training grids'), the null from the "
                     "grids judged")
+    vb.add_argument("--place-within", type=float, default=0.0, metavar="M",
+                    help="with --whiten: told the place only within M metres (the highest "
+                    "output over centres 2 m apart within M of the true one; 0 to 30)")
     vb.add_argument("--seed", type=int, default=0)
     vb.set_defaults(func=cmd_recon_verdict_bound)
     rr = rc.add_parser("rasters", help="DSM, DTM, local relief model, hillshade and "

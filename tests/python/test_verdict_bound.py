@@ -73,6 +73,13 @@ def test_the_whitened_filter_finds_a_told_tumulus_against_the_ground_s_covarianc
     assert vb.whitened_output(empty, replace(cone, mound_x_m=60.0, mound_y_m=60.0),
                               (0.0, 0.0), 10.0, ground, null, rng) is None
     assert vb.whitened_output(empty, cone, *DISC, ground[:2], null, rng) is None
+    # told the place only within 4 m: a centre told 3 m off is found as well as the true one
+    off = replace(cone, mound_x_m=cone.mound_x_m + 3.0)
+    site = _tilted(terrain.build(cone))
+    near = vb.whitened_output(site, off, *DISC, ground, null, rng, place_within_m=4.0)
+    blind = vb.whitened_output(site, off, *DISC, ground, null, rng)
+    assert near is not None and blind is not None
+    assert near[0] > 10 and near[0] > blind[0] and len(near[1]) == len(null) * vb.NULL_ROTATIONS
 
 
 def _grid(root: Path, specs: list[terrain.TerrainSpec]) -> Path:
@@ -146,6 +153,7 @@ def test_the_whitened_command_learns_the_ground_from_other_grids(tmp_path: Path)
                        str(report)]) == 0
     doc = json.loads(report.read_text())
     assert doc["filter"] == "whitened" and "whitened" in doc["method"]
+    assert doc["place_within_m"] == 0
     assert doc["null"]["synthetic"]["placements"] == 3 * 14 * vb.NULL_ROTATIONS
     assert doc["goal_tumuli"]["all"] == {"sites": 3, "found": 3}
     held = _grid(tmp_path / "held", [replace(cone, seed=s, mound_y_m=y)
@@ -191,6 +199,16 @@ def test_the_command_refuses_what_is_no_grid(tmp_path: Path,
     assert mound_main(["recon", "verdict-bound", str(grid2), "--ground-from",
                        str(grid2)]) == 2
     assert "--ground-from" in capsys.readouterr().err
+    assert mound_main(["recon", "verdict-bound", str(grid2), "--place-within", "4"]) == 2
+    assert "--place-within" in capsys.readouterr().err
+    assert mound_main(["recon", "verdict-bound", str(grid2), "--whiten", "--place-within",
+                       "40"]) == 2
+    assert "--place-within" in capsys.readouterr().err
+    bad.write_text(json.dumps({"schema": vb.SCHEMA, "version": 1, "filter": "whitened",
+                               "thresholds": {"synthetic": 3.0}}))
+    assert mound_main(["recon", "verdict-bound", str(grid2), "--whiten", "--place-within",
+                       "4", "--thresholds-from", str(bad)]) == 2
+    assert "place_within_m" in capsys.readouterr().err
     # a grid with one site without a tumulus: none left to learn the covariance from
     assert mound_main(["recon", "verdict-bound", str(grid2), "--whiten"]) == 2
     assert "covariance" in capsys.readouterr().err

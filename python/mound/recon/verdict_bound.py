@@ -36,6 +36,12 @@ on each of its sites, NULL_ROTATIONS random rotations); a held-out grid takes it
 covariance from the training grids' sites (`ground_from`) and its null from its own. The
 whitened filter is the optimal linear detector for Gaussian ground of that covariance; the
 laser DEM's hills are not Gaussian, so it too is a ceiling for its class only.
+
+Told the place only to within a distance (`place_within_m`, `--place-within`), the
+whitened filter takes its highest output over centres on a lattice of PLACE_STEP_M within
+that distance of the true one (the window's covariance the true centre's; only the samples
+within the scanned site for every centre), and its null the same highest output over the
+same centres about each null window: how closely the place has to be known.
 """
 
 from __future__ import annotations
@@ -60,6 +66,7 @@ GROUNDS = ("dem", "synthetic")  # the kinds of ground, each with its own null
 NR, NA = 12, 24       # the whitened filter's polar pattern: radii over r <= WINDOW R, azimuths
 NULL_ROTATIONS = 4    # the whitened null: random rotations of the window per site
 MIN_SAMPLES = 40      # fewer samples of the pattern within the site: no whitened output
+PLACE_STEP_M = 2.0    # the lattice of centres searched when told the place within a distance
 
 
 def filter_output(hf: terrain.Heightfield, spec: terrain.TerrainSpec,
@@ -90,10 +97,12 @@ def filter_output(hf: terrain.Heightfield, spec: terrain.TerrainSpec,
     return float(coef[-1] / max(rms, 1e-6))
 
 
-def read_thresholds(path: str | Path, filter_kind: str = "plain") -> dict[str, float]:
+def read_thresholds(path: str | Path, filter_kind: str = "plain",
+                    place_within_m: float = 0.0) -> dict[str, float]:
     """The thresholds of a `mound.verdict_bound` report (`--thresholds-from`): finite
     numbers by kind of ground ("dem", "synthetic"), of the same filter (`filter`, "plain"
-    when absent); InputError naming the file and field."""
+    when absent) told the place as closely (`place_within_m`, 0 when absent); InputError
+    naming the file and field."""
     from mound.jsonio import read_json
 
     doc = read_json(path, SCHEMA, VERSION)
@@ -101,6 +110,10 @@ def read_thresholds(path: str | Path, filter_kind: str = "plain") -> dict[str, f
     if kind != filter_kind:
         raise InputError(f"{path}: filter: {kind!r}: thresholds of another filter than the "
                          f"{filter_kind} one asked for")
+    within = doc.get("place_within_m", 0.0)
+    if within != place_within_m:
+        raise InputError(f"{path}: place_within_m: {within!r}: thresholds of a filter told "
+                         f"the place otherwise than within {place_within_m:g} m")
     thr = doc.get("thresholds")
     if not isinstance(thr, dict) or not thr:
         raise InputError(f"{path}: thresholds: expected numbers by kind of ground")
@@ -148,15 +161,16 @@ Ground = list[tuple[terrain.Heightfield, tuple[float, float]]]  # surfaces, site
 
 def whitened_output(hf: terrain.Heightfield, spec: terrain.TerrainSpec,
                     site_centre_m: tuple[float, float], site_radius_m: float,
-                    ground: Ground, null: Ground, rng: np.random.Generator
-                    ) -> tuple[float, list[float]] | None:
+                    ground: Ground, null: Ground, rng: np.random.Generator,
+                    place_within_m: float = 0.0) -> tuple[float, list[float]] | None:
     """The whitened filter's output for the tumulus of `spec` at its own centre on `hf`,
     and its null: the same window on each `null` site (NULL_ROTATIONS random rotations
     about the site centre); the covariance from the same window on each `ground` site (NA
     rotations). See the module text. None when fewer than MIN_SAMPLES samples of the
     pattern lie within the site (or on its surface), when the ground sites give no more
     windows than the pattern has dimensions, or when the told relief is none there beyond
-    the window's quadratic drift."""
+    the window's quadratic drift. `place_within_m`: the highest output over the centres
+    within that distance (see the module text), for the tumulus and each null window."""
     radius = spec.diameter_m / 2
     rho = (np.arange(NR) + 0.5) / NR * WINDOW * radius
     theta = np.arange(NA) * 2 * np.pi / NA
@@ -164,7 +178,11 @@ def whitened_output(hf: terrain.Heightfield, spec: terrain.TerrainSpec,
     local = np.column_stack([(rr * np.cos(tt)).ravel(), (rr * np.sin(tt)).ravel()])
     centre = np.array([spec.mound_x_m, spec.mound_y_m])
     rel = centre + local - np.asarray(site_centre_m)  # the window about the site centre
-    keep = np.hypot(rel[:, 0], rel[:, 1]) <= site_radius_m
+    k = PLACE_STEP_M * np.arange(-math.floor(place_within_m / PLACE_STEP_M),
+                                 math.floor(place_within_m / PLACE_STEP_M) + 1)
+    shifts = np.array([(a, b) for a in k for b in k if math.hypot(a, b) <= place_within_m])
+    keep = np.all([np.hypot(rel[:, 0] + dx, rel[:, 1] + dy) <= site_radius_m
+                   for dx, dy in shifts], axis=0)
     if int(keep.sum()) < MIN_SAMPLES:
         return None
     local, rel = local[keep], rel[keep]
@@ -177,14 +195,16 @@ def whitened_output(hf: terrain.Heightfield, spec: terrain.TerrainSpec,
     drift = np.column_stack([np.ones_like(x), x, y, x * x, x * y, y * y])
     q = np.linalg.svd(drift, full_matrices=True)[0][:, drift.shape[1]:]  # drift's complement
 
-    def windows(sites: Ground, angles: list[np.ndarray]) -> np.ndarray:
-        out = [_sample(g, np.concatenate([np.asarray(c) + _rotated(rel, a) for a in ang])
-                       ).reshape(len(ang), len(rel))
+    def windows(sites: Ground, angles: list[np.ndarray], at: np.ndarray) -> np.ndarray:
+        """(windows, centres `at`, drift's complement): each site's window at each angle."""
+        out = [_sample(g, np.concatenate([np.asarray(c) + _rotated(rel + d, a)
+                                          for a in ang for d in at])
+                       ).reshape(len(ang), len(at), len(rel))
                for (g, c), ang in zip(sites, angles, strict=True)]
         w = np.concatenate(out)
-        return w[np.isfinite(w).all(axis=1)] @ q
+        return w[np.isfinite(w).all(axis=(1, 2))] @ q
 
-    u = windows(ground, [theta] * len(ground))
+    u = windows(ground, [theta] * len(ground), np.zeros((1, 2)))[:, 0]
     if len(u) <= q.shape[1]:
         return None
     mean = u.mean(axis=0)
@@ -205,16 +225,19 @@ def whitened_output(hf: terrain.Heightfield, spec: terrain.TerrainSpec,
         return None
 
     def t(vs: np.ndarray) -> np.ndarray:
-        yw = solve_triangular(chol, (vs - mean).T, lower=True).T
+        """The highest output over the centres of each window (windows, centres, d)."""
+        flat = vs.reshape(-1, d)
+        yw = solve_triangular(chol, (flat - mean).T, lower=True).T
         a = yw @ g / gg
         res = yw - a[:, None] * g[None, :]
-        return a * math.sqrt(gg) / np.sqrt((res ** 2).sum(axis=1) / (d - 1))
+        out = a * math.sqrt(gg) / np.sqrt((res ** 2).sum(axis=1) / (d - 1))
+        return out.reshape(vs.shape[:2]).max(axis=1)
 
-    own = _sample(hf, pts)
-    if not np.isfinite(own).all():
+    own = windows([(hf, site_centre_m)], [np.zeros(1)], shifts)
+    if not len(own):
         return None
     angles = [rng.uniform(0, 2 * np.pi, NULL_ROTATIONS) for _ in null]
-    return float(t((own @ q)[None, :])[0]), [float(v) for v in t(windows(null, angles))]
+    return float(t(own)[0]), [float(v) for v in t(windows(null, angles, shifts))]
 
 
 Empty = list[tuple[Path, terrain.TerrainSpec, tuple[tuple[float, float], float]]]
@@ -258,11 +281,13 @@ def _surfaces(empty: Empty) -> dict[str, Ground]:
 
 
 def measure(folders: list[str], placements: int = PLACEMENTS, seed: int = 0,
-            whiten: bool = False, ground_from: list[str] | None = None) -> dict[str, Any]:
+            whiten: bool = False, ground_from: list[str] | None = None,
+            place_within_m: float = 0.0) -> dict[str, Any]:
     """The oracle's outputs on the grids' goal tumuli (>= 2 m x 15 m) and its null (see the
     module text): {"tumuli": [...], "null": {"dem"|"synthetic": [...]}, "filter": ...}.
     `whiten`: the whitened filter, its covariance from `ground_from`'s sites without a
-    tumulus (default: half of the grids' own, the other half the null)."""
+    tumulus (default: half of the grids' own, the other half the null), told the place
+    within `place_within_m`."""
     rng = np.random.default_rng(seed)
     tumuli, empty = _read(folders)
     if not tumuli or not empty:
@@ -286,11 +311,13 @@ def measure(folders: list[str], placements: int = PLACEMENTS, seed: int = 0,
                                  f"{kind} ground to learn its covariance and null from")
             sp, (centre, radius) = t.pop("spec"), t.pop("disc")
             hf = terrain.load_site_heightfield(t.pop("site") / "sim")
-            got = whitened_output(hf, sp, centre, radius, ground[kind], nulls[kind], rng)
+            got = whitened_output(hf, sp, centre, radius, ground[kind], nulls[kind], rng,
+                                  place_within_m)
             t["output"] = None if got is None else got[0]
             if got is not None:
                 null[kind].extend(got[1])
-        return {"tumuli": tumuli, "null": null, "filter": "whitened"}
+        return {"tumuli": tumuli, "null": null, "filter": "whitened",
+                "place_within_m": place_within_m}
     profiles = [t["spec"] for t in tumuli]
     for t in tumuli:
         hf = terrain.load_site_heightfield(t.pop("site") / "sim")
@@ -352,6 +379,7 @@ def judge(measured: dict[str, Any], thresholds: dict[str, float] | None = None
     return {
         "schema": SCHEMA, "version": VERSION,
         "filter": measured.get("filter", "plain"),
+        "place_within_m": measured.get("place_within_m", 0.0),
         "method": (METHODS[measured.get("filter", "plain")]
                    + f"; threshold the {100 * (1 - FALSE_ALARMS):g}th percentile of its null "
                    "per kind of ground"),
