@@ -143,12 +143,8 @@ def _site_disc(row: dict[str, Any]) -> tuple[tuple[float, float], float] | None:
 
 def _sample(hf: terrain.Heightfield, pts: np.ndarray) -> np.ndarray:
     """The surface at points (n, 2) (m, the site's frame), bilinear; NaN off the grid."""
-    from scipy.ndimage import map_coordinates
-
-    step = float(hf.x_m[1] - hf.x_m[0])
-    col, row = (pts[:, 0] - hf.x_m[0]) / step, (pts[:, 1] - hf.y_m[0]) / step
-    return map_coordinates(np.asarray(hf.z_m, dtype=float), [row, col], order=1,
-                           mode="constant", cval=np.nan)
+    x, y = pts[:, 0], pts[:, 1]
+    return np.where(hf.covers(x, y), hf.height_at(x, y), np.nan)
 
 
 def _rotated(v: np.ndarray, angle: float) -> np.ndarray:
@@ -274,9 +270,7 @@ def _surfaces(empty: Empty) -> dict[str, Ground]:
     """The true surfaces of sites without a tumulus, by kind of ground."""
     out: dict[str, Ground] = {k: [] for k in GROUNDS}
     for site, spec, (centre, _) in empty:
-        hf = terrain.load_site_heightfield(site / "sim")
-        out[_ground(spec)].append((terrain.Heightfield(hf.x_m, hf.y_m, hf.z_m.astype(float)),
-                                   centre))
+        out[_ground(spec)].append((terrain.load_site_heightfield(site / "sim"), centre))
     return out
 
 
@@ -378,9 +372,9 @@ def judge(measured: dict[str, Any], thresholds: dict[str, float] | None = None
         return {"sites": len(sel), "found": sum(r["found"] for r in sel)}
     return {
         "schema": SCHEMA, "version": VERSION,
-        "filter": measured.get("filter", "plain"),
+        "filter": measured["filter"],
         "place_within_m": measured.get("place_within_m", 0.0),
-        "method": (METHODS[measured.get("filter", "plain")]
+        "method": (METHODS[measured["filter"]]
                    + f"; threshold the {100 * (1 - FALSE_ALARMS):g}th percentile of its null "
                    "per kind of ground"),
         "grids": sorted({t["grid"] for t in measured["tumuli"]}),
