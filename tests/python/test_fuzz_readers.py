@@ -256,7 +256,8 @@ AOI = {"type": "FeatureCollection", "features": [
 
 
 BOUND = {"schema": "mound.verdict_bound", "version": 1, "filter": "plain",
-         "thresholds": {"dem": 5.35, "synthetic": 6.36}, "goal_tumuli": {}}
+         "place_within_m": 0.0, "thresholds": {"dem": 5.35, "synthetic": 6.36},
+         "goal_tumuli": {}}
 
 
 @FUZZ
