@@ -258,3 +258,32 @@ def test_bad_scenes_labels_aois_and_models(tmp_path: Path, learned: dict[str, An
     for args, needle in cases:
         _bad(args, capsys, needle)
     assert not out.exists() and not (tmp_path / "m.json").exists()
+
+
+@pytest.mark.slow
+def test_eval_tells_how_far_each_found_mound_lies_from_its_candidate(
+        tmp_path: Path, learned: dict[str, Any], capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "eval.json"
+    assert mound_main(["scene", "eval", *learned["scenes"], "--labels", str(learned["labels"]),
+                       "--folds", "3", "--json", str(out)]) == 0
+    doc = json.loads(out.read_text())
+    assert doc["schema"] == "mound.scene_eval" and set(doc["kinds"]) == {
+        "paper", "multiscale", "chance"}
+    ms = doc["kinds"]["multiscale"]
+    rows = ms["per_mound"]
+    assert len(rows) == ms["mounds"] == 12
+    assert {r["scene"] for r in rows} == {Path(s).name for s in learned["scenes"]}
+    for r in rows:
+        # An offset exactly when a candidate lies within the found radius (15 m) of it.
+        assert (r["offset_m"] is None) == (r["rank"] is None)
+        if r["rank"] is not None:
+            # The painted mounds' peak sits on the disc (radius 9-13 m), a few metres off
+            # centre towards the bright flank.
+            assert 0 <= r["offset_m"] <= 9.0
+    top5 = [r["offset_m"] for r in rows if r["rank"] is not None and r["rank"] <= 5]
+    o = ms["offset_at_5"]
+    assert o["mounds"] == len(top5) == round(ms["recall_at_5"] * 12) >= 10
+    assert o["median_m"] == pytest.approx(float(np.median(top5)))
+    assert o["max_m"] == max(top5) and o["within_10_m"] == len(top5)
+    assert o["within_2_m"] <= o["within_5_m"] <= o["within_10_m"]
+    assert f"mounds found in the top 5: median {o['median_m']:.1f} m" in capsys.readouterr().out

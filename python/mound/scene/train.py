@@ -265,7 +265,10 @@ def judge_scene(ls: LabelledScene, logit: np.ndarray, grid: scoring.OutGrid,
     for j, (mx, my) in zip(ls.mound_ids, ls.mound_xy, strict=True):
         dist = np.hypot(cxy[:, 0] - mx, cxy[:, 1] - my) if len(cxy) else np.zeros(0)
         first = next((i + 1 for i, dd in enumerate(dist) if dd <= FOUND_RADIUS_M), None)
-        mounds.append({"id": labels[j].id, "rank": first,
+        # How far that candidate lies from the inventory's point (metres): the place a
+        # later stage is told, to within this.
+        offset = None if first is None else round(float(dist[first - 1]), 2)
+        mounds.append({"id": labels[j].id, "rank": first, "offset_m": offset,
                        "visibility": labels[j].props.get("visibility"),
                        "land_use": labels[j].props.get("land_use")})
     recall = {k: (float(np.mean([m["rank"] is not None and int(m["rank"]) <= k
