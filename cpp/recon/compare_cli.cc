@@ -139,6 +139,14 @@ int RunVerdict(const std::vector<std::string>& args) {
     }
     site.Check();
   }
+  // --model sparse | dense | FILE; by default the built-in model of the cloud judged: the
+  // sparse one for points.ply, the dense one for --cloud (densify's dense.ply). A file is
+  // read and checked here, with the other options, before the reconstruction.
+  const std::string model_arg =
+      a.Has("--model") ? a.options.at("--model") : (a.Has("--cloud") ? "dense" : "sparse");
+  const terrain::VerdictModel* built_in = terrain::BuiltInVerdictModel(model_arg);
+  std::optional<terrain::VerdictModel> model_read;
+  if (!built_in && !a.Has("--reference")) model_read = terrain::LoadVerdictModel(model_arg);
   const nlohmann::json recon = LoadRecon(dir + "/recon.json");
   nlohmann::json doc = {{"schema", "mound.verdict"},
                         {"version", 1},
@@ -178,12 +186,7 @@ int RunVerdict(const std::vector<std::string>& args) {
     const std::optional<Eigen::Vector2d> centre = CameraCentre(recon, dir + "/recon.json");
     if (!centre) fail("no registered image");
     site.cameras = CameraCentres(recon, dir + "/recon.json");
-    // --model sparse | dense | FILE; by default the built-in model of the cloud judged:
-    // the sparse one for points.ply, the dense one for --cloud (densify's dense.ply).
-    const std::string model_arg =
-        a.Has("--model") ? a.options.at("--model") : (a.Has("--cloud") ? "dense" : "sparse");
-    const terrain::VerdictModel* built_in = terrain::BuiltInVerdictModel(model_arg);
-    const terrain::VerdictModel model = built_in ? *built_in : terrain::LoadVerdictModel(model_arg);
+    const terrain::VerdictModel& model = built_in ? *built_in : *model_read;
     const std::string model_file = !built_in ? model_arg
                                    : model_arg == "dense"
                                        ? "built-in dense (data/verdict_model_dense.json)"

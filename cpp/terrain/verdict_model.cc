@@ -97,7 +97,7 @@ VerdictModel ParseVerdictModel(const nlohmann::json& doc, const std::string& sou
   if (!doc.is_object()) throw InputError(source + ": expected a JSON object");
   if (!doc.contains("schema") || doc["schema"] != "mound.verdict_model")
     throw InputError(source + ": schema: expected \"mound.verdict_model\"");
-  if (!doc.contains("version") || doc["version"] != 1)
+  if (!doc.contains("version") || !doc["version"].is_number_integer() || doc["version"] != 1)
     throw InputError(source + ": version: expected 1");
   VerdictModel m;
   if (!doc.contains("features") || !doc["features"].is_array())
@@ -123,10 +123,12 @@ VerdictModel ParseVerdictModel(const nlohmann::json& doc, const std::string& sou
   }
   m.index = index;
   const size_t n = m.features.size();
-  const std::string basis = doc.contains("basis") && doc["basis"].is_string()
+  const bool basis_given = doc.contains("basis");
+  const std::string basis = basis_given && doc["basis"].is_string()
                                 ? doc["basis"].get<std::string>()
-                                : "linear";
-  if (doc.contains("basis") && basis != "linear" && basis != "hinge" && basis != "hinge_products")
+                            : basis_given ? ""
+                                          : "linear";
+  if (basis != "linear" && basis != "hinge" && basis != "hinge_products")
     throw InputError(source + ": basis: expected \"linear\", \"hinge\" or \"hinge_products\"");
   m.hinge = basis != "linear";
   if (basis == "hinge_products") {

@@ -1,5 +1,6 @@
 """What the command lines share (`mound`, `python/mission.py`, the stages' verbs): an
-argparse parser whose errors are one line and exit 2, and the parsers of option values."""
+argparse parser whose errors are one line and exit 2, and the parsers of option values
+(the bounds of the numbers are in mound.bounds)."""
 
 from __future__ import annotations
 
@@ -39,3 +40,4 @@ def parse_lat_lon(text: str | None, option: str = "--home") -> tuple[float, floa
     if not (-90 <= lat <= 90 and -180 <= lon <= 180):
         raise InputError(f"{option}: {text} is not a WGS84 latitude, longitude")
     return lat, lon
+

@@ -37,6 +37,21 @@ import numpy as np
 
 from mound import datasets
 from mound.args import Parser, UsageError
+from mound.bounds import (
+    BUDGET_M,
+    FLIGHTS,
+    GRID_SEED,
+    HEIGHT_M,
+    IMAGE_PX,
+    SEED,
+    SIM_SEED,
+    SITE_DIAMETER_M,
+    SPEED_M_S,
+    THREADS,
+    TIME_S,
+    WORKERS,
+    Bound,
+)
 from mound.classify import coarse, statlog
 from mound.classify.model import SCHEMA as MODEL_SCHEMA
 from mound.classify.model import VERSION as MODEL_VERSION
@@ -562,12 +577,12 @@ def cmd_recon_verdict_bound(args: argparse.Namespace) -> int:
 
 
 def cmd_recon_eval_verdict(args: argparse.Namespace) -> int:
-    from mound.jsonio import read_json, write_json
+    from mound.jsonio import write_json
     from mound.recon import verdict_model as vm
+    from mound.recon.model_file import read_verdict_model
 
-    model = read_json(args.model, vm.SCHEMA, vm.VERSION)
-    dense_model = read_json(args.dense_model, vm.SCHEMA, vm.VERSION) if args.dense_model \
-        else model
+    model = read_verdict_model(args.model)
+    dense_model = read_verdict_model(args.dense_model) if args.dense_model else model
     grids = [vm.load_grid(g) for g in args.grids]  # read once: merged and per grid
     # each grid by the model of its cloud; the merged report of the grids --model judges
     models = [dense_model if vm.grid_cloud(g) == "dense" else model for g in args.grids]
@@ -651,6 +666,10 @@ def cmd_sim_figures(args: argparse.Namespace) -> int:
     return 0
 
 
+# The simulator's sizes of pits, trenches and confusers, and their azimuths (m or degrees).
+SIM_SIZE_M = Bound(-1_000, 1_000)
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = Parser(prog="mound", description="mound-survey command line")
     sub = p.add_subparsers(dest="group", required=True, parser_class=Parser)
@@ -664,14 +683,14 @@ def build_parser() -> argparse.ArgumentParser:
     cls = sub.add_parser("classify", help="coarse-search classifier").add_subparsers(
         dest="cmd", required=True, parser_class=Parser)
     b = cls.add_parser("bands", help="held-out comparison of the bands on sat.trn")
-    b.add_argument("--seed", type=int, default=0)
+    b.add_argument("--seed", type=SEED.arg(), default=0)
     b.set_defaults(func=cmd_bands)
     t = cls.add_parser("train", help="train on sat.trn")
     g = t.add_mutually_exclusive_group()
     g.add_argument("--band", type=int, choices=range(4), default=coarse.DEFAULT_BAND)
     g.add_argument("--all", action="store_true", help="all 36 features")
     t.add_argument("--solver", choices=("gd", "lbfgs"), default="gd")
-    t.add_argument("--l2", type=float, default=coarse.DEFAULT_L2)
+    t.add_argument("--l2", type=Bound(0, 1e6).arg(), default=coarse.DEFAULT_L2)
     t.add_argument("--out", required=True)
     t.set_defaults(func=cmd_train)
     e = cls.add_parser("eval", help="evaluate on sat.tst")
@@ -684,9 +703,9 @@ def build_parser() -> argparse.ArgumentParser:
     for name, func in (("make", cmd_field_make), ("standard", cmd_field_standard)):
         m = fld.add_parser(name, help="one field" if name == "make" else "seeds 0-9")
         if name == "make":
-            m.add_argument("--seed", type=int, required=True)
+            m.add_argument("--seed", type=SEED.arg(), required=True)
             m.add_argument("--out", required=True)
-            m.add_argument("--spacing", type=float, default=1.0,
+            m.add_argument("--spacing", type=Bound(0, 100_000, "m", above=True).arg(), default=1.0,
                            help="grid spacing of the sites, m (1: the paper's field)")
             m.add_argument("--origin", help="LAT,LON[,ALT] of home (default: Bin Tepe, "
                            "38.5705,27.9862)")
@@ -696,17 +715,17 @@ def build_parser() -> argparse.ArgumentParser:
         else:
             m.add_argument("--out-dir", required=True)
         m.add_argument("--model", help="classifier JSON (default: train the default band)")
-        m.add_argument("--scan-cost", type=float,
+        m.add_argument("--scan-cost", type=Bound(0, 100_000, "m").arg(),
                        help="node cost per site, m (default 1: the paper's)")
         m.add_argument("--scan-pattern", choices=("raster", "orbit", "both"),
                        help="derive each site's scan cost from this scan (the flight the "
                        "mission flies) and record it, with the take-off/landing climb")
-        m.add_argument("--site-diameter", type=float,
+        m.add_argument("--site-diameter", type=SITE_DIAMETER_M.arg(),
                        help="with --scan-pattern: the scan's scale, m (default 60)")
-        m.add_argument("--altitude", type=float,
+        m.add_argument("--altitude", type=HEIGHT_M.arg(),
                        help="with --scan-pattern: the raster's height, m (default: the "
                        "site diameter)")
-        m.add_argument("--budget", type=float,
+        m.add_argument("--budget", type=BUDGET_M.arg(),
                        help="budget_m written, m (default 120, the paper's; with "
                        "--scan-pattern the aircraft's range, 14,400 m)")
         m.set_defaults(func=func)
@@ -714,13 +733,13 @@ def build_parser() -> argparse.ArgumentParser:
         dest="cmd", required=True, parser_class=Parser)
     ex = plan.add_parser("exact", help="proven optimum: branch-and-cut (SCIP) or HiGHS")
     ex.add_argument("sites")
-    ex.add_argument("budget", nargs="?", type=float, help="overrides budget_m")
-    ex.add_argument("--time-limit", type=float, default=60.0, help="seconds (default 60)")
+    ex.add_argument("budget", nargs="?", type=BUDGET_M.arg(), help="overrides budget_m")
+    ex.add_argument("--time-limit", type=TIME_S.arg(), default=60.0, help="seconds (default 60)")
     ex.add_argument("--solver", choices=("scip", "highs"), default="scip",
                     help="scip: branch-and-cut with GSECs separated in the search, started "
                     "from the ALNS route (default); highs: cut loop around HiGHS's MIP")
     ex.add_argument("--out", help="plan.json (default: stdout)")
-    ex.add_argument("--flights", type=int, default=1,
+    ex.add_argument("--flights", type=FLIGHTS.arg(), default=1,
                     help="K flights (the team orienteering problem; scip only)")
     ex.set_defaults(func=cmd_plan_exact)
 
@@ -731,44 +750,51 @@ def build_parser() -> argparse.ArgumentParser:
     st.add_argument("--mound", choices=("tumulus", "none"), default="tumulus",
                     help="none: the flat control (same ground, texture and flight)")
     st.add_argument("--profile", choices=("conical", "spherical_cap", "drum", "ploughed"))
-    st.add_argument("--diameter", dest="diameter_m", type=float, help="m")
-    st.add_argument("--height", dest="height_m", type=float, help="m")
-    st.add_argument("--erosion", dest="erosion_m", type=float, help="m")
-    st.add_argument("--site-size", dest="size_m", type=float, help="side of the site, m")
-    st.add_argument("--resolution", dest="resolution_m", type=float, help="grid spacing, m")
-    st.add_argument("--pit", type=float, nargs=3, metavar=("RADIUS", "DEPTH", "OFFSET"),
+    st.add_argument("--diameter", dest="diameter_m", type=SITE_DIAMETER_M.arg(), help="m")
+    st.add_argument("--height", dest="height_m", type=Bound(0, 200, "m").arg(), help="m")
+    st.add_argument("--erosion", dest="erosion_m", type=Bound(0, 200, "m").arg(), help="m")
+    st.add_argument("--site-size", dest="size_m", type=Bound(0, 5_000, "m", above=True).arg(),
+                    help="side of the site, m")
+    st.add_argument("--resolution", dest="resolution_m", type=Bound(0.01, 100, "m").arg(),
+                    help="grid spacing, m")
+    st.add_argument("--pit", type=SIM_SIZE_M.arg(), nargs=3, metavar=("RADIUS", "DEPTH", "OFFSET"),
                     help="a looters' pit, m")
-    st.add_argument("--trench", type=float, nargs=3, metavar=("WIDTH", "DEPTH", "AZIMUTH_DEG"),
+    st.add_argument("--trench", type=SIM_SIZE_M.arg(),
+                    nargs=3, metavar=("WIDTH", "DEPTH", "AZIMUTH_DEG"),
                     help="a looters' trench through the top, m")
-    st.add_argument("--offset", type=float, nargs=2, metavar=("EAST_M", "NORTH_M"),
+    st.add_argument("--offset", type=Bound(-5_000, 5_000, "m").arg(),
+                    nargs=2, metavar=("EAST_M", "NORTH_M"),
                     help="the mound's centre off the site centre")
-    st.add_argument("--slope", type=float, nargs=2, metavar=("DEG", "AZIMUTH_DEG"),
+    st.add_argument("--slope", type=Bound(-360, 360, "deg").arg(),
+                    nargs=2, metavar=("DEG", "AZIMUTH_DEG"),
                     help="ground rising towards the azimuth")
     st.add_argument("--dem", nargs=3, metavar=("DEM.tif", "X", "Y"),
                     help="real ground: the DEM's patch centred on X, Y (its CRS)")
     st.add_argument("--confuser", choices=terrain_confusers(),
                     help="something that is not a tumulus, at the site centre (--mound none)")
-    st.add_argument("--confuser-size", type=float, nargs=4, default=(40.0, 10.0, 3.0, 0.0),
+    st.add_argument("--confuser-size", type=SIM_SIZE_M.arg(),
+                    nargs=4, default=(40.0, 10.0, 3.0, 0.0),
                     metavar=("LENGTH", "WIDTH", "HEIGHT", "AZIMUTH_DEG"))
-    st.add_argument("--trees", type=int, default=6, help="crowns in a group of trees")
-    st.add_argument("--scan-diameter", type=float,
+    st.add_argument("--trees", type=Bound(0, 1_000, integer=True).arg(),
+                    default=6, help="crowns in a group of trees")
+    st.add_argument("--scan-diameter", type=SITE_DIAMETER_M.arg(),
                     help="the flight's own scale, m (default: the mound's diameter)")
-    st.add_argument("--seed", type=int, default=1)
+    st.add_argument("--seed", type=SEED.arg(), default=1)
     st.add_argument("--out", required=True)
     st.add_argument("--pattern", choices=("raster", "orbit", "both"), default="both")
-    st.add_argument("--size", type=int, nargs=2, default=(1280, 960), metavar=("W", "H"))
-    st.add_argument("--hfov-deg", type=float, default=70.0)
-    st.add_argument("--distortion", type=float, nargs=5, default=(0, 0, 0, 0, 0),
+    st.add_argument("--size", type=IMAGE_PX.arg(), nargs=2, default=(1280, 960), metavar=("W", "H"))
+    st.add_argument("--hfov-deg", type=Bound(1, 179, "deg").arg(), default=70.0)
+    st.add_argument("--distortion", type=Bound(-10, 10).arg(), nargs=5, default=(0, 0, 0, 0, 0),
                     metavar=("K1", "K2", "P1", "P2", "K3"))
-    st.add_argument("--altitude", type=float, help="raster height above the site datum, m")
-    st.add_argument("--orbit-images", type=int)
-    st.add_argument("--sun", type=float, nargs=2, default=(135.0, 40.0),
+    st.add_argument("--altitude", type=HEIGHT_M.arg(), help="raster height above the site datum, m")
+    st.add_argument("--orbit-images", type=Bound(3, 10_000, integer=True).arg())
+    st.add_argument("--sun", type=Bound(-360, 360, "deg").arg(), nargs=2, default=(135.0, 40.0),
                     metavar=("AZIMUTH_DEG", "ELEVATION_DEG"))
-    st.add_argument("--noise-sigma", type=float, default=1.5, help="sensor noise, DN")
-    st.add_argument("--vignetting", type=float, default=0.15)
-    st.add_argument("--gps-sigma", type=float, nargs=2, default=(1.0, 2.0),
+    st.add_argument("--noise-sigma", type=Bound(0, 255).arg(), default=1.5, help="sensor noise, DN")
+    st.add_argument("--vignetting", type=Bound(0, 1).arg(), default=0.15)
+    st.add_argument("--gps-sigma", type=Bound(0, 1_000, "m").arg(), nargs=2, default=(1.0, 2.0),
                     metavar=("HORIZONTAL_M", "VERTICAL_M"))
-    st.add_argument("--threads", type=int, help="render threads (default: all cores)")
+    st.add_argument("--threads", type=THREADS.arg(), help="render threads (default: all cores)")
     st.add_argument("--figures", action="store_true",
                     help="also write contact_sheet.png and scene_3d.png into --out")
     st.add_argument("--jpeg", action="store_true",
@@ -785,17 +811,18 @@ def build_parser() -> argparse.ArgumentParser:
     sfl.add_argument("--truth", help="also write what each file is (mound.card_truth v1)")
     sfl.add_argument("--start-time", default="2026-06-01T09:00:00",
                      help="take-off of the first flight (camera local time)")
-    sfl.add_argument("--speed", type=float, default=10.0, help="ground speed, m/s")
-    sfl.add_argument("--transit-every-s", type=float, default=10.0,
+    sfl.add_argument("--speed", type=SPEED_M_S.arg(), default=10.0, help="ground speed, m/s")
+    sfl.add_argument("--transit-every-s", type=Bound(0, 3_600, "s").arg(), default=10.0,
                      help="a transit frame every this many seconds between sites (0: none)")
-    sfl.add_argument("--sim-seed", type=int, default=1, help="as the survey's --sim-seed")
-    sfl.add_argument("--image-size", type=int, nargs=2, default=(640, 480),
+    sfl.add_argument("--sim-seed", type=SIM_SEED.arg(),
+                     default=1, help="as the survey's --sim-seed")
+    sfl.add_argument("--image-size", type=IMAGE_PX.arg(), nargs=2, default=(640, 480),
                      metavar=("W", "H"))
     sfl.add_argument("--scan-pattern", choices=("raster", "orbit", "both"), default="raster")
-    sfl.add_argument("--site-diameter", type=float, default=60.0,
+    sfl.add_argument("--site-diameter", type=SITE_DIAMETER_M.arg(), default=60.0,
                      help="as the survey's --site-diameter, m")
-    sfl.add_argument("--threads", type=int, help="render threads (default: all cores)")
-    sfl.add_argument("--scan-factor", type=float, default=1.0,
+    sfl.add_argument("--threads", type=THREADS.arg(), help="render threads (default: all cores)")
+    sfl.add_argument("--scan-factor", type=Bound(1, 100).arg(), default=1.0,
                      help="each site flown with a scan this many times as wide: the card of "
                      "a survey's second looks (PLAN: its second_look/plan.json, --sites its "
                      "sites.json, the factor its second_look/mission.json's scan_factor)")
@@ -828,7 +855,8 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--paper", action="store_true",
                     help="also run the paper's test (--reference) on every site and count "
                     "how often it agrees")
-    ev.add_argument("--paper-sites", type=int, help="at most this many sites for --paper")
+    ev.add_argument("--paper-sites", type=Bound(1, 100_000, integer=True).arg(),
+                    help="at most this many sites for --paper")
     ev.set_defaults(func=cmd_recon_eval_verdict)
     vb = rc.add_parser("verdict-bound", help="the oracle's ceiling: goal tumuli a matched "
                        "filter told their centre, size and profile finds on the true surface at "
@@ -837,7 +865,7 @@ def build_parser() -> argparse.ArgumentParser:
     vb.add_argument("--report", help="report (JSON)")
     vb.add_argument("--thresholds-from", help="judge against this report's thresholds (e.g. "
                     "the training grids') instead of the grids' own null")
-    vb.add_argument("--placements", type=int, default=6,
+    vb.add_argument("--placements", type=Bound(1, 1_000, integer=True).arg(), default=6,
                     help="null placements per site without a tumulus (default 6; the plain "
                     "filter's)")
     vb.add_argument("--whiten", action="store_true",
@@ -847,20 +875,21 @@ def build_parser() -> argparse.ArgumentParser:
                     help="with --whiten: learn the ground's covariance from these grids' "
                     "sites without a tumulus (e.g. the training grids'), the null from the "
                     "grids judged")
-    vb.add_argument("--place-within", type=float, default=0.0, metavar="M",
+    vb.add_argument("--place-within", type=Bound(0, 30, "m").arg(), default=0.0, metavar="M",
                     help="with --whiten: told the place only within M metres (the highest "
                     "output over centres 2 m apart within M of the true one; 0 to 30)")
-    vb.add_argument("--seed", type=int, default=0)
+    vb.add_argument("--seed", type=SEED.arg(), default=0)
     vb.set_defaults(func=cmd_recon_verdict_bound)
     rr = rc.add_parser("rasters", help="DSM, DTM, local relief model, hillshade and "
                        "orthophoto GeoTIFFs (UTM) of a metric mound_recon model")
     rr.add_argument("recon_dir")
     rr.add_argument("--out", required=True, help="output folder")
-    rr.add_argument("--resolution-m", type=float, default=0.25, help="cell size, m")
+    rr.add_argument("--resolution-m", type=Bound(0.01, 100, "m").arg(),
+                    default=0.25, help="cell size, m")
     rr.add_argument("--cloud", help="a PLY cloud in the model's frame instead of points.ply")
-    rr.add_argument("--ground-window-m", type=float, default=80.0,
+    rr.add_argument("--ground-window-m", type=Bound(0, 10_000, "m", above=True).arg(), default=80.0,
                     help="largest window of the ground filter (> the mounds' diameter), m")
-    rr.add_argument("--relief-sigma-m", type=float, default=30.0,
+    rr.add_argument("--relief-sigma-m", type=Bound(0, 10_000, "m", above=True).arg(), default=30.0,
                     help="Gaussian smoothing of the terrain for the relief model, m")
     rr.add_argument("--images", help="the model's images (default: recon.json's images_dir)")
     rr.add_argument("--no-orthophoto", action="store_true", help="skip orthophoto.tif")
@@ -868,15 +897,15 @@ def build_parser() -> argparse.ArgumentParser:
     sg = simp.add_parser("grid", help="sites that look like the field (tumuli of every shape, "
                          "confusers), flown, reconstructed and measured: the verdict's data")
     sg.add_argument("--out", required=True, help="the grid's folder (resumable)")
-    sg.add_argument("--sites", type=int, default=200)
-    sg.add_argument("--seed", type=int, default=1, help="another seed: another grid")
-    sg.add_argument("--size", type=int, nargs=2, default=(320, 240), metavar=("W", "H"),
+    sg.add_argument("--sites", type=Bound(1, 99_999, integer=True).arg(), default=200)
+    sg.add_argument("--seed", type=GRID_SEED.arg(), default=1, help="another seed: another grid")
+    sg.add_argument("--size", type=IMAGE_PX.arg(), nargs=2, default=(320, 240), metavar=("W", "H"),
                     help="image size (small: the grid runs in minutes)")
     sg.add_argument("--dem", help="a DEM for real terrain patches (default: the 1 m laser "
                     "DEM in $MOUND_DATA/dem or ../shared/data/dem, an error when neither "
                     "holds it); none: no terrain patches (other draws)")
-    sg.add_argument("--workers", type=int, default=2, help="sites at once")
-    sg.add_argument("--threads", type=int, default=1, help="threads per site")
+    sg.add_argument("--workers", type=WORKERS.arg(), default=2, help="sites at once")
+    sg.add_argument("--threads", type=THREADS.arg(), default=1, help="threads per site")
     sg.add_argument("--pattern", choices=("raster", "both"), default="raster",
                     help="raster: the survey's scan (default); both: the full 40-image "
                     "flight (the raster and an oblique orbit)")
@@ -900,7 +929,8 @@ def build_parser() -> argparse.ArgumentParser:
     sf = simp.add_parser("figures", help="contact sheet and 3-D plot of a simulated site")
     sf.add_argument("site")
     sf.add_argument("--out-dir", help="default: the site directory")
-    sf.add_argument("--dpi-scale", type=float, default=1.0, help="smaller files below 1")
+    sf.add_argument("--dpi-scale", type=Bound(0.05, 10).arg(),
+                    default=1.0, help="smaller files below 1")
     sf.set_defaults(func=cmd_sim_figures)
 
     uav_cli.add_parser(sub, Parser)
@@ -910,15 +940,15 @@ def build_parser() -> argparse.ArgumentParser:
     bench = sub.add_parser("bench", help="benchmarks and reproductions").add_subparsers(
         dest="cmd", required=True, parser_class=Parser)
     t1 = bench.add_parser("table1", help="the paper's Table I on the ten standard fields")
-    t1.add_argument("--scan-cost", type=float, nargs="+", default=[1.0],
+    t1.add_argument("--scan-cost", type=Bound(0, 100_000, "m").arg(), nargs="+", default=[1.0],
                     help="node cost(s) per site in m; the first is plotted")
-    t1.add_argument("--exact-time-limit", type=float, default=0.0,
+    t1.add_argument("--exact-time-limit", type=Bound(0, 7 * 24 * 3600, "s").arg(), default=0.0,
                     help="seconds per field and budget for the exact optimum (SCIP "
                     "branch-and-cut; 0: skip)")
     t1.add_argument("--paper", action="store_true",
                     help="the paper's setting: the classifier stopped early where the ten "
                     "fields' average total reward is the paper's 61.37 bits")
-    t1.add_argument("--budgets", type=float, nargs="+", default=None,
+    t1.add_argument("--budgets", type=BUDGET_M.arg(), nargs="+", default=None,
                     help="budgets in m (default 40 80 120 160 200)")
     t1.add_argument("--out-dir", default="runs/table1")
     t1.set_defaults(func=cmd_table1)

@@ -12,8 +12,12 @@
 
 from __future__ import annotations
 
+import contextlib
+import logging
 import signal
 import sys
+import warnings
+from collections.abc import Iterator
 
 EXIT_OK = 0
 EXIT_INTERNAL = 1
@@ -97,3 +101,20 @@ def exit_for(prog: str, e: Exception) -> int:
         return EXIT_NO_RESULT
     print(f"{prog}: internal error (a bug, please report): {e!r}", file=sys.stderr)
     return EXIT_INTERNAL
+
+
+@contextlib.contextmanager
+def library_warnings(log: logging.Logger) -> Iterator[None]:
+    """The warnings of the libraries called in the block (rasterio's NotGeoreferencedWarning,
+    GDAL's odd tags): issued as usual when the block succeeds; when it raises, only logged,
+    so that stderr gets the error's one line."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            yield
+        except BaseException:
+            for w in caught:
+                log.info("%s: %s", w.category.__name__, w.message)
+            raise
+    for w in caught:
+        warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)

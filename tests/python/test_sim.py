@@ -165,14 +165,14 @@ def test_same_seed_same_images_other_seed_other_images(tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize("argv, message", [
-    (["--diameter", "-3"], "diameter_m must be > 0"),
+    (["--diameter", "-3"], "--diameter: expected a number in (0, 2000] m"),
     (["--height", "0"], "height_m must be > 0"),
     (["--altitude", "8"], "below the ground"),
-    (["--hfov-deg", "190"], "field of view"),
+    (["--hfov-deg", "190"], "--hfov-deg: expected a number in [1, 179] deg"),
     (["--vignetting", "1.5"], "vignetting"),
-    (["--noise-sigma", "-1"], "noise_sigma"),
-    (["--size", "0", "240"], "image size"),
-    (["--orbit-images", "2"], "at least 3 images"),
+    (["--noise-sigma", "-1"], "--noise-sigma"),
+    (["--size", "0", "240"], "--size: expected an integer 16"),
+    (["--orbit-images", "2"], "--orbit-images: expected an integer 3"),
     (["--pit", "5", "1", "40"], "looters' pit"),
 ])
 def test_impossible_parameters_are_rejected(tmp_path: Path, capsys: pytest.CaptureFixture[str],

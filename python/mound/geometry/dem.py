@@ -19,13 +19,18 @@ Only the window around the points of interest (`around`, plus a margin) is read.
 
 from __future__ import annotations
 
+import contextlib
+import functools
+import logging
 import math
+import warnings
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from mound.errors import InputError
+from mound.errors import InputError, library_warnings
 from mound.geometry.geodesy import Origin, enu_to_geodetic
 
 VERTICALS = ("ellipsoid", "egm96", "egm2008")
@@ -33,6 +38,10 @@ VERTICALS = ("ellipsoid", "egm96", "egm2008")
 _VERTICAL_CRS = {"ellipsoid": "EPSG:4979", "egm96": "EPSG:4326+5773",
                  "egm2008": "EPSG:4326+3855"}
 MAX_WINDOW_PX = 64_000_000  # 512 MB of float64
+MAX_COORD = 1e9             # |coordinate| of a DEM's corners in its CRS (metres or degrees)
+MAX_PIXEL_M = 10_000.0      # a DEM pixel on the ground (SRTM's are 30-90 m)
+MAX_MARGIN_M = 100_000.0    # the margin read around the points of interest
+LOG = logging.getLogger(__name__)
 
 
 def _unreadable(path: str, e: Exception) -> InputError:
@@ -40,45 +49,124 @@ def _unreadable(path: str, e: Exception) -> InputError:
     return InputError(f"{path}: not a readable DEM ({msg})")
 
 
-def _horizontal(crs: Any) -> Any:
-    """The horizontal part of a (maybe compound) pyproj CRS."""
-    return crs.to_2d() if crs.is_compound else crs
+# Where PROJ's grids are looked for besides pyproj's own folder (whose wheel ships none):
+# $PROJ_DATA's folders, then Debian's proj-data (/usr/share/proj: egm96_15.gtx, which PROJ
+# knows as us_nga_egm96_15.tif). Without the grid PROJ would return a zero geoid height
+# silently; vertical_shift refuses instead.
+PROJ_GRID_DIRS = ("/usr/share/proj",)
 
 
-def _file_crs(path: str) -> Any:
-    """The DEM's own CRS (pyproj), from the file; InputError when it states none or the
-    file is no raster."""
+@functools.cache
+def use_proj_grids() -> tuple[str, ...]:
+    """Adds the folders holding PROJ's grids to pyproj's search path (once); the folders
+    added."""
+    import os
+
+    import pyproj
+
+    added = []
+    extra = os.environ.get("PROJ_DATA", "").split(os.pathsep)
+    for d in [*extra, *PROJ_GRID_DIRS]:
+        if d and os.path.isdir(d) and d not in added:
+            pyproj.datadir.append_data_dir(d)
+            added.append(d)
+    return tuple(added)
+
+
+@contextlib.contextmanager
+def _opened(path: str) -> Iterator[Any]:
+    """rasterio.open(path): its errors InputError naming the file; the libraries' warnings
+    (a missing geotransform, odd tags) logged when the DEM is refused."""
     import rasterio
-    from pyproj import CRS
     from rasterio.errors import RasterioError
 
+    with library_warnings(LOG):
+        try:
+            with rasterio.open(path) as ds:
+                yield ds
+        except RasterioError as e:
+            raise _unreadable(path, e) from None
+
+
+@dataclass(frozen=True)
+class Georef:
+    """A DEM's position on the earth, checked: its CRS (pyproj), geotransform (file pixel
+    corners -> CRS) and the transformers to and from WGS84 (horizontal parts)."""
+
+    crs: Any
+    transform: Any
+    to_dem: Any      # lon/lat -> the DEM's CRS
+    to_lonlat: Any   # the DEM's CRS -> lon/lat
+
+
+def georef(ds: Any, path: str) -> Georef:
+    """The open dataset's CRS and geotransform, each checked: InputError naming the file
+    and what is wrong (no CRS, one PROJ cannot read or relate to WGS84, no geotransform, a
+    pixel size or tie point that is not finite, a degenerate one)."""
+    from pyproj import CRS, Transformer
+    from pyproj.exceptions import CRSError, ProjError
+
+    if ds.crs is None:
+        raise InputError(f"{path}: the DEM states no CRS")
     try:
-        with rasterio.open(path) as ds:
-            if ds.crs is None:
-                raise InputError(f"{path}: the DEM states no CRS")
-            return CRS.from_user_input(ds.crs.to_wkt())
-    except RasterioError as e:
-        raise _unreadable(path, e) from None
-
-
-def _file_vertical(crs: Any) -> str | None:
-    """The vertical reference a compound CRS states, if it is one we know."""
+        crs = CRS.from_user_input(ds.crs.to_wkt())
+    except (CRSError, ProjError) as e:
+        raise InputError(f"{path}: the DEM's CRS is not one PROJ reads "
+                         f"({' '.join(str(e).split())[:120]})") from None
+    tf = ds.transform
+    if tf.is_identity:
+        raise InputError(f"{path}: the DEM has no geotransform (pixel positions unknown)")
+    scale = (tf.a, tf.b, tf.d, tf.e)
+    if not all(math.isfinite(v) for v in scale):
+        raise InputError(f"{path}: geotransform: the pixel size is not finite {scale}")
+    if not (math.isfinite(tf.c) and math.isfinite(tf.f)):
+        raise InputError(f"{path}: geotransform: the tie point is not finite ({tf.c}, {tf.f})")
+    if not (abs(tf.c) <= MAX_COORD and abs(tf.f) <= MAX_COORD
+            and max(abs(v) for v in scale) * max(ds.width, ds.height) <= MAX_COORD):
+        raise InputError(f"{path}: geotransform: the DEM reaches beyond {MAX_COORD:g} units "
+                         f"of its CRS (tie point ({tf.c:g}, {tf.f:g}), pixel {scale})")
+    if not abs(tf.a * tf.e - tf.b * tf.d) >= 1e-18:
+        raise InputError(f"{path}: geotransform: degenerate (pixel size {scale})")
     try:
-        from pyproj import CRS
+        to_dem = Transformer.from_crs(CRS("EPSG:4326"), _horizontal(crs), always_xy=True)
+        to_lonlat = Transformer.from_crs(_horizontal(crs), CRS("EPSG:4326"), always_xy=True)
+    except (CRSError, ProjError) as e:
+        raise InputError(f"{path}: PROJ cannot relate the DEM's CRS ({crs.name}) to WGS84 "
+                         f"({' '.join(str(e).split())[:100]})") from None
+    return Georef(crs, tf, to_dem, to_lonlat)
 
-        c = CRS.from_user_input(crs.to_wkt())
-    except Exception:
+
+def _horizontal(crs: Any) -> Any:
+    """The horizontal part of a (maybe compound) pyproj CRS."""
+    return crs.to_2d() if crs.is_compound or len(crs.axis_info) == 3 else crs
+
+
+def _file_georef(path: str) -> Georef:
+    """The DEM's own CRS and geotransform, checked (InputError when the file is no raster
+    or states no usable position)."""
+    with _opened(path) as ds:
+        return georef(ds, path)
+
+
+def file_vertical(crs: Any) -> str | None:
+    """What the heights of a DEM with this CRS are above, as far as the CRS says: the
+    vertical part of a compound CRS (egm96, egm2008, "other:NAME"), "ellipsoid" for a 3-D
+    geographic or projected CRS (its third axis the ellipsoidal height), else None. The
+    compound CRS is read first: EPSG:4326+5773 is also "geographic" with three axes, and
+    its heights are EGM96 ones."""
+    if crs.is_compound:
+        for sub in crs.sub_crs_list:
+            if sub.is_vertical:
+                code = sub.to_epsg()
+                name = sub.name.upper()
+                if code == 5773 or "EGM96" in name:
+                    return "egm96"
+                if code == 3855 or "EGM2008" in name:
+                    return "egm2008"
+                return "other:" + sub.name
         return None
-    if c.is_geographic and len(c.axis_info) == 3:
+    if len(crs.axis_info) == 3 and (crs.is_geographic or crs.is_projected):
         return "ellipsoid"
-    for sub in c.sub_crs_list:
-        if sub.is_vertical:
-            name = sub.name.upper()
-            if "EGM96" in name:
-                return "egm96"
-            if "EGM2008" in name:
-                return "egm2008"
-            return "other:" + sub.name
     return None
 
 
@@ -88,10 +176,9 @@ def vertical_shift(vertical: str, lon: np.ndarray, lat: np.ndarray, h: np.ndarra
     InputError if PROJ lacks them."""
     if vertical == "egm96":
         return h
-    import warnings
-
     from pyproj.transformer import TransformerGroup
 
+    use_proj_grids()
     with warnings.catch_warnings():  # the missing grid is reported below, as an error
         warnings.simplefilter("ignore", UserWarning)
         group = TransformerGroup(_VERTICAL_CRS[vertical], _VERTICAL_CRS["egm96"],
@@ -101,8 +188,8 @@ def vertical_shift(vertical: str, lon: np.ndarray, lat: np.ndarray, h: np.ndarra
                         if not g.available}) or ["us_nga_egm96_15.tif"]
         raise InputError(
             f"{path}: heights above the {vertical} need PROJ's geoid grid ({', '.join(grids)}) "
-            f"to become AMSL, and it is not installed (projsync --file {grids[0]}); or give a "
-            "DEM in EGM96 heights (--dem-vertical egm96)")
+            f"to become AMSL, and it is not installed (projsync --file {grids[0]}, or "
+            "Debian's proj-data for EGM96); or give a DEM in EGM96 heights")
     _, _, out = group.transformers[0].transform(lon, lat, h)
     out = np.asarray(out, dtype=float)
     if not np.all(np.isfinite(out)):
@@ -131,62 +218,53 @@ class Dem:
         """Reads the DEM window holding the ENU points `around` (n, 2) plus `margin_m`
         (the whole file when None). `vertical` (ellipsoid, egm96, egm2008) says what the
         heights are above; None: what the file's compound CRS says, else InputError."""
-        import rasterio
-        from pyproj import CRS, Transformer
-        from rasterio.errors import RasterioError
         from rasterio.windows import Window
 
         if vertical is not None and vertical not in VERTICALS:
             raise InputError(f"--dem-vertical: expected one of {', '.join(VERTICALS)}, "
                              f"got {vertical!r}")
-        try:
-            with rasterio.open(path) as ds:
-                if ds.count != 1:
-                    raise InputError(f"{path}: a DEM has one band, this file has {ds.count}")
-                if ds.crs is None:
-                    raise InputError(f"{path}: the DEM states no CRS")
-                crs = CRS.from_user_input(ds.crs.to_wkt())
-                stated = _file_vertical(ds.crs)
-                if vertical is None:
-                    if stated is None or stated.startswith("other:"):
-                        what = stated[6:] if stated else "no vertical datum"
-                        raise InputError(
-                            f"{path}: the DEM's CRS states {what}; say what its heights are "
-                            "above with --dem-vertical ellipsoid|egm96|egm2008")
-                    vertical = stated
-                elif stated in VERTICALS and stated != vertical:
-                    raise InputError(f"{path}: the file says its heights are {stated} heights, "
-                                     f"--dem-vertical says {vertical}")
-                tf = ds.transform
-                if abs(tf.a * tf.e - tf.b * tf.d) < 1e-18:
-                    raise InputError(f"{path}: degenerate geotransform")
-                to_dem = Transformer.from_crs(CRS("EPSG:4326"), _horizontal(crs), always_xy=True)
-                to_lonlat = Transformer.from_crs(_horizontal(crs), CRS("EPSG:4326"),
-                                                 always_xy=True)
-                inverse = ~tf
-                c0, r0, c1, r1 = 0, 0, ds.width, ds.height
-                if around is not None:
-                    pts = np.asarray(around, dtype=float).reshape(-1, 2)
-                    ext = np.array([[-1, -1], [-1, 1], [1, -1], [1, 1]]) * margin_m
-                    corners = (pts[:, None, :] + ext[None]).reshape(-1, 2)
-                    col, row = _to_pixel(corners, origin, to_dem, inverse, path)
-                    c0 = max(0, int(math.floor(col.min())) - 2)
-                    r0 = max(0, int(math.floor(row.min())) - 2)
-                    c1 = min(ds.width, int(math.ceil(col.max())) + 3)
-                    r1 = min(ds.height, int(math.ceil(row.max())) + 3)
-                    if c0 >= c1 or r0 >= r1:
-                        raise InputError(f"{path}: the sites lie off the DEM")
-                if (c1 - c0) * (r1 - r0) > MAX_WINDOW_PX:
-                    raise InputError(f"{path}: the area needed is {c1 - c0} x {r1 - r0} px, "
-                                     f"more than {MAX_WINDOW_PX:,} (a coarser DEM, please)")
-                with np.errstate(invalid="ignore", over="ignore"):  # checked below
-                    z = ds.read(1, window=Window(c0, r0, c1 - c0, r1 - r0)).astype(np.float64)
-                nodata = ds.nodata
-                mid_c, mid_r = (c0 + c1) / 2, (r0 + r1) / 2
-                pixel_m = _pixel_size_m(tf, mid_c, mid_r, to_lonlat, origin)
-                name = crs.name
-        except RasterioError as e:
-            raise _unreadable(path, e) from None
+        with _opened(path) as ds:
+            if ds.count != 1:
+                raise InputError(f"{path}: a DEM has one band, this file has {ds.count}")
+            g = georef(ds, path)
+            crs, tf, to_dem, to_lonlat = g.crs, g.transform, g.to_dem, g.to_lonlat
+            stated = file_vertical(crs)
+            if vertical is None:
+                if stated is None or stated.startswith("other:"):
+                    what = stated[6:] if stated else "no vertical datum"
+                    raise InputError(
+                        f"{path}: the DEM's CRS states {what}; say what its heights are "
+                        "above with --dem-vertical ellipsoid|egm96|egm2008")
+                vertical = stated
+            elif stated in VERTICALS and stated != vertical:
+                raise InputError(f"{path}: the file says its heights are {stated} heights, "
+                                 f"--dem-vertical says {vertical}")
+            inverse = ~tf
+            c0, r0, c1, r1 = 0, 0, ds.width, ds.height
+            if around is not None:
+                pts = np.asarray(around, dtype=float).reshape(-1, 2)
+                if not (np.all(np.isfinite(pts)) and math.isfinite(margin_m)
+                        and 0 <= margin_m <= MAX_MARGIN_M):
+                    raise InputError(f"{path}: the area to read is not a finite one "
+                                     f"(margin {margin_m:g} m)")
+                ext = np.array([[-1, -1], [-1, 1], [1, -1], [1, 1]]) * margin_m
+                corners = (pts[:, None, :] + ext[None]).reshape(-1, 2)
+                col, row = _to_pixel(corners, origin, to_dem, inverse, path)
+                c0 = max(0, int(math.floor(col.min())) - 2)
+                r0 = max(0, int(math.floor(row.min())) - 2)
+                c1 = min(ds.width, int(math.ceil(col.max())) + 3)
+                r1 = min(ds.height, int(math.ceil(row.max())) + 3)
+                if c0 >= c1 or r0 >= r1:
+                    raise InputError(f"{path}: the sites lie off the DEM")
+            if (c1 - c0) * (r1 - r0) > MAX_WINDOW_PX:
+                raise InputError(f"{path}: the area needed is {c1 - c0} x {r1 - r0} px, "
+                                 f"more than {MAX_WINDOW_PX:,} (a coarser DEM, please)")
+            with np.errstate(invalid="ignore", over="ignore"):  # checked below
+                z = ds.read(1, window=Window(c0, r0, c1 - c0, r1 - r0)).astype(np.float64)
+            nodata = ds.nodata
+            mid_c, mid_r = (c0 + c1) / 2, (r0 + r1) / 2
+            pixel_m = _pixel_size_m(tf, mid_c, mid_r, to_lonlat, origin, path)
+            name = crs.name
         bad = ~np.isfinite(z)
         if nodata is not None and math.isfinite(nodata):
             bad |= z == nodata
@@ -206,11 +284,9 @@ class Dem:
     def at(cls, path: str, x: float, y: float, vertical: str | None = None,
            margin_m: float = 200.0) -> Dem:
         """The DEM around (x, y) given in its own CRS, with the ENU origin there."""
-        from pyproj import CRS, Transformer
-
-        to_ll = Transformer.from_crs(_horizontal(_file_crs(path)), CRS("EPSG:4326"),
-                                     always_xy=True)
-        lon, lat = to_ll.transform(x, y)
+        if not (math.isfinite(x) and math.isfinite(y)):
+            raise InputError(f"{path}: ({x:g}, {y:g}) is not a place in the DEM's CRS")
+        lon, lat = _file_georef(path).to_lonlat.transform(x, y)
         if not (math.isfinite(lon) and math.isfinite(lat) and abs(lat) <= 90):
             raise InputError(f"{path}: ({x:g}, {y:g}) is not a place in the DEM's CRS")
         return cls.open(path, Origin(float(lat), float(lon)), vertical,
@@ -332,10 +408,7 @@ class Dem:
 
 def lonlat_to_crs(path: str, lon: float, lat: float) -> tuple[float, float]:
     """A WGS84 point in the DEM's own CRS."""
-    from pyproj import CRS, Transformer
-
-    t = Transformer.from_crs(CRS("EPSG:4326"), _horizontal(_file_crs(path)), always_xy=True)
-    x, y = t.transform(float(lon), float(lat))
+    x, y = _file_georef(path).to_dem.transform(float(lon), float(lat))
     return float(x), float(y)
 
 
@@ -356,7 +429,7 @@ def _to_pixel(xy: np.ndarray, origin: Origin, to_dem: Any, inverse: Any,
 
 
 def _pixel_size_m(tf: Any, col: float, row: float, to_lonlat: Any,
-                  origin: Origin) -> tuple[float, float]:
+                  origin: Origin, path: str) -> tuple[float, float]:
     """A pixel's extent on the ground along columns and rows, metres (through PROJ and
     the ENU frame, so geographic DEMs in degrees are measured too)."""
     from mound.geometry.geodesy import geodetic_to_enu
@@ -366,6 +439,7 @@ def _pixel_size_m(tf: Any, col: float, row: float, to_lonlat: Any,
     enu = geodetic_to_enu(origin, np.column_stack([lat, lon, np.zeros(3)]))
     dx = float(np.linalg.norm(enu[1, :2] - enu[0, :2]))
     dy = float(np.linalg.norm(enu[2, :2] - enu[0, :2]))
-    if not (dx > 0 and dy > 0):
-        raise InputError("DEM: zero pixel size")
+    if not (0 < dx <= MAX_PIXEL_M and 0 < dy <= MAX_PIXEL_M):
+        raise InputError(f"{path}: geotransform: a pixel is {dx:g} x {dy:g} m on the ground "
+                         f"(a DEM's is in (0, {MAX_PIXEL_M:g}] m)")
     return dx, dy

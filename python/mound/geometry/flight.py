@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from mound.bounds import HEIGHT_M, IMAGE_PX, SITE_DIAMETER_M, Bound
 from mound.errors import InputError
 from mound.geometry.camera import Camera, Pose
 
@@ -116,6 +117,16 @@ class FlightLayout:
         return {f.name: getattr(self, f.name) for f in fields(FlightLayout)}
 
 
+# The numbers of a scan and their bounds (the scan of a plan or sites file is the user's).
+SCAN_NUMBERS = {
+    "scale_m": SITE_DIAMETER_M, "width_px": IMAGE_PX, "height_px": IMAGE_PX,
+    "hfov_rad": Bound(0, 3.1, "rad", above=True), "raster_altitude_m": HEIGHT_M,
+    "raster_area_m": SITE_DIAMETER_M, "front_overlap": Bound(0, 0.95),
+    "side_overlap": Bound(0, 0.95), "orbit_radius_m": SITE_DIAMETER_M,
+    "orbit_altitude_m": HEIGHT_M, "orbit_images": Bound(3, 1_000, integer=True),
+    "target_height_m": Bound(-1_000, 1_000, "m"), "transit_altitude_m": HEIGHT_M}
+
+
 @dataclass(frozen=True)
 class ScanSpec(FlightLayout):
     """How one site is scanned: the layout scaled to `scale_m` (the site diameter D), the
@@ -133,12 +144,11 @@ class ScanSpec(FlightLayout):
     def validate(self) -> None:
         _require(self.pattern in PATTERNS,
                  f"scan: pattern must be one of {PATTERNS}, got {self.pattern!r}")
-        _require(math.isfinite(self.scale_m) and self.scale_m > 0, "scan: the site scale "
-                 "(diameter) must be > 0 m")
+        for name, bound in SCAN_NUMBERS.items():  # None: scaled to the site
+            if getattr(self, name) is not None:
+                bound.check(getattr(self, name), f"scan.{name}")
         _require(len(self.dist) == 5 and all(math.isfinite(d) for d in self.dist),
                  "scan: distortion needs 5 finite coefficients k1 k2 p1 p2 k3")
-        _require(self.transit_altitude_m is None or self.transit_altitude_m > 0,
-                 "scan: transit_altitude_m must be > 0")
 
     def shots(self) -> list[tuple[str, Shot]]:
         """The camera poses of the scan, labelled by pattern, relative to the site centre."""

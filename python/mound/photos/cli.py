@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from mound.photos.sort import SORT_NUMBERS
+
 
 def cmd_sort(args: argparse.Namespace) -> int:
     from mound.photos.sort import SortSpec, sort_card
@@ -30,14 +32,14 @@ def add_parser(sub: Any, parser_class: type) -> None:
     src.add_argument("--plan", help="plan.json of the flights (their sites and scan)")
     src.add_argument("--sites", help="a mound.sites document")
     s.add_argument("--out", required=True, help="folder: photos.json and <site id>/")
-    s.add_argument("--site-diameter", type=float, default=60.0,
+    s.add_argument("--site-diameter", type=SORT_NUMBERS["site_diameter_m"][1].arg(), default=60.0,
                    help="the scan's scale where the plan has no scan, m (default 60)")
-    s.add_argument("--margin-m", type=float, default=10.0,
+    s.add_argument("--margin-m", type=SORT_NUMBERS["margin_m"][1].arg(), default=10.0,
                    help="GPS error allowed around a scan area, m (default 10)")
-    s.add_argument("--max-gap-h", type=float, default=6.0,
+    s.add_argument("--max-gap-h", type=SORT_NUMBERS["max_gap_h"][1].arg(), default=6.0,
                    help="photos this many hours from the card's median time are another "
                    "flight's (default 6)")
-    s.add_argument("--blur-ratio", type=float, default=0.3,
+    s.add_argument("--blur-ratio", type=SORT_NUMBERS["blur_ratio"][1].arg(), default=0.3,
                    help="blurred: sharpness below this share of the site's median "
                    "(default 0.3)")
     s.add_argument("--copy", action="store_true", help="copy the photos instead of linking")

@@ -35,7 +35,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import math
 import os
 import shutil
 from dataclasses import dataclass
@@ -46,6 +45,7 @@ from typing import Any
 import numpy as np
 
 from mound import native
+from mound.bounds import SITE_DIAMETER_M, Bound
 from mound.errors import InputError
 from mound.geometry.flight import ScanSpec
 from mound.geometry.geodesy import Origin, geodetic_to_enu
@@ -54,6 +54,15 @@ from mound.jsonio import parse_json, read_json, read_text, write_json
 SCHEMA = "mound.photos"
 VERSION = 1
 MIN_PHOTOS = 8   # fewer than this: the site is reported, not reconstructed
+
+
+# The numbers of a SortSpec: the flag that gives each, and its bound.
+SORT_NUMBERS = {
+    "site_diameter_m": ("--site-diameter", SITE_DIAMETER_M),
+    "margin_m": ("--margin-m", Bound(0, 1_000, "m")),
+    "transit_margin_m": ("transit_margin_m", Bound(0, 10_000, "m")),
+    "max_gap_h": ("--max-gap-h", Bound(0, 10_000, "h", above=True)),
+    "blur_ratio": ("--blur-ratio", Bound(0, 1))}
 
 
 @dataclass(frozen=True)
@@ -66,12 +75,10 @@ class SortSpec:
     copy: bool = False
 
     def validate(self) -> None:
-        for name in ("site_diameter_m", "margin_m", "transit_margin_m", "max_gap_h",
-                     "blur_ratio"):
-            v = getattr(self, name)
-            if not (math.isfinite(v) and v >= 0) or (name == "site_diameter_m" and v <= 0):
-                raise InputError(f"--{name.replace('_', '-')}: expected a positive number, "
-                                 f"got {v}")
+        """UsageError naming the flag (as `mound photos sort` spells it) of a value out of
+        its bound (NaN and inf included)."""
+        for name, (flag, bound) in SORT_NUMBERS.items():
+            bound.check(getattr(self, name), flag)
 
 
 @dataclass

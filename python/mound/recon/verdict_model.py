@@ -238,11 +238,11 @@ def product_pairs(names: list[str]) -> Pairs:
 
 
 def expand(z: np.ndarray, basis: str, z_clip: float | None = None,
-           pairs: Pairs = ()) -> np.ndarray:
+           pairs: Pairs = (), product_clip: float = PRODUCT_CLIP) -> np.ndarray:
     """The basis on standardised features, each first bounded to [-z_clip, z_clip] when
     given: `linear` z itself; `hinge` z, max(z - 1, 0) and max(-z - 1, 0) per feature (a
     piecewise-linear response, still a logistic regression); `hinge_products` that and, per
-    pair (i, j), z_i z_j with each factor bounded to +-PRODUCT_CLIP."""
+    pair (i, j), z_i z_j with each factor bounded to +-product_clip."""
     if z_clip is not None:
         z = np.clip(z, -z_clip, z_clip)
     if basis == "linear":
@@ -251,7 +251,7 @@ def expand(z: np.ndarray, basis: str, z_clip: float | None = None,
         return hinge_basis(z)
     if basis != "hinge_products" or not pairs:
         raise ValueError(f"expand: basis {basis!r} (hinge_products needs pairs)")
-    zc = np.clip(z, -PRODUCT_CLIP, PRODUCT_CLIP)
+    zc = np.clip(z, -product_clip, product_clip)
     a, b = np.array(pairs).T
     return np.hstack([hinge_basis(z), zc[:, a] * zc[:, b]])
 
@@ -673,26 +673,16 @@ def _second_look_rule(u1: np.ndarray, u2: np.ndarray, thr: float,
 
 def probability(model: dict[str, Any], rows: list[dict[str, Any]]) -> np.ndarray:
     """p(mound) of each measured row: the same formula as the C++ VerdictModel (the highest
-    over its judged rises; p_no_rise without one)."""
+    over its judged rises; p_no_rise without one). `model` is valid (model_file's reader,
+    or train's own)."""
     names = model["features"]
     mean, std = np.array(model["mean"]), np.array(model["std"])
     w = np.array(model["weights"])
     basis = model.get("basis", "linear")
     z_clip = model.get("z_clip")
-    pairs = tuple((names.index(i), names.index(j)) for i, j in model.get("products", [])
-                  if i in names and j in names)
-    if basis == "hinge_products" and (not pairs or len(pairs) != len(model.get("products") or [])):
-        raise InputError("verdict model: products: expected pairs of the model's features")
-    if basis == "hinge_products" and model.get("product_clip") != PRODUCT_CLIP:
-        raise InputError(f"verdict model: product_clip: expected {PRODUCT_CLIP}")
+    pairs = tuple((names.index(i), names.index(j)) for i, j in model.get("products", []))
+    clip = float(model.get("product_clip", PRODUCT_CLIP))
     cal = model.get("calibration")
-    if cal is not None and not (
-            isinstance(cal, dict) and cal.get("method") == "beta"
-            and all(isinstance(cal.get(x), int | float) and not isinstance(cal[x], bool)
-                    and math.isfinite(cal[x]) for x in "abc") and cal["a"] >= 0 and cal["b"] >= 0
-            and cal["a"] + cal["b"] > 0):
-        raise InputError("verdict model: calibration: expected {\"method\": \"beta\", \"a\", "
-                         "\"b\", \"c\"} with a, b >= 0 and a + b > 0")
     out = np.empty(len(rows))
     for k, r in enumerate(rows):
         rises = r.get("rises") or []
@@ -701,7 +691,7 @@ def probability(model: dict[str, Any], rows: list[dict[str, Any]]) -> np.ndarray
             continue
         f = np.array([[float(q["features"][n]) for n in names] for q in rises])
         out[k] = expit(_calibrated(model["bias"] + float(np.max(
-            expand((f - mean) / std, basis, z_clip, pairs) @ w)), cal))
+            expand((f - mean) / std, basis, z_clip, pairs, clip) @ w)), cal))
     return out
 
 

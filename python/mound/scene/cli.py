@@ -19,6 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from mound.args import parse_lat_lon, parse_names
+from mound.bounds import CANDIDATES, SEED, THREADS, Bound
 from mound.errors import InputError
 from mound.scene import workflow
 
@@ -86,6 +87,10 @@ def cmd_eval(args: argparse.Namespace) -> int:
     return 0
 
 
+FOLDS = Bound(2, 100, integer=True)
+RESAMPLE_M = Bound(0, 1_000, "m", above=True)
+
+
 def add_parser(sub: Any, parser_class: Any) -> None:
     sc = sub.add_parser("scene", help="coarse search on satellite scenes (GeoTIFF)"
                         ).add_subparsers(dest="cmd", required=True, parser_class=parser_class)
@@ -94,7 +99,7 @@ def add_parser(sub: Any, parser_class: Any) -> None:
     def common(p: argparse.ArgumentParser) -> None:
         p.add_argument("--band-names", help="names of all the file's bands in order, e.g. "
                        "blue,green,red,nir (default: the file's band descriptions)")
-        p.add_argument("--threads", type=int, default=threads, help="scoring threads")
+        p.add_argument("--threads", type=THREADS.arg(), default=threads, help="scoring threads")
 
     t = sc.add_parser("train", help="learn p(mound) from scenes and known mounds")
     t.add_argument("scenes", nargs="+", help="GeoTIFF scenes (one or more)")
@@ -104,18 +109,21 @@ def add_parser(sub: Any, parser_class: Any) -> None:
     t.add_argument("--bands", help="bands by 1-based index or name, e.g. red,nir "
                    "(default: all)")
     t.add_argument("--features", choices=("multiscale", "paper"), default="multiscale")
-    t.add_argument("--resample-m", type=float, default=8.0,
+    t.add_argument("--resample-m", type=RESAMPLE_M.arg(), default=8.0,
                    help="paper features: the ground resolution of the 3 x 3 pixels, m")
     t.add_argument("--basis", choices=("hinge", "none"), default="hinge",
                    help="multiscale: per-feature piecewise-linear basis (hinge) or linear")
-    t.add_argument("--negative-distance-m", type=float, default=40.0)
-    t.add_argument("--negatives-per-scene", type=int, default=1500)
-    t.add_argument("--folds", type=int, default=5, help="cross-validation folds of scenes")
-    t.add_argument("--l2", type=float, help="fix the regularisation (default: chosen by "
+    t.add_argument("--negative-distance-m", type=Bound(0, 10_000, "m", above=True).arg(),
+                   default=40.0)
+    t.add_argument("--negatives-per-scene", type=Bound(10, 1_000_000, integer=True).arg(),
+                   default=1500)
+    t.add_argument("--folds", type=FOLDS.arg(), default=5, help="cross-validation folds of scenes")
+    t.add_argument("--l2", type=Bound(0, 1e6).arg(),
+                   help="fix the regularisation (default: chosen by "
                    "cross-validation over scenes)")
     t.add_argument("--solver", choices=("gd", "lbfgs"), default="gd",
                    help="final fit: the paper's gradient descent, or L-BFGS (same objective)")
-    t.add_argument("--seed", type=int, default=0)
+    t.add_argument("--seed", type=SEED.arg(), default=0)
     common(t)
     t.set_defaults(func=cmd_train)
 
@@ -123,13 +131,15 @@ def add_parser(sub: Any, parser_class: Any) -> None:
     s.add_argument("scene")
     s.add_argument("--model", required=True)
     s.add_argument("--out", required=True, help="output folder")
-    s.add_argument("--stride-m", type=float, help="score every S metres (default: every pixel)")
-    s.add_argument("--candidates", type=int, default=20, help="how many candidate sites")
-    s.add_argument("--min-separation-m", type=float, default=30.0,
+    s.add_argument("--stride-m", type=Bound(0, 1_000, "m", above=True).arg(),
+                   help="score every S metres (default: every pixel)")
+    s.add_argument("--candidates", type=CANDIDATES.arg(),
+                   default=20, help="how many candidate sites")
+    s.add_argument("--min-separation-m", type=Bound(0, 10_000, "m").arg(), default=30.0,
                    help="candidates are local maxima of p at least this far apart, m")
     s.add_argument("--aoi", help="GeoJSON polygon(s), WGS84: score only inside")
     s.add_argument("--home", help="LAT,LON: add the take-off point as a 'home' feature")
-    s.add_argument("--block", type=int,
+    s.add_argument("--block", type=Bound(16, 8192, integer=True).arg(),
                    help="block side, output cells (default: 1024 scene pixels' worth)")
     s.add_argument("--scheduler", help="Dask scheduler address (default: local threads)")
     s.add_argument("--engine", choices=("native", "numpy"), default="native",
@@ -143,9 +153,9 @@ def add_parser(sub: Any, parser_class: Any) -> None:
     e.add_argument("scenes", nargs="+")
     e.add_argument("--labels", required=True)
     e.add_argument("--bands", help="bands by index or name (default: all)")
-    e.add_argument("--folds", type=int, default=5)
-    e.add_argument("--seed", type=int, default=0)
-    e.add_argument("--paper-resample-m", type=float, default=8.0,
+    e.add_argument("--folds", type=FOLDS.arg(), default=5)
+    e.add_argument("--seed", type=SEED.arg(), default=0)
+    e.add_argument("--paper-resample-m", type=RESAMPLE_M.arg(), default=8.0,
                    help="the paper's 3 x 3 pixels at this ground resolution, m")
     e.add_argument("--figure", help="PNG: p over a few held-out scenes, known mounds marked")
     e.add_argument("--json", help="all figures as JSON")

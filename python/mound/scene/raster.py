@@ -12,6 +12,7 @@ value or is not finite (NaN in the arrays handed on). Nothing here writes.
 from __future__ import annotations
 
 import functools
+import logging
 import math
 import os
 import threading
@@ -21,8 +22,9 @@ from typing import Any
 
 import numpy as np
 
-from mound.errors import InputError
+from mound.errors import InputError, library_warnings
 
+LOG = logging.getLogger(__name__)
 BAND_ALIASES = {"nir": ("nir", "near-infrared", "near_infrared", "nir1", "b8", "near infrared"),
                 "red": ("red", "r", "b4"), "green": ("green", "g", "b3"),
                 "blue": ("blue", "b", "b2")}
@@ -109,12 +111,17 @@ def open_scene(path: str | Path, band_names: list[str] | None = None) -> SceneIn
     """Validates a scene file and returns its facts; InputError naming the file for a
     missing/non-raster file, no CRS, a geographic or non-metre CRS, a rotated or south-up
     geotransform, or `band_names` of the wrong length."""
-    import rasterio
-    from rasterio.errors import RasterioIOError
-
     path = Path(path)
     if not path.is_file():
         raise InputError(f"{path}: no such file")
+    with library_warnings(LOG):
+        return _checked_scene(path, band_names)
+
+
+def _checked_scene(path: Path, band_names: list[str] | None) -> SceneInfo:
+    import rasterio
+    from rasterio.errors import RasterioIOError
+
     try:
         with rasterio.open(path) as ds:
             crs, tf = ds.crs, ds.transform
@@ -130,6 +137,13 @@ def open_scene(path: str | Path, band_names: list[str] | None = None) -> SceneIn
         raise InputError(f"{path}: no CRS (georeference the scene, e.g. gdal_translate -a_srs)")
     if tf.is_identity:
         raise InputError(f"{path}: no geotransform (pixel positions unknown)")
+    if not all(math.isfinite(v) for v in tuple(tf)[:6]):
+        raise InputError(f"{path}: geotransform: not finite ({tuple(tf)[:6]})")
+    # A projected CRS in metres spans +-2e7 m; a pixel of a scene is at most a few hundred.
+    if not (abs(tf.c) <= 1e8 and abs(tf.f) <= 1e8 and 0 < abs(tf.a) <= 10_000
+            and abs(tf.a) * max(info["width"], info["height"]) <= 1e8):
+        raise InputError(f"{path}: geotransform: origin ({tf.c:g}, {tf.f:g}) or pixel "
+                         f"size {tf.a:g} is no place on the earth")
     if tf.b != 0 or tf.d != 0 or tf.e >= 0 or tf.a <= 0:
         raise InputError(f"{path}: geotransform is rotated or not north-up ({tuple(tf)[:6]}); "
                          "warp it north-up first (gdalwarp)")

@@ -47,9 +47,9 @@ class OutGrid:
 
     @classmethod
     def of(cls, scene: SceneInfo, model: SceneModel, stride_m: float | None) -> OutGrid:
+        if stride_m is not None and not 0 < stride_m < 1e5:  # NaN too, before rounding
+            raise InputError(f"--stride-m: must be > 0 m (below 100 km), got {stride_m}")
         stride = 1 if stride_m is None else max(1, round(stride_m / scene.res_m))
-        if stride_m is not None and not 0 < stride_m < 1e5:
-            raise InputError("--stride-m: must be > 0 m")
         cell = model.spec.cell_px(scene.res_m, stride)
         return cls(cell, math.ceil(scene.height / cell), math.ceil(scene.width / cell),
                    cell * scene.res_m, scene.west, scene.north)

@@ -46,7 +46,7 @@ from mound.datasets import sha256_of
 from mound.errors import EXIT_NO_RESULT, InputError, exit_for
 from mound.jsonio import read_json, write_json
 from mound.survey.ledger import Ledger, StageRecord, digest
-from mound.survey.options import Algo, Firmware, ScanPattern, SurveyOptions
+from mound.survey.options import NUMBERS, Algo, Firmware, ScanPattern, SurveyOptions
 from mound.survey.tree import RunTree
 
 STAGES = ("classify", "field", "plan", "mission", "photos", "sites3d", "report")
@@ -76,15 +76,16 @@ def build_parser() -> argparse.ArgumentParser:
         formatter_class=HelpFormatter)
     p.add_argument("--out", default=D.out, help="run directory")
     g = p.add_argument_group("candidate sites")
-    g.add_argument("--field-seed", type=int, default=D.field_seed,
+    g.add_argument("--field-seed", type=NUMBERS["field_seed"].arg(), default=D.field_seed,
                    help="the paper's protocol: a 10 x 10 field of Statlog sat.tst examples, "
                    "3-5 of them positives (mounds); seeds 0-9 are the standard fields")
-    g.add_argument("--spacing", type=float, default=D.spacing,
+    g.add_argument("--spacing", type=NUMBERS["spacing"].arg(), default=D.spacing,
                    help="distance between neighbouring sites of the field, m")
     g.add_argument("--sites", help="your own sites instead: a mound.sites JSON or a GeoJSON "
                    "FeatureCollection of points (a 'home' feature, then sites with p_mound, "
                    "optional reward and truth); see docs/survey.md")
-    g.add_argument("--budget", type=float, help="flight distance budget, m (default: the "
+    g.add_argument("--budget", type=NUMBERS["budget"].arg(),
+                   help="flight distance budget, m (default: the "
                    "sites file's budget_m, else the aircraft's range, 14,400 m)")
     g = p.add_argument_group("satellite scene (instead of the field or --sites)")
     g.add_argument("--scene", nargs="+", help="GeoTIFF scene(s): the candidate sites are the "
@@ -96,21 +97,23 @@ def build_parser() -> argparse.ArgumentParser:
                    "with the field: where the field's home is, default Bin Tepe)")
     g.add_argument("--aoi", help="GeoJSON polygon(s): candidates only inside")
     g.add_argument("--band-names", help="names of the scene's bands, e.g. blue,green,red,nir")
-    g.add_argument("--candidates", type=int, default=D.candidates,
+    g.add_argument("--candidates", type=NUMBERS["candidates"].arg(), default=D.candidates,
                    help="candidate sites from the scene")
-    g.add_argument("--min-separation-m", type=float, default=D.min_separation_m,
+    g.add_argument("--min-separation-m", type=NUMBERS["min_separation_m"].arg(),
+                   default=D.min_separation_m,
                    help="candidates at least this far apart, m")
     g = p.add_argument_group("flight")
     g.add_argument("--scan-pattern", choices=get_args(ScanPattern), default=D.scan_pattern,
                    help="how each site is scanned (the mission flies it, the simulator "
                    "renders it, the planner pays for it)")
-    g.add_argument("--site-diameter", type=float, default=D.site_diameter,
+    g.add_argument("--site-diameter", type=NUMBERS["site_diameter"].arg(), default=D.site_diameter,
                    help="size of the scan (and of a simulated tumulus), m")
     g.add_argument("--algo", default=D.algo, choices=get_args(Algo),
                    help="mound_plan's algorithm (default alns: ALNS-OP, 1 s at most; newalg: "
                    "the paper's)")
-    g.add_argument("--plan-seed", type=int, default=D.plan_seed, help="mound_plan's seed")
-    g.add_argument("--flights", type=int, default=D.flights,
+    g.add_argument("--plan-seed", type=NUMBERS["plan_seed"].arg(),
+                   default=D.plan_seed, help="mound_plan's seed")
+    g.add_argument("--flights", type=NUMBERS["flights"].arg(), default=D.flights,
                    help="flights (batteries or aircraft) from home, each within the budget; "
                    "one mission each (mission_1.plan, ... ordered by reward)")
     from mound.uav.terrain import add_arguments as add_terrain_arguments
@@ -138,15 +141,17 @@ def build_parser() -> argparse.ArgumentParser:
                    "(weighted by their confidence) retrain the coarse classifier, p_mound "
                    "and rewards are recomputed and the next flight is re-planned over the "
                    "sites not yet flown")
-    g.add_argument("--learn-weight", type=float, default=D.learn_weight,
+    g.add_argument("--learn-weight", type=NUMBERS["learn_weight"].arg(), default=D.learn_weight,
                    help="--learn: training examples a verified site counts as (times the "
                    "verdict's confidence)")
-    g.add_argument("--image-size", type=int, nargs=2, default=D.image_size,
+    g.add_argument("--image-size", type=NUMBERS["image_size"].arg(), nargs=2, default=D.image_size,
                    metavar=("W", "H"), help="simulated image size, px")
-    g.add_argument("--sim-seed", type=int, default=D.sim_seed, help="seed of the simulated sites")
-    g.add_argument("--max-features", type=int, default=D.max_features,
+    g.add_argument("--sim-seed", type=NUMBERS["sim_seed"].arg(),
+                   default=D.sim_seed, help="seed of the simulated sites")
+    g.add_argument("--max-features", type=NUMBERS["max_features"].arg(), default=D.max_features,
                    help="SIFT features per image (mound_recon reconstruct)")
-    g.add_argument("--dense-size", type=int, default=D.dense_size, metavar="PX",
+    g.add_argument("--dense-size", type=NUMBERS["dense_size"].arg(),
+                   default=D.dense_size, metavar="PX",
                    help="depth maps of mound_recon densify, longer side px (0: no dense "
                    "cloud; the site's GeoTIFFs then come from the sparse one)")
     g.add_argument("--reference", help="judge by the paper's test against this reference "
@@ -155,14 +160,15 @@ def build_parser() -> argparse.ArgumentParser:
                    help="the dense cloud's verdict model (mound.verdict_model v1) in place of "
                    "the built-in one, e.g. one remade by `mound recon train-verdict`; one "
                    "with a second_look asks for second looks")
-    g.add_argument("--site-timeout", type=float, default=D.site_timeout,
+    g.add_argument("--site-timeout", type=NUMBERS["site_timeout"].arg(), default=D.site_timeout,
                    help="limit per tool run of a site, s")
     g = p.add_argument_group("scale-out")
     g.add_argument("--scheduler", help="address of a running Dask scheduler "
                    "(tcp://HOST:8786); default: a local cluster")
-    g.add_argument("--workers", type=int, help="local cluster: worker processes "
+    g.add_argument("--workers", type=NUMBERS["workers"].arg(),
+                   help="local cluster: worker processes "
                    "(default: one per core)")
-    g.add_argument("--site-threads", type=int, default=D.site_threads,
+    g.add_argument("--site-threads", type=NUMBERS["site_threads"].arg(), default=D.site_threads,
                    help="threads of each site's tools (one task per worker thread)")
     g = p.add_argument_group("report")
     g.add_argument("--basemap", metavar="URL", help="map.html: tiles from your own tile server "

@@ -7,19 +7,46 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
 from mound import native
 from mound.args import UsageError
+from mound.bounds import (
+    BUDGET_M,
+    CANDIDATES,
+    FLIGHTS,
+    IMAGE_PX,
+    SEED,
+    SIM_SEED,
+    SITE_DIAMETER_M,
+    THREADS,
+    TIME_S,
+    WORKERS,
+    Bound,
+)
+from mound.errors import InputError
 from mound.uav.terrain import TerrainSpec, spec_from_args
 
 ScanPattern = Literal["raster", "orbit", "both"]
 Algo = Literal["alns", "newalg", "newalg-ls", "greedy", "tsiligirides", "glv"]
 Firmware = Literal["px4", "ardupilot"]
 DemVertical = Literal["ellipsoid", "egm96", "egm2008"]
+
+
+SPACING_M = Bound(0, 100_000, "m", above=True)
+SEPARATION_M = Bound(0, 10_000, "m")
+LEARN_WEIGHT = Bound(0, 1e6, above=True)
+MAX_FEATURES = Bound(100, 1_000_000, integer=True)
+DENSE_PX = Bound(0, 8_192, "px", integer=True)   # 0: no dense cloud, else at least 32
+# Every number of the options and its bound: the parser's flags and check() use these.
+NUMBERS: dict[str, Bound] = {
+    "field_seed": SEED, "spacing": SPACING_M, "budget": BUDGET_M, "candidates": CANDIDATES,
+    "min_separation_m": SEPARATION_M, "site_diameter": SITE_DIAMETER_M, "plan_seed": SEED,
+    "flights": FLIGHTS, "learn_weight": LEARN_WEIGHT, "image_size": IMAGE_PX,
+    "sim_seed": SIM_SEED, "max_features": MAX_FEATURES, "dense_size": DENSE_PX,
+    "site_timeout": TIME_S, "workers": WORKERS, "site_threads": THREADS}
 
 
 @dataclass(frozen=True)
@@ -110,21 +137,19 @@ class SurveyOptions:
     def check(self) -> None:
         """UsageError naming the option (as the command line spells it) when the options
         cannot make a survey; files named must exist, scenes must open."""
-        if self.spacing <= 0:
-            raise UsageError("--spacing: must be > 0 m")
-        if self.budget is not None and self.budget <= 0:
-            raise UsageError("--budget: must be > 0 m")
-        if self.site_diameter <= 0:
-            raise UsageError("--site-diameter: must be > 0 m")
+        for name, bound in NUMBERS.items():  # NaN, inf and sizes no survey reaches
+            value = getattr(self, name)
+            for v in (value if isinstance(value, tuple) else (value,)):
+                if v is None:
+                    continue
+                try:
+                    bound.check(v, "--" + name.replace("_", "-"))
+                except InputError as e:
+                    raise UsageError(str(e)) from None
         if min(self.image_size) < 64:
             raise UsageError("--image-size: at least 64 x 64 px")
-        if self.max_features < 100:
-            raise UsageError("--max-features: at least 100")
         if self.dense_size != 0 and self.dense_size < 32:
             raise UsageError("--dense-size: 0 (no dense cloud) or at least 32 px")
-        if (self.site_timeout <= 0 or self.site_threads < 1
-                or (self.workers is not None and self.workers < 1)):
-            raise UsageError("--site-timeout, --site-threads, --workers: must be positive")
         if self.images_root and not Path(self.images_root).is_dir():
             raise UsageError(f"--images-root: {self.images_root} is not a folder")
         if self.photos and not Path(self.photos).is_dir():
@@ -147,18 +172,15 @@ class SurveyOptions:
                 raise UsageError("--learn re-plans each flight after the one before: it "
                                  "flies simulated flights (photos of re-planned flights come "
                                  "one card at a time)")
-            if not (math.isfinite(self.learn_weight) and self.learn_weight > 0):
-                raise UsageError("--learn-weight: must be > 0")
         if self.reference and not Path(self.reference).is_file():
             raise UsageError(f"--reference: {self.reference} not found")
         if self.verdict_model:
             if not Path(self.verdict_model).is_file():
                 raise UsageError(f"--verdict-model: {self.verdict_model} not found")
-            from mound.errors import InputError
-            from mound.jsonio import read_json
+            from mound.recon.model_file import read_verdict_model
 
             try:
-                read_json(self.verdict_model, "mound.verdict_model", 1)
+                read_verdict_model(self.verdict_model)
             except InputError as e:
                 raise UsageError(f"--verdict-model: {e}") from None
             if self.dense_size == 0 or self.reference:
@@ -182,8 +204,6 @@ class SurveyOptions:
                 and all(k in self.basemap for k in ("{z}", "{x}", "{y}"))):
             raise UsageError("--basemap: a tile URL with {z}, {x} and {y} "
                              "(http://, https:// or file://)")
-        if not 1 <= self.flights <= 64:
-            raise UsageError("--flights: 1 .. 64")
         if self.dem:
             if not Path(self.dem).is_file():
                 raise UsageError(f"--dem: {self.dem} not found")
@@ -206,8 +226,6 @@ class SurveyOptions:
             value = getattr(self, opt)
             if value and not Path(value).is_file():
                 raise UsageError(f"--{opt.replace('_', '-')}: {value} not found")
-        if not 1 <= self.candidates <= 10_000:
-            raise UsageError("--candidates: 1 .. 10,000")
         from mound.args import parse_lat_lon
         from mound.scene.raster import open_scene
 

@@ -6,6 +6,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
+from mound.bounds import FLIGHTS, HEIGHT_M, SITE_DIAMETER_M, SPEED_M_S, Bound
 from mound.errors import InputError
 from mound.geometry.geodesy import Origin
 from mound.jsonio import read_json, write_all_atomic
@@ -114,14 +115,14 @@ def add_parser(sub: Any, parser_class: type) -> None:
     b.add_argument("--pattern", choices=("raster", "orbit", "both"),
                    help="scan pattern (default: the plan's scan, else raster); any of these "
                    "four options replaces the plan's scan")
-    b.add_argument("--site-diameter", type=float,
+    b.add_argument("--site-diameter", type=SITE_DIAMETER_M.arg(),
                    help="scan layout scale, m (the simulator's mound diameter; default 60)")
-    b.add_argument("--altitude", type=float, help="raster height above home, m")
-    b.add_argument("--transit-altitude", type=float, help="m (default: the scan height)")
-    b.add_argument("--cruise-speed", type=float, default=12.0, help="m/s")
-    b.add_argument("--scan-speed", type=float, default=5.0, help="m/s")
+    b.add_argument("--altitude", type=HEIGHT_M.arg(), help="raster height above home, m")
+    b.add_argument("--transit-altitude", type=HEIGHT_M.arg(), help="m (default: the scan height)")
+    b.add_argument("--cruise-speed", type=SPEED_M_S.arg(), default=12.0, help="m/s")
+    b.add_argument("--scan-speed", type=SPEED_M_S.arg(), default=5.0, help="m/s")
     b.add_argument("--firmware", choices=("px4", "ardupilot"), default="px4")
-    b.add_argument("--flight", type=int, help="only this flight of a plan with several "
+    b.add_argument("--flight", type=FLIGHTS.arg(), help="only this flight of a plan with several "
                    "(default: every flight, written as OUT_1.plan, OUT_2.plan, ...)")
     from mound.uav.terrain import add_arguments as add_terrain_arguments
 
@@ -131,15 +132,17 @@ def add_parser(sub: Any, parser_class: type) -> None:
     u.add_argument("mission")
     u.add_argument("--connect", required=True,
                    help="udpout:HOST:PORT, udpin:HOST:PORT, tcp:HOST:PORT, or a serial device")
-    u.add_argument("--baud", type=int, default=57600)
+    u.add_argument("--baud", type=Bound(300, 10_000_000, integer=True).arg(), default=57600)
     u.add_argument("--verify", action="store_true", help="read the mission back and compare")
     u.add_argument("--signing-key", help="MAVLink 2 signing key, 64 hex digits")
     u.add_argument("--signing-passphrase", help="signing key = SHA-256 of this")
     u.add_argument("--accept-unsigned", action="store_true",
                    help="with signing: accept unsigned packets from the vehicle")
-    u.add_argument("--timeout", type=float, default=1.0, help="per message, s")
-    u.add_argument("--retries", type=int, default=5)
-    u.add_argument("--heartbeat-timeout", type=float, default=5.0, help="s")
+    u.add_argument("--timeout", type=Bound(0, 600, "s", above=True).arg(),
+                   default=1.0, help="per message, s")
+    u.add_argument("--retries", type=Bound(0, 1_000, integer=True).arg(), default=5)
+    u.add_argument("--heartbeat-timeout", type=Bound(0, 3_600, "s", above=True).arg(),
+                   default=5.0, help="s")
     u.add_argument("--firmware", choices=("px4", "ardupilot"),
                    help="ardupilot: item 0 is home (default: the .plan's firmwareType; "
                    "ardupilot for a WPL file)")

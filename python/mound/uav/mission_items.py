@@ -50,6 +50,7 @@ from typing import Any
 
 import numpy as np
 
+from mound.bounds import SITE_DIAMETER_M
 from mound.errors import InputError
 from mound.geometry.camera import Camera, Pose
 from mound.geometry.flight import PATTERNS, ScanSpec, path_length
@@ -125,8 +126,7 @@ def scan_for_site(diameter_m: float = 60.0, pattern: str = "raster",
                   transit_altitude_m: float | None = None) -> ScanSpec:
     """The scan of a site of `diameter_m` as the simulator lays it out for a mound of that
     diameter (height D / 5, the orbit looking at a third of it)."""
-    if not (math.isfinite(diameter_m) and diameter_m > 0):
-        raise InputError("mission: site_diameter_m must be > 0")
+    SITE_DIAMETER_M.check(diameter_m, "--site-diameter")
     return ScanSpec(pattern=pattern, scale_m=diameter_m, raster_altitude_m=raster_altitude_m,
                     target_height_m=diameter_m / 15, transit_altitude_m=transit_altitude_m)
 

@@ -37,12 +37,15 @@ from typing import Any
 
 import numpy as np
 
+from mound.bounds import Bound
 from mound.errors import InputError
 from mound.geometry.dem import Dem
 from mound.geometry.flight import ScanLeg, ScanSpec
 from mound.jsonio import require_number
 
 TERRAIN_SCHEMA_VERSION = 1
+CLEARANCE_M = Bound(0, 10_000, "m")  # clearances and the footprint
+FACTOR = Bound(1, 100)               # metres of level flight per metre climbed or descended
 
 
 @dataclass(frozen=True)
@@ -58,14 +61,9 @@ class TerrainSpec:
 
     def validate(self) -> None:
         for name in ("clearance_m", "scan_clearance_m", "footprint_m"):
-            v = getattr(self, name)
-            if not (np.isfinite(v) and 0 <= v <= 10_000):
-                raise InputError(f"--{name.replace('_', '-')}: expected 0..10000 m, got {v}")
+            CLEARANCE_M.check(getattr(self, name), f"--{name.replace('_', '-')}")
         for name in ("climb_factor", "descent_factor"):
-            v = getattr(self, name)
-            if not (np.isfinite(v) and 1 <= v <= 100):
-                raise InputError(f"--{name.replace('_', '-')}: expected 1..100 (metres of "
-                                 f"flight per metre), got {v}")
+            FACTOR.check(getattr(self, name), f"--{name.replace('_', '-')}")
 
     def to_doc(self) -> dict[str, Any]:
         return asdict(self)
@@ -315,15 +313,16 @@ def add_arguments(p: Any) -> None:
     g.add_argument("--dem-vertical", choices=("ellipsoid", "egm96", "egm2008"),
                    help="what the DEM's heights are above (default: what its CRS says; "
                    "national orthometric heights: egm96)")
-    g.add_argument("--clearance-m", type=float, default=TerrainSpec.clearance_m,
+    g.add_argument("--clearance-m", type=CLEARANCE_M.arg(), default=TerrainSpec.clearance_m,
                    help="transit legs above the highest terrain near them, m (default 30)")
-    g.add_argument("--scan-clearance-m", type=float, default=TerrainSpec.scan_clearance_m,
+    g.add_argument("--scan-clearance-m", type=CLEARANCE_M.arg(),
+                   default=TerrainSpec.scan_clearance_m,
                    help="scans above the terrain, m (default 10)")
-    g.add_argument("--footprint-m", type=float, default=TerrainSpec.footprint_m,
+    g.add_argument("--footprint-m", type=CLEARANCE_M.arg(), default=TerrainSpec.footprint_m,
                    help="horizontal margin of every leg (GNSS error, airframe), m (default 10)")
-    g.add_argument("--climb-factor", type=float, default=TerrainSpec.climb_factor,
+    g.add_argument("--climb-factor", type=FACTOR.arg(), default=TerrainSpec.climb_factor,
                    help="metres of level flight one metre climbed costs (default 3)")
-    g.add_argument("--descent-factor", type=float, default=TerrainSpec.descent_factor,
+    g.add_argument("--descent-factor", type=FACTOR.arg(), default=TerrainSpec.descent_factor,
                    help="metres of level flight one metre descended costs (default 2)")
 
 

@@ -1,0 +1,162 @@
+"""The Python reader of verdict model files (`mound.verdict_model` v1), the twin of the C++
+one (`ParseVerdictModel`, cpp/terrain/verdict_model.cc): the same fields, the same bounds,
+the same refusals, so that the two languages agree on what a valid model is (the tests feed
+both the same corpus of bad files). A defect is an InputError naming the file and the
+field, one line; the value returned is the document, its numbers checked.
+
+Fields (n = the detector's 25 features, in any order, each once):
+- `features`: the names; `mean`, `std`: n numbers (std in [1e-9, 1e9], mean within +-1e6);
+- `basis`: "linear" (default), "hinge" or "hinge_products"; `weights`: n, 3n, or 3n plus
+  one per product, within +-1e6; `products` (hinge_products only): pairs of two distinct
+  model features, and `product_clip` in (0, 1e6];
+- `z_clip`: absent, null, or in (0, 1e6]; `bias` within +-1e6; `threshold` in (0, 1);
+  `p_no_rise` in [0, 1];
+- `calibration` (optional): {"method": "beta", a, b >= 0 with a + b > 0, both <= 1e6, c
+  within +-1e6};
+- `second_look` (optional): {p_low in (0, threshold), threshold in (0, 1), scan_factor in
+  (1, 100], combine: {first within +-1e6, second in (0, 1e6], bias within +-1e6}}.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+from mound.errors import InputError
+from mound.jsonio import parse_json, read_text
+
+SCHEMA = "mound.verdict_model"
+VERSION = 1
+BASES = ("linear", "hinge", "hinge_products")
+# The detector's features (cpp/terrain/mound_detector.cc, VerdictFeatureNames); the C++
+# build refuses a built-in model (data/verdict_model*.json) made for others, and a test
+# holds this list to those files.
+DETECTOR_FEATURES = (
+    "log_height", "log_diameter", "log_aspect", "dome_r2", "roundness", "symmetry", "fill",
+    "flank_slope", "clipped", "outside", "offset", "log_snr", "coverage", "log_rises",
+    "site_sag", "site_ridge", "roughness", "ring_high", "ring_spread", "ground_slope",
+    "shape_cone", "shape_drum", "flat_top", "point_top", "point_spread")
+
+
+def _is_number(v: Any) -> bool:
+    return isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def _number(doc: dict[str, Any], key: str, at: str) -> float:
+    if key not in doc:
+        raise InputError(f"{at}: {key}: missing required field")
+    if not _is_number(doc[key]):
+        raise InputError(f"{at}: {key}: expected a finite number")
+    return float(doc[key])
+
+
+def _numbers(doc: dict[str, Any], key: str, n: int, at: str) -> list[float]:
+    if key not in doc:
+        raise InputError(f"{at}: {key}: missing required field")
+    v = doc[key]
+    if not isinstance(v, list) or len(v) != n:
+        raise InputError(f"{at}: {key}: expected {n} numbers")
+    if not all(_is_number(x) for x in v):
+        raise InputError(f"{at}: {key}: expected finite numbers")
+    return [float(x) for x in v]
+
+
+def _object(doc: dict[str, Any], key: str) -> dict[str, Any] | None:
+    v = doc.get(key)
+    return v if isinstance(v, dict) else None
+
+
+def check_verdict_model(doc: Any, source: str) -> dict[str, Any]:
+    """`doc` if it is a valid verdict model, else InputError naming `source` and the field
+    (the C++ reader's checks, in its order)."""
+    if not isinstance(doc, dict):
+        raise InputError(f"{source}: expected a JSON object")
+    if doc.get("schema") != SCHEMA:
+        raise InputError(f'{source}: schema: expected "{SCHEMA}"')
+    version = doc.get("version")
+    if not (isinstance(version, int) and not isinstance(version, bool) and version == VERSION):
+        raise InputError(f"{source}: version: expected {VERSION}")
+    names = doc.get("features")
+    if not isinstance(names, list) or not all(isinstance(n, str) for n in names):
+        raise InputError(f"{source}: features: expected a list of names")
+    if sorted(names) != sorted(DETECTOR_FEATURES):
+        raise InputError(f"{source}: features: made for other features than this detector's "
+                         f"({','.join(DETECTOR_FEATURES)})")
+    n = len(names)
+    if "basis" in doc and doc["basis"] not in BASES:
+        raise InputError(f'{source}: basis: expected "linear", "hinge" or "hinge_products"')
+    basis = doc.get("basis", "linear")
+    products: list[Any] = []
+    if basis == "hinge_products":
+        products = doc.get("products")  # type: ignore[assignment]
+        if not isinstance(products, list) or not products:
+            raise InputError(f"{source}: products: expected a list of pairs of feature names")
+        for pair in products:
+            if not (isinstance(pair, list) and len(pair) == 2
+                    and all(isinstance(e, str) and e in names for e in pair)
+                    and pair[0] != pair[1]):
+                raise InputError(f"{source}: products: each a pair of two of the model's "
+                                 "features")
+        clip = _number(doc, "product_clip", source)
+        if not 0 < clip <= 1e6:
+            raise InputError(f"{source}: product_clip: must be > 0 (within 1e6)")
+    elif "products" in doc:
+        raise InputError(f'{source}: products: only with basis "hinge_products"')
+    if doc.get("z_clip") is not None:
+        z_clip = _number(doc, "z_clip", source)
+        if not 0 < z_clip <= 1e6:
+            raise InputError(f"{source}: z_clip: must be > 0 (within 1e6), or absent")
+    _numbers(doc, "mean", n, source)
+    std = _numbers(doc, "std", n, source)
+    width = (3 * n if basis != "linear" else n) + len(products)
+    weights = _numbers(doc, "weights", width, source)
+    if not all(1e-9 <= s <= 1e9 for s in std):
+        raise InputError(f"{source}: std: must be > 0 (within 1e-9 .. 1e9)")
+    for key, values in (("mean", doc["mean"]), ("weights", weights)):
+        if not all(abs(x) <= 1e6 for x in values):
+            raise InputError(f"{source}: {key}: must be within +-1e6")
+    if not abs(_number(doc, "bias", source)) <= 1e6:
+        raise InputError(f"{source}: bias: must be within +-1e6")
+    threshold = _number(doc, "threshold", source)
+    p_no_rise = _number(doc, "p_no_rise", source)
+    if not 0 < threshold < 1:
+        raise InputError(f"{source}: threshold: must be in (0, 1)")
+    if not 0 <= p_no_rise <= 1:
+        raise InputError(f"{source}: p_no_rise: must be in [0, 1]")
+    if "calibration" in doc:
+        at = f"{source}: calibration"
+        c = _object(doc, "calibration")
+        if c is None or c.get("method") != "beta":
+            raise InputError(f'{at}: expected {{"method": "beta", "a", "b", "c"}}')
+        a, b, cc = (_number(c, k, at) for k in ("a", "b", "c"))
+        if not (a >= 0 and b >= 0 and a + b > 0 and a <= 1e6 and b <= 1e6):
+            raise InputError(f"{at}: a, b: must be >= 0 (within 1e6), a + b > 0")
+        if not abs(cc) <= 1e6:
+            raise InputError(f"{at}: c: must be within +-1e6")
+    if "second_look" in doc:
+        at = f"{source}: second_look"
+        sl = _object(doc, "second_look")
+        if sl is None or _object(sl, "combine") is None:
+            raise InputError(f"{at}: expected {{p_low, threshold, scan_factor, combine: "
+                             "{first, second, bias}}")
+        p_low, thr, factor = (_number(sl, k, at) for k in ("p_low", "threshold",
+                                                          "scan_factor"))
+        first, second, bias = (_number(sl["combine"], k, f"{at}.combine")
+                               for k in ("first", "second", "bias"))
+        if not 0 < p_low < threshold:
+            raise InputError(f"{at}: p_low: must be in (0, threshold)")
+        if not 0 < thr < 1:
+            raise InputError(f"{at}: threshold: must be in (0, 1)")
+        if not 1 < factor <= 100:
+            raise InputError(f"{at}: scan_factor: must be in (1, 100]")
+        if not 0 < second <= 1e6:
+            raise InputError(f"{at}.combine: second: must be in (0, 1e6]")
+        if not (abs(first) <= 1e6 and abs(bias) <= 1e6):
+            raise InputError(f"{at}.combine: first, bias: must be within +-1e6")
+    return doc
+
+
+def read_verdict_model(path: str | Path) -> dict[str, Any]:
+    """The verdict model in `path`, checked (InputError naming the file and field)."""
+    return check_verdict_model(parse_json(read_text(path), path), str(path))
