@@ -15,6 +15,7 @@ APT_PACKAGES=(
   chromium firefox-esr
   clang libclang-rt-14-dev
   python3 python3-venv python3-dev
+  proj-data  # PROJ's EGM96 geoid grid (egm96_15.gtx): ellipsoidal DEM heights to AMSL
 )
 
 missing=()

@@ -123,11 +123,9 @@ VerdictModel ParseVerdictModel(const nlohmann::json& doc, const std::string& sou
   }
   m.index = index;
   const size_t n = m.features.size();
-  const bool basis_given = doc.contains("basis");
-  const std::string basis = basis_given && doc["basis"].is_string()
-                                ? doc["basis"].get<std::string>()
-                            : basis_given ? ""
-                                          : "linear";
+  std::string basis = "linear";  // absent: linear; present, it must be a known name
+  if (doc.contains("basis"))
+    basis = doc["basis"].is_string() ? doc["basis"].get<std::string>() : "";
   if (basis != "linear" && basis != "hinge" && basis != "hinge_products")
     throw InputError(source + ": basis: expected \"linear\", \"hinge\" or \"hinge_products\"");
   m.hinge = basis != "linear";

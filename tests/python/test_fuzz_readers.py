@@ -380,3 +380,154 @@ def test_dem_flight_reader(at: int, piece: bytes, cut: int, truncate: bool) -> N
     on a valid DEM with bytes overwritten or cut short: finite heights or an InputError."""
     data = DEM_TIF[:at] if truncate else DEM_TIF[:at] + piece + DEM_TIF[at + cut:]
     value_or_input_error(_read_dem_for_flight, _file(data, "dem.tif"))
+
+
+# --------------------------------------------------- issue 54: the field work's readers
+
+def _verdict_model() -> dict[str, Any]:
+    from mound.paths import REPO_ROOT
+
+    doc = json.loads((REPO_ROOT / "data" / "verdict_model_dense.json").read_text())
+    doc.pop("trained"), doc.pop("heldout")  # reports, not read: mutations go to the model
+    doc["second_look"] = {"p_low": 0.3, "threshold": 0.6, "scan_factor": 2.0,
+                          "combine": {"first": 0.5, "second": 1.0, "bias": -0.2}}
+    return doc
+
+
+VERDICT_MODEL = _verdict_model()
+
+
+def _judge_with_model(path: Path) -> None:
+    """The model read, then used: a valid model gives every site a p in [0, 1]."""
+    import numpy as np
+
+    from mound.recon import verdict_model as vm
+    from mound.recon.model_file import read_verdict_model
+
+    model = read_verdict_model(path)
+    rows = [{"rises": [{"features": {n: v for n, v in zip(model["features"], f, strict=True)}}
+                       for f in np.random.default_rng(k).normal(0, 3, (3, 25))]}
+            for k in range(3)] + [{"rises": []}]
+    p = vm.probability(model, rows)
+    assert np.all((p >= 0) & (p <= 1)), p
+
+
+@FUZZ
+@given(mutated_json(VERDICT_MODEL))
+def test_verdict_model_reader(text: str) -> None:
+    value_or_input_error(_judge_with_model, _file(text, "model.json"))
+
+
+PHOTO_SITES = {"schema": "mound.sites", "version": 1, "origin": ORIGIN.to_doc(),
+               "home": {"id": "home", "x_m": 0, "y_m": 0}, "scan": SCAN.to_doc(),
+               "sites": [{"id": "a", "x_m": 300, "y_m": 0}, {"id": "b", "x_m": 0, "y_m": 400}]}
+
+
+def _photo_card_sites(path: Path) -> None:
+    import numpy as np
+
+    from mound.photos.sort import SortSpec, sites_of
+
+    s = sites_of(str(path), SortSpec())
+    assert np.all(np.isfinite(s.xy)) and np.isfinite(s.reach_m) and s.reach_m > 0
+    assert len(s.ids) == len(s.xy)
+
+
+@FUZZ
+@given(st.one_of(mutated_json(PHOTO_SITES), mutated_json(PLAN)))
+def test_photo_card_sites_reader(text: str) -> None:
+    """What `mound photos sort --sites/--plan` reads to sort a card: the sites and the
+    scan's reach, finite, or an InputError."""
+    value_or_input_error(_photo_card_sites, _file(text, "sites.json"))
+
+
+GEO_NUMBERS = (st.floats(-1e7, 1e7) | st.floats() | st.sampled_from(
+    [0.0, 1.0, -1.0, 0.5, 1e-4, 1e155, -1e300, 1e-320, 3.5e38, 91.0, -181.0, 564000.0,
+     147000.0, 14.5, 46.05]))
+CRSS = st.sampled_from([
+    "EPSG:3794", "EPSG:4326", "EPSG:4979", "EPSG:4326+5773", "EPSG:3794+5773",
+    "EPSG:32633", "EPSG:4326+3855", 'LOCAL_CS["x",UNIT["metre",1]]',
+    'PROJCS["x",GEOGCS["WGS 84",DATUM["WGS_1984",SPHEROID["WGS 84",6378137,298.257223563]],'
+    'PRIMEM["Greenwich",0],UNIT["degree",0.0174532925199433]],PROJECTION["Foo"],'
+    'UNIT["metre",1]]', None])
+
+
+def _geotiff(name: str, transform: tuple[float, ...], crs: str | None, bands: int) -> Path:
+    import warnings
+
+    import numpy as np
+    import rasterio
+    from rasterio.transform import Affine
+
+    path = WORK / name
+    kw: dict[str, Any] = {"transform": Affine(*transform)}
+    if crs is not None:
+        kw["crs"] = crs
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        with rasterio.open(path, "w", driver="GTiff", width=30, height=30, count=bands,
+                           dtype="float32", **kw) as ds:
+            ds.write(np.linspace(250, 320, 900 * bands, dtype=np.float32
+                                 ).reshape(bands, 30, 30))
+    return path
+
+
+def _dem_heights(path: Path, x: float, y: float, vertical: str | None) -> None:
+    import numpy as np
+
+    from mound.geometry.dem import Dem
+
+    try:
+        dem = Dem.at(str(path), x, y, vertical, margin_m=15)
+    except OverflowError:  # pragma: no cover - reported by the assertion below
+        raise AssertionError("OverflowError") from None
+    h = dem.height(np.array([[0.0, 0.0], [3.0, -3.0]]))
+    top, _ = dem.corridor_max(np.array([[-3.0, 3.0]]), np.array([[3.0, -3.0]]), 2.0)
+    assert np.isfinite(h).all() and np.isfinite(top).all() and np.all(top >= h.min() - 1e-6)
+
+
+@FUZZ
+@given(st.tuples(GEO_NUMBERS, GEO_NUMBERS, GEO_NUMBERS, GEO_NUMBERS, GEO_NUMBERS,
+                 GEO_NUMBERS), CRSS, st.sampled_from([None, "egm96", "ellipsoid", "egm2008"]),
+       GEO_NUMBERS, GEO_NUMBERS)
+@pytest.mark.slow
+def test_dem_georeference(tf: tuple[float, ...], crs: str | None, vertical: str | None,
+                          x: float, y: float) -> None:
+    """The flight's DEM reader on DEMs whose geotransform, CRS and vertical datum are drawn
+    (NaN, inf, huge, zero, rotated; CRSs PROJ cannot use): finite heights or an
+    InputError, for any point asked."""
+    path = _geotiff("georef_dem.tif", tf, crs, 1)
+    value_or_input_error(_dem_heights, path, x, y, vertical)
+
+
+@FUZZ
+@given(st.tuples(GEO_NUMBERS, GEO_NUMBERS, GEO_NUMBERS, GEO_NUMBERS, GEO_NUMBERS,
+                 GEO_NUMBERS), CRSS)
+def test_scene_georeference(tf: tuple[float, ...], crs: str | None) -> None:
+    """The scene reader on scenes whose geotransform and CRS are drawn: a scene whose
+    corners are places on the earth, or an InputError."""
+    def read(path: Path) -> None:
+        import numpy as np
+
+        from mound.scene.raster import open_scene, read_window, transformer_from_scene
+
+        scene = open_scene(path, ["red", "nir"])
+        w, s, e, n = scene.bounds()
+        lon, lat = transformer_from_scene(scene).transform(np.array([w, e]), np.array([s, n]))
+        assert read_window(scene, [1, 2], -3, -3, 8, 8).shape == (2, 8, 8)
+        assert np.all(np.isfinite([w, s, e, n])), (w, s, e, n)
+        del lon, lat
+
+    value_or_input_error(read, _geotiff("georef_scene.tif", tf, crs, 2))
+
+
+def test_the_field_work_seeds_are_valid() -> None:
+    """The new properties' starting points are read (else they would test refusals only)."""
+    _judge_with_model(_file(json.dumps(VERDICT_MODEL), "model.json"))
+    _photo_card_sites(_file(json.dumps(PHOTO_SITES), "sites.json"))
+    _photo_card_sites(_file(json.dumps(PLAN), "plan.json"))
+    for crs, vertical in (("EPSG:3794", "egm96"), ("EPSG:3794+5773", None)):
+        _dem_heights(_geotiff("georef_dem.tif", (1.0, 0.0, 564000.0, 0.0, -1.0, 147000.0),
+                              crs, 1), 564015.0, 146985.0, vertical)
+    _dem_heights(_geotiff("georef_dem.tif", (1e-4, 0.0, 14.49, 0.0, -1e-4, 46.06),
+                          "EPSG:4979", 1), 14.4915, 46.0585, None)

@@ -144,9 +144,11 @@ class ScanSpec(FlightLayout):
     def validate(self) -> None:
         _require(self.pattern in PATTERNS,
                  f"scan: pattern must be one of {PATTERNS}, got {self.pattern!r}")
-        for name, bound in SCAN_NUMBERS.items():  # None: scaled to the site
-            if getattr(self, name) is not None:
-                bound.check(getattr(self, name), f"scan.{name}")
+        for name, bound in SCAN_NUMBERS.items():
+            value = getattr(self, name)
+            if value is None and self.__dataclass_fields__[name].default is None:
+                continue  # None: scaled to the site
+            bound.check(value, f"scan.{name}")
         _require(len(self.dist) == 5 and all(math.isfinite(d) for d in self.dist),
                  "scan: distortion needs 5 finite coefficients k1 k2 p1 p2 k3")
 

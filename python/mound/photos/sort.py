@@ -49,11 +49,12 @@ from mound.bounds import SITE_DIAMETER_M, Bound
 from mound.errors import InputError
 from mound.geometry.flight import ScanSpec
 from mound.geometry.geodesy import Origin, geodetic_to_enu
-from mound.jsonio import parse_json, read_json, read_text, write_json
+from mound.jsonio import parse_json, read_json, read_text, require_number, write_json
 
 SCHEMA = "mound.photos"
 VERSION = 1
 MIN_PHOTOS = 8   # fewer than this: the site is reported, not reconstructed
+MAX_ENU_M = 1e6  # a site's east or north from the origin (the survey is local)
 
 
 # The numbers of a SortSpec: the flag that gives each, and its bound.
@@ -105,21 +106,45 @@ def sites_of(path: str, spec: SortSpec) -> Sites:
     if schema == "mound.plan":
         from mound.uav.mission_items import visited_ids
 
+        waypoints = _objects(doc, "waypoints", path)
+        for k, w in enumerate(waypoints):
+            if not isinstance(w.get("id"), str):
+                raise InputError(f"{path}: waypoints[{k}].id: expected a string")
         wanted = visited_ids(doc)
-        nodes = [w for w in doc.get("waypoints", []) if w.get("id") in wanted]
-        home = next((w for w in doc.get("waypoints", []) if w.get("kind") == "home"),
-                    {"x_m": 0.0, "y_m": 0.0})
+        nodes = [(f"{path}: waypoints[{k}]", w) for k, w in enumerate(waypoints)
+                 if w.get("id") in wanted]
+        home = next((w for w in waypoints if w.get("kind") == "home"), None)
     else:
-        nodes = list(doc.get("sites", []))
-        home = doc.get("home", {"x_m": 0.0, "y_m": 0.0})
+        nodes = [(f"{path}: sites[{k}]", s) for k, s in enumerate(_objects(doc, "sites", path))]
+        home = doc.get("home")
+        if home is not None and not isinstance(home, dict):
+            raise InputError(f"{path}: home: expected an object with x_m, y_m")
     if not nodes:
         raise InputError(f"{path}: no sites")
     scan = (ScanSpec.from_doc(doc["scan"], f"{path}: scan") if isinstance(doc.get("scan"), dict)
             else ScanSpec(pattern="raster", scale_m=spec.site_diameter_m))
-    return Sites(origin, [str(n["id"]) for n in nodes],
-                 np.array([[float(n["x_m"]), float(n["y_m"])] for n in nodes]),
-                 np.array([float(home.get("x_m", 0.0)), float(home.get("y_m", 0.0))]),
-                 scan.reach_m())
+    ids = []
+    for where, n in nodes:
+        if not isinstance(n.get("id"), str) or not n["id"]:
+            raise InputError(f"{where}.id: expected a non-empty string")
+        ids.append(n["id"])
+    xy = np.array([[require_number(n, k, where, lo=-MAX_ENU_M, hi=MAX_ENU_M)
+                    for k in ("x_m", "y_m")] for where, n in nodes])
+    home_xy = np.zeros(2) if home is None else np.array(
+        [require_number(home, k, f"{path}: home", lo=-MAX_ENU_M, hi=MAX_ENU_M, default=0.0)
+         for k in ("x_m", "y_m")])
+    return Sites(origin, ids, xy, home_xy, scan.reach_m())
+
+
+def _objects(doc: dict[str, Any], key: str, path: str) -> list[dict[str, Any]]:
+    """doc[key]: a list of objects, else InputError naming the field."""
+    items = doc.get(key)
+    if not isinstance(items, list):
+        raise InputError(f"{path}: {key}: expected a list")
+    for k, item in enumerate(items):
+        if not isinstance(item, dict):
+            raise InputError(f"{path}: {key}[{k}]: expected an object")
+    return items
 
 
 def sharpness(data: bytes) -> float | None:

@@ -288,10 +288,21 @@ def flight_plans(plan: dict[str, Any]) -> list[dict[str, Any]]:
 
 
 def visit_order(plan: dict[str, Any]) -> list[str]:
-    """The sites the plan's flights visit, each once, in the order they are flown."""
+    """The sites the plan's flights visit, each once, in the order they are flown;
+    InputError naming the field of a tour that is not a list of ids."""
     ids: dict[str, None] = {}
-    for f in plan.get("flights") or [{"tour": plan.get("tour", [])}]:
-        ids.update(dict.fromkeys(f.get("tour", [])[1:-1]))
+    flights = plan.get("flights") or [{"tour": plan.get("tour", [])}]
+    if not isinstance(flights, list):
+        raise InputError("flights: expected a list of {tour, ...}")
+    for k, f in enumerate(flights):
+        where = "tour" if "flights" not in plan or not plan["flights"] else f"flights[{k}].tour"
+        tour = f.get("tour", []) if isinstance(f, dict) else None
+        if not isinstance(tour, list):
+            raise InputError(f"{where}: expected a list of ids")
+        for i, sid in enumerate(tour):
+            if not isinstance(sid, str):
+                raise InputError(f"{where}[{i}]: expected an id (a string)")
+        ids.update(dict.fromkeys(tour[1:-1]))
     return list(ids)
 
 
