@@ -7,7 +7,7 @@ import math
 import os
 import sys
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
@@ -15,8 +15,9 @@ from typing import Any
 from mound.errors import InputError
 
 
-def _stage(path: Path, text: str) -> Path:
-    """`text` in a fresh temporary file beside `path` (a unique name: mkstemp)."""
+def _stage(path: Path, text: str | bytes) -> Path:
+    """`text` (UTF-8) or bytes in a fresh temporary file beside `path` (a unique name:
+    mkstemp)."""
     if path.is_dir():
         raise InputError(f"{path}: is a folder, not a file to write")
     try:
@@ -25,8 +26,8 @@ def _stage(path: Path, text: str) -> Path:
     except OSError as e:
         raise InputError(f"{path}: cannot write ({e.strerror})") from None
     try:
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            f.write(text)
+        with os.fdopen(fd, "wb") as f:
+            f.write(text.encode("utf-8") if isinstance(text, str) else text)
             f.flush()
             os.fsync(f.fileno())
         os.chmod(tmp, new_file_mode())
@@ -66,7 +67,7 @@ def write_atomic(path: str | Path, text: str) -> None:
     write_all_atomic([(path, text)])
 
 
-def write_all_atomic(outputs: list[tuple[str | Path, str]]) -> None:
+def write_all_atomic(outputs: Sequence[tuple[str | Path, str | bytes]]) -> None:
     """Writes several files as one: every text is staged in a temporary file first, and
     only when all are staged are they renamed into place. A failure removes the staged
     files and any output this call had created, so a command that fails leaves nothing
@@ -186,6 +187,18 @@ def require_number(obj: dict[str, Any], key: str, where: str, *, lo: float = -ma
     if v is None and default is not None:
         return default
     return finite_number(v, f"{where}.{key}", lo=lo, hi=hi)
+
+
+def number_text(text: str, where: str, lo: float = -math.inf, hi: float = math.inf) -> float:
+    """A number written as text in a file's field (XML, CSV) as a float in [lo, hi], else
+    InputError naming `where` (the file, line and field)."""
+    try:
+        v = float(text)
+    except ValueError:
+        raise InputError(f"{where}: expected a number, got {text[:40]!r}") from None
+    if not (math.isfinite(v) and lo <= v <= hi):
+        raise InputError(f"{where}: {v:g} outside {lo:g}..{hi:g}")
+    return v
 
 
 def finite_number(v: Any, where: str, *, lo: float = -math.inf, hi: float = math.inf,

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -49,3 +50,19 @@ def mound_render() -> Path:
 @pytest.fixture(scope="session")
 def mound_recon() -> Path:
     return built_tool("mound_recon")
+
+
+@pytest.fixture(scope="module")
+def dem_path(shared_data: Path) -> Path:
+    """The shared 1 m laser DEM (Slovenia, EPSG:3794, EGM96-like orthometric heights)."""
+    return shared_data / "dem" / "TM1_564_146.tif"
+
+
+@pytest.fixture(scope="module")
+def raw(dem_path: Path) -> tuple[Any, Any]:
+    """Its heights and geotransform, straight from the file (the tests' reference)."""
+    import numpy as np
+    import rasterio
+
+    with rasterio.open(dem_path) as ds:
+        return ds.read(1).astype(np.float64), ds.transform

@@ -33,17 +33,6 @@ TO_TM = Transformer.from_crs("EPSG:4326", "EPSG:3794", always_xy=True)
 HOME_TM = (564550.0, 146250.0)  # the valley floor, 258 m
 
 
-@pytest.fixture(scope="module")
-def dem_path(shared_data: Path) -> Path:
-    return shared_data / "dem" / "TM1_564_146.tif"
-
-
-@pytest.fixture(scope="module")
-def raw(dem_path: Path) -> tuple[np.ndarray, object]:
-    with rasterio.open(dem_path) as ds:
-        return ds.read(1).astype(np.float64), ds.transform
-
-
 def raw_height(raw: tuple[np.ndarray, object], x: np.ndarray, y: np.ndarray) -> np.ndarray:
     """Bilinear height at DEM-CRS points, straight from the array."""
     z, tf = raw

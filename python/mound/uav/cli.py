@@ -14,8 +14,8 @@ from mound.uav import upload
 
 
 def cmd_build(args: argparse.Namespace) -> int:
+    from mound.uav import dji, litchi, mission_formats, mission_items
     from mound.uav import files as mission_files
-    from mound.uav import mission_items
 
     plan = read_json(args.plan, "mound.plan", 1)
     if args.origin:
@@ -47,25 +47,43 @@ def cmd_build(args: argparse.Namespace) -> int:
             raise InputError(f"--flight: the plan has no flight {args.flight} that visits a site")
     if not flights:
         raise InputError("flights: the plan visits no site, there is nothing to fly")
-    # Several flights: one mission each, named OUT_1.plan, OUT_2.plan, ... (and the WPL and
-    # GeoJSON alike); all are checked before any file is written.
+    if not any((args.out, args.wpl, args.geojson, args.dji_kmz, args.litchi)):
+        raise InputError("mission build: no output: give --out (.plan), --dji-kmz, --litchi, "
+                         "--wpl or --geojson")
+    craft = dji.aircraft(args.aircraft) if args.dji_kmz else None
+    if args.dji_heights == "wgs84" and not args.dem:
+        raise InputError("--dji-heights wgs84: needs --dem (ellipsoidal heights need the "
+                         "ground under home)")
+    # Several flights: one mission each, named OUT_1.plan, OUT_2.plan, ... (and the other
+    # formats alike); all are made and checked before any file is written.
     several = len(flights) > 1
-    outputs: list[tuple[str | Path, str]] = []
+    outputs: list[tuple[str | Path, str | bytes]] = []
     missions = []
     for f in flights:
         m = mission_items.build(f, origin, spec, terrain)
-        names = ["" if p is None else str(mission_files.flight_path(
-            p, f["flight"] if several else None)) for p in (args.out, args.wpl, args.geojson)]
-        outputs.append((names[0], mission_files.plan_text(m, args.firmware)))
+        flight = f["flight"] if several else None
+        names = ["" if p is None else str(mission_files.flight_path(p, flight))
+                 for p in (args.out, args.wpl, args.geojson, args.dji_kmz, args.litchi)]
+        if args.out:
+            outputs.append((names[0], mission_files.plan_text(m, args.firmware)))
         if args.wpl:
             outputs.append((names[1], mission_files.wpl_text(m)))
         if args.geojson:
             outputs.append((names[2], mission_files.geojson_text(m)))
-        missions.append((f["flight"], names[0], m))
-    # All files or none: every text is made and staged before any is put in place.
+        if craft is not None:
+            outputs.append((names[3], mission_formats.kmz(m, craft, args.dji_heights)))
+        if args.litchi:
+            parts = mission_formats.litchi_parts(m)
+            outputs += [(litchi.part_path(names[4], k + 1, len(parts)), text)
+                        for k, text in enumerate(parts)]
+        missions.append((f["flight"], next(n for n in names if n), m))
+    # All files or none: every file is made and staged before any is put in place.
     write_all_atomic(outputs)
     for flight, out, m in missions:
         _report(m, out, flight if several else None)
+    for path, _ in outputs:
+        if str(path).endswith((".kmz", ".csv")):
+            print(f"  -> {path}")
     return 0
 
 
@@ -84,6 +102,13 @@ def _report(m: Any, out: str, flight: int | None) -> None:
     for s in m.sites:
         print(f"  {s['id']}: scan {s['scan_length_m']:.0f} m, {s['images']} images "
               f"(plan's scan_cost_m {s['scan_cost_m']:g})")
+
+
+def cmd_show(args: argparse.Namespace) -> int:
+    from mound.uav import mission_formats
+
+    print(mission_formats.show(args.mission))
+    return 0
 
 
 def cmd_upload(args: argparse.Namespace) -> int:
@@ -109,9 +134,19 @@ def add_parser(sub: Any, parser_class: type) -> None:
     b.add_argument("plan")
     b.add_argument("--origin", help="LAT,LON[,ALT] of the plan's ENU origin (default: "
                    "the plan's origin)")
-    b.add_argument("--out", required=True, help="mission .plan file")
+    b.add_argument("--out", help="QGroundControl .plan file (MAVLink: PX4, ArduPilot)")
     b.add_argument("--wpl", help="also a 'QGC WPL 110' waypoint file")
     b.add_argument("--geojson", help="also the path, sites and image footprints as GeoJSON")
+    b.add_argument("--dji-kmz", metavar="OUT.kmz", help="also a DJI WPML mission for DJI "
+                   "Pilot 2 / FlightHub 2 (one wayline per flight; see --aircraft)")
+    b.add_argument("--aircraft", default="m3e",
+                   help="--dji-kmz: the aircraft, one of m3e, m3t, m30, m300, m350, m4e "
+                   "(default m3e; mini4pro and air3 fly with --litchi)")
+    b.add_argument("--dji-heights", choices=("relative", "wgs84"), default="relative",
+                   help="--dji-kmz heights: above the take-off point's ground (default; the "
+                   "barometer zeroed at take-off) or WGS84 ellipsoidal (needs --dem; for RTK)")
+    b.add_argument("--litchi", metavar="OUT.csv", help="also a Litchi CSV mission (consumer "
+                   "DJI aircraft; a flight over 99 waypoints in parts OUT_part1.csv, ...)")
     b.add_argument("--pattern", choices=("raster", "orbit", "both"),
                    help="scan pattern (default: the plan's scan, else raster); any of these "
                    "four options replaces the plan's scan")
@@ -128,6 +163,10 @@ def add_parser(sub: Any, parser_class: type) -> None:
 
     add_terrain_arguments(b)
     b.set_defaults(func=cmd_build)
+    sh = grp.add_parser("show", help="the waypoints of a mission file (.plan, WPL, DJI .kmz, "
+                        "Litchi .csv) as a table")
+    sh.add_argument("mission")
+    sh.set_defaults(func=cmd_show)
     u = grp.add_parser("upload", help="upload a .plan or WPL mission over MAVLink")
     u.add_argument("mission")
     u.add_argument("--connect", required=True,

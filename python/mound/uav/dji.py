@@ -1,0 +1,606 @@
+"""DJI WPML missions (`.kmz`) for DJI Pilot 2 and FlightHub 2: the survey's flights on the
+enterprise aircraft field teams fly (Mavic 3 Enterprise, Matrice 30/300/350/4E).
+
+A KMZ is a zip holding `wpmz/template.kml` (the mission as planned) and
+`wpmz/waylines.wpml` (what the aircraft executes), in DJI's WPML (namespace
+`http://www.dji.com/wpmz/1.0.6`; DJI Cloud API documentation, "DJI WPML"). Element names
+and order follow the files DJI's own software exports (`../shared/data/dji/`). One
+wayline per flight, written from the route of the flight's MAVLink items (route.py), so
+the KMZ flies what the `.plan` flies:
+- every navigation waypoint a Placemark (`toPointAndStopWithDiscontinuityCurvature`: the
+  raster lines' corners are flown exactly), its `waypointSpeed` the speed of the leg that
+  starts there (cruise on transit legs, scan speed on scans);
+- photos: per run of legs with the same spacing, an action group over those waypoints
+  triggered `multipleDistance` with the spacing, action `takePhoto` (what MAVLink's
+  DO_SET_CAM_TRIGG_DIST does);
+- gimbal: a `gimbalRotate` (absolute pitch) wherever the pitch changes: -90 (nadir) on the
+  raster, and on the orbit the pitch that looks at the tumulus's centre, with the heading
+  (`smoothTransition` to the bearing of the centre);
+- the end: a closed tour's last waypoint is over home at the return leg's height, then
+  `finishAction` goHome (the aircraft lands at home); a path's `autoLand` at its end.
+  `globalRTHHeight` (an RC-lost return flies straight home at it) is the route's highest
+  waypoint above home (at least DJI's 20 m), so the straight way home clears what the legs
+  cleared; `takeOffSecurityHeight` the first climb's.
+
+Heights. `relativeToStartPoint` (default): metres above the take-off point's ground, the
+`.plan`'s own frame. The aircraft's barometric height is zeroed at take-off, as the
+autopilots' relative altitude is, so the file needs no geoid and no GNSS altitude (metres
+of vertical error without RTK). Over a DEM the take-off point's ground is known (the DEM's
+height at home) and written as `takeOffRefPoint` (lat, lon, its WGS84 ellipsoidal height).
+`wgs84` (`--dji-heights wgs84`): ellipsoidal heights, EGM96 heights plus the geoid
+separation through PROJ's EGM96 grid (refused where the grid is missing: without it PROJ
+returns 0 silently, 46.5 m wrong over the shared DEM); only over a DEM (AMSL needs the
+ground) and only worth it with RTK.
+
+Limits of the aircraft and DJI's formats are checked before anything is written: legs
+longer than 2,000 m are split with waypoints on the line (DJI's waypoint missions take
+adjacent waypoints 0.5-2,000 m apart; waypoints closer than 0.5 m are merged), heights
+relative to take-off within [-200, 500] m (DJI's SDKs; the RTH height 20-500 m), speeds
+within the aircraft's 15 m/s for waypoint flights, at most 65,535 waypoints per wayline
+(WPML's index). A flight beyond one is refused naming the limit and the waypoint.
+"""
+
+from __future__ import annotations
+
+import io
+import math
+import time
+import zipfile
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+from xml.sax.saxutils import escape
+
+import numpy as np
+
+from mound.errors import InputError
+from mound.jsonio import number_text
+from mound.uav.route import NADIR_DEG, Route, RoutePoint, merge_close, split_long_legs
+
+WPML_NS = "http://www.dji.com/wpmz/1.0.6"
+KML_NS = "http://www.opengis.net/kml/2.2"
+TEMPLATE = "wpmz/template.kml"
+WAYLINES = "wpmz/waylines.wpml"
+HEIGHT_FRAMES = ("relative", "wgs84")
+MAX_WAYPOINTS = 65_535
+MIN_LEG_M, MAX_LEG_M = 0.5, 2_000.0
+HEIGHT_RANGE_M = (-200.0, 500.0)
+RTH_RANGE_M = (20.0, 500.0)
+TAKEOFF_SECURITY_RANGE_M = (1.2, 1_500.0)
+
+
+@dataclass(frozen=True)
+class Aircraft:
+    """An aircraft DJI Pilot 2 flies WPML missions on, with its enum values (DJI Cloud
+    API, "Product Support": type and sub_type of the aircraft and of its camera)."""
+
+    key: str
+    name: str
+    drone_enum: int
+    drone_sub_enum: int
+    payload_enum: int
+    payload: str
+    max_speed_m_s: float = 15.0
+
+
+AIRCRAFT = {a.key: a for a in (
+    Aircraft("m3e", "Mavic 3 Enterprise (M3E)", 77, 0, 66, "M3E camera"),
+    Aircraft("m3t", "Mavic 3 Thermal (M3T)", 77, 1, 67, "M3T camera"),
+    Aircraft("m30", "Matrice 30 (M30)", 67, 0, 52, "M30 camera"),
+    Aircraft("m300", "Matrice 300 RTK", 60, 0, 50, "Zenmuse P1"),
+    Aircraft("m350", "Matrice 350 RTK", 89, 0, 50, "Zenmuse P1"),
+    Aircraft("m4e", "Matrice 4E", 99, 0, 88, "M4E camera"),
+)}
+# Aircraft flown with DJI Fly, which imports no WPML file DJI documents: Litchi flies them.
+NOT_WPML = ("mini4pro", "air3")
+
+
+def aircraft(key: str) -> Aircraft:
+    """The table's aircraft; InputError naming --aircraft for one it lacks."""
+    if key in NOT_WPML:
+        raise InputError(f"--aircraft {key}: DJI Fly imports no WPML mission DJI documents; "
+                         "fly it with Litchi (--litchi OUT.csv)")
+    if key not in AIRCRAFT:
+        raise InputError(f"--aircraft: {key!r} is not in the table of WPML aircraft "
+                         f"({', '.join(AIRCRAFT)})")
+    return AIRCRAFT[key]
+
+
+@dataclass(frozen=True)
+class Heights:
+    """How the file states heights: `relative` (above the take-off point's ground) or
+    `wgs84` (ellipsoidal); `home_amsl_m` the take-off point's ground (the DEM's; None
+    without a DEM), `geoid_m` the EGM96 geoid separation at each waypoint and at home
+    (wgs84 and takeOffRefPoint)."""
+
+    frame: str = "relative"
+    home_amsl_m: float | None = None
+    home_geoid_m: float | None = None
+    geoid_m: tuple[float, ...] = ()
+
+
+def geoid_separation(lat: np.ndarray, lon: np.ndarray) -> np.ndarray:
+    """EGM96 geoid height above the WGS84 ellipsoid (m) through PROJ's grid; InputError
+    where the grid is not installed (PROJ would return 0 without a word)."""
+    from pyproj.transformer import TransformerGroup
+
+    from mound.geometry.dem import use_proj_grids
+
+    use_proj_grids()
+    group = TransformerGroup("EPSG:4326+5773", "EPSG:4979", always_xy=True)
+    if not group.transformers or not group.best_available:
+        raise InputError("--dji-heights wgs84: PROJ's EGM96 grid (us_nga_egm96_15.tif, "
+                         "Debian's proj-data) is not installed; the geoid separation would "
+                         "be a silent 0 m")
+    _, _, h = group.transformers[0].transform(np.asarray(lon, float), np.asarray(lat, float),
+                                              np.zeros(len(np.atleast_1d(lat))))
+    out = np.atleast_1d(np.asarray(h, dtype=float))
+    if not np.all(np.isfinite(out)) or np.any(np.abs(out) > 120):
+        raise InputError("PROJ gave no geoid separation here (outside its grid?)")
+    return out
+
+
+def prepare(route: Route, craft: Aircraft) -> Route:
+    """The route within DJI's limits (legs split or merged), or InputError naming the
+    limit and the waypoint."""
+    route = split_long_legs(merge_close(route, MIN_LEG_M), MAX_LEG_M * 0.999)
+    if len(route.points) > MAX_WAYPOINTS:
+        raise InputError(f"DJI WPML: {len(route.points)} waypoints, more than a wayline's "
+                         f"{MAX_WAYPOINTS:,}: fly fewer sites per flight (--flights)")
+    for k, p in enumerate(route.points):
+        if not HEIGHT_RANGE_M[0] <= p.height_m <= HEIGHT_RANGE_M[1]:
+            raise InputError(f"DJI WPML: waypoint {k} is {p.height_m:.1f} m above the take-off "
+                             f"point, outside DJI's {HEIGHT_RANGE_M[0]:g}..{HEIGHT_RANGE_M[1]:g}"
+                             " m: take off nearer the sites' height")
+        if not 0 < p.speed_m_s <= craft.max_speed_m_s:
+            raise InputError(f"DJI WPML: waypoint {k}: speed {p.speed_m_s:g} m/s, the "
+                             f"{craft.name} flies waypoints at up to {craft.max_speed_m_s:g} m/s"
+                             " (--cruise-speed, --scan-speed)")
+    return route
+
+
+def _f(v: float, digits: int = 3) -> str:
+    s = f"{v:.{digits}f}".rstrip("0").rstrip(".")
+    return "0" if s in ("-0", "") else s
+
+
+def _el(name: str, value: Any, indent: int) -> str:
+    return f"{' ' * indent}<wpml:{name}>{escape(str(value))}</wpml:{name}>\n"
+
+
+def _mission_config(route: Route, craft: Aircraft, heights: Heights, template: bool,
+                    finish: str, rth_m: float, takeoff_m: float, speed: float) -> str:
+    s = "    <wpml:missionConfig>\n"
+    s += _el("flyToWaylineMode", "safely", 6)
+    s += _el("finishAction", finish, 6)
+    s += _el("exitOnRCLost", "executeLostAction", 6)
+    s += _el("executeRCLostAction", "goBack", 6)
+    s += _el("takeOffSecurityHeight", _f(takeoff_m, 2), 6)
+    if template and heights.home_amsl_m is not None and heights.home_geoid_m is not None:
+        ell = heights.home_amsl_m + heights.home_geoid_m
+        s += _el("takeOffRefPoint", f"{route.home_lat_deg:.8f},{route.home_lon_deg:.8f},"
+                 f"{ell:.3f}", 6)
+        s += _el("takeOffRefPointAGLHeight", "0", 6)
+    s += _el("globalTransitionalSpeed", _f(speed, 2), 6)
+    s += _el("globalRTHHeight", _f(rth_m, 1), 6)
+    s += "      <wpml:droneInfo>\n"
+    s += _el("droneEnumValue", craft.drone_enum, 8)
+    s += _el("droneSubEnumValue", craft.drone_sub_enum, 8)
+    s += "      </wpml:droneInfo>\n"
+    s += _el("waylineAvoidLimitAreaMode", 0, 6)
+    s += "      <wpml:payloadInfo>\n"
+    s += _el("payloadEnumValue", craft.payload_enum, 8)
+    s += _el("payloadSubEnumValue", 0, 8)
+    s += _el("payloadPositionIndex", 0, 8)
+    s += "      </wpml:payloadInfo>\n"
+    s += "    </wpml:missionConfig>\n"
+    return s
+
+
+def _gimbal_action(action_id: int, pitch: float, indent: int) -> str:
+    i = " " * indent
+    s = f"{i}<wpml:action>\n" + _el("actionId", action_id, indent + 2)
+    s += _el("actionActuatorFunc", "gimbalRotate", indent + 2)
+    s += f"{i}  <wpml:actionActuatorFuncParam>\n"
+    for name, value in (("gimbalHeadingYawBase", "aircraft"), ("gimbalRotateMode", "absoluteAngle"),
+                        ("gimbalPitchRotateEnable", 1), ("gimbalPitchRotateAngle", _f(pitch)),
+                        ("gimbalRollRotateEnable", 0), ("gimbalRollRotateAngle", 0),
+                        ("gimbalYawRotateEnable", 0), ("gimbalYawRotateAngle", 0),
+                        ("gimbalRotateTimeEnable", 0), ("gimbalRotateTime", 0),
+                        ("payloadPositionIndex", 0)):
+        s += _el(name, value, indent + 4)
+    s += f"{i}  </wpml:actionActuatorFuncParam>\n{i}</wpml:action>\n"
+    return s
+
+
+def _photo_action(action_id: int, indent: int) -> str:
+    i = " " * indent
+    s = f"{i}<wpml:action>\n" + _el("actionId", action_id, indent + 2)
+    s += _el("actionActuatorFunc", "takePhoto", indent + 2)
+    s += f"{i}  <wpml:actionActuatorFuncParam>\n"
+    s += _el("payloadPositionIndex", 0, indent + 4)
+    s += _el("useGlobalPayloadLensIndex", 1, indent + 4)
+    s += f"{i}  </wpml:actionActuatorFuncParam>\n{i}</wpml:action>\n"
+    return s
+
+
+def _group(group_id: int, start: int, end: int, trigger: str, param: float | None,
+           actions: str) -> str:
+    i = " " * 8
+    s = f"{i}<wpml:actionGroup>\n"
+    s += _el("actionGroupId", group_id, 10)
+    s += _el("actionGroupStartIndex", start, 10)
+    s += _el("actionGroupEndIndex", end, 10)
+    s += _el("actionGroupMode", "sequence", 10)
+    s += f"{i}  <wpml:actionTrigger>\n" + _el("actionTriggerType", trigger, 12)
+    if param is not None:
+        s += _el("actionTriggerParam", _f(param), 12)
+    s += f"{i}  </wpml:actionTrigger>\n" + actions + f"{i}</wpml:actionGroup>\n"
+    return s
+
+
+def _photo_runs(points: tuple[RoutePoint, ...]) -> list[tuple[int, int, float]]:
+    """(first, last waypoint, spacing) of each run of legs photographed at one spacing:
+    the legs from `first` to `last`."""
+    runs = []
+    k = 0
+    while k < len(points) - 1:
+        d = points[k].photo_every_m
+        if d > 0:
+            j = k
+            while j + 1 < len(points) - 1 and points[j + 1].photo_every_m == d:
+                j += 1
+            runs.append((k, j + 1, d))
+            k = j + 1
+        else:
+            k += 1
+    return runs
+
+
+def _placemarks(route: Route, heights: Heights, template: bool) -> str:
+    out = []
+    runs = {first: (last, d) for first, last, d in _photo_runs(route.points)}
+    group_id = 0
+    pitch_before: float | None = None
+    for k, p in enumerate(route.points):
+        h = p.height_m if heights.frame == "relative" else (
+            heights.home_amsl_m + p.height_m + heights.geoid_m[k])  # type: ignore[operator]
+        s = "      <Placemark>\n        <Point>\n          <coordinates>\n"
+        s += f"            {p.lon_deg:.9f},{p.lat_deg:.9f}\n"
+        s += "          </coordinates>\n        </Point>\n"
+        s += _el("index", k, 8)
+        if template:
+            s += _el("ellipsoidHeight", _f(h), 8) + _el("height", _f(h), 8)
+        else:
+            s += _el("executeHeight", _f(h), 8)
+        s += _el("waypointSpeed", _f(p.speed_m_s, 2), 8)
+        s += "        <wpml:waypointHeadingParam>\n"
+        if p.heading_deg is None:
+            s += _el("waypointHeadingMode", "followWayline", 10)
+            s += _el("waypointHeadingAngle", 0, 10)
+        else:
+            s += _el("waypointHeadingMode", "smoothTransition", 10)
+            s += _el("waypointHeadingAngle", _f(p.heading_deg), 10)
+        s += _el("waypointPoiPoint", "0.000000,0.000000,0.000000", 10)
+        if not template:
+            s += _el("waypointHeadingAngleEnable", int(p.heading_deg is not None), 10)
+        s += _el("waypointHeadingPathMode", "followBadArc", 10)
+        s += _el("waypointHeadingPoiIndex", 0, 10)
+        s += "        </wpml:waypointHeadingParam>\n"
+        s += "        <wpml:waypointTurnParam>\n"
+        s += _el("waypointTurnMode", "toPointAndStopWithDiscontinuityCurvature", 10)
+        s += _el("waypointTurnDampingDist", 0, 10)
+        s += "        </wpml:waypointTurnParam>\n"
+        if template:
+            s += _el("useGlobalSpeed", 0, 8) + _el("useGlobalHeadingParam", 0, 8)
+            s += _el("useGlobalTurnParam", 0, 8)
+            s += _el("gimbalPitchAngle", _f(p.gimbal_pitch_deg), 8)
+        s += _el("useStraightLine", 1, 8)
+        if pitch_before is None or abs(p.gimbal_pitch_deg - pitch_before) > 1e-6:
+            s += _group(group_id, k, k, "reachPoint", None,
+                        _gimbal_action(0, p.gimbal_pitch_deg, 10))
+            group_id += 1
+            pitch_before = p.gimbal_pitch_deg
+        if k in runs:
+            last, d = runs[k]
+            s += _group(group_id, k, last, "multipleDistance", d, _photo_action(0, 10))
+            group_id += 1
+        if not template:
+            s += "        <wpml:waypointGimbalHeadingParam>\n"
+            s += _el("waypointGimbalPitchAngle", _f(p.gimbal_pitch_deg), 10)
+            s += _el("waypointGimbalYawAngle", 0, 10)
+            s += "        </wpml:waypointGimbalHeadingParam>\n"
+        s += "      </Placemark>\n"
+        out.append(s)
+    return "".join(out)
+
+
+def kmz_bytes(route: Route, craft: Aircraft, heights: Heights, created_ms: int | None = None
+              ) -> bytes:
+    """The KMZ of a route prepared for the aircraft (see prepare)."""
+    if heights.frame == "wgs84" and (heights.home_amsl_m is None
+                                     or len(heights.geoid_m) != len(route.points)):
+        raise InputError("--dji-heights wgs84: needs the ground under home (--dem) and the "
+                         "geoid at every waypoint")
+    cruise = max(p.speed_m_s for p in route.points)
+    top = max(p.height_m for p in route.points)
+    rth = min(max(top, RTH_RANGE_M[0]), RTH_RANGE_M[1])
+    if top > RTH_RANGE_M[1]:
+        raise InputError(f"DJI WPML: the route reaches {top:.0f} m above take-off, higher than "
+                         f"DJI's RTH height limit {RTH_RANGE_M[1]:g} m")
+    takeoff = min(max(route.points[0].height_m, TAKEOFF_SECURITY_RANGE_M[0]),
+                  TAKEOFF_SECURITY_RANGE_M[1])
+    finish = "goHome" if route.end == "home" else "autoLand"
+    length = float(np.sum(route.leg_lengths_m()))
+    duration = float(np.sum(route.leg_lengths_m() / np.array(
+        [max(p.speed_m_s, 0.1) for p in route.points[:-1]])))
+    now = created_ms if created_ms is not None else int(time.time() * 1000)
+    head = (f'<?xml version="1.0" encoding="UTF-8"?>\n'
+            f'<kml xmlns="{KML_NS}" xmlns:wpml="{WPML_NS}">\n')
+    mode = "relativeToStartPoint" if heights.frame == "relative" else "WGS84"
+    tpl = head + "  <Document>\n" + _el("author", "mound-survey", 4)
+    tpl += _el("createTime", now, 4) + _el("updateTime", now, 4)
+    tpl += _mission_config(route, craft, heights, True, finish, rth, takeoff, cruise)
+    tpl += "    <Folder>\n" + _el("templateType", "waypoint", 6) + _el("templateId", 0, 6)
+    tpl += "      <wpml:waylineCoordinateSysParam>\n" + _el("coordinateMode", "WGS84", 8)
+    tpl += _el("heightMode", mode, 8) + "      </wpml:waylineCoordinateSysParam>\n"
+    tpl += _el("autoFlightSpeed", _f(cruise, 2), 6)
+    tpl += _el("globalHeight", _f(route.points[0].height_m), 6)
+    tpl += _el("caliFlightEnable", 0, 6) + _el("gimbalPitchMode", "usePointSetting", 6)
+    tpl += "      <wpml:globalWaypointHeadingParam>\n"
+    tpl += _el("waypointHeadingMode", "followWayline", 8)
+    tpl += _el("waypointHeadingAngle", 0, 8)
+    tpl += _el("waypointPoiPoint", "0.000000,0.000000,0.000000", 8)
+    tpl += _el("waypointHeadingPathMode", "followBadArc", 8)
+    tpl += _el("waypointHeadingPoiIndex", 0, 8)
+    tpl += "      </wpml:globalWaypointHeadingParam>\n"
+    tpl += _el("globalWaypointTurnMode", "toPointAndStopWithDiscontinuityCurvature", 6)
+    tpl += _el("globalUseStraightLine", 1, 6)
+    tpl += _placemarks(route, heights, True) + "    </Folder>\n  </Document>\n</kml>\n"
+    wl = head + "  <Document>\n"
+    wl += _mission_config(route, craft, heights, False, finish, rth, takeoff, cruise)
+    wl += "    <Folder>\n" + _el("templateId", 0, 6) + _el("executeHeightMode", mode, 6)
+    wl += _el("waylineId", 0, 6) + _el("distance", _f(length, 2), 6)
+    wl += _el("duration", _f(duration, 2), 6) + _el("autoFlightSpeed", _f(cruise, 2), 6)
+    wl += _placemarks(route, heights, False) + "    </Folder>\n  </Document>\n</kml>\n"
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED) as z:
+        for name, text in ((TEMPLATE, tpl), (WAYLINES, wl)):
+            info = zipfile.ZipInfo(name, date_time=(2026, 1, 1, 0, 0, 0))
+            info.compress_type = zipfile.ZIP_DEFLATED
+            z.writestr(info, text.encode("utf-8"))
+    return buf.getvalue()
+
+
+# ---------------------------------------------------------------------------- reading
+
+MAX_MEMBER_BYTES = 32 * 2**20   # a wayline of 65,535 placemarks is about 100 MB: far more
+MAX_MEMBERS = 64                 # than a survey flight's; DJI's own KMZs hold 2-3 files
+
+
+@dataclass(frozen=True)
+class Wayline:
+    wayline_id: int
+    height_mode: str
+    points: tuple[RoutePoint, ...]
+
+
+@dataclass(frozen=True)
+class KmzMission:
+    """What a DJI KMZ's waylines.wpml says (and its template's takeOffRefPoint)."""
+
+    drone_enum: int
+    drone_sub_enum: int
+    payload_enum: int | None
+    finish_action: str
+    rth_height_m: float | None
+    takeoff_ref: tuple[float, float, float] | None   # lat, lon, ellipsoidal height
+    waylines: tuple[Wayline, ...]
+
+    def route(self, wayline: int = 0) -> Route:
+        """A wayline as a Route about the take-off point (its first waypoint where the
+        template states none)."""
+        w = self.waylines[wayline]
+        lat, lon = (self.takeoff_ref[:2] if self.takeoff_ref
+                    else (w.points[0].lat_deg, w.points[0].lon_deg))
+        return Route(lat, lon, w.points, "home" if self.finish_action == "goHome" else "land")
+
+
+def _members(path: str | Path) -> dict[str, bytes]:
+    """The KMZ's template and waylines, read with bounds (zip bombs: sizes checked from the
+    directory and again while inflating)."""
+    try:
+        z = zipfile.ZipFile(path)
+    except (zipfile.BadZipFile, OSError, ValueError) as e:
+        raise InputError(f"{path}: not a KMZ (zip) file ({e})") from None
+    with z:
+        infos = z.infolist()
+        if len(infos) > MAX_MEMBERS:
+            raise InputError(f"{path}: {len(infos)} files in the zip, a KMZ holds a few")
+        out = {}
+        for name in (TEMPLATE, WAYLINES):
+            info = next((i for i in infos if i.filename == name), None)
+            if info is None:
+                if name == TEMPLATE:
+                    continue
+                raise InputError(f"{path}: no {name} in the zip (not a DJI WPML mission)")
+            if info.file_size > MAX_MEMBER_BYTES:
+                raise InputError(f"{path}: {name} inflates to {info.file_size:,} bytes, more "
+                                 f"than {MAX_MEMBER_BYTES:,}")
+            try:
+                with z.open(info) as f:
+                    data = f.read(MAX_MEMBER_BYTES + 1)
+            except (zipfile.BadZipFile, OSError, ValueError, NotImplementedError,
+                    EOFError, RuntimeError) as e:
+                raise InputError(f"{path}: {name}: cannot inflate ({e})") from None
+            if len(data) > MAX_MEMBER_BYTES:
+                raise InputError(f"{path}: {name} inflates beyond {MAX_MEMBER_BYTES:,} bytes")
+            out[name] = data
+    return out
+
+
+def _parse_xml(data: bytes, where: str) -> Any:
+    """The XML tree; no DTD, entities or external references (defusedxml)."""
+    import defusedxml.ElementTree as ET
+    from defusedxml import DefusedXmlException
+
+    try:
+        return ET.fromstring(data, forbid_dtd=True)
+    except (DefusedXmlException, ET.ParseError, ValueError) as e:
+        raise InputError(f"{where}: not well-formed XML without a DTD "
+                         f"({' '.join(str(e).split())[:100]})") from None
+
+
+def _text(el: Any, name: str, where: str, required: bool = True) -> str | None:
+    child = el.find(f"{{{WPML_NS}}}{name}")
+    if child is None or child.text is None or not child.text.strip():
+        if required:
+            raise InputError(f"{where}: wpml:{name} missing")
+        return None
+    return child.text.strip()
+
+
+def _num(el: Any, name: str, where: str, lo: float, hi: float,
+         required: bool = True) -> float | None:
+    text = _text(el, name, where, required)
+    return None if text is None else number_text(text, f"{where}: wpml:{name}", lo, hi)
+
+
+def _int(el: Any, name: str, where: str, lo: int, hi: int, required: bool = True) -> int | None:
+    v = _num(el, name, where, lo, hi, required)
+    if v is not None and v != int(v):
+        raise InputError(f"{where}: wpml:{name}: expected an integer, got {v:g}")
+    return None if v is None else int(v)
+
+
+def _wayline(folder: Any, where: str) -> Wayline:
+    ns = f"{{{WPML_NS}}}"
+    mode = _text(folder, "executeHeightMode", where)
+    if mode not in ("WGS84", "relativeToStartPoint", "realTimeFollowSurface"):
+        raise InputError(f"{where}: wpml:executeHeightMode: {mode!r:.40} is not a WPML height "
+                         "mode")
+    wid = _int(folder, "waylineId", where, 0, 65_535)
+    default_speed = _num(folder, "autoFlightSpeed", where, 0, 100, required=False) or 0.0
+    marks = folder.findall(f"{{{KML_NS}}}Placemark")
+    if not marks:
+        raise InputError(f"{where}: no Placemark (waypoint)")
+    if len(marks) > MAX_WAYPOINTS:
+        raise InputError(f"{where}: {len(marks)} waypoints, more than {MAX_WAYPOINTS:,}")
+    rows: list[dict[str, Any]] = []
+    photos: list[tuple[int, int, float]] = []
+    pitch_at: dict[int, float] = {}
+    for k, pm in enumerate(marks):
+        at = f"{where}: Placemark[{k}]"
+        coords = pm.find(f"{{{KML_NS}}}Point/{{{KML_NS}}}coordinates")
+        if coords is None or not (coords.text or "").strip():
+            raise InputError(f"{at}: Point/coordinates missing")
+        parts = coords.text.strip().split(",")
+        try:
+            lon, lat = (float(v) for v in parts[:2])
+        except ValueError:
+            raise InputError(f"{at}: coordinates: expected lon,lat, got "
+                             f"{coords.text.strip()[:40]!r}") from None
+        if len(parts) not in (2, 3) or not (-180 <= lon <= 180 and -90 <= lat <= 90):
+            raise InputError(f"{at}: coordinates: not a WGS84 lon,lat")
+        index = _int(pm, "index", at, 0, MAX_WAYPOINTS)
+        if index != k:
+            raise InputError(f"{at}: wpml:index {index}: expected {k} (in order)")
+        height = _num(pm, "executeHeight", at, -2_000, 10_000)
+        speed = _num(pm, "waypointSpeed", at, 0, 100, required=False)
+        heading: float | None = None
+        hp = pm.find(f"{ns}waypointHeadingParam")
+        if hp is not None and _text(hp, "waypointHeadingMode", at) == "smoothTransition":
+            heading = _num(hp, "waypointHeadingAngle", f"{at}.waypointHeadingParam", -180, 180)
+        for g, group in enumerate(pm.findall(f"{ns}actionGroup")):
+            gw = f"{at}: actionGroup[{g}]"
+            start = _int(group, "actionGroupStartIndex", gw, 0, MAX_WAYPOINTS)
+            end = _int(group, "actionGroupEndIndex", gw, 0, MAX_WAYPOINTS)
+            trig = group.find(f"{ns}actionTrigger")
+            if trig is None:
+                raise InputError(f"{gw}: wpml:actionTrigger missing")
+            kind = _text(trig, "actionTriggerType", gw)
+            funcs = []
+            for a, action in enumerate(group.findall(f"{ns}action")):
+                aw = f"{gw}.action[{a}]"
+                func = _text(action, "actionActuatorFunc", aw)
+                funcs.append(func)
+                param = action.find(f"{ns}actionActuatorFuncParam")
+                if func == "gimbalRotate" and param is not None and _text(
+                        param, "gimbalPitchRotateEnable", aw, required=False) == "1":
+                    pitch_at[k] = float(_num(param, "gimbalPitchRotateAngle", aw,  # type: ignore[arg-type]
+                                             -120, 90))
+            if kind == "multipleDistance" and "takePhoto" in funcs:
+                d = _num(trig, "actionTriggerParam", gw, 0.01, 10_000)
+                if start is None or end is None or not start <= end:
+                    raise InputError(f"{gw}: start and end index out of order")
+                photos.append((start, end, float(d)))  # type: ignore[arg-type]
+        rows.append({"lat": lat, "lon": lon, "h": height,
+                     "speed": speed if speed is not None else default_speed,
+                     "heading": heading})
+    photo_every = [0.0] * len(rows)
+    for start, end, d in photos:
+        if end >= len(rows):
+            raise InputError(f"{where}: an action group ends at waypoint {end}, past the last")
+        for k in range(start, end):
+            photo_every[k] = d
+    pitch = NADIR_DEG
+    points = []
+    for k, r in enumerate(rows):
+        pitch = pitch_at.get(k, pitch)
+        points.append(RoutePoint(r["lat"], r["lon"], float(r["h"]), float(r["speed"]),
+                                 photo_every[k], pitch, r["heading"]))
+    return Wayline(int(wid), str(mode), tuple(points))  # type: ignore[arg-type]
+
+
+def read_kmz(path: str | Path) -> KmzMission:
+    """A DJI WPML KMZ (ours or DJI's own): its waylines' waypoints, heights in the file's
+    frame, photos and gimbal pitches; InputError naming the file and element."""
+    members = _members(path)
+    root = _parse_xml(members[WAYLINES], f"{path}: {WAYLINES}")
+    if root.tag != f"{{{KML_NS}}}kml":
+        raise InputError(f"{path}: {WAYLINES}: the root is not a KML <kml> element")
+    doc = root.find(f"{{{KML_NS}}}Document")
+    where = f"{path}: {WAYLINES}"
+    if doc is None:
+        raise InputError(f"{where}: no Document")
+    mc = doc.find(f"{{{WPML_NS}}}missionConfig")
+    if mc is None:
+        raise InputError(f"{where}: wpml:missionConfig missing (namespace {WPML_NS}?)")
+    drone = mc.find(f"{{{WPML_NS}}}droneInfo")
+    if drone is None:
+        raise InputError(f"{where}: wpml:droneInfo missing")
+    payload = mc.find(f"{{{WPML_NS}}}payloadInfo")
+    finish = _text(mc, "finishAction", where)
+    folders = doc.findall(f"{{{KML_NS}}}Folder")
+    if not folders:
+        raise InputError(f"{where}: no Folder (wayline)")
+    waylines = tuple(_wayline(f, f"{where}: Folder[{k}]") for k, f in enumerate(folders))
+    takeoff = None
+    if TEMPLATE in members:
+        troot = _parse_xml(members[TEMPLATE], f"{path}: {TEMPLATE}")
+        ref = troot.find(f"{{{KML_NS}}}Document/{{{WPML_NS}}}missionConfig/"
+                         f"{{{WPML_NS}}}takeOffRefPoint")
+        if ref is not None and ref.text:
+            try:
+                lat, lon, h = (float(v) for v in ref.text.strip().split(","))
+            except ValueError:
+                raise InputError(f"{path}: {TEMPLATE}: wpml:takeOffRefPoint: expected "
+                                 "lat,lon,height") from None
+            if not (-90 <= lat <= 90 and -180 <= lon <= 180 and math.isfinite(h)):
+                raise InputError(f"{path}: {TEMPLATE}: wpml:takeOffRefPoint: not a place")
+            takeoff = (lat, lon, h)
+    return KmzMission(
+        drone_enum=int(_int(drone, "droneEnumValue", where, 0, 65_535)),  # type: ignore[arg-type]
+        drone_sub_enum=_int(drone, "droneSubEnumValue", where, 0, 65_535, required=False) or 0,
+        payload_enum=None if payload is None else _int(payload, "payloadEnumValue", where, 0,
+                                                       65_535, required=False),
+        finish_action=str(finish),
+        rth_height_m=_num(mc, "globalRTHHeight", where, 0, 10_000, required=False),
+        takeoff_ref=takeoff, waylines=waylines)
+
+
+def to_relative(m: KmzMission, route: Route, home_amsl_m: float, geoid_m: np.ndarray) -> Route:
+    """A WGS84 wayline's heights as heights above home's ground (for comparison)."""
+    pts = tuple(replace(p, height_m=p.height_m - geoid_m[k] - home_amsl_m)
+                for k, p in enumerate(route.points))
+    return replace(route, points=pts)

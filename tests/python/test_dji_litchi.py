@@ -1,0 +1,289 @@
+"""Issue 55: the survey's flights for the aircraft field teams fly. A three-flight plan over
+the shared laser DEM (raster and orbit scans on the ridges) built as `.plan`, DJI WPML
+`.kmz` and Litchi `.csv`: the KMZ holds DJI's two files in DJI's namespace with the element
+set of DJI's own exports, its heights clear the DEM when taken back to AMSL by PROJ alone,
+and every format reads back as the `.plan` flies (path and heights within 0.1 m, photo
+spacing, gimbal pitch and heading); Litchi's file read by an independent reader
+(litchi-wp). DJI's own KMZs are read; bad files are refused naming the file."""
+
+from __future__ import annotations
+
+import itertools
+import json
+import math
+import re
+import subprocess
+import sys
+import zipfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from pyproj.transformer import TransformerGroup
+from scipy.ndimage import maximum_filter
+from test_terrain_flight import TO_TM, clearance_along, sites_doc
+
+from mound import native
+from mound.errors import InputError
+from mound.geometry.dem import use_proj_grids
+from mound.geometry.geodesy import Origin
+from mound.paths import REPO_ROOT
+from mound.uav import dji, litchi, mission_formats, mission_items, terrain
+from mound.uav import files as mission_files
+from mound.uav.route import Route, RoutePoint
+
+DJI_NS = "{" + dji.WPML_NS + "}"
+
+
+def mound(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, "-m", "mound", *args], capture_output=True,
+                          text=True, cwd=REPO_ROOT, check=False, timeout=300)
+
+
+@pytest.fixture(scope="module")
+def three(raw, dem_path, tmp_path_factory) -> dict[str, Any]:
+    """Ten ridge sites scanned with the raster and the orbit, planned in three flights
+    over the DEM, and built in every format."""
+    tmp = tmp_path_factory.mktemp("dji")
+    doc = sites_doc(raw, 4500.0)
+    scan = mission_items.scan_for_site(60.0, "both")
+    doc["scan"] = scan.to_doc()
+    origin = Origin.from_doc(doc["origin"])
+    spec = terrain.TerrainSpec()
+    sites = tmp / "sites.json"
+    sites.write_text(json.dumps(terrain.attach(doc, str(dem_path), spec, "egm96", origin)))
+    plan_file = tmp / "plan.json"
+    native.run_tool("mound_plan", [str(sites), "--flights", "3", "--out", str(plan_file)])
+    plan = json.loads(plan_file.read_text())
+    flights = [f["flight"] for f in plan["flights"] if len(f["tour"]) > 2]
+    assert len(flights) == 3
+    r = mound("mission", "build", str(plan_file), "--out", str(tmp / "m.plan"), "--dji-kmz",
+              str(tmp / "m.kmz"), "--aircraft", "m3e", "--litchi", str(tmp / "m.csv"),
+              "--dem", str(dem_path), "--dem-vertical", "egm96")
+    assert r.returncode == 0, r.stderr
+    return {"tmp": tmp, "plan": plan_file, "flights": flights, "spec": spec}
+
+
+def _plan_route(path: Path) -> Route:
+    items, _, _ = mission_files.read_mission(path)
+    return mission_formats.items_route(items)
+
+
+def _dji_element_set() -> set[str]:
+    names: set[str] = set()
+    for kmz in sorted((REPO_ROOT.parent / "shared" / "data" / "dji").glob("*.kmz")):
+        with zipfile.ZipFile(kmz) as z:
+            for name in z.namelist():
+                names |= set(re.findall(r"<wpml:(\w+)", z.read(name).decode()))
+    return names
+
+
+def test_the_kmz_is_dji_wpml(three) -> None:
+    """Exactly DJI's two files, DJI's namespace, only elements DJI's own exports use, the
+    aircraft's enum values from the table."""
+    known = _dji_element_set()
+    assert {"missionConfig", "executeHeight", "actionGroup"} <= known
+    for f in three["flights"]:
+        path = three["tmp"] / f"m_{f}.kmz"
+        with zipfile.ZipFile(path) as z:
+            assert sorted(z.namelist()) == [dji.TEMPLATE, dji.WAYLINES]
+            for name in z.namelist():
+                text = z.read(name).decode()
+                assert f'xmlns:wpml="{dji.WPML_NS}"' in text
+                ours = set(re.findall(r"<wpml:(\w+)", text))
+                assert ours <= known, ours - known
+                for el in ("missionConfig", "droneEnumValue", "payloadEnumValue",
+                           "finishAction", "executeRCLostAction", "takeOffSecurityHeight",
+                           "globalRTHHeight", "waypointSpeed", "actionTriggerType"):
+                    assert f"<wpml:{el}>" in text, (name, el)
+            assert "<wpml:takeOffRefPoint>" in z.read(dji.TEMPLATE).decode()
+        k = dji.read_kmz(path)
+        craft = dji.AIRCRAFT["m3e"]
+        assert (k.drone_enum, k.drone_sub_enum, k.payload_enum) == (
+            craft.drone_enum, craft.drone_sub_enum, craft.payload_enum)
+        assert [w.height_mode for w in k.waylines] == ["relativeToStartPoint"]
+        assert k.finish_action == "autoLand"  # over a DEM: the flight lands over home
+
+
+def _egm96_minus_ellipsoid(lon: np.ndarray, lat: np.ndarray) -> np.ndarray:
+    """The geoid separation N by PROJ alone (EGM96 heights + N = ellipsoidal)."""
+    use_proj_grids()
+    g = TransformerGroup("EPSG:4979", "EPSG:4326+5773", always_xy=True)
+    assert g.best_available
+    _, _, h = g.transformers[0].transform(lon, lat, np.zeros(len(lon)))
+    return -np.asarray(h)
+
+
+def test_the_kmz_heights_clear_the_dem(three, raw, dem_path) -> None:
+    """Every leg of every flight, its heights taken back to AMSL from the file alone
+    (takeOffRefPoint's ellipsoidal height less PROJ's geoid there, plus the relative
+    heights), clears the highest terrain within the footprint by the scan clearance."""
+    spec = three["spec"]
+    highest = maximum_filter(raw[0], size=2 * int(np.ceil(spec.footprint_m)) + 1,
+                             mode="nearest")
+    for f in three["flights"]:
+        k = dji.read_kmz(three["tmp"] / f"m_{f}.kmz")
+        lat0, lon0, ell0 = k.takeoff_ref
+        home_amsl = ell0 - _egm96_minus_ellipsoid(np.array([lon0]), np.array([lat0]))[0]
+        pts = []
+        for p in k.waylines[0].points:
+            x, y = TO_TM.transform(p.lon_deg, p.lat_deg)
+            pts.append((x, y, home_amsl + p.height_m))
+        pts = np.array(pts)
+        level = [(a, b) for a, b in itertools.pairwise(pts[1:])
+                 if np.hypot(*(b[:2] - a[:2])) >= 0.5]
+        lowest = min(clearance_along(raw, a, b, spec.footprint_m, highest) for a, b in level)
+        assert lowest >= spec.scan_clearance_m - 0.05, (f, lowest)
+
+
+def test_every_format_reads_back_as_the_plan_flies(three) -> None:
+    """The KMZ (the project's reader), the Litchi CSV (litchi-wp's reader and the
+    project's) against the .plan of the same flight: path and heights within 0.1 m,
+    speeds, photo spacing, gimbal pitch, the orbit's headings."""
+    from litchi_wp.waypoint import Waypoint
+
+    craft = dji.AIRCRAFT["m3e"]
+    for f in three["flights"]:
+        tmp = three["tmp"]
+        plan = _plan_route(tmp / f"m_{f}.plan")
+        assert any(p.heading_deg is not None for p in plan.points)  # the orbits
+        assert any(p.photo_every_m > 0 for p in plan.points)
+        want = dji.prepare(plan, craft)
+        got = dji.read_kmz(tmp / f"m_{f}.kmz").route()
+        got = Route(plan.home_lat_deg, plan.home_lon_deg, got.points, got.end)
+        assert got.differs_from(want) is None, got.differs_from(want)
+        # the path itself is the .plan's: prepare() only merged waypoints closer than 0.5 m
+        kept = want.enu()
+        assert all(np.min(np.linalg.norm(kept - e, axis=1)) < 0.5 for e in plan.enu())
+        parts = litchi.prepare(plan)
+        assert len(parts) == 1 and len(parts[0].points) <= litchi.MAX_WAYPOINTS
+        theirs = Waypoint.from_file(str(tmp / f"m_{f}.csv"))
+        ours = litchi.read_litchi(tmp / f"m_{f}.csv")
+        assert len(theirs) == len(ours) == len(parts[0].points)
+        for p, t, o in zip(parts[0].points, theirs, ours, strict=True):
+            assert o.close_to(RoutePoint(**{**p.__dict__, "heading_deg": (
+                o.heading_deg if p.heading_deg is None else p.heading_deg)}),
+                plan.origin()) is None
+            assert (t.lat, t.lon) == pytest.approx((p.lat_deg, p.lon_deg), abs=1e-8)
+            assert t.altitude.value == pytest.approx(p.height_m, abs=0.01)
+            assert t.altitude.mode.value == 0  # above the take-off point
+            assert t.gimbal.mode.value == litchi.GIMBAL_INTERPOLATE
+            assert t.gimbal.pitchangle == pytest.approx(p.gimbal_pitch_deg, abs=0.01)
+            assert t.speed == pytest.approx(p.speed_m_s, abs=0.01)
+            assert t.photo.distance_interval == pytest.approx(
+                p.photo_every_m if p.photo_every_m > 0 else -1, abs=0.01)
+            if p.heading_deg is not None:
+                assert math.isclose((t.heading - p.heading_deg + 180) % 360, 180, abs_tol=0.01)
+
+
+def test_wgs84_heights_are_egm96_plus_the_geoid_by_proj(three, dem_path) -> None:
+    """--dji-heights wgs84: each waypoint's ellipsoidal height, less PROJ's geoid there,
+    is the relative file's height plus home's ground (within 0.1 m)."""
+    tmp = three["tmp"]
+    r = mound("mission", "build", str(three["plan"]), "--dji-kmz", str(tmp / "w.kmz"),
+              "--dji-heights", "wgs84", "--dem", str(dem_path), "--dem-vertical", "egm96",
+              "--flight", str(three["flights"][0]))
+    assert r.returncode == 0, r.stderr
+    w = dji.read_kmz(tmp / "w.kmz")
+    rel = dji.read_kmz(tmp / f"m_{three['flights'][0]}.kmz")
+    assert w.waylines[0].height_mode == "WGS84"
+    lat0, lon0, ell0 = rel.takeoff_ref
+    home_amsl = ell0 - _egm96_minus_ellipsoid(np.array([lon0]), np.array([lat0]))[0]
+    pw, pr = w.waylines[0].points, rel.waylines[0].points
+    n = _egm96_minus_ellipsoid(np.array([p.lon_deg for p in pw]),
+                               np.array([p.lat_deg for p in pw]))
+    assert 40 < float(np.mean(n)) < 55  # the geoid in Slovenia, not PROJ's silent zero
+    amsl = np.array([p.height_m for p in pw]) - n
+    np.testing.assert_allclose(amsl, home_amsl + np.array([p.height_m for p in pr]),
+                               atol=0.1)
+
+
+def test_djis_own_kmz_files_are_read(capsys) -> None:
+    from mound.cli import main
+
+    for name, enum, frames, waylines in (("waypoint_m3e.kmz", 77, {"relativeToStartPoint"}, 1),
+                                         ("mapping3d_m30.kmz", 67, {"WGS84"}, 5)):
+        path = REPO_ROOT.parent / "shared" / "data" / "dji" / name
+        k = dji.read_kmz(path)
+        assert k.drone_enum == enum and {w.height_mode for w in k.waylines} == frames
+        assert len(k.waylines) == waylines and all(len(w.points) >= 2 for w in k.waylines)
+        assert main(["mission", "show", str(path)]) == 0
+        out = capsys.readouterr().out
+        assert f"aircraft enum {enum}" in out and "waypoints" in out
+
+
+def test_limits_and_aircraft_are_checked_before_anything_is_written(three, dem_path) -> None:
+    tmp = three["tmp"] / "limits"
+    tmp.mkdir()
+    base = ["mission", "build", str(three["plan"]), "--dem", str(dem_path), "--dem-vertical",
+            "egm96", "--dji-kmz", str(tmp / "x.kmz"), "--out", str(tmp / "x.plan")]
+    for extra, must in ((["--cruise-speed", "18"], "flies waypoints at up to 15 m/s"),
+                        (["--aircraft", "mini4pro"], "--litchi"),
+                        (["--aircraft", "phantom9"], "--aircraft")):
+        r = mound(*base, *extra)
+        assert r.returncode == 2 and must in r.stderr and r.stderr.count("\n") == 1, r.stderr
+        assert not list(tmp.iterdir())
+
+
+def _route(n: int, spacing_m: float = 10.0, height: float = 40.0) -> Route:
+    origin = Origin(46.45, 15.83)
+    from mound.geometry.geodesy import enu_to_geodetic
+
+    pts = []
+    for k in range(n):
+        lat, lon, _ = enu_to_geodetic(origin, np.array([[k * spacing_m, 0.0, 0.0]]))[0]
+        pts.append(RoutePoint(float(lat), float(lon), height, 5.0, 3.0 if k % 2 else 0.0,
+                              -90.0, None))
+    return Route(origin.lat_deg, origin.lon_deg, tuple(pts), "home")
+
+
+def test_litchi_splits_a_long_flight_into_parts_and_refuses_heights_below_take_off() -> None:
+    parts = litchi.prepare(_route(250))
+    assert [len(p.points) for p in parts] == [99, 99, 54]
+    for a, b in itertools.pairwise(parts):
+        assert a.points[-1] == b.points[0] and a.end == "continue"
+    assert parts[-1].end == "home"
+    with pytest.raises(InputError, match="Litchi: waypoint 0 is -5.0 m above the take-off"):
+        litchi.prepare(_route(3, height=-5.0))
+
+
+def test_dji_splits_legs_longer_than_2000_m_and_merges_duplicates() -> None:
+    r = _route(3, spacing_m=4500.0)
+    p = dji.prepare(r, dji.AIRCRAFT["m3e"])
+    assert len(p.points) == 7 and np.all(p.leg_lengths_m() <= dji.MAX_LEG_M)
+    near = _route(2, spacing_m=100.0)
+    dup = Route(near.home_lat_deg, near.home_lon_deg,
+                (near.points[0], near.points[0], near.points[1]), "home")
+    merged = dji.prepare(dup, dji.AIRCRAFT["m3e"])
+    assert merged.points == (near.points[0], near.points[1])
+
+
+@pytest.mark.parametrize("name, data, must", [
+    ("not a zip", b"PK\x03\x04 but not really", "not a KMZ"),
+    ("no waylines", None, "no wpmz/waylines.wpml"),
+    ("billion laughs", "<?xml version='1.0'?><!DOCTYPE kml [<!ENTITY a 'aaaa'>"
+     "<!ENTITY b '&a;&a;&a;&a;'>]><kml>&b;</kml>", "without a DTD"),
+    ("external entity", "<?xml version='1.0'?><!DOCTYPE kml [<!ENTITY x SYSTEM "
+     "'file:///etc/passwd'>]><kml>&x;</kml>", "without a DTD"),
+    ("deep nesting", "<a>" * 100_000 + "</a>" * 100_000, "KML"),
+    ("bomb", "zeros", "inflates"),
+], ids=lambda v: v if isinstance(v, str) and len(v) < 20 else "")
+def test_bad_kmz_files_are_refused_naming_the_file(tmp_path, capsys, name: str, data: Any,
+                                                   must: str) -> None:
+    from mound.cli import main
+
+    path = tmp_path / "bad.kmz"
+    if isinstance(data, bytes):
+        path.write_bytes(data)
+    else:
+        with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as z:
+            if data == "zeros":
+                z.writestr(dji.WAYLINES, b"\0" * (dji.MAX_MEMBER_BYTES + 10))
+            elif data is not None:
+                z.writestr(dji.WAYLINES, data)
+            else:
+                z.writestr(dji.TEMPLATE, "<kml/>")
+    assert main(["mission", "show", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and str(path) in err and must in err, err
