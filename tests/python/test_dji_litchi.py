@@ -287,3 +287,23 @@ def test_bad_kmz_files_are_refused_naming_the_file(tmp_path, capsys, name: str, 
     assert main(["mission", "show", str(path)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and str(path) in err and must in err, err
+
+
+@pytest.mark.parametrize("name, edit, must", [
+    ("another header", lambda t: t.replace("latitude", "lat", 1), ":1: not Litchi's"),
+    ("45 columns", lambda t: t.replace(",-1\n", "\n", 1), "45 columns"),
+    ("nan latitude", lambda t: t.replace("\n46.", "\nnan,", 1).replace("nan,", "nan", 1),
+     "latitude"),
+    ("a stray carriage return (Hypothesis)", lambda t: "\r" + t[8:], ":1: not Litchi"),
+    ("gimbal mode 7", lambda t: t.replace(",0,0,2,", ",0,0,7,", 1), "gimbalmode"),
+], ids=lambda v: v if isinstance(v, str) and len(v) < 40 else "")
+def test_bad_litchi_files_are_refused_naming_the_line(tmp_path, capsys, name: str, edit: Any,
+                                                      must: str) -> None:
+    from mound.cli import main
+
+    text = litchi.csv_text(litchi.prepare(_route(5))[0])
+    path = tmp_path / "bad.csv"
+    path.write_text(edit(text), newline="")
+    assert main(["mission", "show", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and str(path) in err and must in err, err

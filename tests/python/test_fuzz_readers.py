@@ -531,3 +531,109 @@ def test_the_field_work_seeds_are_valid() -> None:
                               crs, 1), 564015.0, 146985.0, vertical)
     _dem_heights(_geotiff("georef_dem.tif", (1e-4, 0.0, 14.49, 0.0, -1e-4, 46.06),
                           "EPSG:4979", 1), 14.4915, 46.0585, None)
+
+
+# ------------------------------------------------ issue 55: DJI and Litchi mission files
+
+def _dji_and_litchi() -> tuple[str, str, str]:
+    from mound.uav import dji, litchi, mission_formats
+
+    plan = json.loads(json.dumps({**PLAN, "scan": mission_items.scan_for_site(
+        60.0, "both").to_doc()}))
+    m = mission_items.build(plan, ORIGIN, None)
+    data = mission_formats.kmz(m, dji.AIRCRAFT["m3e"])
+    import io
+    import zipfile
+
+    with zipfile.ZipFile(io.BytesIO(data)) as z:
+        template, waylines = (z.read(n).decode() for n in (dji.TEMPLATE, dji.WAYLINES))
+    return template, waylines, litchi.csv_text(litchi.prepare(mission_formats.mission_route(m))[0])
+
+
+KML_TEMPLATE, WAYLINES_WPML, LITCHI_CSV = _dji_and_litchi()
+
+
+def _kmz(template: str, waylines: str) -> bytes:
+    import io
+    import zipfile
+
+    from mound.uav import dji
+
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w") as z:
+        z.writestr(dji.TEMPLATE, template.encode("utf-8", "surrogatepass"))
+        z.writestr(dji.WAYLINES, waylines.encode("utf-8", "surrogatepass"))
+    return buf.getvalue()
+
+
+def _read_kmz_routes(path: Path) -> None:
+    import numpy as np
+
+    from mound.uav import dji
+
+    k = dji.read_kmz(path)
+    for w in range(len(k.waylines)):
+        r = k.route(w)
+        assert len(r.points) >= 1 and np.all(np.isfinite(r.enu()))
+
+
+@st.composite
+def mutated_xml(draw: st.DrawFn, text: str) -> str:
+    """XML with element texts replaced by nasty tokens, elements deleted or duplicated,
+    then maybe characters spliced in."""
+    import re
+
+    spans = [m.span(1) for m in re.finditer(r">([^<>]*)</", text)]
+    for _ in range(draw(st.integers(1, 3))):
+        a, b = draw(st.sampled_from(spans))
+        if a > len(text) or b > len(text):
+            continue
+        token = draw(st.sampled_from(["", "nan", "inf", "-1", "1e400", "9" * 40, "x", "0",
+                                      "-999999", "0,0", "1,2,3,4", "&amp;", "\u00e9"])
+                     | st.text(max_size=8))
+        text = text[:a] + token.replace("<", "").replace("&", "") + text[b:]
+    lines = text.splitlines()
+    if draw(st.booleans()) and len(lines) > 3:
+        k = draw(st.integers(1, len(lines) - 2))
+        lines.insert(k, lines[k]) if draw(st.booleans()) else lines.pop(k)
+    return draw(spliced("\n".join(lines)))
+
+
+@FUZZ
+@given(mutated_xml(WAYLINES_WPML), st.booleans())
+def test_dji_kmz_reader(waylines: str, keep_template: bool) -> None:
+    """A KMZ of this project's with its waylines mutated: routes with finite positions,
+    or an InputError."""
+    data = _kmz(KML_TEMPLATE if keep_template else "<kml/>", waylines)
+    value_or_input_error(_read_kmz_routes, _file(data, "m.kmz"))
+
+
+@FUZZ
+@given(st.integers(0, 4000), st.binary(min_size=1, max_size=16), st.booleans())
+def test_dji_kmz_zip_bytes(at: int, piece: bytes, truncate: bool) -> None:
+    """The KMZ's zip bytes overwritten or cut short."""
+    data = _kmz(KML_TEMPLATE, WAYLINES_WPML)
+    at = at % len(data)
+    data = data[:at] if truncate else data[:at] + piece + data[at + len(piece):]
+    value_or_input_error(_read_kmz_routes, _file(data, "m.kmz"))
+
+
+@FUZZ
+@given(mutated_lines(LITCHI_CSV, ","))
+def test_litchi_reader(text: str) -> None:
+    from mound.uav import litchi
+
+    def read(path: Path) -> None:
+        import numpy as np
+
+        pts = litchi.read_litchi(path)
+        assert np.all(np.isfinite([[p.lat_deg, p.lon_deg, p.height_m] for p in pts]))
+
+    value_or_input_error(read, _file(text, "m.csv"))
+
+
+def test_the_mission_format_seeds_are_valid() -> None:
+    from mound.uav import litchi
+
+    _read_kmz_routes(_file(_kmz(KML_TEMPLATE, WAYLINES_WPML), "m.kmz"))
+    assert len(litchi.read_litchi(_file(LITCHI_CSV, "m.csv"))) > 5

@@ -635,11 +635,22 @@ def test_two_flights_over_the_dem(tmp_path: Path) -> None:
     flights = [f for f in plan["flights"] if len(f["tour"]) > 2]
     assert len(flights) == 2
     visited = set()
+    from mound.uav import dji, litchi, mission_formats
+
     for f in flights:
         items, _, _ = mission_files.read_mission(out / f"mission_{f['flight']}.plan")
         assert items[-1].command == mission_items.NAV_LAND
         assert f["cost_m"] <= plan["budget_m"] + 1e-6
         visited |= set(f["tour"][1:-1])
+        # the same flight for DJI Pilot 2 and for Litchi, read back as the .plan flies
+        route = mission_formats.items_route(items)
+        kmz = dji.read_kmz(out / f"mission_{f['flight']}.kmz").route()
+        want = dji.prepare(route, dji.AIRCRAFT["m3e"])
+        assert want.differs_from(type(want)(want.home_lat_deg, want.home_lon_deg, kmz.points,
+                                            kmz.end)) is None
+        csv_points = litchi.read_litchi(out / f"mission_{f['flight']}.csv")
+        assert [(p.lat_deg, p.lon_deg) for p in csv_points] == pytest.approx(
+            [(p.lat_deg, p.lon_deg) for p in litchi.prepare(route)[0].points], abs=1e-8)
     summary = json.loads((out / "summary.json").read_text())
     assert {s["id"] for s in summary["sites"] if s["visited"]} == visited
     assert all(s["verdict"] != "failed" for s in summary["sites"] if s["visited"])

@@ -44,9 +44,16 @@ from mound import native
 from mound.args import Parser
 from mound.datasets import sha256_of
 from mound.errors import EXIT_NO_RESULT, InputError, exit_for
-from mound.jsonio import read_json, write_json
+from mound.jsonio import read_json, write_all_atomic, write_json
 from mound.survey.ledger import Ledger, StageRecord, digest
-from mound.survey.options import NUMBERS, Algo, Firmware, ScanPattern, SurveyOptions
+from mound.survey.options import (
+    NUMBERS,
+    Algo,
+    DjiAircraft,
+    Firmware,
+    ScanPattern,
+    SurveyOptions,
+)
 from mound.survey.tree import RunTree
 
 STAGES = ("classify", "field", "plan", "mission", "photos", "sites3d", "report")
@@ -123,6 +130,10 @@ def build_parser() -> argparse.ArgumentParser:
                    "read it back (udpout:HOST:PORT, udpin:HOST:PORT, tcp:HOST:PORT, serial)")
     g.add_argument("--firmware", choices=get_args(Firmware), default=D.firmware,
                    help="the vehicle's dialect of mission items (default: px4)")
+    g.add_argument("--aircraft", choices=get_args(DjiAircraft), default=D.aircraft,
+                   help="the DJI aircraft of each flight's mission.kmz (WPML for DJI Pilot 2; "
+                   "mini4pro and air3 fly the Litchi mission.csv); every flight is also "
+                   "written as .plan, .waypoints and .csv")
     g = p.add_argument_group("3-D stage")
     g.add_argument("--photos", metavar="CARD_DIR", help="the aircraft's photo card (or a copy "
                    "of it): sorted into the visited sites by EXIF GPS and time (mound photos "
@@ -509,12 +520,16 @@ def mission_terrain(a: SurveyOptions) -> Any:
 
 
 def write_missions(missions: list[tuple[int | None, Any]], folder: Path, png_folder: Path,
-                   firmware: str) -> tuple[list[Path], dict[str, Any]]:
-    """Each flight's mission (k None: the only one) as FOLDER/mission.plan, .waypoints,
-    .geojson (mission_K.* of several) and its map PNG_FOLDER/mission.png (mission_K.png);
-    returns the files and the mound.mission summary: the only flight's own, or of several
-    their totals, each under `flights`."""
+                   firmware: str, aircraft: str = "m3e") -> tuple[list[Path], dict[str, Any]]:
+    """Each flight's mission (k None: the only one) in every format a crew flies:
+    FOLDER/mission.plan, .waypoints (MAVLink), .kmz (DJI WPML for `aircraft`), .csv
+    (Litchi; mission_partN.csv past 99 waypoints), .geojson (mission_K.* of several), and
+    its map PNG_FOLDER/mission.png (mission_K.png); returns the files and the mound.mission
+    summary: the only flight's own, or of several their totals, each under `flights`. A
+    DJI or Litchi file a limit of theirs refuses is not written, and the summary's
+    `formats` says why (the .plan is the reference and is always written)."""
     from mound.survey import figures
+    from mound.uav import dji, litchi, mission_formats
     from mound.uav import files as mission_files
 
     written: list[Path] = []
@@ -525,10 +540,30 @@ def write_missions(missions: list[tuple[int | None, Any]], folder: Path, png_fol
         mission_files.write_plan(files["mission.plan"], m, firmware)
         mission_files.write_wpl(files["mission.waypoints"], m)
         mission_files.write_geojson(files["mission.geojson"], m)
+        formats: dict[str, Any] = {}
+        try:
+            craft = dji.aircraft(aircraft)
+            kmz = mission_files.flight_path(folder / "mission.kmz", k)
+            write_all_atomic([(kmz, mission_formats.kmz(m, craft))])
+            files["mission.kmz"] = kmz
+            formats["dji_kmz"] = {"file": kmz.name, "aircraft": craft.key,
+                                  "heights": "relativeToStartPoint"}
+        except InputError as e:
+            formats["dji_kmz"] = {"file": None, "refused": str(e)}
+        try:
+            parts = mission_formats.litchi_parts(m)
+            csv_path = mission_files.flight_path(folder / "mission.csv", k)
+            paths = [litchi.part_path(csv_path, j + 1, len(parts)) for j in range(len(parts))]
+            write_all_atomic(list(zip(paths, parts, strict=True)))
+            files.update({p.name: p for p in paths})
+            formats["litchi_csv"] = {"files": [p.name for p in paths]}
+        except InputError as e:
+            formats["litchi_csv"] = {"files": [], "refused": str(e)}
         png = mission_files.flight_path(png_folder / "mission.png", k)
         figures.mission_map(m.nav_enu, m.footprints, m.sites, png)
         written += [*files.values(), png]
-        summaries.append({**m.summary(), "flight": k or 1, "file": files["mission.plan"].name})
+        summaries.append({**m.summary(), "flight": k or 1, "file": files["mission.plan"].name,
+                          "formats": formats})
     summary = dict(summaries[0]) if len(summaries) == 1 else {
         "schema": "mound.mission", "version": 1, "origin": summaries[0]["origin"],
         "items": sum(x["items"] for x in summaries),
@@ -561,7 +596,8 @@ def stage_mission(ctx: Context) -> str:
         missions = [(f["flight"] if several else None,
                      mission_items.build(f, origin, spec, terrain)) for f in flights]
         t.report_dir.mkdir(parents=True, exist_ok=True)
-        written, summary = write_missions(missions, t.root, t.report_dir, a.firmware)
+        written, summary = write_missions(missions, t.root, t.report_dir, a.firmware,
+                                          a.aircraft)
         made = [str(p.relative_to(t.root)) for p in written]
         notes = []
         for k, m in missions:
@@ -575,6 +611,10 @@ def stage_mission(ctx: Context) -> str:
                 note += (f", over the DEM: energy {m.terrain['energy_m']:.0f} m, lowest "
                          f"transit clearance {m.terrain['lowest_clearance_m']:.1f} m")
             notes.append(note)
+        for f in summary["flights"]:
+            for fmt in f["formats"].values():
+                if "refused" in fmt:
+                    notes.append(f"flight {f['flight']}: {fmt['refused']} (not written)")
         note = "; ".join(notes)
         if missions[0][1].terrain is None:
             note += "; terrain not checked (no --dem)"
@@ -590,7 +630,7 @@ def stage_mission(ctx: Context) -> str:
         return ([*made, "mission.json"], note, True)
 
     return run_stage(ctx, "mission", {"plan": ctx.keys["plan"], "connect": a.connect,
-                                      "firmware": a.firmware,
+                                      "firmware": a.firmware, "aircraft": a.aircraft,
                                       "terrain": ctx.terrain}, work)
 
 
@@ -814,7 +854,7 @@ def second_look_missions(ctx: Context, rows: list[dict[str, Any]], plan_path: Pa
     several = len(flights) > 1
     written, summary = write_missions(
         [(k if several else None, m) for k, m in enumerate(flights, start=1)], out, out,
-        ctx.args.firmware) if flights else ([], {
+        ctx.args.firmware, ctx.args.aircraft) if flights else ([], {
             "schema": "mound.mission", "version": 1, "origin": plan.get("origin"),
             "items": 0, "flight_distance_m": 0.0, "budget_m": float(sites_doc["budget_m"]),
             "flights": []})

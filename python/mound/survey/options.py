@@ -32,6 +32,7 @@ from mound.uav.terrain import TerrainSpec, spec_from_args
 ScanPattern = Literal["raster", "orbit", "both"]
 Algo = Literal["alns", "newalg", "newalg-ls", "greedy", "tsiligirides", "glv"]
 Firmware = Literal["px4", "ardupilot"]
+DjiAircraft = Literal["m3e", "m3t", "m30", "m300", "m350", "m4e", "mini4pro", "air3"]
 DemVertical = Literal["ellipsoid", "egm96", "egm2008"]
 
 
@@ -80,6 +81,7 @@ class SurveyOptions:
     descent_factor: float = TerrainSpec.descent_factor
     connect: str | None = None
     firmware: Firmware = "px4"
+    aircraft: DjiAircraft = "m3e"       # the DJI aircraft of mission.kmz
     # 3-D stage
     photos: str | None = None
     second_photos: str | None = None

@@ -123,7 +123,11 @@ def read_litchi(path: str | Path) -> list[RoutePoint]:
     """A Litchi CSV mission's waypoints (height above take-off in `height_m`, whatever
     its altitudemode says: see `modes`); InputError naming the file, line and column."""
     text = read_text(path)
-    rows = list(csv.reader(io.StringIO(text)))
+    reader = csv.reader(io.StringIO(text, newline=""))
+    try:
+        rows = list(reader)
+    except csv.Error as e:
+        raise InputError(f"{path}:{reader.line_num}: not a CSV line ({e})") from None
     if not rows or [h.strip() for h in rows[0]] != HEADER:
         raise InputError(f"{path}:1: not Litchi's 46-column header (latitude,longitude,"
                          "altitude(m),...)")
