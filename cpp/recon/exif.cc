@@ -2,8 +2,10 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <cstdlib>
 #include <fstream>
 #include <utility>
 #include <vector>
@@ -110,13 +112,9 @@ class Tiff {
   bool le_ = true;
 };
 
-// The TIFF structure inside a JPEG's APP1 "Exif" segment (markers walked up to the image
-// data), or the file itself when it is a TIFF; empty when there is none.
-std::vector<uint8_t> ExifBlock(const std::vector<uint8_t>& f) {
-  if (f.size() >= 4 && ((f[0] == 'I' && f[1] == 'I' && f[2] == 42 && f[3] == 0) ||
-                        (f[0] == 'M' && f[1] == 'M' && f[2] == 0 && f[3] == 42))) {
-    return f;
-  }
+// The payload of a JPEG's first APP1 segment whose name is `name` (with its NUL; markers
+// walked up to the image data); empty when there is none.
+std::vector<uint8_t> App1Payload(const std::vector<uint8_t>& f, const std::string& name) {
   if (f.size() < 2 || f[0] != 0xFF || f[1] != 0xD8) return {};
   size_t at = 2;
   for (int segments = 0; segments < 64; ++segments) {
@@ -124,16 +122,81 @@ std::vector<uint8_t> ExifBlock(const std::vector<uint8_t>& f) {
     const uint8_t marker = f[at + 1];
     const size_t len = size_t(f[at + 2]) << 8 | f[at + 3];
     if (len < 2) return {};
-    if (marker == 0xDA || marker == 0xD9) return {};  // image data: no EXIF before it
+    if (marker == 0xDA || marker == 0xD9) return {};  // image data: no metadata after it
     if (at + 2 + len > f.size()) return {};
     const auto seg = f.begin() + static_cast<std::ptrdiff_t>(at + 4);
     const size_t n = len - 2;
-    if (marker == 0xE1 && n > 6 && std::equal(seg, seg + 6, "Exif\0\0")) {
-      return std::vector<uint8_t>(seg + 6, seg + static_cast<std::ptrdiff_t>(n));
+    if (marker == 0xE1 && n > name.size() && std::equal(name.begin(), name.end(), seg)) {
+      return std::vector<uint8_t>(seg + static_cast<std::ptrdiff_t>(name.size()),
+                                  seg + static_cast<std::ptrdiff_t>(n));
     }
     at += 2 + len;
   }
   return {};
+}
+
+// The TIFF structure inside a JPEG's APP1 "Exif" segment, or the file itself when it is a
+// TIFF; empty when there is none.
+std::vector<uint8_t> ExifBlock(const std::vector<uint8_t>& f) {
+  if (f.size() >= 4 && ((f[0] == 'I' && f[1] == 'I' && f[2] == 42 && f[3] == 0) ||
+                        (f[0] == 'M' && f[1] == 'M' && f[2] == 0 && f[3] == 42))) {
+    return f;
+  }
+  return App1Payload(f, std::string("Exif\0\0", 6));
+}
+
+// The XMP packet of a JPEG (its APP1 segment named "http://ns.adobe.com/xap/1.0/"), at most
+// one segment (64 KiB); empty when there is none.
+std::string XmpPacket(const std::vector<uint8_t>& f) {
+  const std::vector<uint8_t> p = App1Payload(f, std::string("http://ns.adobe.com/xap/1.0/\0", 29));
+  return std::string(p.begin(), p.end());
+}
+
+// The text of drone-dji:NAME in an XMP packet: an attribute (NAME="v") or an element
+// (<drone-dji:NAME>v</drone-dji:NAME>); nothing when absent or not closed.
+std::optional<std::string> XmpValue(const std::string& xmp, const std::string& name) {
+  const std::string key = "drone-dji:" + name;
+  for (size_t at = xmp.find(key); at != std::string::npos; at = xmp.find(key, at + 1)) {
+    size_t p = at + key.size();
+    while (p < xmp.size() && (xmp[p] == ' ' || xmp[p] == '\t' || xmp[p] == '\n' || xmp[p] == '\r'))
+      ++p;
+    if (p >= xmp.size()) return std::nullopt;
+    if (xmp[p] == '=') {
+      ++p;
+      while (p < xmp.size() && xmp[p] == ' ') ++p;
+      if (p >= xmp.size() || (xmp[p] != '"' && xmp[p] != '\'')) continue;
+      const char quote = xmp[p];
+      const size_t end = xmp.find(quote, p + 1);
+      if (end == std::string::npos || end - p > 64) return std::nullopt;
+      return xmp.substr(p + 1, end - p - 1);
+    }
+    if (xmp[p] == '>' && (at == 0 || xmp[at - 1] == '<')) {
+      const size_t end = xmp.find('<', p + 1);
+      if (end == std::string::npos || end - p > 64) return std::nullopt;
+      return xmp.substr(p + 1, end - p - 1);
+    }
+  }
+  return std::nullopt;
+}
+
+// A number as DJI writes it ("+317.547", "-0.10"), strictly: the whole text, finite, within
+// [lo, hi]; nothing otherwise.
+std::optional<double> XmpNumber(const std::string& xmp, const std::string& name, double lo,
+                                double hi) {
+  const std::optional<std::string> text = XmpValue(xmp, name);
+  if (!text || text->empty() || text->size() > 40) return std::nullopt;
+  std::string s = *text;
+  while (!s.empty() && s.front() == ' ') s.erase(s.begin());
+  while (!s.empty() && s.back() == ' ') s.pop_back();
+  if (!s.empty() && s.front() == '+') s.erase(s.begin());
+  if (s.empty()) return std::nullopt;
+  for (char c : s)
+    if (!((c >= '0' && c <= '9') || c == '.' || c == '-' || c == 'e' || c == 'E'))
+      return std::nullopt;
+  char* end = nullptr;
+  const double v = std::strtod(s.c_str(), &end);
+  if (end != s.c_str() + s.size() || !std::isfinite(v) || v < lo || v > hi) return std::nullopt;
+  return v;
 }
 
 // "YYYY:MM:DD HH:MM:SS" with digits where digits belong; empty otherwise.
@@ -171,6 +234,7 @@ Exif ReadExif(const std::string& path) {
 
 Exif ParseExif(const std::vector<uint8_t>& file_bytes) {
   Exif x;
+  x.dji = ParseDjiXmp(XmpPacket(file_bytes));
   Tiff t(ExifBlock(file_bytes));
   if (!t.Init()) return x;
   uint32_t exif_ifd = 0, gps_ifd = 0;
@@ -227,6 +291,27 @@ Exif ParseExif(const std::vector<uint8_t>& file_bytes) {
     }
   }
   return x;
+}
+
+std::optional<DjiXmp> ParseDjiXmp(const std::string& packet) {
+  if (packet.find("drone-dji:") == std::string::npos) return std::nullopt;
+  DjiXmp d;
+  d.abs_alt_m = XmpNumber(packet, "AbsoluteAltitude", -1000, 20000);
+  d.rel_alt_m = XmpNumber(packet, "RelativeAltitude", -2000, 20000);
+  d.gimbal_pitch_deg = XmpNumber(packet, "GimbalPitchDegree", -180, 180);
+  d.gimbal_yaw_deg = XmpNumber(packet, "GimbalYawDegree", -360, 360);
+  d.gimbal_roll_deg = XmpNumber(packet, "GimbalRollDegree", -180, 180);
+  d.flight_pitch_deg = XmpNumber(packet, "FlightPitchDegree", -180, 180);
+  d.flight_yaw_deg = XmpNumber(packet, "FlightYawDegree", -360, 360);
+  d.flight_roll_deg = XmpNumber(packet, "FlightRollDegree", -180, 180);
+  d.lat_deg = XmpNumber(packet, "GpsLatitude", -90, 90);
+  d.lon_deg = XmpNumber(packet, "GpsLongitude", -180, 180);
+  if (auto f = XmpNumber(packet, "RtkFlag", 0, 255); f && *f == std::floor(*f))
+    d.rtk_flag = static_cast<int>(*f);
+  d.rtk_std_lon_m = XmpNumber(packet, "RtkStdLon", 0, 1000);
+  d.rtk_std_lat_m = XmpNumber(packet, "RtkStdLat", 0, 1000);
+  d.rtk_std_hgt_m = XmpNumber(packet, "RtkStdHgt", 0, 1000);
+  return d;
 }
 
 std::optional<double> SensorWidthMm(const std::string& model) {

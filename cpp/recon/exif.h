@@ -12,6 +12,25 @@
 
 namespace mound::recon {
 
+// What a DJI photo's XMP packet says (namespace drone-dji, the attributes or elements of
+// its rdf:Description), each only when present and in range: AbsoluteAltitude (DJI's
+// "absolute" height: above mean sea level, EGM96, without RTK; with an RTK fix, RtkFlag 50,
+// above the WGS84 ellipsoid, as field reports say and DJI documents no further),
+// RelativeAltitude (above the take-off point, barometric), the gimbal's and the aircraft's
+// attitude in degrees (yaw clockwise from north, pitch -90 straight down), the RTK fix and
+// the RTK position's standard deviations in metres.
+struct DjiXmp {
+  std::optional<double> abs_alt_m, rel_alt_m;
+  std::optional<double> gimbal_pitch_deg, gimbal_yaw_deg, gimbal_roll_deg;
+  std::optional<double> flight_pitch_deg, flight_yaw_deg, flight_roll_deg;
+  std::optional<double> lat_deg, lon_deg;  // GpsLatitude / GpsLongitude, where written
+  std::optional<int> rtk_flag;
+  std::optional<double> rtk_std_lon_m, rtk_std_lat_m, rtk_std_hgt_m;
+};
+
+// The drone-dji fields of an XMP packet (text); nothing for a packet without any.
+std::optional<DjiXmp> ParseDjiXmp(const std::string& packet);
+
 struct Exif {
   std::optional<double> focal_mm;
   std::optional<double> focal_35mm;           // FocalLengthIn35mmFilm
@@ -23,6 +42,7 @@ struct Exif {
   // DateTimeOriginal (else DateTime) as written, "YYYY:MM:DD HH:MM:SS" (camera local time,
   // no zone), empty when absent or not of that form.
   std::string datetime;
+  std::optional<DjiXmp> dji;  // a DJI photo's XMP (JPEG APP1 "http://ns.adobe.com/xap/1.0/")
 };
 
 // Reads the EXIF of a JPEG or TIFF file; an empty Exif when the file has none (not an

@@ -224,6 +224,28 @@ int RunPhotos(const std::vector<std::string>& args, std::ostream& out) {
       }
     }
     j["exif"] = x;
+    if (e.dji) {
+      nlohmann::json d = nlohmann::json::object();
+      const DjiXmp& v = *e.dji;
+      const std::pair<const char*, const std::optional<double>*> fields[] = {
+          {"abs_alt_m", &v.abs_alt_m},
+          {"rel_alt_m", &v.rel_alt_m},
+          {"gimbal_pitch_deg", &v.gimbal_pitch_deg},
+          {"gimbal_yaw_deg", &v.gimbal_yaw_deg},
+          {"gimbal_roll_deg", &v.gimbal_roll_deg},
+          {"flight_pitch_deg", &v.flight_pitch_deg},
+          {"flight_yaw_deg", &v.flight_yaw_deg},
+          {"flight_roll_deg", &v.flight_roll_deg},
+          {"lat", &v.lat_deg},
+          {"lon", &v.lon_deg},
+          {"rtk_std_lon_m", &v.rtk_std_lon_m},
+          {"rtk_std_lat_m", &v.rtk_std_lat_m},
+          {"rtk_std_hgt_m", &v.rtk_std_hgt_m}};
+      for (const auto& [name, value] : fields)
+        if (*value) d[name] = **value;
+      if (v.rtk_flag) d["rtk_flag"] = *v.rtk_flag;
+      j["dji_xmp"] = d;
+    }
     files.push_back(j);
   }
   const nlohmann::json doc = {{"schema", "mound.photo_list"},

@@ -139,6 +139,47 @@ TEST(Exif, IntegerTagsAreNeverCastFromRationalsAndDegreesAreUnsigned) {
   EXPECT_FALSE(bad.lon_deg);
 }
 
+// A JPEG header (SOI, one APP1 XMP segment) holding `xmp`, as DJI's cameras write it.
+std::vector<uint8_t> JpegWithXmp(const std::string& xmp) {
+  const std::string name("http://ns.adobe.com/xap/1.0/\0", 29);
+  const std::string body = name + xmp;
+  std::vector<uint8_t> b = {0xFF, 0xD8, 0xFF, 0xE1};
+  const size_t len = body.size() + 2;
+  b.push_back(static_cast<uint8_t>(len >> 8));
+  b.push_back(static_cast<uint8_t>(len & 0xFF));
+  b.insert(b.end(), body.begin(), body.end());
+  for (uint8_t c : {0xFF, 0xDA, 0x00, 0x02}) b.push_back(c);
+  return b;
+}
+
+TEST(Exif, ReadsADjiPhotosXmpAsAttributesOrElements) {
+  const Exif e = ParseExif(
+      JpegWithXmp("<x:xmpmeta><rdf:RDF><rdf:Description rdf:about=\"DJI Meta Data\" "
+                  "drone-dji:AbsoluteAltitude=\"+317.547\" drone-dji:RelativeAltitude=\"+109.400\" "
+                  "drone-dji:GimbalPitchDegree=\"-90.00\" drone-dji:GimbalYawDegree=\"+12.30\" "
+                  "drone-dji:FlightYawDegree=\"+11.90\" drone-dji:RtkFlag=\"50\" "
+                  "drone-dji:RtkStdLon=\"0.01234\" drone-dji:RtkStdLat=\"0.01456\">"
+                  "<drone-dji:RtkStdHgt>0.0256</drone-dji:RtkStdHgt></rdf:Description></rdf:RDF>"
+                  "</x:xmpmeta>"));
+  ASSERT_TRUE(e.dji);
+  EXPECT_DOUBLE_EQ(*e.dji->abs_alt_m, 317.547);
+  EXPECT_DOUBLE_EQ(*e.dji->rel_alt_m, 109.4);
+  EXPECT_DOUBLE_EQ(*e.dji->gimbal_pitch_deg, -90.0);
+  EXPECT_DOUBLE_EQ(*e.dji->gimbal_yaw_deg, 12.3);
+  EXPECT_DOUBLE_EQ(*e.dji->flight_yaw_deg, 11.9);
+  EXPECT_EQ(*e.dji->rtk_flag, 50);
+  EXPECT_DOUBLE_EQ(*e.dji->rtk_std_lon_m, 0.01234);
+  EXPECT_DOUBLE_EQ(*e.dji->rtk_std_hgt_m, 0.0256);  // the element form
+  EXPECT_FALSE(e.dji->lat_deg);
+  // out of range, not a number, unclosed: not reported; no drone-dji field: no XMP
+  const Exif bad = ParseExif(
+      JpegWithXmp("drone-dji:AbsoluteAltitude=\"1e9\" drone-dji:GimbalPitchDegree=\"nan\" "
+                  "drone-dji:RelativeAltitude=\"12"));
+  ASSERT_TRUE(bad.dji);
+  EXPECT_FALSE(bad.dji->abs_alt_m || bad.dji->gimbal_pitch_deg || bad.dji->rel_alt_m);
+  EXPECT_FALSE(ParseExif(JpegWithXmp("<x:xmpmeta/>")).dji);
+}
+
 // A card: images with and without GPS, a text file, an empty file, a link to a folder
 // above it (a loop, not followed), a folder without permission (listed as skipped).
 TEST(Card, ListsEveryFileWithItsKindAndExif) {

@@ -286,3 +286,57 @@ def test_sim_site_jpeg(tmp_path: Path) -> None:
         enu = geodetic_to_enu(origin, np.array([[x["lat"], x["lon"], x["alt_m"]]]))[0]
         assert np.allclose(enu, im["gps_enu_m"], atol=2e-3)
         assert x["time"] == f"2026:07:01 10:00:{2 * k:02d}"
+
+
+def _dji_xmp(abs_alt: float, rel_alt: float, lat: float | None = None,
+             lon: float | None = None) -> bytes:
+    gps = (f' drone-dji:GpsLatitude="{lat:+.8f}" drone-dji:GpsLongitude="{lon:+.8f}"'
+           if lat is not None and lon is not None else "")
+    return ('<?xpacket begin="\ufeff" id="W5M0MpCehiHzreSzNTczkc9d"?>'
+            '<x:xmpmeta xmlns:x="adobe:ns:meta/"><rdf:RDF xmlns:rdf='
+            '"http://www.w3.org/1999/02/22-rdf-syntax-ns#"><rdf:Description rdf:about='
+            '"DJI Meta Data" xmlns:drone-dji="http://www.dji.com/drone-dji/1.0/"'
+            f' drone-dji:AbsoluteAltitude="{abs_alt:+.3f}"'
+            f' drone-dji:RelativeAltitude="{rel_alt:+.3f}"'
+            ' drone-dji:GimbalRollDegree="+0.00" drone-dji:GimbalYawDegree="+45.10"'
+            ' drone-dji:GimbalPitchDegree="-89.90" drone-dji:FlightRollDegree="+1.20"'
+            ' drone-dji:FlightYawDegree="+44.70" drone-dji:FlightPitchDegree="-2.30"'
+            ' drone-dji:RtkFlag="50" drone-dji:RtkStdLon="0.01134"'
+            f' drone-dji:RtkStdLat="0.01245" drone-dji:RtkStdHgt="0.02517"{gps}/>'
+            '</rdf:RDF></x:xmpmeta><?xpacket end="w"?>').encode()
+
+
+def test_dji_photos_xmp_is_read_and_a_contradiction_reported(caliterra: Path,
+                                                            tmp_path: Path) -> None:
+    """Caliterra's photos given a DJI XMP packet (drone-dji: heights, attitude, RTK): every
+    field reaches photos.json; a photo whose XMP height and position contradict its EXIF
+    is reported (the EXIF kept, never merged), and the take-off height's spread over the
+    card (AbsoluteAltitude - RelativeAltitude) measured."""
+    card = tmp_path / "card" / "DCIM" / "100MEDIA"
+    card.mkdir(parents=True)
+    listing = native.run_json("mound_recon", ["photos", str(caliterra)])
+    gps = [f for f in listing["files"] if "lat" in f["exif"]][:10]
+    for k, f in enumerate(gps):
+        im = Image.open(caliterra / f["file"])
+        alt = f["exif"].get("alt_m", 100.0)
+        lie = k == 3  # XMP 25 m higher and 40 m north of what EXIF says
+        xmp = _dji_xmp(alt + (25.0 if lie else 0.0), alt - 60.0,
+                       f["exif"]["lat"] + (40 / 111_000 if lie else 0.0), f["exif"]["lon"])
+        im.save(card / f"DJI_{k:04d}.JPG", exif=im.info["exif"], xmp=xmp, quality=90)
+    sites = sites_at(caliterra, tmp_path)
+    doc = sort_card(str(tmp_path / "card"), str(sites), str(tmp_path / "out"),
+                    SortSpec(site_diameter_m=100))
+    by = {r["file"].split("/")[-1]: r for r in doc["photos"]}
+    x = by["DJI_0000.JPG"]["dji_xmp"]
+    assert x["rel_alt_m"] == pytest.approx(gps[0]["exif"].get("alt_m", 100.0) - 60.0, abs=1e-3)
+    assert (x["gimbal_pitch_deg"], x["gimbal_yaw_deg"], x["gimbal_roll_deg"]) == (-89.9, 45.1, 0)
+    assert (x["flight_pitch_deg"], x["flight_yaw_deg"], x["flight_roll_deg"]) == (-2.3, 44.7, 1.2)
+    assert (x["rtk_flag"], x["rtk_std_lon_m"], x["rtk_std_lat_m"], x["rtk_std_hgt_m"]) == (
+        50, 0.01134, 0.01245, 0.02517)
+    assert "xmp_conflicts" not in by["DJI_0000.JPG"]
+    bad = by["DJI_0003.JPG"]
+    assert len(bad["xmp_conflicts"]) == 2 and "AbsoluteAltitude" in bad["xmp_conflicts"][1]
+    assert bad["alt_m"] == pytest.approx(gps[3]["exif"].get("alt_m"), abs=0.01)  # EXIF kept
+    s = doc["dji_xmp"]
+    assert (s["photos"], s["conflicts"], s["rtk_fixed"]) == (10, 1, 10)
+    assert s["altitude_drift"]["spread_m"] == pytest.approx(25.0, abs=0.01)

@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import os
 import shutil
 from dataclasses import dataclass
@@ -147,6 +148,41 @@ def _objects(doc: dict[str, Any], key: str, path: str) -> list[dict[str, Any]]:
     return items
 
 
+# A DJI photo's XMP and its EXIF say the same position and height to the precision they
+# are written (EXIF's GPS rationals: centimetres); beyond these the two disagree, and the
+# photo says so in photos.json (`xmp_conflicts`) instead of one being taken silently. The
+# EXIF values stay what the sort and the reconstruction use.
+XMP_EXIF_MAX_M = 1.0
+
+
+def xmp_conflicts(row: dict[str, Any], xmp: dict[str, Any]) -> list[str]:
+    """Where a photo's DJI XMP contradicts its EXIF (position, absolute height)."""
+    out = []
+    if row["lat"] is not None and xmp.get("lat") is not None and xmp.get("lon") is not None:
+        o = Origin(row["lat"], row["lon"])
+        e = geodetic_to_enu(o, np.array([[xmp["lat"], xmp["lon"], 0.0]]))[0]
+        if math.hypot(e[0], e[1]) > XMP_EXIF_MAX_M:
+            out.append(f"position: XMP {math.hypot(e[0], e[1]):.1f} m from EXIF's")
+    if row["alt_m"] is not None and xmp.get("abs_alt_m") is not None and abs(
+            xmp["abs_alt_m"] - row["alt_m"]) > XMP_EXIF_MAX_M:
+        out.append(f"height: XMP AbsoluteAltitude {xmp['abs_alt_m']:.2f} m, EXIF GPSAltitude "
+                   f"{row['alt_m']:.2f} m")
+    return out
+
+
+def altitude_drift(rows: list[dict[str, Any]]) -> dict[str, Any] | None:
+    """AbsoluteAltitude less RelativeAltitude is the take-off point's height and should not
+    change over a flight: its spread over the card's DJI photos (the GNSS height's drift
+    against the barometer), or None without such photos."""
+    d = [r["dji_xmp"]["abs_alt_m"] - r["dji_xmp"]["rel_alt_m"] for r in rows
+         if isinstance(r.get("dji_xmp"), dict) and r["dji_xmp"].get("abs_alt_m") is not None
+         and r["dji_xmp"].get("rel_alt_m") is not None and r.get("reason") is None]
+    if not d:
+        return None
+    return {"photos": len(d), "takeoff_abs_alt_median_m": float(np.median(d)),
+            "spread_m": float(np.max(d) - np.min(d))}
+
+
 def sharpness(data: bytes) -> float | None:
     """The variance of the Laplacian of the image (its file's bytes) in grey levels,
     decoded at about 640 px on its longer side (a JPEG is decoded at that scale directly);
@@ -241,6 +277,11 @@ def sort_card(card: str, sites_path: str, out_dir: str, spec: SortSpec | None = 
         row["sharpness"] = sharpness(data)
         alt = exif.get("alt_m")
         row["alt_m"] = alt if alt is not None and -1000 <= alt <= 20000 else None
+        if isinstance(f.get("dji_xmp"), dict):
+            row["dji_xmp"] = f["dji_xmp"]
+            conflicts = xmp_conflicts(row, f["dji_xmp"])
+            if conflicts:
+                row["xmp_conflicts"] = conflicts
     # Another flight's photos: far in time from the card's GPS photos.
     times = [t for r in rows if r["lat"] is not None and (t := _time(r["time"])) is not None]
     if times:
@@ -293,6 +334,13 @@ def sort_card(card: str, sites_path: str, out_dir: str, spec: SortSpec | None = 
            "sites_file": str(sites_path), "spec": {**spec.__dict__, "reach_m": sites.reach_m},
            "photos": rows, "sites": per_site, "counts": reasons,
            "skipped_folders": listing.get("skipped", [])}
+    dji = [r for r in rows if "dji_xmp" in r]
+    if dji:
+        doc["dji_xmp"] = {
+            "photos": len(dji), "conflicts": sum(1 for r in dji if "xmp_conflicts" in r),
+            "rtk_fixed": sum(1 for r in dji if r["dji_xmp"].get("rtk_flag") == 50),
+            "abs_alt_datum": "EGM96 (ellipsoidal where rtk_flag is 50)",
+            "altitude_drift": altitude_drift(rows)}
     if not any(v["photos"] for v in per_site.values()):
         why = ", ".join(f"{n} {k}" for k, n in sorted(reasons.items())) or "an empty card"
         raise InputError(f"{card}: no usable photo over any site ({why})")
