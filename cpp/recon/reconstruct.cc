@@ -73,7 +73,7 @@ ReconstructResult Reconstruct(const ReconstructOptions& o) {
   o.Check();
   const std::string& dir = o.images_dir;
   const bool exif_gps = o.gps == GpsSource::kExif;
-  const Align align = o.align != Align::kAuto ? o.align : exif_gps ? Align::kLevel : Align::kFull;
+  Align align = o.align != Align::kAuto ? o.align : exif_gps ? Align::kLevel : Align::kFull;
   const sfm::FeatureOptions& fo = o.features;
   const bool klt = o.feature_kind == FeatureKind::kKlt;
   const Matching matching = o.matching;
@@ -123,6 +123,7 @@ ReconstructResult Reconstruct(const ReconstructOptions& o) {
   geometry::CameraModel camera;
   std::string camera_source;
   std::vector<Exif> exif(n);
+  int rtk_fixed = 0;  // photos with an RTK fix (DJI XMP), with --gps exif
   if (exif_gps || o.camera_file.empty()) {
     for (int i = 0; i < n; ++i) exif[i] = ReadExif(dir + "/" + files[i]);
   }
@@ -152,6 +153,19 @@ ReconstructResult Reconstruct(const ReconstructOptions& o) {
     }
     if (g.enu_m.empty()) throw InputError("--gps exif: no image in " + dir + " has EXIF GPS");
     gps = g;
+    // DJI's RTK photos (XMP RtkFlag 50, fixed) carry heights to centimetres: where every
+    // photo with GPS has a fix and a vertical standard deviation within 0.1 m, the heights
+    // do not drift as consumer GNSS heights do, and the default fit takes all three
+    // coordinates instead of levelling from the images.
+    int rtk = 0, with_gps = 0;
+    for (int i = 0; i < n; ++i) {
+      if (!exif[i].lat_deg) continue;
+      ++with_gps;
+      const auto& d = exif[i].dji;
+      if (d && d->rtk_flag == 50 && d->rtk_std_hgt_m && *d->rtk_std_hgt_m <= 0.1) ++rtk;
+    }
+    rtk_fixed = rtk;
+    if (o.align == Align::kAuto && rtk > 0 && rtk == with_gps) align = Align::kFull;
   }
 
   // Pairs to match (KLT: the consecutive images it tracked; else sfm::SelectPairs).
@@ -291,6 +305,7 @@ ReconstructResult Reconstruct(const ReconstructOptions& o) {
                         {"rmse_horizontal_m", fit->rmse_horizontal_m},
                         {"rmse_vertical_m", fit->rmse_vertical_m},
                         {"scale", fit->world_from_model.scale},
+                        {"rtk_fixed_images", rtk_fixed},
                         {"method", align == Align::kLevel
                                        ? "level: vertical from the images, heading, scale and "
                                          "position from horizontal GPS, height offset by median"

@@ -340,3 +340,29 @@ def test_dji_photos_xmp_is_read_and_a_contradiction_reported(caliterra: Path,
     s = doc["dji_xmp"]
     assert (s["photos"], s["conflicts"], s["rtk_fixed"]) == (10, 1, 10)
     assert s["altitude_drift"]["spread_m"] == pytest.approx(25.0, abs=0.01)
+
+
+@pytest.mark.slow
+def test_rtk_fixed_dji_photos_are_georegistered_in_three_dimensions(tmp_path: Path) -> None:
+    """`mound_recon reconstruct --gps exif` on a simulated site's JPEGs: levelled from the
+    images by default (consumer GNSS heights drift); the same photos with DJI XMP saying
+    RTK fixed (RtkFlag 50, vertical sigma 2.5 cm) fit all three GPS coordinates."""
+    out = tmp_path / "site"
+    assert mound_main(["sim", "site", "--size", "320", "240", "--pattern", "raster",
+                       "--jpeg", "--gps-sigma", "0.02", "0.03", "--out", str(out)]) == 0
+    images = out / "images"
+    native.run_tool("mound_recon", ["reconstruct", str(images), "--gps", "exif", "--out",
+                                    str(tmp_path / "plain")])
+    recon = json.loads((tmp_path / "plain" / "recon.json").read_text())
+    assert recon["gps_fit"]["method"].startswith("level")
+    assert recon["gps_fit"]["rtk_fixed_images"] == 0
+    rtk = tmp_path / "rtk"
+    rtk.mkdir()
+    for p in sorted(images.glob("*.jpg")):
+        im = Image.open(p)
+        im.save(rtk / p.name, exif=im.info["exif"], xmp=_dji_xmp(100.0, 60.0), quality=95)
+    native.run_tool("mound_recon", ["reconstruct", str(rtk), "--gps", "exif", "--out",
+                                    str(tmp_path / "rtk_out")])
+    recon = json.loads((tmp_path / "rtk_out" / "recon.json").read_text())
+    assert recon["gps_fit"]["method"].startswith("full")
+    assert recon["gps_fit"]["rtk_fixed_images"] == len(list(rtk.glob("*.jpg")))
