@@ -264,6 +264,15 @@ def test_map_page_in_headless_chromium(survey: dict[str, Any], tmp_path: Path) -
                      for gj in out.glob("mission*.geojson")
                      for f in json.loads(gj.read_text())["features"])
     assert int(attr("footprints")) == footprints > 0
+    # every mission file (.plan, DJI .kmz, Litchi .csv) drawn from its own reader's path,
+    # the same number of waypoints as the reader finds
+    from mound.uav import mission_formats
+
+    files = sorted([*out.glob("mission*.plan"), *out.glob("mission*.kmz"),
+                    *out.glob("mission*.csv")])
+    assert {p.suffix for p in files} == {".plan", ".kmz", ".csv"}
+    want = [len(r.points) for p in files for r in mission_formats.read_any(p)[1]]
+    assert json.loads(attr("mission-files")) == want
     overlays = json.loads(attr("overlays"))
     visited = [r for r in summary["sites"] if r["visited"] and r.get("files", {}).get("rasters")]
     assert len(overlays) == 2 * len(visited) > 0  # orthophoto and relief model per site

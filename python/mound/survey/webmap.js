@@ -100,6 +100,14 @@
     secondPaths.push(line);
   });
   seconds.addTo(map);
+  // Each mission file as written (.plan, DJI .kmz, Litchi .csv), read back: the same path.
+  const FORMAT = { plan: ["#212121", null], kmz: ["#2e7d32", "4 4"], csv: ["#6a1b9a", "1 5"] };
+  const written = L.layerGroup();
+  (D.mission_files || []).forEach((f) => {
+    const [color, dash] = FORMAT[f.format] || ["#000000", null];
+    written.addLayer(L.polyline(f.path, { color, weight: 1, dashArray: dash })
+      .bindTooltip(`${f.file} (${f.waypoints} waypoints), as read back`));
+  });
 
   const sites = L.layerGroup();
   const markers = [];
@@ -124,6 +132,7 @@
   };
   if (D.overlays.some((o) => o.name === "scene_p_mound")) layers["scene p(mound)"] = scene;
   if (secondPaths.length) layers["second looks"] = seconds;
+  if ((D.mission_files || []).length) layers["mission files (.plan, .kmz, .csv)"] = written;
   L.control.layers(null, layers, { collapsed: false }).addTo(map);
   L.control.scale({ metric: true, imperial: false }).addTo(map);
   const legend = L.control({ position: "bottomleft" });
@@ -146,6 +155,7 @@
   body.dataset.paths = String(paths.length);
   body.dataset.secondLooks = String(secondPaths.length);
   body.dataset.footprints = String((D.footprints || []).length);
+  body.dataset.missionFiles = JSON.stringify(written.getLayers().map((l) => l.getLatLngs().length));
   body.dataset.overlays = JSON.stringify(drawn.map((d) => {
     const b = d.layer.getBounds();
     return { site: d.site, name: d.name, bounds: [[b.getSouth(), b.getWest()], [b.getNorth(), b.getEast()]] };

@@ -175,7 +175,20 @@ def map_data(tree: RunTree, summary: dict[str, Any], sites_doc: dict[str, Any],
     sl_plan = tree.second_look / "plan.json"
     second_looks = (paths(read_json(sl_plan, "mound.plan", 1).get("flights") or [])
                     if sl_plan.is_file() else [])
+    # every mission file of the run read back by its own reader: the map draws each path
+    # (a file the survey wrote that its reader refuses is a bug: not caught here)
+    from mound.uav import mission_formats
+
+    mission_files = []
+    for path in sorted([*tree.root.glob("mission*.plan"), *tree.root.glob("mission*.kmz"),
+                        *tree.root.glob("mission*.csv")]):
+        _, routes = mission_formats.read_any(path)
+        for r in routes:
+            mission_files.append({"file": path.name, "format": path.suffix[1:],
+                                  "waypoints": len(r.points),
+                                  "path": [[p.lat_deg, p.lon_deg] for p in r.points]})
     return {"schema": "mound.map", "version": 1, "second_looks": second_looks,
+            "mission_files": mission_files,
             "home": {"id": home["id"], "lat": pos[home["id"]][0], "lon": pos[home["id"]][1]},
             "sites": sites, "flights": flights, "overlays": overlays,
             "footprints": footprints,
