@@ -106,6 +106,25 @@ TEST(Sim3d, UmeyamaRecoversAKnownSimilarity) {
   // Collinear sources and too few pairs give no answer.
   EXPECT_FALSE(EstimateSim3d({{0, 0, 0}, {1, 1, 1}, {2, 2, 2}, {3, 3, 3}}, dst));
   EXPECT_FALSE(EstimateSim3d({src[0], src[1]}, {dst[0], dst[1]}));
+  // Weighted: equal weights give the unweighted answer; a pair moved 50 m away and given
+  // a millionth of the weight (an RTK float among fixes) barely moves it, unweighted it
+  // does.
+  const auto even = EstimateSim3d(src, dst, std::vector<double>(src.size(), 3.0));
+  ASSERT_TRUE(even);
+  EXPECT_NEAR(even->scale, 2.7, 1e-9);
+  EXPECT_NEAR((even->translation - truth.translation).norm(), 0, 1e-7);
+  std::vector<Eigen::Vector3d> bad = dst;
+  bad[4] += Eigen::Vector3d(50, 0, 0);
+  std::vector<double> w(src.size(), 1.0);
+  w[4] = 1e-6;
+  const auto weighted = EstimateSim3d(src, bad, w);
+  const auto plain = EstimateSim3d(src, bad);
+  ASSERT_TRUE(weighted && plain);
+  EXPECT_LT((weighted->translation - truth.translation).norm(), 1e-3);
+  EXPECT_GT((plain->translation - truth.translation).norm(), 1.0);
+  EXPECT_FALSE(EstimateSim3d(src, dst, std::vector<double>(src.size() - 1, 1.0)));
+  w[4] = 0;
+  EXPECT_FALSE(EstimateSim3d(src, bad, w));
 }
 
 TEST(Sim3d, ComposesRightToLeftAndInverts) {

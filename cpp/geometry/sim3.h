@@ -34,5 +34,10 @@ struct Sim3d {
 // three pairs or the source points are (nearly) collinear.
 std::optional<Sim3d> EstimateSim3d(const std::vector<Eigen::Vector3d>& src,
                                    const std::vector<Eigen::Vector3d>& dst);
+// The same minimising sum_i w_i |s R src_i + t - dst_i|^2 (Umeyama's closed form with
+// weighted means and cross-covariance); weights > 0, finite, one per pair, else nothing.
+std::optional<Sim3d> EstimateSim3d(const std::vector<Eigen::Vector3d>& src,
+                                   const std::vector<Eigen::Vector3d>& dst,
+                                   const std::vector<double>& weights);
 
 }  // namespace mound::geometry

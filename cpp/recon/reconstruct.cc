@@ -124,6 +124,8 @@ ReconstructResult Reconstruct(const ReconstructOptions& o) {
   std::string camera_source;
   std::vector<Exif> exif(n);
   int rtk_fixed = 0;  // photos with an RTK fix (DJI XMP), with --gps exif
+  // 1 / the variance of each photo's RTK position (DJI XMP RtkStdLon/Lat/Hgt), by file
+  std::map<std::string, double> gps_weight;
   if (exif_gps || o.camera_file.empty()) {
     for (int i = 0; i < n; ++i) exif[i] = ReadExif(dir + "/" + files[i]);
   }
@@ -163,6 +165,13 @@ ReconstructResult Reconstruct(const ReconstructOptions& o) {
       ++with_gps;
       const auto& d = exif[i].dji;
       if (d && d->rtk_flag == 50 && d->rtk_std_hgt_m && *d->rtk_std_hgt_m <= 0.1) ++rtk;
+      if (d && d->rtk_std_lon_m && d->rtk_std_lat_m && d->rtk_std_hgt_m) {
+        // at least 1 mm: a zero standard deviation is a rounding, not a certainty
+        const double var = std::max(1e-6, *d->rtk_std_lon_m * *d->rtk_std_lon_m +
+                                              *d->rtk_std_lat_m * *d->rtk_std_lat_m +
+                                              *d->rtk_std_hgt_m * *d->rtk_std_hgt_m);
+        gps_weight[files[i]] = 1 / var;
+      }
     }
     rtk_fixed = rtk;
     if (o.align == Align::kAuto && rtk > 0 && rtk == with_gps) align = Align::kFull;
@@ -269,6 +278,7 @@ ReconstructResult Reconstruct(const ReconstructOptions& o) {
   doc["scale"] = "unknown";
   if (gps) {
     std::vector<Eigen::Vector3d> model, world;
+    std::vector<double> weights;  // the GPS positions' 1 / variance, where every one has it
     std::vector<int> which;
     for (int i = 0; i < n; ++i) {
       auto g = gps->enu_m.find(files[i]);
@@ -276,6 +286,8 @@ ReconstructResult Reconstruct(const ReconstructOptions& o) {
       model.push_back(r.cam_from_world[i].Centre());
       world.push_back(g->second);
       which.push_back(i);
+      const auto w = gps_weight.find(files[i]);
+      if (w != gps_weight.end()) weights.push_back(w->second);
     }
     // Consumer GPS heights drift (Caliterra's climb 80 m during the flight): by default
     // with EXIF GPS the vertical comes from the images (FitLevelledSim3Robust), with a
@@ -286,7 +298,8 @@ ReconstructResult Reconstruct(const ReconstructOptions& o) {
         down_in_model += r.cam_from_world[i].rotation.conjugate() * Eigen::Vector3d::UnitZ();
     const auto fit = align == Align::kLevel
                          ? sfm::FitLevelledSim3Robust(model, world, down_in_model, seed)
-                         : sfm::FitSim3Robust(model, world, seed);
+                         : sfm::FitSim3Robust(model, world, seed, 0.5,
+                                              weights.size() == model.size() ? &weights : nullptr);
     if (fit && fit->inliers >= 3) {
       sfm::Transform(fit->world_from_model, &r);
       doc["frame"] = "enu";
@@ -306,6 +319,8 @@ ReconstructResult Reconstruct(const ReconstructOptions& o) {
                         {"rmse_vertical_m", fit->rmse_vertical_m},
                         {"scale", fit->world_from_model.scale},
                         {"rtk_fixed_images", rtk_fixed},
+                        {"weighted_by_rtk_std", align == Align::kFull && !weights.empty() &&
+                                                    weights.size() == model.size()},
                         {"method", align == Align::kLevel
                                        ? "level: vertical from the images, heading, scale and "
                                          "position from horizontal GPS, height offset by median"

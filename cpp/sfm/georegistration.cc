@@ -12,7 +12,7 @@ namespace mound::sfm {
 
 std::optional<GeoFit> FitSim3Robust(const std::vector<Eigen::Vector3d>& model,
                                     const std::vector<Eigen::Vector3d>& world, uint64_t seed,
-                                    double min_threshold_m) {
+                                    double min_threshold_m, const std::vector<double>* weights) {
   const int n = static_cast<int>(std::min(model.size(), world.size()));
   if (n < 3) return std::nullopt;
   std::mt19937_64 rng(seed);
@@ -43,6 +43,7 @@ std::optional<GeoFit> FitSim3Robust(const std::vector<Eigen::Vector3d>& model,
   GeoFit fit;
   const double threshold = std::max(min_threshold_m, 2.5 * 1.4826 * Median(residuals(*best)));
   std::vector<Eigen::Vector3d> src, dst;
+  std::vector<double> w;
   std::vector<double> r = residuals(*best);
   fit.inlier.assign(n, false);
   for (int i = 0; i < n; ++i)
@@ -50,8 +51,10 @@ std::optional<GeoFit> FitSim3Robust(const std::vector<Eigen::Vector3d>& model,
       fit.inlier[i] = true;
       src.push_back(model[i]);
       dst.push_back(world[i]);
+      if (weights && static_cast<int>(weights->size()) == n) w.push_back((*weights)[i]);
     }
-  const auto refit = geometry::EstimateSim3d(src, dst);
+  const auto refit = w.size() == src.size() && !w.empty() ? geometry::EstimateSim3d(src, dst, w)
+                                                          : geometry::EstimateSim3d(src, dst);
   fit.world_from_model = refit ? *refit : *best;
   r = residuals(fit.world_from_model);
   double s2 = 0, h2 = 0, v2 = 0;

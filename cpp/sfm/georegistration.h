@@ -24,9 +24,12 @@ struct GeoFit {
 // Robust similarity from camera centres (model) to GPS positions (world): least median of
 // squares over minimal three-point Umeyama fits, inliers within 2.5 robust sigmas (at least
 // `min_threshold_m`), refitted on them. Nothing when fewer than 3 usable pairs.
+// `weights` (optional, one per pair, e.g. 1 / variance of each GPS position): the refit on
+// the inliers is weighted.
 std::optional<GeoFit> FitSim3Robust(const std::vector<Eigen::Vector3d>& model,
                                     const std::vector<Eigen::Vector3d>& world, uint64_t seed,
-                                    double min_threshold_m = 0.5);
+                                    double min_threshold_m = 0.5,
+                                    const std::vector<double>* weights = nullptr);
 
 // The same with the vertical taken from the images instead of the GPS heights (whose
 // altitude drifts on consumer receivers): the model is first rotated so that

@@ -346,7 +346,8 @@ def test_dji_photos_xmp_is_read_and_a_contradiction_reported(caliterra: Path,
 def test_rtk_fixed_dji_photos_are_georegistered_in_three_dimensions(tmp_path: Path) -> None:
     """`mound_recon reconstruct --gps exif` on a simulated site's JPEGs: levelled from the
     images by default (consumer GNSS heights drift); the same photos with DJI XMP saying
-    RTK fixed (RtkFlag 50, vertical sigma 2.5 cm) fit all three GPS coordinates."""
+    RTK fixed (RtkFlag 50, vertical sigma 2.5 cm) fit all three GPS coordinates, weighted
+    by the inverse of each position's RTK variance."""
     out = tmp_path / "site"
     assert mound_main(["sim", "site", "--size", "320", "240", "--pattern", "raster",
                        "--jpeg", "--gps-sigma", "0.02", "0.03", "--out", str(out)]) == 0
@@ -356,6 +357,7 @@ def test_rtk_fixed_dji_photos_are_georegistered_in_three_dimensions(tmp_path: Pa
     recon = json.loads((tmp_path / "plain" / "recon.json").read_text())
     assert recon["gps_fit"]["method"].startswith("level")
     assert recon["gps_fit"]["rtk_fixed_images"] == 0
+    assert recon["gps_fit"]["weighted_by_rtk_std"] is False
     rtk = tmp_path / "rtk"
     rtk.mkdir()
     for p in sorted(images.glob("*.jpg")):
@@ -366,3 +368,4 @@ def test_rtk_fixed_dji_photos_are_georegistered_in_three_dimensions(tmp_path: Pa
     recon = json.loads((tmp_path / "rtk_out" / "recon.json").read_text())
     assert recon["gps_fit"]["method"].startswith("full")
     assert recon["gps_fit"]["rtk_fixed_images"] == len(list(rtk.glob("*.jpg")))
+    assert recon["gps_fit"]["weighted_by_rtk_std"] is True
