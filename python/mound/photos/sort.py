@@ -50,7 +50,14 @@ from mound.bounds import SITE_DIAMETER_M, Bound
 from mound.errors import InputError
 from mound.geometry.flight import ScanSpec
 from mound.geometry.geodesy import Origin, geodetic_to_enu
-from mound.jsonio import parse_json, read_json, read_text, require_number, write_json
+from mound.jsonio import (
+    parse_json,
+    read_json,
+    read_text,
+    require_id,
+    require_number,
+    write_json,
+)
 
 SCHEMA = "mound.photos"
 VERSION = 1
@@ -77,7 +84,7 @@ class SortSpec:
     copy: bool = False
 
     def validate(self) -> None:
-        """UsageError naming the flag (as `mound photos sort` spells it) of a value out of
+        """InputError naming the flag (as `mound photos sort` spells it) of a value out of
         its bound (NaN and inf included)."""
         for name, (flag, bound) in SORT_NUMBERS.items():
             bound.check(getattr(self, name), flag)
@@ -109,8 +116,7 @@ def sites_of(path: str, spec: SortSpec) -> Sites:
 
         waypoints = _objects(doc, "waypoints", path)
         for k, w in enumerate(waypoints):
-            if not isinstance(w.get("id"), str):
-                raise InputError(f"{path}: waypoints[{k}].id: expected a string")
+            require_id(w.get("id"), f"{path}: waypoints[{k}].id")
         wanted = visited_ids(doc)
         nodes = [(f"{path}: waypoints[{k}]", w) for k, w in enumerate(waypoints)
                  if w.get("id") in wanted]
@@ -124,11 +130,7 @@ def sites_of(path: str, spec: SortSpec) -> Sites:
         raise InputError(f"{path}: no sites")
     scan = (ScanSpec.from_doc(doc["scan"], f"{path}: scan") if isinstance(doc.get("scan"), dict)
             else ScanSpec(pattern="raster", scale_m=spec.site_diameter_m))
-    ids = []
-    for where, n in nodes:
-        if not isinstance(n.get("id"), str) or not n["id"]:
-            raise InputError(f"{where}.id: expected a non-empty string")
-        ids.append(n["id"])
+    ids = [require_id(n.get("id"), f"{where}.id") for where, n in nodes]
     xy = np.array([[require_number(n, k, where, lo=-MAX_ENU_M, hi=MAX_ENU_M)
                     for k in ("x_m", "y_m")] for where, n in nodes])
     home_xy = np.zeros(2) if home is None else np.array(

@@ -46,7 +46,7 @@ import io
 import math
 import time
 import zipfile
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 from xml.sax.saxutils import escape
@@ -120,22 +120,15 @@ class Heights:
 
 
 def geoid_separation(lat: np.ndarray, lon: np.ndarray) -> np.ndarray:
-    """EGM96 geoid height above the WGS84 ellipsoid (m) through PROJ's grid; InputError
-    where the grid is not installed (PROJ would return 0 without a word)."""
-    from pyproj.transformer import TransformerGroup
+    """EGM96 geoid height above the WGS84 ellipsoid (m): minus the EGM96 height of the
+    ellipsoid's surface, through the DEM reader's conversion (geometry/dem.vertical_shift:
+    PROJ's grid, InputError where it is not installed, never PROJ's silent 0)."""
+    from mound.geometry.dem import vertical_shift
 
-    from mound.geometry.dem import use_proj_grids
-
-    use_proj_grids()
-    group = TransformerGroup("EPSG:4326+5773", "EPSG:4979", always_xy=True)
-    if not group.transformers or not group.best_available:
-        raise InputError("--dji-heights wgs84: PROJ's EGM96 grid (us_nga_egm96_15.tif, "
-                         "Debian's proj-data) is not installed; the geoid separation would "
-                         "be a silent 0 m")
-    _, _, h = group.transformers[0].transform(np.asarray(lon, float), np.asarray(lat, float),
-                                              np.zeros(len(np.atleast_1d(lat))))
-    out = np.atleast_1d(np.asarray(h, dtype=float))
-    if not np.all(np.isfinite(out)) or np.any(np.abs(out) > 120):
+    lat = np.atleast_1d(np.asarray(lat, dtype=float))
+    out = -vertical_shift("ellipsoid", np.atleast_1d(np.asarray(lon, dtype=float)), lat,
+                          np.zeros(len(lat)), "the DJI mission's WGS84 heights")
+    if np.any(np.abs(out) > 120):
         raise InputError("PROJ gave no geoid separation here (outside its grid?)")
     return out
 
@@ -331,8 +324,9 @@ def kmz_bytes(route: Route, craft: Aircraft, heights: Heights, created_ms: int |
     takeoff = min(max(route.points[0].height_m, TAKEOFF_SECURITY_RANGE_M[0]),
                   TAKEOFF_SECURITY_RANGE_M[1])
     finish = "goHome" if route.end == "home" else "autoLand"
-    length = float(np.sum(route.leg_lengths_m()))
-    duration = float(np.sum(route.leg_lengths_m() / np.array(
+    legs = route.leg_lengths_m()
+    length = float(np.sum(legs))
+    duration = float(np.sum(legs / np.array(
         [max(p.speed_m_s, 0.1) for p in route.points[:-1]])))
     now = created_ms if created_ms is not None else int(time.time() * 1000)
     head = (f'<?xml version="1.0" encoding="UTF-8"?>\n'
@@ -598,9 +592,3 @@ def read_kmz(path: str | Path) -> KmzMission:
         rth_height_m=_num(mc, "globalRTHHeight", where, 0, 10_000, required=False),
         takeoff_ref=takeoff, waylines=waylines)
 
-
-def to_relative(m: KmzMission, route: Route, home_amsl_m: float, geoid_m: np.ndarray) -> Route:
-    """A WGS84 wayline's heights as heights above home's ground (for comparison)."""
-    pts = tuple(replace(p, height_m=p.height_m - geoid_m[k] - home_amsl_m)
-                for k, p in enumerate(route.points))
-    return replace(route, points=pts)

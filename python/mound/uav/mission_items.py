@@ -300,8 +300,7 @@ def visit_order(plan: dict[str, Any]) -> list[str]:
         if not isinstance(tour, list):
             raise InputError(f"{where}: expected a list of ids")
         for i, sid in enumerate(tour):
-            if not isinstance(sid, str):
-                raise InputError(f"{where}[{i}]: expected an id (a string)")
+            require_id(sid, f"{where}[{i}]")
         ids.update(dict.fromkeys(tour[1:-1]))
     return list(ids)
 

@@ -25,7 +25,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from mound.errors import InputError
-from mound.geometry.geodesy import Origin, geodetic_to_enu
+from mound.geometry.geodesy import Origin, enu_to_geodetic, geodetic_to_enu
 from mound.uav import mission_items as mi
 
 NADIR_DEG = -90.0
@@ -164,8 +164,6 @@ def split_long_legs(route: Route, max_leg_m: float) -> Route:
     e = route.enu()
     out: list[RoutePoint] = []
     origin = route.origin()
-    from mound.geometry.geodesy import enu_to_geodetic
-
     for k, p in enumerate(route.points):
         out.append(p)
         if k + 1 == len(route.points):
