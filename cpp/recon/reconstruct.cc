@@ -296,10 +296,11 @@ ReconstructResult Reconstruct(const ReconstructOptions& o) {
     for (int i = 0; i < n; ++i)
       if (r.registered[i])
         down_in_model += r.cam_from_world[i].rotation.conjugate() * Eigen::Vector3d::UnitZ();
-    const auto fit = align == Align::kLevel
-                         ? sfm::FitLevelledSim3Robust(model, world, down_in_model, seed)
-                         : sfm::FitSim3Robust(model, world, seed, 0.5,
-                                              weights.size() == model.size() ? &weights : nullptr);
+    const bool weighted = !weights.empty() && weights.size() == model.size();
+    const auto fit =
+        align == Align::kLevel
+            ? sfm::FitLevelledSim3Robust(model, world, down_in_model, seed)
+            : sfm::FitSim3Robust(model, world, seed, 0.5, weighted ? &weights : nullptr);
     if (fit && fit->inliers >= 3) {
       sfm::Transform(fit->world_from_model, &r);
       doc["frame"] = "enu";
@@ -319,8 +320,7 @@ ReconstructResult Reconstruct(const ReconstructOptions& o) {
                         {"rmse_vertical_m", fit->rmse_vertical_m},
                         {"scale", fit->world_from_model.scale},
                         {"rtk_fixed_images", rtk_fixed},
-                        {"weighted_by_rtk_std", align == Align::kFull && !weights.empty() &&
-                                                    weights.size() == model.size()},
+                        {"weighted_by_rtk_std", align == Align::kFull && weighted},
                         {"method", align == Align::kLevel
                                        ? "level: vertical from the images, heading, scale and "
                                          "position from horizontal GPS, height offset by median"
