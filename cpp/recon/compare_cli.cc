@@ -90,15 +90,17 @@ int RunCompare(const std::vector<std::string>& args) {
 }
 
 int RunVerdict(const std::vector<std::string>& args) {
-  const Args a = ParseArgs(
-      args, 1,
-      {"--out", "--reference", "--radius", "--threshold-ratio", "--model", "--ground-order",
-       "--relief-threshold", "--init", "--max-points", "--seed", "--cloud", "--second-look"},
-      {"--no-scale"});
+  const Args a = ParseArgs(args, 1,
+                           {"--out", "--reference", "--radius", "--threshold-ratio", "--model",
+                            "--ground-order", "--relief-threshold", "--init", "--max-points",
+                            "--seed", "--cloud", "--second-look", "--decide-at"},
+                           {"--no-scale"});
   if (a.positional.size() != 1)
     throw InputError("verdict: expected exactly one RECON_DIR (see --help)");
   if (a.Has("--second-look") && a.Has("--reference"))
     throw InputError("--second-look: only for the reference-free verdict, not --reference");
+  if (a.Has("--decide-at") && a.Has("--reference"))
+    throw InputError("--decide-at: only for the reference-free verdict, not --reference");
   if (!a.Has("--out")) throw InputError("--out: the verdict file is required");
   const std::string dir = a.positional[0], out = a.options.at("--out");
   // Flags to options, checked before anything is read.
@@ -136,6 +138,11 @@ int RunVerdict(const std::vector<std::string>& args) {
         throw InputError(std::string("--second-look: ") + e.what());
       }
       site.first_look_p = terrain::FirstLookP(ParseJson(text, at), at);
+    }
+    if (a.Has("--decide-at")) {
+      site.decide_at = ParseNumber(a.options.at("--decide-at"), "--decide-at");
+      if (!(*site.decide_at > 0 && *site.decide_at < 1))
+        throw InputError("--decide-at: must be in (0, 1)");
     }
     site.Check();
   }
@@ -199,8 +206,12 @@ int RunVerdict(const std::vector<std::string>& args) {
     }
   }
   WriteFileAtomic(out, doc.dump(1) + "\n");
-  std::cerr << "mound_recon verdict: " << doc["label"].get<std::string>() << " (confidence "
-            << doc["confidence"].get<double>() << "): " << doc["reason"].get<std::string>() << "\n";
+  std::cerr << "mound_recon verdict: " << doc["label"].get<std::string>();
+  if (doc.contains("p_mound"))
+    std::cerr << " (p_mound " << doc["p_mound"].get<double>() << ")";
+  else
+    std::cerr << " (confidence " << doc["confidence"].get<double>() << ")";
+  std::cerr << ": " << doc["reason"].get<std::string>() << "\n";
   return kExitOk;
 }
 

@@ -196,6 +196,8 @@ void SiteVerdictOptions::Check() const {
     throw InputError("radius_m: must be > 0");
   if (first_look_p && !(*first_look_p >= 0 && *first_look_p <= 1))
     throw InputError("first_look_p: must be in [0, 1]");
+  if (decide_at && !(*decide_at > 0 && *decide_at < 1))
+    throw InputError("decide_at: must be in (0, 1)");
   detector.Check();
 }
 
@@ -289,6 +291,14 @@ SiteVerdict JudgeSite(const std::vector<Eigen::Vector3d>& cloud, const Eigen::Ve
     v.p_mound = model.SecondLookProbability(v.first_p, v.model_p);
     v.mound = v.p_mound >= model.second_look->threshold;
   }
+  const double two_answer_at = v.second_look ? model.second_look->threshold : model.threshold;
+  if (options.decide_at) {
+    v.mound = v.p_mound >= *options.decide_at;
+    v.label = v.mound ? "mound" : "no_mound";
+  } else {
+    v.label = model.Label(v.p_mound, two_answer_at);
+  }
+  v.decide_at = options.decide_at;
   if (!v.detection.judged.empty()) v.judged = best;
   v.coverage =
       JudgeCoverage(v.detection, v.judged ? &v.detection.judged[*v.judged] : nullptr, v.radius_m);
@@ -303,7 +313,21 @@ nlohmann::json SiteVerdictJson(const SiteVerdict& v, const terrain::VerdictModel
   nlohmann::json doc;
   doc["method"] = "reference_free_model";
   doc["p_mound"] = v.p_mound;
-  doc["label"] = v.mound ? "mound" : "no_mound";
+  doc["label"] = v.label;
+  // the two answers beside it (the paper's protocol: its epsilon_MD and epsilon_FA)
+  doc["two_answer"] = {{"label", v.mound ? "mound" : "no_mound"},
+                       {"threshold", v.decide_at     ? *v.decide_at
+                                     : v.second_look ? model.second_look->threshold
+                                                     : model.threshold}};
+  if (v.decide_at) {
+    doc["decision"] = {{"rule", "decide_at"}, {"p", *v.decide_at}};
+  } else if (model.undecided) {
+    doc["decision"] = {{"rule", "undecided_band"},
+                       {"p_low", model.undecided->p_low},
+                       {"p_high", model.undecided->p_high}};
+  } else {
+    doc["decision"] = {{"rule", "threshold"}, {"p", doc["two_answer"]["threshold"]}};
+  }
   doc["confidence"] = v.mound ? v.p_mound : 1 - v.p_mound;
   nlohmann::json m = {{"site_centre_enu_m", {v.centre.x(), v.centre.y()}},
                       {"site_radius_m", v.radius_m},
@@ -350,7 +374,9 @@ nlohmann::json SiteVerdictJson(const SiteVerdict& v, const terrain::VerdictModel
                        {"rise_outside", c.rise_outside},
                        {"site_sag_m", c.site_sag_m}};
   }
-  const double threshold = v.second_look ? model.second_look->threshold : model.threshold;
+  const double threshold = v.decide_at     ? *v.decide_at
+                           : v.second_look ? model.second_look->threshold
+                                           : model.threshold;
   if (v.second_look) {
     why << "; a second look: the model's p " << v.model_p << " of this flight, " << v.first_p
         << " of the first; both together p(mound) " << v.p_mound << " (threshold " << threshold
@@ -359,7 +385,11 @@ nlohmann::json SiteVerdictJson(const SiteVerdict& v, const terrain::VerdictModel
     doc["model_p_mound"] = v.model_p;
     doc["first_look_p_mound"] = v.first_p;
   } else {
-    why << "; p(mound) " << v.p_mound << " (threshold " << threshold << ")";
+    if (model.undecided && !v.decide_at)
+      why << "; p(mound) " << v.p_mound << " (undecided in [" << model.undecided->p_low << ", "
+          << model.undecided->p_high << "))";
+    else
+      why << "; p(mound) " << v.p_mound << " (threshold " << threshold << ")";
     doc["look"] = "first";
   }
   if (model.second_look && !v.second_look) {
@@ -369,7 +399,9 @@ nlohmann::json SiteVerdictJson(const SiteVerdict& v, const terrain::VerdictModel
     if (advised) {
       std::ostringstream say;
       say.precision(3);
-      say << "undecided (p " << v.p_mound << " in [" << l.p_low << ", " << model.threshold
+      const double lo = model.undecided ? model.undecided->p_low : l.p_low;
+      const double hi = model.undecided ? model.undecided->p_high : model.threshold;
+      say << "undecided (p " << v.p_mound << " in [" << lo << ", " << hi
           << ")): fly the site again with a scan " << l.scan_factor
           << " x as wide and judge that flight with --second-look";
       doc["second_look"]["message"] = say.str();

@@ -98,6 +98,9 @@ struct SiteVerdictOptions {
   // decided by both (VerdictModel::SecondLookProbability), a mound at
   // second_look.threshold. The model must have a second_look (InputError otherwise).
   std::optional<double> first_look_p;
+  // Set: two answers, "mound" at p_mound >= this (the paper's protocol, whatever the
+  // model's undecided band); unset: the model's answers (VerdictModel::Label).
+  std::optional<double> decide_at;
   terrain::DetectorOptions detector;
   void Check() const;  // InputError naming the field
 };
@@ -118,12 +121,14 @@ struct SiteVerdict {
   Eigen::Vector2d centre = Eigen::Vector2d::Zero();  // ENU metres
   double radius_m = 0;
   terrain::Detection detection;
-  double p_mound = 0;            // calibrated: the highest of the judged rises' p
-  bool mound = false;            // p_mound >= the model's threshold
-  bool second_look = false;      // a second look: p_mound of both flights, its threshold
-  double model_p = 0;            // the model's p of this flight alone
-  double first_p = 0;            // a second look: the first flight's p_mound
-  std::optional<size_t> judged;  // the rise that decided, in detection.judged
+  double p_mound = 0;               // calibrated: the highest of the judged rises' p
+  bool mound = false;               // p_mound >= the model's threshold (the two answers)
+  std::string label;                // "mound", "no_mound" or "undecided" (see decide_at)
+  bool second_look = false;         // a second look: p_mound of both flights, its threshold
+  double model_p = 0;               // the model's p of this flight alone
+  double first_p = 0;               // a second look: the first flight's p_mound
+  std::optional<double> decide_at;  // SiteVerdictOptions::decide_at
+  std::optional<size_t> judged;     // the rise that decided, in detection.judged
   Coverage coverage;
 };
 

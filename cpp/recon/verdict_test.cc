@@ -154,6 +154,61 @@ TEST(JudgeSite, ASecondLookDecidesTheSiteByBothFlightsAtItsThreshold) {
   EXPECT_THROW(JudgeSite(cloud, {0, 0}, o, model), InputError);
 }
 
+// Three answers: with an undecided band in the model, a clear tumulus is a mound, bare
+// ground no mound, and a site whose p lies in the band undecided (its two answers beside
+// it); --decide-at gives two answers whatever the band; a model without a band decides at
+// its threshold as before, and the band is refused out of order.
+TEST(JudgeSite, TheUndecidedBandGivesThreeAnswersAndDecideAtTwo) {
+  const terrain::VerdictModel& built_in = terrain::DefaultVerdictModel();
+  SiteVerdictOptions o;
+  o.radius_m = 40;
+  const std::vector<Eigen::Vector3d> clear = SyntheticSite(5, 30, false, 4),
+                                     bare = SyntheticSite(0, 0, false, 5),
+                                     weak = SyntheticSite(0.6, 14, false, 4);
+  const double p_weak = JudgeSite(weak, {0, 0}, o, built_in).p_mound;
+  const double p_clear = JudgeSite(clear, {0, 0}, o, built_in).p_mound;
+  const double p_bare = JudgeSite(bare, {0, 0}, o, built_in).p_mound;
+  ASSERT_LT(p_bare, p_weak);
+  ASSERT_LT(p_weak, p_clear);
+  nlohmann::json doc = built_in.doc;
+  doc["undecided"] = {{"p_low", (p_bare + p_weak) / 2}, {"p_high", (p_weak + p_clear) / 2}};
+  const terrain::VerdictModel model = terrain::ParseVerdictModel(doc, "band.json");
+  ASSERT_TRUE(model.undecided);
+  EXPECT_EQ(JudgeSite(clear, {0, 0}, o, model).label, "mound");
+  EXPECT_EQ(JudgeSite(bare, {0, 0}, o, model).label, "no_mound");
+  const SiteVerdict in_band = JudgeSite(weak, {0, 0}, o, model);
+  EXPECT_EQ(in_band.label, "undecided");
+  const nlohmann::json j = SiteVerdictJson(in_band, model, "band.json", o.detector);
+  EXPECT_EQ(j["label"], "undecided");
+  EXPECT_EQ(j["decision"]["rule"], "undecided_band");
+  EXPECT_EQ(j["two_answer"]["label"], in_band.p_mound >= model.threshold ? "mound" : "no_mound");
+  EXPECT_EQ(j["two_answer"]["threshold"], model.threshold);
+  // the paper's protocol: two answers at P
+  SiteVerdictOptions two = o;
+  two.decide_at = p_weak / 2;
+  const SiteVerdict decided = JudgeSite(weak, {0, 0}, two, model);
+  EXPECT_EQ(decided.label, "mound");
+  EXPECT_TRUE(decided.mound);
+  EXPECT_EQ(SiteVerdictJson(decided, model, "band.json", o.detector)["decision"]["rule"],
+            "decide_at");
+  two.decide_at = std::nextafter(p_weak, 1.0);
+  EXPECT_EQ(JudgeSite(weak, {0, 0}, two, model).label, "no_mound");
+  two.decide_at = 1.0;
+  EXPECT_THROW(JudgeSite(weak, {0, 0}, two, model), InputError);
+  // without the band: the threshold's two answers, as before
+  EXPECT_EQ(JudgeSite(weak, {0, 0}, o, built_in).label,
+            p_weak >= built_in.threshold ? "mound" : "no_mound");
+  for (const auto& [lo, hi] : std::vector<std::pair<double, double>>{
+           {0.6, 0.4}, {0.0, 0.5}, {0.5, 1.0}, {std::nan(""), 0.5}}) {
+    nlohmann::json bad = built_in.doc;
+    bad["undecided"] = {{"p_low", lo}, {"p_high", hi}};
+    EXPECT_THROW(terrain::ParseVerdictModel(bad, "bad.json"), InputError) << lo << " " << hi;
+  }
+  nlohmann::json bad = built_in.doc;
+  bad["undecided"] = 0.5;
+  EXPECT_THROW(terrain::ParseVerdictModel(bad, "bad.json"), InputError);
+}
+
 // A torn reconstruction (points strewn hundreds of metres off, as a bad bundle adjustment
 // leaves them) reaches beyond what its cameras could see and is not judged; the same site
 // whole is.

@@ -80,8 +80,16 @@ double VerdictModel::Probability(const Detection& d, size_t* best) const {
   return 1 / (1 + std::exp(-Calibrated(top)));  // g increasing: the highest rise's p
 }
 
+std::string VerdictModel::Label(double p, double two_answer_at) const {
+  if (undecided)
+    return p >= undecided->p_high ? "mound" : p < undecided->p_low ? "no_mound" : "undecided";
+  return p >= two_answer_at ? "mound" : "no_mound";
+}
+
 bool VerdictModel::SecondLookAdvised(double p) const {
-  return second_look && p >= second_look->p_low && p < threshold;
+  if (!second_look) return false;
+  if (undecided) return p >= undecided->p_low && p < undecided->p_high;
+  return p >= second_look->p_low && p < threshold;
 }
 
 double VerdictModel::SecondLookProbability(double p_first, double p_second) const {
@@ -215,6 +223,17 @@ VerdictModel ParseVerdictModel(const nlohmann::json& doc, const std::string& sou
     if (!(std::fabs(l.first) <= 1e6) || !(std::fabs(l.bias) <= 1e6))
       throw InputError(at + ".combine: first, bias: must be within +-1e6");
     m.second_look = l;
+  }
+  if (doc.contains("undecided")) {
+    const nlohmann::json& u = doc["undecided"];
+    const std::string at = source + ": undecided";
+    if (!u.is_object()) throw InputError(at + ": expected {p_low, p_high}");
+    UndecidedBand band;
+    band.p_low = Number(u, "p_low", at);
+    band.p_high = Number(u, "p_high", at);
+    if (!(band.p_low > 0 && band.p_low <= band.p_high && band.p_high < 1))
+      throw InputError(at + ": p_low, p_high: must be 0 < p_low <= p_high < 1");
+    m.undecided = band;
   }
   m.doc = doc;
   return m;

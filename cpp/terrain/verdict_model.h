@@ -25,7 +25,12 @@
 //   [l, threshold) is undecided by its flight; flown again with a scan k x as wide, it is
 //   decided by both flights, p = 1 / (1 + exp(-(c1 logit(p1) + c2 logit(p2) + c0))) with p1
 //   and p2 this model's p of the first and the wider flight (c2 > 0), a mound when >= t2
-//   (`SecondLookProbability`).
+//   (`SecondLookProbability`);
+// and optionally "undecided": {"p_low": l, "p_high": h} (0 < l <= h < 1): three answers,
+//   "no_mound" at p < l, "undecided" in [l, h), "mound" at p >= h (`Label`), the band chosen
+//   by `mound recon train-verdict` on its sites' out-of-fold p; a site in it is advised a
+//   second look (with "second_look") or a person. Without it the model gives two answers,
+//   "mound" at p >= threshold, as the threshold always does for the paper's protocol.
 // Two models ship in the repository and are compiled into the tool, learned on the same
 // simulated sites judged on two clouds: data/verdict_model.json on the sparse cloud of
 // `reconstruct` (the default), data/verdict_model_dense.json on the dense cloud of
@@ -49,6 +54,11 @@ struct SecondLook {
   double first = 0, second = 1, bias = 0;  // "combine"
 };
 
+// The band of p that leaves a site undecided (see above).
+struct UndecidedBand {
+  double p_low = 0, p_high = 1;
+};
+
 struct VerdictModel {
   std::vector<std::string> features;
   std::vector<double> mean, std, weights;
@@ -62,6 +72,7 @@ struct VerdictModel {
   bool beta = false;  // "calibration" (see above): g(s); else the identity
   double beta_a = 1, beta_b = 1, beta_c = 0;
   std::optional<SecondLook> second_look;
+  std::optional<UndecidedBand> undecided;
   nlohmann::json doc;  // the whole file (its figures travel into verdict.json)
 
   double Score(const std::vector<double>& f) const;  // s of one rise's features
@@ -70,7 +81,11 @@ struct VerdictModel {
   // p(mound) of a detection: the highest over its judged rises, or p_no_rise without one;
   // `best` (if given) the index in d.judged of the rise that gave it.
   double Probability(const Detection& d, size_t* best = nullptr) const;
-  // Whether a first look's p leaves the site undecided: in [second_look.p_low, threshold).
+  // "mound", "no_mound" or "undecided" for p: by the undecided band, or (without one) "mound"
+  // at p >= `two_answer_at`.
+  std::string Label(double p, double two_answer_at) const;
+  // Whether a first look's p advises a second look: the model has a second_look and p lies
+  // in the undecided band, or (without one) in [second_look.p_low, threshold).
   bool SecondLookAdvised(double p) const;
   // The second look's calibrated p from this model's p of the first flight and of the
   // wider one (requires second_look).

@@ -414,8 +414,14 @@ def cmd_sim_grid(args: argparse.Namespace) -> int:
         print(f"{row['dir']}: {row['truth']['kind']:<9} {row.get('status')} "
               f"({sum(t.values()):.1f} s)", flush=True)
 
-    dem = None if args.dem == "none" else args.dem
-    if args.dem is None:
+    dem: list[str] | None = None
+    if args.dem == ["none"]:
+        dem = None
+    elif args.dem and "none" in args.dem:
+        raise InputError("--dem: none cannot be given with a DEM")
+    elif args.dem:
+        dem = args.dem
+    else:
         # A quarter of the draws are terrain patches of the DEM: without it the same seed
         # would draw another grid, so a missing default is an error, not a quiet change.
         here = [p / "dem" / grid.DEFAULT_DEM for p in (datasets.cache_dir(), shared_data_dir())]
@@ -424,11 +430,12 @@ def cmd_sim_grid(args: argparse.Namespace) -> int:
             raise InputError(f"--dem: no DEM at {here[0]} nor {here[1]}: pass --dem FILE "
                              f"(the 1 m laser DEM, {grid.DEFAULT_DEM}), or --dem none to "
                              "draw the grid without terrain patches (another grid)")
-        dem = str(found[0])
+        dem = [str(found[0])]
     doc = grid.make_grid(args.out, args.sites, args.seed, tuple(args.size), dem,
                          args.threads, args.workers, args.remeasure, progress,
                          pattern=args.pattern, dense=args.dense, card=args.card,
-                         flights_from=args.flights_from, second_look=args.second_look)
+                         flights_from=args.flights_from, second_look=args.second_look,
+                         dem_part=args.dem_part, population=args.population)
     ok = sum(1 for r in doc["rows"] if r.get("status") == "ok")
     print(f"{ok} of {doc['sites']} sites measured in {doc['wall_s']:.0f} s -> "
           f"{args.out}/grid.json")
@@ -472,6 +479,12 @@ def cmd_recon_train_verdict(args: argparse.Namespace) -> int:
         n = t["second_look_not_kept"]
         print(f"second look not kept (p in [{n['p_low']:g}, {model['threshold']:.2f}), "
               f"{n['out_of_fold']['flights']:.1f} flights out of fold): {n['why']}")
+    u = model["undecided"]
+    o = u["trained"]["out_of_fold"]
+    print(f"undecided for p in [{u['p_low']:.3f}, {u['p_high']:.3f}): out of fold (nested) "
+          f"{o['confident_misses']:.1f} of {o['goal_tumuli']} tumuli >= 1 m x 10 m called "
+          f"no_mound, {o['confident_false_alarms']:.1f} of {o['negatives']} sites without one "
+          f"called mound, {o['undecided']:.1f} of {o['sites']} sites undecided")
     if args.heldout:
         held = [r for g in args.heldout for r in vm.load_grid(g)]
         report = vm.evaluate(model, held)
@@ -479,6 +492,9 @@ def cmd_recon_train_verdict(args: argparse.Namespace) -> int:
             "sites", "measured", "accuracy", "false_alarm_rate", "missed_rate", "auc",
             "brier", "ece", "calibration", "goal_mounds_2m_15m", "goal_no_mound",
             "old_rule_accuracy")}
+        if "three_answers" in report:
+            model["heldout"]["three_answers"] = {
+                k: v for k, v in report["three_answers"].items() if k != "field_recall"}
         if "two_looks" in report:
             model["heldout"]["two_looks"] = {k: v for k, v in report["two_looks"].items()
                                              if k not in ("second_looks", "errors")}
@@ -491,6 +507,25 @@ def cmd_recon_train_verdict(args: argparse.Namespace) -> int:
     write_json(Path(args.out), model)
     print(f"-> {args.out}")
     return 0
+
+
+def _print_three_answers(t: dict[str, Any]) -> None:
+    def rate(d: dict[str, Any]) -> str:
+        lo, hi = d["rate_95ci"] or (math.nan, math.nan)
+        return (f"{d['count']}/{d['of']} ({100 * (d['rate'] or 0):.1f} %, 95 % interval "
+                f"{100 * lo:.1f}-{100 * hi:.1f} %)")
+
+    u = t["undecided"]
+    print(f"  three answers (undecided for p in [{t['band'][0]:.3f}, {t['band'][1]:.3f})): "
+          f"confident misses {rate(t['confident_misses'])}; confident false alarms "
+          f"{rate(t['confident_false_alarms'])}; undecided {rate(u)}"
+          + (f", of them tumuli {u['tumulus_share']:.2f} against mean p {u['mean_p']:.2f}"
+             if u["of"] and u["count"] else ""))
+    f = t["field_recall"]["all"]
+    print("  tumuli confirmed mound (two answers' mound) by height: " + "; ".join(
+        f"{k} {c['confirmed']['count']}/{c['tumuli']} ({c['two_answer_mound']['count']})"
+        for k, c in f["by_height"].items()) + f"; all {f['all']['confirmed']['count']}/"
+        f"{f['all']['tumuli']} ({f['all']['two_answer_mound']['count']})")
 
 
 def _print_verdict_report(r: dict[str, Any]) -> None:
@@ -526,6 +561,9 @@ def _print_verdict_report(r: dict[str, Any]) -> None:
     print("  other thresholds (tumuli >= 2 m x 15 m found; false alarms): " + "; ".join(
         f"{o['threshold']:g}: {o['mounds_2m_15m_found']}/{g['sites']}, "
         f"{o['false_alarms']}/{n['sites']}" for o in r["operating_points"]))
+    three = r.get("three_answers")
+    if three:
+        _print_three_answers(three)
     two = r.get("two_looks")
     if two:
         g2, n2, c2 = two["goal_mounds_2m_15m"], two["goal_no_mound"], two["calibration"]
@@ -901,9 +939,19 @@ def build_parser() -> argparse.ArgumentParser:
     sg.add_argument("--seed", type=GRID_SEED.arg(), default=1, help="another seed: another grid")
     sg.add_argument("--size", type=IMAGE_PX.arg(), nargs=2, default=(320, 240), metavar=("W", "H"),
                     help="image size (small: the grid runs in minutes)")
-    sg.add_argument("--dem", help="a DEM for real terrain patches (default: the 1 m laser "
-                    "DEM in $MOUND_DATA/dem or ../shared/data/dem, an error when neither "
-                    "holds it); none: no terrain patches (other draws)")
+    sg.add_argument("--dem", action="append", help="a DEM for real terrain patches, in a "
+                    "CRS in metres; repeat it for several (each patch on one drawn among "
+                    "those it fits on; default: the 1 m laser DEM in $MOUND_DATA/dem or "
+                    "../shared/data/dem, an error when neither holds it); none: no terrain "
+                    "patches (other draws)")
+    sg.add_argument("--dem-part", choices=("all", "train", "heldout"), default="all",
+                    help="where on each DEM the patches lie: train, the first 60 %% across "
+                    "its longer axis (west or north); heldout, the rest; all (default)")
+    sg.add_argument("--population", metavar="kazanlak|FILE",
+                    help="draw each tumulus's base length, width, height and looters' trench "
+                    "from a measured inventory (GeoJSON with length_m, width_m, height_m, "
+                    "robber_trench; kazanlak: the Kazanlak inventory) instead of the uniform "
+                    "ranges")
     sg.add_argument("--workers", type=WORKERS.arg(), default=2, help="sites at once")
     sg.add_argument("--threads", type=THREADS.arg(), default=1, help="threads per site")
     sg.add_argument("--pattern", choices=("raster", "both"), default="raster",

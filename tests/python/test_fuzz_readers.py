@@ -637,3 +637,40 @@ def test_the_mission_format_seeds_are_valid() -> None:
 
     _read_kmz_routes(_file(_kmz(KML_TEMPLATE, WAYLINES_WPML), "m.kmz"))
     assert len(litchi.read_litchi(_file(LITCHI_CSV, "m.csv"))) > 5
+
+
+# ---- issue 56: the measured population a grid draws its tumuli from
+
+POPULATION = {"type": "FeatureCollection", "features": [
+    {"type": "Feature", "id": "1001",
+     "properties": {"length_m": 15.0, "width_m": 12.0, "height_m": 0.5, "robber_trench": True},
+     "geometry": {"type": "Point", "coordinates": [25.2466, 42.6271]}},
+    {"type": "Feature", "id": "1002",
+     "properties": {"length_m": 30, "width_m": 40, "height_m": 4.5, "robber_trench": None},
+     "geometry": {"type": "Point", "coordinates": [25.25, 42.63]}},
+    {"type": "Feature", "properties": {"length_m": 9, "width_m": 9, "height_m": 0}}]}
+
+
+@FUZZ
+@given(mutated_json(POPULATION))
+def test_population_reader(text: str) -> None:
+    """A clear error, or a population whose every row a grid can draw: finite sizes, the
+    base's length >= width > 0, a height > 0, within the reader's bounds."""
+    from mound.sim.population import MAX_HEIGHT_M, MAX_SIZE_M, read_population
+
+    def read(path: Path) -> None:
+        pop = read_population(str(path))
+        assert pop.rows and pop.levelled >= 0
+        for r in pop.rows:
+            assert MAX_SIZE_M >= r.length_m >= r.width_m > 0
+            assert 0 < r.height_m <= MAX_HEIGHT_M and r.trench in (True, False, None)
+
+    value_or_input_error(read, _file(text, "population.geojson"))
+
+
+def test_the_population_seed_is_valid() -> None:
+    from mound.sim.population import read_population
+
+    pop = read_population(str(_file(json.dumps(POPULATION), "population.geojson")))
+    assert len(pop.rows) == 2 and pop.levelled == 1
+    assert (pop.rows[1].length_m, pop.rows[1].width_m) == (40.0, 30.0)

@@ -339,6 +339,7 @@ def _valid_model() -> dict[str, Any]:
     doc = json.loads((REPO_ROOT / "data" / "verdict_model_dense.json").read_text())
     doc["second_look"] = {"p_low": 0.3, "threshold": 0.6, "scan_factor": 2.0,
                           "combine": {"first": 0.5, "second": 1.0, "bias": -0.2}}
+    doc["undecided"] = {"p_low": 0.2, "p_high": 0.9}
     return doc
 
 
@@ -420,6 +421,12 @@ BAD_MODELS: list[tuple[str, Callable[[dict[str, Any]], None], str]] = [
     ("second_look.scan_factor 1", _set(("second_look", "scan_factor"), 1.0), "second_look"),
     ("second_look.combine.second 0", _set(("second_look", "combine", "second"), 0),
      "second_look.combine"),
+    ("undecided a number", _set(("undecided",), 0.5), "undecided"),
+    ("undecided.p_high missing", _drop(("undecided", "p_high")), "undecided"),
+    ("undecided.p_low a string", _set(("undecided", "p_low"), "0.2"), "undecided"),
+    ("undecided out of order", _set(("undecided", "p_low"), 0.95), "undecided"),
+    ("undecided.p_low 0", _set(("undecided", "p_low"), 0.0), "undecided"),
+    ("undecided.p_high 1", _set(("undecided", "p_high"), 1.0), "undecided"),
     ("top level a list", lambda d: d.clear(), "expected a JSON object"),
 ]
 

@@ -197,6 +197,30 @@ def vertical_shift(vertical: str, lon: np.ndarray, lat: np.ndarray, h: np.ndarra
     return out
 
 
+def valid_cells(path: str, max_px: int = MAX_WINDOW_PX) -> tuple[np.ndarray, Any]:
+    """The whole DEM's validity mask (finite and not nodata; rows north to south as in the
+    file) and its geotransform (affine: pixel corners -> its CRS); InputError unless it is
+    one band of at most `max_px` cells whose CRS is in metres."""
+    with _opened(path) as ds:
+        if ds.count != 1:
+            raise InputError(f"{path}: a DEM has one band, this file has {ds.count}")
+        g = georef(ds, path)
+        axes = _horizontal(g.crs).axis_info
+        unit = axes[0].unit_name if axes else ""
+        if unit not in ("metre", "meter", "m"):
+            raise InputError(f"{path}: its CRS ({g.crs.name}) is not in metres but "
+                             f"{unit or 'unknown units'} (reproject it)")
+        if ds.width * ds.height > max_px:
+            raise InputError(f"{path}: {ds.width} x {ds.height} px, more than {max_px:,} "
+                             "(a tile of it, please)")
+        with np.errstate(invalid="ignore", over="ignore"):  # checked below
+            z = ds.read(1).astype(np.float64)
+        valid = np.isfinite(z)
+        if ds.nodata is not None and math.isfinite(ds.nodata):
+            valid &= z != ds.nodata
+        return valid, g.transform
+
+
 @dataclass
 class Dem:
     path: str
@@ -293,11 +317,13 @@ class Dem:
                         around=np.zeros((1, 2)), margin_m=margin_m)
 
     # ---- queries -------------------------------------------------------------------------
-    def height_crs(self, x: np.ndarray, y: np.ndarray, what: str = "a point") -> np.ndarray:
-        """Bilinear AMSL heights at points given in the DEM's own CRS."""
+    def height_crs(self, x: np.ndarray, y: np.ndarray, what: str = "a point",
+                   nodata_ok: bool = False) -> np.ndarray:
+        """Bilinear AMSL heights at points given in the DEM's own CRS (`nodata_ok`: NaN
+        where a cell read is nodata, else InputError)."""
         col, row = self._window_crs(x, y)
         return self._bilinear(col.ravel(), row.ravel(),
-                              np.column_stack([np.ravel(x), np.ravel(y)]), what)
+                              np.column_stack([np.ravel(x), np.ravel(y)]), what, nodata_ok)
 
     def inside_crs(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         """Whether each point given in the DEM's own CRS can be read (its bilinear cells lie
@@ -338,7 +364,7 @@ class Dem:
         return self._bilinear(col, row, xy, what)
 
     def _bilinear(self, col: np.ndarray, row: np.ndarray, xy: np.ndarray,
-                  what: str) -> np.ndarray:
+                  what: str, nodata_ok: bool = False) -> np.ndarray:
         self._check_inside(col, row, xy, what)
         h, w = self.z.shape
         c0 = np.clip(np.floor(col).astype(int), 0, max(w - 2, 0))
@@ -348,7 +374,7 @@ class Dem:
         z = self.z
         out = ((z[r0, c0] * (1 - fc) + z[r0, c1] * fc) * (1 - fr)
                + (z[r1, c0] * (1 - fc) + z[r1, c1] * fc) * fr)
-        if not np.all(np.isfinite(out)):
+        if not nodata_ok and not np.all(np.isfinite(out)):
             k = int(np.flatnonzero(~np.isfinite(out))[0])
             raise InputError(f"{self.path}: {what} at ({xy[k, 0]:.1f}, {xy[k, 1]:.1f}) m "
                              "falls on nodata")

@@ -14,7 +14,9 @@ Fields (n = the detector's 25 features, in any order, each once):
 - `calibration` (optional): {"method": "beta", a, b >= 0 with a + b > 0, both <= 1e6, c
   within +-1e6};
 - `second_look` (optional): {p_low in (0, threshold), threshold in (0, 1), scan_factor in
-  (1, 100], combine: {first within +-1e6, second in (0, 1e6], bias within +-1e6}}.
+  (1, 100], combine: {first within +-1e6, second in (0, 1e6], bias within +-1e6}};
+- `undecided` (optional): {p_low, p_high with 0 < p_low <= p_high < 1}: three answers,
+  `label_of`.
 """
 
 from __future__ import annotations
@@ -154,7 +156,28 @@ def check_verdict_model(doc: Any, source: str) -> dict[str, Any]:
             raise InputError(f"{at}.combine: second: must be in (0, 1e6]")
         if not (abs(first) <= 1e6 and abs(bias) <= 1e6):
             raise InputError(f"{at}.combine: first, bias: must be within +-1e6")
+    if "undecided" in doc:
+        at = f"{source}: undecided"
+        u = _object(doc, "undecided")
+        if u is None:
+            raise InputError(f"{at}: expected {{p_low, p_high}}")
+        lo, hi = (_number(u, k, at) for k in ("p_low", "p_high"))
+        if not 0 < lo <= hi < 1:
+            raise InputError(f"{at}: p_low, p_high: must be 0 < p_low <= p_high < 1")
     return doc
+
+
+def label_of(model: dict[str, Any], p: float, two_answer_at: float | None = None) -> str:
+    """The answer of a (checked) model for p: by its undecided band, "no_mound" below it,
+    "undecided" in [p_low, p_high), "mound" from p_high; without a band (or with
+    `two_answer_at` given, the paper's protocol) "mound" at p >= that threshold (default
+    the model's): VerdictModel::Label."""
+    band = model.get("undecided")
+    if band is not None and two_answer_at is None:
+        return ("mound" if p >= band["p_high"] else "no_mound" if p < band["p_low"]
+                else "undecided")
+    at = model["threshold"] if two_answer_at is None else two_answer_at
+    return "mound" if p >= at else "no_mound"
 
 
 def read_verdict_model(path: str | Path) -> dict[str, Any]:

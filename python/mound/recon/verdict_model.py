@@ -55,6 +55,7 @@ from mound.classify.metrics import (
     roc_auc,
 )
 from mound.errors import InputError
+from mound.recon.verdict_band import band_doc, band_goal, three_answers
 from mound.sim import terrain
 from mound.sim.grid import SECOND_LOOK_FACTOR, SECOND_LOOK_P
 
@@ -460,6 +461,12 @@ def train(rows: list[dict[str, Any]], names: list[str], sources: list[str],
             second = None
     n_nr = len(no_rise)
     m_nr = sum(1 for r in no_rise if r["truth"]["mound"])
+    # the undecided band, on every site's out-of-fold p (those without a rise at p_no_rise)
+    p_all = np.concatenate([p_oof.reshape(len(oofs), -1),
+                            np.full((len(oofs), n_nr), (m_nr + 1) / (n_nr + 2))], axis=1)
+    truths = [r["truth"] for r in sites + no_rise]
+    undecided = band_doc(p_all, np.array([bool(t["mound"]) for t in truths]),
+                         np.array([band_goal(t) for t in truths]), thr)
     clouds = sorted({grid_cloud(g) for g in sources})
     return {
         "schema": SCHEMA, "version": VERSION, "features": names,
@@ -471,6 +478,7 @@ def train(rows: list[dict[str, Any]], names: list[str], sources: list[str],
         "calibration": cal,
         "threshold": thr, "p_no_rise": (m_nr + 1) / (n_nr + 2),
         **({"second_look": second} if second else {}),
+        "undecided": undecided,
         "trained": {"grids": sources, "cloud": clouds[0] if len(clouds) == 1 else "mixed",
                     "sites": len(measured), "with_rise": len(sites),
                     "rises": len(x_all), "fitted_rises": len(x),
@@ -802,6 +810,10 @@ def evaluate(model: dict[str, Any], rows: list[dict[str, Any]]) -> dict[str, Any
                     "p_mound": float(p[k])} for k in range(len(y)) if lab[k] != y[k]],
         **({"two_looks": two_looks(model, measured, p, big, neg)}
            if model.get("second_look") else {}),
+        **({"three_answers": three_answers(
+            p, [{**r["truth"], "dir": r["dir"]} for r in measured],
+            (model["undecided"]["p_low"], model["undecided"]["p_high"]), thr)}
+           if model.get("undecided") else {}),
     }
 
 

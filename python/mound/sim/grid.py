@@ -21,11 +21,22 @@ The draws (half of the sites carry a tumulus):
   of loose earth; a drum's retaining wall is vertical, its cap obeys the rule); centre off
   the scan centre by up to half the scan's radius; erosion 0.5-5 m; a looters' pit (20 %)
   or trench (15 %);
+- or, with `population` (`--population kazanlak|FILE`, population.py), a row of a measured
+  inventory drawn at random: its base length and width (an elongated base, length along a
+  random azimuth), its height (at most what a cone of its width stands at the angle of
+  repose; the profile a cap, cone or ploughed cap, a cone where a cap would be too steep),
+  and its looters' trench as the field records it (half of them a trench across the top,
+  a fifth to a third of the width wide, half a pit; an unrecorded one drawn at the
+  inventory's share); erosion 5-20 % of the width (the measured base is the eroded one);
 - no mound: bare ground (25 %) or one confuser (75 %): an elongated hillock, a ridge, a
   ditch, a terrace edge, a group of trees, a building or a haystack, within 15 m of the
   centre;
 - ground (either class): undulating (45 %), on a slope of 2-15 degrees (30 %) or a patch of
-  the 1 m laser DEM (25 %, `dem`; skipped when no DEM is given);
+  a real DEM (25 %; skipped when no DEM is given): one of the DEMs given (`--dem`, repeated)
+  drawn among those on which the site's square fits wholly on valid cells, the centre
+  uniform over where it fits within the DEM's `dem_part` (dem_places.py: train, the first
+  60 % across its longer axis; heldout, the rest; training and held-out grids then share
+  no terrain, save that a second look's wider site may reach across);
 - flight: the survey's (a raster scan of `scan_m`, 60 m, at 60 m; `pattern="both"`: the
   full 40-image flight, the raster and an orbit of oblique images), sun azimuth 0-360
   degrees at 25-70 degrees elevation, lens of 60-84 degrees horizontal field of view;
@@ -52,6 +63,7 @@ reconstructed anew): the dense clouds of a sparse grid's sites, in minutes.
 from __future__ import annotations
 
 import json
+import logging
 import math
 import time
 from dataclasses import asdict, replace
@@ -66,6 +78,8 @@ from mound.jsonio import write_json
 from mound.sim import site as sim
 from mound.sim import terrain
 from mound.sim.appearance import Lighting
+from mound.sim.dem_places import DemPlaces
+from mound.sim.population import Population, read_population
 
 SCHEMA = "mound.verdict_grid"
 VERSION = 1
@@ -81,6 +95,9 @@ DEFAULT_DEM = "TM1_564_146.tif"  # the 1 m airborne-laser DEM (../shared/data/de
 SECOND_LOOK_FACTOR = 2.0
 SECOND_LOOK_P = (0.05, 0.995)
 SITE_PER_SCAN = 2.7
+# a measured population's tumuli (population.py): earthen profiles, no Lydian drum
+POPULATION_PROFILES = ("spherical_cap", "conical", "ploughed")
+LOG = logging.getLogger(__name__)
 REPOSE_DEG = 35.0  # the steepest flank loose earth stands at (angle of repose, 30-35 deg)
 
 
@@ -141,14 +158,61 @@ def _confuser(rng: np.random.Generator, kind: str, seed: int) -> terrain.Confuse
                             seed=seed)
 
 
-def draw(rng: np.random.Generator, seed: int, dem: str | None, size: tuple[int, int],
-         scan_m: float = SCAN_M, texel_m: float = 0.1, pattern: str = "raster") -> sim.SimSpec:
+def _measured_tumulus(rng: np.random.Generator, pop: Population,
+                      scan_m: float) -> dict[str, Any]:
+    """A tumulus of the population's measured rows (see the module text)."""
+    row = pop.rows[int(rng.integers(len(pop.rows)))]
+    profile = str(rng.choice(POPULATION_PROFILES))
+    w, length, h = row.width_m, row.length_m, row.height_m
+    if h > max_height(profile, w):  # steeper than a cap stands: a cone's flanks
+        profile = "conical"
+    h = min(h, max_height(profile, w))
+    x, y = _in_disc(rng, scan_m / 4)
+    az = float(rng.uniform(0, 180))
+    over: dict[str, Any] = {
+        "profile": profile, "diameter_m": w, "height_m": h, "mound_x_m": x, "mound_y_m": y,
+        "erosion_m": float(rng.uniform(0.05, 0.2)) * w,
+        **({"length_m": length, "mound_azimuth_deg": az} if length > w * (1 + 1e-9) else {})}
+    trench = row.trench if row.trench is not None else bool(rng.random() < pop.trench_share)
+    if trench:  # as the field records it: a trench across the top, or a pit in it
+        if rng.random() < 0.5 and w > 4:
+            pr = float(rng.uniform(0.1, 0.25)) * w
+            over.update(pit_radius_m=pr, pit_depth_m=float(rng.uniform(0.2, 0.6)) * h,
+                        pit_offset_m=float(rng.uniform(0, w / 2 - pr)))
+        else:
+            over.update(trench_width_m=float(rng.uniform(0.15, 0.35)) * w,
+                        trench_depth_m=float(rng.uniform(0.2, 0.6)) * h,
+                        trench_azimuth_deg=float(rng.uniform(0, 180)))
+    return over
+
+
+def _place_on_dem(rng: np.random.Generator, dems: list[DemPlaces],
+                  size_m: float) -> dict[str, Any] | None:
+    """A terrain patch of one of `dems` (drawn among those where a site `size_m` across
+    fits), or None where it fits on none."""
+    fits = [d for d in dems if d.fits(size_m)]
+    if not fits:
+        return None
+    d = fits[int(rng.integers(len(fits)))]
+    x, y = d.draw(rng, size_m)
+    return {"dem_path": d.path, "dem_x_m": x, "dem_y_m": y}
+
+
+def draw(rng: np.random.Generator, seed: int, dem: str | DemPlaces | list[DemPlaces] | None,
+         size: tuple[int, int], scan_m: float = SCAN_M, texel_m: float = 0.1,
+         pattern: str = "raster", population: Population | None = None) -> sim.SimSpec:
     """One site of the grid (see the module text)."""
+    dems = ([] if dem is None else [DemPlaces.open(dem)] if isinstance(dem, str)
+            else [dem] if isinstance(dem, DemPlaces) else list(dem))
     over: dict[str, Any] = {"seed": seed, "resolution_m": 0.5}
     mound = bool(rng.random() < 0.5)
     over["mound"] = mound
     extent = 0.0
-    if mound:
+    if mound and population is not None:
+        over.update(_measured_tumulus(rng, population, scan_m))
+        extent = (over.get("length_m", over["diameter_m"])
+                  + 2 * max(abs(over["mound_x_m"]), abs(over["mound_y_m"])))
+    elif mound:
         profile = str(rng.choice(terrain.PROFILES))
         d = _log_uniform(rng, 10, 150)
         drum_share = float(rng.uniform(0.2, 0.5)) if profile == "drum" else 0.0
@@ -180,10 +244,13 @@ def draw(rng: np.random.Generator, seed: int, dem: str | None, size: tuple[int, 
     if g < 0.30:
         over.update(slope_deg=float(rng.uniform(2, 15)),
                     slope_azimuth_deg=float(rng.uniform(0, 360)))
-    elif g < 0.55 and dem is not None:
-        m = size_m / 2 + 2
-        over.update(dem_path=dem, dem_x_m=float(rng.uniform(564000 + m, 565000 - m)),
-                    dem_y_m=float(rng.uniform(146000 + m, 147000 - m)))
+    elif g < 0.55 and dems:
+        place = _place_on_dem(rng, dems, size_m)
+        if place is None:  # wider than any DEM holds: undulating ground (truth: dem false)
+            LOG.warning("site %d: %g m across fits on no DEM's part; its ground undulates",
+                        seed, size_m)
+        else:
+            over.update(place)
     spec = terrain.preset("bin_tepe", **over)
     return sim.SimSpec(
         terrain=spec,
@@ -282,19 +349,33 @@ def _site(out: Path, spec: sim.SimSpec, threads: int, remeasure: bool,
 
 
 def make_grid(out: str | Path, sites: int, seed: int, size: tuple[int, int] = (640, 480),
-              dem: str | None = None, threads: int = 1, workers: int = 1,
+              dem: str | list[str] | None = None, threads: int = 1, workers: int = 1,
               remeasure: bool = False, progress: Any = None, pattern: str = "raster",
               dense: bool = False, card: bool = False,
               flights_from: str | Path | None = None,
-              second_look: bool = False) -> dict[str, Any]:
+              second_look: bool = False, dem_part: str = "all",
+              population: str | None = None) -> dict[str, Any]:
     """Draws and runs the grid (see the module text); returns grid.json's document."""
     if not 1 <= sites <= 100_000:
         raise InputError("--sites: must be 1 .. 100,000")
-    if dem is not None and not Path(dem).is_file():
-        raise InputError(f"--dem: no file {dem}")
+    paths = [] if dem is None else [dem] if isinstance(dem, str) else list(dem)
+    for p in paths:
+        if not Path(p).is_file():
+            raise InputError(f"--dem: no file {p}")
+    dems = [DemPlaces.open(p, dem_part) for p in paths]
+    for d in dems:
+        if not d.fits(160.0):  # the smallest site
+            raise InputError(f"--dem: {d.path}: no 160 m square of valid cells within its "
+                             f"{dem_part} part")
+    pop = read_population(population) if population is not None else None
+    # grid.json's "dem": the one DEM's path as before, a list for several
+    dem_doc: str | list[str] | None = (None if not paths else paths[0] if len(paths) == 1
+                                       else paths)
+    draws = {"dem": dem_doc, "dem_part": dem_part,
+             "population": pop.summary() if pop else "uniform"}
     root = Path(out)
     if flights_from is not None:
-        _check_flights_from(Path(flights_from), root, sites, seed, size, pattern, card, dem)
+        _check_flights_from(Path(flights_from), root, sites, seed, size, pattern, card, draws)
     root.mkdir(parents=True, exist_ok=True)
     if flights_from is not None:
         for k in range(sites):
@@ -304,7 +385,8 @@ def make_grid(out: str | Path, sites: int, seed: int, size: tuple[int, int] = (6
                 if not (site / part).exists():
                     (site / part).symlink_to(src / part, target_is_directory=True)
     rng = np.random.default_rng([seed, 2026])
-    specs = [draw(rng, 100_000 * seed + k, dem, size, pattern=pattern) for k in range(sites)]
+    specs = [draw(rng, 100_000 * seed + k, dems, size, pattern=pattern, population=pop)
+             for k in range(sites)]
     start = time.perf_counter()
     rows: list[dict[str, Any]] = [{}] * sites
 
@@ -347,7 +429,7 @@ def make_grid(out: str | Path, sites: int, seed: int, size: tuple[int, int] = (6
                                "first_p": list(SECOND_LOOK_P)}} if second_look else {}),
            "cloud": "dense" if dense else "sparse",
            "camera": "exif" if card else "calibrated",
-           "dem": dem, **({"flights_from": str(flights_from)} if flights_from else {}),
+           **draws, **({"flights_from": str(flights_from)} if flights_from else {}),
            "wall_s": time.perf_counter() - start,
            "rows": [{**r, "spec": _spec_doc(s)} for r, s in zip(rows, specs, strict=True)]}
     write_json(root / "grid.json", doc)
@@ -355,7 +437,7 @@ def make_grid(out: str | Path, sites: int, seed: int, size: tuple[int, int] = (6
 
 
 def _check_flights_from(src: Path, out: Path, sites: int, seed: int, size: tuple[int, int],
-                        pattern: str, card: bool, dem: str | None) -> None:
+                        pattern: str, card: bool, draws: dict[str, Any]) -> None:
     """InputError (naming --flights-from and the field) unless src is a finished grid of the
     same draws (seed, DEM), flight and camera with at least `sites` sites, and not the grid
     itself."""
@@ -367,10 +449,12 @@ def _check_flights_from(src: Path, out: Path, sites: int, seed: int, size: tuple
         raise InputError("--flights-from: the grid itself")
     flight = doc.get("flight") or {}
     want = {"seed": seed, "flight.pattern": pattern, "flight.image_size": list(size),
-            "camera": "exif" if card else "calibrated", "dem": dem}
+            "camera": "exif" if card else "calibrated", **draws}
+    # grids drawn before 2026-11-28 have neither dem_part nor population: all, uniform
     have = {"seed": doc.get("seed"), "flight.pattern": flight.get("pattern"),
             "flight.image_size": flight.get("image_size"), "camera": doc.get("camera"),
-            "dem": doc.get("dem")}
+            "dem": doc.get("dem"), "dem_part": doc.get("dem_part", "all"),
+            "population": doc.get("population", "uniform")}
     for key, value in want.items():
         if have[key] != value:
             raise InputError(f"--flights-from: {src}/grid.json: {key} is {have[key]!r}, this "

@@ -2,7 +2,8 @@
 
 Ground: a gently undulating surface, a sum of a few long-wavelength sinusoids with random
 phases and directions (seeded), amplitude `ground_relief_m`.
-Tumulus (optional): a radially symmetric mound of `diameter_m` and `height_m` with a
+Tumulus (optional): a radially symmetric mound of `diameter_m` and `height_m` (or an
+elongated one, `length_m` along `mound_azimuth_deg`, its profile stretched) with a
 profile: "conical"; "spherical_cap"; "drum" (a vertical-sided drum of `drum_height_m`
 carrying a spherical cap). Erosion/slump smooths the profile over `erosion_m` (a Gaussian
 blur of the radial profile), and an optional looters' pit is a conical depression of
@@ -82,6 +83,10 @@ class TerrainSpec:
     pit_offset_m: float = 0.0
     mound_x_m: float = 0.0         # the mound's centre, m east / north of the site centre
     mound_y_m: float = 0.0
+    # An elongated base (a population's measured tumuli): `length_m` along
+    # `mound_azimuth_deg` (clockwise from north), `diameter_m` across it; 0: round
+    length_m: float = 0.0
+    mound_azimuth_deg: float = 0.0
     trench_width_m: float = 0.0    # 0: no looters' trench
     trench_depth_m: float = 0.0
     trench_azimuth_deg: float = 0.0
@@ -124,18 +129,30 @@ class TerrainSpec:
                  self.pit_radius_m == 0, "the looters' pit must lie on the mound")
             need(self.trench_width_m >= 0 and self.trench_depth_m >= 0,
                  "trench sizes must be >= 0")
-            need(max(abs(self.mound_x_m), abs(self.mound_y_m)) + self.diameter_m / 2
+            need(self.length_m == 0 or self.length_m >= self.diameter_m,
+                 "length_m must be 0 (round) or >= diameter_m")
+            need(max(abs(self.mound_x_m), abs(self.mound_y_m)) + self.base_length_m / 2
                  <= self.size_m / 2, "the mound (offset included) must fit on the site")
         need(0 <= self.slope_deg < 45, f"slope_deg must be in [0, 45), got {self.slope_deg}")
         for c in self.confusers:
             c.validate()
 
+    @property
+    def base_length_m(self) -> float:
+        """The tumulus's base along its long axis (its diameter when round)."""
+        return self.length_m if self.length_m > 0 else self.diameter_m
+
     def truth(self) -> dict[str, object]:
         """What stands on the site (truth.json): a tumulus with its size and centre, or the
-        most prominent confuser, or bare ground."""
+        most prominent confuser, or bare ground. A tumulus's `diameter_m` is its base's
+        mean extent, (length + width) / 2, as an inventory's "across" (an elongated
+        one's `length_m`, `width_m` and `azimuth_deg` beside it)."""
         if self.mound:
+            shape = ({"length_m": self.length_m, "width_m": self.diameter_m,
+                      "azimuth_deg": self.mound_azimuth_deg} if self.length_m > 0 else {})
             return {"mound": True, "kind": "tumulus", "profile": self.profile,
-                    "height_m": self.height_m, "diameter_m": self.diameter_m,
+                    "height_m": self.height_m,
+                    "diameter_m": (self.base_length_m + self.diameter_m) / 2, **shape,
                     "centre_enu_m": [self.mound_x_m, self.mound_y_m],
                     "pit": self.pit_radius_m > 0 and self.pit_depth_m > 0,
                     "trench": self.trench_width_m > 0 and self.trench_depth_m > 0,
@@ -309,7 +326,8 @@ def dem_patch(path: str, x0: float, y0: float, axis: np.ndarray,
     and columns of the grid that the DEM holds are read and continued beyond its edge by
     their point reflection about the edge (z(e + d) = 2 z(e) - z(e - d), row by row and
     column by column): heights and slopes run on across the edge, with the DEM's own relief
-    turned over, so that no fold (a ridge or a valley) stands at the edge. Only the
+    turned over, so that no fold (a ridge or a valley) stands at the edge; nodata cells
+    within the DEM (an irregular outline) take their nearest valid cell's height. Only the
     simulator's second look draws such a site (a scan twice as wide about a site near the
     DEM's edge); the DEM must hold its centre. Never used for flying: geometry/dem.py
     refuses any point off the DEM."""
@@ -325,7 +343,15 @@ def dem_patch(path: str, x0: float, y0: float, axis: np.ndarray,
         if len(cols) < 2 or len(rows) < 2:
             raise InputError(f"{path}: {what}: its centre lies off the DEM")
     xx, yy = np.meshgrid(x0 + axis[cols], y0 + axis[rows])  # row i is y = y0 + axis[i]
-    patch = dem.height_crs(xx, yy, what).reshape(len(rows), len(cols))
+    patch = dem.height_crs(xx, yy, what, nodata_ok=extend).reshape(len(rows), len(cols))
+    if extend and not np.isfinite(patch).all():  # nodata within the DEM: its nearest cell
+        from scipy import ndimage
+
+        hole = ~np.isfinite(patch)
+        if hole.all():
+            raise InputError(f"{path}: {what}: all nodata")
+        idx = ndimage.distance_transform_edt(hole, return_distances=False, return_indices=True)
+        patch = patch[tuple(idx)]
     if len(rows) < len(axis) or len(cols) < len(axis):
         pad = ((int(rows[0]), len(axis) - 1 - int(rows[-1])),
                (int(cols[0]), len(axis) - 1 - int(cols[-1])))
@@ -356,7 +382,12 @@ def mound_added(spec: TerrainSpec, xx: np.ndarray, yy: np.ndarray,
     """The relief the tumulus adds to the ground at (xx, yy) (m, the site's frame): its
     eroded profile about (mound_x_m, mound_y_m) (`mound_profile`), less its looters' pit
     and trench."""
-    mound = mound_profile(spec, np.hypot(xx - spec.mound_x_m, yy - spec.mound_y_m), reach_m)
+    if spec.length_m > 0:  # elongated: the profile stretched along its axis
+        u, v = _along_across(xx, yy, spec.mound_x_m, spec.mound_y_m, spec.mound_azimuth_deg)
+        r = np.hypot(u * spec.diameter_m / spec.length_m, v)
+    else:
+        r = np.hypot(xx - spec.mound_x_m, yy - spec.mound_y_m)
+    mound = mound_profile(spec, r, reach_m)
     if spec.pit_radius_m > 0 and spec.pit_depth_m > 0:
         rp = np.hypot(xx - spec.mound_x_m - spec.pit_offset_m, yy - spec.mound_y_m)
         mound = mound - spec.pit_depth_m * np.clip(1 - rp / spec.pit_radius_m, 0, None)
@@ -364,7 +395,7 @@ def mound_added(spec: TerrainSpec, xx: np.ndarray, yy: np.ndarray,
         u, v = _along_across(xx, yy, spec.mound_x_m, spec.mound_y_m, spec.trench_azimuth_deg)
         cut = spec.trench_depth_m * np.clip(1 - 2 * np.abs(v) / spec.trench_width_m, 0, None)
         # across the mound, no deeper than the mound stands
-        mound = np.where(np.abs(u) < spec.diameter_m / 2,
+        mound = np.where(np.abs(u) < spec.base_length_m / 2,
                          np.maximum(mound - cut, np.minimum(mound, 0)), mound)
     return mound
 

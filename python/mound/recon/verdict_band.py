@@ -1,0 +1,190 @@
+"""Three answers: "mound", "no_mound" or "undecided" (issue 56).
+
+A confident wrong answer is the costly one: a tumulus called "no mound" is never visited
+again, a false alarm sends a dig team to a terrace. The model's calibrated p decides where
+it is far from doubt; in between, the band [p_low, p_high) of the model file's
+`undecided`, the site is undecided and goes to a second look or a person.
+
+The band is chosen on the training sites' out-of-fold p (`choose_band`): p_low the highest
+p below which at most BAND_MISS of the band's tumuli (at least GOAL_HEIGHT_M high and
+GOAL_ACROSS_M across) lie, p_high the lowest p from which at most BAND_FA of the sites
+without a tumulus lie (every ground, every confuser). The goals on new ground are
+MAX_MISS and MAX_FA; the band is chosen for BAND_SHARE of them, a margin for ground the
+training sites do not hold. Where the two bounds cross (p_low > p_high) there is nothing
+to leave undecided and the band shrinks to the point between them nearest the model's
+threshold. Its figures are nested (`nested_band`): each fold of the sites labelled by the
+band chosen on the others.
+
+On held-out sites `three_answers` reports the confident wrong answers, the undecided share
+and whether the band is calibrated (the share of tumuli among the undecided sites beside
+their mean p), each rate with its exact 95 % interval; and, per height class of the
+tumuli, the share confirmed "mound" beside the two-answer verdict's (`field_recall`).
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from typing import Any
+
+import numpy as np
+
+from mound.classify.metrics import clopper_pearson
+
+GOAL_HEIGHT_M = 1.0
+GOAL_ACROSS_M = 10.0
+MAX_MISS = 0.01        # of the goal's tumuli called no_mound
+MAX_FA = 0.005         # of the sites without a tumulus called mound
+MAX_UNDECIDED = 0.10   # of all sites
+BAND_SHARE = 0.5       # the band is chosen for this share of MAX_MISS and MAX_FA
+BAND_FOLDS = 5
+BAND_FOLD_SEED = 11
+HEIGHT_CLASSES = (0.0, 0.5, 1.0, 2.0, 5.0, math.inf)  # m: < 0.5, 0.5-1, 1-2, 2-5, >= 5
+
+NO, UNDECIDED, MOUND = 0, 1, 2
+NAMES = ("no_mound", "undecided", "mound")
+
+
+def band_goal(truth: dict[str, Any]) -> bool:
+    """A tumulus the band must not call "no_mound": >= 1 m high and >= 10 m across."""
+    return (bool(truth["mound"]) and truth["height_m"] >= GOAL_HEIGHT_M
+            and truth["diameter_m"] >= GOAL_ACROSS_M)
+
+
+def choose_band(p: np.ndarray, y: np.ndarray, goal: np.ndarray, threshold: float,
+                miss: float = MAX_MISS * BAND_SHARE,
+                fa: float = MAX_FA * BAND_SHARE) -> tuple[float, float]:
+    """(p_low, p_high) from p (splits x sites, or sites) of sites whose truth is `y` and
+    which `goal` marks (see the module text)."""
+    p = np.atleast_2d(p)
+    pos = np.sort(p[:, goal].ravel())
+    neg = np.sort(p[:, ~y].ravel())[::-1]
+    k = int(math.floor(miss * len(pos) + 1e-9))  # confident misses allowed, pooled
+    p_low = float(pos[k]) if k < len(pos) else 1.0
+    j = int(math.floor(fa * len(neg) + 1e-9))
+    p_high = float(np.nextafter(neg[j], 1.0)) if j < len(neg) else 0.0
+    p_low = min(max(p_low, 1e-6), 1 - 1e-6)
+    p_high = min(max(p_high, 1e-6), 1 - 1e-6)
+    if p_low > p_high:  # nothing to leave undecided
+        t = min(max(threshold, p_high), p_low)
+        return t, t
+    return p_low, p_high
+
+
+def answers(p: np.ndarray, band: tuple[float, float]) -> np.ndarray:
+    """NO, UNDECIDED or MOUND for each p."""
+    lo, hi = band
+    return np.where(p >= hi, MOUND, np.where(p < lo, NO, UNDECIDED))
+
+
+def _rate(k: int, n: int) -> dict[str, Any]:
+    return {"count": k, "of": n, "rate": k / n if n else None,
+            "rate_95ci": list(clopper_pearson(k, n)) if n else None}
+
+
+def nested_band(p: np.ndarray, y: np.ndarray, goal: np.ndarray,
+                threshold: float) -> dict[str, Any]:
+    """The band's figures out of fold: the sites in BAND_FOLDS folds, each labelled by the
+    band chosen on the others (p: splits x sites, the counts a split's mean)."""
+    p = np.atleast_2d(p)
+    fold = np.random.default_rng(BAND_FOLD_SEED).permutation(p.shape[1]) % BAND_FOLDS
+    lab = np.zeros(p.shape, dtype=int)
+    for k in range(BAND_FOLDS):
+        out = fold == k
+        band = choose_band(p[:, ~out], y[~out], goal[~out], threshold)
+        lab[:, out] = answers(p[:, out], band)
+    reps = len(p)
+    return {"folds": BAND_FOLDS,
+            "confident_misses": float((lab[:, goal] == NO).sum() / reps),
+            "goal_tumuli": int(goal.sum()),
+            "confident_false_alarms": float((lab[:, ~y] == MOUND).sum() / reps),
+            "negatives": int((~y).sum()),
+            "undecided": float((lab == UNDECIDED).sum() / reps), "sites": int(p.shape[1])}
+
+
+def band_doc(p: np.ndarray, y: np.ndarray, goal: np.ndarray,
+             threshold: float) -> dict[str, Any]:
+    """The model file's `undecided`: the band chosen on every site, with its nested and
+    in-sample figures."""
+    lo, hi = choose_band(p, y, goal, threshold)
+    lab = answers(np.atleast_2d(p), (lo, hi))
+    reps = len(lab)
+    return {"p_low": lo, "p_high": hi,
+            "trained": {
+                "goals": {"max_miss": MAX_MISS, "max_false_alarm": MAX_FA,
+                          "max_undecided": MAX_UNDECIDED, "chosen_for_share": BAND_SHARE,
+                          "goal_tumuli": f">= {GOAL_HEIGHT_M:g} m high, >= "
+                                         f"{GOAL_ACROSS_M:g} m across"},
+                "out_of_fold": nested_band(p, y, goal, threshold),
+                "selected_in_sample": {
+                    "confident_misses": float((lab[:, goal] == NO).sum() / reps),
+                    "confident_false_alarms": float((lab[:, ~y] == MOUND).sum() / reps),
+                    "undecided": float((lab == UNDECIDED).sum() / reps)},
+                "method": "p_low, p_high from the out-of-fold p of the training sites (every "
+                          "CV split; sites without a rise at p_no_rise); out_of_fold: each "
+                          f"of {BAND_FOLDS} folds labelled by the band chosen on the others"}}
+
+
+def _height_class(h: float) -> str:
+    for lo, hi in itertools.pairwise(HEIGHT_CLASSES):
+        if lo <= h < hi:
+            return f"{lo:g}-{hi:g} m" if math.isfinite(hi) else f">= {lo:g} m"
+    return "?"
+
+
+def field_recall(truths: list[dict[str, Any]], lab3: np.ndarray,
+                 lab2: np.ndarray) -> dict[str, Any]:
+    """Of the tumuli, the share confirmed "mound" by the three answers (and left undecided,
+    and called no_mound) beside the two answers' "mound", per height class, all, and with
+    and without a looters' trench or pit."""
+    def row(idx: list[int]) -> dict[str, Any]:
+        n = len(idx)
+        return {"tumuli": n,
+                "confirmed": _rate(int(sum(lab3[k] == MOUND for k in idx)), n),
+                "undecided": _rate(int(sum(lab3[k] == UNDECIDED for k in idx)), n),
+                "no_mound": _rate(int(sum(lab3[k] == NO for k in idx)), n),
+                "two_answer_mound": _rate(int(sum(bool(lab2[k]) for k in idx)), n)}
+
+    tum = [k for k, t in enumerate(truths) if t["mound"]]
+    out: dict[str, Any] = {}
+    for cut, name in ((None, "all"), (True, "with_trench"), (False, "without_trench")):
+        sel = [k for k in tum if cut is None
+               or bool(truths[k].get("trench") or truths[k].get("pit")) is cut]
+        classes = {}
+        for lo, hi in itertools.pairwise(HEIGHT_CLASSES):
+            idx = [k for k in sel if lo <= truths[k]["height_m"] < hi]
+            classes[_height_class(lo)] = row(idx)
+        out[name] = {"all": row(sel), "by_height": classes}
+    return out
+
+
+def three_answers(p: np.ndarray, truths: list[dict[str, Any]], band: tuple[float, float],
+                  threshold: float) -> dict[str, Any]:
+    """The three answers' figures on held-out sites (see the module text): p and the truth
+    of every measured site, the model's band and two-answer threshold."""
+    y = np.array([bool(t["mound"]) for t in truths])
+    goal = np.array([band_goal(t) for t in truths])
+    lab = answers(p, band)
+    und = lab == UNDECIDED
+    n_und = int(und.sum())
+    return {
+        "band": list(band), "sites": len(p),
+        "confident_misses": {**_rate(int((lab[goal] == NO).sum()), int(goal.sum())),
+                             "goal": MAX_MISS,
+                             "of_what": f"tumuli >= {GOAL_HEIGHT_M:g} m high and >= "
+                                        f"{GOAL_ACROSS_M:g} m across called no_mound",
+                             "sites": [truths[k].get("dir") for k in np.flatnonzero(
+                                 goal & (lab == NO))]},
+        "confident_false_alarms": {**_rate(int((lab[~y] == MOUND).sum()), int((~y).sum())),
+                                   "goal": MAX_FA,
+                                   "of_what": "sites without a tumulus called mound"},
+        "undecided": {**_rate(n_und, len(p)), "goal": MAX_UNDECIDED,
+                      "tumuli": int(y[und].sum()),
+                      "tumulus_share": float(y[und].mean()) if n_und else None,
+                      "tumulus_share_95ci": list(clopper_pearson(int(y[und].sum()), n_und))
+                      if n_und else None,
+                      "mean_p": float(p[und].mean()) if n_und else None},
+        "decided": {"sites": int((~und).sum()),
+                    "wrong": int(((lab == MOUND) & ~y).sum() + ((lab == NO) & y).sum())},
+        "field_recall": field_recall(truths, lab, p >= threshold),
+    }
