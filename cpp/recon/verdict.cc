@@ -241,6 +241,60 @@ Coverage JudgeCoverage(const terrain::Detection& d, const terrain::Rise* judged,
   return c;
 }
 
+std::vector<std::pair<std::string, std::string>> UndecidedReasons(const SiteVerdict& v) {
+  std::vector<std::pair<std::string, std::string>> out;
+  auto say = [&](const std::string& code, const std::ostringstream& text) {
+    out.emplace_back(code, text.str());
+  };
+  std::ostringstream s;
+  s.precision(2);
+  const terrain::Detection& d = v.detection;
+  if (v.coverage.status == "clipped") {
+    s << "clipped by the scan: " << v.coverage.message;
+    say("clipped", s);
+  }
+  if (d.cells_inside > 0 && d.cells_with_points < 0.7 * d.cells_inside) {
+    std::ostringstream t;
+    t << "sparse cloud: " << std::lround(100.0 * d.cells_with_points / d.cells_inside)
+      << " % of the site's cells hold points";
+    say("sparse_cloud", t);
+  }
+  if (!v.judged) {
+    std::ostringstream t;
+    t << "no rise stands above the relief threshold";
+    say("no_rise", t);
+    return out;
+  }
+  const terrain::Rise& r = d.judged[*v.judged];
+  if (r.ring_high >= 0.5) {
+    std::ostringstream t;
+    t.precision(2);
+    t << "masked by relief of its own size: the ground around the " << r.height_m
+      << " m rise stands " << r.ring_high << " of its height in one direction";
+    say("masked", t);
+  }
+  if (r.roughness >= 0.25 || r.fill < 0.5) {
+    std::ostringstream t;
+    t.precision(2);
+    t << "cut or irregular (a looters' trench or pit, or damage): the dome fit leaves "
+      << r.roughness << " of the height, the footprint fills " << r.fill << " of its disc";
+    say("cut", t);
+  }
+  if (r.height_m < 1) {
+    std::ostringstream t;
+    t.precision(2);
+    t << "low: " << r.height_m << " m high, " << r.base_diameter_m << " m across";
+    say("low", t);
+  }
+  if (out.empty()) {
+    std::ostringstream t;
+    t.precision(3);
+    t << "weak evidence: p(mound) " << v.p_mound << " with no single cause measured";
+    say("weak", t);
+  }
+  return out;
+}
+
 SiteVerdict JudgeSite(const std::vector<Eigen::Vector3d>& cloud, const Eigen::Vector2d& centre,
                       const SiteVerdictOptions& options, const terrain::VerdictModel& model) {
   options.Check();
@@ -407,6 +461,15 @@ nlohmann::json SiteVerdictJson(const SiteVerdict& v, const terrain::VerdictModel
       doc["second_look"]["message"] = say.str();
       why << "; " << say.str();
     }
+  }
+  if (v.label == "undecided") {
+    nlohmann::json reasons = nlohmann::json::array();
+    for (const auto& [code, text] : UndecidedReasons(v))
+      reasons.push_back({{"code", code}, {"text", text}});
+    const bool second = doc.contains("second_look") && doc["second_look"].value("advised", false);
+    doc["undecided"] = {{"reasons", reasons}, {"next", second ? "second_look" : "field_team"}};
+    why << "; undecided: " << reasons[0]["text"].get<std::string>()
+        << (second ? "" : "; for the field team");
   }
   doc["reason"] = why.str();
   doc["measurements"] = m;

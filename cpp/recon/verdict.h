@@ -16,6 +16,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "icp/icp.h"
@@ -131,6 +132,15 @@ struct SiteVerdict {
   std::optional<size_t> judged;     // the rise that decided, in detection.judged
   Coverage coverage;
 };
+
+// Why a site is undecided, read from its measurements (they describe the doubt, they do not
+// decide): "clipped" (the rise runs off the scan), "sparse_cloud" (< 70 % of the site's
+// cells hold points), "no_rise" (nothing above the relief threshold), "masked" (the ground
+// around the rise stands >= half its height in some direction: relief of its own size),
+// "cut" (the dome fit's residual >= 25 % of the height, or the footprint fills < half its
+// disc: a looters' trench or pit, or damage), "low" (< 1 m high); "weak" when none of these.
+// Each with a sentence for the field team.
+std::vector<std::pair<std::string, std::string>> UndecidedReasons(const SiteVerdict& v);
 
 // NoResultError when too few points lie on the site for a terrain model.
 SiteVerdict JudgeSite(const std::vector<Eigen::Vector3d>& cloud, const Eigen::Vector2d& centre,

@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "common/error.h"
@@ -183,6 +184,14 @@ TEST(JudgeSite, TheUndecidedBandGivesThreeAnswersAndDecideAtTwo) {
   EXPECT_EQ(j["decision"]["rule"], "undecided_band");
   EXPECT_EQ(j["two_answer"]["label"], in_band.p_mound >= model.threshold ? "mound" : "no_mound");
   EXPECT_EQ(j["two_answer"]["threshold"], model.threshold);
+  // why: the 0.6 m rise is low; no second look in this model: for the field team
+  ASSERT_FALSE(j["undecided"]["reasons"].empty());
+  std::vector<std::string> codes;
+  for (const auto& r : j["undecided"]["reasons"]) codes.push_back(r["code"]);
+  EXPECT_NE(std::find(codes.begin(), codes.end(), "low"), codes.end()) << j["undecided"].dump();
+  EXPECT_EQ(j["undecided"]["next"], "field_team");
+  EXPECT_FALSE(SiteVerdictJson(JudgeSite(clear, {0, 0}, o, model), model, "band.json", o.detector)
+                   .contains("undecided"));
   // the paper's protocol: two answers at P
   SiteVerdictOptions two = o;
   two.decide_at = p_weak / 2;

@@ -911,3 +911,52 @@ def test_a_site_the_first_flight_leaves_undecided_is_flown_again_wider(
     row = process_site(replace(job3, first_key="f2"))
     assert row["status"] == "failed" and row["reason"].startswith("images:")
     assert "first_look_reused" not in row
+
+
+@pytest.mark.slow
+def test_an_undecided_site_is_flown_again_and_what_stays_undecided_goes_to_the_field_team(
+        tmp_path: Path) -> None:
+    """Issue 56: with a model whose undecided band holds the site's p, the first verdict
+    says undecided and advises a second look; the survey flies it (the wider scan,
+    simulated), and a second look that cannot decide it (its combination keeps the first
+    p) leaves it undecided: the row keeps both answers, the reasons, and the summary lists
+    it for the field team beside the counts of decided and undecided sites. The paper's
+    two answers (row["verdict"]) stay what the threshold says."""
+    from mound.survey import report
+    from mound.survey.site_work import SiteJob, process_site
+
+    model = json.loads((REPO_ROOT / "data" / "verdict_model_dense.json").read_text())
+    model["undecided"] = {"p_low": 1e-6, "p_high": 1 - 1e-6}
+    model["second_look"] = {"p_low": 0.01, "threshold": 0.5, "scan_factor": 2.0,
+                            "combine": {"first": 1.0, "second": 1e-6, "bias": 0.0}}
+    model_file = tmp_path / "model.json"
+    model_file.write_text(json.dumps(model))
+    job = SiteJob(site={"id": "s1", "x_m": 0.0, "y_m": 0.0, "truth": {"mound": True}},
+                  index=0, run_root=str(tmp_path / "run"),
+                  origin={"lat": 38.57, "lon": 27.99, "alt_m": 95.0}, key="k",
+                  image_size=(320, 240), threads=2, figures=False,
+                  dense_args=("--max-image-size", "320", "--resolution-m", "0.25"),
+                  dense_model=str(model_file))
+    row = process_site(job)
+    assert row["status"] == "ok", row.get("reason")
+    first = json.loads(job.tree.verdict.read_text())
+    assert first["label"] == "undecided" and first["second_look"]["advised"]
+    assert first["undecided"]["next"] == "second_look"
+    look = row["second_look"]
+    assert look["flown"], look.get("reason")
+    assert row["first_look"]["answer"] == "undecided"
+    assert row["answer"] == "undecided" and row["undecided"]["next"] == "field_team"
+    assert row["undecided"]["reasons"] and all(r["text"] for r in row["undecided"]["reasons"])
+    second = json.loads((tmp_path / "run" / look["verdict_file"]).read_text())
+    assert row["verdict"] == second["two_answer"]["label"]
+    assert row["verdict"] == ("mound" if second["p_mound"] >= 0.5 else "no_mound")
+    rows = [{**row, "id": "s1", "x_m": 0.0, "y_m": 0.0, "truth": True},
+            {"id": "s2", "x_m": 9.0, "y_m": 9.0, "truth": False, "verdict": "no_mound",
+             "answer": "no_mound"}]
+    team = report.field_team(rows)
+    assert [t["id"] for t in team] == ["s1"] and team[0]["second_look_flown"]
+    assert team[0]["why"] and team[0]["reasons"] == [
+        r["code"] for r in row["undecided"]["reasons"]]
+    m = report.three_answer_metrics(rows)
+    assert m["decided"] == 1 and m["undecided"] == 1
+    assert m["selective"] == {"eps_md": None, "eps_fa": 0.0, "decided_with_truth": 1}

@@ -161,6 +161,8 @@ def stage_learn(ctx: Any) -> str:
                 r = rows.get(sid, {})
                 if r.get("status") != "ok" or r.get("verdict") not in ("mound", "no_mound"):
                     continue
+                if r.get("answer") == "undecided":  # no evidence either way: not learned
+                    continue
                 conf = float(r.get("confidence") or 0.5)
                 ex_rows.append(int(by_id[sid]["truth"]["statlog_row"]))
                 ex_y.append(1.0 if r["verdict"] == "mound" else -1.0)

@@ -56,9 +56,9 @@ def site_rows(tree: RunTree, sites_doc: dict[str, Any], plan: dict[str, Any] | N
                 row["verdict"] = result["verdict"]
                 row["final_label"] = result["verdict"]
                 row["label_source"] = "3-D verdict"
-                for k in ("confidence", "verdict_p_mound", "verdict_cloud", "coverage",
-                          "method", "reason", "rise", "distance_m", "second_look",
-                          "first_look"):
+                for k in ("answer", "undecided", "confidence", "verdict_p_mound",
+                          "verdict_cloud", "coverage", "method", "reason", "rise",
+                          "distance_m", "second_look", "first_look"):
                     if k in result:
                         row[k] = result[k]
             else:
@@ -74,6 +74,41 @@ def site_rows(tree: RunTree, sites_doc: dict[str, Any], plan: dict[str, Any] | N
             row["label_source"] = "classifier"
         rows.append(row)
     return rows
+
+
+def three_answer_metrics(judged: list[dict[str, Any]]) -> dict[str, Any]:
+    """The judged sites by the verdict's own answer, and the selective error rates: of the
+    decided sites with a known truth, the true mounds called no_mound and the other sites
+    called mound (the undecided ones left to a second look or a person)."""
+    answer = [r.get("answer", r["verdict"]) for r in judged]
+    decided = [r for r, a in zip(judged, answer, strict=True) if a != "undecided" and "truth" in r]
+    mounds = [r for r in decided if r["truth"]]
+    others = [r for r in decided if not r["truth"]]
+    return {"decided": sum(1 for a in answer if a != "undecided"),
+            "undecided": sum(1 for a in answer if a == "undecided"),
+            "selective": {
+                "eps_md": (sum(1 for r in mounds if r.get("answer", r["verdict"]) == "no_mound")
+                           / len(mounds) if mounds else None),
+                "eps_fa": (sum(1 for r in others if r.get("answer", r["verdict"]) == "mound")
+                           / len(others) if others else None),
+                "decided_with_truth": len(decided)}}
+
+
+def field_team(judged: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """The sites still undecided after every look the survey flew: for the field team, each
+    with its p(mound) and why (the verdict's undecided reasons)."""
+    out = []
+    for r in judged:
+        if r.get("answer") != "undecided":
+            continue
+        why = (r.get("undecided") or {}).get("reasons", [])
+        look = r.get("second_look")
+        out.append({"id": r["id"], "x_m": r["x_m"], "y_m": r["y_m"],
+                    "p_mound": r.get("verdict_p_mound"),
+                    "reasons": [x.get("code") for x in why],
+                    "why": "; ".join(str(x.get("text", "")) for x in why),
+                    "second_look_flown": bool(isinstance(look, dict) and look.get("flown"))})
+    return out
 
 
 def build_summary(tree: RunTree, args: SurveyOptions, stages: list[dict[str, Any]],
@@ -122,7 +157,9 @@ def build_summary(tree: RunTree, args: SurveyOptions, stages: list[dict[str, Any
             "verdicts_with_truth": sum(1 for r in judged if "truth" in r),
             "classifier_only": {"eps_md": cmd, "eps_fa": cfa},
             "perfect_verification": {"eps_md": pmd, "eps_fa": pfa},
+            "three_answers": three_answer_metrics(judged),
         },
+        "for_field_team": field_team(judged),
         "stages": stages,
         "wall_s": time.time() - started,
     }
@@ -228,7 +265,7 @@ def _site_card(r: dict[str, Any]) -> str:
                                                               else "no_mound"))
     parts = [f'<div class="card" id="site-{e(r["id"])}"><div class="big"><b>{e(r["id"])}</b> '
              f'at ({r["x_m"]:.0f}, {r["y_m"]:.0f}) m · p(mound) {r["p_mound"]:.3f} · '
-             f'3-D verdict: {_label(r["verdict"])}{truth}</div>']
+             f'3-D verdict: {_label(r.get("answer", r["verdict"]))}{truth}</div>']
     if r["verdict"] == "failed":
         parts.append(f'<p class="failed">failed: {e(str(r.get("failure", "")))}</p>'
                      f'<p class="muted">final label from the classifier: '
@@ -251,6 +288,10 @@ def _site_card(r: dict[str, Any]) -> str:
         elif isinstance(look, dict):
             parts.append(f'<p class="failed">second look advised, not flown: '
                          f'{e(str(look.get("reason", "")))}</p>')
+        if r.get("answer") == "undecided":
+            why = "; ".join(str(x.get("text", "")) for x in
+                            (r.get("undecided") or {}).get("reasons", []))
+            parts.append(f'<p class="failed">undecided, for the field team: {e(why)}</p>')
         cov = r.get("coverage")
         if isinstance(cov, dict) and cov.get("status") == "clipped":
             parts.append(f'<p class="failed">coverage: {e(str(cov.get("message", "")))}</p>')
@@ -286,6 +327,10 @@ def _metrics_table(m: dict[str, Any]) -> str:
             ("this survey (3-D verdicts where visited)", {"eps_md": m["eps_md"],
                                                          "eps_fa": m["eps_fa"]}),
             ("perfect verification of the visited sites", m["perfect_verification"])]
+    three = m.get("three_answers") or {}
+    if three.get("undecided"):
+        rows.insert(2, (f"this survey, its {three['decided']} decided verdicts only "
+                        f"({three['undecided']} undecided)", three["selective"]))
     body = "".join(f'<tr><td class="l">{html.escape(name)}</td><td>{_fmt(v["eps_md"])}</td>'
                    f'<td>{_fmt(v["eps_fa"])}</td></tr>' for name, v in rows)
     return ('<table><tr><th class="l">labels</th><th>ε<sub>MD</sub> (missed)</th>'
@@ -443,6 +488,15 @@ def render_html(tree: RunTree, s: dict[str, Any]) -> str:
         head += f"<p>{e(_second_look_text(s))}</p>"
     cards = "".join(_site_card(r) for r in visited)
     extra = ""
+    team = s.get("for_field_team") or []
+    if team:
+        extra += ("<h2>For the field team</h2>\n<p>Still undecided after every look flown: "
+                  "a person should see these.</p><table><tr><th class=\"l\">site</th>"
+                  "<th>x, y m</th><th>p(mound)</th><th class=\"l\">why</th></tr>"
+                  + "".join(f'<tr><td class="l"><a href="#site-{e(t["id"])}">{e(t["id"])}</a>'
+                            f'</td><td>{t["x_m"]:.0f}, {t["y_m"]:.0f}</td>'
+                            f'<td>{_fmt(t["p_mound"])}</td><td class="l">{e(t["why"])}</td>'
+                            "</tr>" for t in team) + "</table>\n")
     if s.get("photos"):
         extra += f"<h2>Photo card</h2>\n{_card_table(s['photos'])}\n"
     if s.get("learn"):
@@ -498,9 +552,14 @@ def render_md(s: dict[str, Any]) -> str:
             continue
         rise = r.get("rise") or {}
         note = r.get("failure", "") if r["verdict"] == "failed" else ""
-        lines.append(f"| {r['id']} | {r['p_mound']:.3f} | {r['verdict']} | "
+        lines.append(f"| {r['id']} | {r['p_mound']:.3f} | {r.get('answer', r['verdict'])} | "
                      f"{_fmt(r.get('truth'))} | {_fmt(rise.get('height_m'), 1)} | "
                      f"{_fmt(rise.get('base_diameter_m'), 1)} | {note} |")
+    if s.get("for_field_team"):
+        lines += ["", "## For the field team", "", "| site | x, y m | p(mound) | why |",
+                  "|---|---|---|---|"]
+        lines += [f"| {t['id']} | {t['x_m']:.0f}, {t['y_m']:.0f} | {_fmt(t['p_mound'])} | "
+                  f"{t['why']} |" for t in s["for_field_team"]]
     if s.get("photos"):
         lines += ["", "## Photo card", "", "| files | count |", "|---|---|"]
         lines += [f"| {k} | {n} |" for k, n in sorted(s["photos"]["counts"].items())]

@@ -124,8 +124,16 @@ def _recon_summary(recon_dir: Path) -> dict[str, Any]:
 
 
 def _verdict_summary(doc: dict[str, Any]) -> dict[str, Any]:
-    out: dict[str, Any] = {"verdict": doc["label"], "confidence": doc.get("confidence"),
-                           "method": doc.get("method"), "reason": doc.get("reason", "")}
+    """The row's verdict fields: `answer` the verdict's own (mound, no_mound or undecided),
+    `verdict` its two answers (the paper's protocol: epsilon_MD and epsilon_FA, learning),
+    `undecided` why and what next where it is undecided."""
+    two = doc.get("two_answer")
+    out: dict[str, Any] = {
+        "verdict": two["label"] if isinstance(two, dict) and "label" in two else doc["label"],
+        "answer": doc["label"], "confidence": doc.get("confidence"),
+        "method": doc.get("method"), "reason": doc.get("reason", "")}
+    if isinstance(doc.get("undecided"), dict):
+        out["undecided"] = doc["undecided"]
     if "p_mound" in doc:  # the reference-free verdict's calibrated probability
         out["verdict_p_mound"] = doc["p_mound"]
     if isinstance(doc.get("coverage"), dict):
@@ -310,8 +318,10 @@ def _second_look(job: SiteJob, row: dict[str, Any], advice: dict[str, Any],
     except (InputError, NoResultError, ToolTimeout, ToolError, OSError) as e:
         look["reason"] = _reason(e, t)
         return
-    row["first_look"] = {k: row[k] for k in ("verdict", "confidence", "verdict_p_mound",
-                                              "reason", "rise") if k in row}
+    row["first_look"] = {k: row[k] for k in ("verdict", "answer", "confidence",
+                                              "verdict_p_mound", "reason", "rise", "undecided")
+                         if k in row}
+    row.pop("undecided", None)  # the second look's, if it is still undecided
     row.update({k: v for k, v in second.items() if k != "coverage"})
     look.update(flown=True, p_mound=second.get("verdict_p_mound"),
                 verdict_file=_rel(t.verdict, Path(job.run_root)))

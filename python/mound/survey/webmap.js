@@ -24,7 +24,7 @@
     const t = Math.max(0, Math.min(1, Number(p) || 0)) * (RAMP.length - 1);
     return RAMP[Math.round(t)];
   }
-  const VERDICT = { mound: "#ff7f00", no_mound: "#000000", failed: "#e7298a" };
+  const VERDICT = { mound: "#ff7f00", no_mound: "#000000", undecided: "#1f78b4", failed: "#e7298a" };
   const FLIGHT = ["#555555", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#bcbd22"];
 
   function fmt(v) {
@@ -45,6 +45,7 @@
       ["3-D verdict", c.verdict], ["p(mound) after the flight", c.verdict_p_mound],
       ["confidence", c.confidence], ["final label", c.final_label],
       ["label from", c.label_source], ["truth", c.truth], ["second look", c.second_look],
+      ["for the field team", c.field_team],
     ];
     for (const [k, v] of Object.entries(c.measurements || {})) rows.push([k, v]);
     if (c.failure) rows.push(["failure", c.failure]);

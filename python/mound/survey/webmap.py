@@ -136,6 +136,11 @@ def map_data(tree: RunTree, summary: dict[str, Any], sites_doc: dict[str, Any],
         card = {k: r[k] for k in ("p_mound", "reward", "visited", "verdict", "final_label",
                                   "label_source", "confidence", "verdict_p_mound", "truth",
                                   "failure") if k in r}
+        if "answer" in r:  # the verdict's own answer: mound, no_mound or undecided
+            card["verdict"] = r["answer"]
+        if r.get("answer") == "undecided":
+            card["field_team"] = "; ".join(x.get("text", "") for x in
+                                           (r.get("undecided") or {}).get("reasons", []))
         rise = r.get("rise") or {}
         card["measurements"] = {k: rise[k] for k in ("height_m", "base_diameter_m",
                                                        "roundness") if k in rise}
