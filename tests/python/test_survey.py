@@ -809,17 +809,10 @@ def test_a_site_the_first_flight_leaves_undecided_is_flown_again_wider(
 
     # the built-in dense model asks for no second look (its out-of-fold gain did not hold,
     # docs/verdict.md); a model remade with one (--verdict-model) does
-    model = json.loads((REPO_ROOT / "data" / "verdict_model_dense.json").read_text())
-    model["second_look"] = {"p_low": 0.3, "threshold": 0.8, "scan_factor": 2.0,
-                            "combine": {"first": 0.7, "second": 0.45, "bias": -0.25}}
-    model_file = tmp_path / "model_with_a_second_look.json"
-    model_file.write_text(json.dumps(model))
-    job = SiteJob(site={"id": "s1", "x_m": 0.0, "y_m": 0.0, "truth": {"mound": True}},
-                  index=0, run_root=str(tmp_path / "run"),
-                  origin={"lat": 38.57, "lon": 27.99, "alt_m": 95.0}, key="k",
-                  image_size=(320, 240), threads=2, figures=False,
-                  dense_args=("--max-image-size", "320", "--resolution-m", "0.25"),
-                  dense_model=str(model_file))
+    job = _dense_site_job(tmp_path, {"second_look": {
+        "p_low": 0.3, "threshold": 0.8, "scan_factor": 2.0,
+        "combine": {"first": 0.7, "second": 0.45, "bias": -0.25}}})
+    model_file = Path(str(job.dense_model))
     # what the first flight's verdict left (its p in the band)
     job.tree.verdict.parent.mkdir(parents=True)
     job.tree.verdict.write_text(json.dumps({
@@ -923,20 +916,12 @@ def test_an_undecided_site_is_flown_again_and_what_stays_undecided_goes_to_the_f
     it for the field team beside the counts of decided and undecided sites. The paper's
     two answers (row["verdict"]) stay what the threshold says."""
     from mound.survey import report
-    from mound.survey.site_work import SiteJob, process_site
+    from mound.survey.site_work import process_site
 
-    model = json.loads((REPO_ROOT / "data" / "verdict_model_dense.json").read_text())
-    model["undecided"] = {"p_low": 1e-6, "p_high": 1 - 1e-6}
-    model["second_look"] = {"p_low": 0.01, "threshold": 0.5, "scan_factor": 2.0,
-                            "combine": {"first": 1.0, "second": 1e-6, "bias": 0.0}}
-    model_file = tmp_path / "model.json"
-    model_file.write_text(json.dumps(model))
-    job = SiteJob(site={"id": "s1", "x_m": 0.0, "y_m": 0.0, "truth": {"mound": True}},
-                  index=0, run_root=str(tmp_path / "run"),
-                  origin={"lat": 38.57, "lon": 27.99, "alt_m": 95.0}, key="k",
-                  image_size=(320, 240), threads=2, figures=False,
-                  dense_args=("--max-image-size", "320", "--resolution-m", "0.25"),
-                  dense_model=str(model_file))
+    job = _dense_site_job(tmp_path, {
+        "undecided": {"p_low": 1e-6, "p_high": 1 - 1e-6},
+        "second_look": {"p_low": 0.01, "threshold": 0.5, "scan_factor": 2.0,
+                        "combine": {"first": 1.0, "second": 1e-6, "bias": 0.0}}})
     row = process_site(job)
     assert row["status"] == "ok", row.get("reason")
     first = json.loads(job.tree.verdict.read_text())
@@ -960,3 +945,20 @@ def test_an_undecided_site_is_flown_again_and_what_stays_undecided_goes_to_the_f
     m = report.three_answer_metrics(rows)
     assert m["decided"] == 1 and m["undecided"] == 1
     assert m["selective"] == {"eps_md": None, "eps_fa": 0.0, "decided_with_truth": 1}
+
+
+def _dense_site_job(tmp_path: Path, model_fields: dict[str, Any]) -> Any:
+    """A simulated survey site judged on its dense cloud by the built-in dense model with
+    `model_fields` added (--verdict-model)."""
+    from mound.survey.site_work import SiteJob
+
+    model = json.loads((REPO_ROOT / "data" / "verdict_model_dense.json").read_text())
+    model.update(model_fields)
+    model_file = tmp_path / "model.json"
+    model_file.write_text(json.dumps(model))
+    return SiteJob(site={"id": "s1", "x_m": 0.0, "y_m": 0.0, "truth": {"mound": True}},
+                   index=0, run_root=str(tmp_path / "run"),
+                   origin={"lat": 38.57, "lon": 27.99, "alt_m": 95.0}, key="k",
+                   image_size=(320, 240), threads=2, figures=False,
+                   dense_args=("--max-image-size", "320", "--resolution-m", "0.25"),
+                   dense_model=str(model_file))
