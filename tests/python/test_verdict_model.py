@@ -357,6 +357,15 @@ def test_rise_labels_the_tumulus_its_own_and_leaves_out_what_overlaps_it() -> No
     assert vm.rise_labels({"truth": truth, "rises": rises}) == [True, None, None, False]
     flat = {**truth, "mound": False, "kind": "hillock"}
     assert vm.rise_labels({"truth": flat, "rises": rises}) == [False] * 4
+    # a swell of the ground centred on a small tumulus, far wider than it: not the tumulus
+    small = {**truth, "diameter_m": 8.0}
+    swell = [{"centre_enu_m": [12.0, 3.0], "base_diameter_m": 67.0},
+             {"centre_enu_m": [11.0, 1.0], "base_diameter_m": 9.0}]
+    assert vm.rise_labels({"truth": small, "rises": swell}) == [None, True]
+    # a tumulus lower than its ground's clutter: nothing over it is known to be it
+    buried = {"truth": small, "rises": swell,
+              "relief": {"prominence_m": 0.2, "ground_clutter_m": 0.3}}
+    assert vm.rise_labels(buried) == [None, None]
 
 
 def test_training_refuses_too_little_or_one_class() -> None:

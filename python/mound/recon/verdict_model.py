@@ -116,6 +116,9 @@ SECOND_LOOK_FOLD_SEED = 7
 # tumuli under 5 lies on the laser DEM, found 4.5 of 12 times; at 5 or more, 176.2 of 178)
 # and checked on the held-out grid.
 CLEAR_OF_GROUND = 5.0
+# A rise over a tumulus wider than this many times its diameter is the ground that holds it
+# (rise_labels)
+RISE_MAX_SCALE = 2.5
 # The goal's tumuli by ground, as stands_clear() says: (name, its value)
 GROUND_CLASSES = (("clear", True), ("masked", False))
 
@@ -210,9 +213,16 @@ def rise_labels(row: dict[str, Any]) -> list[bool | None]:
     centre lies within max(8 m, the tumulus's radius) of the true centre and it is at least
     0.4 x the tumulus's diameter across; a rise that overlaps the tumulus otherwise (a pit's
     rim, a shoulder, the tumulus with the ground around it) is left out (None: no truth
-    says whether it is the mound), and one clear of it is a negative."""
+    says whether it is the mound), and one clear of it is a negative. Left out too (since
+    2026-11-28): a rise over the tumulus more than RISE_MAX_SCALE x its diameter across (a
+    swell of the ground that holds it, not it), and every rise over a tumulus that stands
+    less high than its ground's own clutter around it (`buried`: no cloud shows it). Labelled
+    positives, such rises taught the model that low wide swells of bare ground are tumuli:
+    a 0.35 m x 67 m swell of undulating ground scored p 0.93 (issue 56)."""
     t = row["truth"]
     out: list[bool | None] = []
+    rel = row.get("relief")
+    buried = bool(t["mound"] and rel and rel["prominence_m"] < rel["ground_clutter_m"])
     for r in row["rises"]:
         if not t["mound"]:
             out.append(False)
@@ -220,7 +230,10 @@ def rise_labels(row: dict[str, Any]) -> list[bool | None]:
         d = math.hypot(r["centre_enu_m"][0] - t["centre_enu_m"][0],
                        r["centre_enu_m"][1] - t["centre_enu_m"][1])
         size = float(r.get("base_diameter_m", t["diameter_m"]))
-        if d <= max(8.0, t["diameter_m"] / 2) and size >= 0.4 * t["diameter_m"]:
+        near = d <= max(8.0, t["diameter_m"] / 2)
+        if near and (buried or size > RISE_MAX_SCALE * t["diameter_m"]):
+            out.append(None)
+        elif near and size >= 0.4 * t["diameter_m"]:
             out.append(True)
         elif d < (t["diameter_m"] + size) / 2:
             out.append(None)
