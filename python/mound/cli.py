@@ -646,6 +646,13 @@ def cmd_recon_eval_verdict(args: argparse.Namespace) -> int:
               f"{tot['paper_missed']} missed; {tot['paper_failed']} failed (ICP)")
     if args.figure:
         vm.figure(report, args.figure)
+    if args.recall_figure:
+        if "three_answers" not in report:
+            raise InputError("--recall-figure: the model has no undecided band (three answers)")
+        from mound.recon.verdict_band import recall_figure
+
+        recall_figure(report["three_answers"], args.recall_figure,
+                      ", ".join(vm.grid_label(g) for g in args.grids))
     if args.detection_figure:
         panels = [(vm.grid_label(g), vm.evaluate(m, rows))
                   for g, m, rows in zip(args.grids, models, grids, strict=True)]
@@ -888,6 +895,8 @@ def build_parser() -> argparse.ArgumentParser:
                     "per_grid with --detection-figure")
     ev.add_argument("--report", help="report (JSON)")
     ev.add_argument("--figure", help="reliability diagram and detection limit (PNG)")
+    ev.add_argument("--recall-figure", help="the tumuli confirmed mound, undecided and called "
+                    "no mound by height class (PNG; a model with an undecided band)")
     ev.add_argument("--detection-figure", help="the detection rate over height x diameter, "
                     "one panel per grid (PNG)")
     ev.add_argument("--paper", action="store_true",

@@ -193,3 +193,18 @@ def test_a_dem_in_degrees_is_refused_for_patches(tmp_path: Path) -> None:
         ds.write(np.zeros((1, 50, 50), dtype=np.float32))
     with pytest.raises(InputError, match="not in metres"):
         DemPlaces.open(str(path))
+
+
+def test_a_running_grid_is_judged_by_the_cloud_its_verdicts_name(tmp_path: Path) -> None:
+    """A dense grid still running has no grid.json: its cloud comes from its verdicts
+    (it was taken for sparse, and judged with the sparse model); with neither, an error."""
+    from mound.recon import verdict_model as vm
+
+    with pytest.raises(InputError, match="which cloud"):
+        vm.grid_cloud(tmp_path)
+    (tmp_path / "0000").mkdir()
+    (tmp_path / "0000" / "verdict.json").write_text(json.dumps(
+        {"status": "ok", "cloud": str(tmp_path / "0000" / "dense" / "dense.ply")}))
+    assert vm.grid_cloud(tmp_path) == "dense"
+    (tmp_path / "grid.json").write_text(json.dumps({"schema": "mound.verdict_grid"}))
+    assert vm.grid_cloud(tmp_path) == "sparse"  # made before grids said so

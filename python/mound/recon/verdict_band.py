@@ -188,3 +188,40 @@ def three_answers(p: np.ndarray, truths: list[dict[str, Any]], band: tuple[float
                     "wrong": int(((lab == MOUND) & ~y).sum() + ((lab == NO) & y).sum())},
         "field_recall": field_recall(truths, lab, p >= threshold),
     }
+
+
+def recall_figure(three: dict[str, Any], out: str, title: str = "") -> None:
+    """The field recall (three_answers' field_recall) as bars per height class: the tumuli
+    confirmed mound, left undecided and called no_mound, beside the two answers' mound
+    share (a dot), with and without a looters' trench or pit."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fr = three["field_recall"]
+    panels = [("all", "all tumuli"), ("with_trench", "with a looters' trench or pit"),
+              ("without_trench", "without one")]
+    fig, axes = plt.subplots(1, 3, figsize=(13, 4.2), sharey=True)
+    for ax, (key, name) in zip(axes, panels, strict=True):
+        classes = {**fr[key]["by_height"], "all": fr[key]["all"]}
+        x = np.arange(len(classes))
+        share = {k: np.array([(c[k]["rate"] or 0.0) for c in classes.values()])
+                 for k in ("confirmed", "undecided", "no_mound", "two_answer_mound")}
+        ax.bar(x, share["confirmed"], color="#ff7f00", label="mound")
+        ax.bar(x, share["undecided"], bottom=share["confirmed"], color="#1f78b4",
+               label="undecided")
+        ax.bar(x, share["no_mound"], bottom=share["confirmed"] + share["undecided"],
+               color="0.3", label="no mound")
+        ax.plot(x, share["two_answer_mound"], "wo", mec="k", label="two answers: mound")
+        for i, c in enumerate(classes.values()):
+            ax.annotate(str(c["tumuli"]), (i, 1.01), ha="center", fontsize=7)
+        ax.set_xticks(x, list(classes), rotation=30, fontsize=8)
+        ax.set_title(name, fontsize=9)
+        ax.set_ylim(0, 1.08)
+    axes[0].set_ylabel("share of the tumuli (count above)")
+    axes[0].legend(fontsize=7, loc="center left")
+    fig.suptitle(title or "tumuli confirmed by height class", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(out, dpi=110)
+    plt.close(fig)

@@ -1000,11 +1000,26 @@ def figure(report: dict[str, Any], out: str | Path) -> None:
 
 
 def grid_cloud(folder: str | Path) -> str:
-    """The cloud a grid's verdicts judged (`sparse` or `dense`), from its grid.json."""
-    try:
-        return str(json.loads((Path(folder) / "grid.json").read_text()).get("cloud", "sparse"))
-    except (OSError, json.JSONDecodeError):
-        return "sparse"
+    """The cloud a grid's verdicts judged (`sparse` or `dense`): its grid.json's `cloud`
+    (grids made before the field existed were sparse); a grid still running (no grid.json)
+    by the cloud its finished verdicts name (dense/dense.ply or recon/points.ply).
+    InputError when neither says (until 2026-11-28 such a grid was taken for sparse)."""
+    root = Path(folder)
+    if (root / "grid.json").is_file():
+        try:
+            doc = json.loads((root / "grid.json").read_text())
+        except json.JSONDecodeError as e:
+            raise InputError(f"{root}/grid.json: not JSON ({e})") from None
+        return str(doc.get("cloud", "sparse"))
+    for v in sorted(root.glob("*/verdict.json")):
+        try:
+            cloud = str(json.loads(v.read_text()).get("cloud", ""))
+        except json.JSONDecodeError:
+            continue
+        if cloud:
+            return "dense" if cloud.endswith("dense.ply") else "sparse"
+    raise InputError(f"{root}: no grid.json and no finished verdict: which cloud it judges "
+                     "is unknown")
 
 
 def grid_label(folder: str | Path) -> str:
@@ -1018,7 +1033,13 @@ def grid_label(folder: str | Path) -> str:
     what = "full flight (raster + orbit)" if flight.get("pattern") == "both" else \
         "survey flight (raster)"
     camera = ", photo card (EXIF, lens held by a prior)" if doc.get("camera") == "exif" else ""
-    return f"{what}, {doc.get('cloud', 'sparse')} cloud{camera}, {w} x {h}, seed {doc.get('seed')}"
+    pop = doc.get("population", "uniform")
+    pop = "" if pop == "uniform" else ", Kazanlak-measured tumuli" if "kazanlak" in str(
+        pop.get("file", "") if isinstance(pop, dict) else pop) else ", measured tumuli"
+    part = doc.get("dem_part", "all")
+    part = f", DEM part {part}" if part != "all" else ""
+    return (f"{what}, {doc.get('cloud', 'sparse')} cloud{camera}{pop}{part}, {w} x {h}, "
+            f"seed {doc.get('seed')}")
 
 
 def detection_figure(panels: list[tuple[str, dict[str, Any]]], out: str | Path) -> None:
