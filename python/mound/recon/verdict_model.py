@@ -480,7 +480,11 @@ def train(rows: list[dict[str, Any]], names: list[str], sources: list[str],
     truths = [r["truth"] for r in sites + no_rise]
     undecided = band_doc(p_all, np.array([bool(t["mound"]) for t in truths]),
                          np.array([band_goal(t) for t in truths]), thr)
-    clouds = sorted({grid_cloud(g) for g in sources})
+    # the cloud the sites' verdicts judged (verdict.json's `cloud`; rows made otherwise:
+    # unknown)
+    clouds = sorted({("dense" if str(r["verdict"].get("cloud", "")).endswith("dense.ply")
+                      else "sparse") if isinstance(r.get("verdict"), dict) else "unknown"
+                     for r in measured})
     return {
         "schema": SCHEMA, "version": VERSION, "features": names,
         "mean": mean.tolist(), "std": std.tolist(), "basis": basis,
