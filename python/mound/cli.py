@@ -435,7 +435,8 @@ def cmd_sim_grid(args: argparse.Namespace) -> int:
                          args.threads, args.workers, args.remeasure, progress,
                          pattern=args.pattern, dense=args.dense, card=args.card,
                          flights_from=args.flights_from, second_look=args.second_look,
-                         dem_part=args.dem_part, population=args.population)
+                         dem_part=args.dem_part, population=args.population,
+                         second_look_kind=args.second_look_kind)
     ok = sum(1 for r in doc["rows"] if r.get("status") == "ok")
     print(f"{ok} of {doc['sites']} sites measured in {doc['wall_s']:.0f} s -> "
           f"{args.out}/grid.json")
@@ -450,7 +451,7 @@ def cmd_recon_train_verdict(args: argparse.Namespace) -> int:
     from mound.jsonio import write_json
     from mound.recon import verdict_model as vm
 
-    rows = [r for g in args.grids for r in vm.load_grid(g)]
+    rows = [r for g in args.grids for r in vm.load_grid(g, args.second_look_kind)]
     names = vm.feature_names_of(rows)
     model = vm.train(rows, names, [str(Path(g)) for g in args.grids])
     t = model["trained"]
@@ -486,7 +487,7 @@ def cmd_recon_train_verdict(args: argparse.Namespace) -> int:
           f"no_mound, {o['confident_false_alarms']:.1f} of {o['negatives']} sites without one "
           f"called mound, {o['undecided']:.1f} of {o['sites']} sites undecided")
     if args.heldout:
-        held = [r for g in args.heldout for r in vm.load_grid(g)]
+        held = [r for g in args.heldout for r in vm.load_grid(g, args.second_look_kind)]
         report = vm.evaluate(model, held)
         model["heldout"] = {k: report[k] for k in (
             "sites", "measured", "accuracy", "false_alarm_rate", "missed_rate", "auc",
@@ -885,6 +886,9 @@ def build_parser() -> argparse.ArgumentParser:
     tv.add_argument("--heldout", nargs="*", default=[], help="held-out grid folders")
     tv.add_argument("--report", help="held-out report (JSON)")
     tv.add_argument("--figure", help="reliability diagram and detection limit (PNG)")
+    tv.add_argument("--second-look-kind", choices=("wider", "lower"), default="wider",
+                    help="which second look the grids flew to learn from (mound sim grid "
+                    "--second-look-kind)")
     tv.set_defaults(func=cmd_recon_train_verdict)
     ev = rc.add_parser("eval-verdict", help="judge a verdict model on grids of measured sites")
     ev.add_argument("grids", nargs="+")
@@ -982,6 +986,10 @@ def build_parser() -> argparse.ArgumentParser:
                     help="fly each site the first verdict leaves undecided again with a scan "
                     "twice as wide (NNNN/second/): what train-verdict learns the second "
                     "look's calibration from")
+    sg.add_argument("--second-look-kind", choices=("wider", "lower"), default="wider",
+                    help="with --second-look: wider (the scan twice as wide, NNNN/second/) or "
+                    "lower (the same scan with the raster half as high: the ground sampled "
+                    "twice as finely, NNNN/second_lower/)")
     sg.set_defaults(func=cmd_sim_grid)
     sf = simp.add_parser("figures", help="contact sheet and 3-D plot of a simulated site")
     sf.add_argument("site")

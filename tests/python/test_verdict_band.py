@@ -208,3 +208,18 @@ def test_a_running_grid_is_judged_by_the_cloud_its_verdicts_name(tmp_path: Path)
     assert vm.grid_cloud(tmp_path) == "dense"
     (tmp_path / "grid.json").write_text(json.dumps({"schema": "mound.verdict_grid"}))
     assert vm.grid_cloud(tmp_path) == "sparse"  # made before grids said so
+
+
+def test_the_lower_second_look_flies_the_same_scan_from_half_the_height() -> None:
+    """The other second look (mound sim grid --second-look-kind lower): the same site and
+    scan area, the raster half as high, so nearly three times the images."""
+    from mound.sim import site as sim
+
+    spec = grid.draw(np.random.default_rng(0), 0, None, (320, 240))
+    low = grid.lower(spec)
+    assert low.terrain == spec.terrain and low.scale_m == spec.scale_m
+    assert low.raster_altitude_m == pytest.approx(spec.scale_m / 2)
+    assert len(sim.shots(low)) > 2.5 * len(sim.shots(spec))  # 78 against 28
+    assert grid.second_look_spec(spec, "wider") == grid.wider(spec)
+    with pytest.raises(InputError, match="--second-look-kind"):
+        grid.make_grid(Path("/nonexistent/g"), 1, 1, second_look_kind="higher")

@@ -57,7 +57,7 @@ from mound.classify.metrics import (
 from mound.errors import InputError
 from mound.recon.verdict_band import band_doc, band_goal, three_answers
 from mound.sim import terrain
-from mound.sim.grid import SECOND_LOOK_FACTOR, SECOND_LOOK_P
+from mound.sim.grid import SECOND_LOOK_FACTOR, SECOND_LOOK_P, SECOND_LOOKS
 
 SCHEMA = "mound.verdict_model"
 VERSION = 1
@@ -123,8 +123,11 @@ RISE_MAX_SCALE = 2.5
 GROUND_CLASSES = (("clear", True), ("masked", False))
 
 
-def load_grid(folder: str | Path) -> list[dict[str, Any]]:
-    """The measured sites of a grid: truth, features (None without a rise), the verdict."""
+def load_grid(folder: str | Path, second_look: str = "wider") -> list[dict[str, Any]]:
+    """The measured sites of a grid: truth, features (None without a rise), the verdict, and
+    the second look of kind `second_look` (mound.sim.grid.SECOND_LOOKS) where flown."""
+    if second_look not in SECOND_LOOKS:
+        raise InputError(f"--second-look-kind: one of {', '.join(SECOND_LOOKS)}")
     root = Path(folder)
     gpath = root / "grid.json"
     if gpath.is_file():
@@ -155,7 +158,8 @@ def load_grid(folder: str | Path) -> list[dict[str, Any]]:
         m = v.get("measurements", {})
         out.append({**row, "measured": v.get("status") == "ok", "features": m.get("features"),
                     "rises": m.get("judged_rises", []), "verdict": v, "rise": m.get("rise"),
-                    "grid": str(root), "second": _second_look(root / row["dir"]),
+                    "grid": str(root),
+                    "second": _second_look(root / row["dir"] / SECOND_LOOKS[second_look]),
                     "relief": _relief(root / row["dir"], row["truth"])})
     return out
 
@@ -191,10 +195,11 @@ def stands_clear(row: dict[str, Any]) -> bool | None:
     return bool(rel["prominence_m"] >= CLEAR_OF_GROUND * rel["ground_clutter_m"])
 
 
-def _second_look(site: Path) -> dict[str, Any] | None:
-    """The site's second look (GRID/NNNN/second/verdict.json, `mound sim grid
-    --second-look`): None when it was not flown or allowed no verdict."""
-    path = site / "second" / "verdict.json"
+def _second_look(folder: Path) -> dict[str, Any] | None:
+    """A site's second look (GRID/NNNN/second/verdict.json, `mound sim grid
+    --second-look`; second_lower/ for the lower one): None when it was not flown or allowed
+    no verdict."""
+    path = folder / "verdict.json"
     if not path.is_file():
         return None
     try:

@@ -47,6 +47,8 @@ The draws (half of the sites carry a tumulus):
   model by the images and refines f, k1, k2 about EXIF's values, as the survey's
   `--photos` does).
 
+`second_look_kind="lower"` flies the other second look instead, in GRID/NNNN/second_lower/:
+the same scan area with the raster half as high (`lower`; issue 56 asks which helps more).
 `second_look=True` flies a second look (issue 26) at every site whose first verdict leaves it
 undecided, p_mound in SECOND_LOOK_P (wider than any model's band, so that a retrained
 model finds its band's sites flown): the same site flown again with a scan SECOND_LOOK_FACTOR
@@ -95,6 +97,8 @@ DEFAULT_DEM = "TM1_564_146.tif"  # the 1 m airborne-laser DEM (../shared/data/de
 SECOND_LOOK_FACTOR = 2.0
 SECOND_LOOK_P = (0.05, 0.995)
 SITE_PER_SCAN = 2.7
+# The other second look: the same scan area, the raster this many times as high (lower)
+LOWER_FACTOR = 0.5
 # a measured population's tumuli (population.py): earthen profiles, no Lydian drum
 POPULATION_PROFILES = ("spherical_cap", "conical", "ploughed")
 LOG = logging.getLogger(__name__)
@@ -261,6 +265,22 @@ def draw(rng: np.random.Generator, seed: int, dem: str | DemPlaces | list[DemPla
         scan_diameter_m=scan_m, seed=seed, texel_m=texel_m)
 
 
+def lower(spec: sim.SimSpec, factor: float = LOWER_FACTOR) -> sim.SimSpec:
+    """The same site (terrain, light, lens, seed) and scan area flown with its raster
+    `factor` x as high (LOWER_FACTOR: half): the ground sampled 1 / factor x as finely,
+    with more images for the same overlaps (78 against 28 for the 60 m scan at half)."""
+    return replace(spec, raster_altitude_m=spec.scale_m * factor)
+
+
+# The second looks a grid flies, and the folder of each (NNNN/<folder>/)
+SECOND_LOOKS = {"wider": "second", "lower": "second_lower"}
+
+
+def second_look_spec(spec: sim.SimSpec, kind: str) -> sim.SimSpec:
+    """The second look of `kind` (SECOND_LOOKS) at the site `spec`."""
+    return wider(spec) if kind == "wider" else lower(spec)
+
+
 def wider(spec: sim.SimSpec, factor: float = SECOND_LOOK_FACTOR) -> sim.SimSpec:
     """The same site (terrain, light, lens, seed) flown with a scan `factor` x as wide, on a
     site drawn SITE_PER_SCAN x that scan across (at least the first look's). On a DEM patch
@@ -354,10 +374,13 @@ def make_grid(out: str | Path, sites: int, seed: int, size: tuple[int, int] = (6
               dense: bool = False, card: bool = False,
               flights_from: str | Path | None = None,
               second_look: bool = False, dem_part: str = "all",
+              second_look_kind: str = "wider",
               population: str | None = None) -> dict[str, Any]:
     """Draws and runs the grid (see the module text); returns grid.json's document."""
     if not 1 <= sites <= 100_000:
         raise InputError("--sites: must be 1 .. 100,000")
+    if second_look_kind not in SECOND_LOOKS:
+        raise InputError(f"--second-look-kind: one of {', '.join(SECOND_LOOKS)}")
     paths = [] if dem is None else [dem] if isinstance(dem, str) else list(dem)
     for p in paths:
         if not Path(p).is_file():
@@ -394,9 +417,11 @@ def make_grid(out: str | Path, sites: int, seed: int, size: tuple[int, int] = (6
         rows[k] = _site(root / f"{k:04d}", specs[k], threads, remeasure, dense, card)
         p = rows[k].get("p_mound")  # the first look's (grid.json's rows carry it)
         if second_look and p is not None and SECOND_LOOK_P[0] <= p < SECOND_LOOK_P[1]:
-            second = _site(root / f"{k:04d}" / "second", wider(specs[k]), threads, remeasure,
+            folder = SECOND_LOOKS[second_look_kind]
+            second = _site(root / f"{k:04d}" / folder,
+                           second_look_spec(specs[k], second_look_kind), threads, remeasure,
                            dense, card)
-            rows[k]["second"] = {"status": second.get("status"), "times": second.get("times"),
+            rows[k][folder] = {"status": second.get("status"), "times": second.get("times"),
                                  **({"reason": second["reason"]} if "reason" in second else {})}
         if progress:
             progress(k, rows[k])
@@ -406,9 +431,12 @@ def make_grid(out: str | Path, sites: int, seed: int, size: tuple[int, int] = (6
     # site half-way and mixes no two detectors (until 2026-11-27 a rebuild failed the sites
     # running then with PermissionError).
     earlier = None  # the build of the verdicts already there (the oldest one named)
+    before_kinds: list[str] = []  # the second looks flown before (grid.json)
     try:
         before = json.loads((root / "grid.json").read_text())
         earlier = before.get("earlier_tools") or before.get("tools")
+        sl = before.get("second_look") or {}
+        before_kinds = list(sl.get("kinds", ["wider"] if sl else []))
     except (OSError, json.JSONDecodeError, AttributeError):
         pass
     with native.pinned("mound_recon") as digests:
@@ -426,7 +454,10 @@ def make_grid(out: str | Path, sites: int, seed: int, size: tuple[int, int] = (6
               else {}),
            "flight": {"pattern": pattern, "scan_m": SCAN_M, "image_size": list(size)},
            **({"second_look": {"scan_factor": SECOND_LOOK_FACTOR,
-                               "first_p": list(SECOND_LOOK_P)}} if second_look else {}),
+                               "lower_factor": LOWER_FACTOR,
+                               "kinds": sorted({second_look_kind, *before_kinds}),
+                               "first_p": list(SECOND_LOOK_P)}}
+              if second_look or before_kinds else {}),
            "cloud": "dense" if dense else "sparse",
            "camera": "exif" if card else "calibrated",
            **draws, **({"flights_from": str(flights_from)} if flights_from else {}),
