@@ -338,21 +338,18 @@ SiteVerdict JudgeSite(const std::vector<Eigen::Vector3d>& cloud, const Eigen::Ve
   v.detection = terrain::DetectMound(cloud, centre, v.radius_m, options.detector);
   size_t best = 0;
   v.model_p = v.p_mound = model.Probability(v.detection, &best);
-  v.mound = v.p_mound >= model.threshold;
   if (options.first_look_p) {
     v.second_look = true;
     v.first_p = *options.first_look_p;
     v.p_mound = model.SecondLookProbability(v.first_p, v.model_p);
-    v.mound = v.p_mound >= model.second_look->threshold;
-  }
-  const double two_answer_at = v.second_look ? model.second_look->threshold : model.threshold;
-  if (options.decide_at) {
-    v.mound = v.p_mound >= *options.decide_at;
-    v.label = v.mound ? "mound" : "no_mound";
-  } else {
-    v.label = model.Label(v.p_mound, two_answer_at);
   }
   v.decide_at = options.decide_at;
+  v.threshold = options.decide_at ? *options.decide_at
+                : v.second_look   ? model.second_look->threshold
+                                  : model.threshold;
+  v.mound = v.p_mound >= v.threshold;
+  v.label =
+      options.decide_at ? (v.mound ? "mound" : "no_mound") : model.Label(v.p_mound, v.threshold);
   if (!v.detection.judged.empty()) v.judged = best;
   v.coverage =
       JudgeCoverage(v.detection, v.judged ? &v.detection.judged[*v.judged] : nullptr, v.radius_m);
@@ -369,10 +366,7 @@ nlohmann::json SiteVerdictJson(const SiteVerdict& v, const terrain::VerdictModel
   doc["p_mound"] = v.p_mound;
   doc["label"] = v.label;
   // the two answers beside it (the paper's protocol: its epsilon_MD and epsilon_FA)
-  doc["two_answer"] = {{"label", v.mound ? "mound" : "no_mound"},
-                       {"threshold", v.decide_at     ? *v.decide_at
-                                     : v.second_look ? model.second_look->threshold
-                                                     : model.threshold}};
+  doc["two_answer"] = {{"label", v.mound ? "mound" : "no_mound"}, {"threshold", v.threshold}};
   if (v.decide_at) {
     doc["decision"] = {{"rule", "decide_at"}, {"p", *v.decide_at}};
   } else if (model.undecided) {
@@ -380,7 +374,7 @@ nlohmann::json SiteVerdictJson(const SiteVerdict& v, const terrain::VerdictModel
                        {"p_low", model.undecided->p_low},
                        {"p_high", model.undecided->p_high}};
   } else {
-    doc["decision"] = {{"rule", "threshold"}, {"p", doc["two_answer"]["threshold"]}};
+    doc["decision"] = {{"rule", "threshold"}, {"p", v.threshold}};
   }
   doc["confidence"] = v.mound ? v.p_mound : 1 - v.p_mound;
   nlohmann::json m = {{"site_centre_enu_m", {v.centre.x(), v.centre.y()}},
@@ -428,9 +422,7 @@ nlohmann::json SiteVerdictJson(const SiteVerdict& v, const terrain::VerdictModel
                        {"rise_outside", c.rise_outside},
                        {"site_sag_m", c.site_sag_m}};
   }
-  const double threshold = v.decide_at     ? *v.decide_at
-                           : v.second_look ? model.second_look->threshold
-                                           : model.threshold;
+  const double threshold = v.threshold;
   if (v.second_look) {
     why << "; a second look: the model's p " << v.model_p << " of this flight, " << v.first_p
         << " of the first; both together p(mound) " << v.p_mound << " (threshold " << threshold

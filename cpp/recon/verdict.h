@@ -123,7 +123,8 @@ struct SiteVerdict {
   double radius_m = 0;
   terrain::Detection detection;
   double p_mound = 0;               // calibrated: the highest of the judged rises' p
-  bool mound = false;               // p_mound >= the model's threshold (the two answers)
+  bool mound = false;               // p_mound >= threshold (the two answers)
+  double threshold = 0.5;           // decide_at, else the second look's or the model's
   std::string label;                // "mound", "no_mound" or "undecided" (see decide_at)
   bool second_look = false;         // a second look: p_mound of both flights, its threshold
   double model_p = 0;               // the model's p of this flight alone
