@@ -11,6 +11,7 @@ import pytest
 
 from mound.errors import InputError
 from mound.sim import grid, terrain
+from mound.sim.dem_places import DemPlaces
 
 DEM = "dem/TM1_564_146.tif"
 
@@ -183,7 +184,7 @@ def test_a_second_look_near_the_dem_edge_continues_the_ground_across_it(
 
 
 def test_grid_draws_are_seeded_and_span_the_field(shared_data: Path) -> None:
-    dem = str(shared_data / DEM)
+    dem = [DemPlaces.open(str(shared_data / DEM))]  # opened once: each open reads the DEM
     rng = np.random.default_rng([1, 2026])
     a = [grid.draw(rng, k, dem, (320, 240)) for k in range(300)]
     rng = np.random.default_rng([1, 2026])

@@ -202,12 +202,11 @@ def _place_on_dem(rng: np.random.Generator, dems: list[DemPlaces],
     return {"dem_path": d.path, "dem_x_m": x, "dem_y_m": y}
 
 
-def draw(rng: np.random.Generator, seed: int, dem: str | DemPlaces | list[DemPlaces] | None,
+def draw(rng: np.random.Generator, seed: int, dems: list[DemPlaces] | None,
          size: tuple[int, int], scan_m: float = SCAN_M, texel_m: float = 0.1,
          pattern: str = "raster", population: Population | None = None) -> sim.SimSpec:
-    """One site of the grid (see the module text)."""
-    dems = ([] if dem is None else [DemPlaces.open(dem)] if isinstance(dem, str)
-            else [dem] if isinstance(dem, DemPlaces) else list(dem))
+    """One site of the grid (see the module text); `dems` opened once for the grid (each
+    open reads the whole DEM)."""
     over: dict[str, Any] = {"seed": seed, "resolution_m": 0.5}
     mound = bool(rng.random() < 0.5)
     over["mound"] = mound
