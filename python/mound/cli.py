@@ -56,7 +56,7 @@ from mound.classify import coarse, statlog
 from mound.classify.model import SCHEMA as MODEL_SCHEMA
 from mound.classify.model import VERSION as MODEL_VERSION
 from mound.classify.model import Model
-from mound.errors import InputError, exit_for
+from mound.errors import EXIT_NO_RESULT, InputError, exit_for
 from mound.geometry.flight import ScanSpec
 from mound.geometry.geodesy import Origin
 from mound.jsonio import read_json, write_json
@@ -437,13 +437,18 @@ def cmd_sim_grid(args: argparse.Namespace) -> int:
                          flights_from=args.flights_from, second_look=args.second_look,
                          dem_part=args.dem_part, population=args.population,
                          second_look_kind=args.second_look_kind)
-    ok = sum(1 for r in doc["rows"] if r.get("status") == "ok")
-    print(f"{ok} of {doc['sites']} sites measured in {doc['wall_s']:.0f} s -> "
+    print(f"{doc['measured']} of {doc['sites']} sites measured in {doc['wall_s']:.0f} s -> "
           f"{args.out}/grid.json")
     if "earlier_tools" in doc:
         print(f"note: {args.out}: verdicts made before were made by another build of "
               "mound_recon (grid.json: earlier_tools); --remeasure judges every site with "
               "this one", file=sys.stderr)
+    if doc["status"] == "failed":
+        reasons = sorted({str(r.get("reason", "?"))[:120] for r in doc["rows"]})
+        print(f"mound sim grid: no result: no site was measured ({reasons[0]}"
+              f"{f' and {len(reasons) - 1} other reasons' if len(reasons) > 1 else ''}; "
+              f"each site's log.txt says more)", file=sys.stderr)
+        return EXIT_NO_RESULT
     return 0
 
 
@@ -522,6 +527,14 @@ def _print_three_answers(t: dict[str, Any]) -> None:
           f"{rate(t['confident_false_alarms'])}; undecided {rate(u)}"
           + (f", of them tumuli {u['tumulus_share']:.2f} against mean p {u['mean_p']:.2f}"
              if u["of"] and u["count"] else ""))
+    fr = t["frontier"]
+    b = fr["best_within_undecided"]
+    print(f"  the frontier (any band, chosen on these sites: a bound): the goals' confident "
+          f"errors need {100 * fr['undecided_at_goals']:.1f} % undecided; with <= "
+          f"{100 * fr['at_most_undecided']:.0f} % undecided the least is "
+          f"{100 * b['confident_misses']:.1f} % confident misses and "
+          f"{100 * b['confident_false_alarms']:.1f} % confident false alarms "
+          f"({b['times_the_goals']:.1f} x the goals)")
     f = t["field_recall"]["all"]
     print("  tumuli confirmed mound (two answers' mound) by height: " + "; ".join(
         f"{k} {c['confirmed']['count']}/{c['tumuli']} ({c['two_answer_mound']['count']})"

@@ -223,3 +223,30 @@ def test_the_lower_second_look_flies_the_same_scan_from_half_the_height() -> Non
     assert grid.second_look_spec(spec, "wider") == grid.wider(spec)
     with pytest.raises(InputError, match="--second-look-kind"):
         grid.make_grid(Path("/nonexistent/g"), 1, 1, second_look_kind="higher")
+
+
+def test_the_frontier_is_the_best_any_band_does_on_the_sites_themselves() -> None:
+    """verdict_band.frontier against every band [a, b) of the sites' own p (brute force):
+    the least undecided share that meets both confident-error goals, and the least errors
+    (in multiples of the goals) within the undecided allowance."""
+    rng = np.random.default_rng(5)
+    n = 300
+    y = rng.random(n) < 0.45
+    goal = y & (rng.random(n) < 0.7)
+    p = np.clip(np.where(y, rng.beta(5, 2, n), rng.beta(2, 5, n)), 1e-6, 1 - 1e-6)
+    fr = vb.frontier(p, y, goal)
+    cuts = np.unique(np.concatenate([p, [1.0]]))
+    best_und, best_times = 1.0, np.inf
+    for i, a in enumerate(cuts):
+        for b in cuts[i:]:
+            lab = vb.answers(p, (a, b))
+            und = float((lab == vb.UNDECIDED).mean())
+            miss = float((lab[goal] == vb.NO).mean())
+            fa = float((lab[~y] == vb.MOUND).mean())
+            if miss <= vb.MAX_MISS and fa <= vb.MAX_FA:
+                best_und = min(best_und, und)
+            if und <= vb.MAX_UNDECIDED:
+                best_times = min(best_times, max(miss / vb.MAX_MISS, fa / vb.MAX_FA))
+    assert fr["undecided_at_goals"] == pytest.approx(best_und)
+    assert fr["best_within_undecided"]["times_the_goals"] == pytest.approx(best_times)
+    assert fr["goals_reachable"] == (best_und <= vb.MAX_UNDECIDED)

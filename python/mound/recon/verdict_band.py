@@ -158,6 +158,40 @@ def field_recall(truths: list[dict[str, Any]], lab3: np.ndarray,
     return out
 
 
+def frontier(p: np.ndarray, y: np.ndarray, goal: np.ndarray) -> dict[str, Any]:
+    """What any band could do on these very sites (chosen on them: a bound no band chosen
+    elsewhere beats, not a figure for new ground): the least undecided share at which the
+    confident errors meet the goals (MAX_MISS, MAX_FA), and the least confident errors
+    (in multiples of the goals, the worse of the two) with at most MAX_UNDECIDED
+    undecided. When the first exceeds MAX_UNDECIDED, no band meets the three goals
+    together with these p: the evidence, not the band, is short."""
+    lo, hi = choose_band(p, y, goal, 0.5, miss=MAX_MISS, fa=MAX_FA)
+    at_goals = float((answers(p, (lo, hi)) == UNDECIDED).mean())
+    ps = np.sort(p)
+    cuts = np.unique(np.concatenate([ps, [np.nextafter(ps[-1], np.inf)]]))
+    pos, neg = np.sort(p[goal]), np.sort(p[~y])
+    allowed = int(math.floor(MAX_UNDECIDED * len(p) + 1e-9))
+    best: dict[str, Any] | None = None
+    for t_low in cuts:  # a band [t_low, t_high): the widest t_high within the allowance
+        below = int(np.searchsorted(ps, t_low, side="left"))
+        k = min(below + allowed, len(ps))  # sites with p < t_high are at most k
+        t_high = float(ps[k]) if k < len(ps) else float(cuts[-1])
+        if t_high < t_low:
+            continue
+        miss = int(np.searchsorted(pos, t_low, side="left"))
+        fa = len(neg) - int(np.searchsorted(neg, t_high, side="left"))
+        m = miss / max(len(pos), 1)
+        f = fa / max(len(neg), 1)
+        worse = max(m / MAX_MISS, f / MAX_FA)
+        if best is None or worse < best["times_the_goals"]:
+            best = {"band": [float(t_low), t_high], "confident_misses": m,
+                    "confident_false_alarms": f, "times_the_goals": worse}
+    return {"band_at_goals": [lo, hi], "undecided_at_goals": at_goals,
+            "at_most_undecided": MAX_UNDECIDED, "best_within_undecided": best,
+            "goals_reachable": at_goals <= MAX_UNDECIDED,
+            "note": "chosen on the judged sites themselves: a bound, not a held-out figure"}
+
+
 def three_answers(p: np.ndarray, truths: list[dict[str, Any]], band: tuple[float, float],
                   threshold: float) -> dict[str, Any]:
     """The three answers' figures on held-out sites (see the module text): p and the truth
@@ -187,6 +221,7 @@ def three_answers(p: np.ndarray, truths: list[dict[str, Any]], band: tuple[float
         "decided": {"sites": int((~und).sum()),
                     "wrong": int(((lab == MOUND) & ~y).sum() + ((lab == NO) & y).sum())},
         "field_recall": field_recall(truths, lab, p >= threshold),
+        "frontier": frontier(p, y, goal),
     }
 
 
