@@ -1,7 +1,7 @@
 """The pieces of GeoJSON (RFC 7946) that every reader of it shares: a WGS84 [lon, lat]
 position and a Point Feature, each refused with an InputError naming where it failed.
 The scene's labels and AOIs (mound.scene.vector) and the survey's sites
-(mound.survey.sites_input) read their Point features through here."""
+(mound.formats.sites) read their Point features through here."""
 
 from __future__ import annotations
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -248,6 +249,32 @@ def test_a_grid_without_its_dem_is_refused_not_drawn_otherwise(
     assert main(["sim", "grid", "--out", str(out), "--sites", "1", "--seed", "7", "--dem",
                  "none", "--workers", "1", "--threads", "2"]) == 0
     assert json.loads((out / "grid.json").read_text())["dem"] is None
+
+
+def test_a_grid_in_which_no_site_was_measured_is_no_result(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str],
+        mound_recon: Path) -> None:
+    """Until issue 57 a grid whose every site failed (a seed mound_render refused) printed
+    "0 of 2 sites measured" and exited 0: now grid.json says `status: failed` and the
+    command exits 3 with one line naming why."""
+    import json
+
+    from mound.cli import main
+    from mound.sim import grid
+
+    def failing(out: Path, spec: Any, *args: Any) -> dict[str, Any]:
+        return {"dir": out.name, "truth": spec.terrain.truth(), "status": "failed",
+                "reason": "mound_render failed (exit 2: bad input): --seed: too large"}
+
+    monkeypatch.setattr(grid, "_site", failing)
+    out = tmp_path / "g"
+    assert main(["sim", "grid", "--out", str(out), "--sites", "2", "--seed", "7", "--dem",
+                 "none", "--workers", "1"]) == 3
+    err = capsys.readouterr().err
+    why = err.splitlines()[0]  # (the command's time follows on its own line)
+    assert "no site was measured" in why and "--seed" in why, err
+    doc = json.loads((out / "grid.json").read_text())
+    assert doc["status"] == "failed" and doc["measured"] == 0
 
 
 @pytest.mark.slow

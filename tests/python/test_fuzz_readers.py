@@ -26,10 +26,10 @@ from hypothesis import strategies as st
 
 from mound.classify import statlog
 from mound.errors import InputError
+from mound.formats.sites import load_user_sites
 from mound.geometry.geodesy import Origin
-from mound.survey.sites_input import load_user_sites
 from mound.uav import files as mission_files
-from mound.uav import mission_items
+from mound.uav import mission, mission_items
 
 EXAMPLES = int(os.environ.get("MOUND_FUZZ_EXAMPLES", "150"))
 FRESH = os.environ.get("MOUND_FUZZ_FRESH") == "1"  # make fuzz: new randomness each run
@@ -143,7 +143,7 @@ def _mission_build(path: Path) -> None:
 
     plan = read_json(path, "mound.plan", 1)
     origin = Origin.from_doc(plan.get("origin"), f"{path}: origin")
-    mission_items.build(plan, origin, mission_items.MissionSpec(scan=SCAN))
+    mission.build(plan, origin, mission_items.MissionSpec(scan=SCAN))
 
 
 @FUZZ
@@ -153,7 +153,7 @@ def test_plan_reader_and_mission_build(text: str) -> None:
 
 
 def _mission_texts() -> tuple[str, str]:
-    m = mission_items.build(json.loads(json.dumps({**PLAN, "scan": None})), ORIGIN,
+    m = mission.build(json.loads(json.dumps({**PLAN, "scan": None})), ORIGIN,
                             mission_items.MissionSpec(scan=SCAN))
     return mission_files.plan_text(m), mission_files.wpl_text(m)
 
@@ -540,7 +540,7 @@ def _dji_and_litchi() -> tuple[str, str, str]:
 
     plan = json.loads(json.dumps({**PLAN, "scan": mission_items.scan_for_site(
         60.0, "both").to_doc()}))
-    m = mission_items.build(plan, ORIGIN, None)
+    m = mission.build(plan, ORIGIN, None)
     data = mission_formats.kmz(m, dji.AIRCRAFT["m3e"])
     import io
     import zipfile

@@ -45,6 +45,37 @@ def sites_at(caliterra: Path, tmp: Path) -> Path:
     return path
 
 
+def test_the_sites_of_a_scene_s_geojson_sort_a_card_as_their_mound_sites_document(
+        tmp_path: Path) -> None:
+    """`--sites` is read by one reader in every command (issue 57): the WGS84 GeoJSON that
+    `mound scene score --home` writes (and python/mission.py --sites reads) gives `mound
+    photos sort` the same sites, in the same local frame, as the mound.sites document of
+    the same places; p_mound is not needed to sort photos."""
+    from mound.geometry.geodesy import Origin, enu_to_geodetic
+    from mound.photos.sort import sites_of
+
+    home = Origin(42.6231, 25.3942, 310.0)
+    enu = np.array([[0.0, 0.0, 0.0], [250.0, -40.0, 0.0], [1000.0, 300.0, 0.0]])
+    llh = enu_to_geodetic(home, enu)
+    geo = {"type": "FeatureCollection", "features": [
+        {"type": "Feature", "geometry": {"type": "Point", "coordinates": [lon, lat]},
+         "properties": {"kind": "home", "alt_m": 310.0} if k == 0 else
+         {"id": f"c{k}", "p_mound": 0.5}} for k, (lat, lon, _) in enumerate(llh)]}
+    doc = {"schema": "mound.sites", "version": 1, "origin": home.to_doc(),
+           "home": {"id": "home", "x_m": 0.0, "y_m": 0.0},
+           "sites": [{"id": f"c{k}", "x_m": float(e[0]), "y_m": float(e[1]), "reward": 1.0}
+                     for k, e in enumerate(enu) if k]}
+    (tmp_path / "c.geojson").write_text(json.dumps(geo))
+    (tmp_path / "c.json").write_text(json.dumps(doc))
+    a = sites_of(str(tmp_path / "c.geojson"), SortSpec())
+    b = sites_of(str(tmp_path / "c.json"), SortSpec())
+    assert a.ids == b.ids == ["c1", "c2"]
+    assert np.allclose(a.xy, b.xy, atol=1e-3) and np.allclose(a.xy, enu[1:, :2], atol=1e-3)
+    assert np.allclose(a.home_xy, [0, 0]) and a.reach_m == b.reach_m > 0
+    assert np.allclose([a.origin.lat_deg, a.origin.lon_deg, a.origin.alt_m],
+                       [b.origin.lat_deg, b.origin.lon_deg, b.origin.alt_m], atol=1e-9)
+
+
 @pytest.mark.slow
 def test_caliterra_lands_in_the_site_at_its_centre(caliterra: Path, tmp_path: Path) -> None:
     sites = sites_at(caliterra, tmp_path)
@@ -147,7 +178,7 @@ def test_bad_arguments(caliterra: Path, tmp_path: Path,
     with pytest.raises(InputError, match="an empty card"):
         sort_card(str(tmp_path / "empty"), str(sites), str(tmp_path / "o"))
     (tmp_path / "x.json").write_text('{"schema": "mound.verdict", "version": 1}')
-    with pytest.raises(InputError, match="mound.plan or mound.sites"):
+    with pytest.raises(InputError, match="mound.plan, a mound.sites document or a GeoJSON"):
         sort_card(str(caliterra), str(tmp_path / "x.json"), str(tmp_path / "o"))
     with pytest.raises(InputError, match="--blur-ratio"):
         sort_card(str(caliterra), str(sites), str(tmp_path / "o"), SortSpec(blur_ratio=-1))

@@ -107,7 +107,7 @@ def test_scores_rasters_and_candidates_on_an_unseen_scene(learned: dict[str, Any
 
 @pytest.mark.slow
 def test_candidates_are_sites_the_survey_reads(learned: dict[str, Any]) -> None:
-    from mound.survey.sites_input import load_user_sites
+    from mound.formats.sites import load_user_sites
     from mound.uav import mission_items
 
     scan = mission_items.scan_for_site(60.0, "raster")

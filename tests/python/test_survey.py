@@ -28,12 +28,12 @@ from PIL import Image
 from mound.classify.metrics import detection_error_rates, says_mound
 from mound.classify.reward import binary_entropy_bits
 from mound.cli import main as cli_main
+from mound.formats.sites import load_user_sites
 from mound.geometry.geodesy import Origin, enu_to_geodetic
 from mound.paths import REPO_ROOT
 from mound.plan import sites as op_sites
 from mound.ply import read_ply
 from mound.survey import driver
-from mound.survey.sites_input import load_user_sites
 from mound.uav import files as mission_files
 from mound.uav import mission_items
 from mound.uav.mavlink.peer import MavsdkVehicle
@@ -962,3 +962,40 @@ def _dense_site_job(tmp_path: Path, model_fields: dict[str, Any]) -> Any:
                    image_size=(320, 240), threads=2, figures=False,
                    dense_args=("--max-image-size", "320", "--resolution-m", "0.25"),
                    dense_model=str(model_file))
+
+
+def test_a_bug_in_a_site_s_work_ends_the_survey_with_exit_1_not_a_partial_survey(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A site whose work raises an error that is neither bad input nor a tool's failure (a
+    bug) keeps the other sites going, leaves its traceback in the site's log.txt, and the
+    stage then raises (the survey's main answers exit 1) instead of reporting "partial"."""
+    import contextlib
+
+    from mound.survey import cluster, site_work
+    from mound.survey.site_work import SiteJob, process_site
+
+    def broken(job: SiteJob, row: dict[str, Any]) -> Any:
+        raise ZeroDivisionError("a bug")
+
+    monkeypatch.setattr(site_work, "_simulate", broken)
+    job = SiteJob(site={"id": "s1", "x_m": 0.0, "y_m": 0.0, "truth": {"mound": True}},
+                  index=0, run_root=str(tmp_path / "run"),
+                  origin={"lat": 38.57, "lon": 27.99, "alt_m": 95.0}, key="k", figures=False)
+    row = process_site(job)
+    assert row["status"] == "failed" and row["internal_error"] is True and row["retry"]
+    assert "ZeroDivisionError" in row["reason"]
+    log = (tmp_path / "run" / "sites" / "s1" / "log.txt").read_text()
+    assert "Traceback" in log and "ZeroDivisionError: a bug" in log
+
+    # the stage: every row is kept (a rerun resumes), then the survey stops as on a bug
+    monkeypatch.setattr(cluster, "client_for", lambda *a: contextlib.nullcontext(None))
+    monkeypatch.setattr(cluster, "describe", lambda client: "in-process")
+    monkeypatch.setattr(cluster, "run_sites", lambda client, jobs, run_id, on_row, progress:
+                        [on_row(process_site(j)) for j in jobs])
+    args = driver.SurveyOptions.from_namespace(driver.build_parser().parse_args(
+        ["--out", str(tmp_path / "run"), "--no-progress"]))
+    ctx = driver.Context(args, driver.RunTree(tmp_path / "run"),
+                         driver.Ledger(tmp_path / "run" / "stages.json"))
+    with pytest.raises(driver.SiteBugError, match="s1"):
+        driver.run_jobs(ctx, [job])
+    assert json.loads(job.tree.result.read_text())["internal_error"] is True

@@ -18,7 +18,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "python"))
 
 from mound.geometry.geodesy import Origin
-from mound.uav import mission_items
+from mound.uav import mission, mission_items
 from mound.uav.mavlink import link as mavlink_link
 from mound.uav.mavlink import transfer
 from mound.uav.mavlink.peer import MavsdkVehicle
@@ -32,7 +32,7 @@ def items_of(n: int) -> list[mission_items.MissionItem]:
             for k in range(sites)]
     plan = {"tour": [w["id"] for w in wps] + ["home"], "waypoints": wps, "closed": True,
             "budget_m": 1e9}
-    return mission_items.build(plan, Origin(38.5705, 27.9862, 95.0)).items[:n]
+    return mission.build(plan, Origin(38.5705, 27.9862, 95.0)).items[:n]
 
 
 def run(vehicle: MavsdkVehicle, items: list[mission_items.MissionItem], loss: float, seed: int

@@ -54,16 +54,16 @@ def _truth(value: Any, where: str) -> bool | None:
     return value
 
 
-def _site(props: dict[str, Any], site_id: Any, x: float, y: float, where: str
-          ) -> dict[str, Any]:
+def _site(props: dict[str, Any], site_id: Any, x: float, y: float, where: str,
+          need_p: bool = True) -> dict[str, Any]:
     if not isinstance(site_id, str) or not site_id.strip():
         raise InputError(f"{where}.id: expected a non-empty string, got {site_id!r}")
-    p = _number(props, "p_mound", where, lo=0.0, hi=1.0)
+    p = _number(props, "p_mound", where, lo=0.0, hi=1.0, required=need_p)
     reward = _number(props, "reward", where, lo=0.0, required=False)
-    assert p is not None  # required
     if reward is None:
-        reward = float(binary_entropy_bits(p))
-    site: dict[str, Any] = {"id": site_id, "x_m": x, "y_m": y, "p_mound": p, "reward": reward}
+        reward = float(binary_entropy_bits(p)) if p is not None else 0.0
+    site: dict[str, Any] = {"id": site_id, "x_m": x, "y_m": y, "reward": reward,
+                            **({"p_mound": p} if p is not None else {})}
     truth = _truth(props.get("truth"), where)
     if truth is not None:
         site["truth"] = {"mound": truth}
@@ -74,7 +74,8 @@ def _site(props: dict[str, Any], site_id: Any, x: float, y: float, where: str
     return site
 
 
-def _from_mound_sites(doc: dict[str, Any], path: Path) -> tuple[dict[str, Any], list[Any]]:
+def _from_mound_sites(doc: dict[str, Any], path: Path, need_p: bool
+                      ) -> tuple[dict[str, Any], list[Any]]:
     version = doc.get("version")
     if version != 1:
         raise InputError(f"{path}: version: unsupported mound.sites version {version!r}")
@@ -109,11 +110,12 @@ def _from_mound_sites(doc: dict[str, Any], path: Path) -> tuple[dict[str, Any], 
         if not isinstance(s, dict):
             raise InputError(f"{where}: expected an object")
         rows.append(_site(s, s.get("id"), _number(s, "x_m", where),  # type: ignore[arg-type]
-                          _number(s, "y_m", where), where))  # type: ignore[arg-type]
+                          _number(s, "y_m", where), where, need_p))  # type: ignore[arg-type]
     return out, rows
 
 
-def _from_geojson(doc: dict[str, Any], path: Path) -> tuple[dict[str, Any], list[Any]]:
+def _from_geojson(doc: dict[str, Any], path: Path, need_p: bool
+                  ) -> tuple[dict[str, Any], list[Any]]:
     features = doc.get("features")
     if not isinstance(features, list) or not features:
         raise InputError(f"{path}: features: expected a non-empty list of Point features")
@@ -136,7 +138,8 @@ def _from_geojson(doc: dict[str, Any], path: Path) -> tuple[dict[str, Any], list
         raise InputError(f"{path}: features: no candidate site besides home")
     llh = np.array([[lat, lon, home.alt_m] for _, lat, lon, _, _ in points])
     enu = geodetic_to_enu(home, llh)
-    rows = [_site(props, sid, float(e[0]), float(e[1]), f"{path}: features[{k}].properties")
+    rows = [_site(props, sid, float(e[0]), float(e[1]), f"{path}: features[{k}].properties",
+                  need_p)
             for (k, _, _, props, sid), e in zip(points, enu, strict=True)]
     out: dict[str, Any] = {"origin": home.to_doc(), "home": {"id": "home", "x_m": 0.0,
                                                             "y_m": 0.0},
@@ -148,17 +151,20 @@ def _from_geojson(doc: dict[str, Any], path: Path) -> tuple[dict[str, Any], list
 
 
 def load_user_sites(path: str | Path, scan: ScanSpec, budget_m: float | None,
-                    default_budget_m: float, need_truth: bool) -> dict[str, Any]:
+                    default_budget_m: float, need_truth: bool,
+                    need_p_mound: bool = True) -> dict[str, Any]:
     """The run's mound.sites document from the user's file; InputError on any defect.
-    `need_truth`: every site must carry its truth (the flights are simulated)."""
+    `need_truth`: every site must carry its truth (the flights are simulated);
+    `need_p_mound`: every site its p_mound (a survey's unvisited sites keep the
+    classifier's label; sorting photos needs only where the sites are)."""
     path = Path(path)
     doc = parse_json(read_text(path), path)
     if not isinstance(doc, dict):
         raise InputError(f"{path}: expected a JSON object (mound.sites or GeoJSON)")
     if doc.get("schema") == "mound.sites":
-        head, rows = _from_mound_sites(doc, path)
+        head, rows = _from_mound_sites(doc, path, need_p_mound)
     elif doc.get("type") == "FeatureCollection":
-        head, rows = _from_geojson(doc, path)
+        head, rows = _from_geojson(doc, path, need_p_mound)
     else:
         raise InputError(f"{path}: schema: neither a mound.sites document nor a GeoJSON "
                          "FeatureCollection (type)")

@@ -48,6 +48,7 @@ import numpy as np
 from mound import native
 from mound.bounds import SITE_DIAMETER_M, Bound
 from mound.errors import InputError
+from mound.formats.sites import load_user_sites
 from mound.geometry.flight import ScanSpec
 from mound.geometry.geodesy import Origin, geodetic_to_enu
 from mound.jsonio import (
@@ -100,32 +101,46 @@ class Sites:
 
 
 def sites_of(path: str, spec: SortSpec) -> Sites:
-    """The sites a card may hold: a plan's visited sites (mound.plan, every flight) or a
-    sites document's sites (mound.sites); the scan's reach from the plan's or document's
-    `scan`, else from `site_diameter_m`."""
+    """The sites a card may hold: a plan's visited sites (mound.plan, every flight), or the
+    sites of a `--sites` file as every command reads it (mound.formats.sites: a mound.sites
+    document, or a WGS84 GeoJSON such as `mound scene score` writes); the scan's reach from
+    the document's `scan`, else from `site_diameter_m`."""
     doc = parse_json(read_text(path), path)
-    schema = doc.get("schema") if isinstance(doc, dict) else None
-    if schema not in ("mound.plan", "mound.sites"):
-        raise InputError(f"{path}: expected a mound.plan or mound.sites document")
-    doc = read_json(path, schema, 1)
+    if isinstance(doc, dict) and doc.get("schema") == "mound.plan":
+        return _plan_sites(path, spec)
+    if not isinstance(doc, dict) or (doc.get("schema") != "mound.sites"
+                                     and doc.get("type") != "FeatureCollection"):
+        raise InputError(f"{path}: expected a mound.plan, a mound.sites document or a GeoJSON "
+                         "FeatureCollection of sites")
+    scan = (ScanSpec.from_doc(doc["scan"], f"{path}: scan")
+            if isinstance(doc, dict) and isinstance(doc.get("scan"), dict)
+            else ScanSpec(pattern="raster", scale_m=spec.site_diameter_m))
+    # (the budget plays no part in sorting photos: any positive default)
+    sites = load_user_sites(path, scan, None, default_budget_m=1.0, need_truth=False,
+                            need_p_mound=False)
+    origin = Origin.from_doc(sites["origin"], f"{path}: origin")
+    rows = sites["sites"]
+    return Sites(origin, [r["id"] for r in rows],
+                 np.array([[r["x_m"], r["y_m"]] for r in rows], dtype=float).reshape(-1, 2),
+                 np.array([sites["home"]["x_m"], sites["home"]["y_m"]], dtype=float),
+                 scan.reach_m())
+
+
+def _plan_sites(path: str, spec: SortSpec) -> Sites:
+    """A mound.plan's visited sites (every flight)."""
+    from mound.uav.mission_items import visited_ids
+
+    doc = read_json(path, "mound.plan", 1)
     if not isinstance(doc.get("origin"), dict):
         raise InputError(f"{path}: origin: missing (the sites' WGS84 frame)")
     origin = Origin.from_doc(doc["origin"], f"{path}: origin")
-    if schema == "mound.plan":
-        from mound.uav.mission_items import visited_ids
-
-        waypoints = _objects(doc, "waypoints", path)
-        for k, w in enumerate(waypoints):
-            require_id(w.get("id"), f"{path}: waypoints[{k}].id")
-        wanted = visited_ids(doc)
-        nodes = [(f"{path}: waypoints[{k}]", w) for k, w in enumerate(waypoints)
-                 if w.get("id") in wanted]
-        home = next((w for w in waypoints if w.get("kind") == "home"), None)
-    else:
-        nodes = [(f"{path}: sites[{k}]", s) for k, s in enumerate(_objects(doc, "sites", path))]
-        home = doc.get("home")
-        if home is not None and not isinstance(home, dict):
-            raise InputError(f"{path}: home: expected an object with x_m, y_m")
+    waypoints = _objects(doc, "waypoints", path)
+    for k, w in enumerate(waypoints):
+        require_id(w.get("id"), f"{path}: waypoints[{k}].id")
+    wanted = visited_ids(doc)
+    nodes = [(f"{path}: waypoints[{k}]", w) for k, w in enumerate(waypoints)
+             if w.get("id") in wanted]
+    home = next((w for w in waypoints if w.get("kind") == "home"), None)
     if not nodes:
         raise InputError(f"{path}: no sites")
     scan = (ScanSpec.from_doc(doc["scan"], f"{path}: scan") if isinstance(doc.get("scan"), dict)

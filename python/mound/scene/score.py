@@ -132,9 +132,14 @@ def _aoi_mask(polys: list[Any], grid: OutGrid, r0: int, c0: int, n: int, m: int
     return geometry_mask(polys, out_shape=(n, m), transform=tf, invert=True, all_touched=False)
 
 
+class AoiMissesScene(InputError):
+    """The area of interest lies wholly outside the scene (valid input: a survey of several
+    scenes skips that one and says so)."""
+
+
 def aoi_in_scene(polys_lonlat: list[Any], scene: SceneInfo, where: str) -> list[Any]:
-    """The AOI polygons as GeoJSON geometries in the scene's CRS; InputError when they miss
-    the scene."""
+    """The AOI polygons as GeoJSON geometries in the scene's CRS; AoiMissesScene when they
+    miss the scene, InputError when a position cannot be taken to its CRS."""
     from mound.scene.raster import transformer_to_scene
 
     tr = transformer_to_scene(scene)
@@ -155,7 +160,7 @@ def aoi_in_scene(polys_lonlat: list[Any], scene: SceneInfo, where: str) -> list[
                 hit = True
         geoms.append({"type": "Polygon", "coordinates": rings})
     if not hit:
-        raise InputError(f"{where}: the area of interest misses the scene {scene.path}")
+        raise AoiMissesScene(f"{where}: the area of interest misses the scene {scene.path}")
     return geoms
 
 

@@ -361,7 +361,9 @@ def _site(out: Path, spec: sim.SimSpec, threads: int, remeasure: bool,
         doc = json.loads(verdict.read_text())
         doc["grid_times_s"] = times
         write_json(verdict, doc)
-        row.update(status=doc.get("status"), times=times, p_mound=_p_of(doc))
+        row.update(status=doc.get("status"), times=times, p_mound=_p_of(doc),
+                   **({"reason": str(doc.get("reason", ""))} if doc.get("status") != "ok"
+                      else {}))
     except (InputError, NoResultError) as e:
         row.update(status="failed", reason=str(e))
     return row
@@ -448,7 +450,11 @@ def make_grid(out: str | Path, sites: int, seed: int, size: tuple[int, int] = (6
             for k in range(sites):
                 one(k)
     tools = {name: {"sha256": d} for name, d in digests.items()}
-    doc = {"schema": SCHEMA, "version": VERSION, "seed": seed, "sites": sites, "tools": tools,
+    measured = sum(1 for r in rows if r.get("status") == "ok")
+    # a grid none of whose sites was measured is no result (the CLI's exit 3), whatever why
+    status = "ok" if measured == sites else "partial" if measured else "failed"
+    doc = {"schema": SCHEMA, "version": VERSION, "seed": seed, "sites": sites,
+           "status": status, "measured": measured, "tools": tools,
            **({"earlier_tools": earlier} if earlier and earlier != tools and not remeasure
               else {}),
            "flight": {"pattern": pattern, "scan_m": SCAN_M, "image_size": list(size)},

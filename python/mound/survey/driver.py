@@ -314,6 +314,7 @@ def scene_sites(ctx: Context, scan: Any) -> dict[str, Any]:
 
     from mound.args import parse_lat_lon, parse_names
     from mound.datasets import sha256_of as digest_of
+    from mound.formats.sites import load_user_sites
     from mound.jsonio import read_json as read_doc
     from mound.scene import score
     from mound.scene.model import SCHEMA as SCENE_SCHEMA
@@ -322,7 +323,6 @@ def scene_sites(ctx: Context, scan: Any) -> dict[str, Any]:
     from mound.scene.raster import open_scene, transformer_to_scene
     from mound.scene.train import FOUND_RADIUS_M
     from mound.scene.vector import read_aoi, read_labels
-    from mound.survey.sites_input import load_user_sites
     from mound.uav.mission_items import flight_budget_m
 
     a = ctx.args
@@ -338,9 +338,10 @@ def scene_sites(ctx: Context, scan: Any) -> dict[str, Any]:
         if a.aoi:
             try:
                 aoi = score.aoi_in_scene(read_aoi(a.aoi), scene, f"--aoi {a.aoi}")
-            except InputError:
+            except score.AoiMissesScene as e:
                 if len(a.scenes) == 1:
                     raise
+                ctx.say(f"[scene] {scene_path}: not scored: {e}")
                 continue
         out = ctx.tree.root / "scene" / f"{k:02d}_{Path(scene_path).stem}"
         score.score_to_dir(scene, model, out, model_path=str(model_path),
@@ -412,8 +413,8 @@ def stage_field(ctx: Context) -> str:
     from mound.classify.model import SCHEMA as MODEL_SCHEMA
     from mound.classify.model import VERSION as MODEL_VERSION
     from mound.classify.model import Model
+    from mound.formats.sites import load_user_sites
     from mound.plan.field import make_field, sites_document
-    from mound.survey.sites_input import load_user_sites
     from mound.uav.mission_items import flight_budget_m
 
     a = ctx.args
@@ -576,7 +577,7 @@ def write_missions(missions: list[tuple[int | None, Any]], folder: Path, png_fol
 def stage_mission(ctx: Context) -> str:
     from mound.geometry.geodesy import Origin
     from mound.survey import figures
-    from mound.uav import mission_items
+    from mound.uav import mission, mission_items
     from mound.uav.upload import upload_mission
 
     a = ctx.args
@@ -594,7 +595,7 @@ def stage_mission(ctx: Context) -> str:
         flights = mission_items.flight_plans(plan)
         several = len(flights) > 1
         missions = [(f["flight"] if several else None,
-                     mission_items.build(f, origin, spec, terrain)) for f in flights]
+                     mission.build(f, origin, spec, terrain)) for f in flights]
         t.report_dir.mkdir(parents=True, exist_ok=True)
         written, summary = write_missions(missions, t.root, t.report_dir, a.firmware,
                                           a.aircraft)
@@ -812,7 +813,16 @@ def run_jobs(ctx: Context, jobs: list[Any], tag: str = "sites3d"
             f"{len(ok) - mounds} no mound), {len(failed)} failed")
     for r in failed:
         ctx.say(f"[{tag}] {r['id']} failed: {r.get('reason', '?')}")
+    bugs = [r for r in failed if r.get("internal_error")]
+    if bugs:  # every row is written: the same command resumes once the bug is fixed
+        raise SiteBugError(f"{len(bugs)} site(s) hit an internal error (a bug; the traceback "
+                           f"is in each site's log.txt): {bugs[0]['id']}: {bugs[0]['reason']}")
     return rows, note, all(r.get("retry") is False for r in failed)
+
+
+class SiteBugError(RuntimeError):
+    """A site's work raised an error that is neither bad input nor a tool's failure: a bug.
+    The survey stops with exit 1 after every site of the stage is done."""
 
 
 def stage_sites3d(ctx: Context) -> str:

@@ -33,7 +33,7 @@ from mound.classify.model import SCHEMA as MODEL_SCHEMA
 from mound.classify.model import VERSION as MODEL_VERSION
 from mound.classify.model import Model
 from mound.classify.reward import binary_entropy_bits
-from mound.errors import ToolInputError, ToolNoResultError
+from mound.errors import ToolNoResultError
 from mound.jsonio import read_json, write_json
 
 SCHEMA = "mound.learn"
@@ -79,9 +79,9 @@ def _write_mission(ctx: Any, plan: dict[str, Any], out: Path) -> None:
     from mound.geometry.geodesy import Origin
     from mound.survey.driver import mission_terrain
     from mound.uav import files as mission_files
-    from mound.uav import mission_items
+    from mound.uav import mission
 
-    m = mission_items.build(plan, Origin.from_doc(plan["origin"], "plan: origin"),
+    m = mission.build(plan, Origin.from_doc(plan["origin"], "plan: origin"),
                             None,  # the plan's own scan (plan_scan), else the default
                             mission_terrain(ctx.args))
     mission_files.write_plan(out, m, ctx.args.firmware)
@@ -133,9 +133,10 @@ def stage_learn(ctx: Any) -> str:
                                                    str(a.flights - k + 1), "--out",
                                                    str(fdir / "plan_all.json")],
                                     timeout_s=600, log=t.root / "log.txt")
-                except (ToolInputError, ToolNoResultError) as e:
+                except ToolNoResultError as e:
                     # The sites left (a subset of valid sites, the same budget) allow no
-                    # flight: every one within reach was flown.
+                    # flight: every one within reach was flown. (Exit 2, bad input, would be
+                    # a bug in the file written above: it reaches the survey's main, exit 1.)
                     why = (e.tail.strip().splitlines() or [str(e)])[-1]
                     stopped = f"flight {k}: no flight over the sites left ({why})"
                     break
@@ -163,7 +164,10 @@ def stage_learn(ctx: Any) -> str:
                     continue
                 if r.get("answer") == "undecided":  # no evidence either way: not learned
                     continue
-                conf = float(r.get("confidence") or 0.5)
+                conf = r.get("confidence")
+                if isinstance(conf, bool) or not isinstance(conf, int | float) or \
+                        not 0 <= conf <= 1:  # a judged site's verdict always states one
+                    raise RuntimeError(f"site {sid}: its row's confidence is {conf!r}")
                 ex_rows.append(int(by_id[sid]["truth"]["statlog_row"]))
                 ex_y.append(1.0 if r["verdict"] == "mound" else -1.0)
                 ex_w.append(conf * a.learn_weight)

@@ -19,6 +19,7 @@ from __future__ import annotations
 import os
 import socket
 import time
+import traceback
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -231,8 +232,14 @@ def _process_site(job: SiteJob) -> dict[str, Any]:
         row.update(reason=f"{stage}: {_reason(e, t)}", retry=False)
     except (ToolTimeout, ToolError, OSError) as e:
         row.update(reason=f"{stage}: {_reason(e, t)}", retry=True)
-    except Exception as e:  # a bug; the other sites go on, the row says what happened
-        row.update(reason=f"{stage}: internal error {e!r}", retry=True)
+    except Exception as e:
+        # A bug: the other sites go on, the row says what happened and the site's log keeps
+        # the traceback; the survey ends with exit 1 once every site is done
+        # (driver.run_jobs), never a quiet "partial".
+        row.update(reason=f"{stage}: internal error {e!r}", retry=True, internal_error=True)
+        t.log.parent.mkdir(parents=True, exist_ok=True)
+        with open(t.log, "a", encoding="utf-8") as log:
+            log.write(f"internal error in stage {stage}:\n{traceback.format_exc()}")
     if job.figures and row["status"] == "ok":
         t0 = time.perf_counter()
         try:

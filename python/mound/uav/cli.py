@@ -14,7 +14,7 @@ from mound.uav import upload
 
 
 def cmd_build(args: argparse.Namespace) -> int:
-    from mound.uav import dji, litchi, mission_formats, mission_items
+    from mound.uav import dji, litchi, mission, mission_formats, mission_items
     from mound.uav import files as mission_files
 
     plan = read_json(args.plan, "mound.plan", 1)
@@ -60,7 +60,7 @@ def cmd_build(args: argparse.Namespace) -> int:
     outputs: list[tuple[str | Path, str | bytes]] = []
     missions = []
     for f in flights:
-        m = mission_items.build(f, origin, spec, terrain)
+        m = mission.build(f, origin, spec, terrain)
         flight = f["flight"] if several else None
         names = ["" if p is None else str(mission_files.flight_path(p, flight))
                  for p in (args.out, args.wpl, args.geojson, args.dji_kmz, args.litchi)]

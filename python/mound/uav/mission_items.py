@@ -53,7 +53,7 @@ import numpy as np
 from mound.bounds import SITE_DIAMETER_M
 from mound.errors import InputError
 from mound.geometry.camera import Camera, Pose
-from mound.geometry.flight import PATTERNS, ScanSpec, path_length
+from mound.geometry.flight import PATTERNS, ScanSpec
 from mound.geometry.geodesy import Origin, enu_to_geodetic
 from mound.jsonio import require_id, require_number
 
@@ -183,7 +183,7 @@ def image_footprint(camera: Camera, pose: Pose, max_range_m: float) -> np.ndarra
     return np.array(out)
 
 
-def _up(h: float) -> np.ndarray:
+def up(h: float) -> np.ndarray:
     return np.array([0.0, 0.0, h])
 
 
@@ -227,7 +227,7 @@ MAX_COST_M = 1e8
 MAX_BUDGET_M = 1e12
 
 
-def _plan_nodes(plan: dict[str, Any]) -> tuple[list[dict[str, Any]], bool, float]:
+def plan_nodes(plan: dict[str, Any]) -> tuple[list[dict[str, Any]], bool, float]:
     """Validated (tour nodes with positions, closed?, budget) of a mound.plan document."""
     tour = plan.get("tour")
     if not isinstance(tour, list) or len(tour) < 2:
@@ -317,100 +317,65 @@ def plan_scan(plan: dict[str, Any], where: str = "plan") -> ScanSpec | None:
     return None if doc is None else ScanSpec.from_doc(doc, f"{where}: scan")
 
 
-def build(plan: dict[str, Any], origin: Origin, spec: MissionSpec | None = None,
-          terrain: TerrainInput | None = None) -> Mission:
-    """The mission for a mound.plan document; InputError if it breaks the budget. Without
-    `spec`, the plan's own scan (plan_scan) or the default one is flown. With `terrain`
-    (a DEM) the heights follow the ground (see the module docstring)."""
-    if spec is None:
-        scan = plan_scan(plan)
-        spec = MissionSpec(scan=scan) if scan is not None else MissionSpec()
-    spec.validate()
-    nodes, closed, budget = _plan_nodes(plan)
-    if len(nodes) <= 2 and (closed or len(nodes) < 2):
-        raise InputError("tour: the plan visits no site, there is nothing to fly")
-    if terrain is None and isinstance(plan.get("terrain"), dict):
-        dem = plan["terrain"].get("dem", "its DEM")
-        raise InputError(f"plan.terrain: the plan was made over {dem!s:.200} (its costs count "
-                         "the climbs); build its mission with --dem, or the heights would be "
-                         "above home with the terrain not checked")
-    if terrain is not None:
-        from mound.uav.terrain_mission import build_over_terrain
+class ItemWriter:
+    """The one writer of a mission's items, flat or over terrain: positions are ENU metres
+    whose z is above the frame's datum `datum_m` (0 without a DEM, where z is already above
+    home; home's ground AMSL over one), written relative to it in
+    MAV_FRAME_GLOBAL_RELATIVE_ALT_INT; `path` holds every position flown, from `start`."""
 
-        return build_over_terrain(plan, origin, spec, terrain, nodes, closed, budget)
-    legs = spec.scan.legs()
-    transit = spec.scan.transit_m(legs)
-    home = np.array([nodes[0]["x_m"], nodes[0]["y_m"], 0.0])
+    def __init__(self, origin: Origin, datum_m: float, start: np.ndarray) -> None:
+        self.origin = origin
+        self.datum_m = float(datum_m)
+        self.items: list[MissionItem] = []
+        self.path: list[np.ndarray] = [np.asarray(start, dtype=float)]
 
-    items: list[MissionItem] = []
-    nav_path = [home.copy(), home + _up(transit)]
-
-    def geo(p: np.ndarray) -> tuple[int, int]:
-        lat, lon, _ = enu_to_geodetic(origin, p[None, :])[0]
+    def _geo(self, p: np.ndarray) -> tuple[int, int]:
+        lat, lon, _ = enu_to_geodetic(self.origin, np.array([[p[0], p[1], 0.0]]))[0]
         return round(lat * 1e7), round(lon * 1e7)
 
-    def nav(command: int, p: np.ndarray, params: tuple = (0.0, 0.0, 0.0, NAN)) -> None:
-        x, y = geo(p)
-        items.append(MissionItem(command, FRAME_GLOBAL_RELATIVE_ALT_INT, params, x, y, p[2]))
+    def nav(self, command: int, p: np.ndarray, params: tuple = (0.0, 0.0, 0.0, NAN)) -> None:
+        """A navigation item to `p` (flown: it joins the path)."""
+        x, y = self._geo(p)
+        self.items.append(MissionItem(command, FRAME_GLOBAL_RELATIVE_ALT_INT, params, x, y,
+                                      float(p[2]) - self.datum_m))
+        self.path.append(np.asarray(p, dtype=float))
 
-    def do(command: int, params: tuple, p: np.ndarray | None = None,
+    def do(self, command: int, params: tuple, p: np.ndarray | None = None,
            frame: int = FRAME_MISSION) -> None:
-        x, y = geo(p) if p is not None else (0, 0)
-        z = float(p[2]) if p is not None else 0.0
-        items.append(MissionItem(command, frame, params, x, y, z))
+        """A command item (at `p` where it names a place)."""
+        x, y = self._geo(p) if p is not None else (0, 0)
+        z = float(p[2]) - self.datum_m if p is not None else 0.0
+        self.items.append(MissionItem(command, frame, params, x, y, z))
 
-    nav(NAV_TAKEOFF, home + _up(transit), (0.0, 0.0, 0.0, NAN))
-    do(DO_CHANGE_SPEED, (1.0, spec.cruise_speed_m_s, -1.0, 0.0))
-    sites_out = []
-    footprints = []
-    cam = spec.scan.camera()
-    for node in nodes[1:-1] if len(nodes) > 2 else []:
-        centre = np.array([node["x_m"], node["y_m"], 0.0])
-        entry = centre + legs[0].points_enu[0]
-        transit_point = np.array([entry[0], entry[1], transit])
-        nav(NAV_WAYPOINT, transit_point)
-        nav_path.append(transit_point)
-        do(DO_CHANGE_SPEED, (1.0, spec.scan_speed_m_s, -1.0, 0.0))
-        scan_path = [transit_point]
+    def scan_site(self, spec: MissionSpec, centre: np.ndarray, site_id: str,
+                  legs: list[Any] | None = None) -> tuple[int, list[dict[str, Any]]]:
+        """The site's scan from where the aircraft is (over its entry point): the scan
+        speed, each pattern's waypoints with the camera triggered (and the region of
+        interest on an orbit), back to cruise. `centre` is the site's centre on its ground
+        (z: the ground's height in the writer's frame); `legs` the scan's (scan.legs(), once
+        per mission). Returns the images taken and the images' footprints (ENU corners
+        about the centre at z 0)."""
+        scan = spec.scan
+        cam = scan.camera()
         images = 0
-        for leg in legs:
+        footprints: list[dict[str, Any]] = []
+        self.do(DO_CHANGE_SPEED, (1.0, spec.scan_speed_m_s, -1.0, 0.0))
+        for leg in legs if legs is not None else scan.legs():
             if leg.pattern == "orbit":
-                target = centre + _up(spec.scan.target_height_m)
-                do(DO_SET_ROI_LOCATION, (0.0, 0.0, 0.0, 0.0), target,
-                   FRAME_GLOBAL_RELATIVE_ALT_INT)
-            do(DO_SET_CAM_TRIGG_DIST, (leg.trigger_m, 0.0, 1.0, 0.0))
+                self.do(DO_SET_ROI_LOCATION, (0.0, 0.0, 0.0, 0.0),
+                        centre + up(scan.target_height_m), FRAME_GLOBAL_RELATIVE_ALT_INT)
+            self.do(DO_SET_CAM_TRIGG_DIST, (leg.trigger_m, 0.0, 1.0, 0.0))
             for p in leg.points_enu:
-                nav(NAV_WAYPOINT, centre + p)
-                scan_path.append(centre + p)
-            do(DO_SET_CAM_TRIGG_DIST, (0.0, 0.0, 0.0, 0.0))
+                self.nav(NAV_WAYPOINT, centre + p)
+            self.do(DO_SET_CAM_TRIGG_DIST, (0.0, 0.0, 0.0, 0.0))
             if leg.pattern == "orbit":
-                do(DO_SET_ROI_NONE, (0.0, 0.0, 0.0, 0.0))
+                self.do(DO_SET_ROI_NONE, (0.0, 0.0, 0.0, 0.0))
             images += leg.images
             reach = 3 * float(leg.points_enu[:, 2].max())
+            on_ground = np.array([centre[0], centre[1], 0.0])
             for k, pose in enumerate(leg.poses):
-                footprints.append({"site": node["id"], "pattern": leg.pattern, "image": k,
-                                   "corners_enu_m": (centre + image_footprint(cam, pose, reach)
-                                                     ).tolist()})
-        do(DO_CHANGE_SPEED, (1.0, spec.cruise_speed_m_s, -1.0, 0.0))
-        nav_path += scan_path[1:]
-        sites_out.append({"id": node["id"], "x_m": node["x_m"], "y_m": node["y_m"],
-                          "scan_length_m": path_length(scan_path), "images": images,
-                          "scan_cost_m": node["scan_cost_m"]})
-    end = np.array([nodes[-1]["x_m"], nodes[-1]["y_m"], 0.0])
-    if closed:
-        items.append(MissionItem(NAV_RETURN_TO_LAUNCH, FRAME_MISSION))
-        nav_path += [home + _up(transit), home.copy()]
-    else:
-        nav(NAV_WAYPOINT, end + _up(transit))
-        nav(NAV_LAND, end, (0.0, 0.0, 0.0, NAN))
-        nav_path += [end + _up(transit), end.copy()]
-    distance = path_length(nav_path)
-    if distance > budget * (1 + spec.budget_slack) + 1e-6:
-        worst = max(sites_out, key=lambda s: s["scan_length_m"] - s["scan_cost_m"],
-                    default=None)
-        hint = (f"; a {spec.scan.pattern} scan flies {worst['scan_length_m']:.0f} m per site, the "
-                f"plan assumed scan_cost_m {worst['scan_cost_m']:g}") if worst else ""
-        raise InputError(f"mission: flight distance {distance:.1f} m exceeds the plan's "
-                         f"budget_m {budget:g} m{hint}")
-    return Mission(items, origin, distance, budget, closed, sites_out, nav_path, footprints,
-                   spec)
+                footprints.append({"site": site_id, "pattern": leg.pattern, "image": k,
+                                   "corners_enu_m": (on_ground + image_footprint(cam, pose,
+                                                                                 reach)).tolist()})
+        self.do(DO_CHANGE_SPEED, (1.0, spec.cruise_speed_m_s, -1.0, 0.0))
+        return images, footprints

@@ -8,7 +8,7 @@ sites are taken in the order the survey's tour visited them (a tour restricted t
 its sites is never longer, by the triangle inequality), home and end as the survey's, each
 scanned with the survey's own scan (the plan's ScanSpec) scaled `scan_factor` x — the
 flight mound.sim.grid.wider simulates. Flights are filled in that order: a site joins the
-current flight when the mission built with it (mission_items.build, over the DEM when there
+current flight when the mission built with it (mission.build, over the DEM when there
 is one: heights that clear the terrain, energy within the budget) still passes, else it
 opens the next flight. A site whose second look alone cannot be flown (its wide scan
 breaks the budget, or the terrain check refuses it) is refused with the reason: never
@@ -23,11 +23,11 @@ from typing import Any
 
 from mound.errors import InputError
 from mound.geometry.geodesy import Origin
+from mound.uav.mission import build
 from mound.uav.mission_items import (
     Mission,
     MissionSpec,
     TerrainInput,
-    build,
     plan_scan,
     visit_order,
 )

@@ -1,5 +1,5 @@
-"""The mission over real terrain (uav/mission_items.py says how heights are written;
-uav/terrain.py how they are chosen and what a flight costs)."""
+"""The mission over real terrain, heights planned above mean sea level (uav/mission_items.py
+says how they are written; uav/terrain.py how they are chosen and what a flight costs)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import numpy as np
 
 from mound.errors import InputError
 from mound.geometry.flight import path_length
-from mound.geometry.geodesy import Origin, enu_to_geodetic
+from mound.geometry.geodesy import Origin
 from mound.uav import mission_items as mi
 from mound.uav.terrain import Node, TerrainModel, TerrainSpec, climb_descent_m, energy_m, open_dem
 
@@ -35,44 +35,21 @@ def build_over_terrain(plan: dict[str, Any], origin: Origin, spec: mi.MissionSpe
     heights, tops, where = model.leg_heights(legs_from, legs_to)
     home_amsl = float(model.ground[0])
 
-    items: list[mi.MissionItem] = []
-    path_amsl: list[np.ndarray] = [np.array([xy[0, 0], xy[0, 1], home_amsl])]
-
-    def rel(z_amsl: float) -> float:
-        return float(z_amsl) - home_amsl
-
-    def geo(p: np.ndarray) -> tuple[int, int]:
-        lat, lon, _ = enu_to_geodetic(origin, np.array([[p[0], p[1], 0.0]]))[0]
-        return round(lat * 1e7), round(lon * 1e7)
-
-    def nav(command: int, p_amsl: np.ndarray, params: tuple = (0.0, 0.0, 0.0, mi.NAN)) -> None:
-        x, y = geo(p_amsl)
-        items.append(mi.MissionItem(command, mi.FRAME_GLOBAL_RELATIVE_ALT_INT, params, x, y,
-                                    rel(p_amsl[2])))
-        path_amsl.append(np.asarray(p_amsl, dtype=float))
-
-    def do(command: int, params: tuple, p_amsl: np.ndarray | None = None,
-           frame: int = mi.FRAME_MISSION) -> None:
-        x, y = geo(p_amsl) if p_amsl is not None else (0, 0)
-        z = rel(p_amsl[2]) if p_amsl is not None else 0.0
-        items.append(mi.MissionItem(command, frame, params, x, y, z))
-
+    w = mi.ItemWriter(origin, home_amsl, np.array([xy[0, 0], xy[0, 1], home_amsl]))
     sites_out: list[dict[str, Any]] = []
     footprints: list[dict[str, Any]] = []
     leg_docs: list[dict[str, Any]] = []
-    cam = scan.camera()
-    legs = model.legs
     for k, (a, b) in enumerate(zip(legs_from, legs_to, strict=True)):
         h = float(heights[k])
         ea = model.exit_xy[a]
         eb = model.entry_xy[b]
-        start = len(path_amsl) - 1
+        start = len(w.path) - 1
         if k == 0:
-            nav(mi.NAV_TAKEOFF, np.array([ea[0], ea[1], h]))
-            do(mi.DO_CHANGE_SPEED, (1.0, spec.cruise_speed_m_s, -1.0, 0.0))
+            w.nav(mi.NAV_TAKEOFF, np.array([ea[0], ea[1], h]))
+            w.do(mi.DO_CHANGE_SPEED, (1.0, spec.cruise_speed_m_s, -1.0, 0.0))
         else:
-            nav(mi.NAV_WAYPOINT, np.array([ea[0], ea[1], h]))  # climb in place
-        nav(mi.NAV_WAYPOINT, np.array([eb[0], eb[1], h]))      # level over the terrain
+            w.nav(mi.NAV_WAYPOINT, np.array([ea[0], ea[1], h]))  # climb in place
+        w.nav(mi.NAV_WAYPOINT, np.array([eb[0], eb[1], h]))      # level over the terrain
         leg_docs.append({
             "from": model_nodes[a].id, "to": model_nodes[b].id, "transit_amsl_m": h,
             "terrain_max_amsl_m": float(tops[k]),
@@ -81,52 +58,33 @@ def build_over_terrain(plan: dict[str, Any], origin: Origin, spec: mi.MissionSpe
             "cost_m": model.leg_cost(int(a), int(b), h),
             "path_from": start})
         if not model.is_site[b]:
-            end_ground = np.array([eb[0], eb[1], float(model.ground[b])])
-            nav(mi.NAV_LAND, end_ground, (0.0, 0.0, 0.0, mi.NAN))
+            w.nav(mi.NAV_LAND, np.array([eb[0], eb[1], float(model.ground[b])]),
+                  (0.0, 0.0, 0.0, mi.NAN))
             continue
         g = float(model.ground[b])
-        centre = np.array([model.xy[b, 0], model.xy[b, 1], g])
-        do(mi.DO_CHANGE_SPEED, (1.0, spec.scan_speed_m_s, -1.0, 0.0))
-        scan_start = len(path_amsl) - 1
-        images = 0
-        for leg in legs:
-            if leg.pattern == "orbit":
-                do(mi.DO_SET_ROI_LOCATION, (0.0, 0.0, 0.0, 0.0),
-                   centre + np.array([0.0, 0.0, scan.target_height_m]),
-                   mi.FRAME_GLOBAL_RELATIVE_ALT_INT)
-            do(mi.DO_SET_CAM_TRIGG_DIST, (leg.trigger_m, 0.0, 1.0, 0.0))
-            for p in leg.points_enu:
-                nav(mi.NAV_WAYPOINT, centre + p)
-            do(mi.DO_SET_CAM_TRIGG_DIST, (0.0, 0.0, 0.0, 0.0))
-            if leg.pattern == "orbit":
-                do(mi.DO_SET_ROI_NONE, (0.0, 0.0, 0.0, 0.0))
-            images += leg.images
-            reach = 3 * float(leg.points_enu[:, 2].max())
-            for q, pose in enumerate(leg.poses):
-                corners = np.array([model.xy[b, 0], model.xy[b, 1], 0.0]) + mi.image_footprint(
-                    cam, pose, reach)
-                footprints.append({"site": model_nodes[b].id, "pattern": leg.pattern,
-                                   "image": q, "corners_enu_m": corners.tolist()})
-        do(mi.DO_CHANGE_SPEED, (1.0, spec.cruise_speed_m_s, -1.0, 0.0))
-        scan_path = np.array(path_amsl[scan_start:])
+        scan_start = len(w.path) - 1
+        images, fps = w.scan_site(spec, np.array([model.xy[b, 0], model.xy[b, 1], g]),
+                                  model_nodes[b].id, model.legs)
+        footprints += fps
         node = stops[b]
         sites_out.append({"id": node["id"], "x_m": node["x_m"], "y_m": node["y_m"],
                           "ground_amsl_m": g,
                           "scan_height_above_ground_m": [float(leg.points_enu[0, 2])
-                                                         for leg in legs],
-                          "scan_length_m": path_length(scan_path), "images": images,
-                          "scan_cost_m": node["scan_cost_m"]})
+                                                         for leg in model.legs],
+                          "scan_length_m": path_length(np.array(w.path[scan_start:])),
+                          "images": images, "scan_cost_m": node["scan_cost_m"]})
 
-    pts = np.array(path_amsl)
+    pts = np.array(w.path)
     energy = energy_m(pts, tspec.climb_factor, tspec.descent_factor)
     climbed, descended = climb_descent_m(pts)
     if energy > budget * (1 + spec.budget_slack) + 1e-6:
         costs = [d["cost_m"] for d in leg_docs]
-        w = leg_docs[int(np.argmax(costs))]
+        worst = leg_docs[int(np.argmax(costs))]
         raise InputError(
-            f"mission: leg {w['from']} -> {w['to']} climbs to {w['transit_amsl_m']:.1f} m AMSL "
-            f"to clear the terrain at ENU ({w['terrain_max_enu_m'][0]:.1f}, "
-            f"{w['terrain_max_enu_m'][1]:.1f}) m ({w['terrain_max_amsl_m']:.1f} m + "
+            f"mission: leg {worst['from']} -> {worst['to']} climbs to "
+            f"{worst['transit_amsl_m']:.1f} m AMSL to clear the terrain at ENU "
+            f"({worst['terrain_max_enu_m'][0]:.1f}, {worst['terrain_max_enu_m'][1]:.1f}) m "
+            f"({worst['terrain_max_amsl_m']:.1f} m + "
             f"{tspec.clearance_m:g} m clearance); the flight then costs {energy:.1f} m of "
             f"energy, over the plan's budget_m {budget:g} m (refused, never flown lower; "
             "plan with the DEM: mound field make --dem)")
@@ -135,7 +93,7 @@ def build_over_terrain(plan: dict[str, Any], origin: Origin, spec: mi.MissionSpe
         d["profile"] = _profile(model, k, pts, dem)
         d["profile_start_enu_m"] = [float(v) for v in pts[k + 1, :2]]
         d["profile_end_enu_m"] = [float(v) for v in pts[k + 2, :2]]
-    nav_rel = [p - np.array([0.0, 0.0, home_amsl]) for p in path_amsl]
+    nav_rel = [p - np.array([0.0, 0.0, home_amsl]) for p in w.path]
     terrain_doc = {
         "dem": dem.path, "dem_crs": dem.crs_name, "vertical": dem.vertical,
         "home_amsl_m": home_amsl, **tspec.to_doc(),
@@ -143,7 +101,7 @@ def build_over_terrain(plan: dict[str, Any], origin: Origin, spec: mi.MissionSpe
         "plan_cost_m": plan.get("cost_m"), "legs": leg_docs,
         "lowest_clearance_m": min(d["clearance_m"] for d in leg_docs) if leg_docs else None,
     }
-    return mi.Mission(items, origin, path_length(pts), budget, closed, sites_out, nav_rel,
+    return mi.Mission(w.items, origin, path_length(pts), budget, closed, sites_out, nav_rel,
                       footprints, spec, terrain_doc)
 
 
