@@ -90,6 +90,6 @@ CANDIDATES = Bound(1, 10_000, integer=True)
 TIME_S = Bound(0, 7 * 24 * 3600, "s", above=True)      # a limit of a week
 IMAGE_PX = Bound(16, 20_000, "px", integer=True)       # a side of a simulated image
 # Seeds the simulator turns into mound_render's (at most 2**31 - 1): a survey's site k gets
-# 1000 sim_seed + k + 1 (sim/card.py), a grid's site k 100,000 seed + k (sim/grid.py).
+# 1000 sim_seed + k + 1 (sim/card.py), a grid's site k 100,000 seed + k (grids/run.py).
 SIM_SEED = Bound(0, 2_000_000, integer=True)
 GRID_SEED = Bound(0, 21_000, integer=True)

@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 from mound.errors import InputError
-from mound.sim import grid, terrain
+from mound.grids import run as grid_run
+from mound.sim import draws, looks, terrain
 from mound.sim.dem_places import DemPlaces
 
 DEM = "dem/TM1_564_146.tif"
@@ -146,7 +147,7 @@ def test_a_dem_patch_is_the_real_ground(shared_data: Path) -> None:
 
 def test_a_second_look_near_the_dem_edge_continues_the_ground_across_it(
         shared_data: Path) -> None:
-    """The second look's wider site near the DEM's edge (grid.wider: dem_extend): inside the
+    """The second look's wider site near the DEM's edge (looks.wider: dem_extend): inside the
     DEM it holds the DEM's heights, beyond the edge their point reflection about it (heights
     and slopes run on, no fold at the edge); the first look's spec still refuses the site,
     and a site whose centre is off the DEM is refused either way."""
@@ -172,7 +173,7 @@ def test_a_second_look_near_the_dem_edge_continues_the_ground_across_it(
     assert np.abs(step_in).max() > 0.05  # there is a slope to run on
     first = flat(mound=False, dem_path=path, dem_x_m=x0, dem_y_m=y0, resolution_m=2.0,
                  size_m=300.0)
-    spec = grid.wider(replace(grid.draw(np.random.default_rng(0), 0, None, (320, 240)),
+    spec = looks.wider(replace(draws.draw(np.random.default_rng(0), 0, None, (320, 240)),
                               terrain=first))
     assert spec.terrain.dem_extend and not first.dem_extend
     assert np.isfinite(terrain.build(spec.terrain).z_m).all()
@@ -180,36 +181,36 @@ def test_a_second_look_near_the_dem_edge_continues_the_ground_across_it(
         terrain.build(first)
     with pytest.raises(InputError, match="centre lies off the DEM"):
         terrain.dem_patch(path, 563990.0, y0, axis, ground_m=0.0, extend=True)
-    flat_spec = grid.draw(np.random.default_rng(0), 0, None, (320, 240))
-    assert not flat_spec.terrain.dem_path and not grid.wider(flat_spec).terrain.dem_extend
+    flat_spec = draws.draw(np.random.default_rng(0), 0, None, (320, 240))
+    assert not flat_spec.terrain.dem_path and not looks.wider(flat_spec).terrain.dem_extend
 
 
 def test_grid_draws_are_seeded_and_span_the_field(shared_data: Path) -> None:
     dem = [DemPlaces.open(str(shared_data / DEM))]  # opened once: each open reads the DEM
     rng = np.random.default_rng([1, 2026])
-    a = [grid.draw(rng, k, dem, (320, 240)) for k in range(300)]
+    a = [draws.draw(rng, k, dem, (320, 240)) for k in range(300)]
     rng = np.random.default_rng([1, 2026])
-    assert [grid.draw(rng, k, dem, (320, 240)) for k in range(3)] == a[:3]
+    assert [draws.draw(rng, k, dem, (320, 240)) for k in range(3)] == a[:3]
     mounds = [s.terrain for s in a if s.terrain.mound]
     assert 0.4 < len(mounds) / len(a) < 0.6
     assert {m.profile for m in mounds} == set(terrain.PROFILES)
     assert min(m.height_m for m in mounds) < 1 and max(m.height_m for m in mounds) > 15
     assert any(m.diameter_m > 60 for m in mounds)  # wider than the 60 m scan
     assert max(np.hypot(m.mound_x_m, m.mound_y_m) for m in mounds) > 10
-    assert all(np.hypot(m.mound_x_m, m.mound_y_m) <= grid.SCAN_M / 4 + 1e-9 for m in mounds)
+    assert all(np.hypot(m.mound_x_m, m.mound_y_m) <= draws.SCAN_M / 4 + 1e-9 for m in mounds)
     # no tumulus steeper than earth stands (many draws sit on the limit)
     share = [m.drum_height_m / m.height_m if m.profile == "drum" else 0.0 for m in mounds]
-    assert all(m.height_m <= grid.max_height(m.profile, m.diameter_m, q) * (1 + 1e-9)
+    assert all(m.height_m <= draws.max_height(m.profile, m.diameter_m, q) * (1 + 1e-9)
                for m, q in zip(mounds, share, strict=True))
-    assert sum(m.height_m >= grid.max_height(m.profile, m.diameter_m, q) * (1 - 1e-9)
+    assert sum(m.height_m >= draws.max_height(m.profile, m.diameter_m, q) * (1 - 1e-9)
                for m, q in zip(mounds, share, strict=True)) > 10
     kinds = {s.terrain.confusers[0].kind for s in a if s.terrain.confusers}
     assert kinds == set(terrain.CONFUSERS)
     assert any(s.terrain.dem_path for s in a) and any(s.terrain.slope_deg > 0 for s in a)
-    assert all(s.scan_diameter_m == grid.SCAN_M and s.pattern == "raster" for s in a)
+    assert all(s.scan_diameter_m == draws.SCAN_M and s.pattern == "raster" for s in a)
     # the full flight draws the same sites, flown with the raster and the orbit
     rng = np.random.default_rng([1, 2026])
-    full = [grid.draw(rng, k, dem, (320, 240), pattern="both") for k in range(3)]
+    full = [draws.draw(rng, k, dem, (320, 240), pattern="both") for k in range(3)]
     assert [replace(s, pattern="raster") for s in full] == a[:3]
     assert all(s.pattern == "both" for s in full)
 
@@ -219,13 +220,13 @@ def test_the_highest_tumulus_drawn_has_flanks_at_the_angle_of_repose(profile: st
     """max_height's closed forms against the simulator's own radial profile: at that height
     the steepest flank (a drum's vertical wall aside) is the angle of repose."""
     d, share = 40.0, 0.3
-    h = grid.max_height(profile, d, share)
+    h = draws.max_height(profile, d, share)
     spec = terrain.preset("bin_tepe", profile=profile, diameter_m=d, height_m=h,
                           drum_height_m=share * h, erosion_m=0.0)
     r = np.linspace(0.0, d / 2 - 1e-6, 200_001)
     z = terrain._radial_profile(spec, r)
     slope = np.degrees(np.arctan(np.abs(np.diff(z) / np.diff(r))))
-    assert abs(float(slope.max()) - grid.REPOSE_DEG) < 0.3, (profile, float(slope.max()))
+    assert abs(float(slope.max()) - draws.REPOSE_DEG) < 0.3, (profile, float(slope.max()))
 
 
 def test_a_grid_without_its_dem_is_refused_not_drawn_otherwise(
@@ -260,13 +261,12 @@ def test_a_grid_in_which_no_site_was_measured_is_no_result(
     import json
 
     from mound.cli import main
-    from mound.sim import grid
 
     def failing(out: Path, spec: Any, *args: Any) -> dict[str, Any]:
         return {"dir": out.name, "truth": spec.terrain.truth(), "status": "failed",
                 "reason": "mound_render failed (exit 2: bad input): --seed: too large"}
 
-    monkeypatch.setattr(grid, "_site", failing)
+    monkeypatch.setattr(grid_run, "_site", failing)
     out = tmp_path / "g"
     assert main(["sim", "grid", "--out", str(out), "--sites", "2", "--seed", "7", "--dem",
                  "none", "--workers", "1"]) == 3
@@ -396,13 +396,13 @@ def test_a_grid_flies_a_second_look_at_the_sites_its_first_leaves_undecided(
     assert main(["sim", "grid", "--out", str(out), "--sites", "2", "--seed", "7", "--dem",
                  "none", "--workers", "1", "--threads", "2", "--second-look"]) == 0
     doc = json.loads((out / "grid.json").read_text())
-    assert doc["second_look"]["scan_factor"] == grid.SECOND_LOOK_FACTOR
+    assert doc["second_look"]["scan_factor"] == looks.SECOND_LOOK_FACTOR
     rows = {r["dir"]: r for r in vm.load_grid(out)}
     flown = 0
     for k in range(2):
         site = out / f"{k:04d}"
         p = json.loads((site / "verdict.json").read_text())["p_mound"]
-        undecided = grid.SECOND_LOOK_P[0] <= p < grid.SECOND_LOOK_P[1]
+        undecided = looks.SECOND_LOOK_P[0] <= p < looks.SECOND_LOOK_P[1]
         assert (site / "second" / "verdict.json").is_file() == undecided, (k, p)
         assert ("second" in doc["rows"][k]) == undecided
         assert doc["rows"][k]["p_mound"] == p  # the first look's, read once
@@ -413,7 +413,7 @@ def test_a_grid_flies_a_second_look_at_the_sites_its_first_leaves_undecided(
         first = json.loads((site / "sim" / "site.json").read_text())
         second = json.loads((site / "second" / "sim" / "site.json").read_text())
         assert second["sim"]["scan_diameter_m"] == 2 * first["sim"]["scan_diameter_m"]
-        assert second["terrain"]["size_m"] >= grid.SITE_PER_SCAN * 2 * grid.SCAN_M
+        assert second["terrain"]["size_m"] >= looks.SITE_PER_SCAN * 2 * draws.SCAN_M
         for key in ("seed", "mound", "ground_relief_m"):
             assert second["terrain"][key] == first["terrain"][key]
         assert second["lighting"] == first["lighting"]

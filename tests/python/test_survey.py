@@ -34,6 +34,10 @@ from mound.paths import REPO_ROOT
 from mound.plan import sites as op_sites
 from mound.ply import read_ply
 from mound.survey import driver
+from mound.survey.context import Context
+from mound.survey.ledger import Ledger
+from mound.survey.stages import sites3d
+from mound.survey.tree import RunTree
 from mound.uav import files as mission_files
 from mound.uav import mission_items
 from mound.uav.mavlink.peer import MavsdkVehicle
@@ -716,11 +720,11 @@ def test_the_second_looks_advised_become_a_mission_in_the_report(
     shutil.copytree(survey["out"], run)
     args = driver.SurveyOptions.from_namespace(driver.build_parser().parse_args(
         ["--out", str(run), *SMALL]))
-    ctx = driver.Context(args, driver.RunTree(run), driver.Ledger(run / "stages.json"))
+    ctx = Context(args, RunTree(run), Ledger(run / "stages.json"))
     plan = json.loads((run / "plan.json").read_text())
     visited = sorted(mission_items.visited_ids(plan))
     rows = [{"id": s, "second_look": {"advised": True, "scan_factor": 2.0}} for s in visited]
-    made, note = driver.second_look_missions(ctx, rows, run / "plan.json", run / "sites.json")
+    made, note = sites3d.second_look_missions(ctx, rows, run / "plan.json", run / "sites.json")
     assert "second_look/mission.json" in made and all((run / f).is_file() for f in made)
     doc = json.loads((run / "second_look" / "mission.json").read_text())
     sl = doc["second_look"]
@@ -772,24 +776,24 @@ def test_the_second_looks_advised_become_a_mission_in_the_report(
     assert {f["file"]: (f["site"], f["reason"]) for f in truth["files"]} == {
         f["file"]: (f["site"], f["reason"]) for f in sorted_card["photos"]}
     assert all(v["status"] == "ok" for v in sorted_card["sites"].values())
-    jobs = driver.site_jobs(driver.Context(driver.SurveyOptions.from_namespace(
+    jobs = sites3d.site_jobs(Context(driver.SurveyOptions.from_namespace(
         driver.build_parser().parse_args(["--out", str(run), *SMALL, "--photos", str(card),
                                           "--second-photos", str(card)])),
-        driver.RunTree(run), driver.Ledger(run / "stages.json")))
+        RunTree(run), Ledger(run / "stages.json")))
     assert {j.site["id"] for j in jobs if j.second_images_dir} == set(sl["flown"])
     # another verdict model (--verdict-model) is another site: its key and its first
     # look's change, and the dense cloud's verdicts read it
     model = REPO_ROOT / "data" / "verdict_model_dense.json"
-    other = driver.site_jobs(driver.Context(driver.SurveyOptions.from_namespace(
+    other = sites3d.site_jobs(Context(driver.SurveyOptions.from_namespace(
         driver.build_parser().parse_args(["--out", str(run), *SMALL, "--photos", str(card),
                                           "--second-photos", str(card), "--verdict-model",
                                           str(model)])),
-        driver.RunTree(run), driver.Ledger(run / "stages.json")))
+        RunTree(run), Ledger(run / "stages.json")))
     assert [j.site["id"] for j in other] == [j.site["id"] for j in jobs]
     for a, b in zip(jobs, other, strict=True):
         assert a.key != b.key and a.first_key != b.first_key
         assert a.dense_model is None and b.dense_model == str(model.resolve())
-    made, note = driver.second_look_missions(ctx, [{"id": visited[0]}], run / "plan.json",
+    made, note = sites3d.second_look_missions(ctx, [{"id": visited[0]}], run / "plan.json",
                                              run / "sites.json")
     assert made == [] and note == "" and not (run / "second_look").exists()
     # a second card with no second looks to sort it by: exit 2, naming the option
@@ -994,8 +998,8 @@ def test_a_bug_in_a_site_s_work_ends_the_survey_with_exit_1_not_a_partial_survey
                         [on_row(process_site(j)) for j in jobs])
     args = driver.SurveyOptions.from_namespace(driver.build_parser().parse_args(
         ["--out", str(tmp_path / "run"), "--no-progress"]))
-    ctx = driver.Context(args, driver.RunTree(tmp_path / "run"),
-                         driver.Ledger(tmp_path / "run" / "stages.json"))
-    with pytest.raises(driver.SiteBugError, match="s1"):
-        driver.run_jobs(ctx, [job])
+    ctx = Context(args, RunTree(tmp_path / "run"),
+                         Ledger(tmp_path / "run" / "stages.json"))
+    with pytest.raises(sites3d.SiteBugError, match="s1"):
+        sites3d.run_jobs(ctx, [job])
     assert json.loads(job.tree.result.read_text())["internal_error"] is True

@@ -11,9 +11,10 @@ import numpy as np
 import pytest
 
 from mound.errors import InputError
+from mound.grids import run as grid_run
 from mound.recon import verdict_band as vb
 from mound.recon.model_file import label_of
-from mound.sim import grid, terrain
+from mound.sim import draws, looks, terrain
 from mound.sim.dem_places import DemPlaces
 from mound.sim.population import parse_population, read_population
 
@@ -116,12 +117,12 @@ def test_a_grid_of_the_population_draws_its_measured_tumuli(shared_data: Path) -
     pop = read_population(str(shared_data / "kazanlak" / "mounds.geojson"))
     rows = {(r.length_m, r.width_m) for r in pop.rows}
     rng = np.random.default_rng([3, 2026])
-    specs = [grid.draw(rng, k, None, (320, 240), population=pop) for k in range(300)]
+    specs = [draws.draw(rng, k, None, (320, 240), population=pop) for k in range(300)]
     mounds = [s.terrain for s in specs if s.terrain.mound]
     assert 0.4 < len(mounds) / len(specs) < 0.6
     assert all((m.base_length_m, m.diameter_m) in rows for m in mounds)
-    assert {m.profile for m in mounds} <= set(grid.POPULATION_PROFILES)
-    assert all(m.height_m <= grid.max_height(m.profile, m.diameter_m) * (1 + 1e-9)
+    assert {m.profile for m in mounds} <= set(draws.POPULATION_PROFILES)
+    assert all(m.height_m <= draws.max_height(m.profile, m.diameter_m) * (1 + 1e-9)
                for m in mounds)
     elongated = [m for m in mounds if m.length_m > 0]
     assert len(elongated) > 10 and len({round(m.mound_azimuth_deg) for m in elongated}) > 5
@@ -215,14 +216,14 @@ def test_the_lower_second_look_flies_the_same_scan_from_half_the_height() -> Non
     scan area, the raster half as high, so nearly three times the images."""
     from mound.sim import site as sim
 
-    spec = grid.draw(np.random.default_rng(0), 0, None, (320, 240))
-    low = grid.lower(spec)
+    spec = draws.draw(np.random.default_rng(0), 0, None, (320, 240))
+    low = looks.lower(spec)
     assert low.terrain == spec.terrain and low.scale_m == spec.scale_m
     assert low.raster_altitude_m == pytest.approx(spec.scale_m / 2)
     assert len(sim.shots(low)) > 2.5 * len(sim.shots(spec))  # 78 against 28
-    assert grid.second_look_spec(spec, "wider") == grid.wider(spec)
+    assert looks.second_look_spec(spec, "wider") == looks.wider(spec)
     with pytest.raises(InputError, match="--second-look-kind"):
-        grid.make_grid(Path("/nonexistent/g"), 1, 1, second_look_kind="higher")
+        grid_run.make_grid(Path("/nonexistent/g"), 1, 1, second_look_kind="higher")
 
 
 def test_the_frontier_is_the_best_any_band_does_on_the_sites_themselves() -> None:

@@ -20,6 +20,8 @@ from mound.classify.metrics import (
 )
 from mound.errors import InputError
 from mound.paths import REPO_ROOT
+from mound.recon import verdict_data as vd
+from mound.recon import verdict_fit as vf
 from mound.recon import verdict_model as vm
 from mound.recon.model_file import check_verdict_model
 from mound.sim import site as sim
@@ -107,7 +109,7 @@ def test_the_goal_s_tumuli_are_counted_apart_by_how_they_stand_of_their_ground()
     rows = _with_relief(synthetic(3000, 1))
     model = vm.train(rows, NAMES, ["g"])
     oof = model["trained"]["out_of_fold"]["goal_found_by_ground"]
-    fitted = [r for r in rows if r["rises"] and vm._goal(r["truth"])]
+    fitted = [r for r in rows if r["rises"] and vd.goal_tumulus(r["truth"])]
     assert oof["clear_of_ground"] == vm.CLEAR_OF_GROUND == 5.0
     assert oof["clear"]["sites"] == sum(vm.stands_clear(r) is True for r in fitted) > 0
     assert oof["masked"]["sites"] == sum(vm.stands_clear(r) is False for r in fitted) > 0
@@ -119,15 +121,15 @@ def test_the_goal_s_tumuli_are_counted_apart_by_how_they_stand_of_their_ground()
     by = goal["by_ground"]
     lab = vm.probability(model, held) >= model["threshold"]
     for part, want in (("clear", True), ("masked", False)):
-        idx = [k for k, r in enumerate(held) if vm._goal(r["truth"])
+        idx = [k for k, r in enumerate(held) if vd.goal_tumulus(r["truth"])
                and vm.stands_clear(r) is want]
         assert by[part]["sites"] == len(idx)
         assert by[part]["right"] == int(lab[idx].sum())
         lo, hi = by[part]["rate_95ci"]
         assert lo <= by[part]["rate"] <= hi
     assert [t["dir"] for t in by["masked"]["tumuli"]] == [
-        r["dir"] for r in held if vm._goal(r["truth"]) and vm.stands_clear(r) is False]
-    assert by["relief_unknown"] == sum(1 for r in held if vm._goal(r["truth"])
+        r["dir"] for r in held if vd.goal_tumulus(r["truth"]) and vm.stands_clear(r) is False]
+    assert by["relief_unknown"] == sum(1 for r in held if vd.goal_tumulus(r["truth"])
                                        and "relief" not in r) > 0
     assert by["clear"]["sites"] + by["masked"]["sites"] + by["relief_unknown"] == goal["sites"]
 
@@ -140,16 +142,16 @@ def test_a_beta_calibration_recovers_a_map_that_platt_cannot_follow() -> None:
     rng = np.random.default_rng(5)
     u = rng.normal(0.0, 3.0, 40_000)
     true = {"method": "beta", "a": 0.4, "b": 2.0, "c": -1.6}
-    y = rng.random(len(u)) < expit(vm._calibrated(u, true))
+    y = rng.random(len(u)) < expit(vf._calibrated(u, true))
     ident = {"method": "beta", "a": 1.0, "b": 1.0, "c": 0.0}
-    assert vm._calibrated(u, ident) == pytest.approx(u, abs=1e-9)
-    assert vm._calibrated(np.array([-np.inf]), true)[0] == -np.inf
-    fit = vm._fit_beta(u[:20_000], y[:20_000])
+    assert vf._calibrated(u, ident) == pytest.approx(u, abs=1e-9)
+    assert vf._calibrated(np.array([-np.inf]), true)[0] == -np.inf
+    fit = vf._fit_beta(u[:20_000], y[:20_000])
     assert [fit["a"], fit["b"], fit["c"]] == pytest.approx([0.4, 2.0, -1.6], abs=0.15)
-    a, b = vm._platt(u[:20_000], y[:20_000])
+    a, b = vf._platt(u[:20_000], y[:20_000])
     held_u, held_y = u[20_000:], y[20_000:]
-    p_beta, p_platt = expit(vm._calibrated(held_u, fit)), expit(a * held_u + b)
-    assert vm._log_loss(p_beta, held_y) < vm._log_loss(p_platt, held_y) - 0.005
+    p_beta, p_platt = expit(vf._calibrated(held_u, fit)), expit(a * held_u + b)
+    assert vf._log_loss(p_beta, held_y) < vf._log_loss(p_platt, held_y) - 0.005
     assert expected_calibration_error(p_beta, held_y.astype(float)) < 0.01
     assert expected_calibration_error(p_platt, held_y.astype(float)) > 0.02
     model = vm.train(synthetic(3000, 1), NAMES, ["g"])
@@ -194,7 +196,7 @@ def test_the_sites_multiple_instance_loss_is_chosen_where_few_rises_decide() -> 
     assert t["mil"] in vm.MIL_MIXES and t["mil"] > 0 and t["mil_tau"] == vm.MIL_TAU
     cv = t["cv_log_loss"]
     # every basis but hinge_products (none of these names is a product's) x L2 x mix
-    assert len(cv) == (len(vm.BASES) - 1) * len(vm.L2_GRID) * len(vm.MIL_MIXES)
+    assert len(cv) == (len(vm.BASES) - 1) * len(vf.L2_GRID) * len(vm.MIL_MIXES)
     chosen = f"{t['basis']} {t['l2']:g} clip 3 mil {t['mil']:g}"
     assert cv[chosen] == min(cv.values()) < cv[f"{t['basis']} {t['l2']:g} clip 3"]
     # and on held-out sites its p ranks and forecasts the sites better than the rises'
@@ -381,10 +383,10 @@ def test_training_refuses_too_little_or_one_class() -> None:
 def _case(tmp: Path, spec: terrain.TerrainSpec, seed: int,
           dense: bool = False) -> dict[str, Any]:
     """The site flown, reconstructed and judged on its sparse cloud by the sparse model;
-    with `dense` also densified as the survey densifies (mound.sim.grid.DENSIFY_ARGS) and
+    with `dense` also densified as the survey densifies (mound.sim.grid_run.DENSIFY_ARGS) and
     judged on that cloud by the dense model (verdict_dense.json)."""
     from mound import native
-    from mound.sim.grid import DENSIFY_ARGS
+    from mound.grids.run import DENSIFY_ARGS
 
     site = sim.SimSpec(terrain=spec, width_px=320, height_px=240, pattern="raster",
                        scan_diameter_m=60.0, seed=seed, texel_m=0.1)

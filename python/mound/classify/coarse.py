@@ -6,10 +6,13 @@ from typing import Any
 
 import numpy as np
 
-from mound.classify import logistic, metrics
+from mound.classify import logistic, metrics, statlog
 from mound.classify.features import BAND_NAMES, Standardizer, band_columns
+from mound.classify.model import SCHEMA as MODEL_SCHEMA
+from mound.classify.model import VERSION as MODEL_VERSION
 from mound.classify.model import Model
 from mound.classify.statlog import Split
+from mound.jsonio import read_json
 
 DEFAULT_L2 = 1e-4
 DEFAULT_BAND = 1  # red: best held-out AUC on sat.trn (`mound classify bands`, docs/stages.md)
@@ -70,3 +73,11 @@ def select_band(train_data: Split, fraction: float = 0.25, seed: int = 0,
         rows.append({"band": band, "name": "all 36" if band is None else BAND_NAMES[band],
                      "auc": s["auc"], "accuracy": s["accuracy"], "log_loss": s["log_loss"]})
     return rows
+
+
+def load_model(path: str | None) -> Model:
+    """The classifier of the file `path` (mound.classify_model), or None: the default band
+    trained on sat.trn."""
+    if path is None:
+        return train(statlog.load("sat.trn"), DEFAULT_BAND)
+    return Model.from_doc(read_json(path, MODEL_SCHEMA, MODEL_VERSION), path)

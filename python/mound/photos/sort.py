@@ -247,18 +247,9 @@ def site_camera(photos: list[dict[str, Any]], camera_file: str | None) -> dict[s
             "(give --camera)", **cam, "mixed": mixed}
 
 
-def sort_card(card: str, sites_path: str, out_dir: str, spec: SortSpec | None = None,
-              camera: str | None = None) -> dict[str, Any]:
-    """Sorts CARD into OUT_DIR (photos.json and one folder per site, with a copy of
-    `camera` (a mound.camera file) when given); returns photos.json. InputError when
-    nothing usable is left (naming why)."""
-    spec = spec or SortSpec()
-    spec.validate()
-    if camera is not None:
-        read_json(camera, "mound.camera", 1)
-    sites = sites_of(sites_path, spec)
-    listing = native.run_json("mound_recon", ["photos", card])
-    root = Path(card)
+def _photo_rows(listing: dict[str, Any], root: Path) -> list[dict[str, Any]]:
+    """A row per file of mound_recon photos' listing: its EXIF facts, or why it is of no
+    use (unreadable, duplicate, no GPS)."""
     rows: list[dict[str, Any]] = []
     seen: dict[str, str] = {}
     for f in listing["files"]:
@@ -299,7 +290,11 @@ def sort_card(card: str, sites_path: str, out_dir: str, spec: SortSpec | None = 
             conflicts = xmp_conflicts(row, f["dji_xmp"])
             if conflicts:
                 row["xmp_conflicts"] = conflicts
-    # Another flight's photos: far in time from the card's GPS photos.
+    return rows
+
+
+def _mark_other_flights(rows: list[dict[str, Any]], spec: SortSpec) -> None:
+    """Another flight's photos: far in time from the card's GPS photos."""
     times = [t for r in rows if r["lat"] is not None and (t := _time(r["time"])) is not None]
     if times:
         mid = sorted(times)[len(times) // 2]
@@ -308,7 +303,10 @@ def sort_card(card: str, sites_path: str, out_dir: str, spec: SortSpec | None = 
             if (r["lat"] is not None and t is not None
                     and abs((t - mid).total_seconds()) > spec.max_gap_h * 3600):
                 r["reason"] = "other_flight"
-    # Sites by GPS position.
+
+
+def _place(rows: list[dict[str, Any]], sites: Sites, spec: SortSpec) -> None:
+    """Each GPS photo's site by its position (else transit, or outside the sites)."""
     gps = [r for r in rows if r["lat"] is not None and r["reason"] is None]
     if gps:
         llh = np.array([[r["lat"], r["lon"], 0.0] for r in gps])
@@ -325,8 +323,12 @@ def sort_card(card: str, sites_path: str, out_dir: str, spec: SortSpec | None = 
                 r["reason"] = "transit"
             else:
                 r["reason"] = "outside_sites"
-    # A site's photo that does not decode is unreadable; blurred ones are flagged against
-    # the site's median sharpness.
+
+
+def _per_site(rows: list[dict[str, Any]], sites: Sites, spec: SortSpec,
+              camera: str | None) -> dict[str, dict[str, Any]]:
+    """A site's photo that does not decode is unreadable; blurred ones are flagged against
+    the site's median sharpness; each site's count, status and camera."""
     for r in rows:
         if r["site"] is not None and r["sharpness"] is None:
             r["site"], r["reason"] = None, "unreadable"
@@ -343,6 +345,25 @@ def sort_card(card: str, sites_path: str, out_dir: str, spec: SortSpec | None = 
                          "median_sharpness": med,
                          "status": "ok" if len(usable) >= MIN_PHOTOS else "too_few_photos",
                          "camera": site_camera(usable, camera)}
+    return per_site
+
+
+def sort_card(card: str, sites_path: str, out_dir: str, spec: SortSpec | None = None,
+              camera: str | None = None) -> dict[str, Any]:
+    """Sorts CARD into OUT_DIR (photos.json and one folder per site, with a copy of
+    `camera` (a mound.camera file) when given); returns photos.json. InputError when
+    nothing usable is left (naming why)."""
+    spec = spec or SortSpec()
+    spec.validate()
+    if camera is not None:
+        read_json(camera, "mound.camera", 1)
+    sites = sites_of(sites_path, spec)
+    listing = native.run_json("mound_recon", ["photos", card])
+    root = Path(card)
+    rows = _photo_rows(listing, root)
+    _mark_other_flights(rows, spec)
+    _place(rows, sites, spec)
+    per_site = _per_site(rows, sites, spec, camera)
     reasons: dict[str, int] = {}
     for r in rows:
         key = r["reason"] or "site"

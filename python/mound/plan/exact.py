@@ -129,99 +129,115 @@ def _min_cut_sets(n: int, edges: list[tuple[int, int]], x: np.ndarray, y: np.nda
     return found
 
 
+class _CutModel:
+    """The OP as a HiGHS model: columns x_e (the edges, `edges`), then y_i (a site
+    visited); degree rows, the budget row, and the GSECs added as cuts."""
+
+    def __init__(self, p: OpProblem, mip_gap: float) -> None:
+        self.p = p
+        self.n = n = len(p.ids)
+        c = p.cost_matrix()
+        self.edges = edges = list(itertools.combinations(range(n), 2))
+        self.ne = ne = len(edges)
+        self.h = h = highspy.Highs()
+        h.setOptionValue("output_flag", False)
+        h.setOptionValue("mip_rel_gap", mip_gap)
+        lower = np.zeros(ne + n)
+        upper = np.ones(ne + n)
+        if p.closed:
+            for k, (a, _b) in enumerate(edges):
+                if a == 0:
+                    upper[k] = 2.0
+        fixed = [0] if p.closed else [0, 1]
+        for v in fixed:
+            lower[ne + v] = 1.0
+        h.addVars(ne + n, lower, upper)
+        self.all_cols = np.arange(ne + n, dtype=np.int32)
+        h.changeColsCost(ne + n, self.all_cols, np.concatenate([np.zeros(ne), p.reward]))
+        self.integer(True)
+        h.changeObjectiveSense(highspy.ObjSense.kMaximize)
+        incident: list[list[int]] = [[] for _ in range(n)]
+        for k, (a, b) in enumerate(edges):
+            incident[a].append(k)
+            incident[b].append(k)
+        for i in range(n):
+            if i in fixed:
+                deg = 2.0 if p.closed else 1.0
+                self.add_row(deg, deg, incident[i], [1.0] * len(incident[i]))
+            else:
+                self.add_row(0.0, 0.0, [*incident[i], ne + i], [1.0] * len(incident[i]) + [-2.0])
+        self.add_row(-highspy.kHighsInf, p.budget + 1e-9 * (1 + p.budget), list(range(ne)),
+                     [float(c[a, b]) for a, b in edges])
+        self.cuts = 0
+
+    def integer(self, on: bool) -> None:
+        kind = highspy.HighsVarType.kInteger if on else highspy.HighsVarType.kContinuous
+        self.h.changeColsIntegrality(self.ne + self.n, self.all_cols,
+                                     np.array([kind] * (self.ne + self.n)))
+
+    def add_row(self, lo: float, hi: float, idx: list[int], val: list[float]) -> None:
+        self.h.addRow(lo, hi, len(idx), np.array(idx, dtype=np.int32),
+                      np.array(val, dtype=float))
+
+    def add_gsec(self, s: frozenset[int], v: int) -> None:
+        # x(delta(S)) >= 2 y_v; for a path whose end node is in S the virtual end->home
+        # edge crosses the cut, so the real edges need only 2 y_v - 1.
+        delta = [k for k, (a, b) in enumerate(self.edges) if (a in s) != (b in s)]
+        lo = -1.0 if (not self.p.closed and 1 in s) else 0.0
+        self.add_row(lo, highspy.kHighsInf, [*delta, self.ne + v], [1.0] * len(delta) + [-2.0])
+        self.cuts += 1
+
+    def cut_lp(self, until: float) -> float:
+        """The LP phase: the relaxation cut until no GSEC is violated (or the clock reaches
+        `until`); returns its optimum, an upper bound on the integer optimum."""
+        h = self.h
+        self.integer(False)
+        seen_cuts: set[tuple[frozenset[int], int]] = set()
+        lp_bound = float("inf")
+        while time.perf_counter() < until:
+            h.setOptionValue("time_limit", max(1e-3, until - time.perf_counter()))
+            h.run()
+            sol = np.asarray(h.getSolution().col_value)
+            if sol.size == 0 or h.getModelStatus() != highspy.HighsModelStatus.kOptimal:
+                break
+            lp_bound = min(lp_bound, float(h.getInfo().objective_function_value))
+            new = [cut for cut in _min_cut_sets(self.n, self.edges, sol[:self.ne],
+                                                sol[self.ne:], self.p.closed)
+                   if cut not in seen_cuts]
+            if not new:
+                break
+            for s_set, v in new:
+                self.add_gsec(s_set, v)
+                seen_cuts.add((s_set, v))
+        self.integer(True)
+        return lp_bound
+
+    def warm_start(self, route: list[int]) -> None:
+        warm = np.zeros(self.ne + self.n)
+        index = {e: k for k, e in enumerate(self.edges)}
+        for a, b in itertools.pairwise(route):
+            warm[index[(min(a, b), max(a, b))]] += 1
+        for v in set(route):
+            warm[self.ne + v] = 1
+        hs = highspy.HighsSolution()
+        hs.col_value = warm.tolist()
+        self.h.setSolution(hs)
+
+
 def solve(p: OpProblem, time_limit_s: float = 60.0, mip_gap: float = 1e-9,
           start_route: list[int] | None = None) -> ExactResult:
     start = time.perf_counter()
-    n = len(p.ids)
-    c = p.cost_matrix()
-    edges = list(itertools.combinations(range(n), 2))
-    ne = len(edges)
-    h = highspy.Highs()
-    h.setOptionValue("output_flag", False)
-    h.setOptionValue("mip_rel_gap", mip_gap)
-    inf = highspy.kHighsInf
-    # Columns: x_e (ne), then y_i (n). Maximise reward.
-    lower = np.zeros(ne + n)
-    upper = np.ones(ne + n)
-    if p.closed:
-        for k, (a, _b) in enumerate(edges):
-            if a == 0:
-                upper[k] = 2.0
-    fixed = [0] if p.closed else [0, 1]
-    for v in fixed:
-        lower[ne + v] = 1.0
-    obj = np.concatenate([np.zeros(ne), p.reward])
-    h.addVars(ne + n, lower, upper)
-    h.changeColsCost(ne + n, np.arange(ne + n, dtype=np.int32), obj)
-    h.changeColsIntegrality(ne + n, np.arange(ne + n, dtype=np.int32),
-                            np.array([highspy.HighsVarType.kInteger] * (ne + n)))
-    h.changeObjectiveSense(highspy.ObjSense.kMaximize)
-    incident: list[list[int]] = [[] for _ in range(n)]
-    for k, (a, b) in enumerate(edges):
-        incident[a].append(k)
-        incident[b].append(k)
-
-    def add_row(lo: float, hi: float, idx: list[int], val: list[float]) -> None:
-        h.addRow(lo, hi, len(idx), np.array(idx, dtype=np.int32), np.array(val, dtype=float))
-
-    for i in range(n):
-        if i in fixed:
-            deg = 2.0 if p.closed else 1.0
-            add_row(deg, deg, incident[i], [1.0] * len(incident[i]))
-        else:
-            add_row(0.0, 0.0, [*incident[i], ne + i], [1.0] * len(incident[i]) + [-2.0])
-    add_row(-inf, p.budget + 1e-9 * (1 + p.budget), list(range(ne)),
-            [float(c[a, b]) for a, b in edges])
-
-    cuts = rounds = 0
-    all_cols = np.arange(ne + n, dtype=np.int32)
-
-    def add_gsec(s: frozenset[int], v: int) -> None:
-        # x(delta(S)) >= 2 y_v; for a path whose end node is in S the virtual end->home
-        # edge crosses the cut, so the real edges need only 2 y_v - 1.
-        delta = [k for k, (a, b) in enumerate(edges) if (a in s) != (b in s)]
-        lo = -1.0 if (not p.closed and 1 in s) else 0.0
-        add_row(lo, inf, [*delta, ne + v], [1.0] * len(delta) + [-2.0])
-
-    # LP phase: cut the relaxation until no GSEC is violated.
-    h.changeColsIntegrality(ne + n, all_cols,
-                            np.array([highspy.HighsVarType.kContinuous] * (ne + n)))
-    seen_cuts: set[tuple[frozenset[int], int]] = set()
-    lp_bound = float("inf")  # the cut LP's optimum: an upper bound on the integer optimum
-    while time.perf_counter() - start < time_limit_s / 2:
-        h.setOptionValue("time_limit", max(1e-3, time_limit_s / 2 - (time.perf_counter() - start)))
-        h.run()
-        sol = np.asarray(h.getSolution().col_value)
-        if sol.size == 0 or h.getModelStatus() != highspy.HighsModelStatus.kOptimal:
-            break
-        lp_bound = min(lp_bound, float(h.getInfo().objective_function_value))
-        new = [cut for cut in _min_cut_sets(n, edges, sol[:ne], sol[ne:], p.closed)
-               if cut not in seen_cuts]
-        if not new:
-            break
-        for s_set, v in new:
-            add_gsec(s_set, v)
-            seen_cuts.add((s_set, v))
-            cuts += 1
-    h.changeColsIntegrality(ne + n, all_cols,
-                            np.array([highspy.HighsVarType.kInteger] * (ne + n)))
-
+    m = _CutModel(p, mip_gap)
+    h, n, ne, edges = m.h, m.n, m.ne, m.edges
+    lp_bound = m.cut_lp(start + time_limit_s / 2)
     best_route: list[int] = [0, p.end]
     if start_route is not None and p.route_cost(start_route) <= p.budget + 1e-9:
         best_route = list(start_route)
-        warm = np.zeros(ne + n)
-        index = {e: k for k, e in enumerate(edges)}
-        for a, b in itertools.pairwise(start_route):
-            warm[index[(min(a, b), max(a, b))]] += 1
-        for v in set(start_route):
-            warm[ne + v] = 1
-        hs = highspy.HighsSolution()
-        hs.col_value = warm.tolist()
-        h.setSolution(hs)
-
+        m.warm_start(best_route)
     bound = lp_bound
     route: list[int] = [0, p.end]
     status = "optimal"
+    rounds = 0
     while True:
         rounds += 1
         remaining = time_limit_s - (time.perf_counter() - start)
@@ -231,10 +247,9 @@ def solve(p: OpProblem, time_limit_s: float = 60.0, mip_gap: float = 1e-9,
         h.setOptionValue("time_limit", remaining)
         h.run()
         info = h.getInfo()
-        model_status = h.getModelStatus()
         if np.isfinite(info.mip_dual_bound):
             bound = min(bound, float(info.mip_dual_bound))
-        if model_status != highspy.HighsModelStatus.kOptimal:
+        if h.getModelStatus() != highspy.HighsModelStatus.kOptimal:
             status = "time_limit"
         x = np.asarray(h.getSolution().col_value)
         if x.size == 0:
@@ -249,10 +264,9 @@ def solve(p: OpProblem, time_limit_s: float = 60.0, mip_gap: float = 1e-9,
         if not outside:
             break
         for comp in outside:
-            s_set = frozenset(comp)
             for v in comp:
-                add_gsec(s_set, v)
-                cuts += 1
+                m.add_gsec(frozenset(comp), v)
+
     def reward_of(r: list[int]) -> float:
         return float(sum(p.reward[v] for v in set(r)))
 
@@ -262,6 +276,6 @@ def solve(p: OpProblem, time_limit_s: float = 60.0, mip_gap: float = 1e-9,
     if status == "optimal":
         bound = reward
     return ExactResult(status=status, reward=reward, bound=bound, route=route,
-                       cost=p.route_cost(route), cuts=cuts, rounds=rounds,
+                       cost=p.route_cost(route), cuts=m.cuts, rounds=rounds,
                        seconds=time.perf_counter() - start,
                        gap=(bound - reward) / bound if bound > 0 else 0.0)

@@ -241,7 +241,7 @@ Empty = list[tuple[Path, terrain.TerrainSpec, tuple[tuple[float, float], float]]
 
 def _read(folders: list[str]) -> tuple[list[dict[str, Any]], Empty]:
     """The grids' measured goal tumuli and their sites without a tumulus."""
-    from mound.recon import verdict_model as vm
+    from mound.recon import verdict_data as vm
 
     tumuli: list[dict[str, Any]] = []
     empty: Empty = []
@@ -257,7 +257,7 @@ def _read(folders: list[str]) -> tuple[list[dict[str, Any]], Empty]:
             name, site = row["dir"], root / row["dir"]
             spec = vm.site_terrain(row, f"{gpath}: {name}")
             truth = row["truth"]
-            if vm._goal(truth):
+            if vm.goal_tumulus(truth):
                 tumuli.append({"grid": str(root), "dir": name, "site": site, "spec": spec,
                                "disc": disc, "ground": _ground(spec),
                                "clear": vm.stands_clear(row), "truth": truth})

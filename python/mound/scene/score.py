@@ -363,6 +363,44 @@ def _candidate_features(kept: list[tuple[float, int, int]], grid: OutGrid, scene
     return out
 
 
+def point_feature_doc(fid: str, lat_lon: tuple[float, float],
+                      properties: dict[str, Any]) -> dict[str, Any]:
+    """A GeoJSON Point Feature at (lat, lon), WGS84 ([lon, lat] as RFC 7946 orders it)."""
+    return {"type": "Feature", "id": fid,
+            "geometry": {"type": "Point", "coordinates": [lat_lon[1], lat_lon[0]]},
+            "properties": properties}
+
+
+def _timings(wall: float, block_s: list[float], px: int) -> dict[str, Any]:
+    return {"wall_s": wall, "blocks": len(block_s),
+            "block_s_median": float(np.median(block_s)) if block_s else 0.0,
+            "mpx_per_s": px / wall / 1e6 if wall > 0 else None}
+
+
+def _raster_profile(scene: SceneInfo, grid: OutGrid) -> dict[str, Any]:
+    """The GeoTIFF profile of p_mound.tif and reward.tif on the output grid."""
+    return {"driver": "GTiff", "width": grid.cols, "height": grid.rows, "count": 1,
+            "dtype": "float32", "crs": scene.crs(), "transform": grid.transform(),
+            "nodata": NODATA, "tiled": True, "blockxsize": 256, "blockysize": 256,
+            # ZSTD: as small as DEFLATE on these rasters, ~6 x faster to write (GDAL >= 2.3
+            # reads it; the writes were a third of a 2-core run's time with DEFLATE)
+            "compress": "zstd", "BIGTIFF": "IF_SAFER"}
+
+
+def _no_position_scored(scene: SceneInfo, out: Any, model_path: str) -> None:
+    """scene.json saying `status: failed` and why, then NoResultError."""
+    from mound.errors import NoResultError
+    from mound.jsonio import write_json
+
+    write_json(out / "scene.json", {
+        "schema": "mound.scene", "version": 1, "status": "failed",
+        "reason": "no position of the scene could be scored (nodata, outside the AOI, or "
+        "the scene smaller than the features' windows)",
+        "scene": {"file": str(scene.path)}, "model": {"file": model_path}})
+    raise NoResultError(f"{scene.path}: no position could be scored (nodata, the AOI, or a "
+                        "scene smaller than the features' windows)")
+
+
 def score_to_dir(scene: SceneInfo, model: SceneModel, out_dir: Any, *, model_path: str,
                  model_sha256: str, stride_m: float | None = None, limit: int = 20,
                  min_sep_m: float = 30.0, aoi: list[Any] | None = None,
@@ -398,12 +436,7 @@ def score_to_dir(scene: SceneInfo, model: SceneModel, out_dir: Any, *, model_pat
     if out.exists() and not out.is_dir():
         raise InputError(f"--out: {out} is a file, not a folder")
     out.mkdir(parents=True, exist_ok=True)
-    profile = {"driver": "GTiff", "width": grid.cols, "height": grid.rows, "count": 1,
-               "dtype": "float32", "crs": scene.crs(), "transform": grid.transform(),
-               "nodata": NODATA, "tiled": True, "blockxsize": 256, "blockysize": 256,
-               # ZSTD: as small as DEFLATE on these rasters, ~6 x faster to write (GDAL >= 2.3
-               # reads it; the writes were a third of a 2-core run's time with DEFLATE)
-               "compress": "zstd", "BIGTIFF": "IF_SAFER"}
+    profile = _raster_profile(scene, grid)
     found: list[Peaks] = []
     n_found = 0
     cells = valid = 0
@@ -437,26 +470,15 @@ def score_to_dir(scene: SceneInfo, model: SceneModel, out_dir: Any, *, model_pat
         p_ds.close()
         r_ds.close()
         if valid == 0:
-            from mound.errors import NoResultError
-            from mound.jsonio import write_json
-
-            write_json(out / "scene.json", {
-                "schema": "mound.scene", "version": 1, "status": "failed",
-                "reason": "no position of the scene could be scored (nodata, outside the "
-                "AOI, or the scene smaller than the features' windows)",
-                "scene": {"file": str(scene.path)}, "model": {"file": model_path}})
-            raise NoResultError(f"{scene.path}: no position could be scored (nodata, the AOI, "
-                                "or a scene smaller than the features' windows)")
+            _no_position_scored(scene, out, model_path)
         allp = _concat(found)
         del found
         idx = thin_indices(allp, grid, min_sep_m, limit)
         kept = [(float(allp[0][k]), int(allp[1][k]), int(allp[2][k])) for k in idx]
         logits = {(int(allp[1][k]), int(allp[2][k])): float(allp[3][k]) for k in idx}
         feats = _candidate_features(kept, grid, scene, logits)
-        if home is not None:
-            feats.insert(0, {"type": "Feature", "id": "home",
-                             "geometry": {"type": "Point", "coordinates": [home[1], home[0]]},
-                             "properties": {"kind": "home", "id": "home"}})
+        if home is not None:  # the take-off point: the file is then a survey's --sites
+            feats.insert(0, point_feature_doc("home", home, {"kind": "home", "id": "home"}))
         wall = time.perf_counter() - start
         px = scene.width * scene.height
         doc = {"schema": "mound.scene", "version": 1, "status": "ok",
@@ -471,11 +493,8 @@ def score_to_dir(scene: SceneInfo, model: SceneModel, out_dir: Any, *, model_pat
                           "local_maxima": n_found, "candidates": len(kept)},
                "p_mean": p_sum / valid if valid else None, "threshold": model.threshold,
                "min_separation_m": min_sep_m,
-               "timings": {"wall_s": wall, "blocks": len(block_s),
-                           "block_s_median": float(np.median(block_s)) if block_s else 0.0,
-                           "mpx_per_s": px / wall / 1e6 if wall > 0 else None,
-                           "threads": threads, "scheduler": scheduler or "local threads",
-                           "engine": engine},
+               "timings": {**_timings(wall, block_s, px), "threads": threads,
+                           "scheduler": scheduler or "local threads", "engine": engine},
                "files": ["p_mound.tif", "reward.tif", "candidates.geojson"]}
         gj = {"type": "FeatureCollection", "name": f"candidates of {scene.path.name}",
               "features": feats}

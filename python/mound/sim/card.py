@@ -189,7 +189,7 @@ class CardSpec:
     quality: int = 95
     threads: int | None = None
     # a second look's card (the survey's second_look/plan.json): each site flown with a
-    # scan this many times as wide (mound.sim.grid.wider), 1: the survey's own scan
+    # scan this many times as wide (mound.sim.looks.wider), 1: the survey's own scan
     scan_factor: float = 1.0
 
     def validate(self) -> None:
@@ -220,6 +220,7 @@ def write_card(plan_path: str, sites_path: str, out_dir: str, spec: CardSpec | N
     card's truth (mound.card_truth v1: per file its flight, site or `transit`, time)."""
     from mound.geometry.flight import ScanSpec
     from mound.sim import site as sim
+    from mound.sim.looks import wider
     from mound.uav.mission_items import flight_plans
 
     spec = spec or CardSpec()
@@ -279,8 +280,6 @@ def write_card(plan_path: str, sites_path: str, out_dir: str, spec: CardSpec | N
                                             spec.sim_seed, spec.image_size, spec.pattern,
                                             spec.site_diameter_m)
             if spec.scan_factor != 1:
-                from mound.sim.grid import wider
-
                 site_spec = wider(site_spec, spec.scan_factor)
             with tempfile.TemporaryDirectory(prefix="card_site_") as tmp:
                 sim.simulate(site_spec, tmp, threads=spec.threads)

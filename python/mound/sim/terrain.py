@@ -101,7 +101,7 @@ class TerrainSpec:
     dem_ground_m: float | None = None
     dem_vertical: str | None = None
     # Continue the patch beyond the DEM's edge (dem_patch's point reflection) rather than
-    # refuse the site: the second look's wider site near the edge (sim/grid.py, `wider`).
+    # refuse the site: the second look's wider site near the edge (sim/looks.py, `wider`).
     dem_extend: bool = False
     confusers: tuple[Confuser, ...] = ()
     seed: int = 0

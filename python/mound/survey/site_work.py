@@ -235,7 +235,7 @@ def _process_site(job: SiteJob) -> dict[str, Any]:
     except Exception as e:
         # A bug: the other sites go on, the row says what happened and the site's log keeps
         # the traceback; the survey ends with exit 1 once every site is done
-        # (driver.run_jobs), never a quiet "partial".
+        # (stages.sites3d.run_jobs), never a quiet "partial".
         row.update(reason=f"{stage}: internal error {e!r}", retry=True, internal_error=True)
         t.log.parent.mkdir(parents=True, exist_ok=True)
         with open(t.log, "a", encoding="utf-8") as log:
@@ -280,7 +280,7 @@ def _second_look(job: SiteJob, row: dict[str, Any], advice: dict[str, Any],
                  dense: bool) -> None:
     """A site the first verdict left undecided (p_mound in the model's second_look band)
     flown again with a scan advice["scan_factor"] x as wide (simulated: the same site and
-    seed, mound.sim.grid.wider; photos: the second card sorted into the site's folder,
+    seed, mound.sim.looks.wider; photos: the second card sorted into the site's folder,
     --second-photos, else the report asks for that flight), reconstructed,
     densified as the first and judged with `verdict --second-look FIRST_VERDICT`: both
     flights then decide the site (row["first_look"] keeps the first verdict). A second
@@ -303,7 +303,7 @@ def _second_look(job: SiteJob, row: dict[str, Any], advice: dict[str, Any],
         else:
             from mound.sim import site as sim
             from mound.sim.card import survey_site_spec
-            from mound.sim.grid import wider
+            from mound.sim.looks import wider
 
             spec, _ = survey_site_spec(job.site, job.index, job.origin, job.sim_seed,
                                        job.image_size, job.pattern, job.site_diameter_m,

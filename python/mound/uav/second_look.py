@@ -7,7 +7,7 @@ scan (4 x the area for a scan 2 x as wide) must fit a flight's budget like any o
 sites are taken in the order the survey's tour visited them (a tour restricted to some of
 its sites is never longer, by the triangle inequality), home and end as the survey's, each
 scanned with the survey's own scan (the plan's ScanSpec) scaled `scan_factor` x — the
-flight mound.sim.grid.wider simulates. Flights are filled in that order: a site joins the
+flight mound.sim.looks.wider simulates. Flights are filled in that order: a site joins the
 current flight when the mission built with it (mission.build, over the DEM when there
 is one: heights that clear the terrain, energy within the budget) still passes, else it
 opens the next flight. A site whose second look alone cannot be flown (its wide scan

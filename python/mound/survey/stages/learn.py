@@ -33,11 +33,19 @@ from mound.classify.model import SCHEMA as MODEL_SCHEMA
 from mound.classify.model import VERSION as MODEL_VERSION
 from mound.classify.model import Model
 from mound.classify.reward import binary_entropy_bits
-from mound.errors import ToolNoResultError
+from mound.errors import ToolInputError, ToolNoResultError
+from mound.geometry.geodesy import Origin
 from mound.jsonio import read_json, write_json
+from mound.survey.context import Context, mission_terrain, run_stage
+from mound.survey.stages.sites3d import run_jobs, second_look_missions, site_jobs
+from mound.uav import files as mission_files
+from mound.uav import mission
+from mound.uav.mission_items import flight_plans
 
 SCHEMA = "mound.learn"
 VERSION = 1
+# mound_plan's words (exit 2, naming budget_m) when no site is within a round trip of home
+NO_ROUND_TRIP = "too small to leave home"
 
 
 def with_model(sites_doc: dict[str, Any], model: Model, test: statlog.Split
@@ -63,8 +71,6 @@ def held_out_auc(model: Model, test: statlog.Split, field_rows: np.ndarray) -> f
 def one_flight(plan: dict[str, Any]) -> dict[str, Any] | None:
     """The flight of highest reward of a plan (mound_plan orders flights so), as a plan of
     that one flight; None when no flight visits a site."""
-    from mound.uav.mission_items import flight_plans
-
     flights = [f for f in flight_plans(plan) if len(f["tour"]) > 2]
     if not flights:
         return None
@@ -73,24 +79,88 @@ def one_flight(plan: dict[str, Any]) -> dict[str, Any] | None:
     return f
 
 
-def _write_mission(ctx: Any, plan: dict[str, Any], out: Path) -> None:
+def _write_mission(ctx: Context, plan: dict[str, Any], out: Path) -> None:
     """The flight's MAVLink mission (refused, like the mission stage's, when it breaks the
     budget or, over a DEM, cannot clear the ground)."""
-    from mound.geometry.geodesy import Origin
-    from mound.survey.driver import mission_terrain
-    from mound.uav import files as mission_files
-    from mound.uav import mission
-
     m = mission.build(plan, Origin.from_doc(plan["origin"], "plan: origin"),
-                            None,  # the plan's own scan (plan_scan), else the default
-                            mission_terrain(ctx.args))
+                      None,  # the plan's own scan (plan_scan), else the default
+                      mission_terrain(ctx.args))
     mission_files.write_plan(out, m, ctx.args.firmware)
 
 
-def stage_learn(ctx: Any) -> str:
-    """The sites3d stage, flight by flight, with the classifier learning in between."""
-    from mound.survey.driver import run_jobs, run_stage, second_look_missions, site_jobs
+def _replan(ctx: Context, left: dict[str, Any], k: int, fdir: Path
+            ) -> tuple[dict[str, Any] | None, str]:
+    """Flight k's plan (mound_plan over the sites `left` for the flights left), or None and
+    why no flight is left."""
+    a = ctx.args
+    write_json(fdir / "sites.json", left)
+    try:
+        native.run_tool("mound_plan", [str(fdir / "sites.json"), "--algo", a.algo,
+                                       "--seed", str(a.plan_seed), "--flights",
+                                       str(a.flights - k + 1), "--out",
+                                       str(fdir / "plan_all.json")],
+                        timeout_s=600, log=ctx.tree.root / "log.txt")
+    except (ToolInputError, ToolNoResultError) as e:
+        # The sites left (a subset of valid sites, the same budget) allow no flight: every
+        # one within reach was flown. mound_plan says so with exit 3, or with exit 2 naming
+        # budget_m when no site left is within a round trip (INTERFACES.md); any other
+        # exit 2 is a bug in the file written above and reaches the survey's main (exit 1).
+        if isinstance(e, ToolInputError) and NO_ROUND_TRIP not in e.tail:
+            raise RuntimeError(f"flight {k}: mound_plan refused the sites left (a bug): "
+                               f"{e}") from e
+        why = (e.tail.strip().splitlines() or [str(e)])[-1]
+        return None, f"flight {k}: no flight over the sites left ({why})"
+    return read_json(fdir / "plan_all.json", "mound.plan", 1), ""
 
+
+def _examples(rows: dict[str, dict[str, Any]], ids: list[str]) -> list[dict[str, Any]]:
+    """The training examples of a flight's sites: each judged site's two-answer verdict and
+    its confidence (an undecided site, no evidence either way, is not learned)."""
+    out = []
+    for sid in ids:
+        r = rows.get(sid, {})
+        if r.get("status") != "ok" or r.get("verdict") not in ("mound", "no_mound"):
+            continue
+        if r.get("answer") == "undecided":
+            continue
+        conf = r.get("confidence")
+        if isinstance(conf, bool) or not isinstance(conf, int | float) or \
+                not 0 <= conf <= 1:  # a judged site's verdict always states one
+            raise RuntimeError(f"site {sid}: its row's confidence is {conf!r}")
+        out.append({"id": sid, "verdict": r["verdict"], "confidence": conf})
+    return out
+
+
+def _changes(before: dict[str, Any], after: dict[str, Any], flown: list[str]
+             ) -> tuple[list[dict[str, Any]], int]:
+    """How p_mound of the sites not flown changed, largest first, and how many of the
+    classifier's labels flipped."""
+    p0 = {s["id"]: s["p_mound"] for s in before["sites"]}
+    changes = sorted(
+        ({"id": s["id"], "p_before": p0[s["id"]], "p_after": s["p_mound"]}
+         for s in after["sites"] if s["id"] not in flown),
+        key=lambda c: -abs(c["p_after"] - c["p_before"]))
+    flips = sum(1 for c in changes
+                if metrics.says_mound(c["p_before"]) != metrics.says_mound(c["p_after"]))
+    return changes, flips
+
+
+def _write_flown(ctx: Context, flights: list[dict[str, Any]], n_visited: int,
+                 sites: dict[str, Any]) -> None:
+    """learn/plan_flown.json (the plan as flown: its flights one after another) and
+    learn/sites_final.json (the final classifier's p_mound)."""
+    t = ctx.tree
+    flown_plan = read_json(t.plan, "mound.plan", 1)
+    flown_plan.update(flights=flights, tour=flights[0]["tour"] if flights
+                      else flown_plan.get("tour"), n_visited=n_visited,
+                      reward=float(sum(f["reward"] for f in flights)),
+                      cost_m=float(sum(f["cost_m"] for f in flights)))
+    write_json(t.final_plan(True), flown_plan)
+    write_json(t.final_sites(True), sites)
+
+
+def stage_learn(ctx: Context) -> str:
+    """The sites3d stage, flight by flight, with the classifier learning in between."""
     a = ctx.args
     t = ctx.tree
 
@@ -104,8 +174,6 @@ def stage_learn(ctx: Any) -> str:
         auc0 = held_out_auc(model, test, field_rows)
         current = sites0
         plan = read_json(t.plan, "mound.plan", 1)
-        from mound.uav.mission_items import flight_plans
-
         first_plan = [f["tour"][1:-1] for f in flight_plans(plan) if len(f["tour"]) > 2]
         flown: list[str] = []
         ex_rows: list[int] = []
@@ -125,22 +193,10 @@ def stage_learn(ctx: Any) -> str:
                 left = [s for s in current["sites"] if s["id"] not in flown]
                 if not left:
                     break
-                doc = {**current, "sites": left}
-                write_json(fdir / "sites.json", doc)
-                try:
-                    native.run_tool("mound_plan", [str(fdir / "sites.json"), "--algo", a.algo,
-                                                   "--seed", str(a.plan_seed), "--flights",
-                                                   str(a.flights - k + 1), "--out",
-                                                   str(fdir / "plan_all.json")],
-                                    timeout_s=600, log=t.root / "log.txt")
-                except ToolNoResultError as e:
-                    # The sites left (a subset of valid sites, the same budget) allow no
-                    # flight: every one within reach was flown. (Exit 2, bad input, would be
-                    # a bug in the file written above: it reaches the survey's main, exit 1.)
-                    why = (e.tail.strip().splitlines() or [str(e)])[-1]
-                    stopped = f"flight {k}: no flight over the sites left ({why})"
+                replanned, stopped = _replan(ctx, {**current, "sites": left}, k, fdir)
+                if replanned is None:
                     break
-                plan = read_json(fdir / "plan_all.json", "mound.plan", 1)
+                plan = replanned
             else:
                 write_json(fdir / "sites.json", current)
             flight = one_flight(plan)
@@ -157,21 +213,10 @@ def stage_learn(ctx: Any) -> str:
             outputs += [str(j.tree.result.relative_to(root)) for j in jobs]
             ids = [j.site["id"] for j in jobs]
             flown += ids
-            examples = []
-            for sid in ids:
-                r = rows.get(sid, {})
-                if r.get("status") != "ok" or r.get("verdict") not in ("mound", "no_mound"):
-                    continue
-                if r.get("answer") == "undecided":  # no evidence either way: not learned
-                    continue
-                conf = r.get("confidence")
-                if isinstance(conf, bool) or not isinstance(conf, int | float) or \
-                        not 0 <= conf <= 1:  # a judged site's verdict always states one
-                    raise RuntimeError(f"site {sid}: its row's confidence is {conf!r}")
-                ex_rows.append(int(by_id[sid]["truth"]["statlog_row"]))
-                ex_y.append(1.0 if r["verdict"] == "mound" else -1.0)
-                ex_w.append(conf * a.learn_weight)
-                examples.append({"id": sid, "verdict": r["verdict"], "confidence": conf})
+            examples = _examples(rows, ids)
+            ex_rows += [int(by_id[e["id"]]["truth"]["statlog_row"]) for e in examples]
+            ex_y += [1.0 if e["verdict"] == "mound" else -1.0 for e in examples]
+            ex_w += [e["confidence"] * a.learn_weight for e in examples]
             before = current
             model = coarse.train(train, model.band, l2=model.l2,
                                  extra=(test.x[np.array(ex_rows, dtype=int)],
@@ -179,13 +224,7 @@ def stage_learn(ctx: Any) -> str:
             write_json(fdir / "model.json", model.to_doc())
             current = with_model(sites0, model, test)
             write_json(fdir / "sites_after.json", current)
-            p0 = {s["id"]: s["p_mound"] for s in before["sites"]}
-            changes = sorted(
-                ({"id": s["id"], "p_before": p0[s["id"]], "p_after": s["p_mound"]}
-                 for s in current["sites"] if s["id"] not in flown),
-                key=lambda c: -abs(c["p_after"] - c["p_before"]))
-            flips = sum(1 for c in changes
-                        if metrics.says_mound(c["p_before"]) != metrics.says_mound(c["p_after"]))
+            changes, flips = _changes(before, current, flown)
             auc = held_out_auc(model, test, field_rows)
             history.append({
                 "flight": k, "sites": ids, "planned_reward": flight["reward"],
@@ -199,14 +238,7 @@ def stage_learn(ctx: Any) -> str:
                                   "budget_left_m": flight.get("budget_left_m", 0.0)})
             ctx.say(f"[learn] flight {k}: {note}; held-out AUC {auc:.4f} "
                     f"(before any flight {auc0:.4f}), {flips} classifier labels flipped")
-        flown_plan = read_json(t.plan, "mound.plan", 1)
-        flown_plan.update(flights=flights_flown, tour=flights_flown[0]["tour"] if
-                          flights_flown else flown_plan.get("tour"),
-                          n_visited=len(flown),
-                          reward=float(sum(f["reward"] for f in flights_flown)),
-                          cost_m=float(sum(f["cost_m"] for f in flights_flown)))
-        write_json(t.final_plan(True), flown_plan)
-        write_json(t.final_sites(True), current)
+        _write_flown(ctx, flights_flown, len(flown), current)
         write_json(t.learn / "learn.json", {
             "schema": SCHEMA, "version": VERSION, "learn_weight": a.learn_weight,
             "held_out_auc_before": auc0, "held_out_auc_after": history[-1]["held_out_auc"]

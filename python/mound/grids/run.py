@@ -14,38 +14,7 @@ meanwhile changes nothing in it). Resumable: a site whose verdict exists is not 
 with another build and without `remeasure` keeps its earlier verdicts: grid.json then names
 the earlier build too (`earlier_tools`), and `mound sim grid` says so.
 
-The draws (half of the sites carry a tumulus):
-- tumulus: profile conical / spherical cap / drum / ploughed; height log-uniform in
-  0.5-25 m, diameter log-uniform in 10-150 m, the height at most what the profile allows
-  with flanks no steeper than earth stands (`max_height`: 35 degrees, the angle of repose
-  of loose earth; a drum's retaining wall is vertical, its cap obeys the rule); centre off
-  the scan centre by up to half the scan's radius; erosion 0.5-5 m; a looters' pit (20 %)
-  or trench (15 %);
-- or, with `population` (`--population kazanlak|FILE`, population.py), a row of a measured
-  inventory drawn at random: its base length and width (an elongated base, length along a
-  random azimuth), its height (at most what a cone of its width stands at the angle of
-  repose; the profile a cap, cone or ploughed cap, a cone where a cap would be too steep),
-  and its looters' trench as the field records it (half of them a trench across the top,
-  a fifth to a third of the width wide, half a pit; an unrecorded one drawn at the
-  inventory's share); erosion 5-20 % of the width (the measured base is the eroded one);
-- no mound: bare ground (25 %) or one confuser (75 %): an elongated hillock, a ridge, a
-  ditch, a terrace edge, a group of trees, a building or a haystack, within 15 m of the
-  centre;
-- ground (either class): undulating (45 %), on a slope of 2-15 degrees (30 %) or a patch of
-  a real DEM (25 %; skipped when no DEM is given): one of the DEMs given (`--dem`, repeated)
-  drawn among those on which the site's square fits wholly on valid cells, the centre
-  uniform over where it fits within the DEM's `dem_part` (dem_places.py: train, the first
-  60 % across its longer axis; heldout, the rest; training and held-out grids then share
-  no terrain, save that a second look's wider site may reach across);
-- flight: the survey's (a raster scan of `scan_m`, 60 m, at 60 m; `pattern="both"`: the
-  full 40-image flight, the raster and an orbit of oblique images), sun azimuth 0-360
-  degrees at 25-70 degrees elevation, lens of 60-84 degrees horizontal field of view;
-- cloud: the sparse cloud of `mound_recon reconstruct`, or with `dense=True` the dense
-  cloud of `mound_recon densify` (dense/dense.ply), which the verdict then judges;
-- camera: the simulator's calibration (camera.json, poses.json), or with `card=True` the
-  photo card's (JPEGs with EXIF GPS and focal length; `reconstruct --gps exif` levels the
-  model by the images and refines f, k1, k2 about EXIF's values, as the survey's
-  `--photos` does).
+The draws are mound.sim.draws's (`draw`); the second looks mound.sim.looks's.
 
 `second_look_kind="lower"` flies the other second look instead, in GRID/NNNN/second_lower/:
 the same scan area with the raster half as high (`lower`; issue 56 asks which helps more).
@@ -65,10 +34,10 @@ reconstructed anew): the dense clouds of a sparse grid's sites, in minutes.
 from __future__ import annotations
 
 import json
-import logging
 import math
 import time
-from dataclasses import asdict, replace
+from dataclasses import asdict
+from datetime import datetime
 from pathlib import Path
 from typing import Any
 
@@ -78,217 +47,24 @@ from mound import native
 from mound.errors import InputError, NoResultError, ToolNoResultError
 from mound.jsonio import write_json
 from mound.sim import site as sim
-from mound.sim import terrain
-from mound.sim.appearance import Lighting
+from mound.sim.card import site_jpegs
 from mound.sim.dem_places import DemPlaces
-from mound.sim.population import Population, read_population
+from mound.sim.draws import SCAN_M, draw
+from mound.sim.looks import (
+    LOWER_FACTOR,
+    SECOND_LOOK_FACTOR,
+    SECOND_LOOK_P,
+    SECOND_LOOKS,
+    second_look_spec,
+)
+from mound.sim.population import read_population
 
 SCHEMA = "mound.verdict_grid"
 VERSION = 1
-SCAN_M = 60.0
 # the survey's densify (mound.survey: options.dense_size, site_work.DENSE_RESOLUTION_M):
 # depth maps 320 px on their longer side, points merged on 0.25 m voxels
 DENSIFY_ARGS = ("--max-image-size", "320", "--resolution-m", "0.25")
 DEFAULT_DEM = "TM1_564_146.tif"  # the 1 m airborne-laser DEM (../shared/data/dem)
-# The second look: sites whose first p_mound lies in SECOND_LOOK_P are flown again with a
-# scan SECOND_LOOK_FACTOR x as wide (the model's own band, second_look.p_low .. threshold, lies
-# within it); the site drawn SITE_PER_SCAN x the scan across (as the first look's 160 m for
-# its 60 m).
-SECOND_LOOK_FACTOR = 2.0
-SECOND_LOOK_P = (0.05, 0.995)
-SITE_PER_SCAN = 2.7
-# The other second look: the same scan area, the raster this many times as high (lower)
-LOWER_FACTOR = 0.5
-# a measured population's tumuli (population.py): earthen profiles, no Lydian drum
-POPULATION_PROFILES = ("spherical_cap", "conical", "ploughed")
-LOG = logging.getLogger(__name__)
-REPOSE_DEG = 35.0  # the steepest flank loose earth stands at (angle of repose, 30-35 deg)
-
-
-def max_height(profile: str, diameter_m: float, drum_share: float = 0.0) -> float:
-    """The highest tumulus of `profile` and `diameter_m` whose flanks are nowhere steeper
-    than REPOSE_DEG (before erosion, which only flattens them): a cone h <= r tan(a); a
-    spherical cap meets its base at 2 atan(h / r), so h <= r tan(a / 2); a ploughed cap
-    (cut at terrain.PLOUGH_CUT, 60 %, and scaled back, its flank 1 / 0.6 as steep)
-    h <= r tan(atan(0.6 tan a) / 2);
-    a drum's cap of the height above its wall (`drum_share` of h) as a spherical cap's.
-    An earthen mound steeper than that slumps: the previous grid's limit of h <= 0.45 d
-    drew near-hemispheres with 84-degree flanks, no tumulus's form."""
-    a = math.radians(REPOSE_DEG)
-    r = diameter_m / 2
-    if profile == "conical":
-        return r * math.tan(a)
-    if profile == "ploughed":
-        return r * math.tan(math.atan(terrain.PLOUGH_CUT * math.tan(a)) / 2)
-    cap = r * math.tan(a / 2)
-    if profile == "drum":
-        return cap / (1 - drum_share)
-    return cap
-
-
-def _log_uniform(rng: np.random.Generator, lo: float, hi: float) -> float:
-    return float(math.exp(rng.uniform(math.log(lo), math.log(hi))))
-
-
-def _in_disc(rng: np.random.Generator, radius: float) -> tuple[float, float]:
-    r, a = radius * math.sqrt(rng.random()), 2 * math.pi * rng.random()
-    return r * math.sin(a), r * math.cos(a)
-
-
-def _confuser(rng: np.random.Generator, kind: str, seed: int) -> terrain.Confuser:
-    x, y = _in_disc(rng, 15.0)
-    az = float(rng.uniform(0, 180))
-    u = rng.uniform
-    if kind == "hillock":
-        length = float(u(30, 120))
-        return terrain.Confuser(kind, x, y, length, length / float(u(2.5, 5)), float(u(1, 8)),
-                                az, seed=seed)
-    if kind == "ridge":
-        return terrain.Confuser(kind, x, y, 200.0, float(u(15, 40)), float(u(2, 10)), az,
-                                seed=seed)
-    if kind == "ditch":
-        return terrain.Confuser(kind, x, y, 200.0, float(u(3, 8)), float(u(1, 3)), az,
-                                seed=seed)
-    if kind == "terrace":
-        return terrain.Confuser(kind, x, y, 200.0, float(u(2, 8)), float(u(1, 4)), az,
-                                seed=seed)
-    if kind == "trees":
-        return terrain.Confuser(kind, x, y, float(u(15, 40)), float(u(4, 9)), float(u(6, 18)),
-                                az, count=int(rng.integers(3, 13)), seed=seed)
-    if kind == "building":
-        return terrain.Confuser(kind, x, y, float(u(8, 25)), float(u(6, 12)), float(u(3, 10)),
-                                az, seed=seed)
-    return terrain.Confuser("haystack", x, y, 6.0, float(u(4, 8)), float(u(2.5, 5)), az,
-                            seed=seed)
-
-
-def _measured_tumulus(rng: np.random.Generator, pop: Population,
-                      scan_m: float) -> dict[str, Any]:
-    """A tumulus of the population's measured rows (see the module text)."""
-    row = pop.rows[int(rng.integers(len(pop.rows)))]
-    profile = str(rng.choice(POPULATION_PROFILES))
-    w, length, h = row.width_m, row.length_m, row.height_m
-    if h > max_height(profile, w):  # steeper than a cap stands: a cone's flanks
-        profile = "conical"
-    h = min(h, max_height(profile, w))
-    x, y = _in_disc(rng, scan_m / 4)
-    az = float(rng.uniform(0, 180))
-    over: dict[str, Any] = {
-        "profile": profile, "diameter_m": w, "height_m": h, "mound_x_m": x, "mound_y_m": y,
-        "erosion_m": float(rng.uniform(0.05, 0.2)) * w,
-        **({"length_m": length, "mound_azimuth_deg": az} if length > w * (1 + 1e-9) else {})}
-    trench = row.trench if row.trench is not None else bool(rng.random() < pop.trench_share)
-    if trench:  # as the field records it: a trench across the top, or a pit in it
-        if rng.random() < 0.5 and w > 4:
-            pr = float(rng.uniform(0.1, 0.25)) * w
-            over.update(pit_radius_m=pr, pit_depth_m=float(rng.uniform(0.2, 0.6)) * h,
-                        pit_offset_m=float(rng.uniform(0, w / 2 - pr)))
-        else:
-            over.update(trench_width_m=float(rng.uniform(0.15, 0.35)) * w,
-                        trench_depth_m=float(rng.uniform(0.2, 0.6)) * h,
-                        trench_azimuth_deg=float(rng.uniform(0, 180)))
-    return over
-
-
-def _place_on_dem(rng: np.random.Generator, dems: list[DemPlaces],
-                  size_m: float) -> dict[str, Any] | None:
-    """A terrain patch of one of `dems` (drawn among those where a site `size_m` across
-    fits), or None where it fits on none."""
-    fits = [d for d in dems if d.fits(size_m)]
-    if not fits:
-        return None
-    d = fits[int(rng.integers(len(fits)))]
-    x, y = d.draw(rng, size_m)
-    return {"dem_path": d.path, "dem_x_m": x, "dem_y_m": y}
-
-
-def draw(rng: np.random.Generator, seed: int, dems: list[DemPlaces] | None,
-         size: tuple[int, int], scan_m: float = SCAN_M, texel_m: float = 0.1,
-         pattern: str = "raster", population: Population | None = None) -> sim.SimSpec:
-    """One site of the grid (see the module text); `dems` opened once for the grid (each
-    open reads the whole DEM)."""
-    over: dict[str, Any] = {"seed": seed, "resolution_m": 0.5}
-    mound = bool(rng.random() < 0.5)
-    over["mound"] = mound
-    extent = 0.0
-    if mound and population is not None:
-        over.update(_measured_tumulus(rng, population, scan_m))
-        extent = (over.get("length_m", over["diameter_m"])
-                  + 2 * max(abs(over["mound_x_m"]), abs(over["mound_y_m"])))
-    elif mound:
-        profile = str(rng.choice(terrain.PROFILES))
-        d = _log_uniform(rng, 10, 150)
-        drum_share = float(rng.uniform(0.2, 0.5)) if profile == "drum" else 0.0
-        h = min(_log_uniform(rng, 0.5, 25), max_height(profile, d, drum_share))
-        x, y = _in_disc(rng, scan_m / 4)
-        over.update(profile=profile, diameter_m=d, height_m=h,
-                    mound_x_m=x, mound_y_m=y, erosion_m=float(rng.uniform(0.5, 5)))
-        if profile == "ploughed":  # spread by the plough: at least a tenth of D
-            over["erosion_m"] = max(over["erosion_m"], d / 10)
-        if profile == "drum":
-            over["drum_height_m"] = drum_share * h
-        k = rng.random()
-        if k < 0.2 and d > 12:
-            pr = float(rng.uniform(0.1, 0.25)) * d
-            over.update(pit_radius_m=pr, pit_depth_m=float(rng.uniform(0.2, 0.6)) * h,
-                        pit_offset_m=float(rng.uniform(0, d / 2 - pr)))
-        elif k < 0.35:
-            over.update(trench_width_m=float(rng.uniform(2, 6)),
-                        trench_depth_m=float(rng.uniform(0.2, 0.6)) * h,
-                        trench_azimuth_deg=float(rng.uniform(0, 180)))
-        extent = d + 2 * max(abs(x), abs(y))
-    elif rng.random() < 0.75:
-        kind = str(rng.choice(terrain.CONFUSERS))
-        over["confusers"] = (_confuser(rng, kind, seed),)
-    g = rng.random()
-    size_m = max(160.0, extent + 40.0)
-    size_m = math.ceil(size_m / 4) * 4
-    over["size_m"] = size_m
-    if g < 0.30:
-        over.update(slope_deg=float(rng.uniform(2, 15)),
-                    slope_azimuth_deg=float(rng.uniform(0, 360)))
-    elif g < 0.55 and dems:
-        place = _place_on_dem(rng, dems, size_m)
-        if place is None:  # wider than any DEM holds: undulating ground (truth: dem false)
-            LOG.warning("site %d: %g m across fits on no DEM's part; its ground undulates",
-                        seed, size_m)
-        else:
-            over.update(place)
-    spec = terrain.preset("bin_tepe", **over)
-    return sim.SimSpec(
-        terrain=spec,
-        lighting=Lighting(math.radians(float(rng.uniform(0, 360))),
-                          math.radians(float(rng.uniform(25, 70)))),
-        width_px=size[0], height_px=size[1],
-        hfov_rad=math.radians(float(rng.uniform(60, 84))), pattern=pattern,
-        scan_diameter_m=scan_m, seed=seed, texel_m=texel_m)
-
-
-def lower(spec: sim.SimSpec, factor: float = LOWER_FACTOR) -> sim.SimSpec:
-    """The same site (terrain, light, lens, seed) and scan area flown with its raster
-    `factor` x as high (LOWER_FACTOR: half): the ground sampled 1 / factor x as finely,
-    with more images for the same overlaps (78 against 28 for the 60 m scan at half)."""
-    return replace(spec, raster_altitude_m=spec.scale_m * factor)
-
-
-# The second looks a grid flies, and the folder of each (NNNN/<folder>/)
-SECOND_LOOKS = {"wider": "second", "lower": "second_lower"}
-
-
-def second_look_spec(spec: sim.SimSpec, kind: str) -> sim.SimSpec:
-    """The second look of `kind` (SECOND_LOOKS) at the site `spec`."""
-    return wider(spec) if kind == "wider" else lower(spec)
-
-
-def wider(spec: sim.SimSpec, factor: float = SECOND_LOOK_FACTOR) -> sim.SimSpec:
-    """The same site (terrain, light, lens, seed) flown with a scan `factor` x as wide, on a
-    site drawn SITE_PER_SCAN x that scan across (at least the first look's). On a DEM patch
-    the part of the wider site that lies off the laser DEM is its continuation across the
-    edge (terrain.dem_patch's point reflection): the field's second look would fly there."""
-    scan = spec.scale_m * factor
-    size = max(spec.terrain.size_m, math.ceil(scan * SITE_PER_SCAN / 4) * 4)
-    return replace(spec, scan_diameter_m=scan, terrain=replace(
-        spec.terrain, size_m=size, dem_extend=spec.terrain.dem_path is not None))
 
 
 def _p_of(verdict: dict[str, Any]) -> float | None:
@@ -321,10 +97,6 @@ def _site(out: Path, spec: sim.SimSpec, threads: int, remeasure: bool,
             # length, the lens (f, k1, k2) refined about EXIF's values (--lens prior)
             camera = ["--gps", "exif"]
             if card:
-                from datetime import datetime
-
-                from mound.sim.card import site_jpegs
-
                 site_jpegs(simdir, datetime(2026, 6, 1, 9, 0, 0))
             else:
                 camera = ["--camera", str(simdir / "camera.json"), "--gps",
@@ -431,15 +203,7 @@ def make_grid(out: str | Path, sites: int, seed: int, size: tuple[int, int] = (6
     # that a rebuild while the grid runs (make relinks build/mound_recon in place) fails no
     # site half-way and mixes no two detectors (until 2026-11-27 a rebuild failed the sites
     # running then with PermissionError).
-    earlier = None  # the build of the verdicts already there (the oldest one named)
-    before_kinds: list[str] = []  # the second looks flown before (grid.json)
-    try:
-        before = json.loads((root / "grid.json").read_text())
-        earlier = before.get("earlier_tools") or before.get("tools")
-        sl = before.get("second_look") or {}
-        before_kinds = list(sl.get("kinds", ["wider"] if sl else []))
-    except (OSError, json.JSONDecodeError, AttributeError):
-        pass
+    earlier, before_kinds = _before(root)
     with native.pinned("mound_recon") as digests:
         if workers > 1:
             from concurrent.futures import ThreadPoolExecutor
@@ -470,6 +234,19 @@ def make_grid(out: str | Path, sites: int, seed: int, size: tuple[int, int] = (6
            "rows": [{**r, "spec": _spec_doc(s)} for r, s in zip(rows, specs, strict=True)]}
     write_json(root / "grid.json", doc)
     return doc
+
+
+def _before(root: Path) -> tuple[Any, list[str]]:
+    """What grid.json says of the grid's earlier runs: the build of the verdicts already
+    there (the oldest one named; None when there is no grid.json yet) and the second looks
+    flown before."""
+    try:
+        before = json.loads((root / "grid.json").read_text())
+        sl = before.get("second_look") or {}
+        return (before.get("earlier_tools") or before.get("tools"),
+                list(sl.get("kinds", ["wider"] if sl else [])))
+    except (OSError, json.JSONDecodeError, AttributeError):
+        return None, []
 
 
 def _check_flights_from(src: Path, out: Path, sites: int, seed: int, size: tuple[int, int],

@@ -1,0 +1,134 @@
+"""What every stage of the survey shares: the stage names in order, the run's Context (its
+options, run directory, ledger and the keys of the stages run), `run_stage` (run a stage
+unless the ledger holds it unchanged) and the digests and options the stages' keys are
+made of."""
+
+from __future__ import annotations
+
+import functools
+import os
+import time
+import uuid
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from mound.datasets import sha256_of
+from mound.survey.ledger import Ledger, StageRecord, digest
+from mound.survey.options import (
+    SurveyOptions,
+)
+from mound.survey.tree import RunTree
+
+STAGES = ("classify", "field", "plan", "mission", "photos", "sites3d", "report")
+
+
+SCHEMA = "mound.survey"
+
+
+VERSION = 1
+
+
+@dataclass
+class Context:
+    args: SurveyOptions
+    tree: RunTree
+    ledger: Ledger
+    stages: list[dict[str, Any]] = field(default_factory=list)
+    keys: dict[str, str] = field(default_factory=dict)
+    redo_from: int = 7  # index into STAGES (len: none): stages from here on are redone
+    run_id: str = field(default_factory=lambda: uuid.uuid4().hex)
+
+    @functools.cached_property
+    def terrain(self) -> dict[str, Any] | None:
+        """What the terrain makes of a stage (the DEM's bytes, hashed once per run, and every
+        terrain option); None without --dem."""
+        return terrain_material(self.args)
+
+    def say(self, text: str) -> None:
+        print(text, flush=True)
+
+
+def run_stage(ctx: Context, name: str, material: dict[str, Any], work: Any) -> str:
+    """Runs `work()` -> (outputs relative to the run directory, a one-line note) unless the
+    ledger holds this stage with the same key and its outputs; records it."""
+    key = digest({"stage": name, **material})
+    ctx.keys[name] = key
+    redo = STAGES.index(name) >= ctx.redo_from
+    if not redo and ctx.ledger.is_done(name, key):
+        prev = ctx.ledger.previous(name)
+        ctx.stages.append({"name": name, "wall_s": 0.0, "skipped": True,
+                           "wall_s_when_run": prev.get("wall_s"), "note": prev.get("note", "")})
+        ctx.say(f"[{name}] skipped, unchanged: {prev.get('note', '')} "
+                f"(ran in {prev.get('wall_s', 0):.1f} s)")
+        return key
+    ctx.ledger.forget(name)
+    start = time.perf_counter()
+    outputs, note, complete = work()
+    wall = time.perf_counter() - start
+    if complete:
+        ctx.ledger.record(StageRecord(name, key, wall, outputs, note=note))
+    ctx.stages.append({"name": name, "wall_s": wall, "skipped": False, "note": note,
+                       "complete": complete})
+    ctx.say(f"[{name}] {note} ({wall:.1f} s)")
+    return key
+
+
+def digest_files(paths: list[str]) -> list[str]:
+    return [sha256_of(Path(p)) for p in paths]
+
+
+def scan_spec(args: SurveyOptions) -> Any:
+    from mound.uav import mission_items
+
+    scan = mission_items.scan_for_site(args.site_diameter, args.scan_pattern)
+    from dataclasses import replace
+    scan = replace(scan, width_px=args.image_size[0], height_px=args.image_size[1])
+    scan.validate()
+    return scan
+
+
+def terrain_material(a: SurveyOptions) -> dict[str, Any] | None:
+    """What the terrain makes of a stage (the DEM's bytes and every terrain option)."""
+    if not a.dem:
+        return None
+    return {"dem": digest_files([a.dem]), "vertical": a.dem_vertical,
+            "clearance": a.clearance_m, "scan_clearance": a.scan_clearance_m,
+            "footprint": a.footprint_m, "climb": a.climb_factor, "descent": a.descent_factor}
+
+
+def mission_terrain(a: SurveyOptions) -> Any:
+    """The DEM a mission is flown over (mission_items.TerrainInput), None without --dem."""
+    if not a.dem:
+        return None
+    from mound.uav import mission_items
+    return mission_items.TerrainInput(a.dem, a.dem_vertical, a.terrain_spec())
+
+
+def images_root(ctx: Context) -> Path | None:
+    """Where each visited site's photos are: the sorted card (--photos), the user's
+    folders (--images-root), or nowhere (simulated)."""
+    if ctx.args.photos:
+        return ctx.tree.photos
+    return Path(ctx.args.images_root) if ctx.args.images_root else None
+
+
+def card_digest(card: Path) -> str:
+    """The card's files (names, sizes, times): a changed card is sorted again."""
+    rows = []
+    for dirpath, _dirs, names in os.walk(card):
+        for n in names:
+            p = Path(dirpath) / n
+            try:
+                st = p.stat()
+            except OSError:
+                continue
+            rows.append((str(p.relative_to(card)), st.st_size, st.st_mtime_ns))
+    return digest(sorted(rows))
+
+
+def folder_digest(folder: Path) -> str:
+    if not folder.is_dir():
+        return "missing"
+    return digest(sorted((p.name, p.stat().st_size, p.stat().st_mtime_ns)
+                         for p in folder.iterdir() if p.is_file()))

@@ -1,0 +1,126 @@
+"""The mission stage: the tour's MAVLink missions (and the DJI and Litchi files), uploaded
+and read back with --connect."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from mound.errors import InputError
+from mound.jsonio import read_json, write_all_atomic, write_json
+from mound.survey.context import Context, mission_terrain, run_stage
+
+
+def write_missions(missions: list[tuple[int | None, Any]], folder: Path, png_folder: Path,
+                   firmware: str, aircraft: str = "m3e") -> tuple[list[Path], dict[str, Any]]:
+    """Each flight's mission (k None: the only one) in every format a crew flies:
+    FOLDER/mission.plan, .waypoints (MAVLink), .kmz (DJI WPML for `aircraft`), .csv
+    (Litchi; mission_partN.csv past 99 waypoints), .geojson (mission_K.* of several), and
+    its map PNG_FOLDER/mission.png (mission_K.png); returns the files and the mound.mission
+    summary: the only flight's own, or of several their totals, each under `flights`. A
+    DJI or Litchi file a limit of theirs refuses is not written, and the summary's
+    `formats` says why (the .plan is the reference and is always written)."""
+    from mound.survey import figures
+    from mound.uav import dji, litchi, mission_formats
+    from mound.uav import files as mission_files
+
+    written: list[Path] = []
+    summaries = []
+    for k, m in missions:
+        files = {name: mission_files.flight_path(folder / name, k)
+                 for name in ("mission.plan", "mission.waypoints", "mission.geojson")}
+        mission_files.write_plan(files["mission.plan"], m, firmware)
+        mission_files.write_wpl(files["mission.waypoints"], m)
+        mission_files.write_geojson(files["mission.geojson"], m)
+        formats: dict[str, Any] = {}
+        try:
+            craft = dji.aircraft(aircraft)
+            kmz = mission_files.flight_path(folder / "mission.kmz", k)
+            write_all_atomic([(kmz, mission_formats.kmz(m, craft))])
+            files["mission.kmz"] = kmz
+            formats["dji_kmz"] = {"file": kmz.name, "aircraft": craft.key,
+                                  "heights": "relativeToStartPoint"}
+        except InputError as e:
+            formats["dji_kmz"] = {"file": None, "refused": str(e)}
+        try:
+            parts = mission_formats.litchi_parts(m)
+            csv_path = mission_files.flight_path(folder / "mission.csv", k)
+            paths = [litchi.part_path(csv_path, j + 1, len(parts)) for j in range(len(parts))]
+            write_all_atomic(list(zip(paths, parts, strict=True)))
+            files.update({p.name: p for p in paths})
+            formats["litchi_csv"] = {"files": [p.name for p in paths]}
+        except InputError as e:
+            formats["litchi_csv"] = {"files": [], "refused": str(e)}
+        png = mission_files.flight_path(png_folder / "mission.png", k)
+        figures.mission_map(m.nav_enu, m.footprints, m.sites, png)
+        written += [*files.values(), png]
+        summaries.append({**m.summary(), "flight": k or 1, "file": files["mission.plan"].name,
+                          "formats": formats})
+    summary = dict(summaries[0]) if len(summaries) == 1 else {
+        "schema": "mound.mission", "version": 1, "origin": summaries[0]["origin"],
+        "items": sum(x["items"] for x in summaries),
+        "flight_distance_m": sum(x["flight_distance_m"] for x in summaries),
+        "budget_m": summaries[0]["budget_m"], "terrain": summaries[0]["terrain"]}
+    summary["flights"] = summaries
+    return written, summary
+
+
+def stage_mission(ctx: Context) -> str:
+    from mound.geometry.geodesy import Origin
+    from mound.survey import figures
+    from mound.uav import mission, mission_items
+    from mound.uav.upload import upload_mission
+
+    a = ctx.args
+    t = ctx.tree
+
+    def work() -> tuple[list[str], str, bool]:
+        plan = read_json(t.plan, "mound.plan", 1)
+        if not plan.get("n_visited"):
+            return [], "nothing to fly: no site fits the budget", True
+        origin = Origin.from_doc(plan["origin"], f"{t.plan}: origin")
+        # The plan's scan, read once for every flight (build's own rule: else the default).
+        scan = mission_items.plan_scan(plan, str(t.plan))
+        spec = mission_items.MissionSpec(scan=scan) if scan else mission_items.MissionSpec()
+        terrain = mission_terrain(a)
+        flights = mission_items.flight_plans(plan)
+        several = len(flights) > 1
+        missions = [(f["flight"] if several else None,
+                     mission.build(f, origin, spec, terrain)) for f in flights]
+        t.report_dir.mkdir(parents=True, exist_ok=True)
+        written, summary = write_missions(missions, t.root, t.report_dir, a.firmware,
+                                          a.aircraft)
+        made = [str(p.relative_to(t.root)) for p in written]
+        notes = []
+        for k, m in missions:
+            tag = "" if k is None else f"_{k}"
+            note = (f"{'' if k is None else f'flight {k}: '}{len(m.items)} MAVLink items, "
+                    f"{len(m.sites)} sites, flight {m.flight_distance_m:.0f} m of "
+                    f"{m.budget_m:.0f} m")
+            if m.terrain is not None:
+                figures.leg_profiles(m.terrain, t.report_dir / f"legs{tag}.png")
+                made.append(f"report/legs{tag}.png")
+                note += (f", over the DEM: energy {m.terrain['energy_m']:.0f} m, lowest "
+                         f"transit clearance {m.terrain['lowest_clearance_m']:.1f} m")
+            notes.append(note)
+        for f in summary["flights"]:
+            for fmt in f["formats"].values():
+                if "refused" in fmt:
+                    notes.append(f"flight {f['flight']}: {fmt['refused']} (not written)")
+        note = "; ".join(notes)
+        if missions[0][1].terrain is None:
+            note += "; terrain not checked (no --dem)"
+        if a.connect:
+            first = t.flight_file("mission.plan", missions[0][0])
+            r = upload_mission(first, a.connect, verify=True, firmware=a.firmware)
+            summary["upload"] = {"connect": a.connect, "file": first.name, **r}
+            note += (f"; {first.name} uploaded to system {r['target_system']} and read back "
+                     f"({r['elapsed_s']:.2f} s)")
+        else:
+            note += "; not uploaded (no --connect)"
+        write_json(t.mission_summary, summary)
+        return ([*made, "mission.json"], note, True)
+
+    return run_stage(ctx, "mission", {"plan": ctx.keys["plan"], "connect": a.connect,
+                                      "firmware": a.firmware, "aircraft": a.aircraft,
+                                      "terrain": ctx.terrain}, work)
