@@ -104,11 +104,29 @@ def _file(text: str | bytes, name: str) -> Path:
     return path
 
 
-def value_or_input_error(fn: Any, *args: Any) -> None:
+def value_or_input_error(fn: Any, *args: Any, check: Any = None) -> None:
+    """A clear error (InputError, one line) or a correct result: `check` (when given) is
+    asserted on the value read."""
     try:
-        fn(*args)
+        value = fn(*args)
     except InputError as e:
         assert str(e) and "\n" not in str(e), repr(str(e))
+        return
+    if check is not None:
+        check(value)
+
+
+def _valid_sites(doc: dict[str, Any]) -> None:
+    """What the survey may rely on in a sites document the reader accepted."""
+    assert math.isfinite(doc["budget_m"]) and doc["budget_m"] > 0
+    ids = [s["id"] for s in doc["sites"]]
+    assert doc["sites"] and len(set(ids)) == len(ids) and doc["home"]["id"] not in ids
+    for s in doc["sites"]:
+        assert isinstance(s["id"], str) and s["id"].strip()
+        assert math.isfinite(s["x_m"]) and math.isfinite(s["y_m"])
+        assert math.isfinite(s["reward"]) and s["reward"] >= 0
+        assert 0 <= s["p_mound"] <= 1 and s["scan_cost_m"] == SCAN.site_cost_m()
+    assert -90 <= doc["origin"]["lat"] <= 90 and -180 <= doc["origin"]["lon"] <= 180
 
 
 SITES = {"schema": "mound.sites", "version": 1, "origin": ORIGIN.to_doc(),
@@ -127,7 +145,8 @@ GEOJSON = {"type": "FeatureCollection", "budget_m": 9000, "features": [
 @given(st.one_of(mutated_json(SITES), mutated_json(GEOJSON)))
 def test_sites_reader(text: str) -> None:
     path = _file(text, "sites.json")
-    value_or_input_error(load_user_sites, path, SCAN, None, 14400.0, False)
+    value_or_input_error(load_user_sites, path, SCAN, None, 14400.0, False,
+                         check=_valid_sites)
 
 
 PLAN = {"schema": "mound.plan", "version": 1, "tour": ["home", "a", "b", "home"],
@@ -143,7 +162,11 @@ def _mission_build(path: Path) -> None:
 
     plan = read_json(path, "mound.plan", 1)
     origin = Origin.from_doc(plan.get("origin"), f"{path}: origin")
-    mission.build(plan, origin, mission_items.MissionSpec(scan=SCAN))
+    m = mission.build(plan, origin, mission_items.MissionSpec(scan=SCAN))
+    # a mission built is one that can be flown: within its budget, every item a place
+    assert m.flight_distance_m <= m.budget_m * (1 + m.spec.budget_slack) + 1e-6
+    for item in m.items:
+        assert abs(item.x) <= 90e7 and abs(item.y) <= 180e7 and item.z == item.z
 
 
 @FUZZ
@@ -213,7 +236,8 @@ def test_readers_on_random_bytes(data: bytes) -> None:
     for name in ("sites.json", "m.plan", "m.waypoints"):
         path = _file(data, name)
         if name == "sites.json":
-            value_or_input_error(load_user_sites, path, SCAN, None, 14400.0, False)
+            value_or_input_error(load_user_sites, path, SCAN, None, 14400.0, False,
+                         check=_valid_sites)
         else:
             value_or_input_error(mission_files.read_mission, path)
 
@@ -438,7 +462,7 @@ def _photo_card_sites(path: Path) -> None:
 def test_photo_card_sites_reader(text: str) -> None:
     """What `mound photos sort --sites/--plan` reads to sort a card: the sites and the
     scan's reach, finite, or an InputError."""
-    value_or_input_error(_photo_card_sites, _file(text, "sites.json"))
+    value_or_input_error(_photo_card_sites, _file(text, "sites.json"))  # it asserts
 
 
 GEO_NUMBERS = (st.floats(-1e7, 1e7) | st.floats() | st.sampled_from(

@@ -245,3 +245,29 @@ def test_corrupt_heightfield_npy_is_rejected(pair: dict[str, Path], tmp_path: Pa
     proc = subprocess.run([str(mound_render), str(job), "--out", str(tmp_path / "o")],
                           capture_output=True, text=True)
     assert proc.returncode == 2 and "hf.npy" in proc.stderr and "bytes" in proc.stderr
+
+
+@pytest.mark.parametrize("bad", [0.0, -0.1, float("nan"), float("inf")])
+def test_range_checks_refuse_nan_as_well_as_out_of_range(bad: float) -> None:
+    """Issue 57: a check written `x <= 0` lets NaN through; these are written so that it
+    fails (`not x > 0`): the texture's texel, the camera's image size, the mission's budget
+    slack and the simulator's texel each refuse 0, a negative, NaN and inf with an
+    InputError naming the value."""
+    from mound.sim.appearance import Lighting, shaded_texture
+    from mound.sim.site import SimSpec
+    from mound.sim.terrain import Heightfield, preset
+    from mound.uav.mission_items import MissionSpec
+
+    axis = np.linspace(0.0, 4.0, 5)
+    hf = Heightfield(axis, axis.copy(), np.zeros((5, 5)))
+    with pytest.raises(InputError, match="texel_m"):
+        shaded_texture(hf, Lighting(0.5, 0.7), bad)
+    if bad != float("inf"):  # an infinite image is refused by the next check (the fov)
+        with pytest.raises(InputError, match="image size"):
+            Camera.from_fov(bad, 480, 1.0)  # type: ignore[arg-type]
+    if not bad == 0.0:  # no slack is a valid slack
+        with pytest.raises(InputError, match="budget_slack"):
+            MissionSpec(budget_slack=bad).validate()
+    if bad != float("inf"):
+        with pytest.raises(InputError, match="texel_m"):
+            SimSpec(terrain=preset("bin_tepe"), texel_m=bad).validate()

@@ -27,7 +27,7 @@ class Camera:
 
     @classmethod
     def from_fov(cls, width_px: int, height_px: int, hfov_rad: float) -> Camera:
-        if width_px <= 0 or height_px <= 0:
+        if not (width_px > 0 and height_px > 0):
             raise InputError("camera: image size must be positive")
         if not 0 < hfov_rad < np.pi:
             raise InputError("camera: horizontal field of view must be in (0, pi) rad")

@@ -53,8 +53,6 @@ def field_costs(args: argparse.Namespace) -> tuple[ScanSpec | None, float | None
 def cmd_field_make(args: argparse.Namespace) -> int:
     test = statlog.load("sat.tst")
     model = load_model(args.model)
-    if args.spacing <= 0:
-        raise UsageError("--spacing must be > 0")
     scan, scan_cost, budget = field_costs(args)
     doc = sites_document(make_field(test, args.seed), test, model, scan_cost, budget,
                          spacing_m=args.spacing, scan=scan)

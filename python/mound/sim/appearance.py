@@ -174,8 +174,9 @@ def shaded_texture(hf: Heightfield, lighting: Lighting, texel_m: float, seed: in
     spacing must be an integer multiple of `texel_m`; normals are interpolated bilinearly
     between vertices (smooth shading), the albedo has detail down to the texel."""
     spacing = hf.x_m[1] - hf.x_m[0]
-    factor = spacing / texel_m
-    if texel_m <= 0 or abs(factor - round(factor)) > 1e-6 or round(factor) < 1:
+    factor = spacing / texel_m if texel_m > 0 else math.nan  # NaN, 0 and below: refused
+    if not (math.isfinite(factor) and abs(factor - round(factor)) <= 1e-6
+            and round(factor) >= 1):
         raise InputError(f"texture: texel_m {texel_m} must divide the grid spacing {spacing}")
     f = int(round(factor))
     shape = ((len(hf.y_m) - 1) * f + 1, (len(hf.x_m) - 1) * f + 1)

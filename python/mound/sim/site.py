@@ -93,7 +93,7 @@ class SimSpec(FlightLayout):
                 raise InputError(f"sim: {name} must be >= 0")
         if not 0 <= self.vignetting < 1:
             raise InputError("sim: vignetting must be in [0, 1)")
-        if self.texel_m is not None and self.texel_m <= 0:
+        if self.texel_m is not None and not self.texel_m > 0:
             raise InputError("sim: texel_m must be > 0")
         if self.scan_diameter_m is not None and not 0 < self.scan_diameter_m < 1e4:
             raise InputError("sim: scan_diameter_m must be > 0")

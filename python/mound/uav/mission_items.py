@@ -164,8 +164,8 @@ class MissionSpec:
         for name in ("cruise_speed_m_s", "scan_speed_m_s"):
             if not getattr(self, name) > 0:
                 raise InputError(f"mission: {name} must be > 0")
-        if self.budget_slack < 0:
-            raise InputError("mission: budget_slack must be >= 0")
+        if not 0 <= self.budget_slack <= 1:  # a fraction of the budget (NaN refused)
+            raise InputError("mission: budget_slack must be in [0, 1]")
 
 
 def image_footprint(camera: Camera, pose: Pose, max_range_m: float) -> np.ndarray:
