@@ -127,13 +127,18 @@ SCAN_NUMBERS = {
     "target_height_m": Bound(-1_000, 1_000, "m"), "transit_altitude_m": HEIGHT_M}
 
 
+# The site diameter a scan is scaled to unless told otherwise (the survey's, the grid's,
+# the mission's and the photo card's default), m
+DEFAULT_SITE_DIAMETER_M = 60.0
+
+
 @dataclass(frozen=True)
 class ScanSpec(FlightLayout):
     """How one site is scanned: the layout scaled to `scale_m` (the site diameter D), the
     orbit looking at `target_height_m` above the site centre; `transit_altitude_m` is the
     height the aircraft flies between sites (None: the highest scan waypoint)."""
 
-    scale_m: float = 60.0
+    scale_m: float = DEFAULT_SITE_DIAMETER_M
     target_height_m: float = 0.0
     transit_altitude_m: float | None = None
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from mound.geometry.flight import DEFAULT_SITE_DIAMETER_M
 from mound.photos.sort import SORT_NUMBERS
 
 
@@ -30,9 +31,11 @@ def add_parser(sub: Any, parser_class: type) -> None:
     s.add_argument("card", help="the card's folder (DCIM tree or a copy); never changed")
     src = s.add_mutually_exclusive_group(required=True)
     src.add_argument("--plan", help="plan.json of the flights (their sites and scan)")
-    src.add_argument("--sites", help="a mound.sites document")
+    src.add_argument("--sites", help="the sites: a mound.sites document or a GeoJSON "
+                     "(what mound scene score --home writes; python/mission.py --sites)")
     s.add_argument("--out", required=True, help="folder: photos.json and <site id>/")
-    s.add_argument("--site-diameter", type=SORT_NUMBERS["site_diameter_m"][1].arg(), default=60.0,
+    s.add_argument("--site-diameter", type=SORT_NUMBERS["site_diameter_m"][1].arg(),
+                   default=DEFAULT_SITE_DIAMETER_M,
                    help="the scan's scale where the plan has no scan, m (default 60)")
     s.add_argument("--margin-m", type=SORT_NUMBERS["margin_m"][1].arg(), default=10.0,
                    help="GPS error allowed around a scan area, m (default 10)")

@@ -49,7 +49,7 @@ from mound import native
 from mound.bounds import SITE_DIAMETER_M, Bound
 from mound.errors import InputError
 from mound.formats.sites import load_user_sites
-from mound.geometry.flight import ScanSpec
+from mound.geometry.flight import DEFAULT_SITE_DIAMETER_M, ScanSpec
 from mound.geometry.geodesy import Origin, geodetic_to_enu
 from mound.jsonio import (
     parse_json,
@@ -77,7 +77,7 @@ SORT_NUMBERS = {
 
 @dataclass(frozen=True)
 class SortSpec:
-    site_diameter_m: float = 60.0   # the scan's scale where no plan says it
+    site_diameter_m: float = DEFAULT_SITE_DIAMETER_M  # the scan's scale where no plan says it
     margin_m: float = 10.0          # GPS error allowed around a scan area
     transit_margin_m: float = 200.0
     max_gap_h: float = 6.0

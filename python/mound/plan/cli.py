@@ -24,7 +24,7 @@ from mound.bounds import (
 from mound.classify import statlog
 from mound.classify.coarse import load_model
 from mound.errors import InputError
-from mound.geometry.flight import ScanSpec
+from mound.geometry.flight import DEFAULT_SITE_DIAMETER_M, ScanSpec
 from mound.geometry.geodesy import Origin
 from mound.jsonio import write_json
 from mound.plan.field import STANDARD_SEEDS, make_field, sites_document
@@ -43,8 +43,8 @@ def field_costs(args: argparse.Namespace) -> tuple[ScanSpec | None, float | None
     if args.scan_cost is not None:
         raise UsageError("--scan-cost: the scan cost comes from --scan-pattern; give one")
     scan = mission_items.scan_for_site(
-        60.0 if args.site_diameter is None else args.site_diameter, args.scan_pattern,
-        args.altitude)
+        DEFAULT_SITE_DIAMETER_M if args.site_diameter is None else args.site_diameter,
+        args.scan_pattern, args.altitude)
     scan.validate()
     budget = mission_items.flight_budget_m() if args.budget is None else args.budget
     return scan, None, budget

@@ -31,6 +31,7 @@ import numpy as np
 
 from mound.errors import InputError
 from mound.geometry.camera import Camera
+from mound.geometry.flight import DEFAULT_SITE_DIAMETER_M
 from mound.geometry.geodesy import Origin, enu_to_geodetic
 from mound.jsonio import read_json, write_json
 
@@ -185,7 +186,7 @@ class CardSpec:
     sim_seed: int = 1
     image_size: tuple[int, int] = (640, 480)
     pattern: str = "raster"
-    site_diameter_m: float = 60.0
+    site_diameter_m: float = DEFAULT_SITE_DIAMETER_M
     quality: int = 95
     threads: int | None = None
     # a second look's card (the survey's second_look/plan.json): each site flown with a

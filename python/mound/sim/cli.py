@@ -19,6 +19,7 @@ from mound.bounds import (
     Bound,
 )
 from mound.errors import InputError
+from mound.geometry.flight import DEFAULT_SITE_DIAMETER_M
 from mound.jsonio import write_json
 
 # The simulator's sizes of pits, trenches and confusers, and their azimuths (m or degrees).
@@ -212,7 +213,8 @@ def add_parser(sub: Any, parser_class: Any) -> Any:
     sfl.add_argument("--image-size", type=IMAGE_PX.arg(), nargs=2, default=(640, 480),
                      metavar=("W", "H"))
     sfl.add_argument("--scan-pattern", choices=("raster", "orbit", "both"), default="raster")
-    sfl.add_argument("--site-diameter", type=SITE_DIAMETER_M.arg(), default=60.0,
+    sfl.add_argument("--site-diameter", type=SITE_DIAMETER_M.arg(),
+                     default=DEFAULT_SITE_DIAMETER_M,
                      help="as the survey's --site-diameter, m")
     sfl.add_argument("--threads", type=THREADS.arg(), help="render threads (default: all cores)")
     sfl.add_argument("--scan-factor", type=Bound(1, 100).arg(), default=1.0,

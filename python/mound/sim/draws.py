@@ -43,13 +43,14 @@ from typing import Any
 
 import numpy as np
 
+from mound.geometry.flight import DEFAULT_SITE_DIAMETER_M
 from mound.sim import site as sim
 from mound.sim import terrain
 from mound.sim.appearance import Lighting
 from mound.sim.dem_places import DemPlaces
 from mound.sim.population import Population
 
-SCAN_M = 60.0  # the survey's scan (a raster of 60 m at 60 m)
+SCAN_M = DEFAULT_SITE_DIAMETER_M  # the survey's scan (a raster of 60 m at 60 m)
 # a measured population's tumuli (population.py): earthen profiles, no Lydian drum
 POPULATION_PROFILES = ("spherical_cap", "conical", "ploughed")
 LOG = logging.getLogger(__name__)

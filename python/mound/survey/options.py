@@ -27,6 +27,7 @@ from mound.bounds import (
     Bound,
 )
 from mound.errors import InputError
+from mound.geometry.flight import DEFAULT_SITE_DIAMETER_M
 from mound.uav.terrain import TerrainSpec, spec_from_args
 
 ScanPattern = Literal["raster", "orbit", "both"]
@@ -68,7 +69,7 @@ class SurveyOptions:
     min_separation_m: float = 30.0
     # flight
     scan_pattern: ScanPattern = "raster"
-    site_diameter: float = 60.0         # m
+    site_diameter: float = DEFAULT_SITE_DIAMETER_M         # m
     algo: Algo = "alns"
     plan_seed: int = 1
     flights: int = 1

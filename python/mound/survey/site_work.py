@@ -26,6 +26,7 @@ from typing import Any
 
 from mound import native
 from mound.errors import InputError, NoResultError, ToolError, ToolNoResultError, ToolTimeout
+from mound.geometry.flight import DEFAULT_SITE_DIAMETER_M
 from mound.jsonio import read_json, write_json
 from mound.photos.sort import MIN_PHOTOS
 from mound.survey.tree import SiteTree
@@ -53,7 +54,7 @@ class SiteJob:
     second_images_dir: str | None = None  # with photos: the second look's (--second-photos)
     image_size: tuple[int, int] = (640, 480)
     pattern: str = "raster"
-    site_diameter_m: float = 60.0
+    site_diameter_m: float = DEFAULT_SITE_DIAMETER_M
     sim_seed: int = 1
     recon_args: tuple[str, ...] = ()
     dense_args: tuple[str, ...] = ()  # mound_recon densify options; empty: no dense cloud

@@ -8,6 +8,7 @@ from typing import Any
 
 from mound.bounds import FLIGHTS, HEIGHT_M, SITE_DIAMETER_M, SPEED_M_S, Bound
 from mound.errors import InputError
+from mound.geometry.flight import DEFAULT_SITE_DIAMETER_M
 from mound.geometry.geodesy import Origin
 from mound.jsonio import read_json, write_all_atomic
 from mound.uav import upload
@@ -30,7 +31,7 @@ def cmd_build(args: argparse.Namespace) -> int:
         # No scan in the plan, or options that override it: the flight check below then
         # tells whether the plan's scan costs still cover it.
         scan = mission_items.scan_for_site(
-            args.site_diameter if args.site_diameter is not None else 60.0,
+            args.site_diameter if args.site_diameter is not None else DEFAULT_SITE_DIAMETER_M,
             args.pattern or "raster", args.altitude, args.transit_altitude)
     spec = mission_items.MissionSpec(scan=scan, cruise_speed_m_s=args.cruise_speed,
                                      scan_speed_m_s=args.scan_speed)

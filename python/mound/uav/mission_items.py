@@ -53,7 +53,7 @@ import numpy as np
 from mound.bounds import SITE_DIAMETER_M
 from mound.errors import InputError
 from mound.geometry.camera import Camera, Pose
-from mound.geometry.flight import PATTERNS, ScanSpec
+from mound.geometry.flight import DEFAULT_SITE_DIAMETER_M, PATTERNS, ScanSpec
 from mound.geometry.geodesy import Origin, enu_to_geodetic
 from mound.jsonio import require_id, require_number
 
@@ -121,7 +121,7 @@ def home_item(origin: Origin) -> MissionItem:
                        round(origin.lon_deg * 1e7), origin.alt_m)
 
 
-def scan_for_site(diameter_m: float = 60.0, pattern: str = "raster",
+def scan_for_site(diameter_m: float = DEFAULT_SITE_DIAMETER_M, pattern: str = "raster",
                   raster_altitude_m: float | None = None,
                   transit_altitude_m: float | None = None) -> ScanSpec:
     """The scan of a site of `diameter_m` as the simulator lays it out for a mound of that
