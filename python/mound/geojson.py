@@ -1,7 +1,8 @@
 """The pieces of GeoJSON (RFC 7946) that every reader of it shares: a WGS84 [lon, lat]
 position and a Point Feature, each refused with an InputError naming where it failed.
 The scene's labels and AOIs (mound.scene.vector) and the survey's sites
-(mound.formats.sites) read their Point features through here."""
+(mound.formats.sites) read their Point features through here; the scene's candidates and
+the survey's home are written by point_feature_doc."""
 
 from __future__ import annotations
 
@@ -39,3 +40,12 @@ def point_feature(f: Any, where: str, why: str = "") -> tuple[float, float, dict
     if not isinstance(props, dict):
         raise InputError(f"{where}.properties: expected an object")
     return lon, lat, props
+
+
+def point_feature_doc(lat_lon: tuple[float, float], properties: dict[str, Any],
+                      fid: str | None = None) -> dict[str, Any]:
+    """A Point Feature at (lat, lon), WGS84 ([lon, lat] as RFC 7946 orders it), with the
+    feature id `fid` where given: what point_feature reads back."""
+    return {"type": "Feature", **({"id": fid} if fid is not None else {}),
+            "geometry": {"type": "Point", "coordinates": [lat_lon[1], lat_lon[0]]},
+            "properties": properties}

@@ -237,7 +237,12 @@ def short_repr(v: Any) -> str:
 
 def read_json(path: str | Path, schema: str, max_version: int) -> dict[str, Any]:
     """Reads a `schema` document of version 1..max_version; InputError on any defect."""
-    doc = parse_json(read_text(path), path)
+    return check_doc(parse_json(read_text(path), path), path, schema, max_version)
+
+
+def check_doc(doc: Any, path: str | Path, schema: str, max_version: int) -> dict[str, Any]:
+    """`doc` (parsed from `path`) if it is a `schema` document of version 1..max_version;
+    InputError otherwise."""
     if not isinstance(doc, dict):
         raise InputError(f"{path}: top level must be an object")
     if doc.get("schema") != schema:

@@ -49,3 +49,12 @@ def test_check_names_the_option(options: dict[str, object], flag: str,
                                 tmp_path: Path) -> None:
     with pytest.raises(UsageError, match=flag):
         SurveyOptions(out=str(tmp_path), **options).check()  # type: ignore[arg-type]
+
+
+def test_the_stage_table_runs_the_stages_in_their_order() -> None:
+    """survey/stages' table, then the report, is context.STAGES: the order the ledger's
+    --rerun-from and the stage keys rely on."""
+    from mound.survey.context import STAGES
+    from mound.survey.stages import TABLE
+
+    assert [name for name, _ in TABLE] + ["report"] == list(STAGES)

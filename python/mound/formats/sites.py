@@ -158,7 +158,14 @@ def load_user_sites(path: str | Path, scan: ScanSpec, budget_m: float | None,
     `need_p_mound`: every site its p_mound (a survey's unvisited sites keep the
     classifier's label; sorting photos needs only where the sites are)."""
     path = Path(path)
-    doc = parse_json(read_text(path), path)
+    return user_sites(parse_json(read_text(path), path), path, scan, budget_m,
+                      default_budget_m, need_truth, need_p_mound)
+
+
+def user_sites(doc: Any, path: Path, scan: ScanSpec, budget_m: float | None,
+               default_budget_m: float, need_truth: bool,
+               need_p_mound: bool = True) -> dict[str, Any]:
+    """load_user_sites of a document already parsed from `path`."""
     if not isinstance(doc, dict):
         raise InputError(f"{path}: expected a JSON object (mound.sites or GeoJSON)")
     if doc.get("schema") == "mound.sites":

@@ -48,10 +48,11 @@ import numpy as np
 from mound import native
 from mound.bounds import SITE_DIAMETER_M, Bound
 from mound.errors import InputError
-from mound.formats.sites import load_user_sites
+from mound.formats.sites import user_sites
 from mound.geometry.flight import DEFAULT_SITE_DIAMETER_M, ScanSpec
 from mound.geometry.geodesy import Origin, geodetic_to_enu
 from mound.jsonio import (
+    check_doc,
     parse_json,
     read_json,
     read_text,
@@ -105,19 +106,17 @@ def sites_of(path: str, spec: SortSpec) -> Sites:
     sites of a `--sites` file as every command reads it (mound.formats.sites: a mound.sites
     document, or a WGS84 GeoJSON such as `mound scene score` writes); the scan's reach from
     the document's `scan`, else from `site_diameter_m`."""
-    doc = parse_json(read_text(path), path)
+    doc = parse_json(read_text(path), path)  # read once, whatever it holds
     if isinstance(doc, dict) and doc.get("schema") == "mound.plan":
-        return _plan_sites(path, spec)
+        return _plan_sites(check_doc(doc, path, "mound.plan", 1), path, spec)
     if not isinstance(doc, dict) or (doc.get("schema") != "mound.sites"
                                      and doc.get("type") != "FeatureCollection"):
         raise InputError(f"{path}: expected a mound.plan, a mound.sites document or a GeoJSON "
                          "FeatureCollection of sites")
-    scan = (ScanSpec.from_doc(doc["scan"], f"{path}: scan")
-            if isinstance(doc, dict) and isinstance(doc.get("scan"), dict)
-            else ScanSpec(pattern="raster", scale_m=spec.site_diameter_m))
+    scan = _scan_of(doc, path, spec)
     # (the budget plays no part in sorting photos: any positive default)
-    sites = load_user_sites(path, scan, None, default_budget_m=1.0, need_truth=False,
-                            need_p_mound=False)
+    sites = user_sites(doc, Path(path), scan, None, default_budget_m=1.0, need_truth=False,
+                       need_p_mound=False)
     origin = Origin.from_doc(sites["origin"], f"{path}: origin")
     rows = sites["sites"]
     return Sites(origin, [r["id"] for r in rows],
@@ -126,11 +125,16 @@ def sites_of(path: str, spec: SortSpec) -> Sites:
                  scan.reach_m())
 
 
-def _plan_sites(path: str, spec: SortSpec) -> Sites:
+def _scan_of(doc: dict[str, Any], path: str, spec: SortSpec) -> ScanSpec:
+    """The document's scan, else a raster scan of `spec.site_diameter_m`."""
+    return (ScanSpec.from_doc(doc["scan"], f"{path}: scan") if isinstance(doc.get("scan"), dict)
+            else ScanSpec(pattern="raster", scale_m=spec.site_diameter_m))
+
+
+def _plan_sites(doc: dict[str, Any], path: str, spec: SortSpec) -> Sites:
     """A mound.plan's visited sites (every flight)."""
     from mound.uav.mission_items import visited_ids
 
-    doc = read_json(path, "mound.plan", 1)
     if not isinstance(doc.get("origin"), dict):
         raise InputError(f"{path}: origin: missing (the sites' WGS84 frame)")
     origin = Origin.from_doc(doc["origin"], f"{path}: origin")
@@ -143,8 +147,7 @@ def _plan_sites(path: str, spec: SortSpec) -> Sites:
     home = next((w for w in waypoints if w.get("kind") == "home"), None)
     if not nodes:
         raise InputError(f"{path}: no sites")
-    scan = (ScanSpec.from_doc(doc["scan"], f"{path}: scan") if isinstance(doc.get("scan"), dict)
-            else ScanSpec(pattern="raster", scale_m=spec.site_diameter_m))
+    scan = _scan_of(doc, path, spec)
     ids = [require_id(n.get("id"), f"{where}.id") for where, n in nodes]
     xy = np.array([[require_number(n, k, where, lo=-MAX_ENU_M, hi=MAX_ENU_M)
                     for k in ("x_m", "y_m")] for where, n in nodes])

@@ -241,7 +241,7 @@ Empty = list[tuple[Path, terrain.TerrainSpec, tuple[tuple[float, float], float]]
 
 def _read(folders: list[str]) -> tuple[list[dict[str, Any]], Empty]:
     """The grids' measured goal tumuli and their sites without a tumulus."""
-    from mound.recon import verdict_data as vm
+    from mound.recon import verdict_data as vd
 
     tumuli: list[dict[str, Any]] = []
     empty: Empty = []
@@ -250,17 +250,17 @@ def _read(folders: list[str]) -> tuple[list[dict[str, Any]], Empty]:
         gpath = root / "grid.json"
         if not gpath.is_file():
             raise InputError(f"{root}: no grid.json (make one with `mound sim grid`)")
-        for row in vm.load_grid(root):
+        for row in vd.load_grid(root):
             disc = _site_disc(row) if row["measured"] else None
             if disc is None:
                 continue
             name, site = row["dir"], root / row["dir"]
-            spec = vm.site_terrain(row, f"{gpath}: {name}")
+            spec = vd.site_terrain(row, f"{gpath}: {name}")
             truth = row["truth"]
-            if vm.goal_tumulus(truth):
+            if vd.goal_tumulus(truth):
                 tumuli.append({"grid": str(root), "dir": name, "site": site, "spec": spec,
                                "disc": disc, "ground": _ground(spec),
-                               "clear": vm.stands_clear(row), "truth": truth})
+                               "clear": vd.stands_clear(row), "truth": truth})
             elif not truth["mound"]:
                 empty.append((site, spec, disc))
     return tumuli, empty

@@ -28,6 +28,7 @@ from scipy import ndimage
 
 from mound.classify.reward import binary_entropy_bits
 from mound.errors import InputError
+from mound.geojson import point_feature_doc
 from mound.scene import kernel
 from mound.scene.features import FeatureSpec
 from mound.scene.model import SceneModel
@@ -363,14 +364,6 @@ def _candidate_features(kept: list[tuple[float, int, int]], grid: OutGrid, scene
     return out
 
 
-def point_feature_doc(fid: str, lat_lon: tuple[float, float],
-                      properties: dict[str, Any]) -> dict[str, Any]:
-    """A GeoJSON Point Feature at (lat, lon), WGS84 ([lon, lat] as RFC 7946 orders it)."""
-    return {"type": "Feature", "id": fid,
-            "geometry": {"type": "Point", "coordinates": [lat_lon[1], lat_lon[0]]},
-            "properties": properties}
-
-
 def _timings(wall: float, block_s: list[float], px: int) -> dict[str, Any]:
     return {"wall_s": wall, "blocks": len(block_s),
             "block_s_median": float(np.median(block_s)) if block_s else 0.0,
@@ -478,7 +471,7 @@ def score_to_dir(scene: SceneInfo, model: SceneModel, out_dir: Any, *, model_pat
         logits = {(int(allp[1][k]), int(allp[2][k])): float(allp[3][k]) for k in idx}
         feats = _candidate_features(kept, grid, scene, logits)
         if home is not None:  # the take-off point: the file is then a survey's --sites
-            feats.insert(0, point_feature_doc("home", home, {"kind": "home", "id": "home"}))
+            feats.insert(0, point_feature_doc(home, {"kind": "home", "id": "home"}, "home"))
         wall = time.perf_counter() - start
         px = scene.width * scene.height
         doc = {"schema": "mound.scene", "version": 1, "status": "ok",

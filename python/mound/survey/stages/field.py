@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 
 from mound.errors import InputError
+from mound.geojson import point_feature_doc
 from mound.jsonio import read_json, write_json
 from mound.survey.context import Context, digest_files, run_stage, scan_spec
 
@@ -90,8 +91,7 @@ def scene_sites(ctx: Context, scan: Any) -> dict[str, Any]:
     feats = kept[:a.candidates]
     assert home is not None
     gj = {"type": "FeatureCollection", "features": [
-        {"type": "Feature", "geometry": {"type": "Point", "coordinates": [home[1], home[0]]},
-         "properties": {"kind": "home"}}, *feats]}
+        point_feature_doc(home, {"kind": "home"}), *feats]}
     path = ctx.tree.root / "scene" / "candidates.geojson"
     write_json(path, gj)
     doc = load_user_sites(path, scan, a.budget, flight_budget_m(), need_truth=False)
