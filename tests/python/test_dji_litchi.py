@@ -26,6 +26,7 @@ from test_terrain_flight import TO_TM, clearance_along, sites_doc
 
 from mound import native
 from mound.errors import InputError
+from mound.formats.sites import Sites
 from mound.geometry.dem import use_proj_grids
 from mound.geometry.geodesy import Origin
 from mound.paths import REPO_ROOT
@@ -52,7 +53,8 @@ def three(raw, dem_path, tmp_path_factory) -> dict[str, Any]:
     origin = Origin.from_doc(doc["origin"])
     spec = terrain.TerrainSpec()
     sites = tmp / "sites.json"
-    sites.write_text(json.dumps(terrain.attach(doc, str(dem_path), spec, "egm96", origin)))
+    sites.write_text(json.dumps(terrain.attach(Sites.from_doc(doc, "test"), str(dem_path), spec,
+                                              "egm96", origin).to_doc()))
     plan_file = tmp / "plan.json"
     native.run_tool("mound_plan", [str(sites), "--flights", "3", "--out", str(plan_file)])
     plan = json.loads(plan_file.read_text())

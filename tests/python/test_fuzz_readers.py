@@ -26,8 +26,12 @@ from hypothesis import strategies as st
 
 from mound.classify import statlog
 from mound.errors import InputError
-from mound.formats.sites import load_user_sites
+from mound.formats.plan import Plan
+from mound.formats.site_row import SiteRow
+from mound.formats.sites import Sites, load_user_sites
+from mound.formats.verdict import Verdict
 from mound.geometry.geodesy import Origin
+from mound.jsonio import json_text
 from mound.uav import files as mission_files
 from mound.uav import mission, mission_items
 
@@ -116,17 +120,21 @@ def value_or_input_error(fn: Any, *args: Any, check: Any = None) -> None:
         check(value)
 
 
-def _valid_sites(doc: dict[str, Any]) -> None:
-    """What the survey may rely on in a sites document the reader accepted."""
-    assert math.isfinite(doc["budget_m"]) and doc["budget_m"] > 0
-    ids = [s["id"] for s in doc["sites"]]
-    assert doc["sites"] and len(set(ids)) == len(ids) and doc["home"]["id"] not in ids
-    for s in doc["sites"]:
-        assert isinstance(s["id"], str) and s["id"].strip()
-        assert math.isfinite(s["x_m"]) and math.isfinite(s["y_m"])
-        assert math.isfinite(s["reward"]) and s["reward"] >= 0
-        assert 0 <= s["p_mound"] <= 1 and s["scan_cost_m"] == SCAN.site_cost_m()
-    assert -90 <= doc["origin"]["lat"] <= 90 and -180 <= doc["origin"]["lon"] <= 180
+def _valid_sites(sites: Sites) -> None:
+    """What the survey may rely on in the sites the reader accepted."""
+    assert math.isfinite(sites.budget_m) and sites.budget_m > 0
+    ids = [s.id for s in sites.sites]
+    assert sites.sites and len(set(ids)) == len(ids) and sites.home.id not in ids
+    for s in sites.sites:
+        assert isinstance(s.id, str) and s.id.strip()
+        assert math.isfinite(s.x_m) and math.isfinite(s.y_m)
+        assert math.isfinite(s.reward) and s.reward >= 0
+        assert s.p_mound is not None and 0 <= s.p_mound <= 1
+        assert s.scan_cost_m == SCAN.site_cost_m()
+    assert sites.origin is not None
+    assert -90 <= sites.origin.lat_deg <= 90 and -180 <= sites.origin.lon_deg <= 180
+    # what is written is read back as it was
+    assert Sites.from_doc(json.loads(json_text(sites.to_doc())), "again") == sites
 
 
 SITES = {"schema": "mound.sites", "version": 1, "origin": ORIGIN.to_doc(),
@@ -173,6 +181,75 @@ def _mission_build(path: Path) -> None:
 @given(mutated_json(PLAN))
 def test_plan_reader_and_mission_build(text: str) -> None:
     value_or_input_error(_mission_build, _file(text, "plan.json"))
+
+
+def _valid_plan(plan: Plan) -> None:
+    """What the survey may rely on in a plan the reader accepted, and that it is written
+    back as read."""
+    assert plan.flights and plan.budget_m >= 0 and math.isfinite(plan.budget_m)
+    for f in plan.flights:
+        assert len(f.tour) >= 2 and len(set(f.sites)) == len(f.sites)
+        assert (f.tour[0], f.tour[-1]) == (plan.home, plan.end)
+    assert Plan.from_doc(json.loads(json_text(plan.to_doc())), "again") == plan
+
+
+MADE_PLAN = {**PLAN, "status": "ok", "algo": "alns", "reward": 1.5, "cost_m": 2000.0,
+             "budget_left_m": 9.998e6,
+             "flights": [{"flight": 1, "tour": ["home", "a", "b", "home"], "reward": 1.5,
+                          "cost_m": 2000.0, "budget_left_m": 9.998e6}]}
+
+
+@FUZZ
+@given(st.one_of(mutated_json(PLAN), mutated_json(MADE_PLAN)))
+def test_typed_plan_reader(text: str) -> None:
+    value_or_input_error(Plan.read, _file(text, "plan.json"), check=_valid_plan)
+
+
+VERDICT = {"schema": "mound.verdict", "version": 1, "status": "ok", "label": "undecided",
+           "two_answer": {"label": "no_mound", "threshold": 0.78}, "confidence": 0.6,
+           "p_mound": 0.4, "method": "reference_free_model", "reason": "why",
+           "undecided": {"reasons": [{"code": "cut", "text": "t"}], "next": "second_look"},
+           "second_look": {"advised": True, "p_low": 0.2, "scan_factor": 2.0},
+           "measurements": {"rise": {"height_m": 1.2, "base_diameter_m": 20.0,
+                                     "centre_enu_m": [1.0, 2.0]}}}
+SITE_ROW = {"schema": "mound.survey_site", "version": 1, "id": "s1", "key": "k",
+            "first_key": "f", "status": "ok", "source": "simulated", "worker": "h:1",
+            "timings_s": {"total": 3.5}, "verdict": "mound", "answer": "mound",
+            "confidence": 0.9, "verdict_p_mound": 0.9, "method": "m", "reason": "r",
+            "rise": {"height_m": 2.0}, "verdict_cloud": "dense",
+            "files": {"images": "sites/s1/sim/images"}, "recon": {"points": 10},
+            "first_look": {"verdict": "no_mound", "answer": "undecided",
+                           "verdict_p_mound": 0.5, "reason": "first"},
+            "second_look": {"advised": True, "flown": True, "p_mound": 0.9}}
+
+
+def _valid_verdict(v: Verdict) -> None:
+    assert v.label in ("mound", "no_mound", "undecided")
+    assert v.two_answer in ("mound", "no_mound")
+    for p in (v.confidence, v.p_mound):
+        assert p is None or 0 <= p <= 1
+    if v.second_look is not None and v.second_look.advised:
+        assert v.second_look.scan_factor is not None and v.second_look.scan_factor >= 1
+
+
+def _valid_row(row: SiteRow) -> None:
+    assert row.status in ("ok", "failed") and row.id
+    if row.verdict is not None:
+        _valid_verdict(row.verdict)
+    assert all(t >= 0 and math.isfinite(t) for t in row.timings_s.values())
+    assert SiteRow.from_doc(json.loads(json_text(row.to_doc())), "again") == row
+
+
+@FUZZ
+@given(mutated_json(VERDICT))
+def test_typed_verdict_reader(text: str) -> None:
+    value_or_input_error(Verdict.read, _file(text, "verdict.json"), check=_valid_verdict)
+
+
+@FUZZ
+@given(mutated_json(SITE_ROW))
+def test_typed_site_row_reader(text: str) -> None:
+    value_or_input_error(SiteRow.read, _file(text, "site_result.json"), check=_valid_row)
 
 
 def _mission_texts() -> tuple[str, str]:
@@ -247,6 +324,10 @@ def test_the_fuzzed_seeds_are_valid() -> None:
     load_user_sites(_file(json.dumps(SITES), "sites.json"), SCAN, None, 14400.0, False)
     load_user_sites(_file(json.dumps(GEOJSON), "sites.json"), SCAN, None, 14400.0, True)
     _mission_build(_file(json.dumps(PLAN), "plan.json"))
+    _valid_plan(Plan.read(_file(json.dumps(PLAN), "plan.json")))
+    _valid_plan(Plan.read(_file(json.dumps(MADE_PLAN), "plan.json")))
+    _valid_verdict(Verdict.read(_file(json.dumps(VERDICT), "verdict.json")))
+    _valid_row(SiteRow.read(_file(json.dumps(SITE_ROW), "site_result.json")))
     assert len(mission_files.read_mission(_file(QGC_PLAN, "m.plan"))[0]) > 5
     assert len(mission_files.read_mission(_file(WPL, "m.waypoints"))[0]) > 5
     assert len(statlog.parse(STATLOG_ROWS, "sat.trn").cls) == 6

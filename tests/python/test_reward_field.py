@@ -55,7 +55,8 @@ def test_fields_have_size_positives_and_repeat_for_a_seed(tst: statlog.Split) ->
 def test_field_document_is_a_valid_plan_input(tst, model, tmp_path: Path) -> None:
     from mound import native
 
-    doc = sites_document(make_field(tst, 3), tst, model, scan_cost_m=1.0, budget_m=120.0)
+    doc = sites_document(make_field(tst, 3), tst, model, scan_cost_m=1.0,
+                         budget_m=120.0).to_doc()
     xs = sorted({s["x_m"] for s in doc["sites"]})
     assert xs == [float(v) for v in range(1, 11)]
     rewards = np.array([s["reward"] for s in doc["sites"]])

@@ -113,8 +113,9 @@ def test_candidates_are_sites_the_survey_reads(learned: dict[str, Any]) -> None:
     scan = mission_items.scan_for_site(60.0, "raster")
     doc = load_user_sites(learned["out"] / "candidates.geojson", scan, None, 14_400.0,
                           need_truth=False)
-    assert doc["origin"]["lat"] == pytest.approx(42.65) and len(doc["sites"]) == 6
-    assert all(0 <= s["p_mound"] <= 1 for s in doc["sites"])
+    assert doc.origin is not None and doc.origin.lat_deg == pytest.approx(42.65)
+    assert len(doc.sites) == 6
+    assert all(s.p_mound is not None and 0 <= s.p_mound <= 1 for s in doc.sites)
 
 
 @pytest.mark.slow

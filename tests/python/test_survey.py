@@ -28,7 +28,9 @@ from PIL import Image
 from mound.classify.metrics import detection_error_rates, says_mound
 from mound.classify.reward import binary_entropy_bits
 from mound.cli import main as cli_main
-from mound.formats.sites import load_user_sites
+from mound.formats.site_row import SiteRow
+from mound.formats.sites import Site, Truth, load_user_sites
+from mound.formats.verdict import SecondLookAdvice, Verdict
 from mound.geometry.geodesy import Origin, enu_to_geodetic
 from mound.paths import REPO_ROOT
 from mound.plan import sites as op_sites
@@ -460,13 +462,14 @@ def test_geojson_sites_are_placed_in_the_home_frame(tmp_path: Path) -> None:
                                 "features": features}))
     scan = mission_items.scan_for_site(60.0, "raster")
     doc = load_user_sites(path, scan, None, 14400.0, need_truth=True)
-    assert doc["budget_m"] == 9000 and doc["origin"]["lat"] == home.lat_deg
-    got = np.array([[s["x_m"], s["y_m"]] for s in doc["sites"]])
+    assert doc.budget_m == 9000 and doc.origin is not None
+    assert doc.origin.lat_deg == home.lat_deg
+    got = np.array([s.xy for s in doc.sites])
     assert np.abs(got - enu[:, :2]).max() < 1e-3
-    assert [s["id"] for s in doc["sites"]] == ["g0", "g1", "g2"]
-    assert doc["sites"][1]["truth"] == {"mound": True}
-    assert doc["sites"][2]["reward"] == pytest.approx(float(binary_entropy_bits(0.6)))
-    assert all(s["scan_cost_m"] == scan.site_cost_m() for s in doc["sites"])
+    assert [s.id for s in doc.sites] == ["g0", "g1", "g2"]
+    assert doc.sites[1].truth == Truth(True)
+    assert doc.sites[2].reward == pytest.approx(float(binary_entropy_bits(0.6)))
+    assert all(s.scan_cost_m == scan.site_cost_m() for s in doc.sites)
     del features[0]
     path.write_text(json.dumps({"type": "FeatureCollection", "features": features}))
     with pytest.raises(ValueError, match="no feature with properties.kind = 'home'"):
@@ -693,12 +696,11 @@ def test_a_dense_cloud_that_allows_no_verdict_leaves_it_to_the_sparse_one(
     photos = tmp_path / "sim" / "images"  # the photos, with their camera and poses
     for name in ("camera.json", "poses.json"):
         shutil.copy(tmp_path / "sim" / name, photos / name)
-    job = SiteJob(site={"id": "s1", "x_m": 0.0, "y_m": 0.0}, index=0,
-                  run_root=str(tmp_path / "run"), origin={"lat": 38.57, "lon": 27.99,
-                                                          "alt_m": 95.0},
+    job = SiteJob(site=Site("s1", 0.0, 0.0, 0.0), index=0,
+                  run_root=str(tmp_path / "run"), origin=Origin(38.57, 27.99, 95.0),
                   key="k", images_dir=str(photos), threads=2, figures=False,
                   dense_args=("--max-image-size", "320", "--resolution-m", "50"))
-    row = process_site(job)
+    row = process_site(job).to_doc()
     assert row["status"] == "ok", row.get("reason")
     assert row["dense"]["points"] < 100
     assert row["verdict_cloud"] == "sparse" and "points" in row["dense_verdict_error"]
@@ -723,7 +725,8 @@ def test_the_second_looks_advised_become_a_mission_in_the_report(
     ctx = Context(args, RunTree(run), Ledger(run / "stages.json"))
     plan = json.loads((run / "plan.json").read_text())
     visited = sorted(mission_items.visited_ids(plan))
-    rows = [{"id": s, "second_look": {"advised": True, "scan_factor": 2.0}} for s in visited]
+    rows = [SiteRow(s, "k", second_look={"advised": True, "scan_factor": 2.0})
+            for s in visited]
     made, note = sites3d.second_look_missions(ctx, rows, run / "plan.json", run / "sites.json")
     assert "second_look/mission.json" in made and all((run / f).is_file() for f in made)
     doc = json.loads((run / "second_look" / "mission.json").read_text())
@@ -780,7 +783,7 @@ def test_the_second_looks_advised_become_a_mission_in_the_report(
         driver.build_parser().parse_args(["--out", str(run), *SMALL, "--photos", str(card),
                                           "--second-photos", str(card)])),
         RunTree(run), Ledger(run / "stages.json")))
-    assert {j.site["id"] for j in jobs if j.second_images_dir} == set(sl["flown"])
+    assert {j.site.id for j in jobs if j.second_images_dir} == set(sl["flown"])
     # another verdict model (--verdict-model) is another site: its key and its first
     # look's change, and the dense cloud's verdicts read it
     model = REPO_ROOT / "data" / "verdict_model_dense.json"
@@ -789,12 +792,12 @@ def test_the_second_looks_advised_become_a_mission_in_the_report(
                                           "--second-photos", str(card), "--verdict-model",
                                           str(model)])),
         RunTree(run), Ledger(run / "stages.json")))
-    assert [j.site["id"] for j in other] == [j.site["id"] for j in jobs]
+    assert [j.site.id for j in other] == [j.site.id for j in jobs]
     for a, b in zip(jobs, other, strict=True):
         assert a.key != b.key and a.first_key != b.first_key
         assert a.dense_model is None and b.dense_model == str(model.resolve())
-    made, note = sites3d.second_look_missions(ctx, [{"id": visited[0]}], run / "plan.json",
-                                             run / "sites.json")
+    made, note = sites3d.second_look_missions(ctx, [SiteRow(visited[0], "k")],
+                                             run / "plan.json", run / "sites.json")
     assert made == [] and note == "" and not (run / "second_look").exists()
     # a second card with no second looks to sort it by: exit 2, naming the option
     assert driver.main(["--out", str(run), *SMALL, "--photos", str(card), "--second-photos",
@@ -822,13 +825,15 @@ def test_a_site_the_first_flight_leaves_undecided_is_flown_again_wider(
     job.tree.verdict.write_text(json.dumps({
         "schema": "mound.verdict", "version": 1, "status": "ok", "look": "first",
         "method": "reference_free_model", "p_mound": 0.6, "label": "no_mound"}))
-    row: dict[str, Any] = {"verdict": "no_mound", "verdict_p_mound": 0.6, "reason": "first"}
-    _second_look(job, row, {"advised": True, "scan_factor": 2.0, "message": "undecided"}, True)
+    first = Verdict("no_mound", "no_mound", "", "first", p_mound=0.6)
+    typed = SiteRow("s1", "k", status="ok", verdict=first)
+    _second_look(job, typed, SecondLookAdvice(True, 2.0, {"message": "undecided"}), True)
+    row = typed.to_doc()
     look = row["second_look"]
     assert look["flown"], look.get("reason")
     assert look["scan_m"] == 2 * job.site_diameter_m
-    assert row["first_look"] == {"verdict": "no_mound", "verdict_p_mound": 0.6,
-                                 "reason": "first"}
+    assert row["first_look"] == {"verdict": "no_mound", "answer": "no_mound",
+                                 "verdict_p_mound": 0.6, "reason": "first"}
     v = json.loads((tmp_path / "run" / look["verdict_file"]).read_text())
     assert v["look"] == "second" and v["cloud"].endswith("second/dense/dense.ply")
     assert row["verdict_p_mound"] == v["p_mound"] == look["p_mound"]
@@ -838,9 +843,9 @@ def test_a_site_the_first_flight_leaves_undecided_is_flown_again_wider(
     assert v["model"]["file"] == str(model_file)  # the run's model, not the built-in one
     photos = SiteJob(site=job.site, index=0, run_root=str(tmp_path / "run2"),
                      origin=job.origin, key="k", images_dir=str(tmp_path))
-    row = {"verdict": "no_mound"}
-    _second_look(photos, row, {"advised": True, "scan_factor": 2.0, "message": "undecided"},
-                 True)
+    typed = SiteRow("s1", "k", status="ok", verdict=Verdict("no_mound", "no_mound", ""))
+    _second_look(photos, typed, SecondLookAdvice(True, 2.0, {"message": "undecided"}), True)
+    row = typed.to_doc()
     assert not row["second_look"]["flown"] and "--second-photos" in row["second_look"]["reason"]
     assert row["verdict"] == "no_mound" and "first_look" not in row
     # The second card (--second-photos): the same wider flight as the aircraft writes it,
@@ -862,9 +867,9 @@ def test_a_site_the_first_flight_leaves_undecided_is_flown_again_wider(
                    dense_model=job.dense_model)
     job2.tree.verdict.parent.mkdir(parents=True)
     shutil.copy(job.tree.verdict, job2.tree.verdict)
-    row = {"verdict": "no_mound", "verdict_p_mound": 0.6, "reason": "first"}
-    _second_look(job2, row, {"advised": True, "scan_factor": 2.0, "message": "undecided"},
-                 True)
+    typed = SiteRow("s1", "k", status="ok", verdict=first)
+    _second_look(job2, typed, SecondLookAdvice(True, 2.0, {"message": "undecided"}), True)
+    row = typed.to_doc()
     look = row["second_look"]
     assert look["flown"] and look["source"] == "photos", look.get("reason")
     recon = json.loads((job2.tree.second.recon / "recon.json").read_text())
@@ -894,7 +899,7 @@ def test_a_site_the_first_flight_leaves_undecided_is_flown_again_wider(
               "files": {"images": "photos/s1", "recon": "sites/s1/recon",
                         "verdict": "sites/s1/verdict.json"}}
     t3.result.write_text(json.dumps(before))
-    row = process_site(job3)
+    row = process_site(job3).to_doc()
     assert row["status"] == "ok" and row["first_look_reused"], row
     assert row["second_look"]["flown"] and row["second_look"]["source"] == "photos"
     assert row["first_look"]["verdict_p_mound"] == 0.6  # the first verdict's, not 0.9
@@ -905,7 +910,7 @@ def test_a_site_the_first_flight_leaves_undecided_is_flown_again_wider(
     assert set(row["timings_s"]) == {"second_look", "total"}
     assert json.loads(t3.result.read_text()) == row and row["key"] == "k2"
     # another first look (another first card, here an empty one): the whole site again
-    row = process_site(replace(job3, first_key="f2"))
+    row = process_site(replace(job3, first_key="f2")).to_doc()
     assert row["status"] == "failed" and row["reason"].startswith("images:")
     assert "first_look_reused" not in row
 
@@ -926,7 +931,7 @@ def test_an_undecided_site_is_flown_again_and_what_stays_undecided_goes_to_the_f
         "undecided": {"p_low": 1e-6, "p_high": 1 - 1e-6},
         "second_look": {"p_low": 0.01, "threshold": 0.5, "scan_factor": 2.0,
                         "combine": {"first": 1.0, "second": 1e-6, "bias": 0.0}}})
-    row = process_site(job)
+    row = process_site(job).to_doc()
     assert row["status"] == "ok", row.get("reason")
     first = json.loads(job.tree.verdict.read_text())
     assert first["label"] == "undecided" and first["second_look"]["advised"]
@@ -960,9 +965,9 @@ def _dense_site_job(tmp_path: Path, model_fields: dict[str, Any]) -> Any:
     model.update(model_fields)
     model_file = tmp_path / "model.json"
     model_file.write_text(json.dumps(model))
-    return SiteJob(site={"id": "s1", "x_m": 0.0, "y_m": 0.0, "truth": {"mound": True}},
+    return SiteJob(site=Site("s1", 0.0, 0.0, 0.0, truth=Truth(True)),
                    index=0, run_root=str(tmp_path / "run"),
-                   origin={"lat": 38.57, "lon": 27.99, "alt_m": 95.0}, key="k",
+                   origin=Origin(38.57, 27.99, 95.0), key="k",
                    image_size=(320, 240), threads=2, figures=False,
                    dense_args=("--max-image-size", "320", "--resolution-m", "0.25"),
                    dense_model=str(model_file))
@@ -982,10 +987,10 @@ def test_a_bug_in_a_site_s_work_ends_the_survey_with_exit_1_not_a_partial_survey
         raise ZeroDivisionError("a bug")
 
     monkeypatch.setattr(site_work, "_simulate", broken)
-    job = SiteJob(site={"id": "s1", "x_m": 0.0, "y_m": 0.0, "truth": {"mound": True}},
+    job = SiteJob(site=Site("s1", 0.0, 0.0, 0.0, truth=Truth(True)),
                   index=0, run_root=str(tmp_path / "run"),
-                  origin={"lat": 38.57, "lon": 27.99, "alt_m": 95.0}, key="k", figures=False)
-    row = process_site(job)
+                  origin=Origin(38.57, 27.99, 95.0), key="k", figures=False)
+    row = process_site(job).to_doc()
     assert row["status"] == "failed" and row["internal_error"] is True and row["retry"]
     assert "ZeroDivisionError" in row["reason"]
     log = (tmp_path / "run" / "sites" / "s1" / "log.txt").read_text()

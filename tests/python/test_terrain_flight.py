@@ -22,6 +22,9 @@ from scipy.ndimage import maximum_filter
 
 from mound import native
 from mound.errors import InputError
+from mound.formats.plan import Plan
+from mound.formats.site_row import SiteRow
+from mound.formats.sites import Sites
 from mound.geometry.dem import Dem
 from mound.geometry.geodesy import Origin, geodetic_to_enu
 from mound.paths import REPO_ROOT
@@ -81,6 +84,15 @@ def sites_doc(raw: tuple[np.ndarray, object], budget: float) -> dict:
             "takeoff_landing_m": scan.takeoff_landing_m(), "sites": sites}
 
 
+def attach(doc: dict, *args: object) -> dict:
+    """terrain.attach on a sites document (the tests keep theirs as dicts)."""
+    return terrain.attach(Sites.from_doc(doc, "test sites"), *args).to_doc()  # type: ignore[arg-type]
+
+
+def typed(doc: dict) -> Sites:
+    return Sites.from_doc(doc, "test sites")
+
+
 def plan(doc: dict, tmp: Path, name: str, *args: str) -> dict:
     path = tmp / f"{name}.json"
     path.write_text(json.dumps(doc))
@@ -137,7 +149,7 @@ def flown(raw, dem_path, tmp_path_factory) -> dict:
     tmp = tmp_path_factory.mktemp("terrain")
     doc = sites_doc(raw, 5000.0)
     spec = terrain.TerrainSpec()
-    with_terrain = terrain.attach(doc, str(dem_path), spec, "egm96",
+    with_terrain = attach(doc, str(dem_path), spec, "egm96",
                                   Origin.from_doc(doc["origin"]))
     p = plan(with_terrain, tmp, "sites_dem")
     m = mission.build(p, Origin.from_doc(doc["origin"]), None,
@@ -353,7 +365,7 @@ def test_a_plan_through_the_ridges_without_the_terrain_is_refused(flown, dem_pat
 def test_zero_climbs_leave_the_plan_unchanged(flown, tmp_path) -> None:
     doc = flown["doc"]
     base = plan(doc, tmp_path, "base")
-    nodes, _ = terrain.sites_nodes(doc)
+    nodes, _ = terrain.sites_nodes(typed(doc))
     flat = {**doc, "terrain": {"version": 1, "nodes": [{"id": n.id} for n in nodes],
                                "extra_m": np.zeros((len(nodes), len(nodes))).tolist()}}
     same = plan(flat, tmp_path, "zero")
@@ -364,7 +376,7 @@ def test_scan_too_close_to_the_ground_is_refused(flown, dem_path) -> None:
     doc = flown["doc"]
     low = {**doc, "scan": mission_items.scan_for_site(60.0, "raster", 8.0).to_doc()}
     with pytest.raises(InputError, match=r"site r\d\d: its scan .* scan clearance"):
-        terrain.attach(low, str(dem_path), terrain.TerrainSpec(), "egm96",
+        attach(low, str(dem_path), terrain.TerrainSpec(), "egm96",
                        Origin.from_doc(doc["origin"]))
 
 
@@ -538,7 +550,7 @@ def test_orbit_scans_over_the_terrain(raw, dem_path, tmp_path, pattern: str) -> 
     scan = mission_items.scan_for_site(60.0, pattern)
     doc["scan"] = scan.to_doc()
     origin = Origin.from_doc(doc["origin"])
-    t = terrain.attach(doc, str(dem_path), terrain.TerrainSpec(), "egm96", origin)
+    t = attach(doc, str(dem_path), terrain.TerrainSpec(), "egm96", origin)
     p = plan(t, tmp_path, pattern)
     m = mission.build(p, origin, None,
                             mission_items.TerrainInput(str(dem_path), "egm96"))
@@ -570,18 +582,19 @@ def test_second_looks_are_flown_wider_within_the_budget_and_clear_of_the_terrain
     p, spec = flown["plan"], flown["spec"]
     tour = list(p["tour"][1:-1])
     chosen = tour[::2][:4]
-    rows = [{"id": s, "second_look": {"advised": s in chosen, "scan_factor": 2.0}}
+    rows = [SiteRow(s, "k", second_look={"advised": s in chosen, "scan_factor": 2.0})
             for s in tour]
     ids, factor = advised_sites(rows)
     assert sorted(ids) == sorted(chosen) and factor == 2.0
     with pytest.raises(InputError, match="r00.second_look.scan_factor"):
-        advised_sites([{"id": "r00", "second_look": {"advised": True, "scan_factor": "2"}}])
+        advised_sites([SiteRow("r00", "k", second_look={"advised": True, "scan_factor": "2"})])
     dem = mission_items.TerrainInput(str(dem_path), "egm96", spec)
     fp = int(np.ceil(spec.footprint_m))
     highest = maximum_filter(raw[0], size=2 * fp + 1, mode="nearest")
     for budget in (5000.0, 2500.0):
         doc = {**flown["terrain_doc"], "budget_m": budget}
-        flights, refused, wide = second_look_flights(doc, p, ids, factor, dem)
+        flights, refused, wide = second_look_flights(typed(doc), Plan.from_doc(p, "p"), ids,
+                                                     factor, dem)
         assert wide.scan.scale_m == 2 * mission_items.plan_scan(p).scale_m
         flown_ids = [s["id"] for m in flights for s in m.sites]
         assert sorted(flown_ids + [r["id"] for r in refused]) == sorted(chosen)
@@ -602,8 +615,10 @@ def test_second_looks_are_flown_wider_within_the_budget_and_clear_of_the_terrain
         else:  # a tighter budget: a flight per site, the farthest alone over it
             assert len(flights) > 1 and all("budget" in r["reason"] for r in refused)
     doc = {**flown["terrain_doc"], "budget_m": 600.0}
-    flights, refused, _ = second_look_flights(doc, p, ids, factor, dem)
+    flights, refused, _ = second_look_flights(typed(doc), Plan.from_doc(p, "p"), ids, factor,
+                                              dem)
     assert not flights and [r["id"] for r in refused] == [s for s in tour if s in chosen]
     assert all("budget" in r["reason"] and "never flown lower" in r["reason"] for r in refused)
     with pytest.raises(InputError, match="site 'nowhere' is not in the sites document"):
-        second_look_flights(doc, p, [*ids, "nowhere"], factor, dem)
+        second_look_flights(typed(doc), Plan.from_doc(p, "p"), [*ids, "nowhere"], factor,
+                            dem)

@@ -16,6 +16,8 @@ plan within the budget is a flight within it; a file's own scan_cost_m is replac
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -26,7 +28,177 @@ from mound.errors import InputError
 from mound.geojson import point_feature
 from mound.geometry.flight import ScanSpec
 from mound.geometry.geodesy import Origin, geodetic_to_enu
-from mound.jsonio import parse_json, read_text
+from mound.jsonio import check_doc, parse_json, read_text, require_id, require_number
+
+SCHEMA = "mound.sites"
+VERSION = 1
+
+
+@dataclass(frozen=True)
+class Node:
+    """Home, the end of a path, or a site's position: local east/north metres of the
+    document's origin."""
+
+    id: str
+    x_m: float
+    y_m: float
+
+    def to_doc(self) -> dict[str, object]:
+        return {"id": self.id, "x_m": self.x_m, "y_m": self.y_m}
+
+    @classmethod
+    def from_doc(cls, doc: object, where: str) -> Node:
+        if not isinstance(doc, dict):
+            raise InputError(f"{where}: expected an object with id, x_m, y_m")
+        return cls(require_id(doc.get("id"), f"{where}.id"),
+                   require_number(doc, "x_m", where), require_number(doc, "y_m", where))
+
+
+@dataclass(frozen=True)
+class Truth:
+    """What a site is, where it is known (a simulated or an inventoried site): `mound`,
+    the inventory's height, the Statlog row the standard field drew it from."""
+
+    mound: bool
+    height_m: float | None = None
+    statlog_row: int | None = None
+    extra: Mapping[str, Any] = field(default_factory=dict)
+
+    def to_doc(self) -> dict[str, object]:
+        doc: dict[str, object] = {"mound": self.mound}
+        if self.height_m is not None:
+            doc["height_m"] = self.height_m
+        if self.statlog_row is not None:
+            doc["statlog_row"] = self.statlog_row
+        return {**doc, **self.extra}
+
+    @classmethod
+    def from_doc(cls, doc: object, where: str) -> Truth:
+        if not isinstance(doc, dict) or not isinstance(doc.get("mound"), bool):
+            raise InputError(f"{where}: expected {{\"mound\": true/false, ...}}")
+        row = doc.get("statlog_row")
+        if row is not None and (isinstance(row, bool) or not isinstance(row, int) or row < 0):
+            raise InputError(f"{where}.statlog_row: expected a row number, got {row!r:.40}")
+        height = (None if doc.get("height_m") is None
+                  else require_number(doc, "height_m", where, lo=0.0, hi=1000.0))
+        return cls(doc["mound"], height, row,
+                   {k: v for k, v in doc.items()
+                    if k not in ("mound", "height_m", "statlog_row")})
+
+
+@dataclass(frozen=True)
+class Site:
+    """A candidate site of a mound.sites document (INTERFACES.md)."""
+
+    id: str
+    x_m: float
+    y_m: float
+    reward: float
+    scan_cost_m: float = 0.0
+    p_mound: float | None = None
+    truth: Truth | None = None
+    extra: Mapping[str, Any] = field(default_factory=dict)
+
+    @property
+    def xy(self) -> tuple[float, float]:
+        return (self.x_m, self.y_m)
+
+    def to_doc(self) -> dict[str, object]:
+        doc: dict[str, object] = {"id": self.id, "x_m": self.x_m, "y_m": self.y_m,
+                                  "reward": self.reward, "scan_cost_m": self.scan_cost_m}
+        if self.p_mound is not None:
+            doc["p_mound"] = self.p_mound
+        if self.truth is not None:
+            doc["truth"] = self.truth.to_doc()
+        return {**doc, **self.extra}
+
+    @classmethod
+    def from_doc(cls, doc: object, where: str) -> Site:
+        node = Node.from_doc(doc, where)
+        assert isinstance(doc, dict)
+        p = (None if doc.get("p_mound") is None
+             else require_number(doc, "p_mound", where, lo=0.0, hi=1.0))
+        return cls(node.id, node.x_m, node.y_m,
+                   require_number(doc, "reward", where, lo=0.0),
+                   require_number(doc, "scan_cost_m", where, lo=0.0, default=0.0), p,
+                   None if doc.get("truth") is None
+                   else Truth.from_doc(doc["truth"], f"{where}.truth"),
+                   {k: v for k, v in doc.items() if k not in _SITE_KEYS})
+
+
+_SITE_KEYS = ("id", "x_m", "y_m", "reward", "scan_cost_m", "p_mound", "truth")
+_SITES_KEYS = ("schema", "version", "origin", "home", "end", "budget_m", "takeoff_landing_m",
+               "sites")
+
+
+@dataclass(frozen=True)
+class Sites:
+    """A mound.sites v1 document: home, the end (home itself for a closed tour), the
+    budget, the sites; `extra` keeps the members this type does not read (scan, terrain,
+    provenance) as they were written."""
+
+    home: Node
+    end: Node
+    budget_m: float
+    sites: tuple[Site, ...]
+    origin: Origin | None = None
+    takeoff_landing_m: float = 0.0
+    extra: Mapping[str, Any] = field(default_factory=dict)
+
+    @property
+    def closed(self) -> bool:
+        return self.end.id == self.home.id
+
+    def by_id(self) -> dict[str, Site]:
+        return {s.id: s for s in self.sites}
+
+    def scan(self) -> ScanSpec | None:
+        doc = self.extra.get("scan")
+        return None if doc is None else ScanSpec.from_doc(doc, "sites: scan")
+
+    def terrain(self) -> Mapping[str, Any] | None:
+        """The terrain the plan's costs climb over (uav.terrain.attach), or None."""
+        t = self.extra.get("terrain")
+        return t if isinstance(t, dict) else None
+
+    def with_sites(self, sites: Sequence[Site], **extra: object) -> Sites:
+        return replace(self, sites=tuple(sites), extra={**self.extra, **extra})
+
+    def to_doc(self) -> dict[str, Any]:
+        doc: dict[str, Any] = {"schema": SCHEMA, "version": VERSION}
+        if self.origin is not None:
+            doc["origin"] = self.origin.to_doc()
+        doc.update(home=self.home.to_doc(),
+                   end={"id": self.home.id} if self.closed else self.end.to_doc(),
+                   budget_m=self.budget_m, takeoff_landing_m=self.takeoff_landing_m)
+        return {**doc, **self.extra, "sites": [s.to_doc() for s in self.sites]}
+
+    @classmethod
+    def from_doc(cls, doc: Any, path: str | Path) -> Sites:
+        """The sites of a mound.sites document parsed from `path` (as the project writes
+        it: every site with its reward); InputError naming the file and field."""
+        doc = check_doc(doc, path, SCHEMA, VERSION)
+        home = Node.from_doc(doc.get("home"), f"{path}: home")
+        end = doc.get("end")
+        end_node = (home if not isinstance(end, dict) or end.get("id", home.id) == home.id
+                    else Node.from_doc(end, f"{path}: end"))
+        raw = doc.get("sites")
+        if not isinstance(raw, list) or not raw:
+            raise InputError(f"{path}: sites: expected a non-empty list")
+        sites = tuple(Site.from_doc(s, f"{path}: sites[{k}]") for k, s in enumerate(raw))
+        if len({s.id for s in sites} | {home.id, end_node.id}) != len(sites) + len(
+                {home.id, end_node.id}):
+            raise InputError(f"{path}: sites: ids are not unique (or one is home's or end's)")
+        origin = (Origin.from_doc(doc["origin"], f"{path}: origin")
+                  if doc.get("origin") is not None else None)
+        return cls(home, end_node, require_number(doc, "budget_m", str(path), lo=0.0), sites,
+                   origin, require_number(doc, "takeoff_landing_m", str(path), lo=0.0,
+                                          default=0.0),
+                   {k: v for k, v in doc.items() if k not in _SITES_KEYS})
+
+    @classmethod
+    def read(cls, path: str | Path) -> Sites:
+        return cls.from_doc(parse_json(read_text(path), path), path)
 
 
 def _number(obj: dict[str, Any], key: str, where: str, *, lo: float = -math.inf,
@@ -152,8 +324,8 @@ def _from_geojson(doc: dict[str, Any], path: Path, need_p: bool
 
 def load_user_sites(path: str | Path, scan: ScanSpec, budget_m: float | None,
                     default_budget_m: float, need_truth: bool,
-                    need_p_mound: bool = True) -> dict[str, Any]:
-    """The run's mound.sites document from the user's file; InputError on any defect.
+                    need_p_mound: bool = True) -> Sites:
+    """The run's sites from the user's file; InputError on any defect.
     `need_truth`: every site must carry its truth (the flights are simulated);
     `need_p_mound`: every site its p_mound (a survey's unvisited sites keep the
     classifier's label; sorting photos needs only where the sites are)."""
@@ -164,7 +336,7 @@ def load_user_sites(path: str | Path, scan: ScanSpec, budget_m: float | None,
 
 def user_sites(doc: Any, path: Path, scan: ScanSpec, budget_m: float | None,
                default_budget_m: float, need_truth: bool,
-               need_p_mound: bool = True) -> dict[str, Any]:
+               need_p_mound: bool = True) -> Sites:
     """load_user_sites of a document already parsed from `path`."""
     if not isinstance(doc, dict):
         raise InputError(f"{path}: expected a JSON object (mound.sites or GeoJSON)")
@@ -190,10 +362,11 @@ def user_sites(doc: Any, path: Path, scan: ScanSpec, budget_m: float | None,
     head.pop("budget_m", None)
     if not budget > 0:
         raise InputError("budget_m: must be > 0")
-    return {"schema": "mound.sites", "version": 1, **head, "budget_m": float(budget),
-            "scan": scan.to_doc(), "takeoff_landing_m": scan.takeoff_landing_m(),
-            "sites": rows,
-            "provenance": {"tool": "python/mission.py --sites", "source": str(path),
-                           "total_reward": float(sum(r["reward"] for r in rows)),
-                           "positives": sum(bool(r.get("truth", {}).get("mound"))
-                                            for r in rows)}}
+    return Sites.from_doc(
+        {"schema": SCHEMA, "version": VERSION, **head, "budget_m": float(budget),
+         "scan": scan.to_doc(), "takeoff_landing_m": scan.takeoff_landing_m(),
+         "sites": rows,
+         "provenance": {"tool": "python/mission.py --sites", "source": str(path),
+                        "total_reward": float(sum(r["reward"] for r in rows)),
+                        "positives": sum(bool(r.get("truth", {}).get("mound"))
+                                         for r in rows)}}, path)

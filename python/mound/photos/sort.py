@@ -48,11 +48,11 @@ import numpy as np
 from mound import native
 from mound.bounds import SITE_DIAMETER_M, Bound
 from mound.errors import InputError
+from mound.formats.plan import Plan
 from mound.formats.sites import user_sites
 from mound.geometry.flight import DEFAULT_SITE_DIAMETER_M, ScanSpec
 from mound.geometry.geodesy import Origin, geodetic_to_enu
 from mound.jsonio import (
-    check_doc,
     parse_json,
     read_json,
     read_text,
@@ -93,7 +93,7 @@ class SortSpec:
 
 
 @dataclass
-class Sites:
+class CardSites:
     origin: Origin
     ids: list[str]
     xy: np.ndarray          # (n, 2) ENU metres
@@ -101,14 +101,14 @@ class Sites:
     reach_m: float          # the scan's farthest camera position from a site centre
 
 
-def sites_of(path: str, spec: SortSpec) -> Sites:
+def sites_of(path: str, spec: SortSpec) -> CardSites:
     """The sites a card may hold: a plan's visited sites (mound.plan, every flight), or the
     sites of a `--sites` file as every command reads it (mound.formats.sites: a mound.sites
     document, or a WGS84 GeoJSON such as `mound scene score` writes); the scan's reach from
     the document's `scan`, else from `site_diameter_m`."""
     doc = parse_json(read_text(path), path)  # read once, whatever it holds
     if isinstance(doc, dict) and doc.get("schema") == "mound.plan":
-        return _plan_sites(check_doc(doc, path, "mound.plan", 1), path, spec)
+        return _plan_sites(doc, path, spec)
     if not isinstance(doc, dict) or (doc.get("schema") != "mound.sites"
                                      and doc.get("type") != "FeatureCollection"):
         raise InputError(f"{path}: expected a mound.plan, a mound.sites document or a GeoJSON "
@@ -117,12 +117,10 @@ def sites_of(path: str, spec: SortSpec) -> Sites:
     # (the budget plays no part in sorting photos: any positive default)
     sites = user_sites(doc, Path(path), scan, None, default_budget_m=1.0, need_truth=False,
                        need_p_mound=False)
-    origin = Origin.from_doc(sites["origin"], f"{path}: origin")
-    rows = sites["sites"]
-    return Sites(origin, [r["id"] for r in rows],
-                 np.array([[r["x_m"], r["y_m"]] for r in rows], dtype=float).reshape(-1, 2),
-                 np.array([sites["home"]["x_m"], sites["home"]["y_m"]], dtype=float),
-                 scan.reach_m())
+    assert sites.origin is not None  # the reader requires one
+    return CardSites(sites.origin, [s.id for s in sites.sites],
+                     np.array([s.xy for s in sites.sites], dtype=float).reshape(-1, 2),
+                     np.array([sites.home.x_m, sites.home.y_m], dtype=float), scan.reach_m())
 
 
 def _scan_of(doc: dict[str, Any], path: str, spec: SortSpec) -> ScanSpec:
@@ -131,17 +129,15 @@ def _scan_of(doc: dict[str, Any], path: str, spec: SortSpec) -> ScanSpec:
             else ScanSpec(pattern="raster", scale_m=spec.site_diameter_m))
 
 
-def _plan_sites(doc: dict[str, Any], path: str, spec: SortSpec) -> Sites:
+def _plan_sites(doc: dict[str, Any], path: str, spec: SortSpec) -> CardSites:
     """A mound.plan's visited sites (every flight)."""
-    from mound.uav.mission_items import visited_ids
-
-    if not isinstance(doc.get("origin"), dict):
+    plan = Plan.from_doc(doc, path)
+    if plan.origin is None:
         raise InputError(f"{path}: origin: missing (the sites' WGS84 frame)")
-    origin = Origin.from_doc(doc["origin"], f"{path}: origin")
     waypoints = _objects(doc, "waypoints", path)
     for k, w in enumerate(waypoints):
         require_id(w.get("id"), f"{path}: waypoints[{k}].id")
-    wanted = visited_ids(doc)
+    wanted = plan.visited()
     nodes = [(f"{path}: waypoints[{k}]", w) for k, w in enumerate(waypoints)
              if w.get("id") in wanted]
     home = next((w for w in waypoints if w.get("kind") == "home"), None)
@@ -154,7 +150,7 @@ def _plan_sites(doc: dict[str, Any], path: str, spec: SortSpec) -> Sites:
     home_xy = np.zeros(2) if home is None else np.array(
         [require_number(home, k, f"{path}: home", lo=-MAX_ENU_M, hi=MAX_ENU_M, default=0.0)
          for k in ("x_m", "y_m")])
-    return Sites(origin, ids, xy, home_xy, scan.reach_m())
+    return CardSites(plan.origin, ids, xy, home_xy, scan.reach_m())
 
 
 def _objects(doc: dict[str, Any], key: str, path: str) -> list[dict[str, Any]]:
@@ -308,7 +304,7 @@ def _mark_other_flights(rows: list[dict[str, Any]], spec: SortSpec) -> None:
                 r["reason"] = "other_flight"
 
 
-def _place(rows: list[dict[str, Any]], sites: Sites, spec: SortSpec) -> None:
+def _place(rows: list[dict[str, Any]], sites: CardSites, spec: SortSpec) -> None:
     """Each GPS photo's site by its position (else transit, or outside the sites)."""
     gps = [r for r in rows if r["lat"] is not None and r["reason"] is None]
     if gps:
@@ -328,7 +324,7 @@ def _place(rows: list[dict[str, Any]], sites: Sites, spec: SortSpec) -> None:
                 r["reason"] = "outside_sites"
 
 
-def _per_site(rows: list[dict[str, Any]], sites: Sites, spec: SortSpec,
+def _per_site(rows: list[dict[str, Any]], sites: CardSites, spec: SortSpec,
               camera: str | None) -> dict[str, dict[str, Any]]:
     """A site's photo that does not decode is unreadable; blurred ones are flagged against
     the site's median sharpness; each site's count, status and camera."""

@@ -24,10 +24,11 @@ from mound.bounds import (
 from mound.classify import statlog
 from mound.classify.coarse import load_model
 from mound.errors import InputError
+from mound.formats.plan import Plan
 from mound.geometry.flight import DEFAULT_SITE_DIAMETER_M, ScanSpec
 from mound.geometry.geodesy import Origin
 from mound.jsonio import write_json
-from mound.plan.field import STANDARD_SEEDS, make_field, sites_document
+from mound.plan.field import ORIGIN, STANDARD_SEEDS, make_field, sites_document
 from mound.uav import mission_items
 
 
@@ -54,19 +55,18 @@ def cmd_field_make(args: argparse.Namespace) -> int:
     test = statlog.load("sat.tst")
     model = load_model(args.model)
     scan, scan_cost, budget = field_costs(args)
-    doc = sites_document(make_field(test, args.seed), test, model, scan_cost, budget,
-                         spacing_m=args.spacing, scan=scan)
-    if args.origin:
-        doc["origin"] = Origin.parse(args.origin).to_doc()
+    sites = sites_document(make_field(test, args.seed), test, model, scan_cost, budget,
+                           spacing_m=args.spacing, scan=scan,
+                           origin=Origin.parse(args.origin) if args.origin else ORIGIN)
     if args.dem:
         from mound.uav import terrain
 
         if scan is None:
             raise UsageError("--dem needs --scan-pattern (the heights follow the scan)")
-        doc = terrain.attach(doc, args.dem, terrain.spec_from_args(args), args.dem_vertical,
-                             Origin.from_doc(doc["origin"]))
-    write_json(args.out, doc)
-    prov = doc["provenance"]
+        sites = terrain.attach(sites, args.dem, terrain.spec_from_args(args),
+                               args.dem_vertical, sites.origin)
+    write_json(args.out, sites.to_doc())
+    prov = sites.extra["provenance"]
     print(f"field seed {args.seed}: 100 sites, {prov['positives']} positives, "
           f"total reward {prov['total_reward']:.2f} bits -> {args.out}")
     return 0
@@ -79,10 +79,12 @@ def cmd_field_standard(args: argparse.Namespace) -> int:
     totals = []
     for seed in STANDARD_SEEDS:
         scan, scan_cost, budget = field_costs(args)
-        doc = sites_document(make_field(test, seed), test, model, scan_cost, budget, scan=scan)
-        write_json(out / f"field_{seed}.json", doc)
-        totals.append(doc["provenance"]["total_reward"])
-        print(f"field {seed}: {doc['provenance']['positives']} positives, "
+        sites = sites_document(make_field(test, seed), test, model, scan_cost, budget,
+                               scan=scan)
+        write_json(out / f"field_{seed}.json", sites.to_doc())
+        prov = sites.extra["provenance"]
+        totals.append(prov["total_reward"])
+        print(f"field {seed}: {prov['positives']} positives, "
               f"total reward {totals[-1]:.2f}")
     print(f"average total reward of the ten standard fields: {np.mean(totals):.2f} "
           f"(paper: 61.37)")
@@ -109,23 +111,20 @@ def cmd_plan_exact(args: argparse.Namespace) -> int:
         from mound.plan import exact as exact_op
 
         r = exact_op.solve(prob, time_limit_s=args.time_limit)
-    tour = [prob.ids[v] for v in r.route]
-    doc = {
-        "schema": "mound.plan", "version": 1, "status": "ok",
-        "algo": "exact-bc" if args.solver == "scip" else "exact-ip",
-        "sites_file": args.sites, "closed": prob.closed, "tour": tour, "reward": r.reward,
-        "cost_m": r.cost, "budget_m": prob.budget, "budget_left_m": prob.budget - r.cost,
-        "elapsed_s": r.seconds, "n_sites": len(prob.ids) - (1 if prob.closed else 2),
-        "n_visited": len(set(r.route)) - (1 if prob.closed else 2),
-        "solver": {"name": args.solver, "proof": r.status, "upper_bound": r.bound,
-                   "gap": r.gap, "cuts": r.cuts, "rounds": r.rounds},
-    }
-    return emit_exact_plan(args, doc, f"{r.status}: reward {r.reward:.4f}, upper bound "
+    plan = Plan.of_flights(
+        "exact-bc" if args.solver == "scip" else "exact-ip", [[prob.ids[v] for v in r.route]],
+        [r.reward], [r.cost], prob.budget, prob.closed, sites_file=args.sites,
+        elapsed_s=r.seconds, n_sites=len(prob.ids) - (1 if prob.closed else 2),
+        n_visited=len(set(r.route)) - (1 if prob.closed else 2),
+        solver={"name": args.solver, "proof": r.status, "upper_bound": r.bound, "gap": r.gap,
+                "cuts": r.cuts, "rounds": r.rounds})
+    return emit_exact_plan(args, plan, f"{r.status}: reward {r.reward:.4f}, upper bound "
                            f"{r.bound:.4f}, {r.cuts} cuts, {r.seconds:.1f} s")
 
 
-def emit_exact_plan(args: argparse.Namespace, doc: dict[str, Any], line: str) -> int:
+def emit_exact_plan(args: argparse.Namespace, plan: Plan, line: str) -> int:
     """The plan to --out (or stdout), the proof's one line to stderr."""
+    doc = plan.to_doc()
     if args.out:
         write_json(args.out, doc)
     else:
@@ -150,21 +149,15 @@ def plan_exact_flights(args: argparse.Namespace, prob: Any) -> int:
     r = branch_cut.solve_flights(prob, args.flights, args.time_limit,
                                  [[index[sid] for sid in f["tour"]] for f in heur["flights"]])
     first = 1 if prob.closed else 2
-    flights = [{"flight": k + 1, "tour": [prob.ids[v] for v in route],
-                "reward": float(sum(prob.reward[v] for v in set(route) if v >= first)),
-                "cost_m": cost, "budget_left_m": prob.budget - cost}
-               for k, (route, cost) in enumerate(zip(r.routes, r.costs, strict=True))]
-    doc = {
-        "schema": "mound.plan", "version": 1, "status": "ok", "algo": "exact-bc",
-        "sites_file": args.sites, "closed": prob.closed, "tour": flights[0]["tour"],
-        "flights": flights, "reward": r.reward, "cost_m": sum(r.costs),
-        "budget_m": prob.budget, "budget_left_m": prob.budget * len(flights) - sum(r.costs),
-        "elapsed_s": r.seconds, "n_sites": len(prob.ids) - first,
-        "n_visited": sum(len(set(route[1:-1])) for route in r.routes),
-        "solver": {"name": "scip", "proof": r.status, "upper_bound": r.bound, "gap": r.gap,
-                   "cuts": r.cuts, "rounds": r.rounds, "alns_reward": heur["reward"]},
-    }
-    return emit_exact_plan(args, doc, f"{r.status}: {args.flights} flights, reward "
+    plan = Plan.of_flights(
+        "exact-bc", [[prob.ids[v] for v in route] for route in r.routes],
+        [float(sum(prob.reward[v] for v in set(route) if v >= first)) for route in r.routes],
+        r.costs, prob.budget, prob.closed, sites_file=args.sites, elapsed_s=r.seconds,
+        n_sites=len(prob.ids) - first,
+        n_visited=sum(len(set(route[1:-1])) for route in r.routes),
+        solver={"name": "scip", "proof": r.status, "upper_bound": r.bound, "gap": r.gap,
+                "cuts": r.cuts, "rounds": r.rounds, "alns_reward": heur["reward"]})
+    return emit_exact_plan(args, plan, f"{r.status}: {args.flights} flights, reward "
                            f"{r.reward:.4f}, upper bound {r.bound:.4f}, {r.cuts} cuts, "
                            f"{r.seconds:.1f} s")
 

@@ -117,7 +117,7 @@ def make_documents(scan_cost: float, paper: bool, budget: float
         model, t, _ = paper_classifier(train, test, fields)
     else:
         model = coarse.train(train, coarse.DEFAULT_BAND)
-    docs = [sites_document(f, test, model, scan_cost, budget) for f in fields]
+    docs = [sites_document(f, test, model, scan_cost, budget).to_doc() for f in fields]
     for d in docs:
         d["provenance"]["classifier"]["gd_iterations"] = t
     total = float(np.mean([d["provenance"]["total_reward"] for d in docs]))

@@ -30,6 +30,8 @@ from typing import Any
 import numpy as np
 
 from mound.errors import InputError
+from mound.formats.plan import Plan
+from mound.formats.sites import Site, Sites
 from mound.geometry.camera import Camera
 from mound.geometry.flight import DEFAULT_SITE_DIAMETER_M
 from mound.geometry.geodesy import Origin, enu_to_geodetic
@@ -132,7 +134,7 @@ def site_jpegs(site_dir: str | Path, start: datetime, every_s: float = 2.0,
     return out
 
 
-def survey_site_spec(site: dict[str, Any], index: int, origin: dict[str, float],
+def survey_site_spec(site: Site, index: int, origin: Origin,
                      sim_seed: int, image_size: tuple[int, int], pattern: str,
                      site_diameter_m: float, terrain_input: dict[str, Any] | None = None
                      ) -> tuple[Any, dict[str, Any]]:
@@ -141,18 +143,17 @@ def survey_site_spec(site: dict[str, Any], index: int, origin: dict[str, float],
     from mound.sim import site as sim
     from mound.sim import terrain
 
-    truth = site.get("truth", {}).get("mound")
-    if truth is None and site.get("simulate") == "flat":
+    truth = None if site.truth is None else site.truth.mound
+    if truth is None and site.extra.get("simulate") == "flat":
         truth = False  # a scene's candidate of unknown truth: flown over flat ground
     if truth is None:
-        raise InputError(f"sites: {site['id']}.truth: needed to simulate its flight")
+        raise InputError(f"sites: {site.id}.truth: needed to simulate its flight")
     rng = np.random.default_rng([sim_seed, index])
     height = float(rng.uniform(*MOUND_HEIGHTS_M))
-    if truth and site["truth"].get("height_m") is not None:  # the inventory's height
-        height = float(site["truth"]["height_m"])
+    if truth and site.truth is not None and site.truth.height_m is not None:
+        height = site.truth.height_m  # the inventory's height
     seed = 1000 * sim_seed + index + 1
-    o = Origin.from_doc(origin)
-    lat, lon, alt = enu_to_geodetic(o, np.array([[site["x_m"], site["y_m"], 0.0]]))[0]
+    lat, lon, alt = enu_to_geodetic(origin, np.array([[site.x_m, site.y_m, 0.0]]))[0]
     ground: dict[str, Any] = {}
     if terrain_input:
         # Over the survey's DEM: the site's own terrain, z = 0 at the mission's ground of
@@ -170,7 +171,7 @@ def survey_site_spec(site: dict[str, Any], index: int, origin: dict[str, float],
         width_px=image_size[0], height_px=image_size[1], pattern=pattern,
         seed=seed, origin={"lat": float(lat), "lon": float(lon), "alt_m": float(alt)})
     return spec, {"mound": bool(truth), "height_m": height if truth else 0.0,
-                  "truth": "known" if "truth" in site else "unknown",
+                  "truth": "known" if site.truth is not None else "unknown",
                   "diameter_m": site_diameter_m, "seed": seed}
 
 
@@ -222,26 +223,23 @@ def write_card(plan_path: str, sites_path: str, out_dir: str, spec: CardSpec | N
     from mound.geometry.flight import ScanSpec
     from mound.sim import site as sim
     from mound.sim.looks import wider
-    from mound.uav.mission_items import flight_plans
-
     spec = spec or CardSpec()
     spec.validate()
-    plan = read_json(plan_path, "mound.plan", 1)
-    sites_doc = read_json(sites_path, "mound.sites", 1)
-    if (sites_doc.get("terrain") or {}).get("nodes"):
+    plan = Plan.read(plan_path)
+    sites_doc = Sites.read(sites_path)
+    if (sites_doc.terrain() or {}).get("nodes"):
         raise InputError(f"{sites_path}: sites over a DEM: mound sim flight simulates flat "
                          "flights only (the survey driver simulates DEM ones)")
-    index = {s["id"]: k for k, s in enumerate(sites_doc["sites"])}
-    by_id = {s["id"]: s for s in sites_doc["sites"]}
-    points = {w["id"]: np.array([float(w["x_m"]), float(w["y_m"])])
-              for w in plan.get("waypoints", [])}
-    scan = (ScanSpec.from_doc(plan["scan"], f"{plan_path}: scan")
-            if isinstance(plan.get("scan"), dict) else
-            ScanSpec(pattern=spec.pattern, scale_m=spec.site_diameter_m))
+    if plan.origin is None:
+        raise InputError(f"{plan_path}: origin: missing (the card's photos are geotagged)")
+    index = {s.id: k for k, s in enumerate(sites_doc.sites)}
+    by_id = sites_doc.by_id()
+    points = {w["id"]: np.array([float(w["x_m"]), float(w["y_m"])]) for w in plan.waypoints()}
+    scan = plan.scan() or ScanSpec(pattern=spec.pattern, scale_m=spec.site_diameter_m)
     reach = scan.reach_m()
     # Transit frames through the scan's lens at the card's image size.
     transit_fx = Camera.from_fov(spec.image_size[0], spec.image_size[1], scan.hfov_rad).fx
-    origin = Origin.from_doc(plan["origin"], f"{plan_path}: origin")
+    origin = plan.origin
     site_xy = np.array([points[i] for i in by_id if i in points]) if points else np.zeros((0, 2))
     folder = Path(out_dir) / "DCIM" / "100MEDIA"
     folder.mkdir(parents=True, exist_ok=True)
@@ -252,8 +250,10 @@ def write_card(plan_path: str, sites_path: str, out_dir: str, spec: CardSpec | N
     def name() -> Path:
         return folder / f"DJI_{len(files) + 1:04d}.JPG"
 
-    for f in flight_plans(plan):
-        tour = f["tour"]
+    for number, f in enumerate(plan.flights, start=1):
+        if not f.sites and len(plan.flights) > 1:
+            continue  # of several flights, one with nothing to visit is not flown
+        tour = f.tour
         for a_id, b_id in itertools.pairwise(tour):
             a, b = points[a_id], points[b_id]
             leg = float(np.linalg.norm(b - a))
@@ -272,12 +272,12 @@ def write_card(plan_path: str, sites_path: str, out_dir: str, spec: CardSpec | N
                               ExifFacts(float(lat), float(lon), float(alt), t,
                                         transit_fx, spec.image_size[0]),
                               spec.quality)
-                    files.append({"file": str(path.relative_to(out_dir)), "flight": f["flight"],
+                    files.append({"file": str(path.relative_to(out_dir)), "flight": number,
                                   "site": None, "reason": "transit", "time": t.isoformat()})
             when += timedelta(seconds=leg / spec.speed_mps)
             if b_id not in by_id:
                 continue  # home
-            site_spec, _ = survey_site_spec(by_id[b_id], index[b_id], sites_doc["origin"],
+            site_spec, _ = survey_site_spec(by_id[b_id], index[b_id], origin,
                                             spec.sim_seed, spec.image_size, spec.pattern,
                                             spec.site_diameter_m)
             if spec.scan_factor != 1:
@@ -288,7 +288,7 @@ def write_card(plan_path: str, sites_path: str, out_dir: str, spec: CardSpec | N
                 for file, t in shots:
                     path = name()
                     shutil.move(str(Path(tmp) / file), path)
-                    files.append({"file": str(path.relative_to(out_dir)), "flight": f["flight"],
+                    files.append({"file": str(path.relative_to(out_dir)), "flight": number,
                                   "site": b_id, "reason": None, "time": t.isoformat()})
             when = shots[-1][1] + timedelta(seconds=spec.shot_every_s) if shots else when
         when += timedelta(seconds=spec.between_flights_s)

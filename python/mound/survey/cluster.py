@@ -21,6 +21,8 @@ from typing import Any
 
 from mound import native
 from mound.errors import InputError
+from mound.formats.site_row import SiteRow
+from mound.jsonio import write_json
 from mound.survey.site_work import SiteJob, process_site
 
 
@@ -65,16 +67,17 @@ def describe(client: Any) -> str:
 
 
 def run_sites(client: Any, jobs: list[SiteJob], run_id: str,
-              on_row: Callable[[dict[str, Any]], None], progress: bool = True) -> None:
+              on_row: Callable[[SiteRow], None], progress: bool = True) -> None:
     """Runs every job on the cluster; `on_row` gets each site's row as it completes
-    (in the driver's thread). Ctrl-C cancels the rest and ends the workers' tools of this
+    (in the driver's thread; a task that died before writing its row gets one written
+    here). Ctrl-C cancels the rest and ends the workers' tools of this
     run (`run_id`, the jobs' tag), which start no more."""
     from distributed import as_completed
     from tqdm import tqdm
 
     if not jobs:
         return
-    futures = {client.submit(process_site, job, key=f"site-{job.site['id']}-{job.key[:12]}",
+    futures = {client.submit(process_site, job, key=f"site-{job.site.id}-{job.key[:12]}",
                              pure=False, retries=0): job for job in jobs}
     bar = tqdm(total=len(jobs), desc="3-D sites", unit="site", file=sys.stderr,
                disable=not progress, dynamic_ncols=True)
@@ -84,10 +87,11 @@ def run_sites(client: Any, jobs: list[SiteJob], run_id: str,
             try:
                 row = future.result()
             except Exception as e:  # the task itself died: KilledWorker, a lost worker
-                row = {"id": job.site["id"], "key": job.key, "status": "failed",
-                       "reason": f"task failed on the cluster: {e!r}", "retry": True}
+                row = SiteRow(job.site.id, job.key, job.first_key, "failed",
+                              reason=f"task failed on the cluster: {e!r}", retry=True)
+                write_json(job.tree.result, row.to_doc())
             bar.update(1)
-            bar.set_postfix_str(f"{row['id']} {row.get('verdict', row['status'])}")
+            bar.set_postfix_str(f"{row.id} {row.verdict.two_answer if row.verdict else row.status}")
             on_row(row)
     except BaseException:
         client.cancel(list(futures))

@@ -15,6 +15,8 @@ import numpy as np
 from PIL import Image
 from scipy.stats import binned_statistic_2d
 
+from mound.formats.plan import Plan
+from mound.formats.sites import Site, Sites
 from mound.jsonio import read_json
 from mound.ply import read_ply
 from mound.sim.figures import save_figure
@@ -135,40 +137,38 @@ def terrain_map(rasters_dir: Path, out_png: Path, title: str = "", dpi: int = 70
     return save_figure(fig, out_png, dpi)
 
 
-def field_map(sites_doc: dict[str, Any], plan: dict[str, Any] | None,
-              rows: dict[str, dict[str, Any]], out_png: Path, dpi: int = 80) -> Path:
+def field_map(sites_doc: Sites, plan: Plan | None, verdicts: dict[str, str],
+              out_png: Path, dpi: int = 80) -> Path:
     """Every site coloured by p(mound), the tour, the true mounds ringed and each visited
-    site's verdict marked."""
-    sites = sites_doc["sites"]
-    xy = np.array([[s["x_m"], s["y_m"]] for s in sites])
-    p = np.array([s.get("p_mound", np.nan) for s in sites])
+    site's verdict (`verdicts`: id -> mound, no_mound or failed) marked."""
+    sites = sites_doc.sites
+    xy = np.array([s.xy for s in sites])
+    p = np.array([np.nan if s.p_mound is None else s.p_mound for s in sites])
     fig, ax = plt.subplots(figsize=(6.4, 5.6))
     if plan is not None:
-        pos = {w["id"]: (w["x_m"], w["y_m"]) for w in plan.get("waypoints", [])}
-        flights = plan.get("flights") or [{"tour": plan["tour"], "cost_m": plan["cost_m"]}]
+        pos = {w["id"]: (w["x_m"], w["y_m"]) for w in plan.waypoints()}
         colours = ["0.35", "tab:orange", "tab:purple", "tab:brown", "tab:pink", "tab:olive"]
-        for k, f in enumerate(flights):
-            path = np.array([pos[i] for i in f["tour"] if i in pos])
+        for k, f in enumerate(plan.flights):
+            path = np.array([pos[i] for i in f.tour if i in pos])
             if len(path) > 2:
-                what = "tour" if len(flights) == 1 else f"flight {k + 1}"
+                what = "tour" if len(plan.flights) == 1 else f"flight {k + 1}"
                 ax.plot(path[:, 0], path[:, 1], "-", color=colours[k % len(colours)], lw=1.2,
-                        zorder=1, label=f"{what} ({f['cost_m']:.0f} m of "
-                        f"{plan['budget_m']:.0f} m)")
+                        zorder=1, label=f"{what} ({f.cost_m:.0f} m of "
+                        f"{plan.budget_m:.0f} m)")
     sc = ax.scatter(xy[:, 0], xy[:, 1], c=p, cmap="viridis", vmin=0, vmax=1, s=60,
                     zorder=2, edgecolors="none")
     fig.colorbar(sc, ax=ax, label="p(mound) from the satellite classifier")
-    truth = np.array([bool(s.get("truth", {}).get("mound")) for s in sites])
+    truth = np.array([s.truth is not None and s.truth.mound for s in sites], dtype=bool)
     if truth.any():
         ax.scatter(xy[truth, 0], xy[truth, 1], s=190, facecolors="none", edgecolors="red",
                    lw=1.5, zorder=3, label="true mound")
     for verdict, marker, colour in (("mound", "^", "orange"), ("no_mound", "x", "black"),
                                     ("failed", "s", "magenta")):
-        ids = [k for k, s in enumerate(sites) if rows.get(s["id"], {}).get("verdict") == verdict]
+        ids = [k for k, s in enumerate(sites) if verdicts.get(s.id) == verdict]
         if ids:
             ax.scatter(xy[ids, 0], xy[ids, 1] + 0.0, marker=marker, c=colour, s=36, zorder=4,
                        label=f"3-D verdict: {verdict}")
-    home = sites_doc["home"]
-    ax.plot(home["x_m"], home["y_m"], "k*", ms=14, zorder=5, label="home")
+    ax.plot(sites_doc.home.x_m, sites_doc.home.y_m, "k*", ms=14, zorder=5, label="home")
     ax.set_aspect("equal")
     ax.set_xlabel("east (m)")
     ax.set_ylabel("north (m)")
@@ -229,8 +229,8 @@ def leg_profiles(terrain: dict[str, Any], out_png: Path, dpi: int = 80) -> Path:
     return save_figure(fig, out_png, dpi)
 
 
-def scene_map(run_root: Path, sites_doc: dict[str, Any], plan: dict[str, Any],
-              out_png: Path, dpi: int = 80) -> Path:
+def scene_map(run_root: Path, sites_doc: Sites, plan: Plan, out_png: Path,
+              dpi: int = 80) -> Path:
     """p(mound) of each scored scene (its scene's CRS, metres from the scene's corner) with
     the candidate sites (ring: truth known to be a mound; cross: known not to be), and the
     tour's legs between the candidates of that scene."""
@@ -238,14 +238,15 @@ def scene_map(run_root: Path, sites_doc: dict[str, Any], plan: dict[str, Any],
 
     from mound.jsonio import staged_file
 
-    by_dir: dict[str, list[dict[str, Any]]] = {}
-    for s in sites_doc["sites"]:
-        if "scene" in s:
-            by_dir.setdefault(s["scene"]["scene_dir"], []).append(s)
+    by_dir: dict[str, list[tuple[Site, Any]]] = {}
+    for s in sites_doc.sites:
+        at = s.extra.get("scene")
+        if isinstance(at, dict):
+            by_dir.setdefault(at["scene_dir"], []).append((s, at))
     dirs = sorted(by_dir)[:4]
     fig, axes = plt.subplots(1, max(1, len(dirs)), figsize=(4.2 * max(1, len(dirs)), 4.2),
                              squeeze=False)
-    order = {sid: k for k, sid in enumerate(plan.get("tour", []))}
+    order = {sid: k for k, sid in enumerate(plan.flights[0].tour)}
     im = None
     for ax, d in zip(axes[0], dirs, strict=False):
         with rasterio.open(run_root / d / "p_mound.tif") as ds:
@@ -253,17 +254,18 @@ def scene_map(run_root: Path, sites_doc: dict[str, Any], plan: dict[str, Any],
             w, s_, e, n = ds.bounds
         im = ax.imshow(p, extent=(0, e - w, 0, n - s_), cmap="magma", vmin=0, vmax=1)
         sites = by_dir[d]
-        for site in sites:
-            x, y = site["scene"]["x"] - w, site["scene"]["y"] - s_
-            truth = site.get("truth", {}).get("mound")
+        for site, at in sites:
+            x, y = at["x"] - w, at["y"] - s_
+            truth = None if site.truth is None else site.truth.mound
             mark = "o" if truth else "x" if truth is False else "+"
-            ax.plot(x, y, mark, color="cyan" if site["id"] in order else "0.7", ms=9,
+            ax.plot(x, y, mark, color="cyan" if site.id in order else "0.7", ms=9,
                     mfc="none", mew=1.5)
-            ax.annotate(str(site["scene"]["rank"]), (x, y), color="white", fontsize=7,
+            ax.annotate(str(at["rank"]), (x, y), color="white", fontsize=7,
                         xytext=(4, 4), textcoords="offset points")
-        visited = sorted((s for s in sites if s["id"] in order), key=lambda s: order[s["id"]])
+        visited = [at for s, at in sorted(((s, at) for s, at in sites if s.id in order),
+                                          key=lambda x: order[x[0].id])]
         if len(visited) > 1:
-            ax.plot([s["scene"]["x"] - w for s in visited], [s["scene"]["y"] - s_ for s in visited],
+            ax.plot([at["x"] - w for at in visited], [at["y"] - s_ for at in visited],
                     "-", color="cyan", lw=1)
         ax.set_title(d.split("/")[-1], fontsize=9)
         ax.set_xlabel("m east")

@@ -20,6 +20,10 @@ from pathlib import Path
 from typing import Any
 
 from mound.classify.metrics import detection_error_rates, says_mound
+from mound.errors import InputError
+from mound.formats.plan import Plan
+from mound.formats.site_row import SiteRow
+from mound.formats.sites import Sites
 from mound.jsonio import read_json, write_atomic
 from mound.survey import figures
 from mound.survey.options import SurveyOptions
@@ -33,28 +37,31 @@ def _load(path: Path, schema: str) -> dict[str, Any] | None:
     return read_json(path, schema, 1) if path.is_file() else None
 
 
-def site_rows(tree: RunTree, sites_doc: dict[str, Any], plan: dict[str, Any] | None
-              ) -> list[dict[str, Any]]:
-    from mound.uav.mission_items import visited_ids
+def _plan(path: Path) -> Plan | None:
+    return Plan.read(path) if path.is_file() else None
 
-    tour = visited_ids(plan) if plan else set()
+
+def site_rows(tree: RunTree, sites_doc: Sites, plan: Plan | None) -> list[dict[str, Any]]:
+    tour = plan.visited() if plan else set()
     rows = []
-    for s in sites_doc["sites"]:
-        truth = s.get("truth", {}).get("mound") if isinstance(s.get("truth"), dict) else None
-        row: dict[str, Any] = {"id": s["id"], "x_m": s["x_m"], "y_m": s["y_m"],
-                               "p_mound": s["p_mound"], "reward": s["reward"],
-                               "visited": s["id"] in tour}
-        if truth is not None:
-            row["truth"] = bool(truth)
-        classifier = "mound" if says_mound(s["p_mound"]) else "no_mound"
+    for s in sites_doc.sites:
+        if s.p_mound is None:
+            raise InputError(f"sites: {s.id}: no p_mound (the survey's sites carry the "
+                             "classifier's)")
+        row: dict[str, Any] = {"id": s.id, "x_m": s.x_m, "y_m": s.y_m, "p_mound": s.p_mound,
+                               "reward": s.reward, "visited": s.id in tour}
+        if s.truth is not None:
+            row["truth"] = s.truth.mound
+        classifier = "mound" if says_mound(s.p_mound) else "no_mound"
         row["classifier_label"] = classifier
         if row["visited"]:
-            path = SiteTree(tree.site_dir(s["id"])).result
-            result = json.loads(path.read_text()) if path.is_file() else {
-                "status": "failed", "reason": "not processed"}
-            if result.get("status") == "ok":
-                row["verdict"] = result["verdict"]
-                row["final_label"] = result["verdict"]
+            path = SiteTree(tree.site_dir(s.id)).result
+            site = SiteRow.read(path) if path.is_file() else SiteRow(
+                s.id, "", reason="not processed")
+            result = site.to_doc()
+            if site.ok and site.verdict is not None:
+                row["verdict"] = site.verdict.two_answer
+                row["final_label"] = site.verdict.two_answer
                 row["label_source"] = "3-D verdict"
                 for k in ("answer", "undecided", "confidence", "verdict_p_mound",
                           "verdict_cloud", "coverage", "method", "reason", "rise",
@@ -63,7 +70,7 @@ def site_rows(tree: RunTree, sites_doc: dict[str, Any], plan: dict[str, Any] | N
                         row[k] = result[k]
             else:
                 row["verdict"] = "failed"
-                row["failure"] = result.get("reason", "?")
+                row["failure"] = site.reason or "?"
                 row["final_label"] = classifier
                 row["label_source"] = "classifier (3-D stage failed)"
             for k in ("recon", "timings_s", "files", "source", "simulated", "worker"):
@@ -114,8 +121,8 @@ def field_team(judged: list[dict[str, Any]]) -> list[dict[str, Any]]:
 def build_summary(tree: RunTree, args: SurveyOptions, stages: list[dict[str, Any]],
                   started: float) -> dict[str, Any]:
     learned = args.learn
-    sites_doc = read_json(tree.final_sites(learned), "mound.sites", 1)
-    plan = _load(tree.final_plan(learned), "mound.plan")
+    sites_doc = Sites.read(tree.final_sites(learned))
+    plan = _plan(tree.final_plan(learned))
     mission = _load(tree.mission_summary, "mound.mission")
     rows = site_rows(tree, sites_doc, plan)
     truth = [r.get("truth") for r in rows]
@@ -139,7 +146,7 @@ def build_summary(tree: RunTree, args: SurveyOptions, stages: list[dict[str, Any
     doc: dict[str, Any] = {
         "schema": SCHEMA, "version": VERSION, "status": status,
         "created_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
-        "origin": sites_doc.get("origin"),
+        "origin": sites_doc.origin.to_doc() if sites_doc.origin else None,
         "options": args.as_dict(),
         "field": {"source": args.sites or f"standard field seed {args.field_seed}",
                   "sites": len(rows), "true_mounds": sum(1 for t in truth if t),
@@ -148,9 +155,9 @@ def build_summary(tree: RunTree, args: SurveyOptions, stages: list[dict[str, Any
         "sites": rows,
         "metrics": {
             "eps_md": md, "eps_fa": fa,
-            "reward": plan["reward"] if plan else 0.0,
-            "cost_m": plan["cost_m"] if plan else 0.0,
-            "budget_m": sites_doc["budget_m"],
+            "reward": plan.reward if plan else 0.0,
+            "cost_m": plan.cost_m if plan else 0.0,
+            "budget_m": sites_doc.budget_m,
             "visited": len(visited), "judged": len(judged),
             "failed": len(visited) - len(judged),
             "verdicts_correct": len(correct),
@@ -167,8 +174,8 @@ def build_summary(tree: RunTree, args: SurveyOptions, stages: list[dict[str, Any
         doc["reason"] = reason
     if learned and (tree.learn / "learn.json").is_file():
         doc["learn"] = read_json(tree.learn / "learn.json", "mound.learn", 1)
-        first = read_json(tree.sites, "mound.sites", 1)
-        before = [says_mound(s["p_mound"]) for s in first["sites"]]
+        first = Sites.read(tree.sites)
+        before = [s.p_mound is not None and says_mound(s.p_mound) for s in first.sites]
         bmd, bfa = detection_error_rates(before, truth)
         doc["metrics"]["classifier_before_flights"] = {"eps_md": bmd, "eps_fa": bfa}
     if (tree.photos / "photos.json").is_file():
@@ -177,8 +184,10 @@ def build_summary(tree: RunTree, args: SurveyOptions, stages: list[dict[str, Any
                          "sites": card["sites"], "file": "photos/photos.json",
                          "skipped_folders": card.get("skipped_folders", [])}
     if plan:
-        doc["plan"] = {k: plan.get(k) for k in ("algo", "tour", "reward", "cost_m", "budget_m",
-                                                 "n_visited", "n_sites", "flights")}
+        written = plan.to_doc()
+        doc["plan"] = {k: written.get(k) for k in ("algo", "tour", "reward", "cost_m",
+                                                    "budget_m", "n_visited", "n_sites",
+                                                    "flights")}
     if mission:
         doc["mission"] = {k: mission.get(k) for k in ("items", "flight_distance_m",
                                                        "budget_m", "upload")}
@@ -418,10 +427,10 @@ def _sites_table(rows: list[dict[str, Any]]) -> str:
 def write_reports(tree: RunTree, summary: dict[str, Any]) -> None:
     tree.report_dir.mkdir(parents=True, exist_ok=True)
     learned = bool(summary["options"].get("learn"))
-    sites_doc = read_json(tree.final_sites(learned), "mound.sites", 1)
-    plan = _load(tree.final_plan(learned), "mound.plan")
-    by_id = {r["id"]: r for r in summary["sites"]}
-    figures.field_map(sites_doc, plan, by_id, tree.report_dir / "field.png")
+    sites_doc = Sites.read(tree.final_sites(learned))
+    plan = _plan(tree.final_plan(learned))
+    figures.field_map(sites_doc, plan, {r["id"]: r["verdict"] for r in summary["sites"]
+                                        if "verdict" in r}, tree.report_dir / "field.png")
     for r in summary["sites"]:
         files = r.get("files")
         if files:  # site files are relative to the run directory, as is report.html

@@ -4,9 +4,10 @@ cloud with the dense cloud's model when there is one and it allows a verdict, el
 sparse cloud), the site's GeoTIFFs and pictures for the report.
 
 `process_site(job)` runs on a Dask worker (or in the driver's process); it never raises
-for a failing site: the row it returns (and writes to DIR/sites/<id>/site_result.json,
-`mound.survey_site` v1) says `status: failed` and why, and whether a rerun should try
-again (`retry`: a time-out, a crash, a killed tool) or not (the input allowed no result).
+for a failing site: the row it returns (mound.formats.site_row.SiteRow, also written to
+DIR/sites/<id>/site_result.json, `mound.survey_site` v1) says `status: failed` and why,
+and whether a rerun should try again (`retry`: a time-out, a crash, a killed tool) or not
+(the input allowed no result).
 
 A second card (--second-photos) changes the site's key but not its first look's
 (`first_key`): when the row of the run before ended ok with the same first look, its
@@ -26,13 +27,15 @@ from typing import Any
 
 from mound import native
 from mound.errors import InputError, NoResultError, ToolError, ToolNoResultError, ToolTimeout
+from mound.formats.site_row import SiteRow
+from mound.formats.sites import Site
+from mound.formats.verdict import SecondLookAdvice, Verdict
 from mound.geometry.flight import DEFAULT_SITE_DIAMETER_M
+from mound.geometry.geodesy import Origin
 from mound.jsonio import read_json, write_json
 from mound.photos.sort import MIN_PHOTOS
 from mound.survey.tree import SiteTree
 
-SCHEMA = "mound.survey_site"
-VERSION = 1
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff")
 RASTER_CELL_M = 2.0    # the GeoTIFFs of each visited site (sparse cloud: ~1 point per m²)
 DENSE_RESOLUTION_M = 0.25  # mound_recon densify's voxel in the survey
@@ -43,10 +46,10 @@ DENSE_CELL_M = 0.5     # the GeoTIFFs from the dense cloud
 class SiteJob:
     """Everything one site's task needs; plain data, so that it travels to any worker."""
 
-    site: dict[str, Any]            # the mound.sites row (id, x_m, y_m, truth, ...)
+    site: Site                      # the site of sites.json (id, x_m, y_m, truth, ...)
     index: int                      # position in the field (seeds the simulation)
     run_root: str                   # absolute path of the run directory
-    origin: dict[str, float]        # the survey's WGS84 origin of x_m, y_m
+    origin: Origin                  # the survey's WGS84 origin of x_m, y_m
     key: str                        # digest of everything below and the site row
     first_key: str = ""             # the same less the second card: the first look's
     run_id: str = ""                # tags the tools of this run (native.tagged)
@@ -69,7 +72,7 @@ class SiteJob:
 
     @property
     def tree(self) -> SiteTree:
-        return SiteTree(Path(self.run_root) / "sites" / self.site["id"])
+        return SiteTree(Path(self.run_root) / "sites" / self.site.id)
 
 
 def _model_args(job: SiteJob) -> tuple[str, ...]:
@@ -85,16 +88,17 @@ def _rel(path: Path, root: Path) -> str:
         return str(path)
 
 
-def _simulate(job: SiteJob, row: dict[str, Any]) -> tuple[Path, Path | None, str]:
+def _simulate(job: SiteJob, row: SiteRow) -> tuple[Path, Path | None, str]:
     from mound.sim import site as sim
     from mound.sim.card import survey_site_spec
 
-    spec, row["simulated"] = survey_site_spec(job.site, job.index, job.origin, job.sim_seed,
-                                              job.image_size, job.pattern,
-                                              job.site_diameter_m, job.terrain)
+    spec, simulated = survey_site_spec(job.site, job.index, job.origin, job.sim_seed,
+                                       job.image_size, job.pattern, job.site_diameter_m,
+                                       job.terrain)
+    row.extra["simulated"] = simulated
     t = job.tree
     doc = sim.simulate(spec, t.sim, threads=job.threads)
-    row["simulated"]["images"] = doc["stats"]["images"]
+    simulated["images"] = doc["stats"]["images"]
     return t.sim / "images", t.sim / "camera.json", str(t.sim / "poses.json")
 
 
@@ -102,7 +106,7 @@ def _photos(job: SiteJob) -> tuple[Path, Path | None, str]:
     assert job.images_dir is not None
     folder = Path(job.images_dir)
     if not folder.is_dir():
-        raise InputError(f"no photos of site {job.site['id']} (no folder {folder}: none on "
+        raise InputError(f"no photos of site {job.site.id} (no folder {folder}: none on "
                          "the card, or not sorted)")
     images = [p for p in folder.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES]
     if not images:
@@ -125,55 +129,31 @@ def _recon_summary(recon_dir: Path) -> dict[str, Any]:
             "reason": doc.get("reason")}
 
 
-def _verdict_summary(doc: dict[str, Any]) -> dict[str, Any]:
-    """The row's verdict fields: `answer` the verdict's own (mound, no_mound or undecided),
-    `verdict` its two answers (the paper's protocol: epsilon_MD and epsilon_FA, learning),
-    `undecided` why and what next where it is undecided."""
-    two = doc.get("two_answer")
-    out: dict[str, Any] = {
-        "verdict": two["label"] if isinstance(two, dict) and "label" in two else doc["label"],
-        "answer": doc["label"], "confidence": doc.get("confidence"),
-        "method": doc.get("method"), "reason": doc.get("reason", "")}
-    if isinstance(doc.get("undecided"), dict):
-        out["undecided"] = doc["undecided"]
-    if "p_mound" in doc:  # the reference-free verdict's calibrated probability
-        out["verdict_p_mound"] = doc["p_mound"]
-    if isinstance(doc.get("coverage"), dict):
-        out["coverage"] = doc["coverage"]
-    m = doc.get("measurements", {})
-    rise = m.get("rise") if isinstance(m, dict) else None
-    if isinstance(rise, dict):
-        out["rise"] = {k: rise.get(k) for k in ("height_m", "base_diameter_m", "roundness",
-                                                 "dome_r2", "volume_m3", "centre_enu_m")}
-    if isinstance(m, dict) and "distance_m" in m:
-        out["distance_m"] = m["distance_m"]
-    return out
-
-
-def process_site(job: SiteJob) -> dict[str, Any]:
+def process_site(job: SiteJob) -> SiteRow:
     """Runs the site's work; returns its row (see the module text)."""
     with native.tagged(job.run_id):
         return _process_site(job)
 
 
-def _process_site(job: SiteJob) -> dict[str, Any]:
+def _process_site(job: SiteJob) -> SiteRow:
     t = job.tree
     root = Path(job.run_root)
     t.root.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
     reused = _first_look_of_before(job)
-    row: dict[str, Any] = {"schema": SCHEMA, "version": VERSION, "id": job.site["id"],
-                           "key": job.key, "first_key": job.first_key, "status": "failed",
-                           "source": "photos" if job.images_dir else "simulated",
-                           "worker": f"{socket.gethostname()}:{os.getpid()}", "timings_s": {}}
-    timings: dict[str, float] = row["timings_s"]
+    row = SiteRow(job.site.id, job.key, job.first_key, "failed",
+                  "photos" if job.images_dir else "simulated",
+                  f"{socket.gethostname()}:{os.getpid()}")
+    timings = row.timings_s
     stage = "images"
     try:
         if reused is not None:  # the first look as the run before left it (second card)
             before, first = reused
-            row.update({k: before[k] for k in FIRST_LOOK_FIELDS if k in before})
-            row.update(_verdict_summary(first), first_look_reused=True, status="ok")
-            images, dense = root / row["files"]["images"], None
+            row.extra.update({k: before.extra[k] for k in FIRST_LOOK_EXTRA
+                              if k in before.extra}, first_look_reused=True)
+            row.verdict_cloud, row.files = before.verdict_cloud, dict(before.files)
+            row.verdict, row.status = first, "ok"
+            images, dense = root / row.files["images"], None
         else:
             t0 = time.perf_counter()
             if job.images_dir:
@@ -189,7 +169,7 @@ def _process_site(job: SiteJob) -> dict[str, Any]:
             finally:
                 timings["reconstruct"] = time.perf_counter() - t0
                 if (t.recon / "recon.json").is_file():
-                    row["recon"] = _recon_summary(t.recon)
+                    row.extra["recon"] = _recon_summary(t.recon)
             stage = "densify"
             dense = _densify(job, row)
             stage = "verdict"
@@ -207,58 +187,60 @@ def _process_site(job: SiteJob) -> dict[str, Any]:
                 try:
                     verdict("--cloud", str(judged), *_model_args(job))
                 except ToolNoResultError as e:  # e.g. too few dense points on the site
-                    row["dense_verdict_error"] = _reason(e, t)
+                    row.extra["dense_verdict_error"] = _reason(e, t)
                     judged = None
             if judged is None:
                 verdict(*job.verdict_args)
             timings["verdict"] = time.perf_counter() - t0
-            first = read_json(t.verdict, "mound.verdict", 1)
-            row.update(_verdict_summary(first))
-            row["verdict_cloud"] = "sparse" if judged is None else "dense"
-            row["status"] = "ok"
-            row["files"] = {"images": _rel(images, root), "recon": _rel(t.recon, root),
-                            "verdict": _rel(t.verdict, root)}
+            first = Verdict.read(t.verdict)
+            row.verdict = first
+            row.verdict_cloud = "sparse" if judged is None else "dense"
+            row.status = "ok"
+            row.files = {"images": _rel(images, root), "recon": _rel(t.recon, root),
+                         "verdict": _rel(t.verdict, root)}
             if dense is not None:
-                row["files"]["dense"] = _rel(t.dense, root)
-        advice = first.get("second_look")
-        if isinstance(advice, dict) and advice.get("advised"):
+                row.files["dense"] = _rel(t.dense, root)
+        advice = first.second_look
+        if advice is not None and advice.advised:
             stage = "second look"
             t0 = time.perf_counter()
-            _second_look(job, row, advice, row.get("verdict_cloud") == "dense")
+            _second_look(job, row, advice, row.verdict_cloud == "dense")
             timings["second_look"] = time.perf_counter() - t0
         if reused is None:  # a kept first look keeps its GeoTIFFs
             _rasters(job, row, dense)
     except (InputError, NoResultError) as e:
         # The site's input allowed no result: the same input will fail the same way.
-        row.update(reason=f"{stage}: {_reason(e, t)}", retry=False)
+        row.status, row.reason, row.retry = "failed", f"{stage}: {_reason(e, t)}", False
     except (ToolTimeout, ToolError, OSError) as e:
-        row.update(reason=f"{stage}: {_reason(e, t)}", retry=True)
+        row.status, row.reason, row.retry = "failed", f"{stage}: {_reason(e, t)}", True
     except Exception as e:
         # A bug: the other sites go on, the row says what happened and the site's log keeps
         # the traceback; the survey ends with exit 1 once every site is done
         # (stages.sites3d.run_jobs), never a quiet "partial".
-        row.update(reason=f"{stage}: internal error {e!r}", retry=True, internal_error=True)
+        row.status, row.reason, row.retry = "failed", f"{stage}: internal error {e!r}", True
+        row.internal_error = True
         t.log.parent.mkdir(parents=True, exist_ok=True)
         with open(t.log, "a", encoding="utf-8") as log:
             log.write(f"internal error in stage {stage}:\n{traceback.format_exc()}")
-    if job.figures and row["status"] == "ok":
+    if job.figures and row.ok:
         t0 = time.perf_counter()
         try:
-            row["files"].update(site_figures(job, images, row))
+            row.files.update(site_figures(job, images, row))
         except Exception as e:  # the verdict stands; the report shows what is missing
-            row["figures_error"] = repr(e)
+            row.extra["figures_error"] = repr(e)
         timings["figures"] = time.perf_counter() - t0
     timings["total"] = time.perf_counter() - start
-    write_json(t.result, row)
+    write_json(t.result, row.to_doc())
     return row
 
 
-# What a site's row keeps of its first look when only the second look is done again.
-FIRST_LOOK_FIELDS = ("recon", "dense", "dense_error", "dense_verdict_error", "verdict_cloud",
-                     "files", "rasters", "rasters_error")
+# What a site's row keeps of its first look when only the second look is done again
+# (with its files and the cloud judged).
+FIRST_LOOK_EXTRA = ("recon", "dense", "dense_error", "dense_verdict_error", "rasters",
+                    "rasters_error")
 
 
-def _first_look_of_before(job: SiteJob) -> tuple[dict[str, Any], dict[str, Any]] | None:
+def _first_look_of_before(job: SiteJob) -> tuple[SiteRow, Verdict] | None:
     """With a second card: the run before's row and first verdict of the site when that run
     ended ok with the same first look (first_key) and its first verdict is still there;
     else None (the whole site is done again)."""
@@ -266,38 +248,39 @@ def _first_look_of_before(job: SiteJob) -> tuple[dict[str, Any], dict[str, Any]]
     if not job.second_images_dir or not job.first_key or not t.result.is_file():
         return None
     try:
-        before = read_json(t.result, SCHEMA, VERSION)
-        first = read_json(t.verdict, "mound.verdict", 1)
+        before = SiteRow.read(t.result)
+        doc = read_json(t.verdict, "mound.verdict", 1)
+        first = Verdict.from_doc(doc, t.verdict)
     except (InputError, OSError):
         return None
-    if (before.get("first_key") != job.first_key or before.get("status") != "ok"
-            or first.get("look", "first") != "first" or "label" not in first
-            or not isinstance(before.get("files"), dict)):
+    if (before.first_key != job.first_key or not before.ok
+            or doc.get("look", "first") != "first" or "images" not in before.files):
         return None
     return before, first
 
 
-def _second_look(job: SiteJob, row: dict[str, Any], advice: dict[str, Any],
-                 dense: bool) -> None:
+def _second_look(job: SiteJob, row: SiteRow, advice: SecondLookAdvice, dense: bool) -> None:
     """A site the first verdict left undecided (p_mound in the model's second_look band)
-    flown again with a scan advice["scan_factor"] x as wide (simulated: the same site and
+    flown again with a scan advice.scan_factor x as wide (simulated: the same site and
     seed, mound.sim.looks.wider; photos: the second card sorted into the site's folder,
     --second-photos, else the report asks for that flight), reconstructed,
     densified as the first and judged with `verdict --second-look FIRST_VERDICT`: both
-    flights then decide the site (row["first_look"] keeps the first verdict). A second
-    look that fails leaves the first verdict standing; row["second_look"] says why."""
-    look: dict[str, Any] = {"advised": True, "scan_factor": advice.get("scan_factor"),
+    flights then decide the site (row.first_look keeps the first verdict). A second look
+    that fails leaves the first verdict standing; row.second_look says why."""
+    assert advice.scan_factor is not None  # the reader requires it of an advised look
+    look: dict[str, Any] = {"advised": True, "scan_factor": advice.scan_factor,
                             "flown": False}
-    row["second_look"] = look
+    row.second_look = look
     if job.images_dir and not job.second_images_dir:
-        look["reason"] = (f"{advice.get('message', 'undecided')}: a second card of the site "
+        look["reason"] = (f"{advice.extra.get('message', 'undecided')}: a second card of the "
+                          "site "
                           "is needed (fly second_look/mission.plan, then run again with "
                           "--second-photos CARD)")
         return
     t = job.tree.second
     t.root.mkdir(parents=True, exist_ok=True)
     try:
-        look["scan_m"] = job.site_diameter_m * float(advice["scan_factor"])
+        look["scan_m"] = job.site_diameter_m * advice.scan_factor
         if job.images_dir:  # the second card, sorted into the site's folder
             images, camera, gps = _photos(replace(job, images_dir=job.second_images_dir))
             look["source"] = "photos"
@@ -309,7 +292,7 @@ def _second_look(job: SiteJob, row: dict[str, Any], advice: dict[str, Any],
             spec, _ = survey_site_spec(job.site, job.index, job.origin, job.sim_seed,
                                        job.image_size, job.pattern, job.site_diameter_m,
                                        job.terrain)
-            spec = wider(spec, float(advice["scan_factor"]))  # its scale_m: look["scan_m"]
+            spec = wider(spec, advice.scan_factor)  # its scale_m: look["scan_m"]
             look["source"] = "simulated"
             sim.simulate(spec, t.sim, threads=job.threads)
             images, camera, gps = t.sim / "images", t.sim / "camera.json", str(
@@ -322,16 +305,15 @@ def _second_look(job: SiteJob, row: dict[str, Any], advice: dict[str, Any],
             native.run_tool("mound_recon", _densify_args(job, t), job.timeout_s, log=t.log)
             args += ["--cloud", str(t.dense / "dense.ply"), *_model_args(job)]
         native.run_tool("mound_recon", args, job.timeout_s, log=t.log)
-        second = _verdict_summary(read_json(t.verdict, "mound.verdict", 1))
+        second = Verdict.read(t.verdict)
     except (InputError, NoResultError, ToolTimeout, ToolError, OSError) as e:
         look["reason"] = _reason(e, t)
         return
-    row["first_look"] = {k: row[k] for k in ("verdict", "answer", "confidence",
-                                              "verdict_p_mound", "reason", "rise", "undecided")
-                         if k in row}
-    row.pop("undecided", None)  # the second look's, if it is still undecided
-    row.update({k: v for k, v in second.items() if k != "coverage"})
-    look.update(flown=True, p_mound=second.get("verdict_p_mound"),
+    assert row.verdict is not None  # the first look's
+    row.first_look = row.verdict
+    # both flights' verdict; the coverage stays the first look's (its scan's)
+    row.verdict = replace(second, coverage=row.verdict.coverage)
+    look.update(flown=True, p_mound=second.p_mound,
                 verdict_file=_rel(t.verdict, Path(job.run_root)))
 
 
@@ -349,9 +331,9 @@ def _densify_args(job: SiteJob, t: SiteTree) -> list[str]:
             *job.dense_args]
 
 
-def _densify(job: SiteJob, row: dict[str, Any]) -> Path | None:
+def _densify(job: SiteJob, row: SiteRow) -> Path | None:
     """The dense cloud (mound_recon densify, when job.dense_args), or None: not asked for,
-    or densify failed (row["dense_error"] says why; the verdict and the GeoTIFFs then use
+    or densify failed (row.extra["dense_error"] says why; the verdict and the GeoTIFFs then use
     the sparse cloud)."""
     if not job.dense_args:
         return None
@@ -361,15 +343,15 @@ def _densify(job: SiteJob, row: dict[str, Any]) -> Path | None:
     try:
         native.run_tool("mound_recon", _densify_args(job, t), job.timeout_s, log=t.log)
         doc = read_json(t.dense / "dense.json", "mound.dense", 1)
-        row["dense"] = {"points": doc["points"], "options": doc["options"]}
+        row.extra["dense"] = {"points": doc["points"], "options": doc["options"]}
         cloud = t.dense / "dense.ply"
     except (InputError, NoResultError, ToolError, ToolTimeout, OSError) as e:
-        row["dense_error"] = _reason(e, t)
-    row["timings_s"]["densify"] = time.perf_counter() - t0
+        row.extra["dense_error"] = _reason(e, t)
+    row.timings_s["densify"] = time.perf_counter() - t0
     return cloud
 
 
-def _rasters(job: SiteJob, row: dict[str, Any], dense: Path | None) -> None:
+def _rasters(job: SiteJob, row: SiteRow, dense: Path | None) -> None:
     """The DSM, DTM, relief model, hillshade and orthophoto GeoTIFFs of a metric model in
     sites/ID/rasters/ (mound.recon.rasters, which refuses a model without a metric ENU
     frame): from the dense cloud at DENSE_CELL_M, else from the sparse one at
@@ -381,13 +363,13 @@ def _rasters(job: SiteJob, row: dict[str, Any], dense: Path | None) -> None:
     t0 = time.perf_counter()
     try:
         doc = rasters.from_recon(t.recon, t.rasters, resolution_m=cell, cloud=cloud)
-        row["rasters"] = {k: doc[k] for k in ("crs", "resolution_m", "width", "height",
-                                               "coverage")}
-        row["rasters"]["cloud"] = "dense" if cloud else "sparse"
-        row["files"]["rasters"] = _rel(t.rasters, Path(job.run_root))
+        row.extra["rasters"] = {**{k: doc[k] for k in ("crs", "resolution_m", "width",
+                                                         "height", "coverage")},
+                                "cloud": "dense" if cloud else "sparse"}
+        row.files["rasters"] = _rel(t.rasters, Path(job.run_root))
     except (InputError, OSError, ValueError) as e:
-        row["rasters_error"] = str(e)
-    row["timings_s"]["rasters"] = time.perf_counter() - t0
+        row.extra["rasters_error"] = str(e)
+    row.timings_s["rasters"] = time.perf_counter() - t0
 
 
 def _reason(e: Exception, t: SiteTree) -> str:
@@ -406,7 +388,7 @@ def _reason(e: Exception, t: SiteTree) -> str:
     return str(e)
 
 
-def site_figures(job: SiteJob, images: Path, row: dict[str, Any]) -> dict[str, str]:
+def site_figures(job: SiteJob, images: Path, row: SiteRow) -> dict[str, str]:
     """The report's pictures of a site: a strip of its images, the cloud with cameras and
     the relief map with the verdict."""
     from mound.recon import figures as recon_figures
@@ -416,13 +398,13 @@ def site_figures(job: SiteJob, images: Path, row: dict[str, Any]) -> dict[str, s
     root = Path(job.run_root)
     figures.thumbnail_strip(images, t.thumbnails)
     recon_figures.cloud_and_cameras(t.recon, t.cloud_png, max_points=15000, dpi=60)
-    figures.relief_map(t.recon, t.verdict, t.relief_png, title=f"{job.site['id']}: "
-                       f"{row.get('verdict', '?')}")
+    figures.relief_map(t.recon, t.verdict, t.relief_png, title=f"{job.site.id}: "
+                       f"{row.verdict.two_answer if row.verdict else '?'}")
     out = {"thumbnails": _rel(t.thumbnails, root), "cloud": _rel(t.cloud_png, root),
            "relief": _rel(t.relief_png, root)}
-    if "rasters" in row:
-        figures.terrain_map(t.rasters, t.terrain_png, title=f"{job.site['id']}: GeoTIFFs "
-                            f"({row['rasters'].get('cloud', 'sparse')} cloud), "
-                            f"{row['rasters']['crs']}")
+    rasters = row.extra.get("rasters")
+    if rasters is not None:
+        figures.terrain_map(t.rasters, t.terrain_png, title=f"{job.site.id}: GeoTIFFs "
+                            f"({rasters.get('cloud', 'sparse')} cloud), {rasters['crs']}")
         out["terrain"] = _rel(t.terrain_png, root)
     return out

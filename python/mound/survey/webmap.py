@@ -20,8 +20,11 @@ from typing import Any
 
 import numpy as np
 
+from mound.errors import InputError
+from mound.formats.plan import Flight, Plan
+from mound.formats.sites import Sites
 from mound.geometry.geodesy import Origin, enu_to_geodetic
-from mound.jsonio import read_json, write_atomic
+from mound.jsonio import write_atomic
 from mound.paths import REPO_ROOT
 from mound.survey.tree import RunTree
 
@@ -109,16 +112,18 @@ def overlay_png(tif: Path, out_png: Path, kind: str) -> list[list[float]] | None
     return [[float(south), float(west)], [float(north), float(east)]]
 
 
-def map_data(tree: RunTree, summary: dict[str, Any], sites_doc: dict[str, Any],
-             plan: dict[str, Any] | None, out_dir: Path) -> dict[str, Any]:
+def map_data(tree: RunTree, summary: dict[str, Any], sites_doc: Sites, plan: Plan | None,
+             out_dir: Path) -> dict[str, Any]:
     """What the page draws (WGS84 degrees), the overlay PNGs written into out_dir."""
-    origin = Origin.from_doc(sites_doc["origin"], "sites: origin")
+    origin = sites_doc.origin
+    if origin is None:
+        raise InputError("sites: origin: missing (the map is in WGS84)")
     rows = {r["id"]: r for r in summary["sites"]}
-    pos = {s["id"]: _lat_lon(origin, s["x_m"], s["y_m"]) for s in sites_doc["sites"]}
-    home = sites_doc["home"]
-    pos[home["id"]] = _lat_lon(origin, home["x_m"], home["y_m"])
+    pos = {s.id: _lat_lon(origin, s.x_m, s.y_m) for s in sites_doc.sites}
+    home = sites_doc.home
+    pos[home.id] = _lat_lon(origin, home.x_m, home.y_m)
     if plan is not None:
-        for w in plan.get("waypoints", []):
+        for w in plan.waypoints():
             pos.setdefault(w["id"], _lat_lon(origin, w["x_m"], w["y_m"]))
     sites = []
     overlays = []
@@ -130,9 +135,9 @@ def map_data(tree: RunTree, summary: dict[str, Any], sites_doc: dict[str, Any],
             overlays.append({"site": site, "name": name, "tif": str(tif.relative_to(tree.root)),
                              "png": f"map/overlays/{png_name}", "bounds": bounds})
 
-    for s in sites_doc["sites"]:
-        r = rows.get(s["id"], {})
-        lat, lon = pos[s["id"]]
+    for site in sites_doc.sites:
+        r = rows.get(site.id, {})
+        lat, lon = pos[site.id]
         card = {k: r[k] for k in ("p_mound", "reward", "visited", "verdict", "final_label",
                                   "label_source", "confidence", "verdict_p_mound", "truth",
                                   "failure") if k in r}
@@ -155,11 +160,11 @@ def map_data(tree: RunTree, summary: dict[str, Any], sites_doc: dict[str, Any],
                 if look.get("flown") else f"advised, not flown: {look.get('reason', '')}")
         files = r.get("files") or {}
         card["files"] = {k: v for k, v in files.items() if isinstance(v, str)}
-        sites.append({"id": s["id"], "lat": lat, "lon": lon, "card": card})
+        sites.append({"id": site.id, "lat": lat, "lon": lon, "card": card})
         if files.get("rasters"):
             for name, kind in (("orthophoto", "rgb"), ("lrm", "relief")):
-                overlay(tree.root / files["rasters"] / f"{name}.tif", name, kind, s["id"],
-                        f"{s['id']}_{name}.png")
+                overlay(tree.root / files["rasters"] / f"{name}.tif", name, kind, site.id,
+                        f"{site.id}_{name}.png")
     for k, tif in enumerate(sorted(tree.root.glob("scene/*/p_mound.tif"))):
         overlay(tif, "scene_p_mound", "prob", None, f"scene{k:02d}_p_mound.png")
     footprints = []
@@ -168,17 +173,16 @@ def map_data(tree: RunTree, summary: dict[str, Any], sites_doc: dict[str, Any],
             if f.get("properties", {}).get("kind") == "image_footprint":
                 ring = f["geometry"]["coordinates"][0]
                 footprints.append([[float(c[1]), float(c[0])] for c in ring])
-    def paths(flights: list[dict[str, Any]]) -> list[dict[str, Any]]:
-        """Each flight ({tour, cost_m}) as a path of WGS84 points."""
-        return [{"flight": k + 1, "cost_m": f.get("cost_m"),
-                 "path": [list(pos[i]) for i in f["tour"] if i in pos]}
+    def paths(flights: tuple[Flight, ...]) -> list[dict[str, object]]:
+        """Each flight as a path of WGS84 points."""
+        return [{"flight": k + 1, "cost_m": f.cost_m,
+                 "path": [list(pos[i]) for i in f.tour if i in pos]}
                 for k, f in enumerate(flights)]
 
-    flights = paths(plan.get("flights") or [{"tour": plan["tour"], "cost_m": plan.get(
-        "cost_m")}]) if plan is not None else []
+    flights = paths(plan.flights) if plan is not None else []
     # the second looks' missions (second_look/plan.json), when the verdicts advised any
     sl_plan = tree.second_look / "plan.json"
-    second_looks = (paths(read_json(sl_plan, "mound.plan", 1).get("flights") or [])
+    second_looks = (paths(tuple(f for f in Plan.read(sl_plan).flights if f.sites))
                     if sl_plan.is_file() else [])
     # every mission file of the run read back by its own reader: the map draws each path
     # (a file the survey wrote that its reader refuses is a bug: not caught here)
@@ -194,10 +198,10 @@ def map_data(tree: RunTree, summary: dict[str, Any], sites_doc: dict[str, Any],
                                   "path": [[p.lat_deg, p.lon_deg] for p in r.points]})
     return {"schema": "mound.map", "version": 1, "second_looks": second_looks,
             "mission_files": mission_files,
-            "home": {"id": home["id"], "lat": pos[home["id"]][0], "lon": pos[home["id"]][1]},
+            "home": {"id": home.id, "lat": pos[home.id][0], "lon": pos[home.id][1]},
             "sites": sites, "flights": flights, "overlays": overlays,
             "footprints": footprints,
-            "budget_m": plan.get("budget_m") if plan else None,
+            "budget_m": plan.budget_m if plan else None,
             "metrics": summary.get("metrics", {})}
 
 
@@ -315,8 +319,8 @@ def copy_web_files(root: Path) -> Path:
     return out_dir
 
 
-def write_map(tree: RunTree, summary: dict[str, Any], sites_doc: dict[str, Any],
-              plan: dict[str, Any] | None, basemap: str | None = None) -> Path | None:
+def write_map(tree: RunTree, summary: dict[str, Any], sites_doc: Sites, plan: Plan | None,
+              basemap: str | None = None) -> Path | None:
     """DIR/map.html, DIR/site3d.html and DIR/map/ (Leaflet, three.js, survey.js, the
     sites' clouds, overlays); None (and nothing written) when the libraries are not
     installed (tools/setup.sh installs them)."""

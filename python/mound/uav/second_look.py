@@ -22,68 +22,62 @@ from dataclasses import replace
 from typing import Any
 
 from mound.errors import InputError
-from mound.geometry.geodesy import Origin
+from mound.formats.plan import Plan
+from mound.formats.site_row import SiteRow
+from mound.formats.sites import Sites
 from mound.uav.mission import build
-from mound.uav.mission_items import (
-    Mission,
-    MissionSpec,
-    TerrainInput,
-    plan_scan,
-    visit_order,
-)
+from mound.uav.mission_items import Mission, MissionSpec, TerrainInput
 
 
-def advised_sites(rows: list[dict[str, Any]]) -> tuple[list[str], float | None]:
+def advised_sites(rows: list[SiteRow]) -> tuple[list[str], float | None]:
     """The ids of the site rows whose first verdict advised a second look, and its scan
     factor (the widest asked for; None without one)."""
     ids, factors = [], []
     for r in rows:
-        look = r.get("second_look")
+        look = r.second_look
         if isinstance(look, dict) and look.get("advised"):
             f = look.get("scan_factor")
             if not (isinstance(f, int | float) and math.isfinite(f) and f >= 1):
-                raise InputError(f"sites: {r.get('id')}.second_look.scan_factor: expected a "
+                raise InputError(f"sites: {r.id}.second_look.scan_factor: expected a "
                                  f"number >= 1, got {f!r:.40}")
-            ids.append(str(r["id"]))
+            ids.append(r.id)
             factors.append(float(f))
     return ids, (max(factors) if factors else None)
 
 
-def second_look_flights(sites_doc: dict[str, Any], plan: dict[str, Any] | None,
-                        ids: list[str], scan_factor: float,
-                        terrain: TerrainInput | None = None
+def second_look_flights(sites: Sites, plan: Plan | None, ids: list[str],
+                        scan_factor: float, terrain: TerrainInput | None = None
                         ) -> tuple[list[Mission], list[dict[str, str]], MissionSpec]:
     """The missions that fly the second looks of `ids` (see the module text), the sites
     refused ({id, reason}) and the wider scan's MissionSpec."""
-    origin = Origin.from_doc((plan or sites_doc).get("origin") or {}, "plan: origin")
-    scan = plan_scan(plan) if plan else None
+    origin = plan.origin if plan is not None and plan.origin is not None else sites.origin
+    if origin is None:
+        raise InputError("plan: origin: missing (the missions are flown in WGS84)")
+    scan = plan.scan() if plan else None
     base = MissionSpec(scan=scan) if scan is not None else MissionSpec()
     spec = replace(base, scan=replace(base.scan, scale_m=base.scan.scale_m * scan_factor))
     spec.validate()
     cost = spec.scan.site_cost_m()
-    by_id = {str(s["id"]): s for s in sites_doc["sites"]}
-    home = sites_doc["home"]
-    end = sites_doc.get("end") or home
-    closed = end["id"] == home["id"]
-    budget = float(sites_doc["budget_m"])
+    by_id = sites.by_id()
+    home, end = sites.home, sites.end
     for i in ids:
         if i not in by_id:
             raise InputError(f"second look: site {i!r} is not in the sites document")
-    rank = {i: k for k, i in enumerate(visit_order(plan) if plan else [])}
-    hx, hy = float(home["x_m"]), float(home["y_m"])
-    ids = sorted(ids, key=lambda i: (rank.get(i, len(rank)),
-                                     math.hypot(by_id[i]["x_m"] - hx, by_id[i]["y_m"] - hy)))
+    rank = {i: k for k, i in enumerate(plan.visit_order() if plan else [])}
+    ids = sorted(ids, key=lambda i: (rank.get(i, len(rank)), math.hypot(
+        by_id[i].x_m - home.x_m, by_id[i].y_m - home.y_m)))
+    plan_terrain = plan.extra.get("terrain") if plan else None
 
     def mission(visit: list[str]) -> Mission:
-        wps = [{"id": home["id"], "x_m": hx, "y_m": hy, "kind": "home"}]
-        wps += [{"id": i, "x_m": float(by_id[i]["x_m"]), "y_m": float(by_id[i]["y_m"]),
-                 "kind": "site", "scan_cost_m": cost} for i in visit]
-        if not closed:
-            wps.append({"id": end["id"], "x_m": float(end["x_m"]), "y_m": float(end["y_m"]),
-                        "kind": "end"})
-        doc = {"tour": [home["id"], *visit, end["id"]], "waypoints": wps, "closed": closed,
-               "budget_m": budget, **({"terrain": plan["terrain"]}
-                                      if plan and "terrain" in plan else {})}
+        wps: list[dict[str, Any]] = [{"id": home.id, "x_m": home.x_m, "y_m": home.y_m,
+                                      "kind": "home"}]
+        wps += [{"id": i, "x_m": by_id[i].x_m, "y_m": by_id[i].y_m, "kind": "site",
+                 "scan_cost_m": cost} for i in visit]
+        if not sites.closed:
+            wps.append({"id": end.id, "x_m": end.x_m, "y_m": end.y_m, "kind": "end"})
+        doc = {"tour": [home.id, *visit, end.id], "waypoints": wps, "closed": sites.closed,
+               "budget_m": sites.budget_m,
+               **({"terrain": plan_terrain} if plan_terrain is not None else {})}
         return build(doc, origin, spec, terrain)
 
     def attempt(visit: list[str]) -> Mission | str:

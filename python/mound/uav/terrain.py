@@ -32,13 +32,14 @@ corners from the last scan waypoint straight to the next site's first).
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from typing import Any
 
 import numpy as np
 
 from mound.bounds import Bound
 from mound.errors import InputError
+from mound.formats.sites import Sites
 from mound.geometry.dem import Dem
 from mound.geometry.flight import ScanLeg, ScanSpec
 from mound.jsonio import require_number
@@ -257,19 +258,14 @@ def site_grounds(dem: Dem, centres: np.ndarray, scale_m: float, ids: list[str]) 
     return out
 
 
-def sites_nodes(doc: dict[str, Any]) -> tuple[list[Node], bool]:
-    """A sites document's nodes in mound_plan's order (home, the end of a path, the sites
-    in file order) and whether the tour is closed."""
-    home = doc.get("home") or {}
-    end = doc.get("end") or {}
-    closed = not end or end.get("id", home.get("id")) == home.get("id")
-    nodes = [Node(str(home.get("id", "home")), "home", float(home.get("x_m", 0.0)),
-                  float(home.get("y_m", 0.0)))]
-    if not closed:
-        nodes.append(Node(str(end["id"]), "end", float(end["x_m"]), float(end["y_m"])))
-    nodes += [Node(str(s["id"]), "site", float(s["x_m"]), float(s["y_m"]))
-              for s in doc.get("sites", [])]
-    return nodes, closed
+def sites_nodes(sites: Sites) -> tuple[list[Node], bool]:
+    """The sites' nodes in mound_plan's order (home, the end of a path, the sites in file
+    order) and whether the tour is closed."""
+    nodes = [Node(sites.home.id, "home", sites.home.x_m, sites.home.y_m)]
+    if not sites.closed:
+        nodes.append(Node(sites.end.id, "end", sites.end.x_m, sites.end.y_m))
+    nodes += [Node(s.id, "site", s.x_m, s.y_m) for s in sites.sites]
+    return nodes, sites.closed
 
 
 def open_dem(path: str, origin: Any, vertical: str | None, xy: np.ndarray,
@@ -280,27 +276,25 @@ def open_dem(path: str, origin: Any, vertical: str | None, xy: np.ndarray,
     return Dem.open(path, origin, vertical, around=xy, margin_m=margin)
 
 
-def attach(doc: dict[str, Any], dem_path: str, spec: TerrainSpec, vertical: str | None,
-           origin: Any) -> dict[str, Any]:
-    """Adds the terrain to a sites document that has a `scan`: every site's scan cost
+def attach(sites: Sites, dem_path: str, spec: TerrainSpec, vertical: str | None,
+           origin: Any) -> Sites:
+    """Adds the terrain to sites that have a `scan`: every site's scan cost
     becomes its scan loop's energy, the take-off and landing climbs move into the legs,
     and `terrain` carries the heights and the legs' climb costs. Refuses (InputError) a
     site whose scan cannot clear the terrain."""
-    if "scan" not in doc:
+    scan = sites.scan()
+    if scan is None:
         raise InputError("--dem needs a scan pattern (--scan-pattern): the heights follow "
                          "the scan")
-    scan = ScanSpec.from_doc(doc["scan"])
-    nodes, closed = sites_nodes(doc)
+    nodes, closed = sites_nodes(sites)
     xy = np.array([[n.x_m, n.y_m] for n in nodes])
     dem = open_dem(dem_path, origin, vertical, xy, scan, spec)
     spec = TerrainSpec(**{**spec.to_doc(), "vertical": dem.vertical})
     model = TerrainModel(dem, spec, scan, nodes)
     model.check_scans()
-    out = dict(doc)
-    out["sites"] = [{**s, "scan_cost_m": model.scan_energy_m} for s in doc["sites"]]
-    out["takeoff_landing_m"] = 0.0
-    out["terrain"] = model.doc(closed=closed)
-    return out
+    return replace(sites.with_sites([replace(s, scan_cost_m=model.scan_energy_m)
+                                      for s in sites.sites], terrain=model.doc(closed=closed)),
+                   takeoff_landing_m=0.0)
 
 
 def add_arguments(p: Any) -> None:

@@ -4,18 +4,21 @@ scene's candidates)."""
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from mound.errors import InputError
+from mound.formats.sites import Sites
 from mound.geojson import point_feature_doc
+from mound.geometry.geodesy import Origin
 from mound.jsonio import read_json, write_json
 from mound.survey.context import Context, digest_files, run_stage, scan_spec
 
 
-def scene_sites(ctx: Context, scan: Any) -> dict[str, Any]:
+def scene_sites(ctx: Context, scan: Any) -> Sites:
     """Scores each scene, merges their candidates (best first), gives each the truth of the
     labels within 15 m (a known mound, with its height_m; an explicit not_mound), and reads
     them as the run's sites; the others are simulated as flat ground, truth unknown."""
@@ -94,16 +97,15 @@ def scene_sites(ctx: Context, scan: Any) -> dict[str, Any]:
         point_feature_doc(home, {"kind": "home"}), *feats]}
     path = ctx.tree.root / "scene" / "candidates.geojson"
     write_json(path, gj)
-    doc = load_user_sites(path, scan, a.budget, flight_budget_m(), need_truth=False)
+    read = load_user_sites(path, scan, a.budget, flight_budget_m(), need_truth=False)
     by_id = {f["properties"]["id"]: f["properties"] for f in feats}
-    for s in doc["sites"]:
-        pr = by_id[s["id"]]
-        s["scene"] = {k: pr[k] for k in ("scene", "scene_dir", "x", "y", "rank")}
-        if "truth" not in s:
-            s["simulate"] = "flat"  # truth unknown: flown over flat ground, not counted
-    doc["provenance"]["tool"] = "python/mission.py --scene"
-    doc["provenance"]["scenes"] = a.scenes
-    return doc
+    # truth unknown: flown over flat ground, not counted
+    sites = [replace(s, extra={**s.extra, "scene": {k: by_id[s.id][k] for k in (
+        "scene", "scene_dir", "x", "y", "rank")}, **({} if s.truth else {"simulate": "flat"})})
+        for s in read.sites]
+    return read.with_sites(sites, provenance={**read.extra["provenance"],
+                                              "tool": "python/mission.py --scene",
+                                              "scenes": a.scenes})
 
 
 def stage_field(ctx: Context) -> str:
@@ -126,9 +128,9 @@ def stage_field(ctx: Context) -> str:
     elif a.sites:
         # Validated now, before anything is planned or flown, even when the stage is
         # skipped: a bad file must stop the run here.
-        doc = load_user_sites(a.sites, scan, a.budget, flight_budget_m(),
-                              need_truth=not (a.images_root or a.photos))
-        material = {"sites": doc}
+        given = load_user_sites(a.sites, scan, a.budget, flight_budget_m(),
+                                need_truth=not (a.images_root or a.photos))
+        material = {"sites": given.to_doc()}
     else:
         material = {"classify": ctx.keys["classify"], "seed": a.field_seed,
                     "spacing": a.spacing, "scan": scan.to_doc(), "budget": a.budget,
@@ -139,7 +141,7 @@ def stage_field(ctx: Context) -> str:
         if a.scene:
             out = scene_sites(ctx, scan)
         elif a.sites:
-            out = doc
+            out = given
         else:
             test = statlog.load("sat.tst")
             model = Model.from_doc(read_json(ctx.tree.model, MODEL_SCHEMA, MODEL_VERSION),
@@ -152,22 +154,19 @@ def stage_field(ctx: Context) -> str:
 
                 home = parse_lat_lon(a.home)
                 assert home is not None  # a.home is set
-                lat, lon = home
-                out["origin"] = {"lat": lat, "lon": lon, "alt_m": 0.0}
+                out = replace(out, origin=Origin(home[0], home[1], 0.0))
         if a.dem:
-            from mound.geometry.geodesy import Origin
             from mound.uav import terrain
 
-            out = terrain.attach(out, a.dem, a.terrain_spec(), a.dem_vertical,
-                                 Origin.from_doc(out["origin"], "sites: origin"))
-        write_json(ctx.tree.sites, out)
-        prov = out["provenance"]
+            out = terrain.attach(out, a.dem, a.terrain_spec(), a.dem_vertical, out.origin)
+        write_json(ctx.tree.sites, out.to_doc())
+        prov = out.extra["provenance"]
         what = (f"field seed {a.field_seed}" if not (a.sites or a.scene) else
                 f"{a.sites}" if a.sites else f"{len(a.scenes)} scene(s)")
-        return (["sites.json"], f"{what}: {len(out['sites'])} sites, {prov['positives']} "
+        return (["sites.json"], f"{what}: {len(out.sites)} sites, {prov['positives']} "
                 f"true mounds, total reward {prov['total_reward']:.2f} bits, scan cost "
-                f"{out['sites'][0]['scan_cost_m']:.0f} m per site"
+                f"{out.sites[0].scan_cost_m:.0f} m per site"
                 f"{' (energy, over the DEM)' if a.dem else ''}, budget "
-                f"{out['budget_m']:.0f} m", True)
+                f"{out.budget_m:.0f} m", True)
 
     return run_stage(ctx, "field", material, work)

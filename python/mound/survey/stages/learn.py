@@ -22,6 +22,7 @@ field's 100 rows (flown or not).
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -33,14 +34,15 @@ from mound.classify.model import SCHEMA as MODEL_SCHEMA
 from mound.classify.model import VERSION as MODEL_VERSION
 from mound.classify.model import Model
 from mound.classify.reward import binary_entropy_bits
-from mound.errors import ToolInputError, ToolNoResultError
-from mound.geometry.geodesy import Origin
+from mound.errors import InputError, ToolInputError, ToolNoResultError
+from mound.formats.plan import Flight, Plan
+from mound.formats.site_row import SiteRow
+from mound.formats.sites import Sites
 from mound.jsonio import read_json, write_json
 from mound.survey.context import Context, mission_terrain, run_stage
 from mound.survey.stages.sites3d import run_jobs, second_look_missions, site_jobs
 from mound.uav import files as mission_files
 from mound.uav import mission
-from mound.uav.mission_items import flight_plans
 
 SCHEMA = "mound.learn"
 VERSION = 1
@@ -48,17 +50,25 @@ VERSION = 1
 NO_ROUND_TRIP = "too small to leave home"
 
 
-def with_model(sites_doc: dict[str, Any], model: Model, test: statlog.Split
-               ) -> dict[str, Any]:
-    """The sites document with every site's p_mound and reward from `model` (the site's
-    Statlog row's features)."""
-    rows = np.array([s["truth"]["statlog_row"] for s in sites_doc["sites"]])
-    p = model.predict(test.x[rows])
+def statlog_rows(sites: Sites) -> np.ndarray:
+    """The Statlog row each site of the standard field holds (its truth says which)."""
+    rows = [s.truth.statlog_row if s.truth else None for s in sites.sites]
+    missing = [s.id for s, r in zip(sites.sites, rows, strict=True) if r is None]
+    if missing:
+        raise InputError(f"sites: {missing[0]}.truth.statlog_row: missing (--learn learns on "
+                         "the standard field, whose sites are Statlog rows)")
+    return np.array(rows, dtype=int)
+
+
+def with_model(sites: Sites, model: Model, test: statlog.Split) -> Sites:
+    """The sites with every site's p_mound and reward from `model` (the site's Statlog
+    row's features)."""
+    p = model.predict(test.x[statlog_rows(sites)])
     reward = binary_entropy_bits(p)
-    sites = [{**s, "p_mound": float(pk), "reward": float(rk)}
-             for s, pk, rk in zip(sites_doc["sites"], p, reward, strict=True)]
-    prov = {**sites_doc.get("provenance", {}), "total_reward": float(reward.sum())}
-    return {**sites_doc, "sites": sites, "provenance": prov}
+    return sites.with_sites(
+        [replace(s, p_mound=float(pk), reward=float(rk))
+         for s, pk, rk in zip(sites.sites, p, reward, strict=True)],
+        provenance={**sites.extra.get("provenance", {}), "total_reward": float(reward.sum())})
 
 
 def held_out_auc(model: Model, test: statlog.Split, field_rows: np.ndarray) -> float:
@@ -68,32 +78,33 @@ def held_out_auc(model: Model, test: statlog.Split, field_rows: np.ndarray) -> f
     return float(metrics.roc_auc(model.predict(test.x[keep]), test.y[keep]))
 
 
-def one_flight(plan: dict[str, Any]) -> dict[str, Any] | None:
+def one_flight(plan: Plan, number: int) -> Plan | None:
     """The flight of highest reward of a plan (mound_plan orders flights so), as a plan of
-    that one flight; None when no flight visits a site."""
-    flights = [f for f in flight_plans(plan) if len(f["tour"]) > 2]
+    that one flight (`flight`: its number among the flights flown); None when no flight
+    visits a site."""
+    flights = [f for f in plan.flights if f.sites]
     if not flights:
         return None
-    f = {k: v for k, v in flights[0].items() if k != "flights"}
-    f["n_visited"] = len(f["tour"]) - 2
-    return f
+    return replace(plan, flights=tuple(flights[:1]), extra={**plan.extra, "flight": number,
+                                                     "n_visited": len(flights[0].sites)})
 
 
-def _write_mission(ctx: Context, plan: dict[str, Any], out: Path) -> None:
+def _write_mission(ctx: Context, plan: Plan, out: Path) -> None:
     """The flight's MAVLink mission (refused, like the mission stage's, when it breaks the
     budget or, over a DEM, cannot clear the ground)."""
-    m = mission.build(plan, Origin.from_doc(plan["origin"], "plan: origin"),
+    if plan.origin is None:
+        raise InputError("plan: origin: missing (the mission is flown in WGS84)")
+    m = mission.build(plan.to_doc(), plan.origin,
                       None,  # the plan's own scan (plan_scan), else the default
                       mission_terrain(ctx.args))
     mission_files.write_plan(out, m, ctx.args.firmware)
 
 
-def _replan(ctx: Context, left: dict[str, Any], k: int, fdir: Path
-            ) -> tuple[dict[str, Any] | None, str]:
+def _replan(ctx: Context, left: Sites, k: int, fdir: Path) -> tuple[Plan | None, str]:
     """Flight k's plan (mound_plan over the sites `left` for the flights left), or None and
     why no flight is left."""
     a = ctx.args
-    write_json(fdir / "sites.json", left)
+    write_json(fdir / "sites.json", left.to_doc())
     try:
         native.run_tool("mound_plan", [str(fdir / "sites.json"), "--algo", a.algo,
                                        "--seed", str(a.plan_seed), "--flights",
@@ -110,53 +121,48 @@ def _replan(ctx: Context, left: dict[str, Any], k: int, fdir: Path
                                f"{e}") from e
         why = (e.tail.strip().splitlines() or [str(e)])[-1]
         return None, f"flight {k}: no flight over the sites left ({why})"
-    return read_json(fdir / "plan_all.json", "mound.plan", 1), ""
+    return Plan.read(fdir / "plan_all.json"), ""
 
 
-def _examples(rows: dict[str, dict[str, Any]], ids: list[str]) -> list[dict[str, Any]]:
+def _examples(rows: dict[str, SiteRow], ids: list[str]) -> list[dict[str, Any]]:
     """The training examples of a flight's sites: each judged site's two-answer verdict and
     its confidence (an undecided site, no evidence either way, is not learned)."""
     out = []
     for sid in ids:
-        r = rows.get(sid, {})
-        if r.get("status") != "ok" or r.get("verdict") not in ("mound", "no_mound"):
+        r = rows.get(sid)
+        v = r.verdict if r is not None and r.ok else None
+        if v is None or v.label == "undecided":
             continue
-        if r.get("answer") == "undecided":
-            continue
-        conf = r.get("confidence")
-        if isinstance(conf, bool) or not isinstance(conf, int | float) or \
-                not 0 <= conf <= 1:  # a judged site's verdict always states one
-            raise RuntimeError(f"site {sid}: its row's confidence is {conf!r}")
-        out.append({"id": sid, "verdict": r["verdict"], "confidence": conf})
+        if v.confidence is None:  # a judged site's verdict always states one
+            raise RuntimeError(f"site {sid}: its row has no confidence")
+        out.append({"id": sid, "verdict": v.two_answer, "confidence": v.confidence})
     return out
 
 
-def _changes(before: dict[str, Any], after: dict[str, Any], flown: list[str]
+def _changes(before: Sites, after: Sites, flown: list[str]
              ) -> tuple[list[dict[str, Any]], int]:
     """How p_mound of the sites not flown changed, largest first, and how many of the
     classifier's labels flipped."""
-    p0 = {s["id"]: s["p_mound"] for s in before["sites"]}
-    changes = sorted(
-        ({"id": s["id"], "p_before": p0[s["id"]], "p_after": s["p_mound"]}
-         for s in after["sites"] if s["id"] not in flown),
+    p0 = {s.id: float(s.p_mound or 0.0) for s in before.sites}  # with_model sets each
+    changes: list[dict[str, Any]] = sorted(
+        ({"id": s.id, "p_before": p0[s.id], "p_after": float(s.p_mound or 0.0)}
+         for s in after.sites if s.id not in flown),
         key=lambda c: -abs(c["p_after"] - c["p_before"]))
     flips = sum(1 for c in changes
                 if metrics.says_mound(c["p_before"]) != metrics.says_mound(c["p_after"]))
     return changes, flips
 
 
-def _write_flown(ctx: Context, flights: list[dict[str, Any]], n_visited: int,
-                 sites: dict[str, Any]) -> None:
-    """learn/plan_flown.json (the plan as flown: its flights one after another) and
-    learn/sites_final.json (the final classifier's p_mound)."""
+def _write_flown(ctx: Context, flights: list[Flight], n_visited: int, sites: Sites) -> None:
+    """learn/plan_flown.json (the plan as flown: its flights one after another; none flown:
+    one flight from home to its end) and learn/sites_final.json (the final classifier's
+    p_mound)."""
     t = ctx.tree
-    flown_plan = read_json(t.plan, "mound.plan", 1)
-    flown_plan.update(flights=flights, tour=flights[0]["tour"] if flights
-                      else flown_plan.get("tour"), n_visited=n_visited,
-                      reward=float(sum(f["reward"] for f in flights)),
-                      cost_m=float(sum(f["cost_m"] for f in flights)))
-    write_json(t.final_plan(True), flown_plan)
-    write_json(t.final_sites(True), sites)
+    planned = Plan.read(t.plan)
+    flown = flights or [Flight((planned.home, planned.end), 0.0, 0.0, planned.budget_m)]
+    write_json(t.final_plan(True), replace(planned, flights=tuple(flown), extra={
+        **planned.extra, "n_visited": n_visited}).to_doc())
+    write_json(t.final_sites(True), sites.to_doc())
 
 
 def stage_learn(ctx: Context) -> str:
@@ -168,21 +174,21 @@ def stage_learn(ctx: Context) -> str:
         train = statlog.load("sat.trn")
         test = statlog.load("sat.tst")
         model = Model.from_doc(read_json(t.model, MODEL_SCHEMA, MODEL_VERSION), str(t.model))
-        sites0 = read_json(t.sites, "mound.sites", 1)
-        field_rows = np.array([s["truth"]["statlog_row"] for s in sites0["sites"]])
-        by_id = {s["id"]: s for s in sites0["sites"]}
+        sites0 = Sites.read(t.sites)
+        field_rows = statlog_rows(sites0)
+        row_of = dict(zip((s.id for s in sites0.sites), field_rows.tolist(), strict=True))
         auc0 = held_out_auc(model, test, field_rows)
         current = sites0
-        plan = read_json(t.plan, "mound.plan", 1)
-        first_plan = [f["tour"][1:-1] for f in flight_plans(plan) if len(f["tour"]) > 2]
+        plan = Plan.read(t.plan)
+        first_plan = [list(f.sites) for f in plan.flights if f.sites]
         flown: list[str] = []
         ex_rows: list[int] = []
         ex_y: list[float] = []
         ex_w: list[float] = []
         history: list[dict[str, Any]] = []
-        flights_flown: list[dict[str, Any]] = []
+        flights_flown: list[Flight] = []
         outputs: list[str] = []
-        all_rows: list[dict[str, Any]] = []
+        all_rows: list[SiteRow] = []
         complete = True
         stopped = ""
         root = t.root.resolve()
@@ -190,31 +196,30 @@ def stage_learn(ctx: Context) -> str:
             fdir = t.learn / f"flight_{k}"
             fdir.mkdir(parents=True, exist_ok=True)
             if k > 1:
-                left = [s for s in current["sites"] if s["id"] not in flown]
+                left = [s for s in current.sites if s.id not in flown]
                 if not left:
                     break
-                replanned, stopped = _replan(ctx, {**current, "sites": left}, k, fdir)
+                replanned, stopped = _replan(ctx, current.with_sites(left), k, fdir)
                 if replanned is None:
                     break
                 plan = replanned
             else:
-                write_json(fdir / "sites.json", current)
-            flight = one_flight(plan)
+                write_json(fdir / "sites.json", current.to_doc())
+            flight = one_flight(plan, k)
             if flight is None:
                 stopped = f"flight {k}: no site within the budget"
                 break
-            flight["flight"] = k
-            write_json(fdir / "plan.json", flight)
+            write_json(fdir / "plan.json", flight.to_doc())
             _write_mission(ctx, flight, fdir / "mission.plan")
             jobs = site_jobs(ctx, flight)
             rows, note, done = run_jobs(ctx, jobs, f"flight {k}")
             complete = complete and done
             all_rows += rows.values()
             outputs += [str(j.tree.result.relative_to(root)) for j in jobs]
-            ids = [j.site["id"] for j in jobs]
+            ids = [j.site.id for j in jobs]
             flown += ids
             examples = _examples(rows, ids)
-            ex_rows += [int(by_id[e["id"]]["truth"]["statlog_row"]) for e in examples]
+            ex_rows += [row_of[e["id"]] for e in examples]
             ex_y += [1.0 if e["verdict"] == "mound" else -1.0 for e in examples]
             ex_w += [e["confidence"] * a.learn_weight for e in examples]
             before = current
@@ -223,19 +228,17 @@ def stage_learn(ctx: Context) -> str:
                                         np.array(ex_y), np.array(ex_w)))
             write_json(fdir / "model.json", model.to_doc())
             current = with_model(sites0, model, test)
-            write_json(fdir / "sites_after.json", current)
+            write_json(fdir / "sites_after.json", current.to_doc())
             changes, flips = _changes(before, current, flown)
             auc = held_out_auc(model, test, field_rows)
             history.append({
-                "flight": k, "sites": ids, "planned_reward": flight["reward"],
+                "flight": k, "sites": ids, "planned_reward": flight.reward,
                 "first_plan_sites": first_plan[k - 1] if k <= len(first_plan) else [],
-                "cost_m": flight["cost_m"], "note": note, "examples": examples,
+                "cost_m": flight.cost_m, "note": note, "examples": examples,
                 "held_out_auc": auc, "labels_flipped": flips,
                 "max_abs_dp": abs(changes[0]["p_after"] - changes[0]["p_before"])
                 if changes else 0.0, "largest_changes": changes[:5]})
-            flights_flown.append({"tour": flight["tour"], "reward": flight["reward"],
-                                  "cost_m": flight["cost_m"],
-                                  "budget_left_m": flight.get("budget_left_m", 0.0)})
+            flights_flown.append(flight.flights[0])
             ctx.say(f"[learn] flight {k}: {note}; held-out AUC {auc:.4f} "
                     f"(before any flight {auc0:.4f}), {flips} classifier labels flipped")
         _write_flown(ctx, flights_flown, len(flown), current)

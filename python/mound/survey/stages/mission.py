@@ -7,7 +7,8 @@ from pathlib import Path
 from typing import Any
 
 from mound.errors import InputError
-from mound.jsonio import read_json, write_all_atomic, write_json
+from mound.formats.plan import Plan
+from mound.jsonio import write_all_atomic, write_json
 from mound.survey.context import Context, mission_terrain, run_stage
 
 
@@ -66,7 +67,6 @@ def write_missions(missions: list[tuple[int | None, Any]], folder: Path, png_fol
 
 
 def stage_mission(ctx: Context) -> str:
-    from mound.geometry.geodesy import Origin
     from mound.survey import figures
     from mound.uav import mission, mission_items
     from mound.uav.upload import upload_mission
@@ -75,15 +75,18 @@ def stage_mission(ctx: Context) -> str:
     t = ctx.tree
 
     def work() -> tuple[list[str], str, bool]:
-        plan = read_json(t.plan, "mound.plan", 1)
-        if not plan.get("n_visited"):
+        plan = Plan.read(t.plan)
+        if not plan.visited():
             return [], "nothing to fly: no site fits the budget", True
-        origin = Origin.from_doc(plan["origin"], f"{t.plan}: origin")
+        if plan.origin is None:
+            raise InputError(f"{t.plan}: origin: missing (the mission is flown in WGS84)")
+        origin = plan.origin
         # The plan's scan, read once for every flight (build's own rule: else the default).
-        scan = mission_items.plan_scan(plan, str(t.plan))
+        scan = plan.scan()
         spec = mission_items.MissionSpec(scan=scan) if scan else mission_items.MissionSpec()
         terrain = mission_terrain(a)
-        flights = mission_items.flight_plans(plan)
+        # (the mission builder reads a mound.plan document, as `mound mission build` does)
+        flights = mission_items.flight_plans(plan.to_doc())
         several = len(flights) > 1
         missions = [(f["flight"] if several else None,
                      mission.build(f, origin, spec, terrain)) for f in flights]

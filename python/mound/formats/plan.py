@@ -1,0 +1,205 @@
+"""mound.plan v1 (INTERFACES.md `plan.json`): the flights `mound_plan` (or `mound plan exact`,
+or the survey's second look) chose, as one typed value.
+
+`Plan.read(path)` validates once what the Python side uses — the flights' tours (ids,
+each site at most once per flight), rewards, costs, the budget, the origin — and keeps
+every other member (the solver's figures, waypoints, scan, terrain) as it was written, so
+that `Plan.to_doc()` writes the document back unchanged. A plan written by hand (for
+`mound mission build` or `mound photos sort`) may leave out the flights' rewards and costs
+(the mission builder measures a flight itself); `Plan.reward` and `Plan.cost_m` then say
+so with an InputError instead of a number. A plan made in Python
+(`Plan.of_flights`) has the same members as one `mound_plan` writes: `tour` the first
+flight's, `reward` and `cost_m` the sums, `flights` always present.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from mound.errors import InputError
+from mound.geometry.flight import ScanSpec
+from mound.geometry.geodesy import Origin
+from mound.jsonio import check_doc, parse_json, read_text, require_id, require_number
+
+SCHEMA = "mound.plan"
+VERSION = 1
+MAX_M = 1e9  # the largest budget or cost read (a million kilometres)
+
+# The members Plan types; the rest travel in `extra`.
+_TYPED = ("schema", "version", "status", "algo", "tour", "flights", "reward", "cost_m",
+          "budget_m", "budget_left_m", "closed", "origin")
+
+
+@dataclass(frozen=True)
+class Flight:
+    """One flight: home (or start), the sites in the order flown, home (or end)."""
+
+    tour: tuple[str, ...]
+    reward: float | None       # None: a plan written by hand that does not say
+    cost_m: float | None
+    budget_left_m: float | None
+
+    @property
+    def sites(self) -> tuple[str, ...]:
+        """The sites visited, in order (the tour less its two ends)."""
+        return self.tour[1:-1]
+
+    def to_doc(self, number: int) -> dict[str, object]:
+        doc: dict[str, object] = {"flight": number, "tour": list(self.tour)}
+        for k in ("reward", "cost_m", "budget_left_m"):
+            if getattr(self, k) is not None:
+                doc[k] = getattr(self, k)
+        return doc
+
+    @classmethod
+    def from_doc(cls, doc: object, where: str) -> Flight:
+        if not isinstance(doc, dict):
+            raise InputError(f"{where}: expected an object with a tour")
+        return cls(_tour(doc.get("tour"), f"{where}.tour"),
+                   _optional(doc, "reward", where, 0, 1e12),
+                   _optional(doc, "cost_m", where, 0, MAX_M),
+                   _optional(doc, "budget_left_m", where, -MAX_M, MAX_M))
+
+
+def _optional(doc: dict[str, Any], key: str, where: str, lo: float, hi: float) -> float | None:
+    return None if doc.get(key) is None else require_number(doc, key, where, lo=lo, hi=hi)
+
+
+def _said(value: float | None, where: str) -> float:
+    if value is None:
+        raise InputError(f"plan: {where}: missing (a plan written by hand?)")
+    return value
+
+
+def _tour(value: object, where: str) -> tuple[str, ...]:
+    if not isinstance(value, list) or len(value) < 2:
+        raise InputError(f"{where}: expected a list of ids from home to home (or end)")
+    tour = tuple(require_id(sid, f"{where}[{i}]") for i, sid in enumerate(value))
+    inner = tour[1:-1]
+    if len(set(inner)) != len(inner):
+        raise InputError(f"{where}: a site visited twice")
+    return tour
+
+
+@dataclass(frozen=True)
+class Plan:
+    """A mound.plan document: `flights` (at least one; a plan without a `flights` member is
+    its `tour` as one flight) within `budget_m` each."""
+
+    algo: str
+    flights: tuple[Flight, ...]
+    budget_m: float
+    closed: bool
+    origin: Origin | None = None
+    status: str = "ok"
+    extra: Mapping[str, Any] = field(default_factory=dict)
+
+    @property
+    def home(self) -> str:
+        return self.flights[0].tour[0]
+
+    @property
+    def end(self) -> str:
+        return self.flights[0].tour[-1]
+
+    @property
+    def reward(self) -> float:
+        """The flights' total reward; InputError for a plan that does not say."""
+        return sum(_said(f.reward, f"flights[{k}].reward") for k, f in enumerate(self.flights))
+
+    @property
+    def cost_m(self) -> float:
+        """The flights' total cost; InputError for a plan that does not say."""
+        return sum(_said(f.cost_m, f"flights[{k}].cost_m") for k, f in enumerate(self.flights))
+
+    def visit_order(self) -> list[str]:
+        """Every site any flight visits, once, in the order flown."""
+        return list(dict.fromkeys(s for f in self.flights for s in f.sites))
+
+    def visited(self) -> set[str]:
+        return set(self.visit_order())
+
+    def scan(self) -> ScanSpec | None:
+        """The scan the plan's site costs were derived from (its sites document's `scan`,
+        carried along by mound_plan), or None."""
+        doc = self.extra.get("scan")
+        return None if doc is None else ScanSpec.from_doc(doc, "plan: scan")
+
+    def waypoints(self) -> list[Mapping[str, Any]]:
+        """mound_plan's `waypoints` (home, sites and end with positions and costs), as
+        written; empty when the plan has none."""
+        w = self.extra.get("waypoints")
+        return [x for x in w if isinstance(x, dict)] if isinstance(w, list) else []
+
+    def to_doc(self) -> dict[str, object]:
+        n = len(self.flights)
+        doc: dict[str, object] = {"schema": SCHEMA, "version": VERSION, "status": self.status,
+                                  "algo": self.algo, **self.extra,
+                                  "closed": self.closed, "tour": list(self.flights[0].tour),
+                                  "flights": [f.to_doc(k + 1) for k, f in
+                                              enumerate(self.flights)],
+                                  "budget_m": self.budget_m}
+        if all(f.reward is not None for f in self.flights):
+            doc["reward"] = self.reward
+        if all(f.cost_m is not None for f in self.flights):
+            doc["cost_m"] = self.cost_m
+            doc["budget_left_m"] = self.budget_m * n - self.cost_m
+        if self.origin is not None:
+            doc["origin"] = self.origin.to_doc()
+        return doc
+
+    @classmethod
+    def of_flights(cls, algo: str, tours: Sequence[Sequence[str]], rewards: Sequence[float],
+                   costs_m: Sequence[float], budget_m: float, closed: bool,
+                   origin: Origin | None = None, **extra: object) -> Plan:
+        """A plan made in Python (an exact solver's, the second look's): one flight per
+        tour; `extra` members (solver, scan, waypoints, ...) are written as given."""
+        flights = tuple(Flight(tuple(t), float(r), float(c), float(budget_m - c))
+                        for t, r, c in zip(tours, rewards, costs_m, strict=True))
+        if not flights:
+            raise ValueError("a plan has at least one flight")
+        return cls(algo, flights, float(budget_m), closed, origin, "ok", dict(extra))
+
+    @classmethod
+    def from_doc(cls, doc: Any, path: str | Path) -> Plan:
+        """The plan of a document parsed from `path`; InputError naming the file and the
+        field on any defect."""
+        doc = check_doc(doc, path, SCHEMA, VERSION)
+        where = f"{path}: "
+        if doc.get("status", "ok") != "ok":
+            raise InputError(f"{where}status: {doc.get('status')!r}, not a plan to fly "
+                             f"({doc.get('reason', 'no reason given')})")
+        raw = doc.get("flights")
+        flights: tuple[Flight, ...]
+        if raw is None:
+            flights = (Flight(_tour(doc.get("tour"), f"{where}tour"),
+                              _optional(doc, "reward", str(path), 0, 1e12),
+                              _optional(doc, "cost_m", str(path), 0, MAX_M),
+                              _optional(doc, "budget_left_m", str(path), -MAX_M, MAX_M)),)
+        elif isinstance(raw, list) and raw:
+            flights = tuple(Flight.from_doc(f, f"{where}flights[{k}]")
+                            for k, f in enumerate(raw))
+        else:
+            raise InputError(f"{where}flights: expected a non-empty list of "
+                             "{tour, reward, cost_m, budget_left_m}")
+        ends = {(f.tour[0], f.tour[-1]) for f in flights}
+        if len(ends) != 1:
+            raise InputError(f"{where}flights: the flights start or end at different nodes")
+        closed = doc.get("closed", flights[0].tour[0] == flights[0].tour[-1])
+        if not isinstance(closed, bool):
+            raise InputError(f"{where}closed: expected true or false")
+        algo = doc.get("algo", "")
+        if not isinstance(algo, str):
+            raise InputError(f"{where}algo: expected a string")
+        origin = (Origin.from_doc(doc["origin"], f"{where}origin")
+                  if doc.get("origin") is not None else None)
+        return cls(algo, flights, require_number(doc, "budget_m", str(path), lo=0, hi=MAX_M),
+                   closed, origin, "ok",
+                   {k: v for k, v in doc.items() if k not in _TYPED})
+
+    @classmethod
+    def read(cls, path: str | Path) -> Plan:
+        return cls.from_doc(parse_json(read_text(path), path), path)
