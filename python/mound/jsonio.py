@@ -235,6 +235,12 @@ def short_repr(v: Any) -> str:
     return r if len(r) <= 40 else r[:37] + "..."
 
 
+def load_json(path: str | Path) -> Any:
+    """A JSON file's value, whatever its top level (a GeoJSON, a document of any schema);
+    InputError naming the file on any defect (read_text, parse_json)."""
+    return parse_json(read_text(path), path)
+
+
 def read_json(path: str | Path, schema: str, max_version: int) -> dict[str, Any]:
     """Reads a `schema` document of version 1..max_version; InputError on any defect."""
     return check_doc(parse_json(read_text(path), path), path, schema, max_version)

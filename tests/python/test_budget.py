@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -18,8 +19,15 @@ import pytest
 from mound import native
 from mound.cli import main as mound_main
 from mound.errors import InputError
+from mound.formats.plan import Plan
 from mound.geometry.geodesy import Origin
 from mound.uav import mission, mission_items
+
+
+def build_mission(plan: dict, *args: Any) -> Any:
+    """mission.build of a plan document (the tests keep their plans as dicts)."""
+    return mission.build(Plan.from_doc(plan, "test plan"), *args)
+
 
 ORIGIN = Origin(38.5705, 27.9862, 95.0)
 
@@ -64,7 +72,7 @@ def test_plans_within_budget_fly_within_budget(tmp_path: Path, mound_plan: Path,
         assert plan["cost_m"] <= doc["budget_m"] + 1e-6
         if len(plan["tour"]) <= 2 + (plan["tour"][0] != plan["tour"][-1]) - 1:
             continue  # nothing visited: nothing to fly
-        m = mission.build(plan, ORIGIN)  # the plan's own scan; raises past the budget
+        m = build_mission(plan, ORIGIN)  # the plan's own scan; raises past the budget
         visited += len(m.sites)
         assert m.flight_distance_m <= plan["cost_m"] + 1e-6
         # The bound is not loose: the climbs and the scans are most of what it adds.
@@ -87,16 +95,16 @@ def test_the_climbs_are_what_the_takeoff_landing_cost_pays_for(tmp_path: Path,
            "sites": [{"id": "s0", "x_m": 1000.0, "y_m": 0.0, "reward": 1.0,
                       "scan_cost_m": scan.site_cost_m()}]}
     plan = native.run_json("mound_plan", [str(write(tmp_path / "a.json", doc))])
-    m = mission.build(plan, ORIGIN)
+    m = build_mission(plan, ORIGIN)
     assert m.flight_distance_m == pytest.approx(plan["cost_m"], rel=0.01)
     doc["budget_m"] = plan["cost_m"]
-    mission.build(native.run_json("mound_plan", [str(write(tmp_path / "b.json", doc))]),
+    build_mission(native.run_json("mound_plan", [str(write(tmp_path / "b.json", doc))]),
                         ORIGIN)
     doc["budget_m"] = plan["cost_m"] - doc.pop("takeoff_landing_m") + 1e-3
     plan = native.run_json("mound_plan", [str(write(tmp_path / "c.json", doc))])
     assert plan["tour"] == ["home", "s0", "home"]
     with pytest.raises(InputError, match="exceeds the plan's budget_m"):
-        mission.build(plan, ORIGIN)
+        build_mission(plan, ORIGIN)
 
 
 def write(path: Path, doc: dict) -> Path:

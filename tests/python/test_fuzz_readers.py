@@ -35,6 +35,12 @@ from mound.jsonio import json_text
 from mound.uav import files as mission_files
 from mound.uav import mission, mission_items
 
+
+def build_mission(plan: dict, *args: Any) -> Any:
+    """mission.build of a plan document (the tests keep their plans as dicts)."""
+    return mission.build(Plan.from_doc(plan, "test plan"), *args)
+
+
 EXAMPLES = int(os.environ.get("MOUND_FUZZ_EXAMPLES", "150"))
 FRESH = os.environ.get("MOUND_FUZZ_FRESH") == "1"  # make fuzz: new randomness each run
 FUZZ = settings(max_examples=EXAMPLES, deadline=None, derandomize=not FRESH,
@@ -166,11 +172,11 @@ PLAN = {"schema": "mound.plan", "version": 1, "tour": ["home", "a", "b", "home"]
 
 
 def _mission_build(path: Path) -> None:
-    from mound.jsonio import read_json
 
-    plan = read_json(path, "mound.plan", 1)
-    origin = Origin.from_doc(plan.get("origin"), f"{path}: origin")
-    m = mission.build(plan, origin, mission_items.MissionSpec(scan=SCAN))
+    plan = Plan.read(path)
+    if plan.origin is None:
+        raise InputError(f"{path}: origin: missing")
+    m = mission.build(plan, plan.origin, mission_items.MissionSpec(scan=SCAN))
     # a mission built is one that can be flown: within its budget, every item a place
     assert m.flight_distance_m <= m.budget_m * (1 + m.spec.budget_slack) + 1e-6
     for item in m.items:
@@ -253,7 +259,7 @@ def test_typed_site_row_reader(text: str) -> None:
 
 
 def _mission_texts() -> tuple[str, str]:
-    m = mission.build(json.loads(json.dumps({**PLAN, "scan": None})), ORIGIN,
+    m = build_mission(json.loads(json.dumps({**PLAN, "scan": None})), ORIGIN,
                             mission_items.MissionSpec(scan=SCAN))
     return mission_files.plan_text(m), mission_files.wpl_text(m)
 
@@ -645,7 +651,7 @@ def _dji_and_litchi() -> tuple[str, str, str]:
 
     plan = json.loads(json.dumps({**PLAN, "scan": mission_items.scan_for_site(
         60.0, "both").to_doc()}))
-    m = mission.build(plan, ORIGIN, None)
+    m = build_mission(plan, ORIGIN, None)
     data = mission_formats.kmz(m, dji.AIRCRAFT["m3e"])
     import io
     import zipfile

@@ -8,12 +8,14 @@ import json
 import math
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
 
 from mound.cli import main as mound_main
 from mound.errors import InputError
+from mound.formats.plan import Plan
 from mound.geometry.geodesy import Origin, enu_to_geodetic, geodetic_to_enu
 from mound.sim import site as sim
 from mound.uav import files as mission_files
@@ -22,6 +24,12 @@ from mound.uav.mavlink import link as mavlink_link
 from mound.uav.mavlink import transfer
 from mound.uav.mavlink.peer import MavsdkVehicle, free_port
 from mound.uav.mavlink.relay import LossyRelay
+
+
+def build_mission(plan: dict, *args: Any) -> Any:
+    """mission.build of a plan document (the tests keep their plans as dicts)."""
+    return mission.build(Plan.from_doc(plan, "test plan"), *args)
+
 
 ORIGIN = Origin(38.5705, 27.9862, 95.0)
 
@@ -43,7 +51,7 @@ def grid_plan(n_sites: int, spacing: float = 300.0, closed: bool = True) -> dict
 
 
 def items_of(n: int) -> list[mission_items.MissionItem]:
-    m = mission.build(grid_plan(max(2, n // 9 + 1)), ORIGIN, mission_items.MissionSpec())
+    m = build_mission(grid_plan(max(2, n // 9 + 1)), ORIGIN, mission_items.MissionSpec())
     assert len(m.items) >= n
     return m.items[:n]
 
@@ -86,7 +94,7 @@ def test_bad_origin_is_rejected(text: str) -> None:
 def test_mission_flies_the_simulators_camera_positions() -> None:
     plan = grid_plan(2)
     spec = mission_items.MissionSpec(scan=mission_items.scan_for_site(pattern="both"))
-    m = mission.build(plan, ORIGIN, spec)
+    m = build_mission(plan, ORIGIN, spec)
     cmds = [it.command for it in m.items]
     assert cmds[0] == mission_items.NAV_TAKEOFF and cmds[-1] == mission_items.NAV_RETURN_TO_LAUNCH
     assert cmds.count(mission_items.DO_SET_CAM_TRIGG_DIST) == 2 * 2 * 2  # on + off per pattern
@@ -114,19 +122,19 @@ def test_mission_flies_the_simulators_camera_positions() -> None:
 
 
 def test_path_plan_lands_at_the_end_node_and_distance_is_checked() -> None:
-    m = mission.build(grid_plan(3, closed=False), ORIGIN)
+    m = build_mission(grid_plan(3, closed=False), ORIGIN)
     assert m.items[-1].command == mission_items.NAV_LAND
     end = geodetic_to_enu(ORIGIN, np.array([[m.items[-1].lat_deg, m.items[-1].lon_deg,
                                              ORIGIN.alt_m]]))[0]
     np.testing.assert_allclose(end[:2], [-200.0, 50.0], atol=0.02)
     # The flight distance is the 3-D path length; a budget just below it is refused.
     plan = grid_plan(3)
-    d = mission.build(plan, ORIGIN).flight_distance_m
+    d = build_mission(plan, ORIGIN).flight_distance_m
     plan["budget_m"] = d - 1.0
     with pytest.raises(InputError, match="exceeds the plan's budget_m"):
-        mission.build(plan, ORIGIN)
+        build_mission(plan, ORIGIN)
     plan["budget_m"] = d + 1.0
-    assert mission.build(plan, ORIGIN).flight_distance_m == pytest.approx(d)
+    assert build_mission(plan, ORIGIN).flight_distance_m == pytest.approx(d)
 
 
 @pytest.mark.parametrize("edit, message", [
@@ -140,12 +148,12 @@ def test_bad_plans_are_rejected(edit, message: str) -> None:
     plan = grid_plan(2)
     edit(plan)
     with pytest.raises(InputError, match=message):
-        mission.build(plan, ORIGIN)
+        build_mission(plan, ORIGIN)
 
 
 def test_plan_and_wpl_files_parse_back_to_the_same_items(tmp_path: Path) -> None:
     both = mission_items.MissionSpec(scan=mission_items.scan_for_site(pattern="both"))
-    m = mission.build(grid_plan(3), ORIGIN, both)
+    m = build_mission(grid_plan(3), ORIGIN, both)
     mission_files.write_plan(tmp_path / "m.plan", m)
     mission_files.write_wpl(tmp_path / "m.waypoints", m)
     mission_files.write_geojson(tmp_path / "m.geojson", m)
@@ -297,7 +305,7 @@ def test_an_unreachable_vehicle_times_out_with_a_clear_message(
     with pytest.raises(mavlink_link.LinkError, match=f"no heartbeat .* udpout:127.0.0.1:{port}"):
         mavlink_link.connect(f"udpout:127.0.0.1:{port}", timeout_s=1.0)
     assert time.monotonic() - start < 3
-    m = mission.build(grid_plan(2), ORIGIN)
+    m = build_mission(grid_plan(2), ORIGIN)
     mission_files.write_plan(tmp_path / "m.plan", m)
     code = mound_main(["mission", "upload", str(tmp_path / "m.plan"), "--connect",
                        f"udpout:127.0.0.1:{port}", "--heartbeat-timeout", "1"])

@@ -28,6 +28,7 @@ from PIL import Image
 from mound.classify.metrics import detection_error_rates, says_mound
 from mound.classify.reward import binary_entropy_bits
 from mound.cli import main as cli_main
+from mound.formats.plan import Plan
 from mound.formats.site_row import SiteRow
 from mound.formats.sites import Site, Truth, load_user_sites
 from mound.formats.verdict import SecondLookAdvice, Verdict
@@ -724,7 +725,7 @@ def test_the_second_looks_advised_become_a_mission_in_the_report(
         ["--out", str(run), *SMALL]))
     ctx = Context(args, RunTree(run), Ledger(run / "stages.json"))
     plan = json.loads((run / "plan.json").read_text())
-    visited = sorted(mission_items.visited_ids(plan))
+    visited = sorted(Plan.from_doc(plan, "plan.json").visited())
     rows = [SiteRow(s, "k", second_look={"advised": True, "scan_factor": 2.0})
             for s in visited]
     made, note = sites3d.second_look_missions(ctx, rows, run / "plan.json", run / "sites.json")

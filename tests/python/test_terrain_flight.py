@@ -31,6 +31,12 @@ from mound.paths import REPO_ROOT
 from mound.uav import files as mission_files
 from mound.uav import mission, mission_items, terrain
 
+
+def build_mission(plan: dict, *args: Any) -> Any:
+    """mission.build of a plan document (the tests keep their plans as dicts)."""
+    return mission.build(Plan.from_doc(plan, "test plan"), *args)
+
+
 TO_LL = Transformer.from_crs("EPSG:3794", "EPSG:4326", always_xy=True)
 TO_TM = Transformer.from_crs("EPSG:4326", "EPSG:3794", always_xy=True)
 HOME_TM = (564550.0, 146250.0)  # the valley floor, 258 m
@@ -152,7 +158,7 @@ def flown(raw, dem_path, tmp_path_factory) -> dict:
     with_terrain = attach(doc, str(dem_path), spec, "egm96",
                                   Origin.from_doc(doc["origin"]))
     p = plan(with_terrain, tmp, "sites_dem")
-    m = mission.build(p, Origin.from_doc(doc["origin"]), None,
+    m = build_mission(p, Origin.from_doc(doc["origin"]), None,
                             mission_items.TerrainInput(str(dem_path), "egm96", spec))
     out = tmp / "mission.plan"
     mission_files.write_plan(out, m)
@@ -309,7 +315,7 @@ def flat_clearance(doc: dict, raw, tmp_path: Path, name: str) -> tuple[float, li
     """Lowest height over the ground of the mission planned and flown as before (heights
     above home, home in the valley), and its items."""
     p = plan(doc, tmp_path, name)
-    m = mission.build(p, Origin.from_doc(doc["origin"]))
+    m = build_mission(p, Origin.from_doc(doc["origin"]))
     assert m.summary()["terrain"]["checked"] is False
     out = tmp_path / f"{name}.plan"
     mission_files.write_plan(out, m)
@@ -347,7 +353,7 @@ def test_a_plan_through_the_ridges_without_the_terrain_is_refused(flown, dem_pat
     doc["budget_m"] = flat["cost_m"] + 1.0
     tight = plan(doc, tmp_path, "tight")
     with pytest.raises(InputError, match=r"leg \S+ -> \S+ climbs to .* terrain at ENU"):
-        mission.build(tight, Origin.from_doc(doc["origin"]), None,
+        build_mission(tight, Origin.from_doc(doc["origin"]), None,
                             mission_items.TerrainInput(str(dem_path), "egm96",
                                                        terrain.TerrainSpec(clearance_m=120)))
     plan_file = tmp_path / "tight_plan.json"
@@ -552,7 +558,7 @@ def test_orbit_scans_over_the_terrain(raw, dem_path, tmp_path, pattern: str) -> 
     origin = Origin.from_doc(doc["origin"])
     t = attach(doc, str(dem_path), terrain.TerrainSpec(), "egm96", origin)
     p = plan(t, tmp_path, pattern)
-    m = mission.build(p, origin, None,
+    m = build_mission(p, origin, None,
                             mission_items.TerrainInput(str(dem_path), "egm96"))
     assert m.terrain["energy_m"] <= p["cost_m"] + 1e-6 <= p["budget_m"] + 1e-6
     assert m.terrain["lowest_clearance_m"] >= 30 - 1e-9
@@ -567,7 +573,7 @@ def test_a_plan_made_over_a_dem_is_not_flown_without_it(flown) -> None:
     """Safety: a plan whose costs came from a DEM is refused without --dem (its mission
     would fly heights above home, the terrain unchecked)."""
     with pytest.raises(InputError, match="plan.terrain: .*build its mission with --dem"):
-        mission.build(flown["plan"], Origin.from_doc(flown["doc"]["origin"]))
+        build_mission(flown["plan"], Origin.from_doc(flown["doc"]["origin"]))
 
 
 def test_second_looks_are_flown_wider_within_the_budget_and_clear_of_the_terrain(
@@ -595,7 +601,7 @@ def test_second_looks_are_flown_wider_within_the_budget_and_clear_of_the_terrain
         doc = {**flown["terrain_doc"], "budget_m": budget}
         flights, refused, wide = second_look_flights(typed(doc), Plan.from_doc(p, "p"), ids,
                                                      factor, dem)
-        assert wide.scan.scale_m == 2 * mission_items.plan_scan(p).scale_m
+        assert wide.scan.scale_m == 2 * Plan.from_doc(p, "p").scan().scale_m  # type: ignore[union-attr]
         flown_ids = [s["id"] for m in flights for s in m.sites]
         assert sorted(flown_ids + [r["id"] for r in refused]) == sorted(chosen)
         assert flown_ids == [s for s in tour if s in flown_ids]  # the tour's order

@@ -205,9 +205,11 @@ def test_a_running_grid_is_judged_by_the_cloud_its_verdicts_name(tmp_path: Path)
         vm.grid_cloud(tmp_path)
     (tmp_path / "0000").mkdir()
     (tmp_path / "0000" / "verdict.json").write_text(json.dumps(
-        {"status": "ok", "cloud": str(tmp_path / "0000" / "dense" / "dense.ply")}))
+        {"schema": "mound.verdict", "version": 1, "status": "ok",
+         "cloud": str(tmp_path / "0000" / "dense" / "dense.ply")}))
     assert vm.grid_cloud(tmp_path) == "dense"
-    (tmp_path / "grid.json").write_text(json.dumps({"schema": "mound.verdict_grid"}))
+    (tmp_path / "grid.json").write_text(json.dumps({"schema": "mound.verdict_grid",
+                                                    "version": 1}))
     assert vm.grid_cloud(tmp_path) == "sparse"  # made before grids said so
 
 

@@ -92,7 +92,8 @@ def _grid(root: Path, specs: list[terrain.TerrainSpec]) -> Path:
         (site / "sim").mkdir(parents=True)
         hf = terrain.build(spec)
         np.save(site / "sim" / "heightfield.npy", hf.z_m.astype(np.float32))
-        (site / "sim" / "site.json").write_text(json.dumps({"heightfield": {
+        (site / "sim" / "site.json").write_text(json.dumps({
+            "schema": "mound.sim_site", "version": 1, "heightfield": {
             "npy": "heightfield.npy", "x0_m": float(hf.x_m[0]), "y0_m": float(hf.y_m[0]),
             "spacing_m": float(hf.x_m[1] - hf.x_m[0]), "shape": list(hf.z_m.shape)}}))
         truth = {"mound": spec.mound, "kind": "tumulus" if spec.mound else "flat",
@@ -100,14 +101,14 @@ def _grid(root: Path, specs: list[terrain.TerrainSpec]) -> Path:
                  "diameter_m": spec.diameter_m, "centre_enu_m": [spec.mound_x_m, spec.mound_y_m],
                  "pit": False, "trench": False, "slope_deg": 0.0, "dem": False}
         (site / "verdict.json").write_text(json.dumps({
-            "schema": "mound.verdict", "status": "ok", "measurements": {
+            "schema": "mound.verdict", "version": 1, "status": "ok", "measurements": {
                 "site_centre_enu_m": list(DISC[0]), "site_radius_m": DISC[1],
                 "judged_rises": []}}))
         terrain_doc = {**asdict(spec), "confusers": []}
         rows.append({"dir": site.name, "truth": truth, "status": "ok",
                      "spec": {"terrain": terrain_doc}})
     (root / "grid.json").write_text(json.dumps({"schema": "mound.verdict_grid",
-                                                "rows": rows}))
+                                                "version": 1, "rows": rows}))
     return root
 
 

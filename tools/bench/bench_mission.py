@@ -17,6 +17,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "python"))
 
+from mound.formats.plan import Flight, Plan
 from mound.geometry.geodesy import Origin
 from mound.uav import mission, mission_items
 from mound.uav.mavlink import link as mavlink_link
@@ -30,8 +31,9 @@ def items_of(n: int) -> list[mission_items.MissionItem]:
     wps = [{"id": "home", "x_m": 0.0, "y_m": 0.0}]
     wps += [{"id": f"s{k}", "x_m": 300.0 * (1 + k % 10), "y_m": 300.0 * (1 + k // 10)}
             for k in range(sites)]
-    plan = {"tour": [w["id"] for w in wps] + ["home"], "waypoints": wps, "closed": True,
-            "budget_m": 1e9}
+    tour = (*(str(w["id"]) for w in wps), "home")
+    plan = Plan("bench", (Flight(tour, None, None, None),), 1e9, True,
+                extra={"waypoints": wps})
     return mission.build(plan, Origin(38.5705, 27.9862, 95.0)).items[:n]
 
 

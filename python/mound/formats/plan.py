@@ -22,7 +22,14 @@ from typing import Any
 from mound.errors import InputError
 from mound.geometry.flight import ScanSpec
 from mound.geometry.geodesy import Origin
-from mound.jsonio import check_doc, parse_json, read_text, require_id, require_number
+from mound.jsonio import (
+    check_doc,
+    parse_json,
+    read_text,
+    require_id,
+    require_number,
+    short_repr,
+)
 
 SCHEMA = "mound.plan"
 VERSION = 1
@@ -176,9 +183,9 @@ class Plan:
         flights: tuple[Flight, ...]
         if raw is None:
             flights = (Flight(_tour(doc.get("tour"), f"{where}tour"),
-                              _optional(doc, "reward", str(path), 0, 1e12),
-                              _optional(doc, "cost_m", str(path), 0, MAX_M),
-                              _optional(doc, "budget_left_m", str(path), -MAX_M, MAX_M)),)
+                              _optional(doc, "reward", f"{path}: plan", 0, 1e12),
+                              _optional(doc, "cost_m", f"{path}: plan", 0, MAX_M),
+                              _optional(doc, "budget_left_m", f"{path}: plan", -MAX_M, MAX_M)),)
         elif isinstance(raw, list) and raw:
             flights = tuple(Flight.from_doc(f, f"{where}flights[{k}]")
                             for k, f in enumerate(raw))
@@ -190,13 +197,14 @@ class Plan:
             raise InputError(f"{where}flights: the flights start or end at different nodes")
         closed = doc.get("closed", flights[0].tour[0] == flights[0].tour[-1])
         if not isinstance(closed, bool):
-            raise InputError(f"{where}closed: expected true or false")
+            raise InputError(f"{where}plan.closed: expected true or false, got "
+                             f"{short_repr(closed)}")
         algo = doc.get("algo", "")
         if not isinstance(algo, str):
             raise InputError(f"{where}algo: expected a string")
         origin = (Origin.from_doc(doc["origin"], f"{where}origin")
                   if doc.get("origin") is not None else None)
-        return cls(algo, flights, require_number(doc, "budget_m", str(path), lo=0, hi=MAX_M),
+        return cls(algo, flights, require_number(doc, "budget_m", f"{path}: plan", lo=0, hi=MAX_M),
                    closed, origin, "ok",
                    {k: v for k, v in doc.items() if k not in _TYPED})
 

@@ -33,7 +33,6 @@ reconstructed anew): the dense clouds of a sparse grid's sites, in minutes.
 
 from __future__ import annotations
 
-import json
 import math
 import time
 from dataclasses import asdict
@@ -45,7 +44,7 @@ import numpy as np
 
 from mound import native
 from mound.errors import InputError, NoResultError, ToolNoResultError
-from mound.jsonio import write_json
+from mound.jsonio import read_json, write_json
 from mound.sim import site as sim
 from mound.sim.card import site_jpegs
 from mound.sim.dem_places import DemPlaces
@@ -79,15 +78,15 @@ def _site(out: Path, spec: sim.SimSpec, threads: int, remeasure: bool,
     row: dict[str, Any] = {"dir": out.name, "truth": spec.terrain.truth()}
     times: dict[str, float] = {}
     if verdict.exists() and not remeasure:
-        doc = json.loads(verdict.read_text())
+        doc = read_json(verdict, "mound.verdict", 1)
         row.update(status=doc.get("status"), times=doc.get("grid_times_s", {}),
                    p_mound=_p_of(doc))
         return row
     if verdict.exists():  # remeasuring: keep the times of the flight and reconstruction
         try:
-            times.update({k: v for k, v in json.loads(verdict.read_text()).get(
+            times.update({k: v for k, v in read_json(verdict, "mound.verdict", 1).get(
                 "grid_times_s", {}).items() if k != "verdict"})
-        except (OSError, json.JSONDecodeError):
+        except InputError:  # remeasured anyway: only its times are lost
             pass
     try:
         if not (recon / "recon.json").exists():
@@ -130,7 +129,7 @@ def _site(out: Path, spec: sim.SimSpec, threads: int, remeasure: bool,
         except ToolNoResultError:
             pass  # verdict.json says status failed and why
         times["verdict"] = time.perf_counter() - t
-        doc = json.loads(verdict.read_text())
+        doc = read_json(verdict, "mound.verdict", 1)
         doc["grid_times_s"] = times
         write_json(verdict, doc)
         row.update(status=doc.get("status"), times=times, p_mound=_p_of(doc),
@@ -240,13 +239,14 @@ def _before(root: Path) -> tuple[Any, list[str]]:
     """What grid.json says of the grid's earlier runs: the build of the verdicts already
     there (the oldest one named; None when there is no grid.json yet) and the second looks
     flown before."""
-    try:
-        before = json.loads((root / "grid.json").read_text())
-        sl = before.get("second_look") or {}
-        return (before.get("earlier_tools") or before.get("tools"),
-                list(sl.get("kinds", ["wider"] if sl else [])))
-    except (OSError, json.JSONDecodeError, AttributeError):
+    if not (root / "grid.json").is_file():
         return None, []
+    before = read_json(root / "grid.json", SCHEMA, VERSION)
+    sl = before.get("second_look") or {}
+    if not isinstance(sl, dict):
+        raise InputError(f"{root / 'grid.json'}: second_look: expected an object")
+    return (before.get("earlier_tools") or before.get("tools"),
+            list(sl.get("kinds", ["wider"] if sl else [])))
 
 
 def _check_flights_from(src: Path, out: Path, sites: int, seed: int, size: tuple[int, int],
@@ -254,10 +254,9 @@ def _check_flights_from(src: Path, out: Path, sites: int, seed: int, size: tuple
     """InputError (naming --flights-from and the field) unless src is a finished grid of the
     same draws (seed, DEM), flight and camera with at least `sites` sites, and not the grid
     itself."""
-    try:
-        doc = json.loads((src / "grid.json").read_text())
-    except (OSError, json.JSONDecodeError):
-        raise InputError(f"--flights-from: {src}/grid.json: no finished grid there") from None
+    if not (src / "grid.json").is_file():
+        raise InputError(f"--flights-from: {src}/grid.json: no finished grid there")
+    doc = read_json(src / "grid.json", SCHEMA, VERSION)
     if src.resolve() == out.resolve():
         raise InputError("--flights-from: the grid itself")
     flight = doc.get("flight") or {}

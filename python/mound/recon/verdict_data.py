@@ -4,7 +4,6 @@ of itself (its cloud, its label). See verdict_model.py for the model."""
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 from typing import Any
@@ -12,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from mound.errors import InputError
+from mound.jsonio import read_json
 from mound.sim import terrain
 from mound.sim.looks import SECOND_LOOKS
 
@@ -67,17 +67,12 @@ def load_grid(folder: str | Path, second_look: str = "wider") -> list[dict[str, 
     root = Path(folder)
     gpath = root / "grid.json"
     if gpath.is_file():
-        try:
-            grid = json.loads(gpath.read_text())
-        except json.JSONDecodeError as e:
-            raise InputError(f"{gpath}: not JSON ({e})") from None
-        if grid.get("schema") != "mound.verdict_grid":
-            raise InputError(f"{gpath}: schema: expected mound.verdict_grid")
+        grid = read_json(gpath, "mound.verdict_grid", 1)
     elif root.is_dir():  # a grid still running or interrupted: its finished sites
         grid = {"rows": []}
         for t in sorted(root.glob("*/sim/truth.json")):
             site = t.parent.parent
-            truth = {k: v for k, v in json.loads(t.read_text()).items()
+            truth = {k: v for k, v in read_json(t, "mound.sim_truth", 1).items()
                      if k not in ("schema", "version", "frame", "origin")}
             done = (site / "verdict.json").is_file()
             grid["rows"].append({"dir": site.name, "truth": truth,
@@ -90,7 +85,7 @@ def load_grid(folder: str | Path, second_look: str = "wider") -> list[dict[str, 
         if row.get("status") != "ok" or not vpath.is_file():
             out.append({**row, "features": None, "rises": [], "measured": False})
             continue
-        v = json.loads(vpath.read_text())
+        v = read_json(vpath, "mound.verdict", 1)
         m = v.get("measurements", {})
         out.append({**row, "measured": v.get("status") == "ok", "features": m.get("features"),
                     "rises": m.get("judged_rises", []), "verdict": v, "rise": m.get("rise"),
@@ -138,10 +133,7 @@ def _second_look(folder: Path) -> dict[str, Any] | None:
     path = folder / "verdict.json"
     if not path.is_file():
         return None
-    try:
-        v = json.loads(path.read_text())
-    except json.JSONDecodeError as e:
-        raise InputError(f"{path}: not JSON ({e})") from None
+    v = read_json(path, "mound.verdict", 1)
     if v.get("status") != "ok":
         return None
     m = v.get("measurements", {})
@@ -205,15 +197,12 @@ def grid_cloud(folder: str | Path) -> str:
     InputError when neither says (until 2026-11-28 such a grid was taken for sparse)."""
     root = Path(folder)
     if (root / "grid.json").is_file():
-        try:
-            doc = json.loads((root / "grid.json").read_text())
-        except json.JSONDecodeError as e:
-            raise InputError(f"{root}/grid.json: not JSON ({e})") from None
+        doc = read_json(root / "grid.json", "mound.verdict_grid", 1)
         return str(doc.get("cloud", "sparse"))
     for v in sorted(root.glob("*/verdict.json")):
         try:
-            cloud = str(json.loads(v.read_text()).get("cloud", ""))
-        except json.JSONDecodeError:
+            cloud = str(read_json(v, "mound.verdict", 1).get("cloud", ""))
+        except InputError:  # a verdict being written: the next one says
             continue
         if cloud:
             return "dense" if cloud.endswith("dense.ply") else "sparse"
@@ -224,8 +213,8 @@ def grid_cloud(folder: str | Path) -> str:
 def grid_label(folder: str | Path) -> str:
     """How a grid was flown and which cloud was judged, from its grid.json."""
     try:
-        doc = json.loads((Path(folder) / "grid.json").read_text())
-    except (OSError, json.JSONDecodeError):
+        doc = read_json(Path(folder) / "grid.json", "mound.verdict_grid", 1)
+    except InputError:  # a grid still running: its folder's name
         return Path(folder).name
     flight = doc.get("flight") or {}
     w, h = (flight.get("image_size") or [0, 0])[:2]

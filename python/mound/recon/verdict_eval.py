@@ -5,7 +5,6 @@ answers (verdict_band.py); and the paper's test beside it (`paper_agreement`).""
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 from typing import Any
@@ -19,6 +18,7 @@ from mound.classify.metrics import (
     reliability,
     roc_auc,
 )
+from mound.jsonio import read_json
 from mound.recon.verdict_band import three_answers
 from mound.recon.verdict_data import (
     CLEAR_OF_GROUND,
@@ -197,7 +197,7 @@ def paper_agreement(folder: str | Path, model: dict[str, Any], work: str | Path,
 
     root, out = Path(folder), Path(work)
     out.mkdir(parents=True, exist_ok=True)
-    grid = json.loads((root / "grid.json").read_text())
+    grid = read_json(root / "grid.json", "mound.verdict_grid", 1)
     rows = load_grid(root)
     p = probability(model, rows)
     sites: list[dict[str, Any]] = []
@@ -217,7 +217,7 @@ def paper_agreement(folder: str | Path, model: dict[str, Any], work: str | Path,
                                             "--reference", str(ref), "--out", str(res)], 600)
         except ToolNoResultError:
             pass
-        doc = json.loads(res.read_text())
+        doc = read_json(res, "mound.verdict", 1)
         paper = doc.get("label") if doc.get("status") == "ok" else "failed"
         sites.append({"dir": row["dir"], "truth": bool(row["truth"]["mound"]),
                       "kind": row["truth"]["kind"], "paper": paper,

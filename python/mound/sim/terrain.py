@@ -35,6 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from mound.errors import InputError
+from mound.jsonio import read_json
 
 PROFILES = ("conical", "spherical_cap", "drum", "ploughed")
 CONFUSERS = ("hillock", "ridge", "ditch", "terrace", "trees", "building", "haystack")
@@ -433,10 +434,8 @@ def build(spec: TerrainSpec) -> Heightfield:
 def load_site_heightfield(site_dir: str | Path) -> Heightfield:
     """The true surface a simulated site was rendered from (site.json's grid and
     heightfield.npy)."""
-    import json
-
     site_dir = Path(site_dir)
-    grid = json.loads((site_dir / "site.json").read_text())["heightfield"]
+    grid = read_json(site_dir / "site.json", "mound.sim_site", 1)["heightfield"]
     z = np.load(site_dir / grid["npy"])
     ny, nx = z.shape
     return Heightfield(x_m=grid["x0_m"] + grid["spacing_m"] * np.arange(nx),

@@ -24,7 +24,7 @@ from mound.errors import InputError
 from mound.formats.plan import Flight, Plan
 from mound.formats.sites import Sites
 from mound.geometry.geodesy import Origin, enu_to_geodetic
-from mound.jsonio import write_atomic
+from mound.jsonio import load_json, read_json, write_atomic
 from mound.paths import REPO_ROOT
 from mound.survey.tree import RunTree
 
@@ -169,7 +169,7 @@ def map_data(tree: RunTree, summary: dict[str, Any], sites_doc: Sites, plan: Pla
         overlay(tif, "scene_p_mound", "prob", None, f"scene{k:02d}_p_mound.png")
     footprints = []
     for gj in sorted(tree.root.glob("mission*.geojson")):
-        for f in json.loads(gj.read_text()).get("features", []):
+        for f in load_json(gj).get("features", []):
             if f.get("properties", {}).get("kind") == "image_footprint":
                 ring = f["geometry"]["coordinates"][0]
                 footprints.append([[float(c[1]), float(c[0])] for c in ring])
@@ -269,14 +269,15 @@ def site_viewer_doc(tree: RunTree, row: dict[str, Any]) -> dict[str, Any] | None
     xyz, rgb = read_ply(cloud)
     m: dict[str, Any] = {}
     if files.get("verdict") and (tree.root / files["verdict"]).is_file():
-        m = json.loads((tree.root / files["verdict"]).read_text()).get("measurements") or {}
+        m = read_json(tree.root / files["verdict"], "mound.verdict", 1).get(
+            "measurements") or {}
     centre = np.array(m.get("site_centre_enu_m") or np.median(xyz[:, :2], axis=0), float)
     ground = m.get("ground_coefficients") or [float(np.median(xyz[:, 2]))] + [0.0] * 5
     radius = float(m.get("site_radius_m") or np.percentile(
         np.hypot(*(xyz[:, :2] - centre).T), 80))
     cameras = []
     if files.get("recon") and (tree.root / files["recon"] / "recon.json").is_file():
-        recon = json.loads((tree.root / files["recon"] / "recon.json").read_text())
+        recon = read_json(tree.root / files["recon"] / "recon.json", "mound.recon", 1)
         K = np.array(recon["camera"]["K"], float)
         w, h = recon["camera"]["width"], recon["camera"]["height"]
         for im in recon.get("images", []):

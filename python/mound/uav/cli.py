@@ -8,9 +8,10 @@ from typing import Any
 
 from mound.bounds import FLIGHTS, HEIGHT_M, SITE_DIAMETER_M, SPEED_M_S, Bound
 from mound.errors import InputError
+from mound.formats.plan import Plan
 from mound.geometry.flight import DEFAULT_SITE_DIAMETER_M
 from mound.geometry.geodesy import Origin
-from mound.jsonio import read_json, write_all_atomic
+from mound.jsonio import write_all_atomic
 from mound.uav import upload
 
 
@@ -18,14 +19,14 @@ def cmd_build(args: argparse.Namespace) -> int:
     from mound.uav import dji, litchi, mission, mission_formats, mission_items
     from mound.uav import files as mission_files
 
-    plan = read_json(args.plan, "mound.plan", 1)
+    plan = Plan.read(args.plan)
     if args.origin:
         origin = Origin.parse(args.origin)
-    elif isinstance(plan.get("origin"), dict):
-        origin = Origin.from_doc(plan["origin"], f"{args.plan}: origin")
+    elif plan.origin is not None:
+        origin = plan.origin
     else:
         raise InputError(f"origin: {args.plan} has no origin; give --origin LAT,LON[,ALT]")
-    scan = mission_items.plan_scan(plan, str(args.plan))
+    scan = plan.scan()
     given = (args.pattern, args.site_diameter, args.altitude, args.transit_altitude)
     if scan is None or any(v is not None for v in given):
         # No scan in the plan, or options that override it: the flight check below then
@@ -43,7 +44,7 @@ def cmd_build(args: argparse.Namespace) -> int:
                                              terrain_mod.spec_from_args(args))
     flights = mission_items.flight_plans(plan)
     if args.flight is not None:
-        flights = [f for f in flights if f["flight"] == args.flight]
+        flights = [(k, f) for k, f in flights if k == args.flight]
         if not flights:
             raise InputError(f"--flight: the plan has no flight {args.flight} that visits a site")
     if not flights:
@@ -60,9 +61,9 @@ def cmd_build(args: argparse.Namespace) -> int:
     several = len(flights) > 1
     outputs: list[tuple[str | Path, str | bytes]] = []
     missions = []
-    for f in flights:
+    for number, f in flights:
         m = mission.build(f, origin, spec, terrain)
-        flight = f["flight"] if several else None
+        flight = number if several else None
         names = ["" if p is None else str(mission_files.flight_path(p, flight))
                  for p in (args.out, args.wpl, args.geojson, args.dji_kmz, args.litchi)]
         if args.out:
@@ -77,7 +78,7 @@ def cmd_build(args: argparse.Namespace) -> int:
             parts = mission_formats.litchi_parts(m)
             outputs += [(litchi.part_path(names[4], k + 1, len(parts)), text)
                         for k, text in enumerate(parts)]
-        missions.append((f["flight"], next(n for n in names if n), m))
+        missions.append((number, next(n for n in names if n), m))
     # All files or none: every file is made and staged before any is put in place.
     write_all_atomic(outputs)
     for flight, out, m in missions:

@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 
 from mound.errors import InputError
+from mound.formats.plan import Plan
 from mound.geometry.flight import path_length
 from mound.geometry.geodesy import Origin
 from mound.uav.mission_items import (
@@ -26,26 +27,26 @@ from mound.uav.mission_items import (
     MissionSpec,
     TerrainInput,
     plan_nodes,
-    plan_scan,
     up,
 )
 from mound.uav.terrain_mission import build_over_terrain
 
 
-def build(plan: dict[str, Any], origin: Origin, spec: MissionSpec | None = None,
+def build(plan: Plan, origin: Origin, spec: MissionSpec | None = None,
           terrain: TerrainInput | None = None) -> Mission:
-    """The mission for a mound.plan document; InputError if it breaks the budget. Without
-    `spec`, the plan's own scan (plan_scan) or the default one is flown. With `terrain`
+    """The mission for a plan of one flight; InputError if it breaks the budget. Without
+    `spec`, the plan's own scan (Plan.scan) or the default one is flown. With `terrain`
     (a DEM) the heights follow the ground (see mission_items' module text)."""
     if spec is None:
-        scan = plan_scan(plan)
+        scan = plan.scan()
         spec = MissionSpec(scan=scan) if scan is not None else MissionSpec()
     spec.validate()
     nodes, closed, budget = plan_nodes(plan)
     if len(nodes) <= 2 and (closed or len(nodes) < 2):
         raise InputError("tour: the plan visits no site, there is nothing to fly")
-    if terrain is None and isinstance(plan.get("terrain"), dict):
-        dem = plan["terrain"].get("dem", "its DEM")
+    plan_terrain = plan.extra.get("terrain")
+    if terrain is None and isinstance(plan_terrain, dict):
+        dem = plan_terrain.get("dem", "its DEM")
         raise InputError(f"plan.terrain: the plan was made over {dem!s:.200} (its costs count "
                          "the climbs); build its mission with --dem, or the heights would be "
                          "above home with the terrain not checked")

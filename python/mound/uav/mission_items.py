@@ -45,13 +45,14 @@ that forces it; so is a scan that passes too close to the ground.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 
 from mound.bounds import SITE_DIAMETER_M
 from mound.errors import InputError
+from mound.formats.plan import Plan
 from mound.geometry.camera import Camera, Pose
 from mound.geometry.flight import DEFAULT_SITE_DIAMETER_M, PATTERNS, ScanSpec
 from mound.geometry.geodesy import Origin, enu_to_geodetic
@@ -227,12 +228,13 @@ MAX_COST_M = 1e8
 MAX_BUDGET_M = 1e12
 
 
-def plan_nodes(plan: dict[str, Any]) -> tuple[list[dict[str, Any]], bool, float]:
-    """Validated (tour nodes with positions, closed?, budget) of a mound.plan document."""
-    tour = plan.get("tour")
-    if not isinstance(tour, list) or len(tour) < 2:
-        raise InputError("tour: expected the list of ids from home to the end node")
-    wps = plan.get("waypoints")
+def plan_nodes(plan: Plan) -> tuple[list[dict[str, Any]], bool, float]:
+    """Validated (tour nodes with positions, closed?, budget) of a plan of one flight."""
+    if len(plan.flights) != 1:
+        raise InputError(f"flights: a mission flies one flight, the plan has "
+                         f"{len(plan.flights)} (mission_items.flight_plans splits them)")
+    tour = plan.flights[0].tour
+    wps = plan.extra.get("waypoints")
     if not isinstance(wps, list):
         raise InputError("waypoints: missing (positions of the tour's nodes); re-plan with "
                          "mound_plan, which writes them")
@@ -243,7 +245,7 @@ def plan_nodes(plan: dict[str, Any]) -> tuple[list[dict[str, Any]], bool, float]
         by_id[require_id(w["id"], f"waypoints[{k}].id")] = (k, w)
     nodes = []
     for k, node_id in enumerate(tour):
-        found = by_id.get(require_id(node_id, f"tour[{k}]"))
+        found = by_id.get(node_id)
         if found is None:
             raise InputError(f"tour[{k}]: site {node_id!r} has no coordinates in waypoints")
         i, w = found
@@ -256,65 +258,19 @@ def plan_nodes(plan: dict[str, Any]) -> tuple[list[dict[str, Any]], bool, float]
         nodes.append({"id": node_id, "x_m": x, "y_m": y, "kind": kind,
                       "scan_cost_m": require_number(w, "scan_cost_m", where, lo=0,
                                                     hi=MAX_COST_M, default=0.0)})
-    closed = plan.get("closed", tour[0] == tour[-1])
-    if not isinstance(closed, bool):
-        raise InputError(f"plan.closed: expected true or false, got {closed!r:.40}")
-    budget = require_number(plan, "budget_m", "plan", lo=0, hi=MAX_BUDGET_M)
-    return nodes, closed, budget
+    if not plan.budget_m <= MAX_BUDGET_M:
+        raise InputError(f"plan.budget_m: must be a number in [0, {MAX_BUDGET_M:g}]")
+    return nodes, plan.closed, plan.budget_m
 
 
-def flight_plans(plan: dict[str, Any]) -> list[dict[str, Any]]:
-    """One mound.plan document per flight that visits a site (plan.json `flights`, ordered
-    by reward; a plan without `flights` is one flight), each with its own tour, reward,
-    cost and budget left, and `flight` (1-based)."""
-    flights = plan.get("flights")
-    if flights is None or (isinstance(flights, list) and len(flights) == 1):
-        return [{**plan, "flight": 1}]  # build() says when there is nothing to fly
-    if not isinstance(flights, list):
-        raise InputError("flights: expected a list of {tour, reward, cost_m, budget_left_m}")
-    out = []
-    for k, f in enumerate(flights):
-        where = f"flights[{k}]"
-        if not isinstance(f, dict) or not isinstance(f.get("tour"), list):
-            raise InputError(f"{where}: expected an object with a tour")
-        if len(f["tour"]) <= 2:
-            continue  # of several flights, one with nothing to visit is not flown
-        out.append({**plan, "tour": f["tour"], "flight": k + 1,
-                    "reward": require_number(f, "reward", where, lo=0, hi=1e12),
-                    "cost_m": require_number(f, "cost_m", where, lo=0, hi=MAX_BUDGET_M),
-                    "budget_left_m": require_number(f, "budget_left_m", where,
-                                                    lo=-MAX_BUDGET_M, hi=MAX_BUDGET_M)})
-    return out
-
-
-def visit_order(plan: dict[str, Any]) -> list[str]:
-    """The sites the plan's flights visit, each once, in the order they are flown;
-    InputError naming the field of a tour that is not a list of ids."""
-    ids: dict[str, None] = {}
-    flights = plan.get("flights") or [{"tour": plan.get("tour", [])}]
-    if not isinstance(flights, list):
-        raise InputError("flights: expected a list of {tour, ...}")
-    for k, f in enumerate(flights):
-        where = "tour" if "flights" not in plan or not plan["flights"] else f"flights[{k}].tour"
-        tour = f.get("tour", []) if isinstance(f, dict) else None
-        if not isinstance(tour, list):
-            raise InputError(f"{where}: expected a list of ids")
-        for i, sid in enumerate(tour):
-            require_id(sid, f"{where}[{i}]")
-        ids.update(dict.fromkeys(tour[1:-1]))
-    return list(ids)
-
-
-def visited_ids(plan: dict[str, Any]) -> set[str]:
-    """The sites any flight of the plan visits."""
-    return set(visit_order(plan))
-
-
-def plan_scan(plan: dict[str, Any], where: str = "plan") -> ScanSpec | None:
-    """The ScanSpec a plan's scan costs were derived from (`scan` of its sites document,
-    carried along by mound_plan), or None."""
-    doc = plan.get("scan")
-    return None if doc is None else ScanSpec.from_doc(doc, f"{where}: scan")
+def flight_plans(plan: Plan) -> list[tuple[int, Plan]]:
+    """Each flight that visits a site as a plan of its own, with its number (1-based;
+    mound_plan orders flights by reward); a plan of one flight is itself (build() says when
+    there is nothing to fly)."""
+    if len(plan.flights) == 1:
+        return [(1, plan)]
+    return [(k, replace(plan, flights=(f,))) for k, f in enumerate(plan.flights, start=1)
+            if f.sites]  # of several flights, one with nothing to visit is not flown
 
 
 class ItemWriter:

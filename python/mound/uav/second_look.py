@@ -19,10 +19,9 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
-from typing import Any
 
 from mound.errors import InputError
-from mound.formats.plan import Plan
+from mound.formats.plan import Flight, Plan
 from mound.formats.site_row import SiteRow
 from mound.formats.sites import Sites
 from mound.uav.mission import build
@@ -69,16 +68,18 @@ def second_look_flights(sites: Sites, plan: Plan | None, ids: list[str],
     plan_terrain = plan.extra.get("terrain") if plan else None
 
     def mission(visit: list[str]) -> Mission:
-        wps: list[dict[str, Any]] = [{"id": home.id, "x_m": home.x_m, "y_m": home.y_m,
-                                      "kind": "home"}]
+        wps: list[dict[str, object]] = [{"id": home.id, "x_m": home.x_m, "y_m": home.y_m,
+                                         "kind": "home"}]
         wps += [{"id": i, "x_m": by_id[i].x_m, "y_m": by_id[i].y_m, "kind": "site",
                  "scan_cost_m": cost} for i in visit]
         if not sites.closed:
             wps.append({"id": end.id, "x_m": end.x_m, "y_m": end.y_m, "kind": "end"})
-        doc = {"tour": [home.id, *visit, end.id], "waypoints": wps, "closed": sites.closed,
-               "budget_m": sites.budget_m,
-               **({"terrain": plan_terrain} if plan_terrain is not None else {})}
-        return build(doc, origin, spec, terrain)
+        flight = Plan(
+            "second_look", (Flight((home.id, *visit, end.id), None, None, None),),
+            sites.budget_m, sites.closed, origin, extra={
+                "waypoints": wps,
+                **({"terrain": plan_terrain} if plan_terrain is not None else {})})
+        return build(flight, origin, spec, terrain)
 
     def attempt(visit: list[str]) -> Mission | str:
         try:

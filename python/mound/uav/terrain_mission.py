@@ -8,6 +8,7 @@ from typing import Any
 import numpy as np
 
 from mound.errors import InputError
+from mound.formats.plan import Plan
 from mound.geometry.flight import path_length
 from mound.geometry.geodesy import Origin
 from mound.uav import mission_items as mi
@@ -16,7 +17,7 @@ from mound.uav.terrain import Node, TerrainModel, TerrainSpec, climb_descent_m, 
 PROFILE_SAMPLES = 120  # terrain samples per leg in the profiles (report, GeoJSON)
 
 
-def build_over_terrain(plan: dict[str, Any], origin: Origin, spec: mi.MissionSpec,
+def build_over_terrain(plan: Plan, origin: Origin, spec: mi.MissionSpec,
                        terrain: mi.TerrainInput, nodes: list[dict[str, Any]], closed: bool,
                        budget: float) -> mi.Mission:
     tspec = terrain.spec if terrain.spec is not None else TerrainSpec()
@@ -98,7 +99,7 @@ def build_over_terrain(plan: dict[str, Any], origin: Origin, spec: mi.MissionSpe
         "dem": dem.path, "dem_crs": dem.crs_name, "vertical": dem.vertical,
         "home_amsl_m": home_amsl, **tspec.to_doc(),
         "energy_m": energy, "climbed_m": climbed, "descended_m": descended,
-        "plan_cost_m": plan.get("cost_m"), "legs": leg_docs,
+        "plan_cost_m": plan.flights[0].cost_m, "legs": leg_docs,
         "lowest_clearance_m": min(d["clearance_m"] for d in leg_docs) if leg_docs else None,
     }
     return mi.Mission(w.items, origin, path_length(pts), budget, closed, sites_out, nav_rel,

@@ -3,7 +3,6 @@ scene's candidates)."""
 
 from __future__ import annotations
 
-import json
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -14,7 +13,7 @@ from mound.errors import InputError
 from mound.formats.sites import Sites
 from mound.geojson import point_feature_doc
 from mound.geometry.geodesy import Origin
-from mound.jsonio import read_json, write_json
+from mound.jsonio import load_json, read_json, write_json
 from mound.survey.context import Context, digest_files, run_stage, scan_spec
 
 
@@ -59,7 +58,7 @@ def scene_sites(ctx: Context, scan: Any) -> Sites:
         score.score_to_dir(scene, model, out, model_path=str(model_path),
                            model_sha256=digest_of(model_path), limit=a.candidates,
                            min_sep_m=a.min_separation_m, aoi=aoi, aoi_path=a.aoi)
-        cands = json.loads((out / "candidates.geojson").read_text())["features"]
+        cands = load_json(out / "candidates.geojson")["features"]
         if labels:
             tr = transformer_to_scene(scene)
             lx, ly = tr.transform([lb.lon for lb in labels], [lb.lat for lb in labels])

@@ -94,8 +94,8 @@ def _write_mission(ctx: Context, plan: Plan, out: Path) -> None:
     budget or, over a DEM, cannot clear the ground)."""
     if plan.origin is None:
         raise InputError("plan: origin: missing (the mission is flown in WGS84)")
-    m = mission.build(plan.to_doc(), plan.origin,
-                      None,  # the plan's own scan (plan_scan), else the default
+    m = mission.build(plan, plan.origin,
+                      None,  # the plan's own scan (Plan.scan), else the default
                       mission_terrain(ctx.args))
     mission_files.write_plan(out, m, ctx.args.firmware)
 

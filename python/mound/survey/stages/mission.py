@@ -85,11 +85,10 @@ def stage_mission(ctx: Context) -> str:
         scan = plan.scan()
         spec = mission_items.MissionSpec(scan=scan) if scan else mission_items.MissionSpec()
         terrain = mission_terrain(a)
-        # (the mission builder reads a mound.plan document, as `mound mission build` does)
-        flights = mission_items.flight_plans(plan.to_doc())
+        flights = mission_items.flight_plans(plan)
         several = len(flights) > 1
-        missions = [(f["flight"] if several else None,
-                     mission.build(f, origin, spec, terrain)) for f in flights]
+        missions = [(k if several else None, mission.build(f, origin, spec, terrain))
+                    for k, f in flights]
         t.report_dir.mkdir(parents=True, exist_ok=True)
         written, summary = write_missions(missions, t.root, t.report_dir, a.firmware,
                                           a.aircraft)
