@@ -29,9 +29,10 @@ import argparse
 import sys
 import time
 
+from mound import native
 from mound.args import Parser, UsageError
 from mound.classify import cli as classify_cli
-from mound.errors import exit_for
+from mound.errors import exit_for, exit_on_interrupt
 from mound.grids import cli as grids_cli
 from mound.photos import cli as photos_cli
 from mound.plan import cli as plan_cli
@@ -69,6 +70,11 @@ def help_argv(parser: argparse.ArgumentParser, argv: list[str]) -> list[str]:
 
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
+    with native.sigterm_as_interrupt():
+        return _main(argv)
+
+
+def _main(argv: list[str]) -> int:
     try:
         parser = build_parser()
         if "-h" in argv or "--help" in argv:
@@ -83,6 +89,8 @@ def main(argv: list[str] | None = None) -> int:
         code: int = args.func(args)
         print(f"({time.perf_counter() - start:.2f} s)", file=sys.stderr)
         return code
+    except KeyboardInterrupt as e:  # Ctrl-C or SIGTERM: the tools are ended
+        return exit_on_interrupt("mound", e)
     except Exception as e:
         return exit_for("mound", e)
 

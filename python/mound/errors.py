@@ -90,6 +90,22 @@ def tool_error(tool: str, code: int, stderr: str) -> ToolError:
     return ToolError(tool, code, stderr)
 
 
+EXIT_INTERRUPTED = 130  # Ctrl-C (128 + SIGINT), as a shell reports it
+EXIT_TERMINATED = 143   # SIGTERM (128 + SIGTERM)
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM (a scheduler's or CI's stop), taken as Ctrl-C: the tools end, nothing new
+    starts, and the command stops with EXIT_TERMINATED (native.end_on_sigterm)."""
+
+
+def exit_on_interrupt(prog: str, e: KeyboardInterrupt, resume: str = "") -> int:
+    """A command line's answer to Ctrl-C or SIGTERM: one line, 130 or 143."""
+    what = "terminated (SIGTERM)" if isinstance(e, Terminated) else "interrupted"
+    print(f"\n{prog}: {what}{'; ' + resume if resume else ''}", file=sys.stderr)
+    return EXIT_TERMINATED if isinstance(e, Terminated) else EXIT_INTERRUPTED
+
+
 def exit_for(prog: str, e: Exception) -> int:
     """A command line's answer to an error that reached its main: one line on stderr and
     the exit code (2 bad input, 3 no result, 1 anything else: a bug)."""

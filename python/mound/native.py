@@ -37,6 +37,7 @@ from mound.errors import (  # noqa: F401  (re-exported for callers: native.ToolE
     EXIT_INTERNAL,
     EXIT_NO_RESULT,
     EXIT_OK,
+    Terminated,
     ToolError,
     ToolTimeout,
     tool_error,
@@ -52,7 +53,9 @@ GRACE_S = 3.0          # between SIGTERM and SIGKILL
 # that was between two tools then cannot start another (no race with the next Popen).
 _live: dict[subprocess.Popen[bytes], str | None] = {}
 _ended: set[str] = set()
-_live_lock = threading.Lock()
+_all_ended = False  # SIGTERM: no tool starts any more in this process
+# Re-entrant: the SIGTERM handler ends the tools from the main thread, which may hold it.
+_live_lock = threading.RLock()
 _local = threading.local()
 # The tools pinned by `pinned` (name -> the copy every run of it uses meanwhile).
 _pinned: dict[str, Path] = {}
@@ -129,6 +132,32 @@ def _end_group(proc: subprocess.Popen[bytes]) -> None:
     proc.wait()
 
 
+@contextlib.contextmanager
+def sigterm_as_interrupt() -> Iterator[None]:
+    """A command's main runs in this block (main thread; elsewhere it does nothing): SIGTERM
+    is taken as Ctrl-C — every tool this process runs is ended (its whole group), none
+    starts any more, and Terminated (a KeyboardInterrupt) is raised where the main thread
+    is. Without it Python dies at once and the tool it was waiting for (in a process group
+    of its own) runs on."""
+    global _all_ended
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def handler(signum: int, frame: Any) -> None:
+        global _all_ended
+        _all_ended = True
+        end_all()
+        raise Terminated(f"signal {signum}")
+
+    previous = signal.signal(signal.SIGTERM, handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+        _all_ended = False
+
+
 def end_all(tag: str | None = None) -> int:
     """Ends every tool this process is running now (their whole process groups), or only
     those of the work `tag`, which then starts no more; as on Ctrl-C. The threads waiting
@@ -164,7 +193,7 @@ def run_tool(name: str, args: list[str], timeout_s: float | None = None, *,
     start = time.perf_counter()
     tag = getattr(_local, "tag", None)
     with _live_lock:
-        if tag is not None and tag in _ended:
+        if _all_ended or (tag is not None and tag in _ended):
             raise ToolError(name, -signal.SIGTERM, f"{name}: not started, the work was "
                             "interrupted")
         proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE,

@@ -109,6 +109,42 @@ def test_ctrl_c_during_a_long_call_leaves_no_child_behind(tmp_path: Path,
     assert "ended on interrupt" in log.read_text()
 
 
+def _tools_naming(path: Path) -> list[int]:
+    """The pids of the project's tools whose command line names `path`."""
+    pids = []
+    for d in Path("/proc").iterdir():
+        try:
+            cmd = (d / "cmdline").read_bytes().replace(b"\0", b" ").decode("utf-8", "replace")
+        except OSError:
+            continue
+        if "mound_" in cmd and str(path) in cmd and "python" not in cmd:
+            pids.append(int(d.name))
+    return pids
+
+
+@pytest.mark.slow
+def test_sigterm_stops_a_command_and_its_tools_as_ctrl_c_does(tmp_path: Path,
+                                                              mound_render: Path) -> None:
+    """SIGTERM (a scheduler's or CI's stop) to `mound sim grid` while a tool runs: the tool
+    is ended with it (before, Python died at once and the tool ran on), the command says so
+    in one line and exits 143."""
+    out = tmp_path / "grid"
+    cmd = [sys.executable, "-m", "mound", "sim", "grid", "--out", str(out), "--sites", "40",
+           "--size", "320", "240", "--dem", "none"]
+    grid = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                            env={**os.environ, "PYTHONPATH": str(REPO_ROOT / "python")})
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and not _tools_naming(out):
+        time.sleep(0.02)
+    running = _tools_naming(out)
+    assert running, "no tool of the grid was seen running"
+    grid.send_signal(signal.SIGTERM)
+    _, stderr = grid.communicate(timeout=native.GRACE_S + 30)
+    assert grid.returncode == 143, stderr
+    assert stderr.strip().splitlines()[-1] == "mound: terminated (SIGTERM)", stderr
+    assert all(gone(pid) for pid in running), "a tool outlived the terminated command"
+
+
 @pytest.mark.parametrize("tool, args", [("mound_render", ["job.json", "--help"]),
                                         ("mound_plan", ["sites.json", "--algo", "x", "--help"])])
 def test_help_anywhere_prints_the_usage(tool: str, args: list[str]) -> None:

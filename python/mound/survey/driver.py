@@ -33,8 +33,9 @@ import time
 from pathlib import Path
 from typing import get_args
 
+from mound import native
 from mound.args import Parser
-from mound.errors import EXIT_NO_RESULT, exit_for
+from mound.errors import EXIT_NO_RESULT, exit_for, exit_on_interrupt
 from mound.jsonio import read_json
 from mound.survey.context import SCHEMA, STAGES, VERSION, Context
 from mound.survey.ledger import Ledger
@@ -219,10 +220,9 @@ def run(argv: list[str]) -> int:
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     try:
-        return run(argv)
-    except KeyboardInterrupt:
-        print("\nmission.py: interrupted; run the same command again to resume",
-              file=sys.stderr)
-        return 130
+        with native.sigterm_as_interrupt():
+            return run(argv)
+    except KeyboardInterrupt as e:  # Ctrl-C or SIGTERM: the tools are ended
+        return exit_on_interrupt("mission.py", e, "run the same command again to resume")
     except Exception as e:
         return exit_for("mission.py", e)
