@@ -197,14 +197,19 @@ def vertical_shift(vertical: str, lon: np.ndarray, lat: np.ndarray, h: np.ndarra
     return out
 
 
+def _one_band(ds: Any, path: str) -> Georef:
+    """The georeferencing of an opened DEM (georef); InputError unless it has one band."""
+    if ds.count != 1:
+        raise InputError(f"{path}: a DEM has one band, this file has {ds.count}")
+    return georef(ds, path)
+
+
 def valid_cells(path: str, max_px: int = MAX_WINDOW_PX) -> tuple[np.ndarray, Any]:
     """The whole DEM's validity mask (finite and not nodata; rows north to south as in the
     file) and its geotransform (affine: pixel corners -> its CRS); InputError unless it is
     one band of at most `max_px` cells whose CRS is in metres."""
     with _opened(path) as ds:
-        if ds.count != 1:
-            raise InputError(f"{path}: a DEM has one band, this file has {ds.count}")
-        g = georef(ds, path)
+        g = _one_band(ds, path)
         axes = _horizontal(g.crs).axis_info
         unit = axes[0].unit_name if axes else ""
         if unit not in ("metre", "meter", "m"):
@@ -248,9 +253,7 @@ class Dem:
             raise InputError(f"--dem-vertical: expected one of {', '.join(VERTICALS)}, "
                              f"got {vertical!r}")
         with _opened(path) as ds:
-            if ds.count != 1:
-                raise InputError(f"{path}: a DEM has one band, this file has {ds.count}")
-            g = georef(ds, path)
+            g = _one_band(ds, path)
             crs, tf, to_dem, to_lonlat = g.crs, g.transform, g.to_dem, g.to_lonlat
             stated = file_vertical(crs)
             if vertical is None:
