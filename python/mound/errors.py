@@ -96,7 +96,7 @@ EXIT_TERMINATED = 143   # SIGTERM (128 + SIGTERM)
 
 class Terminated(KeyboardInterrupt):
     """SIGTERM (a scheduler's or CI's stop), taken as Ctrl-C: the tools end, nothing new
-    starts, and the command stops with EXIT_TERMINATED (native.end_on_sigterm)."""
+    starts, and the command stops with EXIT_TERMINATED (native.sigterm_as_interrupt)."""
 
 
 def exit_on_interrupt(prog: str, e: KeyboardInterrupt, resume: str = "") -> int:

@@ -7,7 +7,7 @@ import math
 import os
 import sys
 import tempfile
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
@@ -189,6 +189,30 @@ def require_number(obj: dict[str, Any], key: str, where: str, *, lo: float = -ma
     return finite_number(v, f"{where}.{key}", lo=lo, hi=hi)
 
 
+def optional_number(obj: Mapping[str, Any], key: str, where: str, *,
+                    lo: float = -math.inf, hi: float = math.inf) -> float | None:
+    """obj[key] as require_number reads it, or None when the key is absent or null."""
+    v = obj.get(key)
+    return None if v is None else finite_number(v, f"{where}.{key}", lo=lo, hi=hi)
+
+
+def optional_object(obj: Mapping[str, Any], key: str, where: str) -> Mapping[str, Any] | None:
+    """obj[key]: an object, or None when the key is absent or null; InputError naming
+    `where.key` otherwise."""
+    v = obj.get(key)
+    if v is not None and not isinstance(v, dict):
+        raise InputError(f"{where}.{key}: expected an object, got {short_repr(v)}")
+    return v
+
+
+def require_choice(value: Any, choices: Sequence[str], where: str) -> str:
+    """value if it is one of `choices`, else InputError naming `where`."""
+    if value not in choices:
+        said = " or ".join(choices) if len(choices) == 2 else "one of " + ", ".join(choices)
+        raise InputError(f"{where}: expected {said}, got {short_repr(value)}")
+    return str(value)
+
+
 def number_text(text: str, where: str, lo: float = -math.inf, hi: float = math.inf) -> float:
     """A number written as text in a file's field (XML, CSV) as a float in [lo, hi], else
     InputError naming `where` (the file, line and field)."""
@@ -243,7 +267,7 @@ def load_json(path: str | Path) -> Any:
 
 def read_json(path: str | Path, schema: str, max_version: int) -> dict[str, Any]:
     """Reads a `schema` document of version 1..max_version; InputError on any defect."""
-    return check_doc(parse_json(read_text(path), path), path, schema, max_version)
+    return check_doc(load_json(path), path, schema, max_version)
 
 
 def check_doc(doc: Any, path: str | Path, schema: str, max_version: int) -> dict[str, Any]:

@@ -24,8 +24,8 @@ from mound.geometry.flight import ScanSpec
 from mound.geometry.geodesy import Origin
 from mound.jsonio import (
     check_doc,
-    parse_json,
-    read_text,
+    load_json,
+    optional_number,
     require_id,
     require_number,
     short_repr,
@@ -66,13 +66,9 @@ class Flight:
         if not isinstance(doc, dict):
             raise InputError(f"{where}: expected an object with a tour")
         return cls(_tour(doc.get("tour"), f"{where}.tour"),
-                   _optional(doc, "reward", where, 0, 1e12),
-                   _optional(doc, "cost_m", where, 0, MAX_M),
-                   _optional(doc, "budget_left_m", where, -MAX_M, MAX_M))
-
-
-def _optional(doc: dict[str, Any], key: str, where: str, lo: float, hi: float) -> float | None:
-    return None if doc.get(key) is None else require_number(doc, key, where, lo=lo, hi=hi)
+                   optional_number(doc, "reward", where, lo=0, hi=1e12),
+                   optional_number(doc, "cost_m", where, lo=0, hi=MAX_M),
+                   optional_number(doc, "budget_left_m", where, lo=-MAX_M, hi=MAX_M))
 
 
 def _said(value: float | None, where: str) -> float:
@@ -182,10 +178,11 @@ class Plan:
         raw = doc.get("flights")
         flights: tuple[Flight, ...]
         if raw is None:
+            top = f"{path}: plan"
             flights = (Flight(_tour(doc.get("tour"), f"{where}tour"),
-                              _optional(doc, "reward", f"{path}: plan", 0, 1e12),
-                              _optional(doc, "cost_m", f"{path}: plan", 0, MAX_M),
-                              _optional(doc, "budget_left_m", f"{path}: plan", -MAX_M, MAX_M)),)
+                              optional_number(doc, "reward", top, lo=0, hi=1e12),
+                              optional_number(doc, "cost_m", top, lo=0, hi=MAX_M),
+                              optional_number(doc, "budget_left_m", top, lo=-MAX_M, hi=MAX_M)),)
         elif isinstance(raw, list) and raw:
             flights = tuple(Flight.from_doc(f, f"{where}flights[{k}]")
                             for k, f in enumerate(raw))
@@ -210,4 +207,4 @@ class Plan:
 
     @classmethod
     def read(cls, path: str | Path) -> Plan:
-        return cls.from_doc(parse_json(read_text(path), path), path)
+        return cls.from_doc(load_json(path), path)

@@ -16,14 +16,17 @@ from pathlib import Path
 from typing import Any
 
 from mound.errors import InputError
-from mound.formats.verdict import (
-    ANSWERS,
-    TWO_ANSWERS,
-    Verdict,
+from mound.formats.verdict import ANSWERS, TWO_ANSWERS, Verdict
+from mound.jsonio import (
+    check_doc,
+    finite_number,
+    load_json,
     optional_number,
     optional_object,
+    require_choice,
+    require_id,
+    short_repr,
 )
-from mound.jsonio import check_doc, finite_number, parse_json, read_text, require_id, short_repr
 
 SCHEMA = "mound.survey_site"
 VERSION = 1
@@ -100,9 +103,7 @@ class SiteRow:
     def from_doc(cls, doc: Any, path: str | Path) -> SiteRow:
         doc = check_doc(doc, path, SCHEMA, VERSION)
         where = str(path)
-        status = doc.get("status")
-        if status not in STATUSES:
-            raise InputError(f"{where}: status: expected ok or failed, got {short_repr(status)}")
+        status = require_choice(doc.get("status"), STATUSES, f"{where}: status")
         strings = {k: doc.get(k, "") for k in ("key", "first_key", "source", "worker",
                                                "reason")}
         for k, v in strings.items():
@@ -143,23 +144,16 @@ class SiteRow:
 
     @classmethod
     def read(cls, path: str | Path) -> SiteRow:
-        return cls.from_doc(parse_json(read_text(path), path), path)
+        return cls.from_doc(load_json(path), path)
 
 
 def _verdict_of(row: dict[str, Any], where: str) -> Verdict:
     """The verdict a row (or its first_look) carries, flattened by Verdict.row_fields."""
-    two = row.get("verdict")
-    if two not in TWO_ANSWERS:
-        raise InputError(f"{where}: verdict: expected mound or no_mound, got {short_repr(two)}")
-    answer = row.get("answer", two)
-    if answer not in ANSWERS:
-        raise InputError(f"{where}: answer: expected one of {', '.join(ANSWERS)}, got "
-                         f"{short_repr(answer)}")
-
-    distance = optional_number(row, "distance_m", where)
+    two = require_choice(row.get("verdict"), TWO_ANSWERS, f"{where}: verdict")
+    answer = require_choice(row.get("answer", two), ANSWERS, f"{where}: answer")
     return Verdict(answer, two, str(row.get("method", "")), str(row.get("reason", "")),
-                   optional_number(row, "confidence", where, 0.0, 1.0),
-                   optional_number(row, "verdict_p_mound", where, 0.0, 1.0),
+                   optional_number(row, "confidence", where, lo=0.0, hi=1.0),
+                   optional_number(row, "verdict_p_mound", where, lo=0.0, hi=1.0),
                    optional_object(row, "undecided", where),
                    optional_object(row, "coverage", where), optional_object(row, "rise", where),
-                   distance)
+                   optional_number(row, "distance_m", where))

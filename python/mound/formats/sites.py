@@ -28,7 +28,7 @@ from mound.errors import InputError
 from mound.geojson import point_feature
 from mound.geometry.flight import ScanSpec
 from mound.geometry.geodesy import Origin, geodetic_to_enu
-from mound.jsonio import check_doc, parse_json, read_text, require_id, require_number
+from mound.jsonio import check_doc, load_json, optional_number, require_id, require_number
 
 SCHEMA = "mound.sites"
 VERSION = 1
@@ -79,9 +79,7 @@ class Truth:
         row = doc.get("statlog_row")
         if row is not None and (isinstance(row, bool) or not isinstance(row, int) or row < 0):
             raise InputError(f"{where}.statlog_row: expected a row number, got {row!r:.40}")
-        height = (None if doc.get("height_m") is None
-                  else require_number(doc, "height_m", where, lo=0.0, hi=1000.0))
-        return cls(doc["mound"], height, row,
+        return cls(doc["mound"], optional_number(doc, "height_m", where, lo=0.0, hi=1000.0), row,
                    {k: v for k, v in doc.items()
                     if k not in ("mound", "height_m", "statlog_row")})
 
@@ -116,11 +114,10 @@ class Site:
     def from_doc(cls, doc: object, where: str) -> Site:
         node = Node.from_doc(doc, where)
         assert isinstance(doc, dict)
-        p = (None if doc.get("p_mound") is None
-             else require_number(doc, "p_mound", where, lo=0.0, hi=1.0))
         return cls(node.id, node.x_m, node.y_m,
                    require_number(doc, "reward", where, lo=0.0),
-                   require_number(doc, "scan_cost_m", where, lo=0.0, default=0.0), p,
+                   require_number(doc, "scan_cost_m", where, lo=0.0, default=0.0),
+                   optional_number(doc, "p_mound", where, lo=0.0, hi=1.0),
                    None if doc.get("truth") is None
                    else Truth.from_doc(doc["truth"], f"{where}.truth"),
                    {k: v for k, v in doc.items() if k not in _SITE_KEYS})
@@ -186,8 +183,8 @@ class Sites:
         if not isinstance(raw, list) or not raw:
             raise InputError(f"{path}: sites: expected a non-empty list")
         sites = tuple(Site.from_doc(s, f"{path}: sites[{k}]") for k, s in enumerate(raw))
-        if len({s.id for s in sites} | {home.id, end_node.id}) != len(sites) + len(
-                {home.id, end_node.id}):
+        ids = [s.id for s in sites]
+        if len(set(ids)) != len(ids) or {home.id, end_node.id} & set(ids):
             raise InputError(f"{path}: sites: ids are not unique (or one is home's or end's)")
         origin = (Origin.from_doc(doc["origin"], f"{path}: origin")
                   if doc.get("origin") is not None else None)
@@ -198,7 +195,7 @@ class Sites:
 
     @classmethod
     def read(cls, path: str | Path) -> Sites:
-        return cls.from_doc(parse_json(read_text(path), path), path)
+        return cls.from_doc(load_json(path), path)
 
 
 def _number(obj: dict[str, Any], key: str, where: str, *, lo: float = -math.inf,
@@ -330,7 +327,7 @@ def load_user_sites(path: str | Path, scan: ScanSpec, budget_m: float | None,
     `need_p_mound`: every site its p_mound (a survey's unvisited sites keep the
     classifier's label; sorting photos needs only where the sites are)."""
     path = Path(path)
-    return user_sites(parse_json(read_text(path), path), path, scan, budget_m,
+    return user_sites(load_json(path), path, scan, budget_m,
                       default_budget_m, need_truth, need_p_mound)
 
 

@@ -9,14 +9,19 @@ field; the rest of the document (every feature, the model's provenance) stays in
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from mound.errors import InputError
-from mound.jsonio import check_doc, finite_number, parse_json, read_text, short_repr
+from mound.jsonio import (
+    check_doc,
+    load_json,
+    optional_number,
+    optional_object,
+    require_choice,
+)
 
 SCHEMA = "mound.verdict"
 VERSION = 1
@@ -25,19 +30,6 @@ TWO_ANSWERS = ("mound", "no_mound")
 # What the row keeps of the judged rise (its features stay in verdict.json).
 RISE_FIELDS = ("height_m", "base_diameter_m", "roundness", "dome_r2", "volume_m3",
                "centre_enu_m")
-
-
-def optional_number(doc: Mapping[str, Any], key: str, where: str, lo: float = -math.inf,
-                     hi: float = math.inf) -> float | None:
-    v = doc.get(key)
-    return None if v is None else finite_number(v, f"{where}.{key}", lo=lo, hi=hi)
-
-
-def optional_object(doc: Mapping[str, Any], key: str, where: str) -> Mapping[str, Any] | None:
-    v = doc.get(key)
-    if v is not None and not isinstance(v, dict):
-        raise InputError(f"{where}.{key}: expected an object, got {short_repr(v)}")
-    return v
 
 
 @dataclass(frozen=True)
@@ -105,15 +97,10 @@ class Verdict:
     def from_doc(cls, doc: Any, path: str | Path) -> Verdict:
         doc = check_doc(doc, path, SCHEMA, VERSION)
         where = str(path)
-        label = doc.get("label")
-        if label not in ANSWERS:
-            raise InputError(f"{where}: label: expected one of {', '.join(ANSWERS)}, got "
-                             f"{short_repr(label)}")
+        label = require_choice(doc.get("label"), ANSWERS, f"{where}: label")
         two = optional_object(doc, "two_answer", where)
-        two_answer = two.get("label", label) if two is not None else label
-        if two_answer not in TWO_ANSWERS:
-            raise InputError(f"{where}: two_answer.label: expected mound or no_mound, got "
-                             f"{short_repr(two_answer)}")
+        two_answer = require_choice(two.get("label", label) if two is not None else label,
+                                    TWO_ANSWERS, f"{where}: two_answer.label")
         method, reason = doc.get("method", ""), doc.get("reason", "")
         if not isinstance(method, str) or not isinstance(reason, str):
             raise InputError(f"{where}: method, reason: expected strings")
@@ -132,4 +119,4 @@ class Verdict:
 
     @classmethod
     def read(cls, path: str | Path) -> Verdict:
-        return cls.from_doc(parse_json(read_text(path), path), path)
+        return cls.from_doc(load_json(path), path)

@@ -53,9 +53,8 @@ from mound.formats.sites import user_sites
 from mound.geometry.flight import DEFAULT_SITE_DIAMETER_M, ScanSpec
 from mound.geometry.geodesy import Origin, geodetic_to_enu
 from mound.jsonio import (
-    parse_json,
+    load_json,
     read_json,
-    read_text,
     require_id,
     require_number,
     write_json,
@@ -106,7 +105,7 @@ def sites_of(path: str, spec: SortSpec) -> CardSites:
     sites of a `--sites` file as every command reads it (mound.formats.sites: a mound.sites
     document, or a WGS84 GeoJSON such as `mound scene score` writes); the scan's reach from
     the document's `scan`, else from `site_diameter_m`."""
-    doc = parse_json(read_text(path), path)  # read once, whatever it holds
+    doc = load_json(path)  # read once, whatever it holds
     if isinstance(doc, dict) and doc.get("schema") == "mound.plan":
         return _plan_sites(doc, path, spec)
     if not isinstance(doc, dict) or (doc.get("schema") != "mound.sites"

@@ -26,7 +26,7 @@ from pathlib import Path
 from typing import Any
 
 from mound.errors import InputError
-from mound.jsonio import parse_json, read_text
+from mound.jsonio import load_json
 
 SCHEMA = "mound.verdict_model"
 VERSION = 1
@@ -182,4 +182,4 @@ def label_of(model: dict[str, Any], p: float, two_answer_at: float | None = None
 
 def read_verdict_model(path: str | Path) -> dict[str, Any]:
     """The verdict model in `path`, checked (InputError naming the file and field)."""
-    return check_verdict_model(parse_json(read_text(path), path), str(path))
+    return check_verdict_model(load_json(path), str(path))

@@ -21,7 +21,7 @@ import numpy as np
 
 from mound.errors import InputError
 from mound.geojson import lonlat, point_feature
-from mound.jsonio import parse_json, read_text, short_repr
+from mound.jsonio import load_json, short_repr
 
 WGS84_NAMES = ("urn:ogc:def:crs:OGC:1.3:CRS84", "urn:ogc:def:crs:OGC::CRS84", "CRS84",
                "EPSG:4326", "urn:ogc:def:crs:EPSG::4326", "urn:ogc:def:crs:EPSG:6.6:4326",
@@ -39,7 +39,7 @@ class Label:
 
 def _load(path: str | Path) -> dict[str, Any]:
     path = Path(path)
-    doc = parse_json(read_text(path), path)
+    doc = load_json(path)
     if not isinstance(doc, dict):
         raise InputError(f"{path}: expected a GeoJSON object")
     crs = doc.get("crs")

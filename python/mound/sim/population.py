@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from mound.errors import InputError
-from mound.jsonio import parse_json, read_text
+from mound.jsonio import load_json
 
 KAZANLAK = "kazanlak"  # the Kazanlak inventory, ../shared/data/kazanlak/mounds.geojson
 MAX_SIZE_M = 1000.0    # a tumulus's base, m (the largest known, Alyattes's, is 355 m)
@@ -116,4 +116,4 @@ def population_path(name: str) -> Path:
 def read_population(name: str) -> Population:
     """The population `name` names (population_path), read and checked."""
     path = population_path(name)
-    return parse_population(parse_json(read_text(path), path), str(path))
+    return parse_population(load_json(path), str(path))

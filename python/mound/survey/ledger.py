@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from mound.jsonio import parse_json, read_text, write_json
+from mound.jsonio import load_json, write_json
 
 SCHEMA = "mound.survey_ledger"
 VERSION = 1
@@ -45,7 +45,7 @@ class Ledger:
         self.path = path
         self.done: dict[str, dict[str, Any]] = {}
         if path.is_file():
-            doc = parse_json(read_text(path), path)
+            doc = load_json(path)
             # A ledger of another version or a damaged one only costs a rerun.
             if isinstance(doc, dict) and doc.get("schema") == SCHEMA and \
                     doc.get("version") == VERSION and isinstance(doc.get("stages"), dict):
