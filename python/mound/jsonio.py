@@ -179,7 +179,7 @@ def parse_json(text: str, path: str | Path) -> Any:
                          f"{sys.getrecursionlimit()} levels)") from None
 
 
-def require_number(obj: dict[str, Any], key: str, where: str, *, lo: float = -math.inf,
+def require_number(obj: Mapping[str, Any], key: str, where: str, *, lo: float = -math.inf,
                    hi: float = math.inf, default: float | None = None) -> float:
     """obj[key] as a float: a finite number (not a bool) in [lo, hi]; `default` when the key
     is absent or null and a default is given. InputError naming `where.key` otherwise."""

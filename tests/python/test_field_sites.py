@@ -72,7 +72,7 @@ def test_a_tumulus_s_relief_is_measured_over_the_ground_around_it() -> None:
         assert rel is not None
         assert rel["prominence_m"] == pytest.approx(want, rel=0.03)
         assert rel["ground_clutter_m"] < 0.01
-        assert stands_clear({"relief": rel})
+        assert stands_clear(rel)
     hf = terrain.build(flat(**cone))
     xx, yy = np.meshgrid(hf.x_m, hf.y_m)
     clutter = []
@@ -82,11 +82,11 @@ def test_a_tumulus_s_relief_is_measured_over_the_ground_around_it() -> None:
         rel = terrain.mound_relief(waves, (10.0, -5.0), 40.0)
         assert rel is not None
         clutter.append(rel["ground_clutter_m"])
-        assert stands_clear({"relief": rel}) == (rel["prominence_m"]
+        assert stands_clear(rel) == (rel["prominence_m"]
                                                  >= 5 * rel["ground_clutter_m"])
     assert clutter[0] < clutter[1] < clutter[2] and clutter[2] > 0.25 * 6.0
-    assert not stands_clear({"relief": rel})  # the 4 m swell masks the 6 m cone
-    assert stands_clear({"relief": None}) is None
+    assert not stands_clear(rel)  # the 4 m swell masks the 6 m cone
+    assert stands_clear(None) is None
     assert terrain.mound_relief(hf, (0.0, 0.0), 400.0) is None  # its ring off the surface
     assert terrain.mound_relief(hf, (0.0, 0.0), 0.0) is None
 
@@ -397,7 +397,7 @@ def test_a_grid_flies_a_second_look_at_the_sites_its_first_leaves_undecided(
                  "none", "--workers", "1", "--threads", "2", "--second-look"]) == 0
     doc = json.loads((out / "grid.json").read_text())
     assert doc["second_look"]["scan_factor"] == looks.SECOND_LOOK_FACTOR
-    rows = {r["dir"]: r for r in vm.load_grid(out)}
+    rows = {r.dir: r for r in vm.load_grid(out)}
     flown = 0
     for k in range(2):
         site = out / f"{k:04d}"
@@ -407,7 +407,7 @@ def test_a_grid_flies_a_second_look_at_the_sites_its_first_leaves_undecided(
         assert ("second" in doc["rows"][k]) == undecided
         assert doc["rows"][k]["p_mound"] == p  # the first look's, read once
         if not undecided:
-            assert rows[site.name]["second"] is None
+            assert rows[site.name].second is None
             continue
         flown += 1
         first = json.loads((site / "sim" / "site.json").read_text())
@@ -421,5 +421,6 @@ def test_a_grid_flies_a_second_look_at_the_sites_its_first_leaves_undecided(
         assert v2["status"] == "ok"
         assert v2["measurements"]["site_radius_m"] > 1.5 * json.loads(
             (site / "verdict.json").read_text())["measurements"]["site_radius_m"]
-        assert rows[site.name]["second"]["rises"] == v2["measurements"]["judged_rises"]
+        assert rows[site.name].second == vm.rises_of(v2["measurements"]["judged_rises"], "v2")
+        assert len(rows[site.name].second or ()) == len(v2["measurements"]["judged_rises"])
     assert flown >= 1

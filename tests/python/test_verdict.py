@@ -81,13 +81,13 @@ def test_the_verdict_model_file_round_trips(tumulus: tuple[Path, Path], tmp_path
     """The shipped model, written out and read back by mound_recon, gives the p that the
     Python side computes from the detector's features; a changed weight changes it as
     predicted; models for other features or with bad fields are refused naming the field."""
-    from mound.recon.verdict_model import probability
+    from mound.recon.verdict_model import probability, rises_of
 
     _, recon = tumulus
     r = run_recon(["verdict", str(recon), "--out", str(tmp_path / "d.json")])
     assert r.returncode == 0, r.stderr
     default = json.loads((tmp_path / "d.json").read_text())
-    row = {"rises": default["measurements"]["judged_rises"], "measured": True}
+    row = rises_of(default["measurements"]["judged_rises"], "d.json")
     assert default["p_mound"] == pytest.approx(probability(DEFAULT_MODEL, [row])[0], abs=1e-12)
     assert default["model"]["file"].startswith("built-in sparse")
     # another cloud (--cloud: densify's) is judged by the dense model unless --model says

@@ -13,6 +13,7 @@ import pytest
 from mound.errors import InputError
 from mound.grids import run as grid_run
 from mound.recon import verdict_band as vb
+from mound.recon.grid_site import sites_of
 from mound.recon.model_file import label_of
 from mound.sim import draws, looks, terrain
 from mound.sim.dem_places import DemPlaces
@@ -56,11 +57,13 @@ def test_a_band_that_would_cross_shrinks_to_a_point_and_leaves_nothing_undecided
 def test_three_answers_on_held_out_sites() -> None:
     truths = [{"mound": True, "height_m": 3.0, "diameter_m": 20.0, "dir": "a"},
               {"mound": True, "height_m": 1.5, "diameter_m": 12.0, "dir": "b"},
-              {"mound": True, "height_m": 0.3, "diameter_m": 8.0, "trench": True, "dir": "c"},
+              {"mound": True, "height_m": 0.3, "diameter_m": 8.0, "trench": True,
+               "dir": "c"},
               {"mound": False, "height_m": 0.0, "diameter_m": 0.0, "dir": "d"},
               {"mound": False, "height_m": 0.0, "diameter_m": 0.0, "dir": "e"}]
     p = np.array([0.99, 0.05, 0.5, 0.5, 0.96])
-    t = vb.three_answers(p, truths, (0.1, 0.95), 0.8)
+    t = vb.three_answers(p, sites_of([{"dir": d.pop("dir"), "truth": d} for d in truths]),
+                         (0.1, 0.95), 0.8)
     assert t["confident_misses"]["count"] == 1 and t["confident_misses"]["of"] == 2
     assert t["confident_misses"]["sites"] == ["b"]
     assert t["confident_false_alarms"]["count"] == 1 and t["confident_false_alarms"]["of"] == 2

@@ -6,6 +6,7 @@ shape and confuser class, flown and reconstructed, is decided right by the shipp
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -42,7 +43,7 @@ def _site(k: int, f: dict[str, float], mound: bool) -> dict[str, Any]:
                      "dome_r2": 0.9}}
 
 
-def synthetic(n: int, seed: int) -> list[dict[str, Any]]:
+def synthetic(n: int, seed: int) -> list[vm.GridSite]:
     """Sites whose truth follows p = sigma(2 a - b - 0.5) exactly; c is noise."""
     rng = np.random.default_rng(seed)
     x = rng.normal(size=(n, 3)) * [1.0, 2.0, 1.0] + [0.0, 1.0, 5.0]
@@ -56,7 +57,7 @@ def synthetic(n: int, seed: int) -> list[dict[str, Any]]:
                      "truth": {"mound": k % 4 == 0, "kind": "flat", "profile": "conical",
                                "height_m": 0.5, "diameter_m": 10.0, "centre_enu_m": [0, 0]},
                      "verdict": {"coverage": {"status": "no_rise"}}, "rise": None})
-    return rows
+    return vm.sites_of(rows)
 
 
 def test_training_recovers_a_known_model_with_calibrated_probabilities() -> None:
@@ -64,8 +65,8 @@ def test_training_recovers_a_known_model_with_calibrated_probabilities() -> None
     w = np.array(model["weights"]) / np.array(model["std"])  # per raw unit
     assert w == pytest.approx([2.0, -1.0, 0.0], abs=0.25)
     held = synthetic(3000, 2)
-    p = vm.probability(model, [r for r in held if r["rises"]])
-    y = np.array([r["truth"]["mound"] for r in held if r["features"] is not None], float)
+    p = vm.probability(model, [r.rises for r in held if r.rises])
+    y = np.array([r.truth.mound for r in held if r.rises], float)
     assert expected_calibration_error(p, y) < 0.03
     assert model["p_no_rise"] == pytest.approx((38 + 1) / (150 + 2))
     assert 0.5 <= model["threshold"] < 1
@@ -75,13 +76,14 @@ def test_training_recovers_a_known_model_with_calibrated_probabilities() -> None
     assert model["trained"]["cv_repeats"] == vm.CV_REPEATS > 1
     report = vm.evaluate(model, held)
     assert report["measured"] == len(held)
-    neg = [r for r in held if not r["truth"]["mound"]]
+    neg = [r for r in held if not r.truth.mound]
     assert report["goal_no_mound"]["sites"] == len(neg)
-    labels = vm.probability(model, held) >= model["threshold"]
+    p_held = vm.probability(model, [r.rises for r in held])
+    labels = p_held >= model["threshold"]
     assert report["accuracy"] == pytest.approx(np.mean(
-        labels == np.array([r["truth"]["mound"] for r in held])))
+        labels == np.array([r.truth.mound for r in held])))
     assert abs(report["ece"] - expected_calibration_error(
-        vm.probability(model, held), np.array([r["truth"]["mound"] for r in held], float))) < 1e-12
+        p_held, np.array([r.truth.mound for r in held], float))) < 1e-12
     # the held-out synthetic sites are drawn as the model assumes: calibrated, so the ECE
     # lies within what chance gives a calibrated forecast on them
     cal = report["calibration"]
@@ -93,13 +95,12 @@ def test_training_recovers_a_known_model_with_calibrated_probabilities() -> None
 
 
 
-def _with_relief(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
+def _with_relief(rows: list[vm.GridSite]) -> list[vm.GridSite]:
     """Every third tumulus masked by its ground (1 m of clutter under 3 m), every fifth of
     unknown relief, the others clear of it."""
-    for k, r in enumerate(rows):
-        if r["truth"]["mound"] and k % 5:
-            r["relief"] = {"prominence_m": 3.0, "ground_clutter_m": 1.0 if k % 3 == 0 else 0.2}
-    return rows
+    return [replace(r, relief={"prominence_m": 3.0,
+                               "ground_clutter_m": 1.0 if k % 3 == 0 else 0.2})
+            if r.truth.mound and k % 5 else r for k, r in enumerate(rows)]
 
 
 def test_the_goal_s_tumuli_are_counted_apart_by_how_they_stand_of_their_ground() -> None:
@@ -109,28 +110,28 @@ def test_the_goal_s_tumuli_are_counted_apart_by_how_they_stand_of_their_ground()
     rows = _with_relief(synthetic(3000, 1))
     model = vm.train(rows, NAMES, ["g"])
     oof = model["trained"]["out_of_fold"]["goal_found_by_ground"]
-    fitted = [r for r in rows if r["rises"] and vd.goal_tumulus(r["truth"])]
+    fitted = [r for r in rows if r.rises and vd.goal_tumulus(r.truth)]
     assert oof["clear_of_ground"] == vm.CLEAR_OF_GROUND == 5.0
-    assert oof["clear"]["sites"] == sum(vm.stands_clear(r) is True for r in fitted) > 0
-    assert oof["masked"]["sites"] == sum(vm.stands_clear(r) is False for r in fitted) > 0
+    assert oof["clear"]["sites"] == sum(vm.stands_clear(r.relief) is True for r in fitted) > 0
+    assert oof["masked"]["sites"] == sum(vm.stands_clear(r.relief) is False for r in fitted) > 0
     for part in ("clear", "masked"):
         assert 0 < oof[part]["found"] <= oof[part]["sites"]
     held = _with_relief(synthetic(1000, 2))
     report = vm.evaluate(model, held)
     goal = report["goal_mounds_2m_15m"]
     by = goal["by_ground"]
-    lab = vm.probability(model, held) >= model["threshold"]
+    lab = vm.probability(model, [r.rises for r in held]) >= model["threshold"]
     for part, want in (("clear", True), ("masked", False)):
-        idx = [k for k, r in enumerate(held) if vd.goal_tumulus(r["truth"])
-               and vm.stands_clear(r) is want]
+        idx = [k for k, r in enumerate(held) if vd.goal_tumulus(r.truth)
+               and vm.stands_clear(r.relief) is want]
         assert by[part]["sites"] == len(idx)
         assert by[part]["right"] == int(lab[idx].sum())
         lo, hi = by[part]["rate_95ci"]
         assert lo <= by[part]["rate"] <= hi
     assert [t["dir"] for t in by["masked"]["tumuli"]] == [
-        r["dir"] for r in held if vd.goal_tumulus(r["truth"]) and vm.stands_clear(r) is False]
-    assert by["relief_unknown"] == sum(1 for r in held if vd.goal_tumulus(r["truth"])
-                                       and "relief" not in r) > 0
+        r.dir for r in held if vd.goal_tumulus(r.truth) and vm.stands_clear(r.relief) is False]
+    assert by["relief_unknown"] == sum(1 for r in held if vd.goal_tumulus(r.truth)
+                                       and r.relief is None) > 0
     assert by["clear"]["sites"] + by["masked"]["sites"] + by["relief_unknown"] == goal["sites"]
 
 
@@ -169,7 +170,7 @@ def test_a_beta_calibration_recovers_a_map_that_platt_cannot_follow() -> None:
             check_verdict_model({**shipped, "calibration": bad}, "m.json")
 
 
-def many_rises(n: int, seed: int) -> list[dict[str, Any]]:
+def many_rises(n: int, seed: int) -> list[vm.GridSite]:
     """Sites of 1-30 natural rises, most low in a and b and 1 in 20 a hill high in both; a
     mound's site adds its own rise, high in a and middling in b. A rise's b first rises
     with p, over the many low rises, then falls, over the few hills that decide a bare
@@ -187,7 +188,7 @@ def many_rises(n: int, seed: int) -> list[dict[str, Any]]:
                                           "b": float(rng.normal()), "c": 0.0},
                              "centre_enu_m": [0.0, 0.0]})
         rows.append({**_site(k, rises[0]["features"], mound), "rises": rises})
-    return rows
+    return vm.sites_of(rows)
 
 
 def test_the_sites_multiple_instance_loss_is_chosen_where_few_rises_decide() -> None:
@@ -208,7 +209,7 @@ def test_the_sites_multiple_instance_loss_is_chosen_where_few_rises_decide() -> 
     assert ours["brier"] < theirs["brier"] and ours["auc"] > theirs["auc"]
 
 
-def two_looks(n: int, seed: int, second_noise: float = 0.3) -> list[dict[str, Any]]:
+def two_looks(n: int, seed: int, second_noise: float = 0.3) -> list[vm.GridSite]:
     """Sites whose truth follows sigma(3 z) of a hidden z; the first flight measures a = z +
     N(0, 1), the second (wider) flight a = z + N(0, second_noise): sites the first leaves
     undecided, the second decides better."""
@@ -222,7 +223,7 @@ def two_looks(n: int, seed: int, second_noise: float = 0.3) -> list[dict[str, An
                   "c": 0.0}
         rows.append({**_site(k, first, bool(y[k])), "second": {
             "measured": True, "rises": [{"features": second, "centre_enu_m": [1.0, -2.0]}]}})
-    return rows
+    return vm.sites_of(rows)
 
 
 def test_a_second_look_decides_the_sites_the_first_leaves_undecided() -> None:
@@ -243,18 +244,16 @@ def test_a_second_look_decides_the_sites_the_first_leaves_undecided() -> None:
     assert two["goal_mounds_2m_15m"]["right"] > report["goal_mounds_2m_15m"]["right"]
     assert two["goal_no_mound"]["rate"] <= 2 * vm.MAX_FA
     assert two["calibration"]["p_value"] > 0.01  # the second look's p is calibrated too
-    p1 = vm.probability(model, held)
+    p1 = vm.probability(model, [r.rises for r in held])
     for s in two["second_looks"]:
         k = int(s["dir"])
         assert sl["p_low"] <= p1[k] < model["threshold"]
         assert s["p_second"] == pytest.approx(float(vm.second_look_p(
-            model, p1[k], vm.probability(model, [held[k]["second"]])[0])))
+            model, p1[k], vm.probability(model, [held[k].second or ()])[0])))
         assert s["label"] == (s["p_second"] >= sl["threshold"])
     # a site in the band whose second look was not flown keeps its first verdict
     k = two["second_looks"][0]["dir"]
-    for r in held:
-        if r["dir"] == k:
-            r["second"] = None
+    held = [replace(r, second=None) if r.dir == k else r for r in held]
     again = vm.evaluate(model, held)["two_looks"]
     assert again["not_flown"] == [k] and again["flown"] == two["flown"] - 1
     assert "second_look_not_kept" not in model["trained"]
@@ -317,8 +316,8 @@ def test_z_clip_scores_a_feature_beyond_the_data_as_one_at_the_bound() -> None:
              "p_no_rise": 0.1, "z_clip": 3.0}
 
     def p_at(a: float, m: dict[str, Any]) -> float:
-        row = {"rises": [{"features": {"a": a, "b": 1.0, "c": 5.0}}]}
-        return float(vm.probability(m, [row])[0])
+        rises = vm.rises_of([{"features": {"a": a, "b": 1.0, "c": 5.0}}], "test")
+        return float(vm.probability(m, [rises])[0])
 
     def sigma(s: float) -> float:
         return float(1 / (1 + np.exp(-s)))
@@ -341,8 +340,8 @@ def test_products_of_the_rise_s_form_score_as_the_tool_does() -> None:
              "basis": "hinge_products", "products": [["log_height", "log_diameter"]],
              "product_clip": vm.PRODUCT_CLIP, "weights": [0.0] * 12 + [0.5], "bias": -1.0,
              "p_no_rise": 0.1}
-    row = {"rises": [{"features": {"roughness": 0.0, "x": 0.0, "log_height": 2.0,
-                                   "log_diameter": 5.0}}]}
+    row = vm.rises_of([{"features": {"roughness": 0.0, "x": 0.0, "log_height": 2.0,
+                                     "log_diameter": 5.0}}], "test")
     assert vm.probability(model, [row])[0] == pytest.approx(
         1 / (1 + np.exp(-(-1 + 0.5 * 2.0 * 3.0))))
     # the file's product_clip, as the C++ VerdictModel takes it
@@ -351,29 +350,32 @@ def test_products_of_the_rise_s_form_score_as_the_tool_does() -> None:
 
 
 def test_rise_labels_the_tumulus_its_own_and_leaves_out_what_overlaps_it() -> None:
-    truth = {"mound": True, "kind": "tumulus", "diameter_m": 40.0, "centre_enu_m": [10.0, 0.0]}
+    truth = {"mound": True, "kind": "tumulus", "height_m": 5.0, "diameter_m": 40.0,
+             "centre_enu_m": [10.0, 0.0]}
     rises = [{"centre_enu_m": [12.0, 3.0], "base_diameter_m": 36.0},   # the tumulus
              {"centre_enu_m": [20.0, 30.0], "base_diameter_m": 120.0},  # covers it: unknown
              {"centre_enu_m": [10.0, 5.0], "base_diameter_m": 6.0},    # a pit's rim on it
              {"centre_enu_m": [-50.0, 0.0], "base_diameter_m": 30.0}]  # clear of it
-    assert vm.rise_labels({"truth": truth, "rises": rises}) == [True, None, None, False]
+    def labels(**row: object) -> list[bool | None]:
+        return vm.rise_labels(vm.sites_of([row])[0])
+
+    assert labels(truth=truth, rises=rises) == [True, None, None, False]
     flat = {**truth, "mound": False, "kind": "hillock"}
-    assert vm.rise_labels({"truth": flat, "rises": rises}) == [False] * 4
+    assert labels(truth=flat, rises=rises) == [False] * 4
     # a swell of the ground centred on a small tumulus, far wider than it: not the tumulus
     small = {**truth, "diameter_m": 8.0}
     swell = [{"centre_enu_m": [12.0, 3.0], "base_diameter_m": 67.0},
              {"centre_enu_m": [11.0, 1.0], "base_diameter_m": 9.0}]
-    assert vm.rise_labels({"truth": small, "rises": swell}) == [None, True]
+    assert labels(truth=small, rises=swell) == [None, True]
     # a tumulus lower than its ground's clutter: nothing over it is known to be it
-    buried = {"truth": small, "rises": swell,
-              "relief": {"prominence_m": 0.2, "ground_clutter_m": 0.3}}
-    assert vm.rise_labels(buried) == [None, None]
+    assert labels(truth=small, rises=swell,
+                  relief={"prominence_m": 0.2, "ground_clutter_m": 0.3}) == [None, None]
 
 
 def test_training_refuses_too_little_or_one_class() -> None:
     rows = synthetic(200, 3)
     with pytest.raises(InputError, match="both"):
-        vm.train([r for r in rows if r["truth"]["mound"]], NAMES, ["g"])
+        vm.train([r for r in rows if r.truth.mound], NAMES, ["g"])
     with pytest.raises(InputError, match="remeasure"):
         vm.train(rows, [*NAMES, "d"], ["g"])
 
@@ -446,7 +448,7 @@ def test_each_shape_and_confuser_is_decided_right(name: str, tmp_path: Path,
     truth = json.loads((tmp_path / "sim" / "truth.json").read_text())
     if spec.mound:  # each of these stands clear of its ground
         assert truth["relief"]["prominence_m"] > 0.5 * spec.height_m
-        assert vm.stands_clear(truth)
+        assert vm.stands_clear(truth["relief"])
     else:
         assert "relief" not in truth
     # the survey's own verdict: the dense cloud, by the model learned on dense clouds
@@ -458,7 +460,7 @@ def test_each_shape_and_confuser_is_decided_right(name: str, tmp_path: Path,
     root = Path(__file__).resolve().parents[2] / "data"
     for doc, model in ((v, "verdict_model.json"), (d, "verdict_model_dense.json")):
         m = json.loads((root / model).read_text())
-        row = {"rises": doc["measurements"]["judged_rises"]}
+        row = vm.rises_of(doc["measurements"]["judged_rises"], "verdict.json")
         assert vm.probability(m, [row])[0] == pytest.approx(doc["p_mound"], abs=1e-9)
 
 

@@ -38,7 +38,8 @@ import json
 import math
 import os
 import shutil
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
 from typing import Any
@@ -122,13 +123,14 @@ def sites_of(path: str, spec: SortSpec) -> CardSites:
                      np.array([sites.home.x_m, sites.home.y_m], dtype=float), scan.reach_m())
 
 
-def _scan_of(doc: dict[str, Any], path: str, spec: SortSpec) -> ScanSpec:
+def _scan_of(doc: Mapping[str, object], path: str, spec: SortSpec) -> ScanSpec:
     """The document's scan, else a raster scan of `spec.site_diameter_m`."""
-    return (ScanSpec.from_doc(doc["scan"], f"{path}: scan") if isinstance(doc.get("scan"), dict)
+    scan = doc.get("scan")
+    return (ScanSpec.from_doc(scan, f"{path}: scan") if isinstance(scan, dict)
             else ScanSpec(pattern="raster", scale_m=spec.site_diameter_m))
 
 
-def _plan_sites(doc: dict[str, Any], path: str, spec: SortSpec) -> CardSites:
+def _plan_sites(doc: Mapping[str, object], path: str, spec: SortSpec) -> CardSites:
     """A mound.plan's visited sites (every flight)."""
     plan = Plan.from_doc(doc, path)
     if plan.origin is None:
@@ -152,15 +154,17 @@ def _plan_sites(doc: dict[str, Any], path: str, spec: SortSpec) -> CardSites:
     return CardSites(plan.origin, ids, xy, home_xy, scan.reach_m())
 
 
-def _objects(doc: dict[str, Any], key: str, path: str) -> list[dict[str, Any]]:
+def _objects(doc: Mapping[str, object], key: str, path: str) -> list[Mapping[str, object]]:
     """doc[key]: a list of objects, else InputError naming the field."""
     items = doc.get(key)
     if not isinstance(items, list):
         raise InputError(f"{path}: {key}: expected a list")
+    out: list[Mapping[str, object]] = []
     for k, item in enumerate(items):
         if not isinstance(item, dict):
             raise InputError(f"{path}: {key}[{k}]: expected an object")
-    return items
+        out.append(item)
+    return out
 
 
 # A DJI photo's XMP and its EXIF say the same position and height to the precision they
@@ -170,28 +174,61 @@ def _objects(doc: dict[str, Any], key: str, path: str) -> list[dict[str, Any]]:
 XMP_EXIF_MAX_M = 1.0
 
 
-def xmp_conflicts(row: dict[str, Any], xmp: dict[str, Any]) -> list[str]:
+@dataclass
+class PhotoRow:
+    """A file of the card (photos.json's photos[k]): its EXIF facts, and its site or the
+    reason it has none. `camera` and `dji_xmp` are mound_recon photos' `exif` camera facts
+    and `dji_xmp` numbers as listed."""
+
+    file: str
+    site: str | None = None
+    reason: str | None = None
+    lat: float | None = None
+    lon: float | None = None
+    alt_m: float | None = None
+    time: str | None = None
+    sharpness: float | None = None
+    duplicate_of: str | None = None
+    camera: dict[str, str | float] | None = None
+    dji_xmp: dict[str, float] | None = None
+    xmp_conflicts: list[str] = field(default_factory=list)
+    enu_m: list[float] | None = None
+    over_site: str | None = None
+
+    def to_doc(self) -> dict[str, object]:
+        doc: dict[str, object] = {
+            "file": self.file, "site": self.site, "reason": self.reason, "lat": self.lat,
+            "lon": self.lon, "alt_m": self.alt_m, "time": self.time,
+            "sharpness": self.sharpness}
+        optional: dict[str, object] = {
+            "duplicate_of": self.duplicate_of, "camera": self.camera, "dji_xmp": self.dji_xmp,
+            "xmp_conflicts": self.xmp_conflicts or None, "enu_m": self.enu_m,
+            "over_site": self.over_site}
+        return {**doc, **{k: v for k, v in optional.items() if v is not None}}
+
+
+def xmp_conflicts(row: PhotoRow, xmp: Mapping[str, float]) -> list[str]:
     """Where a photo's DJI XMP contradicts its EXIF (position, absolute height)."""
     out = []
-    if row["lat"] is not None and xmp.get("lat") is not None and xmp.get("lon") is not None:
-        o = Origin(row["lat"], row["lon"])
+    if row.lat is not None and row.lon is not None and "lat" in xmp and "lon" in xmp:
+        o = Origin(row.lat, row.lon)
         e = geodetic_to_enu(o, np.array([[xmp["lat"], xmp["lon"], 0.0]]))[0]
         if math.hypot(e[0], e[1]) > XMP_EXIF_MAX_M:
             out.append(f"position: XMP {math.hypot(e[0], e[1]):.1f} m from EXIF's")
-    if row["alt_m"] is not None and xmp.get("abs_alt_m") is not None and abs(
-            xmp["abs_alt_m"] - row["alt_m"]) > XMP_EXIF_MAX_M:
+    if row.alt_m is not None and "abs_alt_m" in xmp and abs(
+            xmp["abs_alt_m"] - row.alt_m) > XMP_EXIF_MAX_M:
         out.append(f"height: XMP AbsoluteAltitude {xmp['abs_alt_m']:.2f} m, EXIF GPSAltitude "
-                   f"{row['alt_m']:.2f} m")
+                   f"{row.alt_m:.2f} m")
     return out
 
 
-def altitude_drift(rows: list[dict[str, Any]]) -> dict[str, Any] | None:
+def altitude_drift(rows: list[PhotoRow]) -> dict[str, float] | None:
     """AbsoluteAltitude less RelativeAltitude is the take-off point's height and should not
     change over a flight: its spread over the card's DJI photos (the GNSS height's drift
     against the barometer), or None without such photos."""
-    d = [r["dji_xmp"]["abs_alt_m"] - r["dji_xmp"]["rel_alt_m"] for r in rows
-         if isinstance(r.get("dji_xmp"), dict) and r["dji_xmp"].get("abs_alt_m") is not None
-         and r["dji_xmp"].get("rel_alt_m") is not None and r.get("reason") is None]
+    d = [r.dji_xmp["abs_alt_m"] - r.dji_xmp["rel_alt_m"] for r in rows
+         if r.dji_xmp is not None and "abs_alt_m" in r.dji_xmp and "rel_alt_m" in r.dji_xmp
+         and r.reason is None]
     if not d:
         return None
     return {"photos": len(d), "takeoff_abs_alt_median_m": float(np.median(d)),
@@ -227,7 +264,7 @@ def _time(text: str | None) -> datetime | None:
         return None
 
 
-def site_camera(photos: list[dict[str, Any]], camera_file: str | None) -> dict[str, Any]:
+def site_camera(photos: list[PhotoRow], camera_file: str | None) -> dict[str, object]:
     """The camera a site's reconstruction starts from: the user's camera.json (copied into
     the site's folder), else the EXIF of the site's photos (the most common make, model and
     focal length; mound_recon reads the same EXIF and refines it in bundle adjustment)."""
@@ -235,7 +272,7 @@ def site_camera(photos: list[dict[str, Any]], camera_file: str | None) -> dict[s
         return {"source": "file", "file": camera_file}
     if not photos:
         return {"source": "none"}
-    keys = [json.dumps(r.get("camera", {}), sort_keys=True) for r in photos]
+    keys = [json.dumps(r.camera or {}, sort_keys=True) for r in photos]
     best = max(set(keys), key=lambda k: (keys.count(k), k))
     cam = json.loads(best)
     mixed = len(set(keys)) > 1
@@ -245,100 +282,117 @@ def site_camera(photos: list[dict[str, Any]], camera_file: str | None) -> dict[s
             "(give --camera)", **cam, "mixed": mixed}
 
 
-def _photo_rows(listing: dict[str, Any], root: Path) -> list[dict[str, Any]]:
+CAMERA_FACTS = ("make", "model", "focal_mm", "focal_35mm", "pixel_pitch_mm", "width_px",
+                "focal_px", "focal_source")
+
+
+def _listed(listing: object) -> list[Mapping[str, object]]:
+    """mound_recon photos' files (its own output: a malformed one is a bug, exit 1)."""
+    files = listing.get("files") if isinstance(listing, dict) else None
+    if not isinstance(files, list) or not all(
+            isinstance(f, dict) and isinstance(f.get("file"), str) for f in files):
+        raise RuntimeError("mound_recon photos: a listing without its files")
+    return files
+
+
+def _facts(obj: object, keys: tuple[str, ...] | None = None) -> dict[str, str | float]:
+    """The strings and numbers of a listed object (those of `keys`, in their order)."""
+    if not isinstance(obj, dict):
+        return {}
+    return {k: obj[k] for k in (keys or tuple(obj)) if k in obj
+            and isinstance(obj[k], str | int | float) and not isinstance(obj[k], bool)}
+
+
+def _photo_rows(listing: object, root: Path) -> list[PhotoRow]:
     """A row per file of mound_recon photos' listing: its EXIF facts, or why it is of no
     use (unreadable, duplicate, no GPS)."""
-    rows: list[dict[str, Any]] = []
+    rows: list[PhotoRow] = []
     seen: dict[str, str] = {}
-    for f in listing["files"]:
-        row: dict[str, Any] = {"file": f["file"], "site": None, "reason": None,
-                               "lat": None, "lon": None, "alt_m": None, "time": None,
-                               "sharpness": None}
+    for f in _listed(listing):
+        row = PhotoRow(str(f["file"]))
         rows.append(row)
-        if f["kind"] in ("not_an_image", "unreadable", "bad_name"):
-            row["reason"] = "unreadable" if f["kind"] == "bad_name" else f["kind"]
+        if f.get("kind") in ("not_an_image", "unreadable", "bad_name"):
+            row.reason = "unreadable" if f["kind"] == "bad_name" else str(f["kind"])
             continue
         try:
-            data = (root / f["file"]).read_bytes()
+            data = (root / row.file).read_bytes()
         except OSError:
-            row["reason"] = "unreadable"
+            row.reason = "unreadable"
             continue
         digest = hashlib.sha256(data).hexdigest()
         if digest in seen:
-            row["reason"], row["duplicate_of"] = "duplicate", seen[digest]
+            row.reason, row.duplicate_of = "duplicate", seen[digest]
             continue
-        seen[digest] = f["file"]
-        exif = f.get("exif", {})
-        row["time"] = exif.get("time")
-        row["camera"] = {k: exif[k] for k in ("make", "model", "focal_mm", "focal_35mm",
-                                              "pixel_pitch_mm", "width_px", "focal_px",
-                                              "focal_source") if k in exif}
+        seen[digest] = row.file
+        exif = _facts(f.get("exif"))
+        time = exif.get("time")
+        row.time = time if isinstance(time, str) else None
+        row.camera = _facts(exif, CAMERA_FACTS)
         lat, lon = exif.get("lat"), exif.get("lon")
-        if lat is None or lon is None or (abs(lat) < 1e-9 and abs(lon) < 1e-9):
-            row["reason"] = "no_gps"
+        if not isinstance(lat, float | int) or not isinstance(lon, float | int) or (
+                abs(lat) < 1e-9 and abs(lon) < 1e-9):
+            row.reason = "no_gps"
             continue
-        row["lat"], row["lon"] = lat, lon
+        row.lat, row.lon = lat, lon
         # Decoded from the bytes already read (each file is read once); None: it does not
         # decode, which makes a site's photo unreadable below.
-        row["sharpness"] = sharpness(data)
+        row.sharpness = sharpness(data)
         alt = exif.get("alt_m")
-        row["alt_m"] = alt if alt is not None and -1000 <= alt <= 20000 else None
+        row.alt_m = alt if isinstance(alt, float | int) and -1000 <= alt <= 20000 else None
         if isinstance(f.get("dji_xmp"), dict):
-            row["dji_xmp"] = f["dji_xmp"]
-            conflicts = xmp_conflicts(row, f["dji_xmp"])
-            if conflicts:
-                row["xmp_conflicts"] = conflicts
+            row.dji_xmp = {k: v for k, v in _facts(f["dji_xmp"]).items()
+                           if not isinstance(v, str)}
+            row.xmp_conflicts = xmp_conflicts(row, row.dji_xmp)
     return rows
 
 
-def _mark_other_flights(rows: list[dict[str, Any]], spec: SortSpec) -> None:
+def _mark_other_flights(rows: list[PhotoRow], spec: SortSpec) -> None:
     """Another flight's photos: far in time from the card's GPS photos."""
-    times = [t for r in rows if r["lat"] is not None and (t := _time(r["time"])) is not None]
+    times = [t for r in rows if r.lat is not None and (t := _time(r.time)) is not None]
     if times:
         mid = sorted(times)[len(times) // 2]
         for r in rows:
-            t = _time(r["time"])
-            if (r["lat"] is not None and t is not None
+            t = _time(r.time)
+            if (r.lat is not None and t is not None
                     and abs((t - mid).total_seconds()) > spec.max_gap_h * 3600):
-                r["reason"] = "other_flight"
+                r.reason = "other_flight"
 
 
-def _place(rows: list[dict[str, Any]], sites: CardSites, spec: SortSpec) -> None:
+def _place(rows: list[PhotoRow], sites: CardSites, spec: SortSpec) -> None:
     """Each GPS photo's site by its position (else transit, or outside the sites)."""
-    gps = [r for r in rows if r["lat"] is not None and r["reason"] is None]
+    gps = [r for r in rows if r.lat is not None and r.reason is None]
     if gps:
-        llh = np.array([[r["lat"], r["lon"], 0.0] for r in gps])
+        llh = np.array([[r.lat, r.lon, 0.0] for r in gps])
         enu = geodetic_to_enu(sites.origin, llh)[:, :2]
         d = np.linalg.norm(enu[:, None, :] - sites.xy[None, :, :], axis=2)
         near = d.argmin(axis=1)
         lo = np.minimum(sites.xy.min(axis=0), sites.home_xy) - sites.reach_m - spec.transit_margin_m
         hi = np.maximum(sites.xy.max(axis=0), sites.home_xy) + sites.reach_m + spec.transit_margin_m
         for k, r in enumerate(gps):
-            r["enu_m"] = [round(float(enu[k, 0]), 2), round(float(enu[k, 1]), 2)]
+            r.enu_m = [round(float(enu[k, 0]), 2), round(float(enu[k, 1]), 2)]
             if d[k, near[k]] <= sites.reach_m + spec.margin_m:
-                r["site"] = sites.ids[near[k]]
+                r.site = sites.ids[near[k]]
             elif np.all(enu[k] >= lo) and np.all(enu[k] <= hi):
-                r["reason"] = "transit"
+                r.reason = "transit"
             else:
-                r["reason"] = "outside_sites"
+                r.reason = "outside_sites"
 
 
-def _per_site(rows: list[dict[str, Any]], sites: CardSites, spec: SortSpec,
-              camera: str | None) -> dict[str, dict[str, Any]]:
+def _per_site(rows: list[PhotoRow], sites: CardSites, spec: SortSpec,
+              camera: str | None) -> dict[str, dict[str, object]]:
     """A site's photo that does not decode is unreadable; blurred ones are flagged against
     the site's median sharpness; each site's count, status and camera."""
     for r in rows:
-        if r["site"] is not None and r["sharpness"] is None:
-            r["site"], r["reason"] = None, "unreadable"
-    per_site: dict[str, dict[str, Any]] = {}
+        if r.site is not None and r.sharpness is None:
+            r.site, r.reason = None, "unreadable"
+    per_site: dict[str, dict[str, object]] = {}
     for sid in sites.ids:
-        mine = [r for r in rows if r["site"] == sid]
-        s = [r["sharpness"] for r in mine]
-        med = float(np.median(s)) if s else 0.0
-        for r in mine:
-            if r["sharpness"] < spec.blur_ratio * med:
-                r["site"], r["reason"], r["over_site"] = None, "blurred", sid
-        usable = [r for r in mine if r["reason"] is None]
+        mine = [(r, r.sharpness) for r in rows if r.site == sid and r.sharpness is not None]
+        med = float(np.median([q for _, q in mine])) if mine else 0.0
+        for r, q in mine:
+            if q < spec.blur_ratio * med:
+                r.site, r.reason, r.over_site = None, "blurred", sid
+        usable = [r for r, _ in mine if r.reason is None]
         per_site[sid] = {"photos": len(usable), "blurred": len(mine) - len(usable),
                          "median_sharpness": med,
                          "status": "ok" if len(usable) >= MIN_PHOTOS else "too_few_photos",
@@ -364,45 +418,47 @@ def sort_card(card: str, sites_path: str, out_dir: str, spec: SortSpec | None = 
     per_site = _per_site(rows, sites, spec, camera)
     reasons: dict[str, int] = {}
     for r in rows:
-        key = r["reason"] or "site"
+        key = r.reason or "site"
         reasons[key] = reasons.get(key, 0) + 1
-    doc = {"schema": SCHEMA, "version": VERSION, "card": str(root.resolve()),
-           "sites_file": str(sites_path), "spec": {**spec.__dict__, "reach_m": sites.reach_m},
-           "photos": rows, "sites": per_site, "counts": reasons,
-           "skipped_folders": listing.get("skipped", [])}
-    dji = [r for r in rows if "dji_xmp" in r]
+    doc: dict[str, object] = {
+        "schema": SCHEMA, "version": VERSION, "card": str(root.resolve()),
+        "sites_file": str(sites_path), "spec": {**spec.__dict__, "reach_m": sites.reach_m},
+        "photos": [r.to_doc() for r in rows], "sites": per_site, "counts": reasons,
+        "skipped_folders": listing.get("skipped", [])}
+    dji = [r.dji_xmp for r in rows if r.dji_xmp is not None]
     if dji:
         doc["dji_xmp"] = {
-            "photos": len(dji), "conflicts": sum(1 for r in dji if "xmp_conflicts" in r),
-            "rtk_fixed": sum(1 for r in dji if r["dji_xmp"].get("rtk_flag") == 50),
+            "photos": len(dji), "conflicts": sum(1 for r in rows if r.xmp_conflicts),
+            "rtk_fixed": sum(1 for x in dji if x.get("rtk_flag") == 50),
             "abs_alt_datum": "EGM96 (ellipsoidal where rtk_flag is 50)",
             "altitude_drift": altitude_drift(rows)}
     if not any(v["photos"] for v in per_site.values()):
         why = ", ".join(f"{n} {k}" for k, n in sorted(reasons.items())) or "an empty card"
         raise InputError(f"{card}: no usable photo over any site ({why})")
-    _write(doc, root, Path(out_dir), spec, camera)
+    _write(rows, per_site, root, Path(out_dir), spec, camera)
+    write_json(Path(out_dir) / "photos.json", doc)
     return doc
 
 
-def _write(doc: dict[str, Any], root: Path, out: Path, spec: SortSpec,
-           camera: str | None) -> None:
+def _write(rows: list[PhotoRow], per_site: dict[str, dict[str, object]], root: Path,
+           out: Path, spec: SortSpec, camera: str | None) -> None:
+    """Each site's folder of its usable photos (links, or copies), and its camera.json."""
     out.mkdir(parents=True, exist_ok=True)
-    for sid, info in doc["sites"].items():
+    for sid, info in per_site.items():
         folder = out / sid
         if folder.exists():
             shutil.rmtree(folder)
         if not info["photos"]:
             continue
         folder.mkdir()
-        for r in doc["photos"]:
-            if r["site"] != sid or r["reason"] is not None:
+        for r in rows:
+            if r.site != sid or r.reason is not None:
                 continue
-            src = (root / r["file"]).resolve()
-            dst = folder / r["file"].replace("/", "__")
+            src = (root / r.file).resolve()
+            dst = folder / r.file.replace("/", "__")
             if spec.copy:
                 shutil.copy2(src, dst)
             else:
                 os.symlink(src, dst)
         if camera is not None:
             shutil.copy2(camera, folder / "camera.json")  # its time kept: the site key
-    write_json(out / "photos.json", doc)

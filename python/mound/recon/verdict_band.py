@@ -25,11 +25,13 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 
 from mound.classify.metrics import clopper_pearson
+from mound.recon.grid_site import GridSite, SiteTruth
 
 GOAL_HEIGHT_M = 1.0
 GOAL_ACROSS_M = 10.0
@@ -45,10 +47,9 @@ NO, UNDECIDED, MOUND = 0, 1, 2
 NAMES = ("no_mound", "undecided", "mound")
 
 
-def band_goal(truth: dict[str, Any]) -> bool:
+def band_goal(truth: SiteTruth) -> bool:
     """A tumulus the band must not call "no_mound": >= 1 m high and >= 10 m across."""
-    return (bool(truth["mound"]) and truth["height_m"] >= GOAL_HEIGHT_M
-            and truth["diameter_m"] >= GOAL_ACROSS_M)
+    return truth.mound and truth.height_m >= GOAL_HEIGHT_M and truth.diameter_m >= GOAL_ACROSS_M
 
 
 def choose_band(p: np.ndarray, y: np.ndarray, goal: np.ndarray, threshold: float,
@@ -132,7 +133,7 @@ def _height_class(h: float) -> str:
     return "?"
 
 
-def field_recall(truths: list[dict[str, Any]], lab3: np.ndarray,
+def field_recall(truths: Sequence[SiteTruth], lab3: np.ndarray,
                  lab2: np.ndarray) -> dict[str, Any]:
     """Of the tumuli, the share confirmed "mound" by the three answers (and left undecided,
     and called no_mound) beside the two answers' "mound", per height class, all, and with
@@ -145,14 +146,13 @@ def field_recall(truths: list[dict[str, Any]], lab3: np.ndarray,
                 "no_mound": _rate(int(sum(lab3[k] == NO for k in idx)), n),
                 "two_answer_mound": _rate(int(sum(bool(lab2[k]) for k in idx)), n)}
 
-    tum = [k for k, t in enumerate(truths) if t["mound"]]
+    tum = [k for k, t in enumerate(truths) if t.mound]
     out: dict[str, Any] = {}
     for cut, name in ((None, "all"), (True, "with_trench"), (False, "without_trench")):
-        sel = [k for k in tum if cut is None
-               or bool(truths[k].get("trench") or truths[k].get("pit")) is cut]
+        sel = [k for k in tum if cut is None or truths[k].cut is cut]
         classes = {}
         for lo, hi in itertools.pairwise(HEIGHT_CLASSES):
-            idx = [k for k in sel if lo <= truths[k]["height_m"] < hi]
+            idx = [k for k in sel if lo <= truths[k].height_m < hi]
             classes[_height_class(lo)] = row(idx)
         out[name] = {"all": row(sel), "by_height": classes}
     return out
@@ -192,11 +192,12 @@ def frontier(p: np.ndarray, y: np.ndarray, goal: np.ndarray) -> dict[str, Any]:
             "note": "chosen on the judged sites themselves: a bound, not a held-out figure"}
 
 
-def three_answers(p: np.ndarray, truths: list[dict[str, Any]], band: tuple[float, float],
+def three_answers(p: np.ndarray, sites: Sequence[GridSite], band: tuple[float, float],
                   threshold: float) -> dict[str, Any]:
-    """The three answers' figures on held-out sites (see the module text): p and the truth
-    of every measured site, the model's band and two-answer threshold."""
-    y = np.array([bool(t["mound"]) for t in truths])
+    """The three answers' figures on held-out sites (see the module text): p of every
+    measured site, the sites (their truth), the model's band and two-answer threshold."""
+    truths = [s.truth for s in sites]
+    y = np.array([t.mound for t in truths])
     goal = np.array([band_goal(t) for t in truths])
     lab = answers(p, band)
     und = lab == UNDECIDED
@@ -207,7 +208,7 @@ def three_answers(p: np.ndarray, truths: list[dict[str, Any]], band: tuple[float
                              "goal": MAX_MISS,
                              "of_what": f"tumuli >= {GOAL_HEIGHT_M:g} m high and >= "
                                         f"{GOAL_ACROSS_M:g} m across called no_mound",
-                             "sites": [truths[k].get("dir") for k in np.flatnonzero(
+                             "sites": [sites[k].dir for k in np.flatnonzero(
                                  goal & (lab == NO))]},
         "confident_false_alarms": {**_rate(int((lab[~y] == MOUND).sum()), int((~y).sum())),
                                    "goal": MAX_FA,

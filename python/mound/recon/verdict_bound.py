@@ -47,13 +47,15 @@ same centres about each null window: how closely the place has to be known.
 from __future__ import annotations
 
 import math
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from mound.errors import InputError
+from mound.recon import verdict_data as vd
+from mound.recon.grid_site import SiteTruth
 from mound.sim import terrain
 
 SCHEMA = "mound.verdict_bound"
@@ -130,15 +132,6 @@ def read_thresholds(path: str | Path, filter_kind: str = "plain",
 def _ground(spec: terrain.TerrainSpec) -> str:
     """The kind of ground a site was drawn on (GROUNDS): the laser DEM's or the simulator's."""
     return "dem" if spec.dem_path is not None else "synthetic"
-
-
-def _site_disc(row: dict[str, Any]) -> tuple[tuple[float, float], float] | None:
-    """The scanned site's centre and radius (its verdict's), None without them."""
-    m = (row.get("verdict") or {}).get("measurements") or {}
-    if "site_centre_enu_m" not in m or "site_radius_m" not in m:
-        return None
-    c = m["site_centre_enu_m"]
-    return (float(c[0]), float(c[1])), float(m["site_radius_m"])
 
 
 def _sample(hf: terrain.Heightfield, pts: np.ndarray) -> np.ndarray:
@@ -239,11 +232,35 @@ def whitened_output(hf: terrain.Heightfield, spec: terrain.TerrainSpec,
 Empty = list[tuple[Path, terrain.TerrainSpec, tuple[tuple[float, float], float]]]
 
 
-def _read(folders: list[str]) -> tuple[list[dict[str, Any]], Empty]:
-    """The grids' measured goal tumuli and their sites without a tumulus."""
-    from mound.recon import verdict_data as vd
+@dataclass
+class Tumulus:
+    """A measured goal tumulus of a grid: where, its terrain, the scanned disc, its kind of
+    ground, whether it stands clear of it, and the filter's output (None: no window)."""
 
-    tumuli: list[dict[str, Any]] = []
+    grid: str
+    dir: str
+    site: Path
+    spec: terrain.TerrainSpec
+    disc: tuple[tuple[float, float], float]
+    ground: str
+    clear: bool | None
+    truth: SiteTruth
+    output: float | None = None
+
+
+@dataclass
+class Measured:
+    """The filter's outputs on the tumuli and its null per kind of ground (`measure`)."""
+
+    tumuli: list[Tumulus]
+    null: dict[str, list[float]]
+    filter: str
+    place_within_m: float = 0.0
+
+
+def _read(folders: list[str]) -> tuple[list[Tumulus], Empty]:
+    """The grids' measured goal tumuli and their sites without a tumulus."""
+    tumuli: list[Tumulus] = []
     empty: Empty = []
     for folder in folders:
         root = Path(folder)
@@ -251,17 +268,16 @@ def _read(folders: list[str]) -> tuple[list[dict[str, Any]], Empty]:
         if not gpath.is_file():
             raise InputError(f"{root}: no grid.json (make one with `mound sim grid`)")
         for row in vd.load_grid(root):
-            disc = _site_disc(row) if row["measured"] else None
+            disc = row.disc() if row.measured else None
             if disc is None:
                 continue
-            name, site = row["dir"], root / row["dir"]
+            name, site = row.dir, root / row.dir
             spec = vd.site_terrain(row, f"{gpath}: {name}")
-            truth = row["truth"]
+            truth = row.truth
             if vd.goal_tumulus(truth):
-                tumuli.append({"grid": str(root), "dir": name, "site": site, "spec": spec,
-                               "disc": disc, "ground": _ground(spec),
-                               "clear": vd.stands_clear(row), "truth": truth})
-            elif not truth["mound"]:
+                tumuli.append(Tumulus(str(root), name, site, spec, disc, _ground(spec),
+                                      vd.stands_clear(row.relief), truth))
+            elif not truth.mound:
                 empty.append((site, spec, disc))
     return tumuli, empty
 
@@ -276,9 +292,9 @@ def _surfaces(empty: Empty) -> dict[str, Ground]:
 
 def measure(folders: list[str], placements: int = PLACEMENTS, seed: int = 0,
             whiten: bool = False, ground_from: list[str] | None = None,
-            place_within_m: float = 0.0) -> dict[str, Any]:
+            place_within_m: float = 0.0) -> Measured:
     """The oracle's outputs on the grids' goal tumuli (>= 2 m x 15 m) and its null (see the
-    module text): {"tumuli": [...], "null": {"dem"|"synthetic": [...]}, "filter": ...}.
+    module text), the null by kind of ground ("dem", "synthetic").
     `whiten`: the whitened filter, its covariance from `ground_from`'s sites without a
     tumulus (default: half of the grids' own, the other half the null), told the place
     within `place_within_m`."""
@@ -299,24 +315,23 @@ def measure(folders: list[str], placements: int = PLACEMENTS, seed: int = 0,
                 ground[k] = [sites[i] for i in order[:len(sites) // 2]]
                 nulls[k] = [sites[i] for i in order[len(sites) // 2:]]
         for t in tumuli:
-            kind = t["ground"]
+            kind = t.ground
             if not ground[kind] or not nulls[kind]:
                 raise InputError(f"verdict-bound --whiten: no sites without a tumulus on "
                                  f"{kind} ground to learn its covariance and null from")
-            sp, (centre, radius) = t.pop("spec"), t.pop("disc")
-            hf = terrain.load_site_heightfield(t.pop("site") / "sim")
-            got = whitened_output(hf, sp, centre, radius, ground[kind], nulls[kind], rng,
+            (centre, radius) = t.disc
+            hf = terrain.load_site_heightfield(t.site / "sim")
+            got = whitened_output(hf, t.spec, centre, radius, ground[kind], nulls[kind], rng,
                                   place_within_m)
-            t["output"] = None if got is None else got[0]
+            t.output = None if got is None else got[0]
             if got is not None:
                 null[kind].extend(got[1])
-        return {"tumuli": tumuli, "null": null, "filter": "whitened",
-                "place_within_m": place_within_m}
-    profiles = [t["spec"] for t in tumuli]
+        return Measured(tumuli, null, "whitened", place_within_m)
+    profiles = [t.spec for t in tumuli]
     for t in tumuli:
-        hf = terrain.load_site_heightfield(t.pop("site") / "sim")
-        sp = t.pop("spec")
-        t["output"] = filter_output(hf, sp, (sp.mound_x_m, sp.mound_y_m), *t.pop("disc"))
+        hf = terrain.load_site_heightfield(t.site / "sim")
+        sp = t.spec
+        t.output = filter_output(hf, sp, (sp.mound_x_m, sp.mound_y_m), *t.disc)
     for site, spec, (centre, radius) in empty:
         hf = terrain.load_site_heightfield(site / "sim")
         kind = _ground(spec)
@@ -327,7 +342,7 @@ def measure(folders: list[str], placements: int = PLACEMENTS, seed: int = 0,
             out = filter_output(hf, prof, at, centre, radius)
             if out is not None:
                 null[kind].append(out)
-    return {"tumuli": tumuli, "null": null, "filter": "plain"}
+    return Measured(tumuli, null, "plain")
 
 
 METHODS = {
@@ -346,38 +361,38 @@ METHODS = {
 }
 
 
-def judge(measured: dict[str, Any], thresholds: dict[str, float] | None = None
+def judge(measured: Measured, thresholds: dict[str, float] | None = None
           ) -> dict[str, Any]:
     """The report: the null's thresholds (its 99th percentile per kind of ground, or the
     `thresholds` given, e.g. a training grid's) and the goal tumuli found, by kind of
     ground and by whether they stand clear of it (verdict_model.stands_clear)."""
-    null = {k: np.asarray(v, dtype=float) for k, v in measured["null"].items()}
+    null = {k: np.asarray(v, dtype=float) for k, v in measured.null.items()}
     thr = dict(thresholds) if thresholds else {
         k: float(np.quantile(v, 1 - FALSE_ALARMS)) for k, v in null.items() if len(v)}
-    missing = sorted({t["ground"] for t in measured["tumuli"]} - set(thr))
+    missing = sorted({t.ground for t in measured.tumuli} - set(thr))
     if missing:
         raise InputError(f"verdict-bound: no threshold for the {missing[0]} ground (no site "
                          "without a tumulus on it)")
     rows = []
-    for t in measured["tumuli"]:
-        out = t["output"]
-        rows.append({"grid": t["grid"], "dir": t["dir"], "ground": t["ground"],
-                     "clear": t["clear"], "output": out,
-                     "found": bool(out is not None and out > thr[t["ground"]]),
-                     "profile": t["truth"].get("profile"),
-                     "height_m": t["truth"]["height_m"],
-                     "diameter_m": t["truth"]["diameter_m"]})
+    for t in measured.tumuli:
+        out = t.output
+        rows.append({"grid": t.grid, "dir": t.dir, "ground": t.ground,
+                     "clear": t.clear, "output": out,
+                     "found": bool(out is not None and out > thr[t.ground]),
+                     "profile": t.truth.profile,
+                     "height_m": t.truth.height_m,
+                     "diameter_m": t.truth.diameter_m})
 
     def count(sel: list[dict[str, Any]]) -> dict[str, int]:
         return {"sites": len(sel), "found": sum(r["found"] for r in sel)}
     return {
         "schema": SCHEMA, "version": VERSION,
-        "filter": measured["filter"],
-        "place_within_m": measured.get("place_within_m", 0.0),
-        "method": (METHODS[measured["filter"]]
+        "filter": measured.filter,
+        "place_within_m": measured.place_within_m,
+        "method": (METHODS[measured.filter]
                    + f"; threshold the {100 * (1 - FALSE_ALARMS):g}th percentile of its null "
                    "per kind of ground"),
-        "grids": sorted({t["grid"] for t in measured["tumuli"]}),
+        "grids": sorted({t.grid for t in measured.tumuli}),
         "false_alarms": FALSE_ALARMS,
         "thresholds": thr, "thresholds_given": bool(thresholds),
         "null": {k: {"placements": int(len(v)),

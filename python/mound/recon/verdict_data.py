@@ -5,6 +5,7 @@ of itself (its cloud, its label). See verdict_model.py for the model."""
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -12,6 +13,7 @@ import numpy as np
 
 from mound.errors import InputError
 from mound.jsonio import read_json
+from mound.recon.grid_site import GridSite, Rise, SiteTruth, grid_site
 from mound.sim import terrain
 from mound.sim.looks import SECOND_LOOKS
 
@@ -59,88 +61,87 @@ RISE_MAX_SCALE = 2.5
 GROUND_CLASSES = (("clear", True), ("masked", False))
 
 
-def load_grid(folder: str | Path, second_look: str = "wider") -> list[dict[str, Any]]:
-    """The measured sites of a grid: truth, features (None without a rise), the verdict, and
-    the second look of kind `second_look` (mound.sim.looks.SECOND_LOOKS) where flown."""
+def load_grid(folder: str | Path, second_look: str = "wider") -> list[GridSite]:
+    """The sites of a grid: truth, and where measured the judged rises, the second look of
+    kind `second_look` (mound.sim.looks.SECOND_LOOKS) where flown, the tumulus's relief."""
     if second_look not in SECOND_LOOKS:
         raise InputError(f"--second-look-kind: one of {', '.join(SECOND_LOOKS)}")
     root = Path(folder)
     gpath = root / "grid.json"
     if gpath.is_file():
-        grid = read_json(gpath, "mound.verdict_grid", 1)
+        rows = read_json(gpath, "mound.verdict_grid", 1).get("rows")
+        if not isinstance(rows, list):
+            raise InputError(f"{gpath}: rows: expected a list")
     elif root.is_dir():  # a grid still running or interrupted: its finished sites
-        grid = {"rows": []}
+        rows = []
         for t in sorted(root.glob("*/sim/truth.json")):
             site = t.parent.parent
             truth = {k: v for k, v in read_json(t, "mound.sim_truth", 1).items()
                      if k not in ("schema", "version", "frame", "origin")}
             done = (site / "verdict.json").is_file()
-            grid["rows"].append({"dir": site.name, "truth": truth,
-                                 "status": "ok" if done else "running"})
+            rows.append({"dir": site.name, "truth": truth,
+                         "status": "ok" if done else "running"})
     else:
         raise InputError(f"{root}: no grid (make one with `mound sim grid`)")
     out = []
-    for row in grid["rows"]:
+    for k, row in enumerate(rows):
+        where = f"{gpath}: rows[{k}]"
+        if not isinstance(row, dict) or not isinstance(row.get("dir"), str):
+            raise InputError(f"{where}: expected a site's row with its dir")
         vpath = root / row["dir"] / "verdict.json"
         if row.get("status") != "ok" or not vpath.is_file():
-            out.append({**row, "features": None, "rises": [], "measured": False})
+            out.append(grid_site(row, None, None, None, str(root), where))
             continue
-        v = read_json(vpath, "mound.verdict", 1)
-        m = v.get("measurements", {})
-        out.append({**row, "measured": v.get("status") == "ok", "features": m.get("features"),
-                    "rises": m.get("judged_rises", []), "verdict": v, "rise": m.get("rise"),
-                    "grid": str(root),
-                    "second": _second_look(root / row["dir"] / SECOND_LOOKS[second_look]),
-                    "relief": _relief(root / row["dir"], row["truth"])})
+        told = SiteTruth.from_doc(row.get("truth"), f"{where}.truth")
+        out.append(grid_site(row, read_json(vpath, "mound.verdict", 1),
+                             _second_look(root / row["dir"] / SECOND_LOOKS[second_look]),
+                             _relief(root / row["dir"], told), str(root), where))
     return out
 
 
-def _relief(site: Path, truth: dict[str, Any]) -> dict[str, float] | None:
+def _relief(site: Path, truth: SiteTruth) -> dict[str, float] | None:
     """How far the site's tumulus stands out of its ground (terrain.mound_relief), from the
     true surface the site was rendered from (NNNN/sim/heightfield.npy); None without a
     tumulus or without that surface."""
-    if not truth.get("mound") or not (site / "sim" / "site.json").is_file():
+    if not truth.mound or not (site / "sim" / "site.json").is_file():
         return None
     hf = terrain.load_site_heightfield(site / "sim")
-    return terrain.mound_relief(hf, truth["centre_enu_m"][:2], float(truth["diameter_m"]))
+    return terrain.mound_relief(hf, truth.centre_enu_m, truth.diameter_m)
 
 
-def site_terrain(row: dict[str, Any], where: str) -> terrain.TerrainSpec:
-    """A grid row's terrain (its spec.terrain), without its confusers: the ground and the
-    tumulus the site was drawn with; InputError naming `where` when the row holds none."""
+def site_terrain(site: GridSite, where: str) -> terrain.TerrainSpec:
+    """A grid site's terrain (its row's spec.terrain), without its confusers: the ground and
+    the tumulus the site was drawn with; InputError naming `where` when the row holds none."""
+    if site.terrain is None:
+        raise InputError(f"{where}: spec.terrain: missing (not a simulated site's row)")
     try:
-        t = dict(row["spec"]["terrain"])
-        t["confusers"] = ()
+        t: Any = {**site.terrain, "confusers": ()}
         return terrain.TerrainSpec(**t)
     except (KeyError, TypeError) as e:
         raise InputError(f"{where}: spec.terrain: not a simulated site's terrain ({e})") \
             from None
 
 
-def stands_clear(row: dict[str, Any]) -> bool | None:
-    """Whether a tumulus stands clear of its ground: its prominence at least CLEAR_OF_GROUND
-    times the ground's clutter (None: relief unknown)."""
-    rel = row.get("relief")
-    if not rel:
+def stands_clear(relief: Mapping[str, float] | None) -> bool | None:
+    """Whether a tumulus stands clear of its ground (`relief`, terrain.mound_relief): its
+    prominence at least CLEAR_OF_GROUND times the ground's clutter (None: relief unknown)."""
+    if not relief:
         return None
-    return bool(rel["prominence_m"] >= CLEAR_OF_GROUND * rel["ground_clutter_m"])
+    return bool(relief["prominence_m"] >= CLEAR_OF_GROUND * relief["ground_clutter_m"])
 
 
 def _second_look(folder: Path) -> dict[str, Any] | None:
-    """A site's second look (GRID/NNNN/second/verdict.json, `mound sim grid
+    """A site's second look's verdict (GRID/NNNN/second/verdict.json, `mound sim grid
     --second-look`; second_lower/ for the lower one): None when it was not flown or allowed
     no verdict."""
     path = folder / "verdict.json"
     if not path.is_file():
         return None
     v = read_json(path, "mound.verdict", 1)
-    if v.get("status") != "ok":
-        return None
-    m = v.get("measurements", {})
-    return {"measured": True, "rises": m.get("judged_rises", []), "verdict": v}
+    return v if v.get("status") == "ok" else None
 
 
-def rise_labels(row: dict[str, Any]) -> list[bool | None]:
+def rise_labels(site: GridSite) -> list[bool | None]:
     """What each judged rise of a site is, for training: on a site without a tumulus every
     rise is a negative. On a tumulus site a rise is the tumulus's (a positive) when its
     centre lies within max(8 m, the tumulus's radius) of the true centre and it is at least
@@ -152,42 +153,44 @@ def rise_labels(row: dict[str, Any]) -> list[bool | None]:
     less high than its ground's own clutter around it (`buried`: no cloud shows it). Labelled
     positives, such rises taught the model that low wide swells of bare ground are tumuli:
     a 0.35 m x 67 m swell of undulating ground scored p 0.93 (issue 56)."""
-    t = row["truth"]
+    t = site.truth
     out: list[bool | None] = []
-    rel = row.get("relief")
-    buried = bool(t["mound"] and rel and rel["prominence_m"] < rel["ground_clutter_m"])
-    for r in row["rises"]:
-        if not t["mound"]:
+    rel = site.relief
+    buried = bool(t.mound and rel and rel["prominence_m"] < rel["ground_clutter_m"])
+    for k, r in enumerate(site.rises):
+        if not t.mound:
             out.append(False)
             continue
-        d = math.hypot(r["centre_enu_m"][0] - t["centre_enu_m"][0],
-                       r["centre_enu_m"][1] - t["centre_enu_m"][1])
-        size = float(r.get("base_diameter_m", t["diameter_m"]))
-        near = d <= max(8.0, t["diameter_m"] / 2)
-        if near and (buried or size > RISE_MAX_SCALE * t["diameter_m"]):
+        if r.centre_enu_m is None:
+            raise InputError(f"{site.where}: judged_rises[{k}]: no centre_enu_m")
+        d = math.hypot(r.centre_enu_m[0] - t.centre_enu_m[0],
+                       r.centre_enu_m[1] - t.centre_enu_m[1])
+        size = t.diameter_m if r.base_diameter_m is None else r.base_diameter_m
+        near = d <= max(8.0, t.diameter_m / 2)
+        if near and (buried or size > RISE_MAX_SCALE * t.diameter_m):
             out.append(None)
-        elif near and size >= 0.4 * t["diameter_m"]:
+        elif near and size >= 0.4 * t.diameter_m:
             out.append(True)
-        elif d < (t["diameter_m"] + size) / 2:
+        elif d < (t.diameter_m + size) / 2:
             out.append(None)
         else:
             out.append(False)
     return out
 
 
-def goal_tumulus(truth: dict[str, Any]) -> bool:
+def goal_tumulus(truth: SiteTruth) -> bool:
     """A tumulus of the issue's goal: >= 2 m high and >= 15 m across."""
-    return bool(truth["mound"]) and truth["height_m"] >= 2 and truth["diameter_m"] >= 15
+    return truth.mound and truth.height_m >= 2 and truth.diameter_m >= 15
 
 
-def _features(rise: dict[str, Any], names: list[str], where: str) -> list[float]:
+def _features(rise: Rise, names: list[str], where: str) -> list[float]:
     """A judged rise's features in the order of `names`; InputError naming the verdict file
     `where` when one is missing (measured by another detector)."""
-    missing = [n for n in names if n not in rise["features"]]
+    missing = [n for n in names if n not in rise.features]
     if missing:
         raise InputError(f"{where}: features: no {missing[0]!r} (remeasure the grid with this "
                          "detector: mound sim grid --remeasure)")
-    return [float(rise["features"][n]) for n in names]
+    return [rise.features[n] for n in names]
 
 
 def grid_cloud(folder: str | Path) -> str:
@@ -230,8 +233,8 @@ def grid_label(folder: str | Path) -> str:
             f"seed {doc.get('seed')}")
 
 
-def feature_names_of(rows: list[dict[str, Any]]) -> list[str]:
-    for r in rows:
-        if r["measured"] and r.get("rises"):
-            return list(r["rises"][0]["features"].keys())
+def feature_names_of(sites: list[GridSite]) -> list[str]:
+    for r in sites:
+        if r.measured and r.rises:
+            return list(r.rises[0].features)
     raise InputError("train-verdict: no measured site with a rise in the grid")

@@ -18,13 +18,16 @@ from mound.classify.metrics import (
     reliability,
     roc_auc,
 )
+from mound.errors import InputError
 from mound.jsonio import read_json
+from mound.recon.grid_site import GridSite
 from mound.recon.verdict_band import three_answers
 from mound.recon.verdict_data import (
     CLEAR_OF_GROUND,
     DIAMETER_BINS,
     GROUND_CLASSES,
     HEIGHT_BINS,
+    goal_tumulus,
     load_grid,
     site_terrain,
     stands_clear,
@@ -36,15 +39,18 @@ from mound.sim import terrain
 OPERATING_THRESHOLDS = (0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 0.95)
 
 
-def _old_rule(r: dict[str, Any]) -> bool:
-    rise = r.get("rise")
-    return bool(rise and rise["height_m"] >= 1.0 and rise["base_diameter_m"] >= 8.0
-                and rise["roundness"] >= 0.6 and rise["dome_r2"] >= 0.6)
+def _old_rule(r: GridSite) -> bool:
+    """The paper's fixed rule on the verdict's chosen rise."""
+    q = r.rise
+    return bool(q and q.height_m is not None and q.height_m >= 1.0
+                and q.base_diameter_m is not None and q.base_diameter_m >= 8.0
+                and q.roundness is not None and q.roundness >= 0.6
+                and q.dome_r2 is not None and q.dome_r2 >= 0.6)
 
 
-def _reach_m(truth: dict[str, Any]) -> float:
-    """How far from the site centre a tumulus reaches (its centre's offset + its radius)."""
-    return math.hypot(*truth["centre_enu_m"][:2]) + truth["diameter_m"] / 2
+def _radius(site: GridSite) -> float:
+    """The scanned site's radius (its verdict's; inf when it names none)."""
+    return math.inf if site.site_radius_m is None else site.site_radius_m
 
 
 def _rate(flags: list[bool]) -> float | None:
@@ -57,7 +63,7 @@ def _interval(k: int, n: int) -> list[float] | None:
 
 
 def _goal_rates(lab: np.ndarray, big: list[int], neg: list[int],
-                rows: list[dict[str, Any]]) -> dict[str, Any]:
+                rows: list[GridSite]) -> dict[str, Any]:
     """The issue's goals under labels `lab`: the goal's tumuli (`big`) found and the sites
     without a mound (`neg`) called one, each with its exact 95 % interval; and the goal's
     tumuli apart for those that stand clear of their ground and those it masks
@@ -65,15 +71,15 @@ def _goal_rates(lab: np.ndarray, big: list[int], neg: list[int],
     right, fa = int(sum(lab[k] for k in big)), int(sum(lab[k] for k in neg))
     by_ground: dict[str, Any] = {"clear_of_ground": CLEAR_OF_GROUND}
     for name, want in GROUND_CLASSES:
-        idx = [k for k in big if stands_clear(rows[k]) is want]
+        idx = [k for k in big if stands_clear(rows[k].relief) is want]
         found = int(sum(lab[k] for k in idx))
         by_ground[name] = {"sites": len(idx), "right": found,
                            "rate": _rate([bool(lab[k]) for k in idx]),
                            "rate_95ci": _interval(found, len(idx))}
         if not want:
-            by_ground[name]["tumuli"] = [{"dir": rows[k]["dir"], **rows[k]["relief"],
+            by_ground[name]["tumuli"] = [{"dir": rows[k].dir, **(rows[k].relief or {}),
                                           "found": bool(lab[k])} for k in idx]
-    by_ground["relief_unknown"] = sum(1 for k in big if stands_clear(rows[k]) is None)
+    by_ground["relief_unknown"] = sum(1 for k in big if stands_clear(rows[k].relief) is None)
     return {"goal_mounds_2m_15m": {"sites": len(big), "right": right,
                                    "rate": _rate([bool(lab[k]) for k in big]),
                                    "rate_95ci": _interval(right, len(big)),
@@ -83,35 +89,32 @@ def _goal_rates(lab: np.ndarray, big: list[int], neg: list[int],
                               "rate_95ci": _interval(fa, len(neg))}}
 
 
-def evaluate(model: dict[str, Any], rows: list[dict[str, Any]]) -> dict[str, Any]:
-    measured = [r for r in rows if r["measured"]]
-    p = probability(model, measured)
+def evaluate(model: dict[str, Any], rows: list[GridSite]) -> dict[str, Any]:
+    measured = [r for r in rows if r.measured]
+    p = probability(model, [r.rises for r in measured])
     thr = model["threshold"]
-    y = np.array([bool(r["truth"]["mound"]) for r in measured])
+    y = np.array([r.truth.mound for r in measured])
     lab = p >= thr
     old = np.array([_old_rule(r) for r in measured])
     groups: dict[str, list[int]] = {}
     for k, r in enumerate(measured):
-        t = r["truth"]
-        key = f"tumulus/{t['profile']}" if t["mound"] else f"no mound/{t['kind']}"
+        t = r.truth
+        key = f"tumulus/{t.profile}" if t.mound else f"no mound/{t.kind}"
         groups.setdefault(key, []).append(k)
     per = {}
     for key, idx in sorted(groups.items()):
         per[key] = {"sites": len(idx), "right": int(sum(lab[i] == y[i] for i in idx)),
                     "old_rule_right": int(sum(old[i] == y[i] for i in idx))}
-    big = [k for k, r in enumerate(measured) if r["truth"]["mound"]
-           and r["truth"]["height_m"] >= 2 and r["truth"]["diameter_m"] >= 15]
+    big = [k for k, r in enumerate(measured) if goal_tumulus(r.truth)]
     neg = [k for k in range(len(measured)) if not y[k]]
-    clipped = [k for k in big if measured[k]["verdict"].get("coverage", {}).get("status")
-               == "clipped"]
-    wider = [k for k in big if measured[k]["truth"]["diameter_m"] > 60]
-    beyond = [k for k in wider if _reach_m(measured[k]["truth"]) > float(
-        measured[k]["verdict"].get("measurements", {}).get("site_radius_m", math.inf))]
+    clipped = [k for k in big if measured[k].coverage == "clipped"]
+    wider = [k for k in big if measured[k].truth.diameter_m > 60]
+    beyond = [k for k in wider if measured[k].truth.reach_m > _radius(measured[k])]
     goal = _goal_rates(lab, big, neg, measured)
     goal["goal_mounds_2m_15m"]["old_rule_rate"] = _rate([bool(old[k]) for k in big])
     return {
         "sites": len(rows), "measured": len(measured),
-        "failed": [r["dir"] for r in rows if not r["measured"]],
+        "failed": [r.dir for r in rows if not r.measured],
         "threshold": thr,
         "accuracy": float(np.mean(lab == y)), "old_rule_accuracy": float(np.mean(old == y)),
         "false_alarm_rate": _rate([bool(lab[k]) for k in neg]),
@@ -139,44 +142,44 @@ def evaluate(model: dict[str, Any], rows: list[dict[str, Any]]) -> dict[str, Any
              "mounds_found": int(sum(p[k] >= t for k in range(len(y)) if y[k]))}
             for t in OPERATING_THRESHOLDS],
         "detection_limit": detection_limit(measured, lab),
-        "errors": [{"dir": measured[k]["dir"], "truth": measured[k]["truth"],
+        "errors": [{"dir": measured[k].dir, "truth": measured[k].truth.to_doc(),
                     "p_mound": float(p[k])} for k in range(len(y)) if lab[k] != y[k]],
         **({"two_looks": two_looks(model, measured, p, big, neg)}
            if model.get("second_look") else {}),
         **({"three_answers": three_answers(
-            p, [{**r["truth"], "dir": r["dir"]} for r in measured],
+            p, measured,
             (model["undecided"]["p_low"], model["undecided"]["p_high"]), thr)}
            if model.get("undecided") else {}),
     }
 
 
-def two_looks(model: dict[str, Any], measured: list[dict[str, Any]], p: np.ndarray,
+def two_looks(model: dict[str, Any], measured: list[GridSite], p: np.ndarray,
               big: list[int], neg: list[int]) -> dict[str, Any]:
     """The verdict with the second look: each site whose first p lies in [p_low, threshold)
     decided by its second flight (NNNN/second/), at the second look's calibration and
     threshold; a site in the band without one keeps its first verdict (`not_flown`)."""
     sl = model["second_look"]
     thr = model["threshold"]
-    y = np.array([bool(r["truth"]["mound"]) for r in measured])
+    y = np.array([r.truth.mound for r in measured])
     final_p, lab = p.copy(), p >= thr
     band = [k for k in range(len(p)) if sl["p_low"] <= p[k] < thr]
-    flown = [k for k in band if measured[k].get("second")]
+    flown = [k for k in band if measured[k].second is not None]
     if flown:
         p2 = second_look_p(model, p[flown],
-                           probability(model, [measured[k]["second"] for k in flown]))
+                           probability(model, [measured[k].second or () for k in flown]))
         for k, q in zip(flown, p2, strict=True):
             final_p[k], lab[k] = q, q >= sl["threshold"]
     return {"p_low": sl["p_low"], "threshold": sl["threshold"],
             "band": len(band), "flown": len(flown),
-            "not_flown": [measured[k]["dir"] for k in band if k not in flown],
+            "not_flown": [measured[k].dir for k in band if k not in flown],
             **_goal_rates(lab, big, neg, measured),
             "accuracy": float(np.mean(lab == y)),
             "ece": expected_calibration_error(final_p, y.astype(float)),
             "calibration": ece_consistency(final_p, y.astype(float)),
-            "second_looks": [{"dir": measured[k]["dir"], "mound": bool(y[k]),
+            "second_looks": [{"dir": measured[k].dir, "mound": bool(y[k]),
                               "p_first": float(p[k]), "p_second": float(final_p[k]),
                               "label": bool(lab[k])} for k in flown],
-            "errors": [{"dir": measured[k]["dir"], "truth": measured[k]["truth"],
+            "errors": [{"dir": measured[k].dir, "truth": measured[k].truth.to_doc(),
                         "p_mound": float(final_p[k]), "second_look": k in flown}
                        for k in range(len(y)) if lab[k] != y[k]]}
 
@@ -197,30 +200,31 @@ def paper_agreement(folder: str | Path, model: dict[str, Any], work: str | Path,
 
     root, out = Path(folder), Path(work)
     out.mkdir(parents=True, exist_ok=True)
-    grid = read_json(root / "grid.json", "mound.verdict_grid", 1)
+    if not (root / "grid.json").is_file():
+        raise InputError(f"{root}: no grid.json (--paper judges a finished grid)")
     rows = load_grid(root)
-    p = probability(model, rows)
+    p = probability(model, [r.rises for r in rows])
     sites: list[dict[str, Any]] = []
-    for row, spec_doc, q in zip(rows, grid["rows"], p, strict=True):
-        if not row["measured"] or (limit is not None and len(sites) >= limit):
+    for row, q in zip(rows, p, strict=True):
+        if not row.measured or (limit is not None and len(sites) >= limit):
             continue
-        spec = site_terrain(spec_doc, f"{root / 'grid.json'}: {row['dir']}")
+        spec = site_terrain(row, f"{root / 'grid.json'}: {row.dir}")
         if not spec.mound:
             spec = replace(spec, mound=True, profile="spherical_cap", diameter_m=40.0,
                            height_m=6.0, mound_x_m=0.0, mound_y_m=0.0, erosion_m=2.0)
         hf = terrain.build(replace(spec, resolution_m=1.0))
-        ref = out / f"{row['dir']}_reference.ply"
+        ref = out / f"{row.dir}_reference.ply"
         write_ply(ref, hf.points(), None, comment="mound.reference v1 (grid paper test)")
-        res = out / f"{row['dir']}_paper.json"
+        res = out / f"{row.dir}_paper.json"
         try:
-            native.run_tool("mound_recon", ["verdict", str(root / row["dir"] / "recon"),
+            native.run_tool("mound_recon", ["verdict", str(root / row.dir / "recon"),
                                             "--reference", str(ref), "--out", str(res)], 600)
         except ToolNoResultError:
             pass
         doc = read_json(res, "mound.verdict", 1)
         paper = doc.get("label") if doc.get("status") == "ok" else "failed"
-        sites.append({"dir": row["dir"], "truth": bool(row["truth"]["mound"]),
-                      "kind": row["truth"]["kind"], "paper": paper,
+        sites.append({"dir": row.dir, "truth": row.truth.mound,
+                      "kind": row.truth.kind, "paper": paper,
                       "learned": "mound" if q >= model["threshold"] else "no_mound"})
         ref.unlink()
     judged = [s for s in sites if s["paper"] != "failed"]
@@ -235,15 +239,15 @@ def paper_agreement(folder: str | Path, model: dict[str, Any], work: str | Path,
         "rows": sites}
 
 
-def detection_limit(rows: list[dict[str, Any]], lab: np.ndarray) -> dict[str, Any]:
+def detection_limit(rows: list[GridSite], lab: np.ndarray) -> dict[str, Any]:
     """Detection rate of the mounds per height x diameter bin, and the detection limit: the
     smallest (height, diameter) from which on the mounds are detected at >= 95 %."""
     table = []
     for i in range(len(HEIGHT_BINS) - 1):
         for j in range(len(DIAMETER_BINS) - 1):
-            idx = [k for k, r in enumerate(rows) if r["truth"]["mound"]
-                   and HEIGHT_BINS[i] <= r["truth"]["height_m"] < HEIGHT_BINS[i + 1]
-                   and DIAMETER_BINS[j] <= r["truth"]["diameter_m"] < DIAMETER_BINS[j + 1]]
+            idx = [k for k, r in enumerate(rows) if r.truth.mound
+                   and HEIGHT_BINS[i] <= r.truth.height_m < HEIGHT_BINS[i + 1]
+                   and DIAMETER_BINS[j] <= r.truth.diameter_m < DIAMETER_BINS[j + 1]]
             table.append({"height_m": [HEIGHT_BINS[i], HEIGHT_BINS[i + 1]],
                           "diameter_m": [DIAMETER_BINS[j], DIAMETER_BINS[j + 1]],
                           "mounds": len(idx), "detected": int(sum(lab[k] for k in idx))})
@@ -252,8 +256,8 @@ def detection_limit(rows: list[dict[str, Any]], lab: np.ndarray) -> dict[str, An
     corners = []
     for h in HEIGHT_BINS[:-1]:
         for d in DIAMETER_BINS[:-1]:
-            idx = [k for k, r in enumerate(rows) if r["truth"]["mound"]
-                   and r["truth"]["height_m"] >= h and r["truth"]["diameter_m"] >= d]
+            idx = [k for k, r in enumerate(rows) if r.truth.mound
+                   and r.truth.height_m >= h and r.truth.diameter_m >= d]
             if len(idx) >= 5 and sum(lab[k] for k in idx) / len(idx) >= 0.95:
                 corners.append({"height_m_at_least": h, "diameter_m_at_least": d,
                                 "mounds": len(idx), "detected": int(sum(lab[k] for k in idx))})

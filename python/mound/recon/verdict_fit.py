@@ -6,6 +6,7 @@ undecided band; verdict_model.py describes the model, verdict_eval.py judges it.
 from __future__ import annotations
 
 import itertools
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -19,6 +20,7 @@ from mound.classify.metrics import (
     roc_auc,
 )
 from mound.errors import InputError
+from mound.recon.grid_site import GridSite, Rise
 from mound.recon.verdict_band import band_doc, band_goal
 from mound.recon.verdict_data import (
     GROUND_CLASSES,
@@ -192,7 +194,7 @@ class _Rises:
     score (`z_all`, `site_idx`), only those with a label are fitted (`fitted`: `z`,
     `y_rise`, `bags`); the second looks' rises (`z2_all`, `site_idx2`)."""
 
-    sites: list[dict[str, Any]]
+    sites: list[GridSite]
     y_site: np.ndarray
     mean: np.ndarray
     std: np.ndarray
@@ -207,11 +209,11 @@ class _Rises:
     pairs: Pairs
 
 
-def _rises(sites: list[dict[str, Any]], names: list[str]) -> _Rises:
+def _rises(sites: list[GridSite], names: list[str]) -> _Rises:
     feats, site_of, y = [], [], []
     for i, r in enumerate(sites):
-        for rise, label in zip(r["rises"], rise_labels(r), strict=True):
-            feats.append(_features(rise, names, f"{r['grid']}/{r['dir']}/verdict.json"))
+        for rise, label in zip(r.rises, rise_labels(r), strict=True):
+            feats.append(_features(rise, names, f"{r.where}/verdict.json"))
             site_of.append(i)
             y.append(label)
     x_all, site_idx = np.array(feats), np.array(site_of)
@@ -223,11 +225,11 @@ def _rises(sites: list[dict[str, Any]], names: list[str]) -> _Rises:
     # the second looks' rises (mound sim grid --second-look), scored by the same folds' models
     feats2, site_of2 = [], []
     for i, r in enumerate(sites):
-        for rise in (r.get("second") or {}).get("rises", []):
-            feats2.append(_features(rise, names, f"{r['grid']}/{r['dir']}/second/verdict.json"))
+        for rise in r.second or ():
+            feats2.append(_features(rise, names, f"{r.where}/second/verdict.json"))
             site_of2.append(i)
     return _Rises(
-        sites, np.array([bool(r["truth"]["mound"]) for r in sites]), mean, std, z_all,
+        sites, np.array([r.truth.mound for r in sites]), mean, std, z_all,
         site_idx, fitted, z_all[fitted], y_rise,
         site_idx[fitted] * 2 + y_rise,  # a site's tumulus rises, and its other rises
         (np.array(feats2).reshape(-1, len(names)) - mean) / std,
@@ -273,25 +275,23 @@ def _kept(second: dict[str, Any] | None) -> tuple[dict[str, Any] | None, dict[st
                          f"first look at as many false alarms (< {MIN_SECOND_LOOK_GAIN:g})"}
 
 
-def _cloud_of(measured: list[dict[str, Any]]) -> str:
-    """The cloud the sites' verdicts judged (verdict.json's `cloud`; rows made otherwise:
+def _cloud_of(measured: list[GridSite]) -> str:
+    """The cloud the sites' verdicts judged (verdict.json's `cloud`; sites made otherwise:
     unknown), "mixed" for several."""
-    clouds = sorted({("dense" if str(r["verdict"].get("cloud", "")).endswith("dense.ply")
-                      else "sparse") if isinstance(r.get("verdict"), dict) else "unknown"
-                     for r in measured})
+    clouds = sorted({r.cloud for r in measured})
     return clouds[0] if len(clouds) == 1 else "mixed"
 
 
-def train(rows: list[dict[str, Any]], names: list[str], sources: list[str],
+def train(rows: list[GridSite], names: list[str], sources: list[str],
           seed: int = 0, mil_mixes: tuple[float, ...] = MIL_MIXES) -> dict[str, Any]:
     """The model document from measured training sites (see the module text): a logistic
     regression on the judged rises (the tumulus's own rise a positive, every other rise a
     negative), the site's score its highest rise's, Platt- and beta-calibrated on the
     sites."""
-    measured = [r for r in rows if r["measured"]]
-    sites = [r for r in measured if r["rises"]]
-    no_rise = [r for r in measured if not r["rises"]]
-    n_mounds = sum(1 for r in sites if r["truth"]["mound"])
+    measured = [r for r in rows if r.measured]
+    sites = [r for r in measured if r.rises]
+    no_rise = [r for r in measured if not r.rises]
+    n_mounds = sum(1 for r in sites if r.truth.mound)
     if len(sites) < 20 or n_mounds in (0, len(sites)):
         raise InputError("train-verdict: needs >= 20 measured sites with a rise, of both "
                          f"classes (got {len(sites)}, {n_mounds} mounds)")
@@ -324,21 +324,21 @@ def train(rows: list[dict[str, Any]], names: list[str], sources: list[str],
     w = _fit(d.z, d.y_rise, l2, basis, z_clip, d.pairs, d.bags, mil)
     neg = p_oof[~y_oof]
     thr = _threshold(neg)
-    goal_site = np.array([goal_tumulus(r["truth"]) for r in sites])
+    goal_site = np.array([goal_tumulus(r.truth) for r in sites])
     # the goal's tumuli that stand clear of their ground, and those it masks (stands_clear)
-    ground = {name: goal_site & np.array([stands_clear(r) is want for r in sites])
+    ground = {name: goal_site & np.array([stands_clear(r.relief) is want for r in sites])
               for name, want in GROUND_CLASSES}
     second, not_kept = _kept(_second_look_rule(
         g_oof.reshape(len(oofs), -1),
         _calibrated(a * np.stack([o2 for _, o2 in repeats]) + b, cal),
         thr, y_site, goal_site, ground))
     n_nr = len(no_rise)
-    m_nr = sum(1 for r in no_rise if r["truth"]["mound"])
+    m_nr = sum(1 for r in no_rise if r.truth.mound)
     # the undecided band, on every site's out-of-fold p (those without a rise at p_no_rise)
     p_all = np.concatenate([p_oof.reshape(len(oofs), -1),
                             np.full((len(oofs), n_nr), (m_nr + 1) / (n_nr + 2))], axis=1)
-    truths = [r["truth"] for r in sites + no_rise]
-    undecided = band_doc(p_all, np.array([bool(t["mound"]) for t in truths]),
+    truths = [r.truth for r in sites + no_rise]
+    undecided = band_doc(p_all, np.array([t.mound for t in truths]),
                          np.array([band_goal(t) for t in truths]), thr)
     return {
         "schema": SCHEMA, "version": VERSION, "features": names,
@@ -392,10 +392,10 @@ def _threshold(p_neg: np.ndarray) -> float:
     return thr
 
 
-def probability(model: dict[str, Any], rows: list[dict[str, Any]]) -> np.ndarray:
-    """p(mound) of each measured row: the same formula as the C++ VerdictModel (the highest
-    over its judged rises; p_no_rise without one). `model` is valid (model_file's reader,
-    or train's own)."""
+def probability(model: dict[str, Any], rises: Sequence[Sequence[Rise]]) -> np.ndarray:
+    """p(mound) of each site by its judged rises: the same formula as the C++ VerdictModel
+    (the highest over its rises; p_no_rise without one). `model` is valid (model_file's
+    reader, or train's own)."""
     names = model["features"]
     mean, std = np.array(model["mean"]), np.array(model["std"])
     w = np.array(model["weights"])
@@ -404,13 +404,12 @@ def probability(model: dict[str, Any], rows: list[dict[str, Any]]) -> np.ndarray
     pairs = tuple((names.index(i), names.index(j)) for i, j in model.get("products", []))
     clip = float(model.get("product_clip", PRODUCT_CLIP))
     cal = model.get("calibration")
-    out = np.empty(len(rows))
-    for k, r in enumerate(rows):
-        rises = r.get("rises") or []
-        if not rises:
+    out = np.empty(len(rises))
+    for k, site in enumerate(rises):
+        if not site:
             out[k] = model["p_no_rise"]
             continue
-        f = np.array([[float(q["features"][n]) for n in names] for q in rises])
+        f = np.array([[q.features[n] for n in names] for q in site])
         out[k] = expit(_calibrated(model["bias"] + float(np.max(
             expand((f - mean) / std, basis, z_clip, pairs, clip) @ w)), cal))
     return out

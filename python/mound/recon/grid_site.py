@@ -1,0 +1,201 @@
+"""A measured site of a verdict grid (`mound sim grid`), typed: what stands on it
+(`SiteTruth`, its truth.json), the rises its verdict judged (`Rise`), its second look, and
+how far its tumulus stands out of its ground. `verdict_data.load_grid` reads them from a
+grid's files; the verdict model's training, evaluation and bound take them.
+
+Each `from_doc` validates what the model uses, with an InputError naming the file and the
+field; a truth keeps its document as written (`SiteTruth.doc`), which the reports copy.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+from mound.errors import InputError
+from mound.jsonio import finite_number, optional_number, require_number, short_repr
+
+
+def _object(doc: object, where: str) -> Mapping[str, object]:
+    if not isinstance(doc, dict):
+        raise InputError(f"{where}: expected an object, got {short_repr(doc)}")
+    return doc
+
+
+def _bool(doc: Mapping[str, object], key: str, where: str, default: bool = False) -> bool:
+    v = doc.get(key, default)
+    if not isinstance(v, bool):
+        raise InputError(f"{where}.{key}: expected true or false, got {short_repr(v)}")
+    return v
+
+
+def _xy(v: object, where: str) -> tuple[float, float]:
+    if not isinstance(v, list) or len(v) < 2:
+        raise InputError(f"{where}: expected [x, y] in metres, got {short_repr(v)}")
+    return finite_number(v[0], f"{where}[0]"), finite_number(v[1], f"{where}[1]")
+
+
+@dataclass(frozen=True)
+class SiteTruth:
+    """What stands on a simulated site (sim.terrain.TerrainSpec.truth): a tumulus with its
+    size and centre (site frame, m), the most prominent confuser, or bare ground."""
+
+    mound: bool
+    kind: str
+    height_m: float
+    diameter_m: float
+    centre_enu_m: tuple[float, float] = (0.0, 0.0)
+    profile: str | None = None
+    cut: bool = False  # a looters' trench or pit
+    doc: Mapping[str, object] = field(default_factory=dict, compare=False)
+
+    @classmethod
+    def from_doc(cls, doc: object, where: str) -> SiteTruth:
+        d = _object(doc, where)
+        kind = d.get("kind", "tumulus" if d.get("mound") else "flat")
+        profile = d.get("profile")
+        if not isinstance(kind, str) or not (profile is None or isinstance(profile, str)):
+            raise InputError(f"{where}: kind and profile: expected strings")
+        return cls(_bool(d, "mound", where), kind,
+                   require_number(d, "height_m", where, lo=0.0),
+                   require_number(d, "diameter_m", where, lo=0.0),
+                   _xy(d["centre_enu_m"], f"{where}.centre_enu_m") if "centre_enu_m" in d
+                   else (0.0, 0.0), profile,
+                   _bool(d, "trench", where) or _bool(d, "pit", where), dict(d))
+
+    def to_doc(self) -> dict[str, object]:
+        """The truth as written (built from the fields for one made in code)."""
+        if self.doc:
+            return dict(self.doc)
+        return {"mound": self.mound, "kind": self.kind, "height_m": self.height_m,
+                "diameter_m": self.diameter_m, "centre_enu_m": list(self.centre_enu_m),
+                **({"profile": self.profile} if self.profile else {})}
+
+    @property
+    def reach_m(self) -> float:
+        """How far from the site centre the object reaches (its centre's offset + radius)."""
+        return math.hypot(*self.centre_enu_m) + self.diameter_m / 2
+
+
+@dataclass(frozen=True)
+class Rise:
+    """A rise the verdict judged (verdict.json measurements.judged_rises[k], or its chosen
+    `rise`): its features (the model's input) and the measurements the rules read."""
+
+    features: Mapping[str, float]
+    centre_enu_m: tuple[float, float] | None = None
+    base_diameter_m: float | None = None
+    height_m: float | None = None
+    roundness: float | None = None
+    dome_r2: float | None = None
+
+    @classmethod
+    def from_doc(cls, doc: object, where: str) -> Rise:
+        d = _object(doc, where)
+        feats = _object(d.get("features", {}), f"{where}.features")
+        return cls({str(k): finite_number(v, f"{where}.features.{k}") for k, v in feats.items()},
+                   _xy(d["centre_enu_m"], f"{where}.centre_enu_m") if "centre_enu_m" in d
+                   else None,
+                   *(optional_number(d, k, where) for k in
+                     ("base_diameter_m", "height_m", "roundness", "dome_r2")))
+
+
+def rises_of(docs: object, where: str) -> tuple[Rise, ...]:
+    """A verdict's judged rises (a list of rise objects)."""
+    if not isinstance(docs, list):
+        raise InputError(f"{where}: expected a list of rises, got {short_repr(docs)}")
+    return tuple(Rise.from_doc(r, f"{where}[{k}]") for k, r in enumerate(docs))
+
+
+@dataclass(frozen=True)
+class GridSite:
+    """A site of a grid: its truth, and when measured (`measured`: its verdict is ok) the
+    rises its verdict judged, the chosen one, the second look's rises (None: not flown or
+    no verdict), the site's disc, the cloud and coverage its verdict names, and its
+    tumulus's relief (terrain.mound_relief; None without one or without the surface)."""
+
+    dir: str
+    truth: SiteTruth
+    measured: bool = False
+    rises: tuple[Rise, ...] = ()
+    rise: Rise | None = None
+    second: tuple[Rise, ...] | None = None
+    relief: Mapping[str, float] | None = None
+    grid: str = ""
+    terrain: Mapping[str, object] | None = None  # the grid row's spec.terrain, as written
+    cloud: str = "unknown"  # "dense", "sparse" (the verdict's cloud), unknown: no verdict
+    coverage: str | None = None  # the verdict's coverage.status ("clipped", ...)
+    site_centre_enu_m: tuple[float, float] | None = None
+    site_radius_m: float | None = None
+
+    @property
+    def where(self) -> str:
+        return f"{self.grid}/{self.dir}" if self.grid else self.dir
+
+    def disc(self) -> tuple[tuple[float, float], float] | None:
+        """The scanned site's centre and radius (its verdict's), None without them."""
+        if self.site_centre_enu_m is None or self.site_radius_m is None:
+            return None
+        return self.site_centre_enu_m, self.site_radius_m
+
+
+def grid_site(row: Mapping[str, object], verdict: Mapping[str, object] | None,
+              second: Mapping[str, object] | None, relief: Mapping[str, float] | None,
+              grid: str, where: str) -> GridSite:
+    """A grid row (grid.json's rows[k]) with its site's verdict (None: not measured) and
+    second look's verdict (None: not flown or no verdict)."""
+    name = row.get("dir")
+    if not isinstance(name, str) or not name:
+        raise InputError(f"{where}.dir: expected the site's folder name")
+    truth = SiteTruth.from_doc(row.get("truth"), f"{where}.truth")
+    spec = row.get("spec")
+    terrain = _object(spec, f"{where}.spec").get("terrain") if spec is not None else None
+    if verdict is None:
+        return GridSite(name, truth, grid=grid, relief=relief,
+                        terrain=_object(terrain, f"{where}.spec.terrain") if terrain else None)
+    vwhere = f"{grid}/{name}/verdict.json"
+    m = _object(verdict.get("measurements", {}), f"{vwhere}: measurements")
+    cloud = verdict.get("cloud", "")
+    coverage = verdict.get("coverage")
+    status = _object(coverage, f"{vwhere}: coverage").get("status") if coverage else None
+    centre = m.get("site_centre_enu_m")
+    return GridSite(
+        name, truth, verdict.get("status") == "ok",
+        rises_of(m.get("judged_rises", []), f"{vwhere}: measurements.judged_rises"),
+        Rise.from_doc(m["rise"], f"{vwhere}: measurements.rise") if m.get("rise") else None,
+        None if second is None else rises_of(
+            _object(second.get("measurements", {}), f"{grid}/{name}/second/verdict.json")
+            .get("judged_rises", []), f"{grid}/{name}/second/verdict.json: judged_rises"),
+        relief, grid, _object(terrain, f"{where}.spec.terrain") if terrain else None,
+        "dense" if str(cloud).endswith("dense.ply") else "sparse",
+        status if isinstance(status, str) else None,
+        None if centre is None else _xy(centre, f"{vwhere}: measurements.site_centre_enu_m"),
+        optional_number(m, "site_radius_m", f"{vwhere}: measurements", lo=0.0))
+
+
+def _relief(v: object, where: str) -> Mapping[str, float] | None:
+    if v is None:
+        return None
+    return {str(k): finite_number(x, f"{where}.{k}") for k, x in _object(v, where).items()}
+
+
+def sites_of(docs: Sequence[Mapping[str, object]], where: str = "rows") -> list[GridSite]:
+    """Grid sites from rows written as plain objects (a script's, a test's): dir, truth,
+    measured (default true), rises, rise, second ({"rises": [...]}), relief, grid, and
+    verdict.coverage.status."""
+    out = []
+    for k, d in enumerate(docs):
+        w = f"{where}[{k}]"
+        second, rise = d.get("second"), d.get("rise")
+        coverage = _object(d.get("verdict") or {}, f"{w}.verdict").get("coverage")
+        status = _object(coverage, f"{w}.verdict.coverage").get("status") if coverage else None
+        out.append(GridSite(
+            str(d.get("dir", k)), SiteTruth.from_doc(d.get("truth"), f"{w}.truth"),
+            _bool(d, "measured", w, True), rises_of(d.get("rises", []), f"{w}.rises"),
+            Rise.from_doc(rise, f"{w}.rise") if rise else None,
+            None if second is None else rises_of(
+                _object(second, f"{w}.second").get("rises", []), f"{w}.second.rises"),
+            _relief(d.get("relief"), f"{w}.relief"), str(d.get("grid", "")),
+            coverage=status if isinstance(status, str) else None))
+    return out
