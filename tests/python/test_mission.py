@@ -118,7 +118,7 @@ def test_mission_flies_the_simulators_camera_positions() -> None:
     assert np.min(np.linalg.norm(enu - (site + raster[0].pose.centre), axis=1)) < 0.02
     spacing = np.linalg.norm(raster[1].pose.centre - raster[0].pose.centre)
     assert trig[0].params[0] == pytest.approx(spacing, rel=1e-6)
-    assert m.sites[0]["images"] == len(shots)
+    assert m.sites[0].images == len(shots)
 
 
 def test_path_plan_lands_at_the_end_node_and_distance_is_checked() -> None:

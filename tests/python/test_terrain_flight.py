@@ -218,7 +218,7 @@ def test_every_leg_clears_the_terrain_by_the_clearance(flown, raw) -> None:
     highest = maximum_filter(raw[0], size=2 * fp + 1, mode="nearest")
     centres = []
     for s in m.sites:
-        lat, lon, _ = mission_items.enu_to_geodetic(m.origin, np.array([[s["x_m"], s["y_m"],
+        lat, lon, _ = mission_items.enu_to_geodetic(m.origin, np.array([[s.x_m, s.y_m,
                                                                          0.0]]))[0]
         centres.append(TO_TM.transform(float(lon), float(lat)))
     centres = np.array(centres)
@@ -270,15 +270,15 @@ def test_scan_heights_above_each_sites_ground(flown, raw) -> None:
     worst = 0.0
     for s, pts in zip(m.sites, scans, strict=True):
         # The site's ground independently: the median of the ring D/2..D, on a polar grid.
-        lat, lon, _ = mission_items.enu_to_geodetic(origin, np.array([[s["x_m"], s["y_m"],
+        lat, lon, _ = mission_items.enu_to_geodetic(origin, np.array([[s.x_m, s.y_m,
                                                                        0.0]]))[0]
         cx, cy = TO_TM.transform(float(lon), float(lat))
         r, a = np.meshgrid(np.linspace(30, 60, 31), np.linspace(0, 2 * np.pi, 360,
                                                                  endpoint=False))
         ground = float(np.median(raw_height(raw, cx + r * np.cos(a), cy + r * np.sin(a))))
         p = np.array(pts)
-        assert np.all(np.hypot(p[:, 0] - cx, p[:, 1] - cy) <= 47), s["id"]
-        assert np.all(np.abs(p[:, 2] - (ground + want)) <= 1.0), (s["id"], p[:, 2] - ground)
+        assert np.all(np.hypot(p[:, 0] - cx, p[:, 1] - cy) <= 47), s.id
+        assert np.all(np.abs(p[:, 2] - (ground + want)) <= 1.0), (s.id, p[:, 2] - ground)
         worst = max(worst, float(np.abs(p[:, 2] - (ground + want)).max()))
     print(f"[terrain] scan heights above each site's own ground: largest error {worst:.3f} m")
 
@@ -399,16 +399,16 @@ def test_the_simulator_flies_the_missions_heights_over_the_same_terrain(flown, r
     # the most sloped visited site: the largest spread of the ring's heights
     slope = {}
     for s in m.sites:
-        lat, lon, _ = mission_items.enu_to_geodetic(m.origin, np.array([[s["x_m"], s["y_m"],
+        lat, lon, _ = mission_items.enu_to_geodetic(m.origin, np.array([[s.x_m, s.y_m,
                                                                          0.0]]))[0]
         x, y = lonlat_to_crs(str(dem_path), float(lon), float(lat))
         a = np.linspace(0, 2 * np.pi, 72, endpoint=False)
         ring = raw_height(raw, x + 45 * np.cos(a), y + 45 * np.sin(a))
-        slope[s["id"]] = (float(ring.max() - ring.min()), x, y, s)
+        slope[s.id] = (float(ring.max() - ring.min()), x, y, s)
     spread, x, y, s = max(slope.values(), key=lambda v: v[0])
     assert spread > 5  # a site on a slope
-    g = nodes[s["id"]]["ground_amsl_m"]
-    assert g == pytest.approx(s["ground_amsl_m"])
+    g = nodes[s.id]["ground_amsl_m"]
+    assert g == pytest.approx(s.ground_amsl_m)
     spec = sim_terrain.preset("bin_tepe", mound=False, size_m=160.0, dem_path=str(dem_path),
                               dem_x_m=x, dem_y_m=y, dem_ground_m=g, dem_vertical="egm96")
     hf = sim_terrain.build(spec)
@@ -416,7 +416,7 @@ def test_the_simulator_flies_the_missions_heights_over_the_same_terrain(flown, r
     ys = np.array([-22.0, 17.0, 50.0])
     assert np.allclose(hf.height_at(xs, ys), raw_height(raw, x + xs, y + ys) - g, atol=0.05)
     want = [float(leg.points_enu[0, 2]) for leg in m.spec.scan.legs()]
-    assert s["scan_height_above_ground_m"] == want  # the mission flies these above g
+    assert s.scan_height_above_ground_m == want  # the mission flies these above g
     for p in np.vstack([leg.points_enu for leg in m.spec.scan.legs()]):
         assert p[2] - float(hf.height_at(np.array([p[0]]), np.array([p[1]]))[0]) >= 10
 
@@ -566,7 +566,7 @@ def test_orbit_scans_over_the_terrain(raw, dem_path, tmp_path, pattern: str) -> 
     assert len(rois) == len(m.sites)
     home = m.terrain["home_amsl_m"]
     for it, s in zip(rois, m.sites, strict=True):
-        assert it.z == pytest.approx(s["ground_amsl_m"] + scan.target_height_m - home, abs=0.01)
+        assert it.z == pytest.approx(s.ground_amsl_m + scan.target_height_m - home, abs=0.01)
 
 
 def test_a_plan_made_over_a_dem_is_not_flown_without_it(flown) -> None:
@@ -602,7 +602,7 @@ def test_second_looks_are_flown_wider_within_the_budget_and_clear_of_the_terrain
         flights, refused, wide = second_look_flights(typed(doc), Plan.from_doc(p, "p"), ids,
                                                      factor, dem)
         assert wide.scan.scale_m == 2 * Plan.from_doc(p, "p").scan().scale_m  # type: ignore[union-attr]
-        flown_ids = [s["id"] for m in flights for s in m.sites]
+        flown_ids = [s.id for m in flights for s in m.sites]
         assert sorted(flown_ids + [r["id"] for r in refused]) == sorted(chosen)
         assert flown_ids == [s for s in tour if s in flown_ids]  # the tour's order
         for k, m in enumerate(flights):
@@ -613,7 +613,7 @@ def test_second_looks_are_flown_wider_within_the_budget_and_clear_of_the_terrain
             assert energy <= budget + 0.5
             assert clearance >= spec.scan_clearance_m - 0.05
         print(f"[second look] budget {budget:.0f} m: {len(flights)} flights "
-              f"{[[s['id'] for s in m.sites] for m in flights]}, energy "
+              f"{[[s.id for s in m.sites] for m in flights]}, energy "
               f"{[round(m.terrain['energy_m']) for m in flights]} m, refused "
               f"{[r['id'] for r in refused]}")
         if budget == 5000.0:  # all four in one flight

@@ -20,6 +20,7 @@ from mound.formats.sites import Site, Sites
 from mound.jsonio import read_json
 from mound.ply import read_ply
 from mound.sim.figures import save_figure
+from mound.uav.mission_items import Footprint, MissionSite
 
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff")
 
@@ -177,13 +178,13 @@ def field_map(sites_doc: Sites, plan: Plan | None, verdicts: dict[str, str],
     return save_figure(fig, out_png, dpi)
 
 
-def mission_map(nav_enu: np.ndarray | list[np.ndarray], footprints: list[dict[str, Any]],
-                sites: list[dict[str, Any]], out_png: Path, dpi: int = 80) -> Path:
+def mission_map(nav_enu: np.ndarray | list[np.ndarray], footprints: list[Footprint],
+                sites: list[MissionSite], out_png: Path, dpi: int = 80) -> Path:
     """The MAVLink mission's flight path in local metres, coloured by height, with the
     image footprints on the ground."""
     fig, ax = plt.subplots(figsize=(6.4, 5.2))
     for fp in footprints:
-        c = np.array(fp["corners_enu_m"] + fp["corners_enu_m"][:1])
+        c = fp.ring()
         ax.fill(c[:, 0], c[:, 1], color="tab:blue", alpha=0.04, lw=0)
     pts = np.asarray(nav_enu, dtype=float)
     if len(pts):
@@ -191,7 +192,7 @@ def mission_map(nav_enu: np.ndarray | list[np.ndarray], footprints: list[dict[st
         ax.plot(pts[:, 0], pts[:, 1], "-", color="0.3", lw=0.6, zorder=2)
         fig.colorbar(sc, ax=ax, label="height above home (m)")
     for s in sites:
-        ax.annotate(s["id"], (s["x_m"], s["y_m"]), fontsize=6, xytext=(3, 3),
+        ax.annotate(s.id, (s.x_m, s.y_m), fontsize=6, xytext=(3, 3),
                     textcoords="offset points")
     ax.set_aspect("equal")
     ax.set_xlabel("east of home (m)")

@@ -102,8 +102,8 @@ def _report(m: Any, out: str, flight: int | None) -> None:
               f"{t['descended_m']:.0f} m), lowest transit clearance "
               f"{t['lowest_clearance_m']:.1f} m")
     for s in m.sites:
-        print(f"  {s['id']}: scan {s['scan_length_m']:.0f} m, {s['images']} images "
-              f"(plan's scan_cost_m {s['scan_cost_m']:g})")
+        print(f"  {s.id}: scan {s.scan_length_m:.0f} m, {s.images} images "
+              f"(plan's scan_cost_m {s.scan_cost_m:g})")
 
 
 def cmd_show(args: argparse.Namespace) -> int:

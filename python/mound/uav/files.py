@@ -263,17 +263,16 @@ def geojson_document(mission: Mission) -> dict[str, Any]:
             "geometry": {"type": "LineString",
                          "coordinates": [c[:2] for c in _lonlat(o, ends)]}})
     for s in mission.sites:
-        features.append({"type": "Feature", "properties": {"kind": "site", **s},
+        features.append({"type": "Feature", "properties": {"kind": "site", **s.to_doc()},
                          "geometry": {"type": "Point",
-                                      "coordinates": _lonlat(o, np.array([[s["x_m"], s["y_m"],
+                                      "coordinates": _lonlat(o, np.array([[s.x_m, s.y_m,
                                                                            0.0]]))[0][:2]}})
     for fp in mission.footprints:
-        ring = np.array(fp["corners_enu_m"] + fp["corners_enu_m"][:1])
         features.append({"type": "Feature",
-                         "properties": {"kind": "image_footprint", "site": fp["site"],
-                                        "pattern": fp["pattern"], "image": fp["image"]},
+                         "properties": {"kind": "image_footprint", "site": fp.site,
+                                        "pattern": fp.pattern, "image": fp.image},
                          "geometry": {"type": "Polygon",
-                                      "coordinates": [[c[:2] for c in _lonlat(o, ring)]]}})
+                                      "coordinates": [[c[:2] for c in _lonlat(o, fp.ring())]]}})
     return {"type": "FeatureCollection", "features": features}
 
 

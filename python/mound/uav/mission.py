@@ -5,8 +5,6 @@ frames — above home with the ground taken flat (below), or following a DEM's t
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
 from mound.errors import InputError
@@ -21,10 +19,13 @@ from mound.uav.mission_items import (
     NAV_RETURN_TO_LAUNCH,
     NAV_TAKEOFF,
     NAV_WAYPOINT,
+    Footprint,
     ItemWriter,
     Mission,
     MissionItem,
+    MissionSite,
     MissionSpec,
+    PlanNode,
     TerrainInput,
     plan_nodes,
     up,
@@ -55,29 +56,29 @@ def build(plan: Plan, origin: Origin, spec: MissionSpec | None = None,
     return _flat(origin, spec, nodes, closed, budget)
 
 
-def _flat(origin: Origin, spec: MissionSpec, nodes: list[dict[str, Any]], closed: bool,
+def _flat(origin: Origin, spec: MissionSpec, nodes: list[PlanNode], closed: bool,
           budget: float) -> Mission:
     """Heights above home, every site's ground taken at home's height: one transit
     height, the flight distance checked against the budget."""
     legs = spec.scan.legs()
     transit = spec.scan.transit_m(legs)
-    home = np.array([nodes[0]["x_m"], nodes[0]["y_m"], 0.0])
+    home = np.array([nodes[0].x_m, nodes[0].y_m, 0.0])
     w = ItemWriter(origin, 0.0, home)
     w.nav(NAV_TAKEOFF, home + up(transit), (0.0, 0.0, 0.0, NAN))
     w.do(DO_CHANGE_SPEED, (1.0, spec.cruise_speed_m_s, -1.0, 0.0))
-    sites_out = []
-    footprints: list[dict[str, Any]] = []
+    sites_out: list[MissionSite] = []
+    footprints: list[Footprint] = []
     for node in nodes[1:-1] if len(nodes) > 2 else []:
-        centre = np.array([node["x_m"], node["y_m"], 0.0])
+        centre = np.array([node.x_m, node.y_m, 0.0])
         entry = centre + legs[0].points_enu[0]
         w.nav(NAV_WAYPOINT, np.array([entry[0], entry[1], transit]))
         scan_start = len(w.path) - 1
-        images, fps = w.scan_site(spec, centre, node["id"], legs)
+        images, fps = w.scan_site(spec, centre, node.id, legs)
         footprints += fps
-        sites_out.append({"id": node["id"], "x_m": node["x_m"], "y_m": node["y_m"],
-                          "scan_length_m": path_length(np.array(w.path[scan_start:])),
-                          "images": images, "scan_cost_m": node["scan_cost_m"]})
-    end = np.array([nodes[-1]["x_m"], nodes[-1]["y_m"], 0.0])
+        sites_out.append(MissionSite(node.id, node.x_m, node.y_m,
+                                     path_length(np.array(w.path[scan_start:])), images,
+                                     node.scan_cost_m))
+    end = np.array([nodes[-1].x_m, nodes[-1].y_m, 0.0])
     if closed:
         w.items.append(MissionItem(NAV_RETURN_TO_LAUNCH, FRAME_MISSION))
         w.path += [home + up(transit), home.copy()]
@@ -86,10 +87,9 @@ def _flat(origin: Origin, spec: MissionSpec, nodes: list[dict[str, Any]], closed
         w.nav(NAV_LAND, end, (0.0, 0.0, 0.0, NAN))
     distance = path_length(np.array(w.path))
     if distance > budget * (1 + spec.budget_slack) + 1e-6:
-        worst = max(sites_out, key=lambda s: s["scan_length_m"] - s["scan_cost_m"],
-                    default=None)
-        hint = (f"; a {spec.scan.pattern} scan flies {worst['scan_length_m']:.0f} m per site, the "
-                f"plan assumed scan_cost_m {worst['scan_cost_m']:g}") if worst else ""
+        worst = max(sites_out, key=lambda s: s.scan_length_m - s.scan_cost_m, default=None)
+        hint = (f"; a {spec.scan.pattern} scan flies {worst.scan_length_m:.0f} m per site, the "
+                f"plan assumed scan_cost_m {worst.scan_cost_m:g}") if worst else ""
         raise InputError(f"mission: flight distance {distance:.1f} m exceeds the plan's "
                          f"budget_m {budget:g} m{hint}")
     return Mission(w.items, origin, distance, budget, closed, sites_out, w.path, footprints,

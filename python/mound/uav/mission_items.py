@@ -188,6 +188,55 @@ def up(h: float) -> np.ndarray:
     return np.array([0.0, 0.0, h])
 
 
+@dataclass(frozen=True)
+class PlanNode:
+    """A node of a plan's tour with its position (ENU m) and the scan the plan costed."""
+
+    id: str
+    kind: str  # home, site, end
+    x_m: float
+    y_m: float
+    scan_cost_m: float = 0.0
+
+
+@dataclass(frozen=True)
+class Footprint:
+    """An image's footprint on the ground: its corners, ENU metres (z 0 at the site's
+    ground), of image `image` of the site's `pattern` leg."""
+
+    site: str
+    pattern: str
+    image: int
+    corners_enu_m: list[list[float]]
+
+    def ring(self) -> np.ndarray:
+        """The corners closed (the first again at the end), (5, 3)."""
+        return np.array(self.corners_enu_m + self.corners_enu_m[:1])
+
+
+@dataclass(frozen=True)
+class MissionSite:
+    """A site the mission scans: where (ENU m), the scan flown and the plan's cost of it;
+    over a DEM its ground (AMSL) and the legs' heights above it."""
+
+    id: str
+    x_m: float
+    y_m: float
+    scan_length_m: float
+    images: int
+    scan_cost_m: float
+    ground_amsl_m: float | None = None
+    scan_height_above_ground_m: list[float] | None = None
+
+    def to_doc(self) -> dict[str, object]:
+        over = ({} if self.ground_amsl_m is None else
+                {"ground_amsl_m": self.ground_amsl_m,
+                 "scan_height_above_ground_m": self.scan_height_above_ground_m})
+        return {"id": self.id, "x_m": self.x_m, "y_m": self.y_m, **over,
+                "scan_length_m": self.scan_length_m, "images": self.images,
+                "scan_cost_m": self.scan_cost_m}
+
+
 @dataclass
 class Mission:
     items: list[MissionItem]
@@ -195,9 +244,9 @@ class Mission:
     flight_distance_m: float
     budget_m: float
     closed: bool
-    sites: list[dict[str, Any]]
+    sites: list[MissionSite]
     nav_enu: list[np.ndarray]  # the 3-D flight path, ENU, z above home, for exports
-    footprints: list[dict[str, Any]]
+    footprints: list[Footprint]
     spec: MissionSpec
     # With a DEM: home_amsl_m, energy_m, the legs' heights and terrain profiles.
     terrain: dict[str, Any] | None = None
@@ -211,7 +260,8 @@ class Mission:
                            for leg in self.terrain["legs"]]})
         return {"schema": "mound.mission", "version": 1, "origin": self.origin.to_doc(),
                 "items": len(self.items), "flight_distance_m": self.flight_distance_m,
-                "budget_m": self.budget_m, "closed": self.closed, "sites": self.sites,
+                "budget_m": self.budget_m, "closed": self.closed,
+                "sites": [x.to_doc() for x in self.sites],
                 "altitude_frame": "MAV_FRAME_GLOBAL_RELATIVE_ALT: metres above home"
                 + ("'s ground (the DEM's height there)" if self.terrain else ""),
                 "terrain": terrain,
@@ -228,7 +278,7 @@ MAX_COST_M = 1e8
 MAX_BUDGET_M = 1e12
 
 
-def plan_nodes(plan: Plan) -> tuple[list[dict[str, Any]], bool, float]:
+def plan_nodes(plan: Plan) -> tuple[list[PlanNode], bool, float]:
     """Validated (tour nodes with positions, closed?, budget) of a plan of one flight."""
     if len(plan.flights) != 1:
         raise InputError(f"flights: a mission flies one flight, the plan has "
@@ -255,9 +305,8 @@ def plan_nodes(plan: Plan) -> tuple[list[dict[str, Any]], bool, float]:
         kind = w.get("kind", "site")
         if kind not in ("home", "site", "end"):
             raise InputError(f"{where}.kind: expected home, site or end, got {kind!r:.40}")
-        nodes.append({"id": node_id, "x_m": x, "y_m": y, "kind": kind,
-                      "scan_cost_m": require_number(w, "scan_cost_m", where, lo=0,
-                                                    hi=MAX_COST_M, default=0.0)})
+        nodes.append(PlanNode(node_id, kind, x, y, require_number(
+            w, "scan_cost_m", where, lo=0, hi=MAX_COST_M, default=0.0)))
     if not plan.budget_m <= MAX_BUDGET_M:
         raise InputError(f"plan.budget_m: must be a number in [0, {MAX_BUDGET_M:g}]")
     return nodes, plan.closed, plan.budget_m
@@ -304,7 +353,7 @@ class ItemWriter:
         self.items.append(MissionItem(command, frame, params, x, y, z))
 
     def scan_site(self, spec: MissionSpec, centre: np.ndarray, site_id: str,
-                  legs: list[Any] | None = None) -> tuple[int, list[dict[str, Any]]]:
+                  legs: list[Any] | None = None) -> tuple[int, list[Footprint]]:
         """The site's scan from where the aircraft is (over its entry point): the scan
         speed, each pattern's waypoints with the camera triggered (and the region of
         interest on an orbit), back to cruise. `centre` is the site's centre on its ground
@@ -314,7 +363,7 @@ class ItemWriter:
         scan = spec.scan
         cam = scan.camera()
         images = 0
-        footprints: list[dict[str, Any]] = []
+        footprints: list[Footprint] = []
         self.do(DO_CHANGE_SPEED, (1.0, spec.scan_speed_m_s, -1.0, 0.0))
         for leg in legs if legs is not None else scan.legs():
             if leg.pattern == "orbit":
@@ -330,8 +379,7 @@ class ItemWriter:
             reach = 3 * float(leg.points_enu[:, 2].max())
             on_ground = np.array([centre[0], centre[1], 0.0])
             for k, pose in enumerate(leg.poses):
-                footprints.append({"site": site_id, "pattern": leg.pattern, "image": k,
-                                   "corners_enu_m": (on_ground + image_footprint(cam, pose,
-                                                                                 reach)).tolist()})
+                footprints.append(Footprint(site_id, leg.pattern, k, (
+                    on_ground + image_footprint(cam, pose, reach)).tolist()))
         self.do(DO_CHANGE_SPEED, (1.0, spec.cruise_speed_m_s, -1.0, 0.0))
         return images, footprints

@@ -18,14 +18,14 @@ PROFILE_SAMPLES = 120  # terrain samples per leg in the profiles (report, GeoJSO
 
 
 def build_over_terrain(plan: Plan, origin: Origin, spec: mi.MissionSpec,
-                       terrain: mi.TerrainInput, nodes: list[dict[str, Any]], closed: bool,
+                       terrain: mi.TerrainInput, nodes: list[mi.PlanNode], closed: bool,
                        budget: float) -> mi.Mission:
     tspec = terrain.spec if terrain.spec is not None else TerrainSpec()
     tspec.validate()
     scan = spec.scan
     # The tour's nodes once each (a closed tour's return to home is node 0 again).
     stops = nodes[:-1] if closed else nodes
-    model_nodes = [Node(str(n["id"]), n["kind"], n["x_m"], n["y_m"]) for n in stops]
+    model_nodes = [Node(n.id, n.kind, n.x_m, n.y_m) for n in stops]
     xy = np.array([[n.x_m, n.y_m] for n in model_nodes])
     dem = open_dem(terrain.dem_path, origin, terrain.vertical, xy, scan, tspec)
     tspec = TerrainSpec(**{**tspec.to_doc(), "vertical": dem.vertical})
@@ -37,8 +37,8 @@ def build_over_terrain(plan: Plan, origin: Origin, spec: mi.MissionSpec,
     home_amsl = float(model.ground[0])
 
     w = mi.ItemWriter(origin, home_amsl, np.array([xy[0, 0], xy[0, 1], home_amsl]))
-    sites_out: list[dict[str, Any]] = []
-    footprints: list[dict[str, Any]] = []
+    sites_out: list[mi.MissionSite] = []
+    footprints: list[mi.Footprint] = []
     leg_docs: list[dict[str, Any]] = []
     for k, (a, b) in enumerate(zip(legs_from, legs_to, strict=True)):
         h = float(heights[k])
@@ -68,12 +68,9 @@ def build_over_terrain(plan: Plan, origin: Origin, spec: mi.MissionSpec,
                                   model_nodes[b].id, model.legs)
         footprints += fps
         node = stops[b]
-        sites_out.append({"id": node["id"], "x_m": node["x_m"], "y_m": node["y_m"],
-                          "ground_amsl_m": g,
-                          "scan_height_above_ground_m": [float(leg.points_enu[0, 2])
-                                                         for leg in model.legs],
-                          "scan_length_m": path_length(np.array(w.path[scan_start:])),
-                          "images": images, "scan_cost_m": node["scan_cost_m"]})
+        sites_out.append(mi.MissionSite(
+            node.id, node.x_m, node.y_m, path_length(np.array(w.path[scan_start:])), images,
+            node.scan_cost_m, g, [float(leg.points_enu[0, 2]) for leg in model.legs]))
 
     pts = np.array(w.path)
     energy = energy_m(pts, tspec.climb_factor, tspec.descent_factor)

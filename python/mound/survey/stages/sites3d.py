@@ -186,21 +186,21 @@ def second_look_missions(ctx: Context, rows: list[SiteRow], plan_path: Path,
     made = [str(p.relative_to(t.root)) for p in written]
     summary["second_look"] = {"sites": ids, "scan_factor": factor,
                               "site_diameter_m": spec.scan.scale_m,
-                              "flown": [x["id"] for m in flights for x in m.sites],
+                              "flown": [x.id for m in flights for x in m.sites],
                               "refused": refused}
     write_json(out / "mission.json", summary)
     made.append(str((out / "mission.json").relative_to(t.root)))
     # the flights as a plan (mound.plan v1): what `mound sim flight` writes a card of and
     # --second-photos sorts the second card by
     reward = {x.id: x.reward for x in sites_doc.sites}
-    tours = [[plan.home, *(x["id"] for x in m.sites), plan.end] for m in flights]
+    tours = [[plan.home, *(x.id for x in m.sites), plan.end] for m in flights]
     sl_plan = Plan.of_flights(
         "second_look", tours or [[plan.home, plan.end]],
-        [sum(reward.get(x["id"], 0.0) for x in m.sites) for m in flights] or [0.0],
+        [sum(reward.get(x.id, 0.0) for x in m.sites) for m in flights] or [0.0],
         [m.flight_distance_m for m in flights] or [0.0], sites_doc.budget_m, plan.closed,
         plan.origin, scan=spec.scan.to_doc(),
         waypoints=[w for w in plan.waypoints() if w.get("kind") in ("home", "end")]
-        + [{"id": x["id"], "x_m": x["x_m"], "y_m": x["y_m"], "kind": "site",
+        + [{"id": x.id, "x_m": x.x_m, "y_m": x.y_m, "kind": "site",
             "scan_cost_m": spec.scan.site_cost_m()} for m in flights for x in m.sites],
         n_visited=sum(len(m.sites) for m in flights))
     write_json(out / "plan.json", sl_plan.to_doc())
