@@ -106,3 +106,28 @@ def test_a_row_carries_its_verdict_and_its_first_look() -> None:
     with pytest.raises(InputError, match=r"v.json: second_look.scan_factor: missing"):
         Verdict.from_doc({"schema": "mound.verdict", "version": 1, "label": "mound",
                           "second_look": {"advised": True}}, "v.json")
+
+
+def test_a_user_s_sites_are_typed_and_an_end_id_is_not_coerced(tmp_path: Path) -> None:
+    """The --sites reader builds the typed sites directly: the user's file's sites, costed
+    by the scan, read back equal; an end whose id is not a string is refused (until
+    2026-11-28 it was turned into one: an end id {} became "{}")."""
+    from mound.formats.sites import user_sites
+    from mound.geometry.flight import ScanSpec
+
+    doc = {"schema": "mound.sites", "version": 1,
+           "origin": {"lat": 38.57, "lon": 27.98, "alt_m": 95.0},
+           "home": {"id": "home", "x_m": 0, "y_m": 0}, "end": {"id": "e", "x_m": 9, "y_m": 4},
+           "sites": [{"id": "a", "x_m": 300, "y_m": 0, "p_mound": 0.3,
+                      "truth": {"mound": True, "height_m": 4}}]}
+    scan = ScanSpec()
+    sites = user_sites(doc, Path("s.json"), scan, 900.0, 1.0, need_truth=True)
+    assert sites.end.id == "e" and not sites.closed and sites.budget_m == 900.0
+    a = sites.sites[0]
+    assert a.scan_cost_m == scan.site_cost_m() and a.truth is not None
+    assert a.truth.height_m == 4.0 and a.reward == pytest.approx(0.8812908992306927)
+    assert Sites.from_doc(json.loads(json_text(sites.to_doc())), "again") == sites
+    for bad in (0, {}, None):
+        with pytest.raises(InputError, match=r"s.json: end.id: expected a string"):
+            user_sites({**doc, "end": {"id": bad, "x_m": 9, "y_m": 4}}, Path("s.json"), scan,
+                       900.0, 1.0, need_truth=True)

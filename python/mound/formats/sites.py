@@ -198,13 +198,13 @@ class Sites:
         return cls.from_doc(load_json(path), path)
 
 
-def _number(obj: dict[str, Any], key: str, where: str, *, lo: float = -math.inf,
-            hi: float = math.inf, required: bool = True) -> float | None:
-    if key not in obj or obj[key] is None:
-        if required:
-            raise InputError(f"{where}.{key}: missing")
+def _number(obj: Mapping[str, object], key: str, where: str, *, lo: float = -math.inf,
+            hi: float = math.inf) -> float | None:
+    """obj[key] as a float in [lo, hi], None when absent or null (the user readers'
+    messages: `where.key: ...`)."""
+    v = obj.get(key)
+    if v is None:
         return None
-    v = obj[key]
     if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
         raise InputError(f"{where}.{key}: expected a finite number, got {v!r}")
     if not lo <= v <= hi:
@@ -212,7 +212,14 @@ def _number(obj: dict[str, Any], key: str, where: str, *, lo: float = -math.inf,
     return float(v)
 
 
-def _truth(value: Any, where: str) -> bool | None:
+def _required(obj: Mapping[str, object], key: str, where: str) -> float:
+    v = _number(obj, key, where)
+    if v is None:
+        raise InputError(f"{where}.{key}: missing")
+    return v
+
+
+def _truth(value: object, where: str) -> bool | None:
     if value is None:
         return None
     if isinstance(value, dict):
@@ -223,53 +230,60 @@ def _truth(value: Any, where: str) -> bool | None:
     return value
 
 
-def _site(props: dict[str, Any], site_id: Any, x: float, y: float, where: str,
-          need_p: bool = True) -> dict[str, Any]:
+def _site(props: Mapping[str, object], site_id: object, x: float, y: float, where: str,
+          need_p: bool = True) -> Site:
     if not isinstance(site_id, str) or not site_id.strip():
         raise InputError(f"{where}.id: expected a non-empty string, got {site_id!r}")
-    p = _number(props, "p_mound", where, lo=0.0, hi=1.0, required=need_p)
-    reward = _number(props, "reward", where, lo=0.0, required=False)
+    p = _number(props, "p_mound", where, lo=0.0, hi=1.0)
+    if p is None and need_p:
+        raise InputError(f"{where}.p_mound: missing")
+    reward = _number(props, "reward", where, lo=0.0)
     if reward is None:
         reward = float(binary_entropy_bits(p)) if p is not None else 0.0
-    site: dict[str, Any] = {"id": site_id, "x_m": x, "y_m": y, "reward": reward,
-                            **({"p_mound": p} if p is not None else {})}
-    truth = _truth(props.get("truth"), where)
-    if truth is not None:
-        site["truth"] = {"mound": truth}
+    mound = _truth(props.get("truth"), where)
+    truth = None
+    if mound is not None:
         raw = props.get("truth")
-        if truth and isinstance(raw, dict) and raw.get("height_m") is not None:
-            site["truth"]["height_m"] = _number(raw, "height_m", f"{where}.truth", lo=0.5,
-                                                hi=60.0)
-    return site
+        height = (_number(raw, "height_m", f"{where}.truth", lo=0.5, hi=60.0)
+                  if mound and isinstance(raw, dict) else None)
+        truth = Truth(mound, height)
+    return Site(site_id, x, y, reward, p_mound=p, truth=truth)
 
 
-def _from_mound_sites(doc: dict[str, Any], path: Path, need_p: bool
-                      ) -> tuple[dict[str, Any], list[Any]]:
+@dataclass(frozen=True)
+class _UserField:
+    """What a user's sites file says before the survey's scan costs its sites."""
+
+    origin: Origin
+    home: Node
+    end: Node
+    budget_m: float | None
+    sites: list[Site]
+
+
+def _node(doc: object, where: str) -> Node:
+    if not isinstance(doc, dict):
+        raise InputError(f"{where}: missing (an object with id, x_m, y_m)")
+    x, y = _required(doc, "x_m", where), _required(doc, "y_m", where)
+    if not isinstance(doc.get("id"), str):
+        raise InputError(f"{where}.id: expected a string")
+    return Node(require_id(doc["id"], f"{where}.id"), x, y)
+
+
+def _from_mound_sites(doc: Mapping[str, object], path: Path, need_p: bool) -> _UserField:
     version = doc.get("version")
     if version != 1:
         raise InputError(f"{path}: version: unsupported mound.sites version {version!r}")
-    if not isinstance(doc.get("origin"), dict):
+    given = doc.get("origin")
+    if not isinstance(given, dict):
         raise InputError(f"{path}: origin: missing (the mission needs the WGS84 origin of "
                          "x_m/y_m: {\"lat\", \"lon\", \"alt_m\"})")
-    origin = Origin.from_doc(doc["origin"], f"{path}: origin")
-    home = doc.get("home")
-    if not isinstance(home, dict):
-        raise InputError(f"{path}: home: missing (an object with id, x_m, y_m)")
-    hx = _number(home, "x_m", f"{path}: home")
-    hy = _number(home, "y_m", f"{path}: home")
-    if not isinstance(home.get("id"), str):
-        raise InputError(f"{path}: home.id: expected a string")
-    out: dict[str, Any] = {"origin": origin.to_doc(),
-                           "home": {"id": home["id"], "x_m": hx, "y_m": hy}}
+    origin = Origin.from_doc(given, f"{path}: origin")
+    home = _node(doc.get("home"), f"{path}: home")
     end = doc.get("end")
-    if isinstance(end, dict) and end.get("id", home["id"]) != home["id"]:
-        out["end"] = {"id": str(end["id"]), "x_m": _number(end, "x_m", f"{path}: end"),
-                      "y_m": _number(end, "y_m", f"{path}: end")}
-    else:
-        out["end"] = {"id": home["id"]}
-    budget = _number(doc, "budget_m", str(path), lo=0.0, required=False)
-    if budget is not None:
-        out["budget_m"] = budget
+    end_node = (_node(end, f"{path}: end")
+                if isinstance(end, dict) and end.get("id", home.id) != home.id else home)
+    budget = _number(doc, "budget_m", str(path), lo=0.0)
     sites = doc.get("sites")
     if not isinstance(sites, list) or not sites:
         raise InputError(f"{path}: sites: expected a non-empty list")
@@ -278,13 +292,12 @@ def _from_mound_sites(doc: dict[str, Any], path: Path, need_p: bool
         where = f"{path}: sites[{k}]"
         if not isinstance(s, dict):
             raise InputError(f"{where}: expected an object")
-        rows.append(_site(s, s.get("id"), _number(s, "x_m", where),  # type: ignore[arg-type]
-                          _number(s, "y_m", where), where, need_p))  # type: ignore[arg-type]
-    return out, rows
+        rows.append(_site(s, s.get("id"), _required(s, "x_m", where),
+                          _required(s, "y_m", where), where, need_p))
+    return _UserField(origin, home, end_node, budget, rows)
 
 
-def _from_geojson(doc: dict[str, Any], path: Path, need_p: bool
-                  ) -> tuple[dict[str, Any], list[Any]]:
+def _from_geojson(doc: Mapping[str, object], path: Path, need_p: bool) -> _UserField:
     features = doc.get("features")
     if not isinstance(features, list) or not features:
         raise InputError(f"{path}: features: expected a non-empty list of Point features")
@@ -296,7 +309,7 @@ def _from_geojson(doc: dict[str, Any], path: Path, need_p: bool
         if props.get("kind") == "home":
             if home is not None:
                 raise InputError(f"{where}: a second feature with kind 'home'")
-            alt = _number(props, "alt_m", f"{where}.properties", required=False) or 0.0
+            alt = _number(props, "alt_m", f"{where}.properties", lo=-1e5, hi=1e5) or 0.0
             home = Origin(lat, lon, alt)
         else:
             points.append((k, lat, lon, props, props.get("id", f.get("id"))))
@@ -310,13 +323,9 @@ def _from_geojson(doc: dict[str, Any], path: Path, need_p: bool
     rows = [_site(props, sid, float(e[0]), float(e[1]), f"{path}: features[{k}].properties",
                   need_p)
             for (k, _, _, props, sid), e in zip(points, enu, strict=True)]
-    out: dict[str, Any] = {"origin": home.to_doc(), "home": {"id": "home", "x_m": 0.0,
-                                                            "y_m": 0.0},
-                           "end": {"id": "home"}}
-    budget = _number(doc, "budget_m", str(path), lo=0.0, required=False)
-    if budget is not None:
-        out["budget_m"] = budget
-    return out, rows
+    at_home = Node("home", 0.0, 0.0)
+    return _UserField(home, at_home, at_home, _number(doc, "budget_m", str(path), lo=0.0),
+                      rows)
 
 
 def load_user_sites(path: str | Path, scan: ScanSpec, budget_m: float | None,
@@ -338,32 +347,31 @@ def user_sites(doc: Any, path: Path, scan: ScanSpec, budget_m: float | None,
     if not isinstance(doc, dict):
         raise InputError(f"{path}: expected a JSON object (mound.sites or GeoJSON)")
     if doc.get("schema") == "mound.sites":
-        head, rows = _from_mound_sites(doc, path, need_p_mound)
+        given = _from_mound_sites(doc, path, need_p_mound)
     elif doc.get("type") == "FeatureCollection":
-        head, rows = _from_geojson(doc, path, need_p_mound)
+        given = _from_geojson(doc, path, need_p_mound)
     else:
         raise InputError(f"{path}: schema: neither a mound.sites document nor a GeoJSON "
                          "FeatureCollection (type)")
-    ids = [head["home"]["id"], head["end"]["id"]]
-    seen = set(ids)
-    for k, r in enumerate(rows):
-        if r["id"] in seen:
-            raise InputError(f"{path}: sites[{k}].id: {r['id']!r} is not unique (or is the "
+    seen = {given.home.id, given.end.id}
+    for k, r in enumerate(given.sites):
+        if r.id in seen:
+            raise InputError(f"{path}: sites[{k}].id: {r.id!r} is not unique (or is the "
                              "home/end id)")
-        seen.add(r["id"])
-        if need_truth and "truth" not in r:
+        require_id(r.id, f"{path}: sites[{k}].id")
+        seen.add(r.id)
+        if need_truth and r.truth is None:
             raise InputError(f"{path}: sites[{k}].truth: missing; the flights are simulated "
                              "from each site's truth (or give --images-root with the photos)")
-        r["scan_cost_m"] = scan.site_cost_m()
-    budget = budget_m if budget_m is not None else head.pop("budget_m", default_budget_m)
-    head.pop("budget_m", None)
+    budget = budget_m if budget_m is not None else (
+        given.budget_m if given.budget_m is not None else default_budget_m)
     if not budget > 0:
         raise InputError("budget_m: must be > 0")
-    return Sites.from_doc(
-        {"schema": SCHEMA, "version": VERSION, **head, "budget_m": float(budget),
-         "scan": scan.to_doc(), "takeoff_landing_m": scan.takeoff_landing_m(),
-         "sites": rows,
-         "provenance": {"tool": "python/mission.py --sites", "source": str(path),
-                        "total_reward": float(sum(r["reward"] for r in rows)),
-                        "positives": sum(bool(r.get("truth", {}).get("mound"))
-                                         for r in rows)}}, path)
+    sites = tuple(replace(r, scan_cost_m=scan.site_cost_m()) for r in given.sites)
+    return Sites(given.home, given.end, float(budget), sites, given.origin,
+                 scan.takeoff_landing_m(),
+                 {"scan": scan.to_doc(),
+                  "provenance": {"tool": "python/mission.py --sites", "source": str(path),
+                                 "total_reward": float(sum(r.reward for r in sites)),
+                                 "positives": sum(bool(r.truth and r.truth.mound)
+                                                  for r in sites)}})
