@@ -33,7 +33,7 @@ class Model:
         """Mound (target-class) probability of each row of raw 36-column pixel data."""
         return predict_proba(self.w, self.scaler.design(x36[:, self.columns]))
 
-    def to_doc(self) -> dict[str, Any]:
+    def to_doc(self) -> dict[str, object]:
         return {
             "schema": SCHEMA, "version": VERSION,
             "features": {"kind": "all" if self.band is None else "band", "band": self.band,

@@ -73,7 +73,7 @@ class SiteRow:
         """The verdict's own answer (mound, no_mound or undecided), None when not judged."""
         return self.verdict.label if self.verdict and self.ok else None
 
-    def to_doc(self) -> dict[str, Any]:
+    def to_doc(self) -> dict[str, object]:
         doc: dict[str, Any] = {"schema": SCHEMA, "version": VERSION, "id": self.id,
                                "key": self.key, "first_key": self.first_key,
                                "status": self.status, "source": self.source,

@@ -161,7 +161,7 @@ class Sites:
     def with_sites(self, sites: Sequence[Site], **extra: object) -> Sites:
         return replace(self, sites=tuple(sites), extra={**self.extra, **extra})
 
-    def to_doc(self) -> dict[str, Any]:
+    def to_doc(self) -> dict[str, object]:
         doc: dict[str, Any] = {"schema": SCHEMA, "version": VERSION}
         if self.origin is not None:
             doc["origin"] = self.origin.to_doc()

@@ -40,7 +40,7 @@ class SecondLookAdvice:
     scan_factor: float | None = None
     extra: Mapping[str, Any] = field(default_factory=dict)
 
-    def to_doc(self) -> dict[str, Any]:
+    def to_doc(self) -> dict[str, object]:
         return {"advised": self.advised, "scan_factor": self.scan_factor, **self.extra}
 
     @classmethod

@@ -238,7 +238,7 @@ class ScanSpec(FlightLayout):
         per tour."""
         return 2 * self.transit_m()
 
-    def to_doc(self) -> dict[str, Any]:
+    def to_doc(self) -> dict[str, object]:
         doc = asdict(self)
         doc["dist"] = list(self.dist)
         return doc

@@ -108,7 +108,7 @@ class Setting:
 
 
 def make_documents(scan_cost: float, paper: bool, budget: float
-                   ) -> tuple[list[dict[str, Any]], Setting]:
+                   ) -> tuple[list[dict[str, object]], Setting]:
     test = statlog.load("sat.tst")
     train = statlog.load("sat.trn")
     fields = [make_field(test, s) for s in STANDARD_SEEDS]
@@ -117,11 +117,14 @@ def make_documents(scan_cost: float, paper: bool, budget: float
         model, t, _ = paper_classifier(train, test, fields)
     else:
         model = coarse.train(train, coarse.DEFAULT_BAND)
-    docs = [sites_document(f, test, model, scan_cost, budget).to_doc() for f in fields]
-    for d in docs:
-        d["provenance"]["classifier"]["gd_iterations"] = t
-    total = float(np.mean([d["provenance"]["total_reward"] for d in docs]))
-    return docs, Setting(paper, t, total)
+    docs, totals = [], []
+    for f in fields:
+        sites = sites_document(f, test, model, scan_cost, budget)
+        said = sites.extra["provenance"]
+        docs.append(sites.with_sites(sites.sites, provenance={
+            **said, "classifier": {**said["classifier"], "gd_iterations": t}}).to_doc())
+        totals.append(float(said["total_reward"]))
+    return docs, Setting(paper, t, float(np.mean(totals)))
 
 
 def run(scan_cost: float = 1.0, budgets: tuple[float, ...] = BUDGETS,

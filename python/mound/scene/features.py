@@ -142,7 +142,7 @@ class FeatureSpec:
             out += [f"{b}_share" for b in labels]
         return out
 
-    def to_doc(self) -> dict[str, Any]:
+    def to_doc(self) -> dict[str, object]:
         if self.kind == "paper":
             return {"kind": "paper", "resample_m": self.resample_m, "pixels": "3x3"}
         return {"kind": "multiscale", "radii_m": list(self.radii_m),

@@ -134,7 +134,7 @@ class SceneModel:
                              f"at {self.res_m:g} m (resample the scene to within 2/3-1.5x)")
         return out
 
-    def to_doc(self) -> dict[str, Any]:
+    def to_doc(self) -> dict[str, object]:
         return {"schema": SCHEMA, "version": VERSION, "bands": self.bands,
                 "features": {**self.spec.to_doc(), "names": self.spec.names()},
                 "basis": self.basis, "resolution_m": self.res_m,

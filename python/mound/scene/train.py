@@ -328,7 +328,7 @@ class CVResult:
     seconds: float
     maps: dict[str, np.ndarray] = field(default_factory=dict)  # held-out logits kept
 
-    def summary(self) -> dict[str, Any]:
+    def summary(self) -> dict[str, object]:
         aucs = [s.auc for s in self.scenes if s.auc is not None]
         aps = [s.ap for s in self.scenes if s.ap is not None]
         mounds = [m for s in self.scenes for m in s.mounds]

@@ -48,7 +48,7 @@ class Population:
         known = [r.trench for r in self.rows if r.trench is not None]
         return sum(known) / len(known) if known else 0.0
 
-    def summary(self) -> dict[str, Any]:
+    def summary(self) -> dict[str, object]:
         return {"file": self.path, "rows": len(self.rows), "levelled": self.levelled,
                 "trench_share": self.trench_share}
 

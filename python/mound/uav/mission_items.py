@@ -251,7 +251,7 @@ class Mission:
     # With a DEM: home_amsl_m, energy_m, the legs' heights and terrain profiles.
     terrain: dict[str, Any] | None = None
 
-    def summary(self) -> dict[str, Any]:
+    def summary(self) -> dict[str, object]:
         terrain: dict[str, Any] = (
             {"checked": False, "note": "terrain not checked: heights above home, the sites' "
              "ground taken to be at home's height"} if self.terrain is None

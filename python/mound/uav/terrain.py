@@ -66,7 +66,7 @@ class TerrainSpec:
         for name in ("climb_factor", "descent_factor"):
             FACTOR.check(getattr(self, name), f"--{name.replace('_', '-')}")
 
-    def to_doc(self) -> dict[str, Any]:
+    def to_doc(self) -> dict[str, object]:
         return asdict(self)
 
     @classmethod
@@ -289,7 +289,7 @@ def attach(sites: Sites, dem_path: str, spec: TerrainSpec, vertical: str | None,
     nodes, closed = sites_nodes(sites)
     xy = np.array([[n.x_m, n.y_m] for n in nodes])
     dem = open_dem(dem_path, origin, vertical, xy, scan, spec)
-    spec = TerrainSpec(**{**spec.to_doc(), "vertical": dem.vertical})
+    spec = replace(spec, vertical=dem.vertical)
     model = TerrainModel(dem, spec, scan, nodes)
     model.check_scans()
     return replace(sites.with_sites([replace(s, scan_cost_m=model.scan_energy_m)

@@ -3,6 +3,7 @@ says how they are written; uav/terrain.py how they are chosen and what a flight 
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -28,7 +29,7 @@ def build_over_terrain(plan: Plan, origin: Origin, spec: mi.MissionSpec,
     model_nodes = [Node(n.id, n.kind, n.x_m, n.y_m) for n in stops]
     xy = np.array([[n.x_m, n.y_m] for n in model_nodes])
     dem = open_dem(terrain.dem_path, origin, terrain.vertical, xy, scan, tspec)
-    tspec = TerrainSpec(**{**tspec.to_doc(), "vertical": dem.vertical})
+    tspec = replace(tspec, vertical=dem.vertical)
     model = TerrainModel(dem, tspec, scan, model_nodes)
     model.check_scans()
     order = list(range(len(stops))) + ([0] if closed else [])
