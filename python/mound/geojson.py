@@ -7,6 +7,7 @@ the survey's home are written by point_feature_doc."""
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from typing import Any
 
 from mound.errors import InputError
@@ -42,8 +43,8 @@ def point_feature(f: Any, where: str, why: str = "") -> tuple[float, float, dict
     return lon, lat, props
 
 
-def point_feature_doc(lat_lon: tuple[float, float], properties: dict[str, Any],
-                      fid: str | None = None) -> dict[str, Any]:
+def point_feature_doc(lat_lon: tuple[float, float], properties: Mapping[str, object],
+                      fid: str | None = None) -> dict[str, object]:
     """A Point Feature at (lat, lon), WGS84 ([lon, lat] as RFC 7946 orders it), with the
     feature id `fid` where given: what point_feature reads back."""
     return {"type": "Feature", **({"id": fid} if fid is not None else {}),

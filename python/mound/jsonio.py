@@ -104,13 +104,13 @@ def _reject_non_finite(value: Any, where: str) -> None:
             _reject_non_finite(v, f"{where}[{i}]")
 
 
-def json_text(doc: dict[str, Any]) -> str:
+def json_text(doc: Mapping[str, object]) -> str:
     """A document as the project writes JSON; NaN/Infinity are refused (they are not JSON)."""
     _reject_non_finite(doc, "")
     return json.dumps(doc, indent=1, allow_nan=False) + "\n"
 
 
-def write_json(path: str | Path, doc: dict[str, Any]) -> None:
+def write_json(path: str | Path, doc: Mapping[str, object]) -> None:
     """Atomic JSON write; NaN/Infinity are refused (they are not JSON)."""
     write_atomic(path, json_text(doc))
 

@@ -61,7 +61,7 @@ def home_altitude(mission: Mission) -> float:
     return float(mission.terrain["home_amsl_m"]) if mission.terrain else mission.origin.alt_m
 
 
-def plan_document(mission: Mission, firmware: str = "px4") -> dict[str, Any]:
+def plan_document(mission: Mission, firmware: str = "px4") -> dict[str, object]:
     items = []
     for k, it in enumerate(mission.items):
         items.append({
@@ -243,7 +243,7 @@ def _lonlat(origin: Origin, enu: np.ndarray) -> list[list[float]]:
     return [[round(lon, 8), round(lat, 8), round(h - origin.alt_m, 3)] for lat, lon, h in llh]
 
 
-def geojson_document(mission: Mission) -> dict[str, Any]:
+def geojson_document(mission: Mission) -> dict[str, object]:
     o = mission.origin
     features: list[dict[str, Any]] = [{
         "type": "Feature", "properties": {"kind": "flight_path",

@@ -104,7 +104,7 @@ def build_over_terrain(plan: Plan, origin: Origin, spec: mi.MissionSpec,
                       footprints, spec, terrain_doc)
 
 
-def _profile(model: TerrainModel, start: int, pts: np.ndarray, dem: Any) -> dict[str, Any]:
+def _profile(model: TerrainModel, start: int, pts: np.ndarray, dem: Any) -> dict[str, object]:
     """Distance along a leg's horizontal part vs terrain height vs flight height (AMSL):
     from the climb point (pts[start + 1]) to the point over the next site (pts[start + 2])."""
     a, b = pts[start + 1], pts[start + 2]
