@@ -15,23 +15,23 @@ from mound.scene.vector import read_labels
 MIN_SEP_M = 30.0
 
 
-def _by(mounds: list[dict[str, Any]], key: str, k: int = 5) -> dict[str, dict[str, Any]]:
-    out: dict[str, dict[str, Any]] = {}
+def _by(mounds: list[train.KnownMound], key: str, k: int = 5) -> dict[str, dict[str, float]]:
+    """The mounds found in the top k per value of their inventory's `key`."""
+    out: dict[str, dict[str, float]] = {}
     for m in mounds:
-        g = out.setdefault(str(m.get(key)), {"mounds": 0, "found": 0})
+        g = out.setdefault(str(getattr(m, key)), {"mounds": 0, "found": 0})
         g["mounds"] += 1
-        g["found"] += int(m["rank"] is not None and m["rank"] <= k)
+        g["found"] += int(m.found_within(k))
     for g in out.values():
         g[f"recall_at_{k}"] = g["found"] / g["mounds"]
     return out
 
 
-def _offsets(mounds: list[dict[str, Any]], k: int = 5) -> dict[str, Any]:
+def _offsets(mounds: list[train.KnownMound], k: int = 5) -> dict[str, float]:
     """How far the first candidate on each mound found in the top k lies from the
     inventory's point (metres): how closely the coarse search tells a later stage where
     the mound is (the inventory's own points carry their survey's error too)."""
-    d = np.array([m["offset_m"] for m in mounds
-                  if m["rank"] is not None and m["rank"] <= k], dtype=np.float64)
+    d = np.array([m.offset_m for m in mounds if m.found_within(k)], dtype=np.float64)
     if not len(d):
         return {"k": k, "mounds": 0}
     return {"k": k, "mounds": int(len(d)), "median_m": float(np.median(d)),
@@ -72,7 +72,7 @@ def run(scenes: list[str], labels_path: str, *, band_names: list[str] | None = N
             **cv.summary(), "features": spec.to_doc(), "basis": basis,
             "by_visibility": _by(mounds, "visibility"), "by_land_use": _by(mounds, "land_use"),
             "offset_at_5": _offsets(mounds),
-            "per_mound": [{"scene": s.name, **m} for s in cv.scenes for m in s.mounds],
+            "per_mound": [{"scene": s.name, **m.to_doc()} for s in cv.scenes for m in s.mounds],
             "per_scene": [{"scene": s.name, "auc": s.auc, "ap": s.ap,
                            "mounds": len(s.mounds),
                            **{f"recall_at_{k}": v for k, v in s.recall.items()}}

@@ -230,6 +230,26 @@ def roc_auc(score: np.ndarray, y: np.ndarray) -> float:
     return auc(score, y)
 
 
+@dataclass(frozen=True)
+class KnownMound:
+    """A known mound of a held-out scene: the rank of the first candidate within
+    FOUND_RADIUS_M of it (None: none), that candidate's distance from the inventory's point
+    (m), and the inventory's visibility and land use."""
+
+    id: str
+    rank: int | None
+    offset_m: float | None
+    visibility: object = None
+    land_use: object = None
+
+    def found_within(self, k: int) -> bool:
+        return self.rank is not None and self.rank <= k
+
+    def to_doc(self) -> dict[str, object]:
+        return {"id": self.id, "rank": self.rank, "offset_m": self.offset_m,
+                "visibility": self.visibility, "land_use": self.land_use}
+
+
 @dataclass
 class SceneEval:
     name: str
@@ -238,7 +258,7 @@ class SceneEval:
     mound_pixels: int
     background_pixels: int
     recall: dict[int, float | None]
-    mounds: list[dict[str, Any]]                 # per known mound: id, found@k, visibility
+    mounds: list[KnownMound]
     candidates: list[tuple[float, bool]] = field(default_factory=list)  # (logit, true?)
 
 
@@ -261,18 +281,17 @@ def judge_scene(ls: LabelledScene, logit: np.ndarray, grid: scoring.OutGrid,
     cands = scoring.candidates_of_map(p, grid, min_sep_m, max(CANDIDATES_PER_SCENE,
                                                               max(RECALL_KS)))
     cxy = np.array([grid.centre(np.array(r), np.array(c)) for _, r, c in cands]).reshape(-1, 2)
-    mounds: list[dict[str, Any]] = []
+    mounds: list[KnownMound] = []
     for j, (mx, my) in zip(ls.mound_ids, ls.mound_xy, strict=True):
         dist = np.hypot(cxy[:, 0] - mx, cxy[:, 1] - my) if len(cxy) else np.zeros(0)
         first = next((i + 1 for i, dd in enumerate(dist) if dd <= FOUND_RADIUS_M), None)
         # How far that candidate lies from the inventory's point (metres): the place a
         # later stage is told, to within this.
         offset = None if first is None else round(float(dist[first - 1]), 2)
-        mounds.append({"id": labels[j].id, "rank": first, "offset_m": offset,
-                       "visibility": labels[j].props.get("visibility"),
-                       "land_use": labels[j].props.get("land_use")})
-    recall = {k: (float(np.mean([m["rank"] is not None and int(m["rank"]) <= k
-                                  for m in mounds]))
+        mounds.append(KnownMound(labels[j].id, first, offset,
+                                 labels[j].props.get("visibility"),
+                                 labels[j].props.get("land_use")))
+    recall = {k: (float(np.mean([m.found_within(k) for m in mounds]))
                   if mounds else None) for k in RECALL_KS}
     tree = cKDTree(ls.all_mound_xy) if len(ls.all_mound_xy) else None
     judged = []
@@ -339,8 +358,8 @@ class CVResult:
             "auc_median": float(np.median(aucs)) if aucs else None,
             "ap_mean": float(np.mean(aps)) if aps else None}
         for k in RECALL_KS:
-            out[f"recall_at_{k}"] = (float(np.mean([m["rank"] is not None and m["rank"] <= k
-                                                    for m in mounds])) if mounds else None)
+            out[f"recall_at_{k}"] = (float(np.mean([m.found_within(k) for m in mounds]))
+                                     if mounds else None)
         cands = [c for s in self.scenes for c in s.candidates]
         if cands:
             lg = np.array([c[0] for c in cands])
