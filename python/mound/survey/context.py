@@ -9,6 +9,7 @@ import functools
 import os
 import time
 import uuid
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -40,7 +41,7 @@ class Context:
     run_id: str = field(default_factory=lambda: uuid.uuid4().hex)
 
     @functools.cached_property
-    def terrain(self) -> dict[str, Any] | None:
+    def terrain(self) -> dict[str, object] | None:
         """What the terrain makes of a stage (the DEM's bytes, hashed once per run, and every
         terrain option); None without --dem."""
         return terrain_material(self.args)
@@ -49,7 +50,7 @@ class Context:
         print(text, flush=True)
 
 
-def run_stage(ctx: Context, name: str, material: dict[str, Any], work: Any) -> str:
+def run_stage(ctx: Context, name: str, material: Mapping[str, object], work: Any) -> str:
     """Runs `work()` -> (outputs relative to the run directory, a one-line note) unless the
     ledger holds this stage with the same key and its outputs; records it."""
     key = digest({"stage": name, **material})
@@ -88,7 +89,7 @@ def scan_spec(args: SurveyOptions) -> Any:
     return scan
 
 
-def terrain_material(a: SurveyOptions) -> dict[str, Any] | None:
+def terrain_material(a: SurveyOptions) -> dict[str, object] | None:
     """What the terrain makes of a stage (the DEM's bytes and every terrain option)."""
     if not a.dem:
         return None

@@ -119,7 +119,7 @@ def stage_field(ctx: Context) -> str:
     a = ctx.args
     scan = scan_spec(a)
     if a.scene:
-        material: dict[str, Any] = {
+        material: dict[str, object] = {
             "classify": ctx.keys["classify"], "scan": scan.to_doc(), "budget": a.budget,
             "labels": digest_files([a.labels]) if a.labels else None, "home": a.home,
             "aoi": digest_files([a.aoi]) if a.aoi else None, "n": a.candidates,
