@@ -28,7 +28,7 @@ def lonlat(c: Any, where: str) -> tuple[float, float]:
     return float(lon), float(lat)
 
 
-def point_feature(f: Any, where: str, why: str = "") -> tuple[float, float, dict[str, Any]]:
+def point_feature(f: Any, where: str, why: str = "") -> tuple[float, float, Mapping[str, object]]:
     """(lon, lat, properties) of a Point Feature; `why` follows "expected a Point" in the
     message when the geometry is another."""
     if not isinstance(f, dict) or f.get("type") != "Feature":

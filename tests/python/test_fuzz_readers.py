@@ -516,7 +516,7 @@ def _judge_with_model(path: Path) -> None:
     from mound.recon.model_file import read_verdict_model
 
     model = read_verdict_model(path)
-    rows = [vm.rises_of([{"features": dict(zip(model["features"], f, strict=True))}
+    rows = [vm.rises_of([{"features": dict(zip(model.features, f, strict=True))}
                          for f in np.random.default_rng(k).normal(0, 3, (3, 25)).tolist()],
                         "rises") for k in range(3)] + [()]
     p = vm.probability(model, rows)

@@ -20,7 +20,7 @@ from mound.cli import main as mound_main
 from mound.paths import build_dir
 from mound.scene import kernel
 from mound.scene.features import FeatureSpec
-from mound.scene.model import SceneModel
+from mound.scene.model import Band, SceneModel
 
 
 def _block(rng: np.random.Generator, bands: int, rows: int, cols: int) -> np.ndarray:
@@ -43,8 +43,7 @@ def _model(spec: FeatureSpec, basis: str, rng: np.random.Generator, x: np.ndarra
     mean, std = x[ok].mean(axis=0), x[ok].std(axis=0) * 0.3 + 1e-3  # some cells clip
     n = len(spec.names())
     w = rng.standard_normal(n * (3 if basis == "hinge" else 1) + 1)
-    return SceneModel(bands=[{"index": k + 1, "name": b} for k, b in
-                             enumerate(spec.band_labels)],
+    return SceneModel(bands=[Band(k + 1, b) for k, b in enumerate(spec.band_labels)],
                       spec=spec, basis=basis, scaler=Standardizer(mean, std), w=w, res_m=1.0)
 
 

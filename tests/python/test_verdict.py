@@ -81,14 +81,15 @@ def test_the_verdict_model_file_round_trips(tumulus: tuple[Path, Path], tmp_path
     """The shipped model, written out and read back by mound_recon, gives the p that the
     Python side computes from the detector's features; a changed weight changes it as
     predicted; models for other features or with bad fields are refused naming the field."""
-    from mound.recon.verdict_model import probability, rises_of
+    from mound.recon.verdict_model import VerdictModel, probability, rises_of
 
     _, recon = tumulus
     r = run_recon(["verdict", str(recon), "--out", str(tmp_path / "d.json")])
     assert r.returncode == 0, r.stderr
     default = json.loads((tmp_path / "d.json").read_text())
     row = rises_of(default["measurements"]["judged_rises"], "d.json")
-    assert default["p_mound"] == pytest.approx(probability(DEFAULT_MODEL, [row])[0], abs=1e-12)
+    assert default["p_mound"] == pytest.approx(
+        probability(VerdictModel.of(DEFAULT_MODEL), [row])[0], abs=1e-12)
     assert default["model"]["file"].startswith("built-in sparse")
     # another cloud (--cloud: densify's) is judged by the dense model unless --model says
     # otherwise; the same cloud gives the same rises, so the p differ by the model alone
@@ -98,7 +99,8 @@ def test_the_verdict_model_file_round_trips(tumulus: tuple[Path, Path], tmp_path
     dense = json.loads((tmp_path / "dd.json").read_text())
     assert dense["model"]["file"].startswith("built-in dense")
     assert dense["model"]["threshold"] == DENSE_MODEL["threshold"]
-    assert dense["p_mound"] == pytest.approx(probability(DENSE_MODEL, [row])[0], abs=1e-12)
+    assert dense["p_mound"] == pytest.approx(
+        probability(VerdictModel.of(DENSE_MODEL), [row])[0], abs=1e-12)
     r = run_recon(["verdict", str(recon), "--out", str(tmp_path / "ds.json"), *cloud,
                    "--model", "sparse"])
     assert r.returncode == 0, r.stderr
@@ -111,7 +113,7 @@ def test_the_verdict_model_file_round_trips(tumulus: tuple[Path, Path], tmp_path
                    str(tmp_path / "m.json")])
     assert r.returncode == 0, r.stderr
     c = json.loads((tmp_path / "c.json").read_text())
-    assert c["p_mound"] == pytest.approx(probability(changed, [row])[0], abs=1e-12)
+    assert c["p_mound"] == pytest.approx(probability(VerdictModel.of(changed), [row])[0], abs=1e-12)
     # the other weights moved the score (its log-odds: a clear tumulus's p is near 1, where
     # p itself hardly moves)
     assert abs(math.log(c["p_mound"] / (1 - c["p_mound"]))

@@ -14,7 +14,7 @@ from mound.errors import InputError
 from mound.grids import run as grid_run
 from mound.recon import verdict_band as vb
 from mound.recon.grid_site import sites_of
-from mound.recon.model_file import label_of
+from mound.recon.model_file import VerdictModel, label_of
 from mound.sim import draws, looks, terrain
 from mound.sim.dem_places import DemPlaces
 from mound.sim.population import parse_population, read_population
@@ -82,11 +82,12 @@ def test_a_model_without_a_band_gives_two_answers_and_one_with_it_three() -> Non
                        .read_text())
     assert "undecided" not in model  # the shipped model of today
     t = model["threshold"]
-    assert label_of(model, t) == "mound" and label_of(model, t - 1e-9) == "no_mound"
-    model["undecided"] = {"p_low": 0.2, "p_high": 0.9}
-    assert [label_of(model, q) for q in (0.1, 0.2, 0.89, 0.9)] == [
+    two = VerdictModel.of(model)
+    assert label_of(two, t) == "mound" and label_of(two, t - 1e-9) == "no_mound"
+    three = VerdictModel.of({**model, "undecided": {"p_low": 0.2, "p_high": 0.9}})
+    assert [label_of(three, q) for q in (0.1, 0.2, 0.89, 0.9)] == [
         "no_mound", "undecided", "undecided", "mound"]
-    assert label_of(model, 0.5, two_answer_at=0.5) == "mound"  # the paper's protocol
+    assert label_of(three, 0.5, two_answer_at=0.5) == "mound"  # the paper's protocol
 
 
 # ------------------------------------------------------------------- the population

@@ -31,6 +31,11 @@ from mound.sim import terrain
 NAMES = ["a", "b", "c"]
 
 
+def _m(doc: dict[str, Any]) -> vm.VerdictModel:
+    """The model of a document (train's, or written here) as the scoring takes it."""
+    return vm.VerdictModel.of(doc)
+
+
 def _site(k: int, f: dict[str, float], mound: bool) -> dict[str, Any]:
     """A measured site of one rise with features `f` (a 3 m x 20 m cone when a mound)."""
     return {"dir": f"{k:04d}", "measured": True, "grid": "g", "features": f,
@@ -65,7 +70,7 @@ def test_training_recovers_a_known_model_with_calibrated_probabilities() -> None
     w = np.array(model["weights"]) / np.array(model["std"])  # per raw unit
     assert w == pytest.approx([2.0, -1.0, 0.0], abs=0.25)
     held = synthetic(3000, 2)
-    p = vm.probability(model, [r.rises for r in held if r.rises])
+    p = vm.probability(_m(model), [r.rises for r in held if r.rises])
     y = np.array([r.truth.mound for r in held if r.rises], float)
     assert expected_calibration_error(p, y) < 0.03
     assert model["p_no_rise"] == pytest.approx((38 + 1) / (150 + 2))
@@ -74,11 +79,11 @@ def test_training_recovers_a_known_model_with_calibrated_probabilities() -> None
     assert oof["false_alarm_rate"] <= vm.MAX_FA
     # calibration and threshold from the out-of-fold scores of every split into folds
     assert model["trained"]["cv_repeats"] == vm.CV_REPEATS > 1
-    report = vm.evaluate(model, held)
+    report = vm.evaluate(_m(model), held)
     assert report["measured"] == len(held)
     neg = [r for r in held if not r.truth.mound]
     assert report["goal_no_mound"]["sites"] == len(neg)
-    p_held = vm.probability(model, [r.rises for r in held])
+    p_held = vm.probability(_m(model), [r.rises for r in held])
     labels = p_held >= model["threshold"]
     assert report["accuracy"] == pytest.approx(np.mean(
         labels == np.array([r.truth.mound for r in held])))
@@ -117,10 +122,10 @@ def test_the_goal_s_tumuli_are_counted_apart_by_how_they_stand_of_their_ground()
     for part in ("clear", "masked"):
         assert 0 < oof[part]["found"] <= oof[part]["sites"]
     held = _with_relief(synthetic(1000, 2))
-    report = vm.evaluate(model, held)
+    report = vm.evaluate(_m(model), held)
     goal = report["goal_mounds_2m_15m"]
     by = goal["by_ground"]
-    lab = vm.probability(model, [r.rises for r in held]) >= model["threshold"]
+    lab = vm.probability(_m(model), [r.rises for r in held]) >= model["threshold"]
     for part, want in (("clear", True), ("masked", False)):
         idx = [k for k, r in enumerate(held) if vd.goal_tumulus(r.truth)
                and vm.stands_clear(r.relief) is want]
@@ -142,13 +147,13 @@ def test_a_beta_calibration_recovers_a_map_that_platt_cannot_follow() -> None:
     calibrated where Platt is not; a model file's bad calibration is refused, naming it."""
     rng = np.random.default_rng(5)
     u = rng.normal(0.0, 3.0, 40_000)
-    true = {"method": "beta", "a": 0.4, "b": 2.0, "c": -1.6}
+    true = vf.Beta(0.4, 2.0, -1.6)
     y = rng.random(len(u)) < expit(vf._calibrated(u, true))
-    ident = {"method": "beta", "a": 1.0, "b": 1.0, "c": 0.0}
+    ident = vf.Beta(1.0, 1.0, 0.0)
     assert vf._calibrated(u, ident) == pytest.approx(u, abs=1e-9)
     assert vf._calibrated(np.array([-np.inf]), true)[0] == -np.inf
     fit = vf._fit_beta(u[:20_000], y[:20_000])
-    assert [fit["a"], fit["b"], fit["c"]] == pytest.approx([0.4, 2.0, -1.6], abs=0.15)
+    assert [fit.a, fit.b, fit.c] == pytest.approx([0.4, 2.0, -1.6], abs=0.15)
     a, b = vf._platt(u[:20_000], y[:20_000])
     held_u, held_y = u[20_000:], y[20_000:]
     p_beta, p_platt = expit(vf._calibrated(held_u, fit)), expit(a * held_u + b)
@@ -205,7 +210,7 @@ def test_the_sites_multiple_instance_loss_is_chosen_where_few_rises_decide() -> 
     held = many_rises(2000, 11)
     plain = vm.train(many_rises(600, 1), NAMES, ["g"], mil_mixes=(0.0,))
     assert plain["trained"]["mil"] == 0
-    ours, theirs = vm.evaluate(model, held), vm.evaluate(plain, held)
+    ours, theirs = vm.evaluate(_m(model), held), vm.evaluate(_m(plain), held)
     assert ours["brier"] < theirs["brier"] and ours["auc"] > theirs["auc"]
 
 
@@ -237,24 +242,24 @@ def test_a_second_look_decides_the_sites_the_first_leaves_undecided() -> None:
     assert o["false_alarms"] <= vm.MAX_FA * o["negatives"]
     assert 0 < o["flights"] < 2000 / 2
     held = two_looks(2000, 4)
-    report = vm.evaluate(model, held)
+    report = vm.evaluate(_m(model), held)
     two = report["two_looks"]
     assert two["flown"] == two["band"] > 0 and not two["not_flown"]
     assert two["accuracy"] > report["accuracy"]
     assert two["goal_mounds_2m_15m"]["right"] > report["goal_mounds_2m_15m"]["right"]
     assert two["goal_no_mound"]["rate"] <= 2 * vm.MAX_FA
     assert two["calibration"]["p_value"] > 0.01  # the second look's p is calibrated too
-    p1 = vm.probability(model, [r.rises for r in held])
+    p1 = vm.probability(_m(model), [r.rises for r in held])
     for s in two["second_looks"]:
         k = int(s["dir"])
         assert sl["p_low"] <= p1[k] < model["threshold"]
         assert s["p_second"] == pytest.approx(float(vm.second_look_p(
-            model, p1[k], vm.probability(model, [held[k].second or ()])[0])))
+            _m(model), p1[k], vm.probability(_m(model), [held[k].second or ()])[0])))
         assert s["label"] == (s["p_second"] >= sl["threshold"])
     # a site in the band whose second look was not flown keeps its first verdict
     k = two["second_looks"][0]["dir"]
     held = [replace(r, second=None) if r.dir == k else r for r in held]
-    again = vm.evaluate(model, held)["two_looks"]
+    again = vm.evaluate(_m(model), held)["two_looks"]
     assert again["not_flown"] == [k] and again["flown"] == two["flown"] - 1
     assert "second_look_not_kept" not in model["trained"]
     # the informative second look, judged nested (each fold by the threshold and the rule
@@ -313,11 +318,11 @@ def test_z_clip_scores_a_feature_beyond_the_data_as_one_at_the_bound() -> None:
     standardised feature bounded before the basis; the hinge's extrapolation stops there."""
     model = {"features": NAMES, "mean": [0.0, 1.0, 5.0], "std": [1.0, 2.0, 1.0],
              "basis": "hinge", "weights": [1.0, 0, 0, 0.5, 0, 0, 0, 0, 0], "bias": -1.0,
-             "p_no_rise": 0.1, "z_clip": 3.0}
+             "p_no_rise": 0.1, "z_clip": 3.0, "threshold": 0.5}
 
     def p_at(a: float, m: dict[str, Any]) -> float:
         rises = vm.rises_of([{"features": {"a": a, "b": 1.0, "c": 5.0}}], "test")
-        return float(vm.probability(m, [rises])[0])
+        return float(vm.probability(_m(m), [rises])[0])
 
     def sigma(s: float) -> float:
         return float(1 / (1 + np.exp(-s)))
@@ -339,13 +344,13 @@ def test_products_of_the_rise_s_form_score_as_the_tool_does() -> None:
     model = {"features": names, "mean": [0.0] * 4, "std": [1.0] * 4,
              "basis": "hinge_products", "products": [["log_height", "log_diameter"]],
              "product_clip": vm.PRODUCT_CLIP, "weights": [0.0] * 12 + [0.5], "bias": -1.0,
-             "p_no_rise": 0.1}
+             "p_no_rise": 0.1, "threshold": 0.5}
     row = vm.rises_of([{"features": {"roughness": 0.0, "x": 0.0, "log_height": 2.0,
                                      "log_diameter": 5.0}}], "test")
-    assert vm.probability(model, [row])[0] == pytest.approx(
+    assert vm.probability(_m(model), [row])[0] == pytest.approx(
         1 / (1 + np.exp(-(-1 + 0.5 * 2.0 * 3.0))))
     # the file's product_clip, as the C++ VerdictModel takes it
-    assert vm.probability({**model, "product_clip": 2.0}, [row])[0] == pytest.approx(
+    assert vm.probability(_m({**model, "product_clip": 2.0}), [row])[0] == pytest.approx(
         1 / (1 + np.exp(-(-1 + 0.5 * 2.0 * 2.0))))
 
 
@@ -461,7 +466,7 @@ def test_each_shape_and_confuser_is_decided_right(name: str, tmp_path: Path,
     for doc, model in ((v, "verdict_model.json"), (d, "verdict_model_dense.json")):
         m = json.loads((root / model).read_text())
         row = vm.rises_of(doc["measurements"]["judged_rises"], "verdict.json")
-        assert vm.probability(m, [row])[0] == pytest.approx(doc["p_mound"], abs=1e-9)
+        assert vm.probability(_m(m), [row])[0] == pytest.approx(doc["p_mound"], abs=1e-9)
 
 
 @pytest.mark.slow

@@ -55,7 +55,7 @@ def cmd_recon_train_verdict(args: argparse.Namespace) -> int:
           f"called mound, {o['undecided']:.1f} of {o['sites']} sites undecided")
     if args.heldout:
         held = [r for g in args.heldout for r in vm.load_grid(g, args.second_look_kind)]
-        report = vm.evaluate(model, held)
+        report = vm.evaluate(vm.VerdictModel.of(model), held)
         model["heldout"] = {k: report[k] for k in (
             "sites", "measured", "accuracy", "false_alarm_rate", "missed_rate", "auc",
             "brier", "ece", "calibration", "goal_mounds_2m_15m", "goal_no_mound",

@@ -22,8 +22,10 @@ Fields (n = the detector's 25 features, in any order, each once):
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 from mound.errors import InputError
 from mound.jsonio import load_json
@@ -39,6 +41,66 @@ DETECTOR_FEATURES = (
     "flank_slope", "clipped", "outside", "offset", "log_snr", "coverage", "log_rises",
     "site_sag", "site_ridge", "roughness", "ring_high", "ring_spread", "ground_slope",
     "shape_cone", "shape_drum", "flat_top", "point_top", "point_spread")
+
+
+class Beta(NamedTuple):
+    """The beta calibration of the Platt logit u: logit p = b softplus(u) - a softplus(-u)
+    + c (verdict_fit._calibrated)."""
+
+    a: float
+    b: float
+    c: float
+
+
+@dataclass(frozen=True)
+class SecondLookRule:
+    """Fly again the sites whose first p lies in [p_low, threshold of the model); the second
+    look's p = sigmoid(first logit p1 + second logit p2 + bias), a mound from `threshold`."""
+
+    p_low: float
+    threshold: float
+    scan_factor: float
+    first: float
+    second: float
+    bias: float
+
+
+@dataclass(frozen=True)
+class VerdictModel:
+    """A verdict model as the Python side scores with it (the fields of the module text);
+    `of` takes a valid document: check_verdict_model's, or verdict_fit.train's own."""
+
+    features: tuple[str, ...]
+    mean: tuple[float, ...]
+    std: tuple[float, ...]
+    weights: tuple[float, ...]
+    bias: float
+    threshold: float
+    p_no_rise: float
+    basis: str = "linear"
+    z_clip: float | None = None
+    products: tuple[tuple[str, str], ...] = ()
+    product_clip: float | None = None
+    calibration: Beta | None = None
+    second_look: SecondLookRule | None = None
+    undecided: tuple[float, float] | None = None  # the band [p_low, p_high)
+
+    @classmethod
+    def of(cls, doc: Mapping[str, Any]) -> VerdictModel:
+        cal, sl, band = doc.get("calibration"), doc.get("second_look"), doc.get("undecided")
+        z_clip, clip = doc.get("z_clip"), doc.get("product_clip")
+        return cls(
+            tuple(str(n) for n in doc["features"]), tuple(float(x) for x in doc["mean"]),
+            tuple(float(x) for x in doc["std"]), tuple(float(x) for x in doc["weights"]),
+            float(doc["bias"]), float(doc["threshold"]), float(doc["p_no_rise"]),
+            str(doc.get("basis", "linear")), None if z_clip is None else float(z_clip),
+            tuple((str(i), str(j)) for i, j in doc.get("products", [])),
+            None if clip is None else float(clip),
+            Beta(float(cal["a"]), float(cal["b"]), float(cal["c"])) if cal else None,
+            SecondLookRule(*(float(sl[k]) for k in ("p_low", "threshold", "scan_factor")),
+                           *(float(sl["combine"][k]) for k in ("first", "second", "bias")))
+            if sl else None,
+            (float(band["p_low"]), float(band["p_high"])) if band else None)
 
 
 def _is_number(v: Any) -> bool:
@@ -69,9 +131,9 @@ def _object(doc: dict[str, Any], key: str) -> dict[str, Any] | None:
     return v if isinstance(v, dict) else None
 
 
-def check_verdict_model(doc: Any, source: str) -> dict[str, Any]:
-    """`doc` if it is a valid verdict model, else InputError naming `source` and the field
-    (the C++ reader's checks, in its order)."""
+def check_verdict_model(doc: Any, source: str) -> VerdictModel:
+    """The model of `doc` if it is a valid verdict model, else InputError naming `source`
+    and the field (the C++ reader's checks, in its order)."""
     if not isinstance(doc, dict):
         raise InputError(f"{source}: expected a JSON object")
     if doc.get("schema") != SCHEMA:
@@ -164,22 +226,21 @@ def check_verdict_model(doc: Any, source: str) -> dict[str, Any]:
         lo, hi = (_number(u, k, at) for k in ("p_low", "p_high"))
         if not 0 < lo <= hi < 1:
             raise InputError(f"{at}: p_low, p_high: must be 0 < p_low <= p_high < 1")
-    return doc
+    return VerdictModel.of(doc)
 
 
-def label_of(model: dict[str, Any], p: float, two_answer_at: float | None = None) -> str:
+def label_of(model: VerdictModel, p: float, two_answer_at: float | None = None) -> str:
     """The answer of a (checked) model for p: by its undecided band, "no_mound" below it,
     "undecided" in [p_low, p_high), "mound" from p_high; without a band (or with
     `two_answer_at` given, the paper's protocol) "mound" at p >= that threshold (default
     the model's): VerdictModel::Label."""
-    band = model.get("undecided")
+    band = model.undecided
     if band is not None and two_answer_at is None:
-        return ("mound" if p >= band["p_high"] else "no_mound" if p < band["p_low"]
-                else "undecided")
-    at = model["threshold"] if two_answer_at is None else two_answer_at
+        return "mound" if p >= band[1] else "no_mound" if p < band[0] else "undecided"
+    at = model.threshold if two_answer_at is None else two_answer_at
     return "mound" if p >= at else "no_mound"
 
 
-def read_verdict_model(path: str | Path) -> dict[str, Any]:
+def read_verdict_model(path: str | Path) -> VerdictModel:
     """The verdict model in `path`, checked (InputError naming the file and field)."""
     return check_verdict_model(load_json(path), str(path))

@@ -21,6 +21,7 @@ from mound.classify.metrics import (
 from mound.errors import InputError
 from mound.jsonio import read_json
 from mound.recon.grid_site import GridSite
+from mound.recon.model_file import VerdictModel
 from mound.recon.verdict_band import three_answers
 from mound.recon.verdict_data import (
     CLEAR_OF_GROUND,
@@ -89,10 +90,10 @@ def _goal_rates(lab: np.ndarray, big: list[int], neg: list[int],
                               "rate_95ci": _interval(fa, len(neg))}}
 
 
-def evaluate(model: dict[str, Any], rows: list[GridSite]) -> dict[str, Any]:
+def evaluate(model: VerdictModel, rows: list[GridSite]) -> dict[str, Any]:
     measured = [r for r in rows if r.measured]
     p = probability(model, [r.rises for r in measured])
-    thr = model["threshold"]
+    thr = model.threshold
     y = np.array([r.truth.mound for r in measured])
     lab = p >= thr
     old = np.array([_old_rule(r) for r in measured])
@@ -145,31 +146,32 @@ def evaluate(model: dict[str, Any], rows: list[GridSite]) -> dict[str, Any]:
         "errors": [{"dir": measured[k].dir, "truth": measured[k].truth.to_doc(),
                     "p_mound": float(p[k])} for k in range(len(y)) if lab[k] != y[k]],
         **({"two_looks": two_looks(model, measured, p, big, neg)}
-           if model.get("second_look") else {}),
+           if model.second_look else {}),
         **({"three_answers": three_answers(
             p, measured,
-            (model["undecided"]["p_low"], model["undecided"]["p_high"]), thr)}
-           if model.get("undecided") else {}),
+            model.undecided, thr)} if model.undecided else {}),
     }
 
 
-def two_looks(model: dict[str, Any], measured: list[GridSite], p: np.ndarray,
+def two_looks(model: VerdictModel, measured: list[GridSite], p: np.ndarray,
               big: list[int], neg: list[int]) -> dict[str, Any]:
     """The verdict with the second look: each site whose first p lies in [p_low, threshold)
     decided by its second flight (NNNN/second/), at the second look's calibration and
     threshold; a site in the band without one keeps its first verdict (`not_flown`)."""
-    sl = model["second_look"]
-    thr = model["threshold"]
+    sl = model.second_look
+    if sl is None:
+        raise ValueError("two_looks: the model has no second look")
+    thr = model.threshold
     y = np.array([r.truth.mound for r in measured])
     final_p, lab = p.copy(), p >= thr
-    band = [k for k in range(len(p)) if sl["p_low"] <= p[k] < thr]
+    band = [k for k in range(len(p)) if sl.p_low <= p[k] < thr]
     flown = [k for k in band if measured[k].second is not None]
     if flown:
         p2 = second_look_p(model, p[flown],
                            probability(model, [measured[k].second or () for k in flown]))
         for k, q in zip(flown, p2, strict=True):
-            final_p[k], lab[k] = q, q >= sl["threshold"]
-    return {"p_low": sl["p_low"], "threshold": sl["threshold"],
+            final_p[k], lab[k] = q, q >= sl.threshold
+    return {"p_low": sl.p_low, "threshold": sl.threshold,
             "band": len(band), "flown": len(flown),
             "not_flown": [measured[k].dir for k in band if k not in flown],
             **_goal_rates(lab, big, neg, measured),
@@ -184,7 +186,7 @@ def two_looks(model: dict[str, Any], measured: list[GridSite], p: np.ndarray,
                        for k in range(len(y)) if lab[k] != y[k]]}
 
 
-def paper_agreement(folder: str | Path, model: dict[str, Any], work: str | Path,
+def paper_agreement(folder: str | Path, model: VerdictModel, work: str | Path,
                     limit: int | None = None) -> dict[str, Any]:
     """The paper's test (`mound_recon verdict --reference`) beside the learned verdict on the
     sites of a grid. The reference is what a tumulus there should look like: the site's own
@@ -225,7 +227,7 @@ def paper_agreement(folder: str | Path, model: dict[str, Any], work: str | Path,
         paper = doc.get("label") if doc.get("status") == "ok" else "failed"
         sites.append({"dir": row.dir, "truth": row.truth.mound,
                       "kind": row.truth.kind, "paper": paper,
-                      "learned": "mound" if q >= model["threshold"] else "no_mound"})
+                      "learned": "mound" if q >= model.threshold else "no_mound"})
         ref.unlink()
     judged = [s for s in sites if s["paper"] != "failed"]
     return {

@@ -21,6 +21,7 @@ from mound.classify.metrics import (
 )
 from mound.errors import InputError
 from mound.recon.grid_site import GridSite, Rise
+from mound.recon.model_file import Beta, VerdictModel
 from mound.recon.verdict_band import band_doc, band_goal
 from mound.recon.verdict_data import (
     GROUND_CLASSES,
@@ -139,20 +140,20 @@ def _log_loss(p: np.ndarray, y: np.ndarray) -> float:
                                    np.log(np.clip(1 - p, 1e-12, 1)))))
 
 
-def _calibrated(u: np.ndarray, cal: dict[str, Any] | None) -> np.ndarray:
+def _calibrated(u: np.ndarray | float, cal: Beta | None) -> np.ndarray:
     """The logit of p from the Platt logit u (the model's score): with the file's
-    "calibration" {"method": "beta", "a", "b", "c"}, Kull et al.'s beta calibration of
+    "calibration" {"method": "beta", "a", "b", "c"} (`cal`), Kull et al.'s beta calibration of
     q = sigmoid(u), logit p = a ln q - b ln(1 - q) + c = b softplus(u) - a softplus(-u) + c
     (a, b >= 0, a + b > 0: increasing in u; a = b = 1, c = 0 the identity); without, u."""
     u = np.asarray(u, dtype=float)
     if not cal:
         return u
     with np.errstate(invalid="ignore"):  # -inf (no rise): -inf, as without
-        out = (cal["b"] * np.logaddexp(0.0, u) - cal["a"] * np.logaddexp(0.0, -u) + cal["c"])
+        out = (cal.b * np.logaddexp(0.0, u) - cal.a * np.logaddexp(0.0, -u) + cal.c)
     return np.where(np.isneginf(u), -np.inf, np.where(np.isposinf(u), np.inf, out))
 
 
-def _fit_beta(u: np.ndarray, y: np.ndarray) -> dict[str, Any]:
+def _fit_beta(u: np.ndarray, y: np.ndarray) -> Beta:
     """Beta calibration (see _calibrated) of the Platt logits u by maximum likelihood, a and
     b held >= 0 (L-BFGS-B, from the identity)."""
     from scipy.optimize import minimize
@@ -173,7 +174,7 @@ def _fit_beta(u: np.ndarray, y: np.ndarray) -> dict[str, Any]:
     if not a + b > 0:
         raise InputError("train-verdict: the beta calibration found no increasing map of the "
                          "scores (a = b = 0): more or other training sites are needed")
-    return {"method": "beta", "a": a, "b": b, "c": c}
+    return Beta(a, b, c)
 
 
 def _site_scores(z: np.ndarray, site_of: np.ndarray, n_sites: int, w: np.ndarray,
@@ -347,7 +348,7 @@ def train(rows: list[GridSite], names: list[str], sources: list[str],
         **({"products": [[names[i], names[j]] for i, j in d.pairs],
             "product_clip": PRODUCT_CLIP} if basis == "hinge_products" else {}),
         "weights": (a * w[:-1]).tolist(), "bias": float(a * w[-1] + b),
-        "calibration": cal,
+        "calibration": {"method": "beta", **cal._asdict()},
         "threshold": thr, "p_no_rise": (m_nr + 1) / (n_nr + 2),
         **({"second_look": second} if second else {}),
         "undecided": undecided,
@@ -392,24 +393,23 @@ def _threshold(p_neg: np.ndarray) -> float:
     return thr
 
 
-def probability(model: dict[str, Any], rises: Sequence[Sequence[Rise]]) -> np.ndarray:
+def probability(model: VerdictModel, rises: Sequence[Sequence[Rise]]) -> np.ndarray:
     """p(mound) of each site by its judged rises: the same formula as the C++ VerdictModel
     (the highest over its rises; p_no_rise without one). `model` is valid (model_file's
     reader, or train's own)."""
-    names = model["features"]
-    mean, std = np.array(model["mean"]), np.array(model["std"])
-    w = np.array(model["weights"])
-    basis = model.get("basis", "linear")
-    z_clip = model.get("z_clip")
-    pairs = tuple((names.index(i), names.index(j)) for i, j in model.get("products", []))
-    clip = float(model.get("product_clip", PRODUCT_CLIP))
-    cal = model.get("calibration")
+    names = model.features
+    mean, std = np.array(model.mean), np.array(model.std)
+    w = np.array(model.weights)
+    basis, z_clip = model.basis, model.z_clip
+    pairs = tuple((names.index(i), names.index(j)) for i, j in model.products)
+    clip = PRODUCT_CLIP if model.product_clip is None else model.product_clip
+    cal = model.calibration
     out = np.empty(len(rises))
     for k, site in enumerate(rises):
         if not site:
-            out[k] = model["p_no_rise"]
+            out[k] = model.p_no_rise
             continue
         f = np.array([[q.features[n] for n in names] for q in site])
-        out[k] = expit(_calibrated(model["bias"] + float(np.max(
+        out[k] = expit(_calibrated(model.bias + float(np.max(
             expand((f - mean) / std, basis, z_clip, pairs, clip) @ w)), cal))
     return out

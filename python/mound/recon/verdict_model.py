@@ -41,6 +41,7 @@ verdict_fit (basis, fit, calibration, threshold, `train`, `probability`), verdic
 from __future__ import annotations
 
 from mound.recon.grid_site import GridSite, Rise, SiteTruth, rises_of, sites_of
+from mound.recon.model_file import VerdictModel
 from mound.recon.verdict_data import (
     CLEAR_OF_GROUND,
     MAX_FA,
@@ -71,7 +72,7 @@ from mound.sim.looks import SECOND_LOOK_FACTOR
 
 __all__ = [
     "BASES", "CLEAR_OF_GROUND", "CV_REPEATS", "GridSite", "MAX_FA", "MIL_MIXES", "MIL_TAU",
-    "PRODUCT_CLIP", "Rise", "SiteTruth", "rises_of", "sites_of",
+    "PRODUCT_CLIP", "Rise", "SiteTruth", "VerdictModel", "rises_of", "sites_of",
     "SCHEMA", "SECOND_LOOK_FACTOR", "SECOND_LOOK_FOLDS", "VERSION", "detection_figure",
     "evaluate", "feature_names_of", "figure", "grid_cloud", "grid_label", "load_grid",
     "paper_agreement", "probability", "product_pairs", "rise_labels", "second_look_p",

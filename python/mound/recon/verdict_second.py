@@ -11,6 +11,7 @@ import numpy as np
 from scipy.special import expit, logit
 
 from mound.classify import logistic
+from mound.recon.model_file import VerdictModel
 from mound.recon.verdict_data import MAX_FA, Rule, _folds, _found_by_ground
 from mound.sim.looks import SECOND_LOOK_FACTOR, SECOND_LOOK_P
 
@@ -187,11 +188,13 @@ def _second_look_rule(u1: np.ndarray, u2: np.ndarray, thr: float,
                                   "rule chosen on the others"}}
 
 
-def second_look_p(model: dict[str, Any], p_first: float | np.ndarray,
+def second_look_p(model: VerdictModel, p_first: float | np.ndarray,
                   p_second: float | np.ndarray) -> np.ndarray:
     """The second look's calibrated p from the model's p of the first flight and of the
     wider one (the formula of mound_recon verdict --second-look)."""
-    c = model["second_look"]["combine"]
+    c = model.second_look
+    if c is None:
+        raise ValueError("second_look_p: the model has no second look")
     q1, q2 = (np.clip(np.asarray(q, dtype=float), 1e-12, 1 - 1e-12)
               for q in (p_first, p_second))
-    return expit(c["first"] * logit(q1) + c["second"] * logit(q2) + c["bias"])
+    return expit(c.first * logit(q1) + c.second * logit(q2) + c.bias)

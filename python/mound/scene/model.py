@@ -35,9 +35,21 @@ def expand(z: np.ndarray, basis: str) -> np.ndarray:
     raise InputError(f"model: unknown basis {basis!r} (none, hinge)")
 
 
+@dataclass(frozen=True)
+class Band:
+    """A band a scene model reads: its 1-based index in the training scenes, its name
+    ("red", or "" when the scenes named none)."""
+
+    index: int
+    name: str = ""
+
+    def to_doc(self) -> dict[str, object]:
+        return {"index": self.index, "name": self.name}
+
+
 @dataclass
 class SceneModel:
-    bands: list[dict[str, Any]]        # [{"index": 1-based, "name": "red" or ""}]
+    bands: list[Band]
     spec: FeatureSpec
     basis: str
     scaler: Standardizer
@@ -114,16 +126,16 @@ class SceneModel:
         out = []
         named = any(scene.band_names)
         for b in self.bands:
-            if b["name"] and named:
-                if b["name"] not in scene.band_names:
-                    raise InputError(f"{scene.path}: has no band {b['name']!r}, which the model "
+            if b.name and named:
+                if b.name not in scene.band_names:
+                    raise InputError(f"{scene.path}: has no band {b.name!r}, which the model "
                                      f"needs (its bands: {', '.join(scene.band_names)})")
-                out.append(scene.band_names.index(b["name"]) + 1)
+                out.append(scene.band_names.index(b.name) + 1)
             else:
-                if b["index"] > scene.count:
+                if b.index > scene.count:
                     raise InputError(f"{scene.path}: has {scene.count} bands; the model needs "
-                                     f"band {b['index']} ({b['name'] or 'unnamed'})")
-                out.append(b["index"])
+                                     f"band {b.index} ({b.name or 'unnamed'})")
+                out.append(b.index)
         want = self.info.get("band_count")
         if not named and want is not None and want != scene.count:
             raise InputError(f"{scene.path}: {scene.count} bands, the model was trained on "
@@ -135,7 +147,8 @@ class SceneModel:
         return out
 
     def to_doc(self) -> dict[str, object]:
-        return {"schema": SCHEMA, "version": VERSION, "bands": self.bands,
+        return {"schema": SCHEMA, "version": VERSION,
+                "bands": [b.to_doc() for b in self.bands],
                 "features": {**self.spec.to_doc(), "names": self.spec.names()},
                 "basis": self.basis, "resolution_m": self.res_m,
                 "mean": self.scaler.mean.tolist(), "std": self.scaler.std.tolist(),
@@ -182,7 +195,7 @@ class SceneModel:
             keep = {k: v for k, v in doc.items() if k not in (
                 "schema", "version", "bands", "features", "basis", "resolution_m", "mean",
                 "std", "weights", "calibration", "threshold", "clip")}
-            return cls(bands=[{"index": b["index"], "name": b.get("name", "")} for b in bands],
+            return cls(bands=[Band(b["index"], b.get("name", "")) for b in bands],
                        spec=spec, basis=basis,
                        scaler=Standardizer(arrays["mean"], arrays["std"]),
                        w=arrays["weights"], res_m=res, calibration=cal, threshold=thr,
@@ -202,6 +215,6 @@ def from_classifier(model: Any, band_indices: list[int], res_m: float,
     bands = band_indices if model.band is None else [band_indices[model.band]]
     labels = [f"band{k}" for k in bands]
     spec = FeatureSpec("paper", resample_m=resample_m, band_labels=labels)
-    return SceneModel(bands=[{"index": k, "name": ""} for k in bands], spec=spec,
+    return SceneModel(bands=[Band(k) for k in bands], spec=spec,
                       basis="none", scaler=model.scaler, w=model.w, res_m=res_m, clip=False,
                       info={"source": "mound.classifier (Statlog)"})

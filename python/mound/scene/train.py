@@ -35,7 +35,7 @@ from mound.classify.features import Standardizer
 from mound.errors import InputError
 from mound.scene import score as scoring
 from mound.scene.features import FeatureSpec
-from mound.scene.model import SceneModel, expand
+from mound.scene.model import Band, SceneModel, expand
 from mound.scene.raster import SceneInfo, open_scene
 from mound.scene.vector import Label, labels_in_scene
 
@@ -67,7 +67,7 @@ class Samples:
 @dataclass
 class Prepared:
     scenes: list[LabelledScene]
-    band_doc: list[dict[str, Any]]
+    bands: list[Band]
     labels: list[Label]
     res_m: float
 
@@ -81,7 +81,7 @@ def prepare(paths: list[str], labels: list[Label], bands_arg: list[str] | None,
     scenes = [open_scene(p, band_names) for p in paths]
     first = scenes[0]
     idx0 = first.resolve_bands(bands_arg)
-    band_doc: list[dict[str, Any]] = [{"index": k, "name": first.band_names[k - 1]} for k in idx0]
+    chosen = [Band(k, first.band_names[k - 1]) for k in idx0]
     out = []
     n_in = 0
     for sc in scenes:
@@ -90,8 +90,8 @@ def prepare(paths: list[str], labels: list[Label], bands_arg: list[str] | None,
         if not math.isclose(sc.res_m, first.res_m, rel_tol=0.1):
             raise InputError(f"{sc.path}: pixels of {sc.res_m:g} m, {first.path} has "
                              f"{first.res_m:g} m (train on scenes of one resolution)")
-        bands = [sc.band_names.index(b["name"]) + 1 if b["name"] and b["name"] in
-                 sc.band_names else int(b["index"]) for b in band_doc]
+        bands = [sc.band_names.index(b.name) + 1 if b.name and b.name in sc.band_names
+                 else b.index for b in chosen]
         x, y, inside = labels_in_scene(labels, sc)
         is_m = np.array([lb.mound for lb in labels])
         n_in += int(inside.sum())
@@ -105,7 +105,7 @@ def prepare(paths: list[str], labels: list[Label], bands_arg: list[str] | None,
                          "scene(s)")
     if not any(len(s.mound_ids) for s in out):
         raise InputError(f"{labels_path}: none of the labels inside the scene(s) is a mound")
-    return Prepared(out, band_doc, labels, first.res_m)
+    return Prepared(out, chosen, labels, first.res_m)
 
 
 def _pixels_near(sc: SceneInfo, xy: np.ndarray, radius_m: float) -> np.ndarray:
@@ -192,9 +192,9 @@ def balanced_weights(y: np.ndarray) -> np.ndarray:
 
 
 def fit(x: np.ndarray, y: np.ndarray, spec: FeatureSpec, basis: str, l2: float,
-        solver: str, band_doc: list[dict[str, Any]], res_m: float) -> SceneModel:
+        solver: str, bands: list[Band], res_m: float) -> SceneModel:
     scaler = Standardizer.fit(x)
-    model = SceneModel(bands=band_doc, spec=spec, basis=basis, scaler=scaler,
+    model = SceneModel(bands=bands, spec=spec, basis=basis, scaler=scaler,
                        w=np.zeros(1), res_m=res_m)
     d = model.design(x)
     fitted = logistic.fit(d, y, solver=solver, l2=l2, tol=1e-5, max_iter=50_000,
@@ -391,7 +391,7 @@ def cross_validate(prep: Prepared, spec: FeatureSpec, basis: str, samples: Sampl
             tr = row_fold != f
             if not (samples.y[tr] > 0).any() or not (samples.y[~tr] > 0).any():
                 continue
-            m = fit(samples.x[tr], samples.y[tr], spec, basis, l2, "lbfgs", prep.band_doc,
+            m = fit(samples.x[tr], samples.y[tr], spec, basis, l2, "lbfgs", prep.bands,
                     prep.res_m)
             q = m.logit(samples.x[~tr])
             yy = samples.y[~tr]
@@ -409,7 +409,7 @@ def cross_validate(prep: Prepared, spec: FeatureSpec, basis: str, samples: Sampl
         held = [i for i in range(n) if fold[i] == f]
         if not (samples.y[tr] > 0).any():
             continue
-        m = fit(samples.x[tr], samples.y[tr], spec, basis, best, solver, prep.band_doc,
+        m = fit(samples.x[tr], samples.y[tr], spec, basis, best, solver, prep.bands,
                 prep.res_m)
         for i in held:
             ls = prep.scenes[i]
@@ -437,7 +437,7 @@ def chance(prep: Prepared, spec: FeatureSpec, basis: str, min_sep_m: float, seed
     scores (a chance ranking of the same candidates' ground)."""
     rng = np.random.default_rng(seed)
     n = len(spec.names())
-    blank = SceneModel(bands=prep.band_doc, spec=spec, basis=basis,
+    blank = SceneModel(bands=prep.bands, spec=spec, basis=basis,
                        scaler=Standardizer(np.zeros(n), np.ones(n)),
                        w=np.zeros(expanded_width(spec, basis)), res_m=prep.res_m)
     evals = []

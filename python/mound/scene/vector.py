@@ -13,6 +13,7 @@ AOI: Polygon or MultiPolygon geometries (bare, as Features, or a FeatureCollecti
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -34,7 +35,7 @@ class Label:
     lat: float
     mound: bool
     id: str
-    props: dict[str, Any] = field(default_factory=dict)
+    props: Mapping[str, object] = field(default_factory=dict)  # the feature's properties
 
 
 def _load(path: str | Path) -> dict[str, Any]:

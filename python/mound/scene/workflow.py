@@ -36,7 +36,7 @@ def train_model(scenes: list[str], labels_path: str, out: str | None, *,
     labels = read_labels(labels_path)
     prep = train.prepare(scenes, labels, bands, band_names, labels_path)
     spec = FeatureSpec(features, resample_m=resample_m,
-                       band_labels=[b["name"] or f"band{b['index']}" for b in prep.band_doc])
+                       band_labels=[b.name or f"band{b.index}" for b in prep.bands])
     basis = "none" if features == "paper" else basis
     samples = train.sample(prep, spec, negatives_per_scene, negative_distance_m, seed)
     n_pos, n_neg = int((samples.y > 0).sum()), int((samples.y < 0).sum())
@@ -53,7 +53,7 @@ def train_model(scenes: list[str], labels_path: str, out: str | None, *,
         say("one scene: no cross-validation (folds are whole scenes); l2 = 0.01, "
              "calibration: none")
         chosen = 0.01 if l2 is None else l2
-    model = train.fit(samples.x, samples.y, spec, basis, chosen, solver, prep.band_doc,
+    model = train.fit(samples.x, samples.y, spec, basis, chosen, solver, prep.bands,
                       prep.res_m)
     fit_info = model.info["fit"]
     if cv is not None:

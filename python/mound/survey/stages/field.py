@@ -72,8 +72,9 @@ def scene_sites(ctx: Context, scan: Any) -> Sites:
                 if d <= FOUND_RADIUS_M:
                     lb = labels[int(j)]
                     pr["truth"] = {"mound": lb.mound}
-                    if lb.mound and isinstance(lb.props.get("height_m"), int | float):
-                        pr["truth"]["height_m"] = float(lb.props["height_m"])
+                    h = lb.props.get("height_m")
+                    if lb.mound and isinstance(h, int | float):
+                        pr["truth"]["height_m"] = float(h)
                     pr["label_id"] = lb.id
             feats.append(c)
     if not feats:
