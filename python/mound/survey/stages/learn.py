@@ -22,9 +22,8 @@ field's 100 rows (flown or not).
 
 from __future__ import annotations
 
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
@@ -124,7 +123,58 @@ def _replan(ctx: Context, left: Sites, k: int, fdir: Path) -> tuple[Plan | None,
     return Plan.read(fdir / "plan_all.json"), ""
 
 
-def _examples(rows: dict[str, SiteRow], ids: list[str]) -> list[dict[str, Any]]:
+@dataclass(frozen=True)
+class Example:
+    """A judged site the classifier learns: its two-answer verdict, weighted by the
+    verdict's confidence."""
+
+    id: str
+    verdict: str
+    confidence: float
+
+    def to_doc(self) -> dict[str, object]:
+        return {"id": self.id, "verdict": self.verdict, "confidence": self.confidence}
+
+
+@dataclass(frozen=True)
+class Change:
+    """How a site's p_mound moved when the classifier learned a flight."""
+
+    id: str
+    p_before: float
+    p_after: float
+
+    def to_doc(self) -> dict[str, object]:
+        return {"id": self.id, "p_before": self.p_before, "p_after": self.p_after}
+
+
+@dataclass
+class FlightLearned:
+    """What a flight taught (learn.json's flights[k])."""
+
+    flight: int
+    sites: list[str]
+    planned_reward: float
+    first_plan_sites: list[str]
+    cost_m: float
+    note: str
+    examples: list[Example]
+    held_out_auc: float
+    labels_flipped: int
+    changes: list[Change]
+
+    def to_doc(self) -> dict[str, object]:
+        top = self.changes[0] if self.changes else None
+        return {"flight": self.flight, "sites": self.sites,
+                "planned_reward": self.planned_reward,
+                "first_plan_sites": self.first_plan_sites, "cost_m": self.cost_m,
+                "note": self.note, "examples": [e.to_doc() for e in self.examples],
+                "held_out_auc": self.held_out_auc, "labels_flipped": self.labels_flipped,
+                "max_abs_dp": abs(top.p_after - top.p_before) if top else 0.0,
+                "largest_changes": [c.to_doc() for c in self.changes[:5]]}
+
+
+def _examples(rows: dict[str, SiteRow], ids: list[str]) -> list[Example]:
     """The training examples of a flight's sites: each judged site's two-answer verdict and
     its confidence (an undecided site, no evidence either way, is not learned)."""
     out = []
@@ -135,21 +185,20 @@ def _examples(rows: dict[str, SiteRow], ids: list[str]) -> list[dict[str, Any]]:
             continue
         if v.confidence is None:  # a judged site's verdict always states one
             raise RuntimeError(f"site {sid}: its row has no confidence")
-        out.append({"id": sid, "verdict": v.two_answer, "confidence": v.confidence})
+        out.append(Example(sid, v.two_answer, v.confidence))
     return out
 
 
 def _changes(before: Sites, after: Sites, flown: list[str]
-             ) -> tuple[list[dict[str, Any]], int]:
+             ) -> tuple[list[Change], int]:
     """How p_mound of the sites not flown changed, largest first, and how many of the
     classifier's labels flipped."""
     p0 = {s.id: float(s.p_mound or 0.0) for s in before.sites}  # with_model sets each
-    changes: list[dict[str, Any]] = sorted(
-        ({"id": s.id, "p_before": p0[s.id], "p_after": float(s.p_mound or 0.0)}
-         for s in after.sites if s.id not in flown),
-        key=lambda c: -abs(c["p_after"] - c["p_before"]))
+    changes = sorted((Change(s.id, p0[s.id], float(s.p_mound or 0.0))
+                      for s in after.sites if s.id not in flown),
+                     key=lambda c: -abs(c.p_after - c.p_before))
     flips = sum(1 for c in changes
-                if metrics.says_mound(c["p_before"]) != metrics.says_mound(c["p_after"]))
+                if metrics.says_mound(c.p_before) != metrics.says_mound(c.p_after))
     return changes, flips
 
 
@@ -185,7 +234,7 @@ def stage_learn(ctx: Context) -> str:
         ex_rows: list[int] = []
         ex_y: list[float] = []
         ex_w: list[float] = []
-        history: list[dict[str, Any]] = []
+        history: list[FlightLearned] = []
         flights_flown: list[Flight] = []
         outputs: list[str] = []
         all_rows: list[SiteRow] = []
@@ -219,9 +268,9 @@ def stage_learn(ctx: Context) -> str:
             ids = [j.site.id for j in jobs]
             flown += ids
             examples = _examples(rows, ids)
-            ex_rows += [row_of[e["id"]] for e in examples]
-            ex_y += [1.0 if e["verdict"] == "mound" else -1.0 for e in examples]
-            ex_w += [e["confidence"] * a.learn_weight for e in examples]
+            ex_rows += [row_of[e.id] for e in examples]
+            ex_y += [1.0 if e.verdict == "mound" else -1.0 for e in examples]
+            ex_w += [e.confidence * a.learn_weight for e in examples]
             before = current
             model = coarse.train(train, model.band, l2=model.l2,
                                  extra=(test.x[np.array(ex_rows, dtype=int)],
@@ -231,22 +280,19 @@ def stage_learn(ctx: Context) -> str:
             write_json(fdir / "sites_after.json", current.to_doc())
             changes, flips = _changes(before, current, flown)
             auc = held_out_auc(model, test, field_rows)
-            history.append({
-                "flight": k, "sites": ids, "planned_reward": flight.reward,
-                "first_plan_sites": first_plan[k - 1] if k <= len(first_plan) else [],
-                "cost_m": flight.cost_m, "note": note, "examples": examples,
-                "held_out_auc": auc, "labels_flipped": flips,
-                "max_abs_dp": abs(changes[0]["p_after"] - changes[0]["p_before"])
-                if changes else 0.0, "largest_changes": changes[:5]})
+            history.append(FlightLearned(
+                k, ids, flight.reward, first_plan[k - 1] if k <= len(first_plan) else [],
+                flight.cost_m, note, examples, auc, flips, changes))
             flights_flown.append(flight.flights[0])
             ctx.say(f"[learn] flight {k}: {note}; held-out AUC {auc:.4f} "
                     f"(before any flight {auc0:.4f}), {flips} classifier labels flipped")
         _write_flown(ctx, flights_flown, len(flown), current)
         write_json(t.learn / "learn.json", {
             "schema": SCHEMA, "version": VERSION, "learn_weight": a.learn_weight,
-            "held_out_auc_before": auc0, "held_out_auc_after": history[-1]["held_out_auc"]
+            "held_out_auc_before": auc0, "held_out_auc_after": history[-1].held_out_auc
             if history else auc0, "held_out_rows": int(len(test.cls) - len(field_rows)),
-            "evaluation": "sat.tst without the field's rows", "flights": history,
+            "evaluation": "sat.tst without the field's rows",
+            "flights": [h.to_doc() for h in history],
             "stopped": stopped})
         outputs += ["learn/learn.json", "learn/plan_flown.json", "learn/sites_final.json"]
         made, said = second_look_missions(ctx, all_rows, t.final_plan(True),
@@ -254,7 +300,7 @@ def stage_learn(ctx: Context) -> str:
         outputs += made
         note = (f"{len(history)} flights, {len(flown)} sites flown, "
                 f"{len(ex_y)} verdicts learned; held-out AUC {auc0:.4f} -> "
-                f"{history[-1]['held_out_auc'] if history else auc0:.4f}"
+                f"{history[-1].held_out_auc if history else auc0:.4f}"
                 + (f"; {stopped}" if stopped else "") + said)
         return outputs, note, complete
 
