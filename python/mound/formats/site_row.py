@@ -11,6 +11,7 @@ outside scripts read it; `SiteRow.from_doc` reads it back, validated.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -147,7 +148,7 @@ class SiteRow:
         return cls.from_doc(load_json(path), path)
 
 
-def _verdict_of(row: dict[str, Any], where: str) -> Verdict:
+def _verdict_of(row: Mapping[str, object], where: str) -> Verdict:
     """The verdict a row (or its first_look) carries, flattened by Verdict.row_fields."""
     two = require_choice(row.get("verdict"), TWO_ANSWERS, f"{where}: verdict")
     answer = require_choice(row.get("answer", two), ANSWERS, f"{where}: answer")

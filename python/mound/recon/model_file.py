@@ -107,15 +107,16 @@ def _is_number(v: Any) -> bool:
     return isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
 
 
-def _number(doc: dict[str, Any], key: str, at: str) -> float:
+def _number(doc: Mapping[str, object], key: str, at: str) -> float:
     if key not in doc:
         raise InputError(f"{at}: {key}: missing required field")
-    if not _is_number(doc[key]):
+    v = doc[key]
+    if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
         raise InputError(f"{at}: {key}: expected a finite number")
-    return float(doc[key])
+    return float(v)
 
 
-def _numbers(doc: dict[str, Any], key: str, n: int, at: str) -> list[float]:
+def _numbers(doc: Mapping[str, object], key: str, n: int, at: str) -> list[float]:
     if key not in doc:
         raise InputError(f"{at}: {key}: missing required field")
     v = doc[key]
@@ -126,7 +127,7 @@ def _numbers(doc: dict[str, Any], key: str, n: int, at: str) -> list[float]:
     return [float(x) for x in v]
 
 
-def _object(doc: dict[str, Any], key: str) -> dict[str, Any] | None:
+def _object(doc: Mapping[str, object], key: str) -> Mapping[str, object] | None:
     v = doc.get(key)
     return v if isinstance(v, dict) else None
 
@@ -201,12 +202,13 @@ def check_verdict_model(doc: Any, source: str) -> VerdictModel:
     if "second_look" in doc:
         at = f"{source}: second_look"
         sl = _object(doc, "second_look")
-        if sl is None or _object(sl, "combine") is None:
+        combine = None if sl is None else _object(sl, "combine")
+        if sl is None or combine is None:
             raise InputError(f"{at}: expected {{p_low, threshold, scan_factor, combine: "
                              "{first, second, bias}}")
         p_low, thr, factor = (_number(sl, k, at) for k in ("p_low", "threshold",
                                                           "scan_factor"))
-        first, second, bias = (_number(sl["combine"], k, f"{at}.combine")
+        first, second, bias = (_number(combine, k, f"{at}.combine")
                                for k in ("first", "second", "bias"))
         if not 0 < p_low < threshold:
             raise InputError(f"{at}: p_low: must be in (0, threshold)")

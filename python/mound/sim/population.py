@@ -13,6 +13,7 @@ height 0 (a levelled mound: nothing stands to be seen) is left out and counted.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -53,7 +54,7 @@ class Population:
                 "trench_share": self.trench_share}
 
 
-def _number(props: dict[str, Any], key: str, where: str, upper: float) -> float:
+def _number(props: Mapping[str, object], key: str, where: str, upper: float) -> float:
     v = props.get(key)
     if isinstance(v, bool) or not isinstance(v, int | float):
         raise InputError(f"{where}: {key}: expected a number, got {v!r}")
