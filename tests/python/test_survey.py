@@ -29,7 +29,7 @@ from mound.classify.metrics import detection_error_rates, says_mound
 from mound.classify.reward import binary_entropy_bits
 from mound.cli import main as cli_main
 from mound.formats.plan import Plan
-from mound.formats.site_row import SiteRow
+from mound.formats.site_row import SecondLookRecord, SiteRow
 from mound.formats.sites import Site, Truth, load_user_sites
 from mound.formats.verdict import SecondLookAdvice, Verdict
 from mound.geometry.geodesy import Origin, enu_to_geodetic
@@ -726,7 +726,7 @@ def test_the_second_looks_advised_become_a_mission_in_the_report(
     ctx = Context(args, RunTree(run), Ledger(run / "stages.json"))
     plan = json.loads((run / "plan.json").read_text())
     visited = sorted(Plan.from_doc(plan, "plan.json").visited())
-    rows = [SiteRow(s, "k", second_look={"advised": True, "scan_factor": 2.0})
+    rows = [SiteRow(s, "k", second_look=SecondLookRecord(True, 2.0))
             for s in visited]
     made, note = sites3d.second_look_missions(ctx, rows, run / "plan.json", run / "sites.json")
     assert "second_look/mission.json" in made and all((run / f).is_file() for f in made)

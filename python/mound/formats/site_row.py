@@ -45,6 +45,53 @@ _TYPED = ("schema", "version", "id", "key", "first_key", "status", "source", "wo
 
 
 @dataclass
+class SecondLookRecord:
+    """What became of a second look a row's first verdict advised: its scan factor,
+    whether it was flown (the wider scan's size, the photos' source, the second verdict's
+    p and file) or why not. A field is None where the row does not say it."""
+
+    advised: bool | None = True
+    scan_factor: float | None = None
+    flown: bool | None = False
+    scan_m: float | None = None
+    source: str | None = None
+    reason: str | None = None
+    p_mound: float | None = None
+    verdict_file: str | None = None
+    extra: Mapping[str, object] = field(default_factory=dict)
+
+    def to_doc(self) -> dict[str, object]:
+        said = {"advised": self.advised, "scan_factor": self.scan_factor,
+                "flown": self.flown, "scan_m": self.scan_m, "source": self.source,
+                "reason": self.reason, "p_mound": self.p_mound,
+                "verdict_file": self.verdict_file}
+        return {**{k: v for k, v in said.items() if v is not None}, **self.extra}
+
+    @classmethod
+    def from_doc(cls, doc: object, where: str) -> SecondLookRecord:
+        if not isinstance(doc, dict):
+            raise InputError(f"{where}: expected an object")
+        flags = {k: doc.get(k) for k in ("advised", "flown")}
+        texts = {k: doc.get(k) for k in ("source", "reason", "verdict_file")}
+        for k, v in flags.items():
+            if v is not None and not isinstance(v, bool):
+                raise InputError(f"{where}.{k}: expected true or false, got {short_repr(v)}")
+        for k, v in texts.items():
+            if v is not None and not isinstance(v, str):
+                raise InputError(f"{where}.{k}: expected a string, got {short_repr(v)}")
+        return cls(flags["advised"], optional_number(doc, "scan_factor", where),
+                   flags["flown"], optional_number(doc, "scan_m", where, lo=0.0),
+                   texts["source"], texts["reason"],
+                   optional_number(doc, "p_mound", where, lo=0.0, hi=1.0),
+                   texts["verdict_file"],
+                   {k: v for k, v in doc.items() if k not in _LOOK_KEYS})
+
+
+_LOOK_KEYS = ("advised", "scan_factor", "flown", "scan_m", "source", "reason", "p_mound",
+              "verdict_file")
+
+
+@dataclass
 class SiteRow:
     """A visited site's row; built up by the site's work, then written once."""
 
@@ -62,7 +109,7 @@ class SiteRow:
     first_look: Verdict | None = None  # after a second look: the first flight's verdict
     verdict_cloud: str | None = None   # the cloud judged: dense or sparse
     files: dict[str, str] = field(default_factory=dict)  # relative to the run directory
-    second_look: dict[str, Any] | None = None  # advised, flown, scan_m, p_mound, reason
+    second_look: SecondLookRecord | None = None
     extra: dict[str, Any] = field(default_factory=dict)
 
     @property
@@ -91,7 +138,7 @@ class SiteRow:
         if self.files:
             doc["files"] = dict(self.files)
         if self.second_look is not None:
-            doc["second_look"] = self.second_look
+            doc["second_look"] = self.second_look.to_doc()
         if not self.ok:
             doc["reason"] = self.reason
             if self.retry is not None:
@@ -120,8 +167,8 @@ class SiteRow:
         if retry is not None and not isinstance(retry, bool):
             raise InputError(f"{where}: retry: expected true or false")
         second = doc.get("second_look")
-        if second is not None and not isinstance(second, dict):
-            raise InputError(f"{where}: second_look: expected an object")
+        look = (None if second is None
+                else SecondLookRecord.from_doc(second, f"{where}: second_look"))
         cloud = doc.get("verdict_cloud")
         if cloud not in (None, "dense", "sparse"):
             raise InputError(f"{where}: verdict_cloud: expected dense or sparse")
@@ -140,7 +187,7 @@ class SiteRow:
                    strings["reason"], retry, doc.get("internal_error") is True,
                    _verdict_of(doc, where) if "verdict" in doc else None,
                    None if first is None else _verdict_of(first, f"{where}: first_look"),
-                   cloud, dict(files), second,
+                   cloud, dict(files), look,
                    {k: v for k, v in doc.items() if k not in _TYPED})
 
     @classmethod

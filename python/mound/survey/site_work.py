@@ -27,7 +27,7 @@ from typing import Any
 
 from mound import native
 from mound.errors import InputError, NoResultError, ToolError, ToolNoResultError, ToolTimeout
-from mound.formats.site_row import SiteRow
+from mound.formats.site_row import SecondLookRecord, SiteRow
 from mound.formats.sites import Site
 from mound.formats.verdict import SecondLookAdvice, Verdict
 from mound.geometry.flight import DEFAULT_SITE_DIAMETER_M
@@ -268,11 +268,10 @@ def _second_look(job: SiteJob, row: SiteRow, advice: SecondLookAdvice, dense: bo
     flights then decide the site (row.first_look keeps the first verdict). A second look
     that fails leaves the first verdict standing; row.second_look says why."""
     assert advice.scan_factor is not None  # the reader requires it of an advised look
-    look: dict[str, Any] = {"advised": True, "scan_factor": advice.scan_factor,
-                            "flown": False}
+    look = SecondLookRecord(True, advice.scan_factor, False)
     row.second_look = look
     if job.images_dir and not job.second_images_dir:
-        look["reason"] = (f"{advice.extra.get('message', 'undecided')}: a second card of the "
+        look.reason = (f"{advice.extra.get('message', 'undecided')}: a second card of the "
                           "site "
                           "is needed (fly second_look/mission.plan, then run again with "
                           "--second-photos CARD)")
@@ -280,10 +279,10 @@ def _second_look(job: SiteJob, row: SiteRow, advice: SecondLookAdvice, dense: bo
     t = job.tree.second
     t.root.mkdir(parents=True, exist_ok=True)
     try:
-        look["scan_m"] = job.site_diameter_m * advice.scan_factor
+        look.scan_m = job.site_diameter_m * advice.scan_factor
         if job.images_dir:  # the second card, sorted into the site's folder
             images, camera, gps = _photos(replace(job, images_dir=job.second_images_dir))
-            look["source"] = "photos"
+            look.source = "photos"
         else:
             from mound.sim import site as sim
             from mound.sim.card import survey_site_spec
@@ -292,8 +291,8 @@ def _second_look(job: SiteJob, row: SiteRow, advice: SecondLookAdvice, dense: bo
             spec, _ = survey_site_spec(job.site, job.index, job.origin, job.sim_seed,
                                        job.image_size, job.pattern, job.site_diameter_m,
                                        job.terrain)
-            spec = wider(spec, advice.scan_factor)  # its scale_m: look["scan_m"]
-            look["source"] = "simulated"
+            spec = wider(spec, advice.scan_factor)  # its scale_m: look.scan_m
+            look.source = "simulated"
             sim.simulate(spec, t.sim, threads=job.threads)
             images, camera, gps = t.sim / "images", t.sim / "camera.json", str(
                 t.sim / "poses.json")
@@ -307,14 +306,14 @@ def _second_look(job: SiteJob, row: SiteRow, advice: SecondLookAdvice, dense: bo
         native.run_tool("mound_recon", args, job.timeout_s, log=t.log)
         second = Verdict.read(t.verdict)
     except (InputError, NoResultError, ToolTimeout, ToolError, OSError) as e:
-        look["reason"] = _reason(e, t)
+        look.reason = _reason(e, t)
         return
     assert row.verdict is not None  # the first look's
     row.first_look = row.verdict
     # both flights' verdict; the coverage stays the first look's (its scan's)
     row.verdict = replace(second, coverage=row.verdict.coverage)
-    look.update(flown=True, p_mound=second.p_mound,
-                verdict_file=_rel(t.verdict, Path(job.run_root)))
+    look.flown, look.p_mound = True, second.p_mound
+    look.verdict_file = _rel(t.verdict, Path(job.run_root))
 
 
 def _reconstruct_args(job: SiteJob, images: Path, t: SiteTree, gps: str,

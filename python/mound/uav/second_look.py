@@ -34,9 +34,9 @@ def advised_sites(rows: list[SiteRow]) -> tuple[list[str], float | None]:
     ids, factors = [], []
     for r in rows:
         look = r.second_look
-        if isinstance(look, dict) and look.get("advised"):
-            f = look.get("scan_factor")
-            if not (isinstance(f, int | float) and math.isfinite(f) and f >= 1):
+        if look is not None and look.advised:
+            f = look.scan_factor
+            if f is None or not f >= 1:
                 raise InputError(f"sites: {r.id}.second_look.scan_factor: expected a "
                                  f"number >= 1, got {f!r:.40}")
             ids.append(r.id)
