@@ -110,7 +110,7 @@ class SiteRow:
     verdict_cloud: str | None = None   # the cloud judged: dense or sparse
     files: dict[str, str] = field(default_factory=dict)  # relative to the run directory
     second_look: SecondLookRecord | None = None
-    extra: dict[str, Any] = field(default_factory=dict)
+    extra: dict[str, object] = field(default_factory=dict)
 
     @property
     def ok(self) -> bool:

@@ -66,7 +66,7 @@ class SiteJob:
     threads: int = 1
     timeout_s: float = 1800.0
     figures: bool = True
-    extra: dict[str, Any] = field(default_factory=dict)
+    extra: dict[str, object] = field(default_factory=dict)
     # Flown over a DEM: {dem, vertical, ground_amsl_m} of this site (None: no DEM).
     terrain: dict[str, Any] | None = None
 
@@ -119,7 +119,7 @@ def _photos(job: SiteJob) -> tuple[Path, Path | None, str]:
     return folder, camera if camera.is_file() else None, str(poses) if poses.is_file() else "exif"
 
 
-def _recon_summary(recon_dir: Path) -> dict[str, Any]:
+def _recon_summary(recon_dir: Path) -> dict[str, object]:
     doc = read_json(recon_dir / "recon.json", "mound.recon", 1)
     images = doc.get("images", [])
     return {"status": doc.get("status"), "frame": doc.get("frame"),
@@ -402,7 +402,7 @@ def site_figures(job: SiteJob, images: Path, row: SiteRow) -> dict[str, str]:
     out = {"thumbnails": _rel(t.thumbnails, root), "cloud": _rel(t.cloud_png, root),
            "relief": _rel(t.relief_png, root)}
     rasters = row.extra.get("rasters")
-    if rasters is not None:
+    if isinstance(rasters, dict):
         figures.terrain_map(t.rasters, t.terrain_png, title=f"{job.site.id}: GeoTIFFs "
                             f"({rasters.get('cloud', 'sparse')} cloud), {rasters['crs']}")
         out["terrain"] = _rel(t.terrain_png, root)

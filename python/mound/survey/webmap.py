@@ -15,8 +15,9 @@ from __future__ import annotations
 
 import json
 import shutil
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -205,16 +206,24 @@ def map_data(tree: RunTree, summary: dict[str, Any], sites_doc: Sites, plan: Pla
             "metrics": summary.get("metrics", {})}
 
 
+class Frustum(NamedTuple):
+    """A registered camera as the viewer draws it: its centre and the corners of its image
+    at FRUSTUM_DEPTH_M (ENU m)."""
+
+    centre: np.ndarray
+    corners: list[np.ndarray]
+
+
 def viewer_doc(site_id: str, xyz: np.ndarray, rgb: np.ndarray | None, centre: np.ndarray,
                ground: list[float], radius_m: float, rise: dict[str, Any] | None = None,
-               cameras: list[dict[str, Any]] | None = None, note: str = "",
-               seed: int = 0) -> dict[str, Any]:
+               cameras: list[Frustum] | None = None, note: str = "",
+               seed: int = 0) -> dict[str, object]:
     """The 3-D viewer's data for one site: the cloud (at most MAX_VIEW_POINTS, a seeded
     random subset) in metres from `centre` (x, y: ENU east, north of the site centre; z:
     above the ground fit's height at the centre), its colours, the ground fit
     z = c0 + c1 x + c2 y + c3 x^2 + c4 x y + c5 y^2 (x, y from the centre, as verdict.json's
     ground_coefficients) shifted to the same datum, the judged rise, the cameras' frustums
-    (`cameras`: {"centre": [x, y, z], "corners": 4 x [x, y, z]} in ENU)."""
+    (`cameras`, ENU)."""
     import base64
 
     n = len(xyz)
@@ -229,31 +238,30 @@ def viewer_doc(site_id: str, xyz: np.ndarray, rgb: np.ndarray | None, centre: np
     else:
         col = np.asarray(rgb, np.uint8)[idx]
     g = [0.0] + [float(c) for c in ground[1:6]] if ground else [0.0] * 6
-    doc: dict[str, Any] = {
+    frustums = [{"centre": [float(v) for v in np.asarray(c.centre) - shift],
+                 "corners": [[float(v) for v in np.asarray(k) - shift] for k in c.corners]}
+                for c in cameras or []]
+    shown: dict[str, object] | None = None
+    if rise:
+        cx, cy = np.asarray(rise["centre_enu_m"], float)[:2] - shift[:2]
+        shown = {"x": float(cx), "y": float(cy), "height_m": float(rise["height_m"]),
+                 "base_diameter_m": float(rise["base_diameter_m"])}
+        plane = rise.get("ground_plane")  # the rise's own ground: z at its centre, slopes
+        if isinstance(plane, list) and len(plane) == 3:
+            shown["plane"] = [float(plane[0]) - z0, float(plane[1]), float(plane[2])]
+            # a rise measured over a curved ground: its quadratic terms (1/m)
+            curv = rise.get("ground_curvature")
+            if isinstance(curv, list) and len(curv) == 3:
+                shown["curvature"] = [float(v) for v in curv]
+    return {
         "site": site_id, "points": len(idx), "points_in_cloud": n, "note": note,
         "positions": base64.b64encode(pts.tobytes()).decode("ascii"),
         "colours": base64.b64encode(np.ascontiguousarray(col).tobytes()).decode("ascii"),
         "ground": g, "radius_m": float(radius_m), "origin_enu_m": [float(v) for v in shift],
-        "cameras": [], "rise": None}
-    for c in cameras or []:
-        doc["cameras"].append({"centre": [float(v) for v in np.asarray(c["centre"]) - shift],
-                               "corners": [[float(v) for v in np.asarray(k) - shift]
-                                           for k in c["corners"]]})
-    if rise:
-        cx, cy = np.asarray(rise["centre_enu_m"], float)[:2] - shift[:2]
-        doc["rise"] = {"x": float(cx), "y": float(cy), "height_m": float(rise["height_m"]),
-                       "base_diameter_m": float(rise["base_diameter_m"])}
-        plane = rise.get("ground_plane")  # the rise's own ground: z at its centre, slopes
-        if isinstance(plane, list) and len(plane) == 3:
-            doc["rise"]["plane"] = [float(plane[0]) - z0, float(plane[1]), float(plane[2])]
-            # a rise measured over a curved ground: its quadratic terms (1/m)
-            curv = rise.get("ground_curvature")
-            if isinstance(curv, list) and len(curv) == 3:
-                doc["rise"]["curvature"] = [float(v) for v in curv]
-    return doc
+        "cameras": frustums, "rise": shown}
 
 
-def site_viewer_doc(tree: RunTree, row: dict[str, Any]) -> dict[str, Any] | None:
+def site_viewer_doc(tree: RunTree, row: dict[str, Any]) -> dict[str, object] | None:
     """viewer_doc for a visited site of the survey: its dense cloud (else the sparse one),
     verdict.json's site centre, ground fit and rise, recon.json's cameras."""
     from mound.ply import read_ply
@@ -289,13 +297,13 @@ def site_viewer_doc(tree: RunTree, row: dict[str, Any]) -> dict[str, Any] | None
             for u, v in ((0, 0), (w, 0), (w, h), (0, h)):
                 ray = np.array([(u - K[0, 2]) / K[0, 0], (v - K[1, 2]) / K[1, 1], 1.0])
                 corners.append(c + R.T @ (ray * FRUSTUM_DEPTH_M))
-            cameras.append({"centre": c, "corners": corners})
+            cameras.append(Frustum(c, corners))
     note = f"{cloud.name}: {len(xyz):,} points"
     return viewer_doc(row["id"], xyz, rgb, np.array([centre[0], centre[1]]),
                       ground, radius, m.get("rise"), cameras, note)
 
 
-def write_viewer_data(out_dir: Path, doc: dict[str, Any]) -> Path:
+def write_viewer_data(out_dir: Path, doc: Mapping[str, object]) -> Path:
     """map/sites/<id>.js: the viewer's data as a script (site3d.html#<id> loads it)."""
     path = out_dir / "sites" / f"{doc['site']}.js"
     path.parent.mkdir(parents=True, exist_ok=True)
