@@ -33,7 +33,7 @@ def _folds(n: int, k: int, seed: int) -> np.ndarray:
     return np.random.default_rng(seed).permutation(n) % k
 
 
-def _found_by_ground(found: np.ndarray, ground: dict[str, np.ndarray]) -> dict[str, Any]:
+def _found_by_ground(found: np.ndarray, ground: dict[str, np.ndarray]) -> dict[str, object]:
     """Of the sites in each of `ground`'s masks, how many `found` (CV splits x sites) holds,
     the mean over the splits."""
     return {"clear_of_ground": CLEAR_OF_GROUND,
@@ -130,7 +130,7 @@ def stands_clear(relief: Mapping[str, float] | None) -> bool | None:
     return bool(relief["prominence_m"] >= CLEAR_OF_GROUND * relief["ground_clutter_m"])
 
 
-def _second_look(folder: Path) -> dict[str, Any] | None:
+def _second_look(folder: Path) -> dict[str, object] | None:
     """A site's second look's verdict (GRID/NNNN/second/verdict.json, `mound sim grid
     --second-look`; second_lower/ for the lower one): None when it was not flown or allowed
     no verdict."""

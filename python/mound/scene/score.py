@@ -364,13 +364,13 @@ def _candidate_features(kept: list[tuple[float, int, int]], grid: OutGrid, scene
     return out
 
 
-def _timings(wall: float, block_s: list[float], px: int) -> dict[str, Any]:
+def _timings(wall: float, block_s: list[float], px: int) -> dict[str, object]:
     return {"wall_s": wall, "blocks": len(block_s),
             "block_s_median": float(np.median(block_s)) if block_s else 0.0,
             "mpx_per_s": px / wall / 1e6 if wall > 0 else None}
 
 
-def _raster_profile(scene: SceneInfo, grid: OutGrid) -> dict[str, Any]:
+def _raster_profile(scene: SceneInfo, grid: OutGrid) -> dict[str, object]:
     """The GeoTIFF profile of p_mound.tif and reward.tif on the output grid."""
     return {"driver": "GTiff", "width": grid.cols, "height": grid.rows, "count": 1,
             "dtype": "float32", "crs": scene.crs(), "transform": grid.transform(),

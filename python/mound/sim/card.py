@@ -134,9 +134,22 @@ def site_jpegs(site_dir: str | Path, start: datetime, every_s: float = 2.0,
     return out
 
 
+@dataclass(frozen=True)
+class SiteGround:
+    """A visited site's ground over the survey's DEM: the DEM (its path), what its heights
+    are above (`vertical`), and the mission's ground height of the site (m AMSL)."""
+
+    dem: str
+    vertical: str
+    ground_amsl_m: float
+
+    def to_doc(self) -> dict[str, object]:
+        return {"dem": self.dem, "vertical": self.vertical, "ground_amsl_m": self.ground_amsl_m}
+
+
 def survey_site_spec(site: Site, index: int, origin: Origin,
                      sim_seed: int, image_size: tuple[int, int], pattern: str,
-                     site_diameter_m: float, terrain_input: dict[str, Any] | None = None
+                     site_diameter_m: float, terrain_input: SiteGround | None = None
                      ) -> tuple[Any, dict[str, Any]]:
     """How the survey simulates a visited site's flight: the SimSpec (from the site's
     hidden truth, seeded by `sim_seed` and the site's index) and what was simulated."""
@@ -154,16 +167,16 @@ def survey_site_spec(site: Site, index: int, origin: Origin,
         height = site.truth.height_m  # the inventory's height
     seed = 1000 * sim_seed + index + 1
     lat, lon, alt = enu_to_geodetic(origin, np.array([[site.x_m, site.y_m, 0.0]]))[0]
-    ground: dict[str, Any] = {}
+    ground: dict[str, Any] = {}  # TerrainSpec's fields of a DEM patch
     if terrain_input:
         # Over the survey's DEM: the site's own terrain, z = 0 at the mission's ground of
         # the site, so the simulated flight has the mission's heights above it.
         from mound.geometry.dem import lonlat_to_crs
 
-        x, y = lonlat_to_crs(terrain_input["dem"], float(lon), float(lat))
-        ground = {"dem_path": terrain_input["dem"], "dem_x_m": x, "dem_y_m": y,
-                  "dem_ground_m": float(terrain_input["ground_amsl_m"]),
-                  "dem_vertical": terrain_input["vertical"]}
+        x, y = lonlat_to_crs(terrain_input.dem, float(lon), float(lat))
+        ground = {"dem_path": terrain_input.dem, "dem_x_m": x, "dem_y_m": y,
+                  "dem_ground_m": float(terrain_input.ground_amsl_m),
+                  "dem_vertical": terrain_input.vertical}
     spec = sim.SimSpec(
         terrain=terrain.preset("bin_tepe", mound=bool(truth), seed=seed,
                                diameter_m=site_diameter_m, height_m=height,

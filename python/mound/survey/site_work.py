@@ -23,7 +23,6 @@ import time
 import traceback
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
 
 from mound import native
 from mound.errors import InputError, NoResultError, ToolError, ToolNoResultError, ToolTimeout
@@ -34,6 +33,7 @@ from mound.geometry.flight import DEFAULT_SITE_DIAMETER_M
 from mound.geometry.geodesy import Origin
 from mound.jsonio import read_json, write_json
 from mound.photos.sort import MIN_PHOTOS
+from mound.sim.card import SiteGround
 from mound.survey.tree import SiteTree
 
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff")
@@ -67,8 +67,7 @@ class SiteJob:
     timeout_s: float = 1800.0
     figures: bool = True
     extra: dict[str, object] = field(default_factory=dict)
-    # Flown over a DEM: {dem, vertical, ground_amsl_m} of this site (None: no DEM).
-    terrain: dict[str, Any] | None = None
+    terrain: SiteGround | None = None  # flown over a DEM: the site's ground on it
 
     @property
     def tree(self) -> SiteTree:

@@ -223,7 +223,7 @@ class TerrainModel:
         return (self.spec.climb_factor * (h - self.ref[a])
                 + self.spec.descent_factor * (h - self.ref[b]))
 
-    def doc(self, extra: np.ndarray | None = None, closed: bool = True) -> dict[str, Any]:
+    def doc(self, extra: np.ndarray | None = None, closed: bool = True) -> dict[str, object]:
         """The `terrain` block of a sites.json (mound_plan reads extra_m and path_offset_m)."""
         extra = self.extra_matrix() if extra is None else extra
         end = len(self.nodes) - 1 if closed else 1

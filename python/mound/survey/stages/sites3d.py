@@ -13,6 +13,7 @@ from mound.formats.plan import Plan
 from mound.formats.site_row import SiteRow
 from mound.formats.sites import Sites
 from mound.jsonio import write_json
+from mound.sim.card import SiteGround
 from mound.survey.context import (
     STAGES,
     Context,
@@ -55,8 +56,8 @@ def site_jobs(ctx: Context, plan: Plan | None = None) -> list[Any]:
     for index, s in enumerate(sites_doc.sites):
         if s.id not in tour:
             continue
-        ter = ({"dem": str(Path(a.dem).resolve()), "vertical": terrain["vertical"],
-                "ground_amsl_m": grounds[s.id]} if a.dem and s.id in grounds else None)
+        ter = (SiteGround(str(Path(a.dem).resolve()), terrain["vertical"], grounds[s.id])
+               if a.dem and s.id in grounds else None)
         images = str((photos / s.id).resolve()) if photos else None
         second = ctx.tree.second_photos / s.id
         second_images = (str(second.resolve()) if a.second_photos and second.is_dir()
@@ -69,7 +70,7 @@ def site_jobs(ctx: Context, plan: Plan | None = None) -> list[Any]:
                  "reference": sha256_of(Path(a.reference)) if a.reference else None,
                  **({"verdict_model": sha256_of(Path(a.verdict_model))}
                     if a.verdict_model else {}),
-                 "terrain": ter and {**ter, "dem": ctx.terrain}}
+                 "terrain": ter and {**ter.to_doc(), "dem": ctx.terrain}}
         # the second card changes the site's key, not its first look's (site_work reuses it)
         key = digest({**first, **({"second_images": folder_digest(second)}
                                   if second_images else {})})
