@@ -30,12 +30,35 @@ SCHEMA = "mound.survey"
 VERSION = 1
 
 
+@dataclass(frozen=True)
+class StageRun:
+    """A stage as this invocation met it (summary.json's stages[k]): run, with its wall time
+    and whether it completed, or skipped (unchanged, or not needed), with the time it took
+    when it ran."""
+
+    name: str
+    wall_s: float
+    skipped: bool
+    note: str = ""
+    complete: bool | None = None  # run: whether every unit of its work finished
+    wall_s_when_run: float | None = None  # skipped: the ledger's time of it
+
+    def to_doc(self) -> dict[str, object]:
+        if self.skipped:
+            when = ({} if self.wall_s_when_run is None  # not needed: never ran
+                    else {"wall_s_when_run": self.wall_s_when_run})
+            return {"name": self.name, "wall_s": self.wall_s, "skipped": True, **when,
+                    "note": self.note}
+        return {"name": self.name, "wall_s": self.wall_s, "skipped": False, "note": self.note,
+                "complete": self.complete}
+
+
 @dataclass
 class Context:
     args: SurveyOptions
     tree: RunTree
     ledger: Ledger
-    stages: list[dict[str, Any]] = field(default_factory=list)
+    stages: list[StageRun] = field(default_factory=list)
     keys: dict[str, str] = field(default_factory=dict)
     redo_from: int = 7  # index into STAGES (len: none): stages from here on are redone
     run_id: str = field(default_factory=lambda: uuid.uuid4().hex)
@@ -58,8 +81,8 @@ def run_stage(ctx: Context, name: str, material: Mapping[str, object], work: Any
     redo = STAGES.index(name) >= ctx.redo_from
     if not redo and ctx.ledger.is_done(name, key):
         prev = ctx.ledger.previous(name)
-        ctx.stages.append({"name": name, "wall_s": 0.0, "skipped": True,
-                           "wall_s_when_run": prev.get("wall_s"), "note": prev.get("note", "")})
+        ctx.stages.append(StageRun(name, 0.0, True, str(prev.get("note", "")),
+                                   wall_s_when_run=float(prev.get("wall_s") or 0.0)))
         ctx.say(f"[{name}] skipped, unchanged: {prev.get('note', '')} "
                 f"(ran in {prev.get('wall_s', 0):.1f} s)")
         return key
@@ -69,8 +92,7 @@ def run_stage(ctx: Context, name: str, material: Mapping[str, object], work: Any
     wall = time.perf_counter() - start
     if complete:
         ctx.ledger.record(StageRecord(name, key, wall, outputs, note=note))
-    ctx.stages.append({"name": name, "wall_s": wall, "skipped": False, "note": note,
-                       "complete": complete})
+    ctx.stages.append(StageRun(name, wall, False, note, complete))
     ctx.say(f"[{name}] {note} ({wall:.1f} s)")
     return key
 

@@ -26,6 +26,7 @@ from mound.formats.site_row import SiteRow
 from mound.formats.sites import Sites
 from mound.jsonio import read_json, write_atomic
 from mound.survey import figures
+from mound.survey.context import StageRun
 from mound.survey.options import SurveyOptions
 from mound.survey.tree import RunTree, SiteTree
 
@@ -118,7 +119,7 @@ def field_team(judged: list[dict[str, Any]]) -> list[dict[str, Any]]:
     return out
 
 
-def build_summary(tree: RunTree, args: SurveyOptions, stages: list[dict[str, Any]],
+def build_summary(tree: RunTree, args: SurveyOptions, stages: list[StageRun],
                   started: float) -> dict[str, Any]:
     learned = args.learn
     sites_doc = Sites.read(tree.final_sites(learned))
@@ -167,7 +168,7 @@ def build_summary(tree: RunTree, args: SurveyOptions, stages: list[dict[str, Any
             "three_answers": three_answer_metrics(judged),
         },
         "for_field_team": field_team(judged),
-        "stages": stages,
+        "stages": [st.to_doc() for st in stages],
         "wall_s": time.time() - started,
     }
     if reason:

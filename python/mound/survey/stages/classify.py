@@ -4,7 +4,7 @@
 from __future__ import annotations
 
 from mound.jsonio import write_json
-from mound.survey.context import Context, digest_files, run_stage
+from mound.survey.context import Context, StageRun, digest_files, run_stage
 
 
 def stage_classify(ctx: Context) -> str:
@@ -14,8 +14,8 @@ def stage_classify(ctx: Context) -> str:
     if ctx.args.scene:
         return stage_classify_scene(ctx)
     if ctx.args.sites:
-        ctx.stages.append({"name": "classify", "wall_s": 0.0, "skipped": True,
-                           "note": "not needed: --sites gives each site's p_mound"})
+        ctx.stages.append(StageRun("classify", 0.0, True,
+                                   "not needed: --sites gives each site's p_mound"))
         ctx.say("[classify] not needed: --sites gives each site's p_mound")
         ctx.keys["classify"] = "user-sites"
         return "user-sites"

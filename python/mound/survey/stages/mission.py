@@ -33,7 +33,7 @@ def write_missions(missions: list[tuple[int | None, Any]], folder: Path, png_fol
         mission_files.write_plan(files["mission.plan"], m, firmware)
         mission_files.write_wpl(files["mission.waypoints"], m)
         mission_files.write_geojson(files["mission.geojson"], m)
-        formats: dict[str, Any] = {}
+        formats: dict[str, object] = {}
         try:
             craft = dji.aircraft(aircraft)
             kmz = mission_files.flight_path(folder / "mission.kmz", k)

@@ -6,7 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from mound.errors import InputError
-from mound.survey.context import Context, card_digest, digest_files, run_stage
+from mound.survey.context import Context, StageRun, card_digest, digest_files, run_stage
 
 
 def stage_photos(ctx: Context) -> str:
@@ -17,7 +17,7 @@ def stage_photos(ctx: Context) -> str:
     if not a.photos:
         note = ("not needed: photos from --images-root" if a.images_root
                 else "not needed: each visited site's flight is simulated")
-        ctx.stages.append({"name": "photos", "wall_s": 0.0, "skipped": True, "note": note})
+        ctx.stages.append(StageRun("photos", 0.0, True, note))
         ctx.say(f"[photos] {note}")
         ctx.keys["photos"] = "none"
         return "none"
