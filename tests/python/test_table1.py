@@ -51,7 +51,7 @@ def test_paper_setting_matches_the_papers_total_reward(shared_data) -> None:
     trn = statlog.load_file(shared_data / "statlog" / "sat.trn")
     fields = [make_field(test, s) for s in STANDARD_SEEDS]
     model, t, total = paper_classifier(trn, test, fields)
-    assert total == pytest.approx(PAPER["total_reward_per_field"], abs=1e-3)
+    assert total == pytest.approx(PAPER.total_reward_per_field, abs=1e-3)
     assert mean_total_reward(model, test, fields) == pytest.approx(total, abs=1e-12)
     assert 13 < t < 14  # docs/results.md, Table I: between 10 and 30 iterations
     converged = coarse.train(trn, coarse.DEFAULT_BAND)

@@ -188,7 +188,7 @@ def cmd_table1(args: argparse.Namespace) -> int:
                "iterations" if args.paper else "converged classifier")
         print(f"node (scan) cost {c:g} m; {how}; total reward per field "
               f"{meta['total_reward_per_field']:.2f} "
-              f"(paper {table1.PAPER['total_reward_per_field']})")
+              f"(paper {table1.PAPER.total_reward_per_field})")
         print(table1.format_table(rows))
         if c == args.scan_cost[0]:
             table1.plot(rows, meta, out)

@@ -128,7 +128,7 @@ class SurveyOptions:
         """The scene GeoTIFFs (none without --scene)."""
         return list(self.scene or ())
 
-    def as_dict(self) -> dict[str, Any]:
+    def as_dict(self) -> dict[str, object]:
         """JSON-ready (tuples as lists), for summary.json's `options`."""
         return {k: (list(v) if isinstance(v, tuple) else v)
                 for k, v in dataclasses.asdict(self).items()}

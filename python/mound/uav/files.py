@@ -245,7 +245,7 @@ def _lonlat(origin: Origin, enu: np.ndarray) -> list[list[float]]:
 
 def geojson_document(mission: Mission) -> dict[str, object]:
     o = mission.origin
-    features: list[dict[str, Any]] = [{
+    features: list[dict[str, object]] = [{
         "type": "Feature", "properties": {"kind": "flight_path",
                                           "length_m": mission.flight_distance_m,
                                           "budget_m": mission.budget_m,
