@@ -173,7 +173,7 @@ def cmd_table1(args: argparse.Namespace) -> int:
     out = Path(args.out_dir)
     out.mkdir(parents=True, exist_ok=True)
     all_rows = []
-    exact: list[dict[str, Any]] = []
+    exact: list[dict[str, object]] = []
     setting = None
     for c in args.scan_cost:
         rows, meta = table1.run(scan_cost=c, exact_time_limit_s=args.exact_time_limit,
