@@ -16,6 +16,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import shutil
 import tempfile
 from pathlib import Path
 from typing import Any
@@ -258,6 +259,59 @@ def test_typed_site_row_reader(text: str) -> None:
     value_or_input_error(SiteRow.read, _file(text, "site_result.json"), check=_valid_row)
 
 
+GRID_ROW = {"dir": "0000", "status": "ok",
+            "truth": {"mound": True, "kind": "tumulus", "profile": "conical", "height_m": 3.0,
+                      "diameter_m": 20.0, "centre_enu_m": [1.0, -2.0], "pit": False,
+                      "trench": True},
+            "spec": {"terrain": {"seed": 4, "mound": True}}}
+GRID_VERDICT = {"schema": "mound.verdict", "version": 1, "status": "ok",
+                "cloud": "dense/dense.ply", "coverage": {"status": "clipped"},
+                "measurements": {
+                    "site_centre_enu_m": [0.5, 0.5], "site_radius_m": 30.0,
+                    "rise": {"height_m": 2.5, "base_diameter_m": 18.0, "roundness": 0.8,
+                             "dome_r2": 0.9, "centre_enu_m": [1.0, -1.5]},
+                    "judged_rises": [{"centre_enu_m": [1.0, -1.5], "base_diameter_m": 18.0,
+                                      "features": {"a": 1.5, "b": -2}}]}}
+
+
+def _valid_grid_site(sites: list[Any]) -> None:
+    """What training and evaluation rely on in a grid site the reader accepted: the
+    values of the files, as numbers of their ranges."""
+    (s,) = sites
+    t = s.truth
+    assert isinstance(t.mound, bool) and t.height_m >= 0 and t.diameter_m >= 0
+    assert all(math.isfinite(v) for v in t.centre_enu_m)
+    for r in s.rises + (s.rise,) * (s.rise is not None):
+        assert all(isinstance(v, float) and math.isfinite(v) for v in r.features.values())
+        assert r.centre_enu_m is None or all(math.isfinite(v) for v in r.centre_enu_m)
+    assert s.site_radius_m is None or s.site_radius_m >= 0
+    assert s.cloud in ("dense", "sparse") and s.measured is True
+
+
+def _read_grid(row_text: str, verdict_text: str) -> list[Any]:
+    from mound.recon.verdict_data import load_grid
+
+    root = WORK / "grid"
+    (root / "0000").mkdir(parents=True, exist_ok=True)
+    try:
+        row = json.loads(row_text)
+    except ValueError:
+        row = row_text
+    (root / "grid.json").write_text(json.dumps({"schema": "mound.verdict_grid", "version": 1,
+                                                "rows": [row]}))
+    _file(verdict_text, "grid/0000/verdict.json")
+    return load_grid(root)
+
+
+@FUZZ
+@given(mutated_json(GRID_ROW), mutated_json(GRID_VERDICT))
+def test_grid_site_reader(row: str, verdict: str) -> None:
+    """A grid's row and its site's verdict.json, mutated: a clear error, or a site whose
+    truth, rises and disc are the numbers the files hold."""
+    value_or_input_error(_read_grid, row, verdict,
+                         check=lambda s: _valid_grid_site(s) if s[0].measured else None)
+
+
 def _mission_texts() -> tuple[str, str]:
     m = build_mission(json.loads(json.dumps({**PLAN, "scan": None})), ORIGIN,
                             mission_items.MissionSpec(scan=SCAN))
@@ -347,7 +401,7 @@ def test_the_fuzzed_seeds_are_valid() -> None:
 def _cleanup() -> Any:
     yield
     for p in WORK.iterdir():
-        p.unlink()
+        shutil.rmtree(p) if p.is_dir() else p.unlink()
     WORK.rmdir()
 
 

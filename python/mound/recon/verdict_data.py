@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 
 from mound.errors import InputError
-from mound.jsonio import read_json
+from mound.jsonio import read_json, short_repr
 from mound.recon.grid_site import GridSite, Rise, SiteTruth, grid_site
 from mound.sim import terrain
 from mound.sim.looks import SECOND_LOOKS
@@ -86,8 +86,12 @@ def load_grid(folder: str | Path, second_look: str = "wider") -> list[GridSite]:
     out = []
     for k, row in enumerate(rows):
         where = f"{gpath}: rows[{k}]"
-        if not isinstance(row, dict) or not isinstance(row.get("dir"), str):
-            raise InputError(f"{where}: expected a site's row with its dir")
+        if not isinstance(row, dict):
+            raise InputError(f"{where}: expected a site's row")
+        name = row.get("dir")
+        if not _folder_name(name):
+            raise InputError(f"{where}.dir: expected the site's folder name in the grid, "
+                             f"got {short_repr(name)}")
         vpath = root / row["dir"] / "verdict.json"
         if row.get("status") != "ok" or not vpath.is_file():
             out.append(grid_site(row, None, None, None, str(root), where))
@@ -97,6 +101,18 @@ def load_grid(folder: str | Path, second_look: str = "wider") -> list[GridSite]:
                              _second_look(root / row["dir"] / SECOND_LOOKS[second_look]),
                              _relief(root / row["dir"], told), str(root), where))
     return out
+
+
+def _folder_name(name: object) -> bool:
+    """A plain folder name: 1-255 bytes of UTF-8, no '/', no control character, not . or
+    .. (a grid row's dir, joined to the grid's folder)."""
+    if not isinstance(name, str) or name in (".", "..") or "/" in name:
+        return False
+    try:
+        size = len(name.encode("utf-8"))
+    except UnicodeEncodeError:  # a lone surrogate
+        return False
+    return 0 < size <= 255 and not any(ord(c) < 32 for c in name)
 
 
 def _relief(site: Path, truth: SiteTruth) -> dict[str, float] | None:
