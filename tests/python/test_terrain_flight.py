@@ -23,7 +23,7 @@ from scipy.ndimage import maximum_filter
 from mound import native
 from mound.errors import InputError
 from mound.formats.plan import Plan
-from mound.formats.site_row import SiteRow
+from mound.formats.site_row import SecondLookRecord, SiteRow
 from mound.formats.sites import Sites
 from mound.geometry.dem import Dem
 from mound.geometry.geodesy import Origin, geodetic_to_enu
@@ -588,12 +588,14 @@ def test_second_looks_are_flown_wider_within_the_budget_and_clear_of_the_terrain
     p, spec = flown["plan"], flown["spec"]
     tour = list(p["tour"][1:-1])
     chosen = tour[::2][:4]
-    rows = [SiteRow(s, "k", second_look={"advised": s in chosen, "scan_factor": 2.0})
-            for s in tour]
+    rows = [SiteRow(s, "k", second_look=SecondLookRecord(s in chosen, 2.0)) for s in tour]
     ids, factor = advised_sites(rows)
     assert sorted(ids) == sorted(chosen) and factor == 2.0
     with pytest.raises(InputError, match="r00.second_look.scan_factor"):
-        advised_sites([SiteRow("r00", "k", second_look={"advised": True, "scan_factor": "2"})])
+        advised_sites([SiteRow("r00", "k", second_look=SecondLookRecord(True, 0.5))])
+    row = {**SiteRow("r00", "k").to_doc(), "second_look": {"advised": True, "scan_factor": "2"}}
+    with pytest.raises(InputError, match=r"r.json: second_look.scan_factor: expected a number"):
+        SiteRow.from_doc(row, "r.json")
     dem = mission_items.TerrainInput(str(dem_path), "egm96", spec)
     fp = int(np.ceil(spec.footprint_m))
     highest = maximum_filter(raw[0], size=2 * fp + 1, mode="nearest")

@@ -86,15 +86,16 @@ BIN: list[Path] = []  # --bin: another build's mound_recon
 
 def survey_site(out: Path, mound: bool) -> Path:
     """The survey's site s023 of field 0 (index 22), simulated as the driver does."""
+    from mound.formats.sites import Site, Truth
+    from mound.geometry.geodesy import Origin
     from mound.sim import site as sim
     from mound.sim.card import survey_site_spec
 
     site = out / ("survey_site" if mound else "survey_site_flat")
     if not (site / "poses.json").exists():
-        spec, _ = survey_site_spec({"id": "s023", "x_m": 0.0, "y_m": 0.0,
-                                    "truth": {"mound": mound}}, 22,
-                                   {"lat": 38.5705, "lon": 27.9862, "alt_m": 95.0}, 1,
-                                   (640, 480), "raster", 60.0)
+        spec, _ = survey_site_spec(Site("s023", 0.0, 0.0, 0.0, truth=Truth(mound)), 22,
+                                   Origin(38.5705, 27.9862, 95.0), 1, (640, 480), "raster",
+                                   60.0)
         sim.simulate(spec, site)
     return site
 
