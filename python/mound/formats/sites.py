@@ -367,7 +367,8 @@ def user_sites(doc: Any, path: Path, scan: ScanSpec, budget_m: float | None,
         given.budget_m if given.budget_m is not None else default_budget_m)
     if not budget > 0:
         raise InputError("budget_m: must be > 0")
-    sites = tuple(replace(r, scan_cost_m=scan.site_cost_m()) for r in given.sites)
+    cost = scan.site_cost_m()
+    sites = tuple(replace(r, scan_cost_m=cost) for r in given.sites)
     return Sites(given.home, given.end, float(budget), sites, given.origin,
                  scan.takeoff_landing_m(),
                  {"scan": scan.to_doc(),

@@ -140,19 +140,16 @@ class GridSite:
         return self.site_centre_enu_m, self.site_radius_m
 
 
-def grid_site(row: Mapping[str, object], verdict: Mapping[str, object] | None,
-              second: Mapping[str, object] | None, relief: Mapping[str, float] | None,
-              grid: str, where: str) -> GridSite:
-    """A grid row (grid.json's rows[k]) with its site's verdict (None: not measured) and
-    second look's verdict (None: not flown or no verdict)."""
-    name = row.get("dir")
-    if not isinstance(name, str) or not name:
-        raise InputError(f"{where}.dir: expected the site's folder name")
+def grid_site(name: str, row: Mapping[str, object], verdict: Mapping[str, object] | None,
+              second: Mapping[str, object] | None, grid: str, where: str) -> GridSite:
+    """A grid row (grid.json's rows[k], its site's folder `name`) with its site's verdict
+    (None: not measured) and second look's verdict (None: not flown or no verdict); its
+    relief is the caller's to add (it reads the site's true surface)."""
     truth = SiteTruth.from_doc(row.get("truth"), f"{where}.truth")
     spec = row.get("spec")
     terrain = _object(spec, f"{where}.spec").get("terrain") if spec is not None else None
     if verdict is None:
-        return GridSite(name, truth, grid=grid, relief=relief,
+        return GridSite(name, truth, grid=grid,
                         terrain=_object(terrain, f"{where}.spec.terrain") if terrain else None)
     vwhere = f"{grid}/{name}/verdict.json"
     m = _object(verdict.get("measurements", {}), f"{vwhere}: measurements")
@@ -167,7 +164,7 @@ def grid_site(row: Mapping[str, object], verdict: Mapping[str, object] | None,
         None if second is None else rises_of(
             _object(second.get("measurements", {}), f"{grid}/{name}/second/verdict.json")
             .get("judged_rises", []), f"{grid}/{name}/second/verdict.json: judged_rises"),
-        relief, grid, _object(terrain, f"{where}.spec.terrain") if terrain else None,
+        None, grid, _object(terrain, f"{where}.spec.terrain") if terrain else None,
         "dense" if str(cloud).endswith("dense.ply") else "sparse",
         status if isinstance(status, str) else None,
         None if centre is None else _xy(centre, f"{vwhere}: measurements.site_centre_enu_m"),

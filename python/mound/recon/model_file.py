@@ -25,7 +25,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import Any, NamedTuple, TypeGuard
 
 from mound.errors import InputError
 from mound.jsonio import load_json
@@ -103,7 +103,7 @@ class VerdictModel:
             (float(band["p_low"]), float(band["p_high"])) if band else None)
 
 
-def _is_number(v: Any) -> bool:
+def _is_number(v: object) -> TypeGuard[int | float]:
     return isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
 
 
@@ -111,7 +111,7 @@ def _number(doc: Mapping[str, object], key: str, at: str) -> float:
     if key not in doc:
         raise InputError(f"{at}: {key}: missing required field")
     v = doc[key]
-    if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
+    if not _is_number(v):
         raise InputError(f"{at}: {key}: expected a finite number")
     return float(v)
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -89,24 +90,24 @@ def load_grid(folder: str | Path, second_look: str = "wider") -> list[GridSite]:
         if not isinstance(row, dict):
             raise InputError(f"{where}: expected a site's row")
         name = row.get("dir")
-        if not _folder_name(name):
+        if not isinstance(name, str) or not _folder_name(name):
             raise InputError(f"{where}.dir: expected the site's folder name in the grid, "
                              f"got {short_repr(name)}")
-        vpath = root / row["dir"] / "verdict.json"
+        vpath = root / name / "verdict.json"
         if row.get("status") != "ok" or not vpath.is_file():
-            out.append(grid_site(row, None, None, None, str(root), where))
+            out.append(grid_site(name, row, None, None, str(root), where))
             continue
-        told = SiteTruth.from_doc(row.get("truth"), f"{where}.truth")
-        out.append(grid_site(row, read_json(vpath, "mound.verdict", 1),
-                             _second_look(root / row["dir"] / SECOND_LOOKS[second_look]),
-                             _relief(root / row["dir"], told), str(root), where))
+        judged = grid_site(name, row, read_json(vpath, "mound.verdict", 1),
+                           _second_look(root / name / SECOND_LOOKS[second_look]), str(root),
+                           where)
+        out.append(replace(judged, relief=_relief(root / name, judged.truth)))
     return out
 
 
-def _folder_name(name: object) -> bool:
+def _folder_name(name: str) -> bool:
     """A plain folder name: 1-255 bytes of UTF-8, no '/', no control character, not . or
     .. (a grid row's dir, joined to the grid's folder)."""
-    if not isinstance(name, str) or name in (".", "..") or "/" in name:
+    if name in (".", "..") or "/" in name:
         return False
     try:
         size = len(name.encode("utf-8"))

@@ -48,7 +48,7 @@ def run(scenes: list[str], labels_path: str, *, band_names: list[str] | None = N
 
     labels = read_labels(labels_path)
     prep = train.prepare(scenes, labels, bands, band_names, labels_path)
-    names = [b.name or f"band{b.index}" for b in prep.bands]
+    names = [b.label for b in prep.bands]
     kinds = {"paper": (FeatureSpec("paper", resample_m=paper_resample_m, band_labels=names),
                        "none"),
              "multiscale": (FeatureSpec("multiscale", band_labels=names), "hinge")}

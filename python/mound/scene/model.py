@@ -43,6 +43,11 @@ class Band:
     index: int
     name: str = ""
 
+    @property
+    def label(self) -> str:
+        """How features name the band: its name, else band<index>."""
+        return self.name or f"band{self.index}"
+
     def to_doc(self) -> dict[str, object]:
         return {"index": self.index, "name": self.name}
 
@@ -165,7 +170,8 @@ class SceneModel:
                     and isinstance(b.get("name", ""), str) for b in bands)):
                 raise InputError(f"{source}: bands: expected [{{index, name}}] with 1-based "
                                  "indices")
-            labels = [b.get("name") or f"band{b['index']}" for b in bands]
+            chosen = [Band(b["index"], b.get("name", "")) for b in bands]
+            labels = [b.label for b in chosen]
             feats = doc["features"]
             if not isinstance(feats, dict):
                 raise InputError(f"{source}: features: expected an object")
@@ -195,7 +201,7 @@ class SceneModel:
             keep = {k: v for k, v in doc.items() if k not in (
                 "schema", "version", "bands", "features", "basis", "resolution_m", "mean",
                 "std", "weights", "calibration", "threshold", "clip")}
-            return cls(bands=[Band(b["index"], b.get("name", "")) for b in bands],
+            return cls(bands=chosen,
                        spec=spec, basis=basis,
                        scaler=Standardizer(arrays["mean"], arrays["std"]),
                        w=arrays["weights"], res_m=res, calibration=cal, threshold=thr,

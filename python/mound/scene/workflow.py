@@ -36,7 +36,7 @@ def train_model(scenes: list[str], labels_path: str, out: str | None, *,
     labels = read_labels(labels_path)
     prep = train.prepare(scenes, labels, bands, band_names, labels_path)
     spec = FeatureSpec(features, resample_m=resample_m,
-                       band_labels=[b.name or f"band{b.index}" for b in prep.bands])
+                       band_labels=[b.label for b in prep.bands])
     basis = "none" if features == "paper" else basis
     samples = train.sample(prep, spec, negatives_per_scene, negative_distance_m, seed)
     n_pos, n_neg = int((samples.y > 0).sum()), int((samples.y < 0).sum())

@@ -25,11 +25,11 @@ from mound.uav.mission_items import (
     MissionItem,
     MissionSite,
     MissionSpec,
-    PlanNode,
     TerrainInput,
     plan_nodes,
     up,
 )
+from mound.uav.terrain import Node
 from mound.uav.terrain_mission import build_over_terrain
 
 
@@ -56,7 +56,7 @@ def build(plan: Plan, origin: Origin, spec: MissionSpec | None = None,
     return _flat(origin, spec, nodes, closed, budget)
 
 
-def _flat(origin: Origin, spec: MissionSpec, nodes: list[PlanNode], closed: bool,
+def _flat(origin: Origin, spec: MissionSpec, nodes: list[Node], closed: bool,
           budget: float) -> Mission:
     """Heights above home, every site's ground taken at home's height: one transit
     height, the flight distance checked against the budget."""

@@ -57,6 +57,7 @@ from mound.geometry.camera import Camera, Pose
 from mound.geometry.flight import DEFAULT_SITE_DIAMETER_M, PATTERNS, ScanSpec
 from mound.geometry.geodesy import Origin, enu_to_geodetic
 from mound.jsonio import require_id, require_number
+from mound.uav.terrain import Node
 
 # MAV_CMD
 NAV_WAYPOINT = 16
@@ -189,17 +190,6 @@ def up(h: float) -> np.ndarray:
 
 
 @dataclass(frozen=True)
-class PlanNode:
-    """A node of a plan's tour with its position (ENU m) and the scan the plan costed."""
-
-    id: str
-    kind: str  # home, site, end
-    x_m: float
-    y_m: float
-    scan_cost_m: float = 0.0
-
-
-@dataclass(frozen=True)
 class Footprint:
     """An image's footprint on the ground: its corners, ENU metres (z 0 at the site's
     ground), of image `image` of the site's `pattern` leg."""
@@ -278,7 +268,7 @@ MAX_COST_M = 1e8
 MAX_BUDGET_M = 1e12
 
 
-def plan_nodes(plan: Plan) -> tuple[list[PlanNode], bool, float]:
+def plan_nodes(plan: Plan) -> tuple[list[Node], bool, float]:
     """Validated (tour nodes with positions, closed?, budget) of a plan of one flight."""
     if len(plan.flights) != 1:
         raise InputError(f"flights: a mission flies one flight, the plan has "
@@ -305,7 +295,7 @@ def plan_nodes(plan: Plan) -> tuple[list[PlanNode], bool, float]:
         kind = w.get("kind", "site")
         if kind not in ("home", "site", "end"):
             raise InputError(f"{where}.kind: expected home, site or end, got {kind!r:.40}")
-        nodes.append(PlanNode(node_id, kind, x, y, require_number(
+        nodes.append(Node(node_id, kind, x, y, require_number(
             w, "scan_cost_m", where, lo=0, hi=MAX_COST_M, default=0.0)))
     if not plan.budget_m <= MAX_BUDGET_M:
         raise InputError(f"plan.budget_m: must be a number in [0, {MAX_BUDGET_M:g}]")

@@ -120,10 +120,13 @@ def site_energy_m(scan: ScanSpec, spec: TerrainSpec) -> float:
 
 @dataclass
 class Node:
+    """A node of a tour: its position (ENU m) and, from a plan, the scan the plan costed."""
+
     id: str
     kind: str          # home, end, site
     x_m: float
     y_m: float
+    scan_cost_m: float = 0.0
 
 
 class TerrainModel:

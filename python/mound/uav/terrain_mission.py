@@ -19,14 +19,14 @@ PROFILE_SAMPLES = 120  # terrain samples per leg in the profiles (report, GeoJSO
 
 
 def build_over_terrain(plan: Plan, origin: Origin, spec: mi.MissionSpec,
-                       terrain: mi.TerrainInput, nodes: list[mi.PlanNode], closed: bool,
+                       terrain: mi.TerrainInput, nodes: list[Node], closed: bool,
                        budget: float) -> mi.Mission:
     tspec = terrain.spec if terrain.spec is not None else TerrainSpec()
     tspec.validate()
     scan = spec.scan
     # The tour's nodes once each (a closed tour's return to home is node 0 again).
     stops = nodes[:-1] if closed else nodes
-    model_nodes = [Node(n.id, n.kind, n.x_m, n.y_m) for n in stops]
+    model_nodes = list(stops)
     xy = np.array([[n.x_m, n.y_m] for n in model_nodes])
     dem = open_dem(terrain.dem_path, origin, terrain.vertical, xy, scan, tspec)
     tspec = replace(tspec, vertical=dem.vertical)
