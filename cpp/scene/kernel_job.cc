@@ -1,6 +1,11 @@
 #include "scene/kernel_job.h"
 
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstring>
 #include <filesystem>
+#include <istream>
 
 #include "common/atomic_file.h"
 #include "common/enum_names.h"
@@ -14,6 +19,7 @@ namespace {
 using nlohmann::json;
 
 constexpr size_t kMaxBlockPixels = size_t{100} << 20;  // per band: 10,240 x 10,240
+constexpr size_t kMaxStreamedBytes = size_t{1} << 30;  // a streamed block's pixels
 
 constexpr EnumName<Basis> kBasisNames[] = {{Basis::kNone, "none"}, {Basis::kHinge, "hinge"}};
 
@@ -50,14 +56,8 @@ PixelBlock LoadBlock(const std::string& file) {
   return b;
 }
 
-}  // namespace
-
-KernelJob LoadKernelJob(const std::string& path) {
-  return ParseKernelJob(ReadFile(path), path, std::filesystem::path(path).parent_path().string());
-}
-
-KernelJob ParseKernelJob(const std::string& text, const std::string& path, const std::string& dir) {
-  const json doc = ParseJson(text, path);
+// Every field but the block.
+KernelJob ParseJobFields(const json& doc, const std::string& path) {
   CheckSchema(doc, "mound.scene_kernel", 1, path);
   KernelJob job;
   const json& f = RequireField(doc, "features", "");
@@ -98,12 +98,178 @@ KernelJob ParseKernelJob(const std::string& text, const std::string& path, const
   job.cells.rows = RequireInt(c, "rows", "cells", 1, 16384);
   job.cells.cols = RequireInt(c, "cols", "cells", 1, 16384);
 
-  job.block = LoadBlock(ResolveDataFile(dir, RequireString(doc, "block", ""), "block"));
+  return job;
+}
+
+void CheckJob(KernelJob& job) {
   job.spec.n_bands = job.block.bands;
   job.spec.Check();
   job.model.Check(job.spec.NumFeatures());
   CheckBlock(job.block, job.spec, job.cells);
+}
+
+}  // namespace
+
+KernelJob LoadKernelJob(const std::string& path) {
+  return ParseKernelJob(ReadFile(path), path, std::filesystem::path(path).parent_path().string());
+}
+
+KernelJob ParseKernelJob(const std::string& text, const std::string& path, const std::string& dir) {
+  const json doc = ParseJson(text, path);
+  KernelJob job = ParseJobFields(doc, path);
+  const json& block = RequireField(doc, "block", "");
+  if (!block.is_string()) throw InputError("block: expected the .npy file's name");
+  job.block = LoadBlock(ResolveDataFile(dir, block.get<std::string>(), "block"));
+  CheckJob(job);
   return job;
+}
+
+namespace {
+
+// A streamed block's layout: how many bytes follow its request's line.
+struct BlockLayout {
+  int bands = 0, rows = 0, cols = 0;
+  size_t item_bytes = 4;
+  size_t Bytes() const { return item_bytes * bands * static_cast<size_t>(rows) * cols; }
+};
+
+BlockLayout ParseLayout(const json& doc) {
+  const json& b = RequireField(doc, "block", "");
+  if (!b.is_object()) {
+    throw InputError(
+        "block: expected {\"dtype\": \"<f4\" or \"<f8\", \"shape\": [bands, rows, cols]}");
+  }
+  BlockLayout layout;
+  const std::string dtype = RequireString(b, "dtype", "block");
+  if (dtype != "<f4" && dtype != "<f8") throw InputError("block.dtype: expected <f4 or <f8");
+  layout.item_bytes = dtype == "<f4" ? 4 : 8;
+  const json& shape = RequireField(b, "shape", "block");
+  if (!shape.is_array() || shape.size() != 3) {
+    throw InputError("block.shape: expected [bands, rows, cols]");
+  }
+  const std::vector<double> dims = FiniteNumbers(shape, "block.shape", 3);
+  for (size_t k = 0; k < 3; ++k) {
+    if (dims[k] != std::floor(dims[k]) || dims[k] < 1 || dims[k] > (k == 0 ? 64 : 1 << 20)) {
+      throw InputError("block.shape[" + std::to_string(k) +
+                       "]: a whole number, 1 .. 64 bands or 1 .. 1,048,576 pixels");
+    }
+  }
+  layout.bands = static_cast<int>(dims[0]);
+  layout.rows = static_cast<int>(dims[1]);
+  layout.cols = static_cast<int>(dims[2]);
+  if (static_cast<size_t>(layout.rows) * layout.cols > kMaxBlockPixels) {
+    throw InputError("block.shape: at most 100 Mpx a band");
+  }
+  if (layout.Bytes() > kMaxStreamedBytes) throw InputError("block.shape: at most 1 GiB a block");
+  return layout;
+}
+
+// The block's bytes into job->block (float32 or float64, as the layout says).
+void ReadBlock(std::istream& in, const BlockLayout& layout, std::vector<unsigned char>* raw,
+               PixelBlock* b) {
+  const size_t n = static_cast<size_t>(layout.bands) * layout.rows * layout.cols;
+  // In pieces of at most 64 MB: input that ends early never allocates the whole block.
+  const size_t want = layout.Bytes();
+  raw->clear();
+  while (raw->size() < want) {
+    const size_t at = raw->size();
+    const size_t piece = std::min(want - at, size_t{64} << 20);
+    raw->resize(at + piece);
+    in.read(reinterpret_cast<char*>(raw->data() + at), static_cast<std::streamsize>(piece));
+    if (static_cast<size_t>(in.gcount()) != piece) {
+      throw InputError("block: the input ended " +
+                       std::to_string(want - at - static_cast<size_t>(in.gcount())) +
+                       " bytes before the block's end");
+    }
+  }
+  b->bands = layout.bands;
+  b->rows = layout.rows;
+  b->cols = layout.cols;
+  b->values.resize(n);
+  if (layout.item_bytes == 8) {
+    std::memcpy(b->values.data(), raw->data(), 8 * n);
+    return;
+  }
+  const unsigned char* src = raw->data();
+  for (size_t i = 0; i < n; ++i) {
+    float f;
+    std::memcpy(&f, src + 4 * i, 4);
+    b->values[i] = f;
+  }
+}
+
+void Reply(std::ostream& out, const json& head, const std::vector<double>* payload) {
+  out << head.dump() << "\n";
+  if (payload != nullptr && !payload->empty()) {
+    out.write(reinterpret_cast<const char*>(payload->data()),
+              static_cast<std::streamsize>(payload->size() * sizeof(double)));
+  }
+  out.flush();
+}
+
+}  // namespace
+
+int ServeKernelJobs(std::istream& in, std::ostream& out, Simd simd) {
+  Scorer scorer(simd);
+  KernelJob job;
+  std::vector<unsigned char> raw;
+  std::vector<double> result;
+  std::string line;
+  for (size_t request = 1; std::getline(in, line); ++request) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const std::string where = "request " + std::to_string(request);
+    // Unreadable JSON or block layout: how many bytes follow is unknown, so the stream
+    // cannot go on (exit 2). Any other bad field: the block is read past and refused.
+    json doc;
+    BlockLayout layout;
+    try {
+      doc = ParseJson(line, where);
+      layout = ParseLayout(doc);
+    } catch (const InputError& e) {
+      throw InputError(where + ": " + e.what());
+    }
+    std::string want;
+    try {
+      job = ParseJobFields(doc, where);
+      want = RequireString(doc, "want", "");
+      if (want != "logits" && want != "features") {
+        throw InputError("want: expected logits or features");
+      }
+    } catch (const InputError& e) {
+      ReadBlock(in, layout, &raw, &job.block);  // keeps the stream in step
+      Reply(out, {{"status", "error"}, {"message", where + ": " + e.what()}}, nullptr);
+      continue;
+    }
+    ReadBlock(in, layout, &raw, &job.block);
+    try {
+      CheckJob(job);
+    } catch (const InputError& e) {
+      Reply(out, {{"status", "error"}, {"message", where + ": " + e.what()}}, nullptr);
+      continue;
+    }
+    size_t scored = 0;
+    std::vector<size_t> shape{static_cast<size_t>(job.cells.rows),
+                              static_cast<size_t>(job.cells.cols)};
+    if (want == "features") {
+      scorer.Features(job.block, job.spec, job.cells, &result);
+      shape.push_back(static_cast<size_t>(job.spec.NumFeatures()));
+    } else {
+      scorer.Logits(job.block, job.spec, job.model, job.cells, &result);
+      for (double v : result) scored += std::isfinite(v) ? 1 : 0;
+    }
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    Reply(out,
+          {{"status", "ok"},
+           {"dtype", "<f8"},
+           {"shape", shape},
+           {"bytes", result.size() * sizeof(double)},
+           {"scored", scored},
+           {"seconds", seconds},
+           {"simd", SimdName(scorer.simd())}},
+          &result);
+  }
+  return 0;
 }
 
 }  // namespace mound::scene

@@ -14,6 +14,8 @@
 // The block's path is relative to the job file's folder.
 #pragma once
 
+#include <istream>
+#include <ostream>
 #include <string>
 
 #include "scene/multiscale.h"
@@ -30,5 +32,17 @@ struct KernelJob {
 KernelJob LoadKernelJob(const std::string& path);
 // `text` read from `path`; the block is resolved in `dir`.
 KernelJob ParseKernelJob(const std::string& text, const std::string& path, const std::string& dir);
+
+// `mound_scene --serve`: scores the requests on `in` one after another with one Scorer
+// (its tables allocated once), until `in` ends (returns 0). A request is the job document
+// on one line, with "want": "logits" | "features" and its "block" an object {"dtype": "<f4"
+// | "<f8", "shape": [bands, rows, cols]} saying how many raw little-endian bytes (C order,
+// NaN = nodata) follow the line. Each reply is one JSON line, {"status": "ok", "dtype":
+// "<f8", "shape": [rows, cols] (logits) or [rows, cols, F] (features), "bytes", "scored",
+// "seconds", "simd"} followed by the result's raw bytes, or {"status": "error", "message": ...} (a
+// bad field: the block is read past and the next request served). A line that is not JSON, a block
+// layout that cannot be read or input that ends inside a block throws InputError (the stream cannot
+// go on).
+int ServeKernelJobs(std::istream& in, std::ostream& out, Simd simd);
 
 }  // namespace mound::scene

@@ -3,11 +3,19 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <map>
+#include <memory>
 #include <optional>
-#include <set>
 
 #include "common/error.h"
+
+// Inlined into the generic and the AVX2 row loops, so that each is compiled for both.
+#define MOUND_INLINE inline __attribute__((always_inline))
+#define MOUND_LAMBDA_INLINE __attribute__((always_inline))
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#define MOUND_SCENE_X86 1
+#else
+#define MOUND_SCENE_X86 0
+#endif
 
 namespace mound::scene {
 namespace {
@@ -21,11 +29,19 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 // running column sums), so that its sums are numpy's to the bit.
 class Sat {
  public:
-  Sat(int rows, int cols)
-      : w1_(static_cast<size_t>(cols) + 1), p_((rows + 1) * w1_, 0.0), column_(cols, 0.0) {}
+  // Sized for a block of rows x cols pixels and emptied; the memory of a larger earlier
+  // block is kept (a long-lived scorer allocates and faults its pages in once).
+  void Reset(int rows, int cols) {
+    w1_ = static_cast<size_t>(cols) + 1;
+    p_.resize((static_cast<size_t>(rows) + 1) * w1_);
+    std::fill(p_.begin(), p_.begin() + static_cast<std::ptrdiff_t>(w1_), 0.0);
+    column_.assign(cols, 0.0);
+  }
   // Adds the block's next row (row `i` of the table is pixel row i - 1).
   void AddRow(int i, const double* v) {
-    double* r = Row(i) + 1;
+    double* r = Row(i);
+    r[0] = 0;
+    ++r;
     const int cols = static_cast<int>(column_.size());
     for (int j = 0; j < cols; ++j) column_[j] += v[j];
     double run = 0;
@@ -35,7 +51,7 @@ class Sat {
   double* Row(int i) { return p_.data() + static_cast<size_t>(i) * w1_; }
 
  private:
-  size_t w1_;
+  size_t w1_ = 1;
   std::vector<double> p_;
   std::vector<double> column_;  // the column sums so far
 };
@@ -47,7 +63,8 @@ struct RowCells {
 
 // Sums over rows i-top..i+bottom, columns j-left..j+right of every cell of the row, in
 // numpy's order of operations ((A - B) - C) + D.
-void Box(const Sat& p, const RowCells& rc, int top, int bottom, int left, int right, double* out) {
+MOUND_INLINE void Box(const Sat& p, const RowCells& rc, int top, int bottom, int left, int right,
+                      double* __restrict out) {
   const double* lo = p.Row(rc.i + bottom + 1);
   const double* hi = p.Row(rc.i - top);
   const int jr = rc.j0 + right + 1;
@@ -69,15 +86,16 @@ void Box(const Sat& p, const RowCells& rc, int top, int bottom, int left, int ri
 // The block's channels (bands, NDVI), their squares and valid pixels as tables.
 struct Tables {
   std::vector<Sat> p1, p2;
-  std::optional<Sat> count;  // none when every pixel is valid
+  Sat count;
+  bool has_count = false;  // false when every pixel is valid
   std::vector<unsigned char> valid;
   int cols = 0;
+  std::vector<double> row, sq;  // scratch
 };
 
-Tables BuildTables(const PixelBlock& b, const MultiscaleSpec& spec) {
+void BuildTables(const PixelBlock& b, const MultiscaleSpec& spec, Tables& t) {
   const size_t n = static_cast<size_t>(b.rows) * b.cols;
   const int nc = spec.NumChannels();
-  Tables t;
   t.cols = b.cols;
   t.valid.assign(n, 1);
   for (int c = 0; c < b.bands; ++c) {
@@ -94,14 +112,20 @@ Tables BuildTables(const PixelBlock& b, const MultiscaleSpec& spec) {
     }
   }
   const bool uniform = std::all_of(t.valid.begin(), t.valid.end(), [](auto v) { return v; });
+  t.p1.resize(nc);
+  t.p2.resize(nc);
   for (int c = 0; c < nc; ++c) {
-    t.p1.emplace_back(b.rows, b.cols);
-    t.p2.emplace_back(b.rows, b.cols);
+    t.p1[c].Reset(b.rows, b.cols);
+    t.p2[c].Reset(b.rows, b.cols);
   }
-  if (!uniform) t.count.emplace(b.rows, b.cols);
+  t.has_count = !uniform;
+  if (t.has_count) t.count.Reset(b.rows, b.cols);
   // One pass over the block, a row at a time: each channel's row (0 where a pixel is not
   // valid; NDVI from the band values), its square and the valid flags into the tables.
-  std::vector<double> row(b.cols), sq(b.cols);
+  std::vector<double>& row = t.row;
+  std::vector<double>& sq = t.sq;
+  row.resize(b.cols);
+  sq.resize(b.cols);
   for (int i = 0; i < b.rows; ++i) {
     const unsigned char* ok = t.valid.data() + static_cast<size_t>(i) * b.cols;
     for (int c = 0; c < nc; ++c) {
@@ -120,146 +144,213 @@ Tables BuildTables(const PixelBlock& b, const MultiscaleSpec& spec) {
       t.p1[c].AddRow(i + 1, row.data());
       t.p2[c].AddRow(i + 1, sq.data());
     }
-    if (!uniform) {
+    if (t.has_count) {
       for (int j = 0; j < b.cols; ++j) row[j] = ok[j] ? 1.0 : 0.0;
-      t.count->AddRow(i + 1, row.data());
+      t.count.AddRow(i + 1, row.data());
     }
   }
-  return t;
 }
 
-// The reciprocals of a window's valid-pixel counts over a row of cells (shared by every
-// channel: one division per window and cell instead of one per channel): 1 / its area when
-// every pixel is valid, else 1 / box sums of the valid table. Multiplying by them rounds
-// differently from numpy's division by the counts (by an ulp).
-class InvCounts {
- public:
-  InvCounts(const Tables& t, const RowCells& rc, int top, int bottom, int left, int right)
-      : counts_(rc.m), values_(rc.m) {
-    if (!t.count) {
-      std::fill(counts_.begin(), counts_.end(),
-                static_cast<double>((top + bottom + 1) * (left + right + 1)));
-    } else {
-      Box(*t.count, rc, top, bottom, left, right, counts_.data());
-    }
-    for (int l = 0; l < rc.m; ++l) values_[l] = 1.0 / counts_[l];
+// The loops of a row of cells, each over m cells, on restrict-qualified arrays so that the
+// compiler vectorises them (the same operations in the same order as features.py).
+MOUND_INLINE void Reciprocal(const double* __restrict n, double* __restrict out, int m) {
+  for (int l = 0; l < m; ++l) out[l] = 1.0 / n[l];
+}
+// 1 / max(n(2h) - n(h), 1): the ring's count from the two windows' counts.
+MOUND_INLINE void RingReciprocal(const double* __restrict inner, const double* __restrict outer,
+                                 double* __restrict out, int m) {
+  for (int l = 0; l < m; ++l) out[l] = 1.0 / std::max(outer[l] - inner[l], 1.0);
+}
+// The background's mean and 1 / sigma_bg.
+MOUND_INLINE void Background(const double* __restrict sum, const double* __restrict sq,
+                             const double* __restrict inv_n, double* __restrict mean,
+                             double* __restrict inv, int m) {
+  for (int l = 0; l < m; ++l) {
+    const double mb = sum[l] * inv_n[l];
+    double var = sq[l] * inv_n[l] - mb * mb;
+    var = std::max(var, 0.0);
+    double scale = std::sqrt(var);
+    scale += 1e-3 * std::fabs(mb) + 1e-9;
+    mean[l] = mb;
+    inv[l] = 1.0 / scale;
   }
-  const double* data() const { return values_.data(); }
-  const double* counts() const { return counts_.data(); }
+}
+MOUND_INLINE void Contrast(const double* __restrict s, const double* __restrict s2,
+                           const double* __restrict inv_n, const double* __restrict inv_ring,
+                           const double* __restrict inv, double* __restrict mean,
+                           double* __restrict f, int m) {
+  for (int l = 0; l < m; ++l) {
+    mean[l] = s[l] * inv_n[l];
+    const double ring = (s2[l] - s[l]) * inv_ring[l];
+    f[l] = (mean[l] - ring) * inv[l];
+  }
+}
+MOUND_INLINE void Abs(const double* __restrict x, double* __restrict f, int m) {
+  for (int l = 0; l < m; ++l) f[l] = std::fabs(x[l]);
+}
+MOUND_INLINE void Texture(const double* __restrict q, const double* __restrict inv_n,
+                          const double* __restrict mean, const double* __restrict inv,
+                          double* __restrict f, int m) {
+  for (int l = 0; l < m; ++l) {
+    double var = q[l] * inv_n[l] - mean[l] * mean[l];
+    var = std::max(var, 0.0);
+    f[l] = std::sqrt(var) * inv[l];
+  }
+}
+// The difference of two halves' means.
+MOUND_INLINE void HalfDiff(const double* __restrict a, const double* __restrict inv_a,
+                           const double* __restrict b, const double* __restrict inv_b,
+                           double* __restrict d, int m) {
+  for (int l = 0; l < m; ++l) d[l] = a[l] * inv_a[l] - b[l] * inv_b[l];
+}
+MOUND_INLINE void Dipole(const double* __restrict de, const double* __restrict dn,
+                         const double* __restrict inv, double* __restrict f, int m) {
+  for (int l = 0; l < m; ++l) f[l] = std::sqrt(de[l] * de[l] + dn[l] * dn[l]) * inv[l];
+}
+
+// One row of cells' features, in the order of features.py's names(), each handed to a
+// sink(f, values) (m values). Holds the row's buffers and the windows' reciprocal counts,
+// allocated once per block: the counts are the windows' areas (computed once) when every
+// pixel of the block is valid, else box sums of the count table, row by row.
+class RowKernel {
+ public:
+  RowKernel(const MultiscaleSpec& spec, int m) : spec_(spec), m_(m) {
+    const std::vector<int>& hs = spec.radii_px;
+    for (int h : hs) sizes_.push_back(h);
+    for (int h : hs) sizes_.push_back(2 * h);
+    sizes_.push_back(spec.background_px);
+    std::sort(sizes_.begin(), sizes_.end());
+    sizes_.erase(std::unique(sizes_.begin(), sizes_.end()), sizes_.end());
+    auto buffers = [m](size_t n) {
+      return std::vector<std::vector<double>>(n, std::vector<double>(m));
+    };
+    counts_ = buffers(sizes_.size());
+    inv_n_ = buffers(sizes_.size());
+    sums_ = buffers(sizes_.size());
+    half_counts_ = buffers(4 * hs.size());
+    half_inv_ = buffers(4 * hs.size());
+    inv_ring_ = buffers(hs.size());
+    small_ = buffers(spec.NumChannels());
+    for (auto* v : {&mean_bg_, &inv_, &q_, &mean_, &f_, &ea_, &wa_, &de_, &dn_, &total_}) {
+      v->resize(m);
+    }
+  }
+
+  template <typename Sink>
+  MOUND_INLINE void Row(const Tables& t, const RowCells& rc, unsigned char* enough, Sink&& sink) {
+    const int m = m_;
+    const std::vector<int>& hs = spec_.radii_px;
+    const int hbg = spec_.background_px;
+    if (t.has_count || !counted_) Counts(t, rc);
+    const size_t bg = Index(hbg);
+    int k = 0;
+    const int nc = spec_.NumChannels();
+    for (int c = 0; c < nc; ++c) {
+      const Sat& p1 = t.p1[c];
+      const Sat& p2 = t.p2[c];
+      for (size_t z = 0; z < sizes_.size(); ++z) {
+        const int h = sizes_[z];
+        Box(p1, rc, h, h, h, h, sums_[z].data());
+      }
+      Box(p2, rc, hbg, hbg, hbg, hbg, q_.data());
+      Background(sums_[bg].data(), q_.data(), inv_n_[bg].data(), mean_bg_.data(), inv_.data(), m);
+      for (size_t r = 0; r < hs.size(); ++r) {
+        const int h = hs[r];
+        const size_t z = Index(h);
+        const double* rn = inv_n_[z].data();
+        Contrast(sums_[z].data(), sums_[Index(2 * h)].data(), rn, inv_ring_[r].data(), inv_.data(),
+                 mean_.data(), f_.data(), m);
+        if (r == 0) std::copy(mean_.begin(), mean_.end(), small_[c].begin());
+        sink(k++, f_.data());
+        Abs(f_.data(), ea_.data(), m);
+        sink(k++, ea_.data());
+        Box(p2, rc, h, h, h, h, q_.data());
+        Texture(q_.data(), rn, mean_.data(), inv_.data(), f_.data(), m);
+        sink(k++, f_.data());
+        const double* const* hv = &half_ptr_[4 * r];
+        Box(p1, rc, h, h, -1, h, ea_.data());
+        Box(p1, rc, h, h, h, -1, wa_.data());
+        HalfDiff(ea_.data(), hv[0], wa_.data(), hv[1], de_.data(), m);
+        Box(p1, rc, h, -1, h, h, ea_.data());
+        Box(p1, rc, -1, h, h, h, wa_.data());
+        HalfDiff(ea_.data(), hv[2], wa_.data(), hv[3], dn_.data(), m);
+        Dipole(de_.data(), dn_.data(), inv_.data(), f_.data(), m);
+        sink(k++, f_.data());
+      }
+    }
+    if (spec_.HasNdvi()) {
+      sink(k++, small_[nc - 1].data());
+      sink(k++, mean_bg_.data());  // the last channel's: NDVI's
+    }
+    if (spec_.n_bands > 1) {
+      std::fill(total_.begin(), total_.end(), 0.0);
+      for (int b = 0; b < spec_.n_bands; ++b) {
+        for (int l = 0; l < m; ++l) total_[l] += small_[b][l];
+      }
+      for (int b = 0; b < spec_.n_bands; ++b) {
+        for (int l = 0; l < m; ++l) f_[l] = small_[b][l] / total_[l];
+        sink(k++, f_.data());
+      }
+    }
+    const double need = spec_.min_valid * (2.0 * hbg + 1) * (2.0 * hbg + 1);
+    const double* nbg = counts_[bg].data();
+    const unsigned char* valid_row = t.valid.data() + static_cast<size_t>(rc.i) * t.cols;
+    for (int l = 0; l < m; ++l) {
+      enough[l] = valid_row[rc.j0 + l * rc.stride] && nbg[l] >= need;
+    }
+  }
 
  private:
-  std::vector<double> counts_, values_;
-};
-
-// Computes one row of cells' features in the order of features.py's names() and hands each
-// to sink(f, values) (m values); `enough` says, per cell, whether its centre pixel is valid
-// and its background window valid enough.
-template <typename Sink>
-void FeatureRow(const Tables& t, const MultiscaleSpec& spec, const RowCells& rc,
-                std::vector<unsigned char>& enough, Sink&& sink) {
-  const int m = rc.m;
-  const std::vector<int>& hs = spec.radii_px;
-  const int hbg = spec.background_px;
-  std::set<int> sizes(hs.begin(), hs.end());
-  for (int h : hs) sizes.insert(2 * h);
-  sizes.insert(hbg);
-  std::map<int, InvCounts> inv_n;
-  for (int h : sizes) inv_n.try_emplace(h, t, rc, h, h, h, h);
-  struct Halves {
-    InvCounts e, w, n, s;
-  };
-  std::vector<Halves> half;
-  std::vector<std::vector<double>> inv_ring;
-  for (int h : hs) {
-    half.push_back({InvCounts(t, rc, h, h, -1, h), InvCounts(t, rc, h, h, h, -1),
-                    InvCounts(t, rc, h, -1, h, h), InvCounts(t, rc, -1, h, h, h)});
-    // 1 / max(n(2h) - n(h), 1): the ring's count from the two windows' counts
-    const double* a = inv_n.at(h).counts();
-    const double* b = inv_n.at(2 * h).counts();
-    std::vector<double>& r = inv_ring.emplace_back(m);
-    for (int l = 0; l < m; ++l) r[l] = 1.0 / std::max(b[l] - a[l], 1.0);
+  size_t Index(int h) const {
+    return static_cast<size_t>(std::lower_bound(sizes_.begin(), sizes_.end(), h) - sizes_.begin());
   }
-  std::map<int, std::vector<double>> sums;
-  for (int h : sizes) sums[h].resize(m);
-  std::vector<double> mean_bg(m), inv(m), q(m), mean(m), f(m), ea(m), wa(m), de(m), dn(m);
-  const int nc = spec.NumChannels();
-  std::vector<std::vector<double>> small(nc, std::vector<double>(m));
-  int k = 0;
-  for (int c = 0; c < nc; ++c) {
-    const Sat& p1 = t.p1[c];
-    const Sat& p2 = t.p2[c];
-    for (int h : sizes) Box(p1, rc, h, h, h, h, sums[h].data());
-    {
-      const double* rbg = inv_n.at(hbg).data();
-      const double* sbg = sums[hbg].data();
-      Box(p2, rc, hbg, hbg, hbg, hbg, q.data());
-      for (int l = 0; l < m; ++l) {
-        const double mb = sbg[l] * rbg[l];
-        double var = q[l] * rbg[l] - mb * mb;
-        var = std::max(var, 0.0);
-        double scale = std::sqrt(var);
-        scale += 1e-3 * std::fabs(mb) + 1e-9;
-        mean_bg[l] = mb;
-        inv[l] = 1.0 / scale;
-      }
+  // A window's valid-pixel count over the row's cells: its area when every pixel is valid,
+  // else a box sum of the count table.
+  MOUND_INLINE void Count(const Tables& t, const RowCells& rc, int top, int bottom, int left,
+                          int right, double* out) const {
+    if (t.has_count) {
+      Box(t.count, rc, top, bottom, left, right, out);
+    } else {
+      std::fill(out, out + m_, static_cast<double>((top + bottom + 1) * (left + right + 1)));
     }
+  }
+  // The reciprocal counts shared by every channel (one division per window and cell instead
+  // of one per channel; multiplying by them rounds differently from numpy's division by
+  // the counts, by an ulp).
+  MOUND_INLINE void Counts(const Tables& t, const RowCells& rc) {
+    for (size_t z = 0; z < sizes_.size(); ++z) {
+      const int h = sizes_[z];
+      Count(t, rc, h, h, h, h, counts_[z].data());
+      Reciprocal(counts_[z].data(), inv_n_[z].data(), m_);
+    }
+    const std::vector<int>& hs = spec_.radii_px;
+    half_ptr_.clear();
     for (size_t r = 0; r < hs.size(); ++r) {
       const int h = hs[r];
-      const double* rn = inv_n.at(h).data();
-      const double* rr = inv_ring[r].data();
-      const double* s = sums[h].data();
-      const double* s2 = sums[2 * h].data();
-      for (int l = 0; l < m; ++l) {
-        mean[l] = s[l] * rn[l];
-        const double ring = (s2[l] - s[l]) * rr[l];
-        f[l] = (mean[l] - ring) * inv[l];
+      const int sides[4][4] = {{h, h, -1, h}, {h, h, h, -1}, {h, -1, h, h}, {-1, h, h, h}};
+      for (int e = 0; e < 4; ++e) {
+        double* n = half_counts_[4 * r + e].data();
+        Count(t, rc, sides[e][0], sides[e][1], sides[e][2], sides[e][3], n);
+        Reciprocal(n, half_inv_[4 * r + e].data(), m_);
+        half_ptr_.push_back(half_inv_[4 * r + e].data());
       }
-      if (r == 0) std::copy(mean.begin(), mean.end(), small[c].begin());
-      sink(k++, f.data());
-      for (int l = 0; l < m; ++l) f[l] = std::fabs(f[l]);
-      sink(k++, f.data());
-      Box(p2, rc, h, h, h, h, q.data());
-      for (int l = 0; l < m; ++l) {
-        double var = q[l] * rn[l] - mean[l] * mean[l];
-        var = std::max(var, 0.0);
-        f[l] = std::sqrt(var) * inv[l];
-      }
-      sink(k++, f.data());
-      const Halves& hv = half[r];
-      const double *re = hv.e.data(), *rw = hv.w.data(), *rno = hv.n.data(), *rs = hv.s.data();
-      Box(p1, rc, h, h, -1, h, ea.data());
-      Box(p1, rc, h, h, h, -1, wa.data());
-      for (int l = 0; l < m; ++l) de[l] = ea[l] * re[l] - wa[l] * rw[l];
-      Box(p1, rc, h, -1, h, h, ea.data());
-      Box(p1, rc, -1, h, h, h, wa.data());
-      for (int l = 0; l < m; ++l) {
-        dn[l] = ea[l] * rno[l] - wa[l] * rs[l];
-        f[l] = std::sqrt(de[l] * de[l] + dn[l] * dn[l]) * inv[l];
-      }
-      sink(k++, f.data());
+      RingReciprocal(counts_[Index(h)].data(), counts_[Index(2 * h)].data(), inv_ring_[r].data(),
+                     m_);
     }
+    counted_ = true;
   }
-  if (spec.HasNdvi()) {
-    sink(k++, small[nc - 1].data());
-    sink(k++, mean_bg.data());  // the last channel's: NDVI's
-  }
-  if (spec.n_bands > 1) {
-    std::vector<double> total(m, 0.0);
-    for (int b = 0; b < spec.n_bands; ++b) {
-      for (int l = 0; l < m; ++l) total[l] += small[b][l];
-    }
-    for (int b = 0; b < spec.n_bands; ++b) {
-      for (int l = 0; l < m; ++l) f[l] = small[b][l] / total[l];
-      sink(k++, f.data());
-    }
-  }
-  const double need = spec.min_valid * (2.0 * hbg + 1) * (2.0 * hbg + 1);
-  const double* nbg = inv_n.at(hbg).counts();
-  const unsigned char* valid_row = t.valid.data() + static_cast<size_t>(rc.i) * t.cols;
-  for (int l = 0; l < m; ++l) {
-    enough[l] = valid_row[rc.j0 + l * rc.stride] && nbg[l] >= need;
-  }
-}
+
+  const MultiscaleSpec& spec_;
+  int m_;
+  bool counted_ = false;
+  std::vector<int> sizes_;  // the windows' half-sides: the radii, twice them, the background
+  std::vector<std::vector<double>> counts_, inv_n_, sums_;   // per size
+  std::vector<std::vector<double>> half_counts_, half_inv_;  // per radius: E, W, N, S halves
+  std::vector<const double*> half_ptr_;
+  std::vector<std::vector<double>> inv_ring_;  // per radius
+  std::vector<std::vector<double>> small_;     // per channel: the smallest window's mean
+  std::vector<double> mean_bg_, inv_, q_, mean_, f_, ea_, wa_, de_, dn_, total_;
+};
 
 // The model folded for one pass per feature (model.py's _folded): logit = const +
 // sum_f w_x x_f - w_c clip(x_f, mean -+ std) + w_m max(|x_f - mean|, std), x_f clipped to
@@ -387,19 +478,20 @@ void CheckBlock(const PixelBlock& block, const MultiscaleSpec& spec, const CellG
   }
 }
 
-std::vector<double> Features(const PixelBlock& block, const MultiscaleSpec& spec,
-                             const CellGrid& cells) {
-  spec.Check();
-  CheckBlock(block, spec, cells);
-  const Tables t = BuildTables(block, spec);
+namespace {
+
+// The rows of cells: their features into `out` ((rows * cols) x F, NaN rows where a cell has
+// none).
+MOUND_INLINE void FeatureRows(const Tables& t, const MultiscaleSpec& spec, const CellGrid& cells,
+                              double* out) {
   const int nf = spec.NumFeatures();
   const int m = cells.cols;
-  std::vector<double> out(static_cast<size_t>(cells.rows) * m * nf);
   std::vector<unsigned char> enough(m);
+  RowKernel kernel(spec, m);
   for (int k = 0; k < cells.rows; ++k) {
     const RowCells rc{cells.First() + k * cells.stride, cells.First(), cells.stride, m};
-    double* row = out.data() + static_cast<size_t>(k) * m * nf;
-    FeatureRow(t, spec, rc, enough, [&](int f, const double* v) {
+    double* row = out + static_cast<size_t>(k) * m * nf;
+    kernel.Row(t, rc, enough.data(), [&](int f, const double* v) MOUND_LAMBDA_INLINE {
       for (int l = 0; l < m; ++l) row[static_cast<size_t>(l) * nf + f] = v[l];
     });
     for (int l = 0; l < m; ++l) {
@@ -409,28 +501,23 @@ std::vector<double> Features(const PixelBlock& block, const MultiscaleSpec& spec
       if (!ok) std::fill(x, x + nf, kNan);
     }
   }
-  return out;
 }
 
-std::vector<double> Logits(const PixelBlock& block, const MultiscaleSpec& spec,
-                           const LinearModel& model, const CellGrid& cells) {
-  spec.Check();
-  model.Check(spec.NumFeatures());
-  CheckBlock(block, spec, cells);
-  const Tables t = BuildTables(block, spec);
-  const Folded fm = Fold(model);
+// The rows of cells: their logits into `out` (rows * cols, NaN where a cell has none).
+MOUND_INLINE void LogitRows(const Tables& t, const MultiscaleSpec& spec, const Folded& fm,
+                            const CellGrid& cells, double* out) {
   const int m = cells.cols;
-  std::vector<double> out(static_cast<size_t>(cells.rows) * m);
   std::vector<unsigned char> enough(m);
   std::vector<double> finite(m);
   double* fin = finite.data();
+  RowKernel kernel(spec, m);
   for (int k = 0; k < cells.rows; ++k) {
     const RowCells rc{cells.First() + k * cells.stride, cells.First(), cells.stride, m};
-    double* acc = out.data() + static_cast<size_t>(k) * m;
+    double* acc = out + static_cast<size_t>(k) * m;
     std::fill(acc, acc + m, fm.constant);
     std::fill(finite.begin(), finite.end(), 0.0);
     // One pass per feature: fin becomes NaN once a feature is not finite (x * 0).
-    FeatureRow(t, spec, rc, enough, [&](int f, const double* v) {
+    kernel.Row(t, rc, enough.data(), [&](int f, const double* v) MOUND_LAMBDA_INLINE {
       const double wx = fm.w_x[f], lo = fm.lo[f], hi = fm.hi[f];
       if (fm.hinge) {
         const double wc = fm.w_c[f], wm = fm.w_m[f], mu = fm.mean[f], sd = fm.std[f];
@@ -453,6 +540,105 @@ std::vector<double> Logits(const PixelBlock& block, const MultiscaleSpec& spec,
       if (!enough[l] || finite[l] != 0.0) acc[l] = kNan;
     }
   }
+}
+
+// The same loops compiled twice: for any x86-64 (SSE2) and for AVX2, chosen at run time.
+// Neither lets the compiler fuse a multiply and an add (-ffp-contract=off) or reorder
+// sums, so both give the same bits.
+void FeatureRowsGeneric(const Tables& t, const MultiscaleSpec& spec, const CellGrid& cells,
+                        double* out) {
+  FeatureRows(t, spec, cells, out);
+}
+void LogitRowsGeneric(const Tables& t, const MultiscaleSpec& spec, const Folded& fm,
+                      const CellGrid& cells, double* out) {
+  LogitRows(t, spec, fm, cells, out);
+}
+#if MOUND_SCENE_X86
+__attribute__((target("avx2"))) void FeatureRowsAvx2(const Tables& t, const MultiscaleSpec& spec,
+                                                     const CellGrid& cells, double* out) {
+  FeatureRows(t, spec, cells, out);
+}
+__attribute__((target("avx2"))) void LogitRowsAvx2(const Tables& t, const MultiscaleSpec& spec,
+                                                   const Folded& fm, const CellGrid& cells,
+                                                   double* out) {
+  LogitRows(t, spec, fm, cells, out);
+}
+#endif
+
+bool CpuHasAvx2() {
+#if MOUND_SCENE_X86
+  return __builtin_cpu_supports("avx2");
+#else
+  return false;
+#endif
+}
+
+}  // namespace
+
+Simd ResolveSimd(Simd wanted) {
+  if (wanted == Simd::kAuto) return CpuHasAvx2() ? Simd::kAvx2 : Simd::kGeneric;
+  if (wanted == Simd::kAvx2 && !CpuHasAvx2()) {
+    throw InputError("--simd: this CPU has no AVX2 (use generic or auto)");
+  }
+  return wanted;
+}
+
+const char* SimdName(Simd simd) {
+  switch (simd) {
+    case Simd::kAuto:
+      return "auto";
+    case Simd::kGeneric:
+      return "generic";
+    case Simd::kAvx2:
+      return "avx2";
+  }
+  return "?";
+}
+
+struct Scorer::Workspace {
+  Tables tables;
+};
+
+Scorer::Scorer(Simd simd) : ws_(std::make_unique<Workspace>()), simd_(ResolveSimd(simd)) {}
+Scorer::~Scorer() = default;
+
+void Scorer::Features(const PixelBlock& block, const MultiscaleSpec& spec, const CellGrid& cells,
+                      std::vector<double>* out) {
+  spec.Check();
+  CheckBlock(block, spec, cells);
+  BuildTables(block, spec, ws_->tables);
+  out->resize(static_cast<size_t>(cells.rows) * cells.cols * spec.NumFeatures());
+#if MOUND_SCENE_X86
+  if (simd_ == Simd::kAvx2) return FeatureRowsAvx2(ws_->tables, spec, cells, out->data());
+#endif
+  FeatureRowsGeneric(ws_->tables, spec, cells, out->data());
+}
+
+void Scorer::Logits(const PixelBlock& block, const MultiscaleSpec& spec, const LinearModel& model,
+                    const CellGrid& cells, std::vector<double>* out) {
+  spec.Check();
+  model.Check(spec.NumFeatures());
+  CheckBlock(block, spec, cells);
+  BuildTables(block, spec, ws_->tables);
+  const Folded fm = Fold(model);
+  out->resize(static_cast<size_t>(cells.rows) * cells.cols);
+#if MOUND_SCENE_X86
+  if (simd_ == Simd::kAvx2) return LogitRowsAvx2(ws_->tables, spec, fm, cells, out->data());
+#endif
+  LogitRowsGeneric(ws_->tables, spec, fm, cells, out->data());
+}
+
+std::vector<double> Features(const PixelBlock& block, const MultiscaleSpec& spec,
+                             const CellGrid& cells) {
+  std::vector<double> out;
+  Scorer().Features(block, spec, cells, &out);
+  return out;
+}
+
+std::vector<double> Logits(const PixelBlock& block, const MultiscaleSpec& spec,
+                           const LinearModel& model, const CellGrid& cells) {
+  std::vector<double> out;
+  Scorer().Logits(block, spec, model, cells, &out);
   return out;
 }
 

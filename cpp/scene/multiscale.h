@@ -19,6 +19,7 @@
 // otherwise), phi = z (basis none) or (z, max(z - 1, 0), max(-z - 1, 0)) (hinge).
 #pragma once
 
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -68,6 +69,36 @@ struct CellGrid {
 
 // Throws InputError when `block` does not hold every window the cells need.
 void CheckBlock(const PixelBlock& block, const MultiscaleSpec& spec, const CellGrid& cells);
+
+// The instruction set the kernel's loops run with. Generic runs on any x86-64 (SSE2) and
+// elsewhere; AVX2 where the CPU has it (x86-64 only). Both give the same bits: no fused
+// multiply-adds, no reordered sums.
+enum class Simd { kAuto, kGeneric, kAvx2 };
+// kAuto -> the best this CPU has; InputError for kAvx2 on a CPU without it.
+Simd ResolveSimd(Simd wanted);
+const char* SimdName(Simd simd);
+
+// Scores blocks one after another, keeping its tables (~10 per channel and block pixel,
+// float64) between them: a long-lived kernel (`mound_scene --serve`) allocates and faults
+// them in once instead of per block.
+class Scorer {
+ public:
+  explicit Scorer(Simd simd = Simd::kAuto);
+  ~Scorer();
+  Scorer(const Scorer&) = delete;
+  Scorer& operator=(const Scorer&) = delete;
+  Simd simd() const { return simd_; }
+  // As Features() and Logits() below, into `out` (resized).
+  void Features(const PixelBlock& block, const MultiscaleSpec& spec, const CellGrid& cells,
+                std::vector<double>* out);
+  void Logits(const PixelBlock& block, const MultiscaleSpec& spec, const LinearModel& model,
+              const CellGrid& cells, std::vector<double>* out);
+
+ private:
+  struct Workspace;
+  std::unique_ptr<Workspace> ws_;
+  Simd simd_;
+};
 
 // Features, (rows * cols) x NumFeatures() row-major; NaN rows where a cell has none.
 std::vector<double> Features(const PixelBlock& block, const MultiscaleSpec& spec,

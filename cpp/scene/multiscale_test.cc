@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <random>
 
 #include "common/error.h"
@@ -218,6 +219,42 @@ TEST(Multiscale, StrideSamplesTheSameCells) {
     for (int l = 0; l < 10; ++l) {
       for (int f = 0; f < nf; ++f) {
         EXPECT_EQ(coarse[(k * 10 + l) * nf + f], dense[((3 * k) * 31 + 3 * l) * nf + f]);
+      }
+    }
+  }
+}
+
+// A long-lived scorer keeps its tables between blocks: blocks of other sizes, with and
+// without nodata (a count table or none), give the bits a fresh scorer gives, and the
+// AVX2 loops the bits of the generic ones.
+TEST(Multiscale, AReusedScorerAndAvx2GiveTheBitsOfAFreshGenericOne) {
+  const MultiscaleSpec s = Spec(3, true);
+  const int nf = s.NumFeatures();
+  std::mt19937 rng(4);
+  std::normal_distribution<double> g(0, 1);
+  LinearModel m{
+      Basis::kHinge, true, std::vector<double>(nf, 0.5), std::vector<double>(nf, 0.7), {}};
+  for (int k = 0; k < 3 * nf + 1; ++k) m.weights.push_back(g(rng));
+  std::vector<Simd> simds{Simd::kGeneric};
+  if (ResolveSimd(Simd::kAuto) == Simd::kAvx2) simds.push_back(Simd::kAvx2);
+  for (const Simd simd : simds) {
+    Scorer reused(simd);
+    EXPECT_EQ(reused.simd(), simd);
+    for (const int size : {40, 52, 36}) {
+      for (const bool holes : {false, true}) {
+        PixelBlock b = RandomBlock(3, size, size + 3, static_cast<unsigned>(size));
+        if (holes) b.values[size * 5 + 7] = std::nan("");
+        const CellGrid cells{8, 1, size - 16, size - 13};
+        std::vector<double> got, want, fgot;
+        reused.Logits(b, s, m, cells, &got);
+        Scorer(Simd::kGeneric).Logits(b, s, m, cells, &want);
+        ASSERT_EQ(got.size(), want.size());
+        EXPECT_EQ(0, std::memcmp(got.data(), want.data(), got.size() * sizeof(double)))
+            << SimdName(simd) << " " << size << " " << holes;
+        reused.Features(b, s, cells, &fgot);
+        const std::vector<double> fwant = Features(b, s, cells);
+        ASSERT_EQ(fgot.size(), fwant.size());
+        EXPECT_EQ(0, std::memcmp(fgot.data(), fwant.data(), fgot.size() * sizeof(double)));
       }
     }
   }

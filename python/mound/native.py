@@ -15,6 +15,7 @@ Ready for minute-long runs (ODM's `system.run` is the model, ../shared/STYLE.md)
 
 from __future__ import annotations
 
+import atexit
 import collections
 import contextlib
 import json
@@ -260,3 +261,141 @@ def run_json(name: str, args: list[str], timeout_s: float | None = None, *,
     except json.JSONDecodeError as e:
         raise ToolError(name, EXIT_INTERNAL, f"stdout is not JSON ({e})") from e
     return result
+
+
+class ToolServer:
+    """A tool kept running between requests (`mound_scene --serve`): each request is one
+    JSON line and raw bytes on its stdin, each reply one JSON line and raw bytes on its
+    stdout (the tool's header names the protocol). One caller at a time (a thread keeps
+    its own, see `checkout`); its stderr is kept for the error message. Ended by `close`,
+    by end_all() like any tool, and when this process exits (its stdin then ends)."""
+
+    def __init__(self, name: str, args: list[str]) -> None:
+        self.name = name
+        self.path = str(tool_path(name))
+        self.tail: collections.deque[str] = collections.deque(maxlen=TAIL_LINES)
+        with _live_lock:
+            if _all_ended:
+                raise ToolError(name, -signal.SIGTERM, f"{name}: not started, the work was "
+                                "interrupted")
+            self.proc = subprocess.Popen([self.path, *args], stdin=subprocess.PIPE,
+                                         stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                         start_new_session=True)
+            _live[self.proc] = None  # shared between works: ended by end_all() only
+        assert self.proc.stderr is not None
+        err = self.proc.stderr
+        self._pump = threading.Thread(target=self._read_stderr, args=(err,), daemon=True)
+        self._pump.start()
+
+    def _read_stderr(self, err: IO[bytes]) -> None:
+        for raw in iter(err.readline, b""):
+            self.tail.append(raw.decode("utf-8", "replace").rstrip("\n"))
+
+    def alive(self) -> bool:
+        return self.proc.poll() is None
+
+    def request(self, head: dict[str, object], payload: bytes | memoryview
+                ) -> tuple[dict[str, Any], bytearray]:
+        """Sends one request; the reply's JSON and the bytes after it (its `bytes` says how
+        many). A reply
+        {"status": "error"} raises ToolInputError; a tool that stopped raises what its exit
+        status says (native.tool_error)."""
+        stdin, stdout = self.proc.stdin, self.proc.stdout
+        assert stdin is not None and stdout is not None
+        try:
+            stdin.write(json.dumps(head, separators=(",", ":")).encode() + b"\n")
+            stdin.write(payload)
+            stdin.flush()
+            line = stdout.readline()
+        except (BrokenPipeError, ConnectionResetError):
+            line = b""
+        if not line:
+            raise self._ended()
+        try:
+            reply: dict[str, Any] = json.loads(line)
+        except json.JSONDecodeError as e:
+            self.close()
+            raise ToolError(self.name, EXIT_INTERNAL, f"a reply is not JSON ({e})") from e
+        if reply.get("status") == "error":
+            raise tool_error(self.name, EXIT_BAD_INPUT, str(reply.get("message")))
+        size = reply.get("bytes", 0)
+        if not isinstance(size, int) or size < 0:
+            self.close()
+            raise ToolError(self.name, EXIT_INTERNAL, f"a reply's bytes is {size!r}")
+        data = bytearray(size)  # writable: the caller's array may be edited in place
+        view, got = memoryview(data), 0
+        while got < size:
+            n = stdout.readinto(view[got:])  # type: ignore[attr-defined]  # a BufferedReader
+            if not n:
+                raise self._ended()
+            got += n
+        return reply, data
+
+    def _ended(self) -> ToolError:
+        try:
+            code = self.proc.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            _end_group(self.proc)
+            code = self.proc.returncode
+        self.close()
+        self._pump.join(timeout=5)
+        return tool_error(self.name, code if code != 0 else EXIT_INTERNAL,
+                          "\n".join(self.tail) or f"{self.name}: the server stopped")
+
+    def close(self) -> None:
+        """Ends the tool: its stdin closed (it exits 0), SIGTERM after GRACE_S."""
+        with _live_lock:
+            _live.pop(self.proc, None)
+        for f in (self.proc.stdin, self.proc.stdout):
+            with contextlib.suppress(OSError):
+                if f is not None:
+                    f.close()
+        try:
+            self.proc.wait(timeout=GRACE_S)
+        except subprocess.TimeoutExpired:
+            _end_group(self.proc)
+
+
+_servers_lock = threading.Lock()
+_idle_servers: dict[tuple[str, tuple[str, ...]], list[ToolServer]] = {}
+
+
+@contextlib.contextmanager
+def checkout(name: str, args: list[str]) -> Iterator[ToolServer]:
+    """A running `name args` server for this block's requests: an idle one of this build
+    (build/<name>, or its pinned copy), else a new one; given back to the idle ones after,
+    unless it failed. As many run as threads use them at once; all end at exit."""
+    key = (str(tool_path(name)), tuple(args))
+    server = None
+    with _servers_lock:
+        idle = _idle_servers.setdefault(key, [])
+        while idle and server is None:
+            s = idle.pop()
+            if s.alive():
+                server = s
+            else:
+                s.close()
+    if server is None:
+        server = ToolServer(name, args)
+    ok = False
+    try:
+        yield server
+        ok = True
+    finally:
+        if ok and server.alive():
+            with _servers_lock:
+                _idle_servers.setdefault(key, []).append(server)
+        else:
+            server.close()
+
+
+def close_servers() -> None:
+    """Ends every idle server (at exit; tests that count processes)."""
+    with _servers_lock:
+        servers = [s for idle in _idle_servers.values() for s in idle]
+        _idle_servers.clear()
+    for s in servers:
+        s.close()
+
+
+atexit.register(close_servers)

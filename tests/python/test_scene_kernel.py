@@ -1,8 +1,10 @@
 """The compiled scoring kernel (`mound_scene`, cpp/scene/) against the numpy reference
 (features.py, model.py): the same features and logits on blocks with and without NDVI, at
 stride 1 and 3, with nodata holes and edges, float32 and float64 pixels; and the same
-rasters and candidates from `mound scene score --engine native|numpy`. Bad kernel jobs exit
-2 naming the field."""
+rasters and candidates from `mound scene score --engine native|numpy`. The streamed kernel
+(`--serve`, what scoring uses) gives the bits of a job file's run, with AVX2 and without.
+Bad kernel jobs exit 2 naming the field; a bad streamed job is refused and the next one
+served."""
 
 from __future__ import annotations
 
@@ -15,8 +17,10 @@ import pytest
 import rasterio
 from scenes import WEST, make_scene
 
+from mound import native
 from mound.classify.features import Standardizer
 from mound.cli import main as mound_main
+from mound.errors import ToolInputError
 from mound.paths import build_dir
 from mound.scene import kernel
 from mound.scene.features import FeatureSpec
@@ -130,7 +134,8 @@ def test_bad_kernel_jobs_exit_2_naming_the_field(tmp_path: Path) -> None:
     block = _block(rng, 2, 60, 60)
     np.save(tmp_path / "block.npy", block.astype(np.float32))
     model = _model(spec, "hinge", rng, np.ones((4, len(spec.names()))))
-    good = kernel._job(spec, 1.0, spec.halo_px(1.0, 1), 1, 2, 2, model)
+    good = {**kernel._job(spec, 1.0, spec.halo_px(1.0, 1), 1, 2, 2, model),
+            "block": "block.npy"}
     (tmp_path / "job.json").write_text(json.dumps(good))
     ok = _tool(["job.json", "--logits", "l.npy"], tmp_path)
     assert ok.returncode == 0, ok.stderr
@@ -168,3 +173,90 @@ def test_bad_kernel_jobs_exit_2_naming_the_field(tmp_path: Path) -> None:
     bad({"block": "wrong.npy"}, "wrong.npy")
     r = _tool(["job.json"], tmp_path)
     assert r.returncode == 2 and "--logits" in r.stderr
+
+
+def test_streamed_kernel_equals_the_per_block_kernel_on_a_nodata_border(tmp_path: Path
+                                                                         ) -> None:
+    """Every block of a scene with a nodata border, scored as `mound scene score` does (the
+    long-lived `mound_scene --serve`, its tables reused from block to block, blocks of two
+    sizes), equals the same block scored by a fresh `mound_scene JOB.json` run, bit for bit,
+    with and without AVX2."""
+    from mound.scene import score
+    from mound.scene.raster import open_scene
+
+    scene_path = tmp_path / "scene.tif"
+    make_scene(scene_path, seed=5, size=260, n_mounds=2, nodata_border=25)
+    info = open_scene(scene_path)
+    spec = FeatureSpec("multiscale", radii_m=(3.0, 6.0, 12.0), background_m=24.0,
+                       band_labels=["blue", "green", "red", "nir"])
+    rng = np.random.default_rng(1)
+    block0, halo = score.read_block(info, [1, 2, 3, 4], spec, 1, 60, 60, 40, 40)
+    feats = spec.compute(block0, 1.0, halo, 1, 40, 40)
+    model = _model(spec, "hinge", rng, feats)
+    grid = score.OutGrid.of(info, model, None)
+    simds = ["generic", "avx2"] if "avx2" in Path("/proc/cpuinfo").read_text() else ["generic"]
+    native.close_servers()
+    for block in (64, 48):  # two block sizes through the same servers
+        for r0, c0, nr, nc in score.block_origins(grid, block):
+            n, m = nr + 2, nc + 2
+            pixels, halo = score.read_block(info, [1, 2, 3, 4], spec, 1, r0 - 1, c0 - 1, n, m)
+            streamed = kernel.logits(pixels, model, 1.0, halo, 1, n, m)
+            assert pixels.dtype == np.float32  # a float32 scene is handed over as float32
+            np.save(tmp_path / "block.npy", pixels)
+            job = {**kernel._job(spec, 1.0, halo, 1, n, m, model), "block": "block.npy"}
+            (tmp_path / "job.json").write_text(json.dumps(job))
+            for simd in simds:
+                r = _tool(["job.json", "--logits", f"{simd}.npy", "--simd", simd], tmp_path)
+                assert r.returncode == 0, r.stderr
+                assert json.loads(r.stdout)["simd"] == simd
+                once = np.load(tmp_path / f"{simd}.npy")
+                assert np.array_equal(streamed, once, equal_nan=True), (block, r0, c0, simd)
+            if r0 == 0 and c0 == 0:  # the corner block: its rows in the nodata border
+                assert np.isnan(streamed[:26]).all() and np.isfinite(streamed).any()
+    # the border has no logits, the inside has
+    full, _ = score.logit_map(info, model)
+    assert np.isnan(full[:25]).all() and np.isfinite(full[60:200, 60:200]).all()
+
+
+def test_a_bad_streamed_job_is_refused_and_the_next_one_served(tmp_path: Path) -> None:
+    """`mound_scene --serve`: a job with a bad field gets an error reply naming it (its
+    block read past), the next job is served; a line that is not JSON ends the server with
+    exit 2 naming the request; the end of input ends it with 0."""
+    rng = np.random.default_rng(0)
+    spec = _spec(["red", "nir"])
+    block = _block(rng, 2, 60, 60).astype(np.float32)
+    model = _model(spec, "hinge", rng, np.ones((4, len(spec.names()))))
+    good = {**kernel._job(spec, 1.0, spec.halo_px(1.0, 1), 1, 2, 2, model), "want": "logits",
+            "block": {"dtype": "<f4", "shape": list(block.shape)}}
+    bad = json.loads(json.dumps(good))
+    bad["model"]["std"][3] = 0.0
+    short = json.loads(json.dumps(good))
+    short["cells"]["rows"] = 500
+    raw = block.tobytes()
+    stream = b"".join(json.dumps(j).encode() + b"\n" + raw for j in (good, bad, short, good))
+    r = subprocess.run([str(build_dir() / "mound_scene"), "--serve"], input=stream,
+                       capture_output=True, timeout=60)
+    assert r.returncode == 0, r.stderr
+    out = r.stdout
+    replies = []
+    while out:
+        line, _, out = out.partition(b"\n")
+        head = json.loads(line)
+        replies.append(head)
+        out = out[head.get("bytes", 0):]
+    assert [h["status"] for h in replies] == ["ok", "error", "error", "ok"]
+    assert "request 2: model.std[3]" in replies[1]["message"]
+    assert "request 3: cells.rows" in replies[2]["message"]
+    assert replies[0]["shape"] == [2, 2] and replies[0]["bytes"] == 32
+    r = subprocess.run([str(build_dir() / "mound_scene"), "--serve"],
+                       input=json.dumps(good).encode() + b"\n" + raw + b"{not json\n",
+                       capture_output=True, timeout=60)
+    assert r.returncode == 2 and b"request 2" in r.stderr
+    assert len(r.stderr.decode().strip().splitlines()) == 1
+    r = subprocess.run([str(build_dir() / "mound_scene"), "--serve"],
+                       input=json.dumps(good).encode() + b"\n" + raw[:100],
+                       capture_output=True, timeout=60)
+    assert r.returncode == 2 and b"block: the input ended" in r.stderr
+    with pytest.raises(ToolInputError, match="model.std"):
+        kernel._run(block, {k: v for k, v in bad.items() if k not in ("want", "block")},
+                    "logits")

@@ -17,7 +17,8 @@ MODE=${1:-fuzz}
 SECONDS_PER_TARGET=${2:-$([ "$MODE" = smoke ] && echo 10 || echo 120)}
 JOBS=${JOBS:-2}
 BUILD=build-fuzz
-TARGETS=(sites_io tsplib npy render_job ply recon_inputs verdict_model exif scene_kernel_job)
+TARGETS=(sites_io tsplib npy render_job ply recon_inputs verdict_model exif scene_kernel_job
+  scene_kernel_stream)
 
 if [ ! -f "$BUILD/build.ninja" ]; then
   CC=clang CXX=clang++ cmake -S . -B "$BUILD" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \

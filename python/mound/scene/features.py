@@ -161,7 +161,9 @@ class FeatureSpec:
     def compute(self, block: np.ndarray, res_m: float, halo: int, stride: int, n: int,
                 m: int) -> np.ndarray:
         """Features (n * m, F) of the n x m output cells of `block` (bands, rows, cols),
-        whose core starts `halo` pixels in; rows with NaN where a position has none."""
+        whose core starts `halo` pixels in; rows with NaN where a position has none. The
+        arithmetic is float64 whatever the block's type."""
+        block = block.astype(np.float64, copy=False)
         if self.kind == "paper":
             return self._paper(block, res_m, halo, n, m)
         return self._multiscale(block, res_m, halo, stride, n, m)
@@ -193,7 +195,8 @@ class FeatureSpec:
         """The summed-area tables of a block (multiscale), from which `rows` evaluates the
         features of any range of output rows (the scorer goes a few rows at a time, so that
         the intermediate arrays stay in the processor's cache)."""
-        return MultiscaleTables(self, block, res_m, halo, stride, m)
+        return MultiscaleTables(self, block.astype(np.float64, copy=False), res_m, halo,
+                                stride, m)
 
 
 class MultiscaleTables:
