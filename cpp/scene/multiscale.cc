@@ -24,16 +24,20 @@ constexpr double kNan = std::numeric_limits<double>::quiet_NaN();
 constexpr double kClip = 6.0;  // model.py's CLIP
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-// A summed-area table with a zero first row and column. Built one row at a time as numpy's
+// A summed-area table with a zero first row and column, built one row at a time as numpy's
 // _sat does (np.cumsum down axis 0, then along axis 1: each row's prefix sums run over the
-// running column sums), so that its sums are numpy's to the bit.
+// running column sums), so that its sums are numpy's to the bit. Only the last `ring` rows
+// are kept (row i in slot i % ring): the cells of a row need rows within the features'
+// reach of it, and the scorer adds rows as it goes down the block, so the table of a
+// 1126-pixel block holds ~100 rows (0.9 MB) instead of 1127 (10 MB) and stays in cache.
 class Sat {
  public:
-  // Sized for a block of rows x cols pixels and emptied; the memory of a larger earlier
-  // block is kept (a long-lived scorer allocates and faults its pages in once).
-  void Reset(int rows, int cols) {
+  // Sized for rows of `cols` pixels and emptied (row 0, the zero row, added); the memory of
+  // an earlier block is kept (a long-lived scorer allocates and faults its pages in once).
+  void Reset(int cols, int ring) {
     w1_ = static_cast<size_t>(cols) + 1;
-    p_.resize((static_cast<size_t>(rows) + 1) * w1_);
+    ring_ = ring;
+    p_.resize(static_cast<size_t>(ring) * w1_);
     std::fill(p_.begin(), p_.begin() + static_cast<std::ptrdiff_t>(w1_), 0.0);
     column_.assign(cols, 0.0);
   }
@@ -47,11 +51,12 @@ class Sat {
     double run = 0;
     for (int j = 0; j < cols; ++j) r[j] = run += column_[j];
   }
-  const double* Row(int i) const { return p_.data() + static_cast<size_t>(i) * w1_; }
-  double* Row(int i) { return p_.data() + static_cast<size_t>(i) * w1_; }
+  const double* Row(int i) const { return p_.data() + static_cast<size_t>(i % ring_) * w1_; }
+  double* Row(int i) { return p_.data() + static_cast<size_t>(i % ring_) * w1_; }
 
  private:
   size_t w1_ = 1;
+  int ring_ = 1;
   std::vector<double> p_;
   std::vector<double> column_;  // the column sums so far
 };
@@ -83,20 +88,62 @@ MOUND_INLINE void Box(const Sat& p, const RowCells& rc, int top, int bottom, int
   }
 }
 
-// The block's channels (bands, NDVI), their squares and valid pixels as tables.
+// The block's channels (bands, NDVI), their squares and valid pixels as tables, filled
+// row by row as the cells go down the block (AddRowsTo).
 struct Tables {
   std::vector<Sat> p1, p2;
   Sat count;
   bool has_count = false;  // false when every pixel is valid
   std::vector<unsigned char> valid;
   int cols = 0;
+  const PixelBlock* block = nullptr;
+  const MultiscaleSpec* spec = nullptr;
+  int added = 0;                // table rows added so far (row 0 is the zero row)
   std::vector<double> row, sq;  // scratch
+
+  // Adds the table rows up to `last` (pixel rows up to last - 1).
+  void AddRowsTo(int last) {
+    const PixelBlock& b = *block;
+    const size_t n = static_cast<size_t>(b.rows) * b.cols;
+    const int nc = spec->NumChannels();
+    for (; added < last; ++added) {
+      // Pixel row i: each channel's row (0 where a pixel is not valid; NDVI from the band
+      // values), its square and the valid flags into the tables.
+      const int i = added;
+      const unsigned char* ok = valid.data() + static_cast<size_t>(i) * b.cols;
+      for (int c = 0; c < nc; ++c) {
+        if (c < b.bands) {
+          const double* v = b.values.data() + c * n + static_cast<size_t>(i) * b.cols;
+          for (int j = 0; j < b.cols; ++j) row[j] = ok[j] ? v[j] : 0.0;
+        } else {
+          const size_t at = static_cast<size_t>(i) * b.cols;
+          const double* red = b.values.data() + spec->red_band * n + at;
+          const double* nir = b.values.data() + spec->nir_band * n + at;
+          for (int j = 0; j < b.cols; ++j) {
+            row[j] = ok[j] ? (nir[j] - red[j]) / (nir[j] + red[j]) : 0.0;
+          }
+        }
+        for (int j = 0; j < b.cols; ++j) sq[j] = row[j] * row[j];
+        p1[c].AddRow(i + 1, row.data());
+        p2[c].AddRow(i + 1, sq.data());
+      }
+      if (has_count) {
+        for (int j = 0; j < b.cols; ++j) row[j] = ok[j] ? 1.0 : 0.0;
+        count.AddRow(i + 1, row.data());
+      }
+    }
+  }
 };
 
+// Prepares the tables of a block: its valid pixels, and empty tables that keep the rows
+// within the features' reach of a row of cells (AddRowsTo fills them).
 void BuildTables(const PixelBlock& b, const MultiscaleSpec& spec, Tables& t) {
   const size_t n = static_cast<size_t>(b.rows) * b.cols;
   const int nc = spec.NumChannels();
   t.cols = b.cols;
+  t.block = &b;
+  t.spec = &spec;
+  t.added = 0;
   t.valid.assign(n, 1);
   for (int c = 0; c < b.bands; ++c) {
     const double* v = b.values.data() + c * n;
@@ -112,43 +159,18 @@ void BuildTables(const PixelBlock& b, const MultiscaleSpec& spec, Tables& t) {
     }
   }
   const bool uniform = std::all_of(t.valid.begin(), t.valid.end(), [](auto v) { return v; });
+  // A row of cells at pixel row i reads table rows i - reach .. i + reach + 1.
+  const int ring = 2 * spec.ReachPx() + 2;
   t.p1.resize(nc);
   t.p2.resize(nc);
   for (int c = 0; c < nc; ++c) {
-    t.p1[c].Reset(b.rows, b.cols);
-    t.p2[c].Reset(b.rows, b.cols);
+    t.p1[c].Reset(b.cols, ring);
+    t.p2[c].Reset(b.cols, ring);
   }
   t.has_count = !uniform;
-  if (t.has_count) t.count.Reset(b.rows, b.cols);
-  // One pass over the block, a row at a time: each channel's row (0 where a pixel is not
-  // valid; NDVI from the band values), its square and the valid flags into the tables.
-  std::vector<double>& row = t.row;
-  std::vector<double>& sq = t.sq;
-  row.resize(b.cols);
-  sq.resize(b.cols);
-  for (int i = 0; i < b.rows; ++i) {
-    const unsigned char* ok = t.valid.data() + static_cast<size_t>(i) * b.cols;
-    for (int c = 0; c < nc; ++c) {
-      if (c < b.bands) {
-        const double* v = b.values.data() + c * n + static_cast<size_t>(i) * b.cols;
-        for (int j = 0; j < b.cols; ++j) row[j] = ok[j] ? v[j] : 0.0;
-      } else {
-        const size_t at = static_cast<size_t>(i) * b.cols;
-        const double* red = b.values.data() + spec.red_band * n + at;
-        const double* nir = b.values.data() + spec.nir_band * n + at;
-        for (int j = 0; j < b.cols; ++j) {
-          row[j] = ok[j] ? (nir[j] - red[j]) / (nir[j] + red[j]) : 0.0;
-        }
-      }
-      for (int j = 0; j < b.cols; ++j) sq[j] = row[j] * row[j];
-      t.p1[c].AddRow(i + 1, row.data());
-      t.p2[c].AddRow(i + 1, sq.data());
-    }
-    if (t.has_count) {
-      for (int j = 0; j < b.cols; ++j) row[j] = ok[j] ? 1.0 : 0.0;
-      t.count.AddRow(i + 1, row.data());
-    }
-  }
+  if (t.has_count) t.count.Reset(b.cols, ring);
+  t.row.resize(b.cols);
+  t.sq.resize(b.cols);
 }
 
 // The loops of a row of cells, each over m cells, on restrict-qualified arrays so that the
@@ -482,7 +504,7 @@ namespace {
 
 // The rows of cells: their features into `out` ((rows * cols) x F, NaN rows where a cell has
 // none).
-MOUND_INLINE void FeatureRows(const Tables& t, const MultiscaleSpec& spec, const CellGrid& cells,
+MOUND_INLINE void FeatureRows(Tables& t, const MultiscaleSpec& spec, const CellGrid& cells,
                               double* out) {
   const int nf = spec.NumFeatures();
   const int m = cells.cols;
@@ -490,6 +512,7 @@ MOUND_INLINE void FeatureRows(const Tables& t, const MultiscaleSpec& spec, const
   RowKernel kernel(spec, m);
   for (int k = 0; k < cells.rows; ++k) {
     const RowCells rc{cells.First() + k * cells.stride, cells.First(), cells.stride, m};
+    t.AddRowsTo(rc.i + spec.ReachPx() + 1);
     double* row = out + static_cast<size_t>(k) * m * nf;
     kernel.Row(t, rc, enough.data(), [&](int f, const double* v) MOUND_LAMBDA_INLINE {
       for (int l = 0; l < m; ++l) row[static_cast<size_t>(l) * nf + f] = v[l];
@@ -504,7 +527,7 @@ MOUND_INLINE void FeatureRows(const Tables& t, const MultiscaleSpec& spec, const
 }
 
 // The rows of cells: their logits into `out` (rows * cols, NaN where a cell has none).
-MOUND_INLINE void LogitRows(const Tables& t, const MultiscaleSpec& spec, const Folded& fm,
+MOUND_INLINE void LogitRows(Tables& t, const MultiscaleSpec& spec, const Folded& fm,
                             const CellGrid& cells, double* out) {
   const int m = cells.cols;
   std::vector<unsigned char> enough(m);
@@ -513,6 +536,7 @@ MOUND_INLINE void LogitRows(const Tables& t, const MultiscaleSpec& spec, const F
   RowKernel kernel(spec, m);
   for (int k = 0; k < cells.rows; ++k) {
     const RowCells rc{cells.First() + k * cells.stride, cells.First(), cells.stride, m};
+    t.AddRowsTo(rc.i + spec.ReachPx() + 1);
     double* acc = out + static_cast<size_t>(k) * m;
     std::fill(acc, acc + m, fm.constant);
     std::fill(finite.begin(), finite.end(), 0.0);
@@ -545,20 +569,19 @@ MOUND_INLINE void LogitRows(const Tables& t, const MultiscaleSpec& spec, const F
 // The same loops compiled twice: for any x86-64 (SSE2) and for AVX2, chosen at run time.
 // Neither lets the compiler fuse a multiply and an add (-ffp-contract=off) or reorder
 // sums, so both give the same bits.
-void FeatureRowsGeneric(const Tables& t, const MultiscaleSpec& spec, const CellGrid& cells,
-                        double* out) {
+void FeatureRowsGeneric(Tables& t, const MultiscaleSpec& spec, const CellGrid& cells, double* out) {
   FeatureRows(t, spec, cells, out);
 }
-void LogitRowsGeneric(const Tables& t, const MultiscaleSpec& spec, const Folded& fm,
+void LogitRowsGeneric(Tables& t, const MultiscaleSpec& spec, const Folded& fm,
                       const CellGrid& cells, double* out) {
   LogitRows(t, spec, fm, cells, out);
 }
 #if MOUND_SCENE_X86
-__attribute__((target("avx2"))) void FeatureRowsAvx2(const Tables& t, const MultiscaleSpec& spec,
+__attribute__((target("avx2"))) void FeatureRowsAvx2(Tables& t, const MultiscaleSpec& spec,
                                                      const CellGrid& cells, double* out) {
   FeatureRows(t, spec, cells, out);
 }
-__attribute__((target("avx2"))) void LogitRowsAvx2(const Tables& t, const MultiscaleSpec& spec,
+__attribute__((target("avx2"))) void LogitRowsAvx2(Tables& t, const MultiscaleSpec& spec,
                                                    const Folded& fm, const CellGrid& cells,
                                                    double* out) {
   LogitRows(t, spec, fm, cells, out);
