@@ -1,17 +1,21 @@
 #include "scene/kernel_job.h"
 
+#include "scene/block_scores.h"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <istream>
+#include <limits>
 
 #include "common/atomic_file.h"
 #include "common/enum_names.h"
 #include "common/error.h"
 #include "common/json_util.h"
 #include "common/npy.h"
+#include "scene/block_scores.h"
 
 namespace mound::scene {
 namespace {
@@ -130,7 +134,9 @@ namespace {
 struct BlockLayout {
   int bands = 0, rows = 0, cols = 0;
   size_t item_bytes = 4;
-  size_t Bytes() const { return item_bytes * bands * static_cast<size_t>(rows) * cols; }
+  size_t mask_bytes = 0;  // "cell_mask": one byte per cell after the pixels (0: not scored)
+  size_t PixelBytes() const { return item_bytes * bands * static_cast<size_t>(rows) * cols; }
+  size_t Bytes() const { return PixelBytes() + mask_bytes; }
 };
 
 BlockLayout ParseLayout(const json& doc) {
@@ -160,6 +166,9 @@ BlockLayout ParseLayout(const json& doc) {
   if (static_cast<size_t>(layout.rows) * layout.cols > kMaxBlockPixels) {
     throw InputError("block.shape: at most 100 Mpx a band");
   }
+  if (b.contains("cell_mask")) {
+    layout.mask_bytes = static_cast<size_t>(RequireInt(b, "cell_mask", "block", 1, 1 << 28));
+  }
   if (layout.Bytes() > kMaxStreamedBytes) throw InputError("block.shape: at most 1 GiB a block");
   return layout;
 }
@@ -187,7 +196,7 @@ void ReadBlock(std::istream& in, const BlockLayout& layout, std::vector<unsigned
   b->cols = layout.cols;
   b->values.resize(n);
   if (layout.item_bytes == 8) {
-    std::memcpy(b->values.data(), raw->data(), 8 * n);
+    std::memcpy(b->values.data(), raw->data(), 8 * n);  // the cell mask stays in raw
     return;
   }
   const unsigned char* src = raw->data();
@@ -198,13 +207,61 @@ void ReadBlock(std::istream& in, const BlockLayout& layout, std::vector<unsigned
   }
 }
 
-void Reply(std::ostream& out, const json& head, const std::vector<double>* payload) {
+// A reply's payload: arrays one after another, each named in the reply's "parts".
+struct Part {
+  std::string name, dtype;
+  std::vector<size_t> shape;
+  const void* data;
+  size_t bytes;
+};
+
+template <typename T>
+Part PartOf(const std::string& name, const char* dtype, std::vector<size_t> shape,
+            const std::vector<T>& v) {
+  return {name, dtype, std::move(shape), v.data(), v.size() * sizeof(T)};
+}
+
+void Reply(std::ostream& out, json head, const std::vector<Part>& parts) {
+  size_t bytes = 0;
+  if (!parts.empty()) {
+    json list = json::array();
+    for (const Part& p : parts) {
+      list.push_back({{"name", p.name}, {"dtype", p.dtype}, {"shape", p.shape}});
+      bytes += p.bytes;
+    }
+    head["parts"] = list;
+    head["dtype"] = parts[0].dtype;
+    head["shape"] = parts[0].shape;
+    head["bytes"] = bytes;
+  }
   out << head.dump() << "\n";
-  if (payload != nullptr && !payload->empty()) {
-    out.write(reinterpret_cast<const char*>(payload->data()),
-              static_cast<std::streamsize>(payload->size() * sizeof(double)));
+  for (const Part& p : parts) {
+    if (p.bytes > 0)
+      out.write(static_cast<const char*>(p.data), static_cast<std::streamsize>(p.bytes));
   }
   out.flush();
+}
+
+// The request's "scores": the calibration, the margin and the rasters' nodata value.
+struct ScoresRequest {
+  Calibration calibration;
+  int margin = 1;
+  float nodata = -9999.0f;
+  bool logits = false;  // the block's logits too
+};
+
+ScoresRequest ParseScores(const json& doc) {
+  const json& s = RequireField(doc, "scores", "");
+  if (!s.is_object()) throw InputError("scores: expected an object");
+  ScoresRequest r;
+  r.calibration.a = RequireInRange(s, "a", "scores", -1e6, 1e6);
+  r.calibration.b = RequireInRange(s, "b", "scores", -1e6, 1e6);
+  r.margin = RequireInt(s, "margin", "scores", 0, 4096);
+  r.nodata = static_cast<float>(RequireInRange(s, "nodata", "scores", -3e38, 3e38));
+  const json& l = RequireField(s, "logits", "scores");
+  if (!l.is_boolean()) throw InputError("scores.logits: expected true or false");
+  r.logits = l.get<bool>();
+  return r;
 }
 
 }  // namespace
@@ -229,45 +286,72 @@ int ServeKernelJobs(std::istream& in, std::ostream& out, Simd simd) {
       throw InputError(where + ": " + e.what());
     }
     std::string want;
+    ScoresRequest scores;
     try {
       job = ParseJobFields(doc, where);
       want = RequireString(doc, "want", "");
-      if (want != "logits" && want != "features") {
-        throw InputError("want: expected logits or features");
+      if (want != "logits" && want != "features" && want != "scores") {
+        throw InputError("want: expected logits, features or scores");
       }
+      if (want == "scores") scores = ParseScores(doc);
     } catch (const InputError& e) {
       ReadBlock(in, layout, &raw, &job.block);  // keeps the stream in step
-      Reply(out, {{"status", "error"}, {"message", where + ": " + e.what()}}, nullptr);
+      Reply(out, {{"status", "error"}, {"message", where + ": " + e.what()}}, {});
       continue;
     }
     ReadBlock(in, layout, &raw, &job.block);
+    const size_t rows = job.cells.rows, cols = job.cells.cols;
+    BlockScores bs;
     try {
       CheckJob(job);
+      if (layout.mask_bytes > 0 && layout.mask_bytes != rows * cols) {
+        throw InputError("block.cell_mask: " + std::to_string(layout.mask_bytes) + " bytes for " +
+                         std::to_string(rows * cols) + " cells");
+      }
+      if (want == "scores" &&
+          (2 * scores.margin >= job.cells.rows || 2 * scores.margin >= job.cells.cols)) {
+        throw InputError("scores.margin: leaves no core of the block's cells");
+      }
     } catch (const InputError& e) {
-      Reply(out, {{"status", "error"}, {"message", where + ": " + e.what()}}, nullptr);
+      Reply(out, {{"status", "error"}, {"message", where + ": " + e.what()}}, {});
       continue;
     }
-    size_t scored = 0;
-    std::vector<size_t> shape{static_cast<size_t>(job.cells.rows),
-                              static_cast<size_t>(job.cells.cols)};
+    json head{{"status", "ok"}, {"simd", SimdName(scorer.simd())}};
+    std::vector<Part> parts;
     if (want == "features") {
       scorer.Features(job.block, job.spec, job.cells, &result);
-      shape.push_back(static_cast<size_t>(job.spec.NumFeatures()));
+      parts.push_back(PartOf("features", "<f8",
+                             {rows, cols, static_cast<size_t>(job.spec.NumFeatures())}, result));
     } else {
       scorer.Logits(job.block, job.spec, job.model, job.cells, &result);
+      if (layout.mask_bytes > 0) {  // cells outside an area of interest: no logit
+        const unsigned char* mask = raw.data() + layout.PixelBytes();
+        for (size_t k = 0; k < result.size(); ++k)
+          if (mask[k] == 0) result[k] = std::numeric_limits<double>::quiet_NaN();
+      }
+      size_t scored = 0;
       for (double v : result) scored += std::isfinite(v) ? 1 : 0;
+      head["scored"] = scored;
+      if (want == "logits") {
+        parts.push_back(PartOf("logits", "<f8", {rows, cols}, result));
+      } else {
+        bs = ScoreBlock(result, job.cells.rows, job.cells.cols, scores.margin, scores.calibration,
+                        scores.nodata);
+        const size_t nr = rows - 2 * scores.margin, nc = cols - 2 * scores.margin;
+        const size_t np = bs.peak_row.size();
+        parts = {PartOf("p", "<f4", {nr, nc}, bs.p),
+                 PartOf("reward", "<f4", {nr, nc}, bs.reward),
+                 PartOf("peak_row", "<i4", {np}, bs.peak_row),
+                 PartOf("peak_col", "<i4", {np}, bs.peak_col),
+                 PartOf("peak_p", "<f8", {np}, bs.peak_p),
+                 PartOf("peak_logit", "<f8", {np}, bs.peak_logit)};
+        if (scores.logits) parts.push_back(PartOf("logits", "<f8", {rows, cols}, result));
+        head["scored"] = bs.scored;  // in the core
+        head["p_sum"] = bs.p_sum;
+      }
     }
-    const double seconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    Reply(out,
-          {{"status", "ok"},
-           {"dtype", "<f8"},
-           {"shape", shape},
-           {"bytes", result.size() * sizeof(double)},
-           {"scored", scored},
-           {"seconds", seconds},
-           {"simd", SimdName(scorer.simd())}},
-          &result);
+    head["seconds"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    Reply(out, head, parts);
   }
   return 0;
 }

@@ -35,14 +35,19 @@ KernelJob ParseKernelJob(const std::string& text, const std::string& path, const
 
 // `mound_scene --serve`: scores the requests on `in` one after another with one Scorer
 // (its tables allocated once), until `in` ends (returns 0). A request is the job document
-// on one line, with "want": "logits" | "features" and its "block" an object {"dtype": "<f4"
-// | "<f8", "shape": [bands, rows, cols]} saying how many raw little-endian bytes (C order,
-// NaN = nodata) follow the line. Each reply is one JSON line, {"status": "ok", "dtype":
-// "<f8", "shape": [rows, cols] (logits) or [rows, cols, F] (features), "bytes", "scored",
-// "seconds", "simd"} followed by the result's raw bytes, or {"status": "error", "message": ...} (a
-// bad field: the block is read past and the next request served). A line that is not JSON, a block
-// layout that cannot be read or input that ends inside a block throws InputError (the stream cannot
-// go on).
+// on one line, with "want": "logits" | "features" | "scores" and its "block" an object
+// {"dtype": "<f4" | "<f8", "shape": [bands, rows, cols]} saying how many raw little-endian
+// bytes (C order, NaN = nodata) follow the line. "scores" (block_scores.h) also needs
+// "scores": {"a", "b" (the calibration), "margin" (cells around the core), "nodata" (the
+// rasters' value where a cell has no p), "logits" (true: the block's logits too)}.
+// Each reply is one JSON line, {"status": "ok", "parts": [{"name", "dtype", "shape"}, ...],
+// "bytes", "scored", "seconds", "simd"} (scores: "p_sum" too) followed by the parts' raw
+// bytes in order — logits float64 (rows, cols); features float64 (rows, cols, F); scores
+// p and reward float32 (the core), peak_row, peak_col int32, peak_p, peak_logit float64
+// (the core's 3 x 3 maxima, in the block's cells), then logits when asked — or
+// {"status": "error", "message": ...} (a bad field: the block is read past and the next
+// request served). A line that is not JSON, a block layout that cannot be read or input
+// that ends inside a block throws InputError (the stream cannot go on).
 int ServeKernelJobs(std::istream& in, std::ostream& out, Simd simd);
 
 }  // namespace mound::scene

@@ -91,12 +91,14 @@ def test_kernel_equals_the_numpy_reference(labels: list[str], stride: int, nodat
         assert np.allclose(lg[fin], want[fin], rtol=1e-9, atol=1e-8)
 
 
-def test_engines_give_the_same_rasters_and_candidates(tmp_path: Path) -> None:
-    """`mound scene score` with the compiled kernel and with the numpy reference, on a
-    scene with a nodata border (the model: fitted on another scene)."""
+@pytest.mark.parametrize("with_aoi", [False, True])
+def test_engines_give_the_same_rasters_and_candidates(tmp_path: Path, with_aoi: bool) -> None:
+    """`mound scene score` with the compiled kernel (its p, reward and local maxima computed
+    in the kernel) and with the numpy reference, on a scene with a nodata border, with and
+    without an area of interest cutting through it (the model: fitted on another scene)."""
     train = tmp_path / "train.tif"
     mounds = make_scene(train, seed=3)
-    from scenes import write_labels
+    from scenes import NORTH, to_lonlat, write_labels
 
     labels = write_labels(tmp_path / "known.geojson", mounds)
     model = tmp_path / "model.json"
@@ -105,22 +107,38 @@ def test_engines_give_the_same_rasters_and_candidates(tmp_path: Path) -> None:
                        "--l2", "0.1"]) == 0
     scene = tmp_path / "test.tif"
     make_scene(scene, seed=4, n_mounds=3, nodata_border=20, west=WEST + 3000)
+    extra: list[str] = []
+    if with_aoi:
+        x0, y0 = WEST + 3000 + 40, NORTH - 200
+        ring = to_lonlat([(x0, y0), (x0 + 150, y0 + 30), (x0 + 120, y0 + 190), (x0, y0)])
+        aoi = tmp_path / "aoi.geojson"
+        aoi.write_text(json.dumps({"type": "Feature", "properties": {}, "geometry": {
+            "type": "Polygon", "coordinates": [[list(c) for c in ring]]}}))
+        extra = ["--aoi", str(aoi)]
     out = {}
     for engine in ("native", "numpy"):
         d = tmp_path / engine
         assert mound_main(["scene", "score", str(scene), "--model", str(model), "--out",
                            str(d), "--engine", engine, "--candidates", "10", "--block",
-                           "64"]) == 0
-        with rasterio.open(d / "p_mound.tif") as ds:
-            p = ds.read(1)
+                           "64", *extra]) == 0
+        rasters = []
+        for name in ("p_mound.tif", "reward.tif"):
+            with rasterio.open(d / name) as ds:
+                rasters.append(ds.read(1))
         cands = json.loads((d / "candidates.geojson").read_text())["features"]
         doc = json.loads((d / "scene.json").read_text())
         assert doc["timings"]["engine"] == engine
-        out[engine] = (p, [(c["properties"]["row"], c["properties"]["col"]) for c in cands])
-    (pn, cn), (pr, cr) = out["native"], out["numpy"]
-    assert ((pn == -9999) == (pr == -9999)).all() and (pn == -9999).any()
-    assert np.allclose(pn, pr, atol=1e-6)
-    assert cn == cr and len(cn) == 10
+        out[engine] = (rasters, [(c["properties"]["row"], c["properties"]["col"])
+                                 for c in cands],
+                       [c["properties"]["p_mound"] for c in cands], doc)
+    (rn, cn, pn, dn), (rr, cr, pr, dr) = out["native"], out["numpy"]
+    for a, b in zip(rn, rr, strict=True):
+        assert ((a == -9999) == (b == -9999)).all() and (a == -9999).any()
+        assert np.allclose(a, b, atol=1e-6)
+    assert cn == cr and len(cn) == 10 and np.allclose(pn, pr, atol=1e-6)
+    assert dn["counts"] == dr["counts"] and abs(dn["p_mean"] - dr["p_mean"]) < 1e-9
+    if with_aoi:  # the AOI left cells out that the border did not
+        assert dn["counts"]["nodata"] > 2 * 20 * 240
 
 
 def _tool(args: list[str], cwd: Path) -> subprocess.CompletedProcess[str]:

@@ -17,6 +17,7 @@ k stride, ...), features.py's grid.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -49,18 +50,68 @@ def _job(spec: FeatureSpec, res_m: float, halo: int, stride: int, n: int, m: int
             "features": feats, "model": mod}
 
 
-def _run(block: np.ndarray, job: dict[str, Any], want: str) -> np.ndarray:
+def _request(block: np.ndarray, job: dict[str, Any], want: str,
+             extra: dict[str, object] | None = None, mask: np.ndarray | None = None
+             ) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    """One request to a `mound_scene --serve` of this thread: the reply and its parts.
+    `mask` (the job's cells, True: scored) travels after the pixels."""
     if block.dtype == np.float32:
         data = np.ascontiguousarray(block)
     else:
         b32 = block.astype(np.float32)
         exact = np.array_equal(b32.astype(np.float64), block, equal_nan=True)
         data = b32 if exact else np.ascontiguousarray(block, np.float64)
-    head = {**job, "want": want,
-            "block": {"dtype": data.dtype.str, "shape": list(data.shape)}}
+    layout: dict[str, object] = {"dtype": data.dtype.str, "shape": list(data.shape)}
+    payload = data.data.cast("B")
+    if mask is not None:
+        layout["cell_mask"] = int(mask.size)
+        payload = memoryview(data.tobytes() + np.ascontiguousarray(mask, np.uint8).tobytes())
+    head = {**job, "want": want, **(extra or {}), "block": layout}
     with native.checkout("mound_scene", ["--serve"]) as server:
-        reply, raw = server.request(head, data.data.cast("B"))
-    return np.frombuffer(raw, dtype="<f8").reshape(reply["shape"])
+        reply, raw = server.request(head, payload)
+    parts, at = {}, 0
+    for part in reply["parts"]:
+        dtype = np.dtype(part["dtype"])
+        count = int(np.prod(part["shape"], dtype=np.int64))
+        parts[part["name"]] = np.frombuffer(raw, dtype, count, at).reshape(part["shape"])
+        at += count * dtype.itemsize
+    return reply, parts
+
+
+def _run(block: np.ndarray, job: dict[str, Any], want: str) -> np.ndarray:
+    return _request(block, job, want)[1][want]
+
+
+@dataclass
+class Scores:
+    """What scoring keeps of a block (block_scores.h; score.run_block is the definition):
+    float32 p and reward of the core (`nodata` where a cell has none), its 3 x 3 maxima of
+    p (rows and columns in the block's cells, margin included), and the block's logits when
+    asked for."""
+    p: np.ndarray
+    reward: np.ndarray
+    peak_row: np.ndarray
+    peak_col: np.ndarray
+    peak_p: np.ndarray
+    peak_logit: np.ndarray
+    scored: int
+    p_sum: float
+    logits: np.ndarray | None
+
+
+def scores(block: np.ndarray, model: SceneModel, res_m: float, halo: int, stride: int,
+           n: int, m: int, margin: int, nodata: float, with_logits: bool = False,
+           mask: np.ndarray | None = None) -> Scores:
+    """The block's logits, calibrated and reduced in the kernel (block_scores.h); cells
+    where `mask` (n, m) is False have none (outside an area of interest)."""
+    job = _job(model.spec, res_m, halo, stride, n, m, model)
+    extra: dict[str, object] = {"scores": {
+        "a": model.calibration["a"], "b": model.calibration["b"], "margin": margin,
+        "nodata": nodata, "logits": with_logits}}
+    reply, parts = _request(block, job, "scores", extra, mask)
+    return Scores(parts["p"], parts["reward"], parts["peak_row"], parts["peak_col"],
+                  parts["peak_p"], parts["peak_logit"], int(reply["scored"]),
+                  float(reply["p_sum"]), parts.get("logits"))
 
 
 def logits(block: np.ndarray, model: SceneModel, res_m: float, halo: int, stride: int,

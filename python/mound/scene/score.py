@@ -235,35 +235,55 @@ def block_origins(grid: OutGrid, block: int) -> list[tuple[int, int, int, int]]:
 class BlockResult:
     r0: int
     c0: int
-    logit: np.ndarray          # core only
-    p: np.ndarray              # calibrated, core only
-    reward: np.ndarray         # binary entropy of p, bits, float32, NODATA where p is NaN
+    p: np.ndarray              # calibrated p, float32, core only, NODATA where there is none
+    reward: np.ndarray         # binary entropy of p, bits, float32, NODATA where p is
+    scored: int                # core cells with a p
+    p_sum: float               # their p, summed
     peaks: Peaks
     seconds: float
+    logit: np.ndarray | None   # core only, float64 (NaN: none); when asked for
 
 
 def run_block(scene: SceneInfo, bands: list[int], model: SceneModel, grid: OutGrid,
               r0: int, c0: int, nr: int, nc: int, margin: int,
-              aoi: list[Any] | None, engine: str = "native") -> BlockResult:
+              aoi: list[Any] | None, engine: str = "native", with_logits: bool = False
+              ) -> BlockResult:
+    """A block's rasters, local maxima and (with_logits) logits. Multiscale features with
+    the native engine: all in the kernel (kernel.scores, the same numbers as below);
+    otherwise from score_block's logits here (the definition)."""
     start = time.perf_counter()
+    core = (slice(margin, margin + nr), slice(margin, margin + nc))
+    n, m = nr + 2 * margin, nc + 2 * margin
+    if model.spec.kind == "multiscale" and _native(model.spec, engine):
+        pixels, halo = read_block(scene, bands, model.spec, grid.cell, r0 - margin,
+                                  c0 - margin, n, m)
+        mask = None if aoi is None else _aoi_mask(aoi, grid, r0 - margin, c0 - margin, n, m)
+        s = kernel.scores(pixels, model, scene.res_m, halo, grid.cell, n, m, margin, NODATA,
+                          with_logits, mask)
+        # copies: views would keep the whole reply's buffer alive with the scene's peaks
+        found = (s.peak_p.copy(), s.peak_row.astype(np.int64) - margin + r0,
+                 s.peak_col.astype(np.int64) - margin + c0, s.peak_logit.copy())
+        return BlockResult(r0, c0, s.p, s.reward, s.scored, s.p_sum, found,
+                           time.perf_counter() - start,
+                           s.logits[core] if s.logits is not None else None)
     logit = score_block(scene, bands, model, grid, r0, c0, nr, nc, margin, aoi, engine)
     p = model.calibrate(logit)
-    core = (slice(margin, margin + nr), slice(margin, margin + nc))
     pc = p[core]
     ok = np.isfinite(pc)
     h = np.where(ok, binary_entropy_bits(np.where(ok, pc, 0.0)), NODATA).astype(np.float32)
-    return BlockResult(r0, c0, logit[core], pc, h, peaks(p, margin, r0, c0, logit),
-                       time.perf_counter() - start)
+    return BlockResult(r0, c0, np.where(ok, pc, NODATA).astype(np.float32), h, int(ok.sum()),
+                       float(pc[ok].sum()), peaks(p, margin, r0, c0, logit),
+                       time.perf_counter() - start, logit[core])
 
 
 def run_blocks(scene: SceneInfo, bands: list[int], model: SceneModel, grid: OutGrid,
                block: int, aoi: list[Any] | None = None,
-               threads: int = 1, scheduler: str | None = None, engine: str = "native"
-               ) -> Iterator[BlockResult]:
+               threads: int = 1, scheduler: str | None = None, engine: str = "native",
+               with_logits: bool = False) -> Iterator[BlockResult]:
     """Every block's result, in completion order; at most 2 x workers blocks in flight."""
     margin = 1  # the 3 x 3 maxima at a block's edge see the next block's cells
     jobs = block_origins(grid, block)
-    args = [(scene, bands, model, grid, r, c, nr, nc, margin, aoi, engine)
+    args = [(scene, bands, model, grid, r, c, nr, nc, margin, aoi, engine, with_logits)
             for r, c, nr, nc in jobs]
     if scheduler:
         yield from _run_dask(scheduler, args)
@@ -327,7 +347,9 @@ def logit_map(scene: SceneInfo, model: SceneModel, stride_m: float | None = None
     grid = OutGrid.of(scene, model, stride_m)
     bands = model.band_indices(scene)
     out = np.full((grid.rows, grid.cols), np.nan)
-    for res in run_blocks(scene, bands, model, grid, block, threads=threads, engine=engine):
+    for res in run_blocks(scene, bands, model, grid, block, threads=threads, engine=engine,
+                          with_logits=True):
+        assert res.logit is not None
         out[res.r0:res.r0 + res.logit.shape[0], res.c0:res.c0 + res.logit.shape[1]] = res.logit
     return out, grid
 
@@ -447,14 +469,13 @@ def score_to_dir(scene: SceneInfo, model: SceneModel, out_dir: Any, *, model_pat
         total = len(block_origins(grid, block))
         for done, res in enumerate(run_blocks(scene, bands, model, grid, block, aoi,
                                               threads, scheduler, engine), start=1):
-            ok = np.isfinite(res.p)
             nr, nc = res.p.shape
             win = Window(res.c0, res.r0, nc, nr)
-            p_ds.write(np.where(ok, res.p, NODATA).astype(np.float32), 1, window=win)
+            p_ds.write(res.p, 1, window=win)
             r_ds.write(res.reward, 1, window=win)
             cells += res.p.size
-            valid += int(ok.sum())
-            p_sum += float(res.p[ok].sum())
+            valid += res.scored
+            p_sum += res.p_sum
             block_s.append(res.seconds)
             found.append(res.peaks)
             n_found += len(res.peaks[0])
