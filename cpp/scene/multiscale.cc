@@ -531,37 +531,34 @@ MOUND_INLINE void LogitRows(Tables& t, const MultiscaleSpec& spec, const Folded&
                             const CellGrid& cells, double* out) {
   const int m = cells.cols;
   std::vector<unsigned char> enough(m);
-  std::vector<double> finite(m);
-  double* fin = finite.data();
   RowKernel kernel(spec, m);
   for (int k = 0; k < cells.rows; ++k) {
     const RowCells rc{cells.First() + k * cells.stride, cells.First(), cells.stride, m};
     t.AddRowsTo(rc.i + spec.ReachPx() + 1);
-    double* acc = out + static_cast<size_t>(k) * m;
+    double* __restrict acc = out + static_cast<size_t>(k) * m;
     std::fill(acc, acc + m, fm.constant);
-    std::fill(finite.begin(), finite.end(), 0.0);
-    // One pass per feature: fin becomes NaN once a feature is not finite (x * 0).
-    kernel.Row(t, rc, enough.data(), [&](int f, const double* v) MOUND_LAMBDA_INLINE {
+    // One pass per feature. v - v is 0 for a finite feature (acc + 0 is acc, to the bit)
+    // and NaN for an infinite one (which clipping would otherwise hide): the cell's logit
+    // becomes NaN once a feature is not finite.
+    kernel.Row(t, rc, enough.data(), [&](int f, const double* __restrict v) MOUND_LAMBDA_INLINE {
       const double wx = fm.w_x[f], lo = fm.lo[f], hi = fm.hi[f];
       if (fm.hinge) {
         const double wc = fm.w_c[f], wm = fm.w_m[f], mu = fm.mean[f], sd = fm.std[f];
         const double clo = mu - sd, chi = mu + sd;
         for (int l = 0; l < m; ++l) {
-          fin[l] += v[l] * 0.0;
           const double x = std::min(std::max(v[l], lo), hi);
           const double xc = std::min(std::max(x, clo), chi);
           const double dev = std::max(std::fabs(x - mu), sd);
-          acc[l] += wx * x + wm * dev - wc * xc;
+          acc[l] = (acc[l] + (v[l] - v[l])) + (wx * x + wm * dev - wc * xc);
         }
       } else {
         for (int l = 0; l < m; ++l) {
-          fin[l] += v[l] * 0.0;
-          acc[l] += wx * std::min(std::max(v[l], lo), hi);
+          acc[l] = (acc[l] + (v[l] - v[l])) + wx * std::min(std::max(v[l], lo), hi);
         }
       }
     });
     for (int l = 0; l < m; ++l) {
-      if (!enough[l] || finite[l] != 0.0) acc[l] = kNan;
+      if (!enough[l]) acc[l] = kNan;
     }
   }
 }

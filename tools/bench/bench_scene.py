@@ -9,14 +9,20 @@ each, and (c) with the numpy reference engine on local threads (`--engine numpy`
 times: the reference system of the same script; every line prints its speed-up over it):
 wall time min / median, peak RSS of the scoring process (and of the workers), Mpx/s.
 
-    .venv/bin/python tools/bench/bench_scene.py [--size 10000] [--reps 2] [--ref-reps 1]
-        [--stride-m 1]
+    .venv/bin/python tools/bench/bench_scene.py [--size 10000] [--reps 3] [--ref-reps 1]
+        [--strides 1,2,3]
+
+The scene is built in a child process: a child started from this one inherits its peak
+RSS in Linux's accounting (ru_maxrss), which would report the builder's 1.4 GB for every
+run. The kernel's processes (`mound_scene --serve`, one per scoring thread) are the scoring
+process's children: their peak is reported beside it.
 """
 
 from __future__ import annotations
 
 import argparse
 import glob
+import multiprocessing
 import os
 import subprocess
 import sys
@@ -67,18 +73,36 @@ def build_scene(path: Path, size: int, seed: int = 0) -> None:
             ds.write(strip[:, :h], window=Window(0, r0, size, h))
 
 
-def run(cmd: list[str]) -> tuple[float, float]:
-    """Wall seconds and peak RSS (GB) of one command."""
+def run(cmd: list[str]) -> tuple[float, float, float]:
+    """Wall seconds, the process's own peak RSS and its children's largest (GB)."""
     t = time.perf_counter()
     with tempfile.TemporaryFile() as err:
         p = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=err)
-        _, status, usage = os.wait4(p.pid, 0)   # this child's own peak RSS (KB)
-        p.returncode = os.waitstatus_to_exitcode(status)
+        kids: dict[int, float] = {}
+        while p.poll() is None:  # the servers' peaks, read while they live
+            for pid in _children(p.pid):
+                kids[pid] = max(kids.get(pid, 0.0), rss_gb(pid))
+            time.sleep(0.5)
         wall = time.perf_counter() - t
+        own = _own_peak.get(p.pid, float("nan"))
         if p.returncode != 0:
             err.seek(0)
             sys.exit(f"failed: {' '.join(cmd)}\n{err.read().decode()[-2000:]}")
-    return wall, usage.ru_maxrss / 1e6
+    return wall, own, max(kids.values(), default=0.0)
+
+
+_own_peak: dict[int, float] = {}
+
+
+def _children(pid: int) -> list[int]:
+    _own_peak[pid] = max(_own_peak.get(pid, 0.0), rss_gb(pid))
+    out = []
+    for task in Path(f"/proc/{pid}/task").glob("*"):  # a thread's children are its own
+        try:
+            out += [int(x) for x in (task / "children").read_text().split()]
+        except OSError:
+            pass
+    return out
 
 
 def rss_gb(pid: int) -> float:
@@ -94,9 +118,9 @@ def rss_gb(pid: int) -> float:
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--size", type=int, default=10_000)
-    ap.add_argument("--reps", type=int, default=2)
+    ap.add_argument("--reps", type=int, default=3)
     ap.add_argument("--ref-reps", type=int, default=1, help="runs of the numpy reference")
-    ap.add_argument("--stride-m", type=float, default=1.0)
+    ap.add_argument("--strides", default="1,2,3", help="output strides, m")
     ap.add_argument("--work", default=None)
     a = ap.parse_args()
     work = Path(a.work or tempfile.mkdtemp(prefix="bench_scene."))
@@ -104,7 +128,11 @@ def main() -> None:
     scene = work / f"tiled_{a.size}.tif"
     if not scene.exists():
         t = time.perf_counter()
-        build_scene(scene, a.size)
+        child = multiprocessing.Process(target=build_scene, args=(scene, a.size))
+        child.start()
+        child.join()
+        if child.exitcode != 0:
+            sys.exit("building the scene failed")
         print(f"scene {a.size} x {a.size} x 4 float32 ({4 * 4 * a.size ** 2 / 1e9:.2f} GB "
               f"of pixels) built in {time.perf_counter() - t:.0f} s -> {scene}")
     model = work / "model.json"
@@ -115,15 +143,21 @@ def main() -> None:
                         "blue,green,red,nir", "--out", str(model)], check=True,
                        capture_output=True)
     mpx = a.size * a.size / 1e6
+    for stride in (float(x) for x in a.strides.split(",")):
+        bench_stride(a, work, scene, model, stride, mpx)
+
+
+def bench_stride(a: argparse.Namespace, work: Path, scene: Path, model: Path, stride: float,
+                 mpx: float) -> None:
     base = [str(VENV / "mound"), "scene", "score", str(scene), "--model", str(model),
-            "--stride-m", str(a.stride_m), "--candidates", "200"]
+            "--stride-m", str(stride), "--candidates", "200"]
     rows = {}
-    reference = [run([*base, "--out", str(work / f"numpy{k}"), "--threads", "2", "--engine",
-                      "numpy"]) for k in range(a.ref_reps)]
+    tag = f"s{stride:g}_"
+    reference = [run([*base, "--out", str(work / f"{tag}numpy{k}"), "--threads", "2",
+                      "--engine", "numpy"]) for k in range(a.ref_reps)]
     rows["numpy reference, 2 threads"] = reference
-    local = [run([*base, "--out", str(work / f"local{k}"), "--threads", "2"])
-             for k in range(a.reps)]
-    rows["kernel, 2 threads"] = local
+    rows["kernel, 2 threads"] = [run([*base, "--out", str(work / f"{tag}local{k}"),
+                                      "--threads", "2"]) for k in range(a.reps)]
     sched = subprocess.Popen([str(VENV / "dask"), "scheduler", "--port", "8799",
                               "--dashboard-address", ":0", "--no-show"],
                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
@@ -135,9 +169,10 @@ def main() -> None:
     time.sleep(6)
     try:
         rows["kernel, Dask + 2 workers"] = [
-            run([*base, "--out", str(work / f"dask{k}"), "--scheduler",
+            run([*base, "--out", str(work / f"{tag}dask{k}"), "--scheduler",
                  "tcp://127.0.0.1:8799"]) for k in range(a.reps)]
         worker_rss = max(rss_gb(w.pid) for w in workers)
+        server_rss = max((rss_gb(c) for w in workers for c in _children(w.pid)), default=0.0)
     finally:
         for p in (*workers, sched):
             p.terminate()
@@ -147,16 +182,36 @@ def main() -> None:
             except subprocess.TimeoutExpired:
                 p.kill()
                 p.wait()
-    ref = float(np.median([w for w, _ in reference]))
-    print(f"scoring {a.size} x {a.size} px ({mpx:.0f} Mpx), stride {a.stride_m:g} m, "
-          f"{os.cpu_count()} cores, {a.reps} runs each")
+    same = _same_candidates(work / f"{tag}numpy0", work / f"{tag}local0")
+    ref = float(np.median([w for w, _, _ in reference]))
+    print(f"scoring {a.size} x {a.size} px ({mpx:.0f} Mpx), stride {stride:g} m, "
+          f"{os.cpu_count()} cores, min / median of {a.reps} runs "
+          f"({a.ref_reps} of the reference); kernel vs reference: {same}")
     for name, rs in rows.items():
-        walls = [w for w, _ in rs]
+        walls = [w for w, _, _ in rs]
         med = float(np.median(walls))
-        print(f"  {name:<28} wall min {min(walls):7.1f} s, median {med:7.1f} s; "
-              f"{mpx / med:5.2f} Mpx/s (median); peak RSS {max(r for _, r in rs):.2f} GB; "
-              f"{ref / med:.2f} x the numpy reference")
-    print(f"  Dask workers' peak RSS {worker_rss:.2f} GB each")
+        kids = max(k for _, _, k in rs)
+        print(f"  {name:<28} wall {min(walls):6.1f} / {med:6.1f} s; {mpx / med:5.2f} Mpx/s "
+              f"(median); peak RSS {max(r for _, r, _ in rs):.2f} GB"
+              + (f" + {kids:.2f} GB per kernel" if kids else "")
+              + f"; {ref / med:.2f} x the numpy reference")
+    print(f"  Dask workers' peak RSS {worker_rss:.2f} GB each (+ {server_rss:.2f} GB kernel)")
+
+
+def _same_candidates(ref_dir: Path, dir_: Path) -> str:
+    """The candidates and p rasters of two runs compared."""
+    import json
+
+    a = json.loads((ref_dir / "candidates.geojson").read_text())["features"]
+    b = json.loads((dir_ / "candidates.geojson").read_text())["features"]
+    pos = [(f["properties"]["row"], f["properties"]["col"]) for f in a]
+    same = pos == [(f["properties"]["row"], f["properties"]["col"]) for f in b]
+    dp = max((abs(x["properties"]["p_mound"] - y["properties"]["p_mound"])
+              for x, y in zip(a, b, strict=False)), default=0.0)
+    with rasterio.open(ref_dir / "p_mound.tif") as d1, rasterio.open(dir_ / "p_mound.tif") as d2:
+        raster = float(np.abs(d1.read(1).astype(np.float64) - d2.read(1)).max())
+    return (f"{'the same' if same else 'DIFFERENT'} {len(a)} candidates, p within {dp:.1e}, "
+            f"p raster within {raster:.1e}")
 
 
 if __name__ == "__main__":

@@ -54,6 +54,7 @@ def cmd_score(args: argparse.Namespace) -> int:
 
     model = SceneModel.from_doc(read_json(args.model, SCHEMA, VERSION), args.model)
     scene = open_scene(args.scene, parse_names(args.band_names))
+    score.keep_freed_blocks()
     aoi = (score.aoi_in_scene(read_aoi(args.aoi), scene, f"--aoi {args.aoi}")
            if args.aoi else None)
     if args.threads < 1:

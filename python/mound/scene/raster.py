@@ -192,14 +192,19 @@ def read_window(scene: SceneInfo, bands: list[int], row0: int, col0: int, rows: 
     from rasterio.windows import Window
 
     dtype = window_dtype(scene)
-    out = np.full((len(bands), rows, cols), np.nan, dtype=dtype)
     r0, c0 = max(row0, 0), max(col0, 0)
     r1, c1 = min(row0 + rows, scene.height), min(col0 + cols, scene.width)
+    # A window inside a scene of the window's type is read straight into the result.
+    inside = (r0, c0, r1, c1) == (row0, col0, row0 + rows, col0 + cols)
+    direct = inside and np.dtype(scene.dtype) == np.dtype(dtype)
+    shape = (len(bands), rows, cols)
+    out = np.empty(shape, dtype=dtype) if direct else np.full(shape, np.nan, dtype=dtype)
     if r1 <= r0 or c1 <= c0:
         return out
     try:
         ds = _open_for_reading(scene.path)
-        a = ds.read(bands, window=Window(c0, r0, c1 - c0, r1 - r0))
+        window = Window(c0, r0, c1 - c0, r1 - r0)
+        a = ds.read(bands, window=window, out=out) if direct else ds.read(bands, window=window)
     except Exception as e:  # a truncated or corrupt file fails only when its blocks are read
         raise InputError(f"{scene.path}: cannot read pixels ({str(e).splitlines()[0][:120]})"
                          ) from None
@@ -210,8 +215,10 @@ def read_window(scene: SceneInfo, bands: list[int], row0: int, col0: int, rows: 
         if scene.nodata is not None and math.isfinite(scene.nodata):
             bad |= band == band.dtype.type(scene.nodata)
     dst = out[:, r0 - row0:r1 - row0, c0 - col0:c1 - col0]
-    dst[...] = a
-    dst[:, bad] = np.nan
+    if not direct:
+        dst[...] = a
+    if bad.any():
+        dst[:, bad] = np.nan
     return out
 
 

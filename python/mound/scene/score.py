@@ -91,6 +91,25 @@ def _native(spec: FeatureSpec, engine: str) -> bool:
     return spec.kind == "multiscale" and engine == "native"
 
 
+def keep_freed_blocks() -> None:
+    """Asks glibc's malloc to keep freed block-sized buffers for the next block instead of
+    handing them back to the system and faulting them in again, zeroed, per block (a fifth
+    of the scoring process's CPU time went to page faults; measured on a 100 Mpx scene:
+    system time 7.3 -> 4.5 s). Process-wide; a no-op off glibc."""
+    import ctypes
+    import ctypes.util
+
+    name = ctypes.util.find_library("c")
+    try:
+        libc = ctypes.CDLL(name) if name else None
+        mallopt = libc.mallopt if libc is not None else None
+    except (OSError, AttributeError):
+        return
+    if mallopt is not None:
+        mallopt(-1, 1 << 30)  # M_TRIM_THRESHOLD: keep up to 1 GiB of free memory
+        mallopt(-3, 1 << 26)  # M_MMAP_THRESHOLD: blocks below 64 MB from the heap
+
+
 CHUNK_CELLS = 16_384  # output cells evaluated at once: the intermediates stay in cache
 
 
