@@ -219,15 +219,22 @@ ReconstructResult Reconstruct(const ReconstructOptions& o) {
   t0 = Clock::now();
   const double verify_px = std::max(1.0, 1.0 * std::max(W, H) / 2000.0);
   std::vector<sfm::VerifiedPair> verified(pair_list.size());
+  std::vector<size_t> putative(pair_list.size());
   const sfm::DescriptorMatcher matcher(features, 0.8f, o.matcher);
   ParallelFor(static_cast<int>(pair_list.size()), threads, [&](int k) {
     const auto [i, j] = pair_list[k];
     const sfm::MatchList m = klt ? tracked[i] : matcher.Match(i, j);
+    putative[k] = m.size();
     verified[k] = sfm::VerifyPair(i, j, features[i], features[j], m, camera, verify_px, seed + k);
   });
   timings["matching_s"] = Since(t0);
   int useful_pairs = 0;
-  for (const auto& v : verified) useful_pairs += v.inliers.size() >= 30;
+  size_t matches_putative = 0, matches_verified = 0;
+  for (size_t k = 0; k < verified.size(); ++k) {
+    useful_pairs += verified[k].inliers.size() >= 30;
+    matches_putative += putative[k];
+    matches_verified += verified[k].inliers.size();
+  }
 
   nlohmann::json doc = {{"schema", "mound.recon"},
                         {"version", 1},
@@ -240,6 +247,8 @@ ReconstructResult Reconstruct(const ReconstructOptions& o) {
                    {"gps_source", gps ? gps->source : "none"},
                    {"pairs_matched", pair_list.size()},
                    {"pairs_verified", useful_pairs},
+                   {"matches_putative", matches_putative},
+                   {"matches_verified", matches_verified},
                    {"pairing", pairing},
                    {"max_image_size", fo.max_image_size},
                    {"max_features", fo.max_features},

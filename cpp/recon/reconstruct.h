@@ -40,7 +40,9 @@ inline constexpr EnumName<Matching> kMatchingNames[] = {{Matching::kAuto, "auto"
                                                         {Matching::kSequential, "sequential"},
                                                         {Matching::kRetrieval, "retrieval"}};
 inline constexpr EnumName<sfm::MatcherKind> kMatcherNames[] = {
-    {sfm::MatcherKind::kFlann, "flann"}, {sfm::MatcherKind::kCascadeHash, "cascade"}};
+    {sfm::MatcherKind::kFlann, "flann"},
+    {sfm::MatcherKind::kCascadeHash, "cascade"},
+    {sfm::MatcherKind::kExact, "exact"}};
 inline constexpr EnumName<Align> kAlignNames[] = {{Align::kLevel, "level"}, {Align::kFull, "full"}};
 inline constexpr EnumName<Lens> kLensNames[] = {
     {Lens::kPrior, "prior"}, {Lens::kFree, "free"}, {Lens::kFixed, "fixed"}};

@@ -144,8 +144,8 @@ cv::Mat AsMat(const ImageFeatures& f) {
 // small ones.
 class SearchIndex {
  public:
-  explicit SearchIndex(const ImageFeatures& f) : train_(AsMat(f)) {
-    if (train_.rows < 1000) return;
+  explicit SearchIndex(const ImageFeatures& f, bool exact = false) : train_(AsMat(f)) {
+    if (exact || train_.rows < 1000) return;
     // FLANN draws the trees' split dimensions from the C library's global rand(): build
     // each index under one lock from a fixed seed, so that the trees do not depend on
     // which thread got there first (searching draws nothing).
@@ -262,7 +262,9 @@ struct DescriptorMatcher::Impl {
   mutable std::vector<std::once_flag> built;
   std::unique_ptr<CascadeHasher> hasher;
   const SearchIndex& Index(int i) const {
-    std::call_once(built[i], [&] { index[i] = std::make_unique<SearchIndex>(features[i]); });
+    std::call_once(built[i], [&] {
+      index[i] = std::make_unique<SearchIndex>(features[i], kind == MatcherKind::kExact);
+    });
     return *index[i];
   }
   const CascadeHasher::Hashed& Hash(int i) const {

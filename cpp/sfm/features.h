@@ -63,9 +63,10 @@ MatchList MatchDescriptors(const ImageFeatures& a, const ImageFeatures& b, float
 // runs only for the matches that passed the ratio test. The index: FLANN randomised k-d
 // trees (4 trees, 64 checks) for 1,000 descriptors or more, brute force below; or cascade
 // hashing (cascade_hash.h: codes centred on the set's mean descriptor, the 20 nearest in
-// Hamming distance compared exactly). Match() is thread-safe and its result does not
-// depend on the order of calls or on the threads.
-enum class MatcherKind { kFlann, kCascadeHash };
+// Hamming distance compared exactly); or exact (brute force over every descriptor: the
+// reference the approximate ones are measured against, ~50x slower). Match() is
+// thread-safe and its result does not depend on the order of calls or on the threads.
+enum class MatcherKind { kFlann, kCascadeHash, kExact };
 
 class DescriptorMatcher {
  public:
