@@ -30,8 +30,9 @@ constexpr const char* kVersion = "mound_recon " MOUND_VERSION;  // pyproject.tom
 constexpr const char* kUsage =
     "usage: mound_recon reconstruct IMAGES_DIR --out OUT_DIR [--camera camera.json|K.txt]\n"
     "                   [--gps poses.json|exif] [--max-image-size PX] [--max-features N]\n"
+    "                   [--contrast-threshold C]\n"
     "                   [--features sift|klt] [--matching auto|exhaustive|sequential|retrieval]\n"
-    "                   [--matcher flann|cascade] [--window N] [--neighbours N]\n"
+    "                   [--matcher cascade|flann|exact] [--window N] [--neighbours N]\n"
     "                   [--align level|full] [--lens prior|free|fixed]\n"
     "                   [--threads N] [--seed N]\n"
     "       mound_recon densify RECON_DIR --out OUT_DIR [--resolution-m R] [--threads N]\n"
@@ -65,6 +66,8 @@ constexpr const char* kUsage =
     "                       7-parameter similarity to the GPS positions (default otherwise)\n"
     "  --max-image-size PX  longer side for feature extraction (default 2000)\n"
     "  --max-features N     SIFT features (or KLT corners) per image (default 8000)\n"
+    "  --contrast-threshold C  SIFT's (OpenCV's; default 0.04): lower finds more\n"
+    "                       keypoints; 0.02 is COLMAP's default peak threshold\n"
     "  --features F         sift (default: detect and match) or klt (track corners from\n"
     "                       each image into the next: small motions, in sequence order)\n"
     "  --matching M         auto (located images: each with the next 3 in sequence and\n"
@@ -139,7 +142,7 @@ int RunReconstruct(const std::vector<std::string>& args) {
   const Args a = ParseArgs(args, 1,
                            {"--out", "--camera", "--gps", "--max-image-size", "--max-features",
                             "--matching", "--matcher", "--window", "--neighbours", "--threads",
-                            "--seed", "--features", "--align", "--lens"});
+                            "--seed", "--features", "--align", "--lens", "--contrast-threshold"});
   if (a.positional.size() != 1)
     throw InputError("reconstruct: expected exactly one IMAGES_DIR (see --help)");
   if (!a.Has("--out")) throw InputError("--out: the output directory is required");
@@ -162,6 +165,12 @@ int RunReconstruct(const std::vector<std::string>& args) {
       static_cast<int>(num("--max-image-size", 100, 100000, o.features.max_image_size));
   o.features.max_features =
       static_cast<int>(num("--max-features", 100, 1000000, o.features.max_features));
+  if (a.Has("--contrast-threshold")) {
+    o.features.contrast_threshold =
+        ParseNumber(a.options.at("--contrast-threshold"), "--contrast-threshold");
+    if (!(o.features.contrast_threshold > 0 && o.features.contrast_threshold <= 1))
+      throw InputError("--contrast-threshold: must be in (0, 1]");
+  }
   if (a.Has("--features")) o.feature_kind = ParseEnum(a, "--features", kFeatureKindNames);
   if (a.Has("--matching")) o.matching = ParseEnum(a, "--matching", kMatchingNames);
   if (a.Has("--matcher")) o.matcher = ParseEnum(a, "--matcher", kMatcherNames);

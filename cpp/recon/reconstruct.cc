@@ -252,6 +252,7 @@ ReconstructResult Reconstruct(const ReconstructOptions& o) {
                    {"pairing", pairing},
                    {"max_image_size", fo.max_image_size},
                    {"max_features", fo.max_features},
+                   {"contrast_threshold", fo.contrast_threshold},
                    {"features", NameOf(o.feature_kind, kFeatureKindNames)},
                    {"matcher", NameOf(o.matcher, kMatcherNames)}};
   sfm::MapperOptions mo;

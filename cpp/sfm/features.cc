@@ -50,13 +50,14 @@ void AddKeypoint(const Loaded& l, const cv::Point2f& p, ImageFeatures* f) {
 
 namespace {
 
-ImageFeatures Sift(const Loaded& l, int max_features) {
+ImageFeatures Sift(const Loaded& l, int max_features, double contrast_threshold) {
   ImageFeatures f;
   f.width = l.bgr.cols;
   f.height = l.bgr.rows;
   std::vector<cv::KeyPoint> kps;
   cv::Mat desc;
-  cv::SIFT::create(max_features)->detectAndCompute(l.grey, cv::noArray(), kps, desc);
+  cv::SIFT::create(max_features, 3, contrast_threshold)
+      ->detectAndCompute(l.grey, cv::noArray(), kps, desc);
   f.descriptors.resize(static_cast<Eigen::Index>(kps.size()), 128);
   // OpenCV's SIFT builds its pyramid on the image upsampled 2x by linear interpolation
   // (output pixel X samples the input at X / 2 - 0.25) and halves it by taking every other
@@ -78,15 +79,16 @@ ImageFeatures Sift(const Loaded& l, int max_features) {
 void SetLibraryThreads(int threads) { cv::setNumThreads(threads > 0 ? threads : -1); }
 
 ImageFeatures ExtractFeatures(const std::string& path, const FeatureOptions& o) {
-  return Sift(Load(path, o.max_image_size), o.max_features);
+  return Sift(Load(path, o.max_image_size), o.max_features, o.contrast_threshold);
 }
 
-ImageFeatures ExtractFeatures(const uint8_t* grey, int width, int height, int max_features) {
+ImageFeatures ExtractFeatures(const uint8_t* grey, int width, int height, int max_features,
+                              double contrast_threshold) {
   if (grey == nullptr || width <= 0 || height <= 0) throw InputError("image: empty grey image");
   Loaded l;
   l.grey = cv::Mat(height, width, CV_8UC1, const_cast<uint8_t*>(grey)).clone();
   cv::cvtColor(l.grey, l.bgr, cv::COLOR_GRAY2BGR);
-  return Sift(l, max_features);
+  return Sift(l, max_features, contrast_threshold);
 }
 
 KltResult TrackKlt(const std::vector<std::string>& paths, const FeatureOptions& o) {

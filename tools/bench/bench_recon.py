@@ -2,7 +2,7 @@
 (PyPI pycolmap, its incremental and global mappers) on the same images in the same run.
 
     .venv/bin/python tools/bench/bench_recon.py [--sets fountain,caliterra,sim] [--colmap]
-        [--reps 1] [--threads 2] [--features sift|klt] [--recall]
+        [--reps 1] [--threads 2] [--features sift|klt] [--recall] [--ours "FLAGS"]
         [--matching auto|exhaustive|sequential|retrieval]
         [--out runs/bench_recon]
 
@@ -177,6 +177,9 @@ def main() -> int:
     ap.add_argument("--colmap-mappers", default="incremental,global",
                     help="pycolmap's mappers to run with --colmap (incremental, global)")
     ap.add_argument("--reps", type=int, default=1)
+    ap.add_argument("--ours", default="",
+                    help="more mound_recon flags, e.g. \"--contrast-threshold 0.01 "
+                    "--max-features 6000\" (after the set's own)")
     ap.add_argument("--recall", action="store_true",
                     help="run ours once more with exact matching (--matcher exact)")
     ap.add_argument("--threads", type=int, default=2)
@@ -220,7 +223,8 @@ def main() -> int:
         times = []
         for _ in range(args.reps):
             t, doc = run_ours(images, out / name, [*extra, "--features", args.features,
-                                                            "--matching", args.matching],
+                                                            "--matching", args.matching,
+                                                            *args.ours.split()],
                               args.threads)
             times.append(t)
         reg = f"{doc['registered']}/{len(doc['images'])}"
@@ -238,7 +242,8 @@ def main() -> int:
         if args.recall:
             _, exact = run_ours(images, out / f"{name}_exact",
                                 [*extra, "--features", args.features, "--matching",
-                                 args.matching, "--matcher", "exact"], args.threads)
+                                 args.matching, *args.ours.split(), "--matcher", "exact"],
+                                args.threads)
             got, ref = doc["inputs"], exact["inputs"]
             line = (f"  matching recall against exact nearest neighbours on the same pairs: "
                     f"putative {got['matches_putative'] / ref['matches_putative']:.3f}, "
