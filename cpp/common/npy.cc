@@ -27,21 +27,24 @@ size_t NpyArray::Count() const {
   return n;
 }
 
-std::vector<double> NpyArray::AsDouble() const {
-  const size_t n = Count();
-  std::vector<double> out(n);
-  if (n == 0) return out;  // a shape with a zero: no data (memcpy of a null pointer is UB)
+void ElementsToDouble(const std::string& descr, const unsigned char* data, size_t n, double* out) {
+  if (n == 0) return;  // no data (memcpy of a null pointer is UB)
   if (descr == "<f4") {
     for (size_t i = 0; i < n; ++i) {
       float f;
-      std::memcpy(&f, data.data() + 4 * i, 4);
+      std::memcpy(&f, data + 4 * i, 4);
       out[i] = f;
     }
   } else if (descr == "<f8") {
-    std::memcpy(out.data(), data.data(), 8 * n);
+    std::memcpy(out, data, 8 * n);
   } else {
     for (size_t i = 0; i < n; ++i) out[i] = data[i];
   }
+}
+
+std::vector<double> NpyArray::AsDouble() const {
+  std::vector<double> out(Count());
+  ElementsToDouble(descr, data.data(), out.size(), out.data());
   return out;
 }
 

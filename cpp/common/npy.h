@@ -22,6 +22,10 @@ struct NpyArray {
   std::vector<double> AsDouble() const;
 };
 
+// `n` little-endian elements of type `descr` ("<f4", "<f8" or "|u1") at `data`, converted
+// to double into `out` (NpyArray::AsDouble; streamed blocks).
+void ElementsToDouble(const std::string& descr, const unsigned char* data, size_t n, double* out);
+
 // Reads `path`; throws InputError naming the file for a bad magic, header, dtype, Fortran
 // order or a size that does not match the shape.
 NpyArray ReadNpy(const std::string& path);

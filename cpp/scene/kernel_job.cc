@@ -1,11 +1,8 @@
 #include "scene/kernel_job.h"
 
-#include "scene/block_scores.h"
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <cstring>
 #include <filesystem>
 #include <istream>
 #include <limits>
@@ -194,17 +191,8 @@ void ReadBlock(std::istream& in, const BlockLayout& layout, std::vector<unsigned
   b->bands = layout.bands;
   b->rows = layout.rows;
   b->cols = layout.cols;
-  b->values.resize(n);
-  if (layout.item_bytes == 8) {
-    std::memcpy(b->values.data(), raw->data(), 8 * n);  // the cell mask stays in raw
-    return;
-  }
-  const unsigned char* src = raw->data();
-  for (size_t i = 0; i < n; ++i) {
-    float f;
-    std::memcpy(&f, src + 4 * i, 4);
-    b->values[i] = f;
-  }
+  b->values.resize(n);  // the cell mask stays in raw, after the pixels
+  ElementsToDouble(layout.item_bytes == 8 ? "<f8" : "<f4", raw->data(), n, b->values.data());
 }
 
 // A reply's payload: arrays one after another, each named in the reply's "parts".
@@ -329,10 +317,10 @@ int ServeKernelJobs(std::istream& in, std::ostream& out, Simd simd) {
         for (size_t k = 0; k < result.size(); ++k)
           if (mask[k] == 0) result[k] = std::numeric_limits<double>::quiet_NaN();
       }
-      size_t scored = 0;
-      for (double v : result) scored += std::isfinite(v) ? 1 : 0;
-      head["scored"] = scored;
       if (want == "logits") {
+        size_t scored = 0;
+        for (double v : result) scored += std::isfinite(v) ? 1 : 0;
+        head["scored"] = scored;
         parts.push_back(PartOf("logits", "<f8", {rows, cols}, result));
       } else {
         bs = ScoreBlock(result, job.cells.rows, job.cells.cols, scores.margin, scores.calibration,
@@ -346,7 +334,7 @@ int ServeKernelJobs(std::istream& in, std::ostream& out, Simd simd) {
                  PartOf("peak_p", "<f8", {np}, bs.peak_p),
                  PartOf("peak_logit", "<f8", {np}, bs.peak_logit)};
         if (scores.logits) parts.push_back(PartOf("logits", "<f8", {rows, cols}, result));
-        head["scored"] = bs.scored;  // in the core
+        head["scored"] = bs.scored;  // the core's cells with a p
         head["p_sum"] = bs.p_sum;
       }
     }

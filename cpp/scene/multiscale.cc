@@ -4,7 +4,6 @@
 #include <cmath>
 #include <limits>
 #include <memory>
-#include <optional>
 
 #include "common/error.h"
 
@@ -603,17 +602,7 @@ Simd ResolveSimd(Simd wanted) {
   return wanted;
 }
 
-const char* SimdName(Simd simd) {
-  switch (simd) {
-    case Simd::kAuto:
-      return "auto";
-    case Simd::kGeneric:
-      return "generic";
-    case Simd::kAvx2:
-      return "avx2";
-  }
-  return "?";
-}
+std::string SimdName(Simd simd) { return NameOf(simd, kSimdNames); }
 
 struct Scorer::Workspace {
   Tables tables;

@@ -23,6 +23,8 @@
 #include <string>
 #include <vector>
 
+#include "common/enum_names.h"
+
 namespace mound::scene {
 
 struct MultiscaleSpec {
@@ -74,9 +76,11 @@ void CheckBlock(const PixelBlock& block, const MultiscaleSpec& spec, const CellG
 // elsewhere; AVX2 where the CPU has it (x86-64 only). Both give the same bits: no fused
 // multiply-adds, no reordered sums.
 enum class Simd { kAuto, kGeneric, kAvx2 };
+inline constexpr EnumName<Simd> kSimdNames[] = {
+    {Simd::kAuto, "auto"}, {Simd::kGeneric, "generic"}, {Simd::kAvx2, "avx2"}};
 // kAuto -> the best this CPU has; InputError for kAvx2 on a CPU without it.
 Simd ResolveSimd(Simd wanted);
-const char* SimdName(Simd simd);
+std::string SimdName(Simd simd);
 
 // Scores blocks one after another, keeping its tables (~10 per channel and block pixel,
 // float64) between them: a long-lived kernel (`mound_scene --serve`) allocates and faults

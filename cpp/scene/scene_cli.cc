@@ -15,9 +15,6 @@
 namespace mound::scene {
 namespace {
 
-constexpr EnumName<Simd> kSimdNames[] = {
-    {Simd::kAuto, "auto"}, {Simd::kGeneric, "generic"}, {Simd::kAvx2, "avx2"}};
-
 constexpr const char* kVersion = "mound_scene " MOUND_VERSION;  // pyproject.toml's, from CMake
 
 constexpr const char* kUsage =

@@ -294,17 +294,18 @@ class ToolServer:
     def alive(self) -> bool:
         return self.proc.poll() is None
 
-    def request(self, head: dict[str, object], payload: bytes | memoryview
+    def request(self, head: dict[str, object], *payload: bytes | memoryview
                 ) -> tuple[dict[str, Any], bytearray]:
-        """Sends one request; the reply's JSON and the bytes after it (its `bytes` says how
-        many). A reply
+        """Sends one request (its JSON line, then the payload's pieces in order); the
+        reply's JSON and the bytes after it (its `bytes` says how many). A reply
         {"status": "error"} raises ToolInputError; a tool that stopped raises what its exit
         status says (native.tool_error)."""
         stdin, stdout = self.proc.stdin, self.proc.stdout
         assert stdin is not None and stdout is not None
         try:
             stdin.write(json.dumps(head, separators=(",", ":")).encode() + b"\n")
-            stdin.write(payload)
+            for piece in payload:
+                stdin.write(piece)
             stdin.flush()
             line = stdout.readline()
         except (BrokenPipeError, ConnectionResetError):

@@ -62,13 +62,13 @@ def _request(block: np.ndarray, job: dict[str, Any], want: str,
         exact = np.array_equal(b32.astype(np.float64), block, equal_nan=True)
         data = b32 if exact else np.ascontiguousarray(block, np.float64)
     layout: dict[str, object] = {"dtype": data.dtype.str, "shape": list(data.shape)}
-    payload = data.data.cast("B")
+    payload = [data.data.cast("B")]
     if mask is not None:
         layout["cell_mask"] = int(mask.size)
-        payload = memoryview(data.tobytes() + np.ascontiguousarray(mask, np.uint8).tobytes())
+        payload.append(np.ascontiguousarray(mask, np.uint8).data.cast("B"))
     head = {**job, "want": want, **(extra or {}), "block": layout}
     with native.checkout("mound_scene", ["--serve"]) as server:
-        reply, raw = server.request(head, payload)
+        reply, raw = server.request(head, *payload)
     parts, at = {}, 0
     for part in reply["parts"]:
         dtype = np.dtype(part["dtype"])

@@ -115,27 +115,25 @@ CHUNK_CELLS = 16_384  # output cells evaluated at once: the intermediates stay i
 
 def score_block(scene: SceneInfo, bands: list[int], model: SceneModel, grid: OutGrid,
                 r0: int, c0: int, nr: int, nc: int, margin: int,
-                aoi: list[Any] | None = None, engine: str = "native") -> np.ndarray:
-    """Logits of output cells [r0 - margin, r0 + nr + margin) x [c0 - margin, ...);
-    NaN outside the scene, at nodata and outside the AOI. Multiscale features go through
-    the compiled kernel (kernel.py) unless engine is "numpy" (the reference)."""
+                aoi: list[Any] | None = None) -> np.ndarray:
+    """Logits of output cells [r0 - margin, r0 + nr + margin) x [c0 - margin, ...) in
+    numpy, the definition and the reference (`--engine numpy`; with the native engine,
+    run_block sends multiscale blocks to the kernel instead); NaN outside the scene, at
+    nodata and outside the AOI."""
     n, m = nr + 2 * margin, nc + 2 * margin
     spec = model.spec
     if spec.kind == "multiscale":
         block, halo = read_block(scene, bands, spec, grid.cell, r0 - margin, c0 - margin, n, m)
-        if _native(spec, engine):
-            logit = kernel.logits(block, model, scene.res_m, halo, grid.cell, n, m)
-        else:
-            tables = spec.tables(block, scene.res_m, halo, grid.cell, m)
-            del block
-            logit = np.empty((n, m))
-            step = max(1, CHUNK_CELLS // m)
-            for k in range(0, n, step):
-                k1 = min(n, k + step)
-                logit[k:k1] = model.logit_fm(tables.rows(k, k1)).reshape(k1 - k, m)
+        tables = spec.tables(block, scene.res_m, halo, grid.cell, m)
+        del block
+        logit = np.empty((n, m))
+        step = max(1, CHUNK_CELLS // m)
+        for k in range(0, n, step):
+            k1 = min(n, k + step)
+            logit[k:k1] = model.logit_fm(tables.rows(k, k1)).reshape(k1 - k, m)
     else:
         feats = features_block(scene, bands, spec, grid.cell, r0 - margin, c0 - margin, n, m,
-                               engine)
+                               "numpy")
         logit = model.logit(feats).reshape(n, m)
     if aoi is not None:
         logit[~_aoi_mask(aoi, grid, r0 - margin, c0 - margin, n, m)] = np.nan
@@ -273,7 +271,7 @@ def run_block(scene: SceneInfo, bands: list[int], model: SceneModel, grid: OutGr
     start = time.perf_counter()
     core = (slice(margin, margin + nr), slice(margin, margin + nc))
     n, m = nr + 2 * margin, nc + 2 * margin
-    if model.spec.kind == "multiscale" and _native(model.spec, engine):
+    if _native(model.spec, engine):
         pixels, halo = read_block(scene, bands, model.spec, grid.cell, r0 - margin,
                                   c0 - margin, n, m)
         mask = None if aoi is None else _aoi_mask(aoi, grid, r0 - margin, c0 - margin, n, m)
@@ -285,7 +283,7 @@ def run_block(scene: SceneInfo, bands: list[int], model: SceneModel, grid: OutGr
         return BlockResult(r0, c0, s.p, s.reward, s.scored, s.p_sum, found,
                            time.perf_counter() - start,
                            s.logits[core] if s.logits is not None else None)
-    logit = score_block(scene, bands, model, grid, r0, c0, nr, nc, margin, aoi, engine)
+    logit = score_block(scene, bands, model, grid, r0, c0, nr, nc, margin, aoi)
     p = model.calibrate(logit)
     pc = p[core]
     ok = np.isfinite(pc)
