@@ -209,18 +209,32 @@ TEST(Multiscale, LogitsAreTheModelOfTheFeatures) {
   }
 }
 
+// Stride 1 runs one fused pass per channel and radius (RadiusFeatures), other strides the
+// separate box loops: the same cells get the same bits, with and without nodata (the
+// count table) and NDVI.
 TEST(Multiscale, StrideSamplesTheSameCells) {
-  const MultiscaleSpec s = Spec(2, false);
-  const PixelBlock b = RandomBlock(2, 50, 50, 13);
-  const int nf = s.NumFeatures();
-  const std::vector<double> dense = Features(b, s, CellGrid{9, 1, 31, 31});   // pixels 9..39
-  const std::vector<double> coarse = Features(b, s, CellGrid{8, 3, 10, 10});  // 9, 12, .., 36
-  for (int k = 0; k < 10; ++k) {
-    for (int l = 0; l < 10; ++l) {
-      for (int f = 0; f < nf; ++f) {
-        EXPECT_EQ(coarse[(k * 10 + l) * nf + f], dense[((3 * k) * 31 + 3 * l) * nf + f]);
+  for (const bool holes : {false, true}) {
+    const MultiscaleSpec s = Spec(3, true);
+    PixelBlock b = RandomBlock(3, 50, 50, 13);
+    if (holes) {
+      b.values[50 * 20 + 22] = std::nan("");
+      b.values[2 * 50 * 50 + 50 * 30 + 17] = std::nan("");
+    }
+    const int nf = s.NumFeatures();
+    const std::vector<double> dense = Features(b, s, CellGrid{9, 1, 31, 31});   // pixels 9..39
+    const std::vector<double> coarse = Features(b, s, CellGrid{8, 3, 10, 10});  // 9, 12, .., 36
+    int finite = 0;
+    for (int k = 0; k < 10; ++k) {
+      for (int l = 0; l < 10; ++l) {
+        for (int f = 0; f < nf; ++f) {
+          const double want = dense[((3 * k) * 31 + 3 * l) * nf + f];
+          const double got = coarse[(k * 10 + l) * nf + f];
+          finite += std::isfinite(want) ? 1 : 0;
+          EXPECT_TRUE(got == want || (std::isnan(got) && std::isnan(want))) << k << " " << l;
+        }
       }
     }
+    EXPECT_GT(finite, 50 * nf) << holes;
   }
 }
 
