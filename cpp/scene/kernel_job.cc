@@ -7,6 +7,10 @@
 #include <istream>
 #include <limits>
 
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
+
 #include "common/atomic_file.h"
 #include "common/enum_names.h"
 #include "common/error.h"
@@ -255,6 +259,13 @@ ScoresRequest ParseScores(const json& doc) {
 }  // namespace
 
 int ServeKernelJobs(std::istream& in, std::ostream& out, Simd simd) {
+#if defined(__GLIBC__)
+  // The block-sized buffers of one request (scores, rasters: megabytes each) stay in the
+  // heap for the next instead of going back to the system and faulting in again, zeroed,
+  // per block.
+  mallopt(M_MMAP_THRESHOLD, 1 << 28);
+  mallopt(M_TRIM_THRESHOLD, 1 << 30);
+#endif
   Scorer scorer(simd);
   KernelJob job;
   std::vector<unsigned char> raw;

@@ -281,6 +281,10 @@ class RowKernel {
     sizes_.push_back(spec.background_px);
     std::sort(sizes_.begin(), sizes_.end());
     sizes_.erase(std::unique(sizes_.begin(), sizes_.end()), sizes_.end());
+    for (int size : sizes_) {  // the windows whose sums the fused pass reads
+      outer_.push_back(size == spec.background_px ||
+                       std::any_of(hs.begin(), hs.end(), [size](int h) { return 2 * h == size; }));
+    }
     auto buffers = [m](size_t n) {
       return std::vector<std::vector<double>>(n, std::vector<double>(m));
     };
@@ -309,6 +313,7 @@ class RowKernel {
       const Sat& p1 = t.p1[c];
       const Sat& p2 = t.p2[c];
       for (size_t z = 0; z < sizes_.size(); ++z) {
+        if (rc.stride == 1 && !outer_[z]) continue;  // the fused pass sums its own window
         const int h = sizes_[z];
         Box(p1, rc, h, h, h, h, sums_[z].data());
       }
@@ -417,7 +422,8 @@ class RowKernel {
   const MultiscaleSpec& spec_;
   int m_;
   bool counted_ = false;
-  std::vector<int> sizes_;  // the windows' half-sides: the radii, twice them, the background
+  std::vector<int> sizes_;   // the windows' half-sides: the radii, twice them, the background
+  std::vector<bool> outer_;  // per size: an outer ring's or the background's
   std::vector<std::vector<double>> counts_, inv_n_, sums_;   // per size
   std::vector<std::vector<double>> half_counts_, half_inv_;  // per radius: E, W, N, S halves
   std::vector<const double*> half_ptr_;

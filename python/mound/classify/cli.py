@@ -10,8 +10,7 @@ from mound.bounds import (
     SEED,
     Bound,
 )
-from mound.classify import coarse, statlog
-from mound.classify.coarse import load_model
+from mound.classify.defaults import DEFAULT_BAND, DEFAULT_L2
 from mound.jsonio import write_json
 
 
@@ -22,6 +21,8 @@ def cmd_fetch(args: argparse.Namespace) -> int:
 
 
 def cmd_bands(args: argparse.Namespace) -> int:
+    from mound.classify import coarse, statlog  # scipy: imported when a command needs it
+
     rows = coarse.select_band(statlog.load("sat.trn"), seed=args.seed)
     print("held-out evaluation on sat.trn (75/25 stratified split, L-BFGS):")
     print(f"{'features':<18} {'AUC':>7} {'accuracy':>9} {'log-loss':>9}")
@@ -34,6 +35,8 @@ def cmd_bands(args: argparse.Namespace) -> int:
 
 
 def cmd_train(args: argparse.Namespace) -> int:
+    from mound.classify import coarse, statlog
+
     band = None if args.all else args.band
     model = coarse.train(statlog.load("sat.trn"), band, solver=args.solver, l2=args.l2)
     write_json(args.out, model.to_doc())
@@ -56,7 +59,9 @@ def print_eval(s: dict[str, Any]) -> None:
 
 
 def cmd_eval(args: argparse.Namespace) -> int:
-    s = coarse.evaluate(load_model(args.model), statlog.load("sat.tst"))
+    from mound.classify import coarse, statlog
+
+    s = coarse.evaluate(coarse.load_model(args.model), statlog.load("sat.tst"))
     print_eval(s)
     if args.json:
         write_json(args.json, {"schema": "mound.classifier_eval", "version": 1, **{
@@ -80,10 +85,10 @@ def add_parser(sub: Any, parser_class: Any) -> None:
     b.set_defaults(func=cmd_bands)
     t = cls.add_parser("train", help="train on sat.trn")
     g = t.add_mutually_exclusive_group()
-    g.add_argument("--band", type=int, choices=range(4), default=coarse.DEFAULT_BAND)
+    g.add_argument("--band", type=int, choices=range(4), default=DEFAULT_BAND)
     g.add_argument("--all", action="store_true", help="all 36 features")
     t.add_argument("--solver", choices=("gd", "lbfgs"), default="gd")
-    t.add_argument("--l2", type=Bound(0, 1e6).arg(), default=coarse.DEFAULT_L2)
+    t.add_argument("--l2", type=Bound(0, 1e6).arg(), default=DEFAULT_L2)
     t.add_argument("--out", required=True)
     t.set_defaults(func=cmd_train)
     e = cls.add_parser("eval", help="evaluate on sat.tst")

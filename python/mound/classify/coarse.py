@@ -7,15 +7,13 @@ from typing import Any
 import numpy as np
 
 from mound.classify import logistic, metrics, statlog
+from mound.classify.defaults import DEFAULT_BAND, DEFAULT_L2
 from mound.classify.features import BAND_NAMES, Standardizer, band_columns
 from mound.classify.model import SCHEMA as MODEL_SCHEMA
 from mound.classify.model import VERSION as MODEL_VERSION
 from mound.classify.model import Model
 from mound.classify.statlog import Split
 from mound.jsonio import read_json
-
-DEFAULT_L2 = 1e-4
-DEFAULT_BAND = 1  # red: best held-out AUC on sat.trn (`mound classify bands`, docs/stages.md)
 
 
 def train(data: Split, band: int | None, solver: str = "gd", l2: float = DEFAULT_L2,
