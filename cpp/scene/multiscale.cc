@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <type_traits>
 
 #include "common/error.h"
 
@@ -234,16 +235,36 @@ MOUND_INLINE void Dipole(const double* __restrict de, const double* __restrict d
 // read, so each value is loaded once instead of once per box, and no box is stored to be
 // read again. Every value is computed with the operations, in the order, of Box, Contrast,
 // Abs, Texture, HalfDiff and Dipole above (the same bits; tested against them).
-MOUND_INLINE void RadiusFeatures(const double* __restrict lo, const double* __restrict hi,
-                                 const double* __restrict r0, const double* __restrict r1,
-                                 const double* __restrict lo2, const double* __restrict hi2, int h,
-                                 const double* __restrict s2h, const double* __restrict inv_n,
-                                 const double* __restrict inv_ring, const double* __restrict inv,
-                                 const double* __restrict inv_e, const double* __restrict inv_w,
-                                 const double* __restrict inv_no, const double* __restrict inv_so,
-                                 double* __restrict mean, double* __restrict contrast,
-                                 double* __restrict abs_contrast, double* __restrict texture,
-                                 double* __restrict dipole, int m) {
+//
+// With a model (Mode kHinge or kLinear), the four features go straight into the cells'
+// logits `acc` in their order, as four passes of the logit sink would add them, instead of
+// being stored (kStore).
+enum class RadiusMode { kStore, kHinge, kLinear };
+// One feature's folded weights (Folded, per feature).
+struct FeatureWeights {
+  double wx, lo, hi, wc, wm, mu, sd;
+};
+// A feature's term added to a logit: the logit sink's operations (LogitRows), one cell.
+template <RadiusMode Mode>
+MOUND_INLINE double AddTerm(double acc, double v, const FeatureWeights& w) {
+  const double x = std::min(std::max(v, w.lo), w.hi);
+  if constexpr (Mode == RadiusMode::kHinge) {
+    const double xc = std::min(std::max(x, w.mu - w.sd), w.mu + w.sd);
+    const double dev = std::max(std::fabs(x - w.mu), w.sd);
+    return (acc + (v - v)) + (w.wx * x + w.wm * dev - w.wc * xc);
+  } else {
+    return (acc + (v - v)) + w.wx * x;
+  }
+}
+template <RadiusMode Mode>
+MOUND_INLINE void RadiusFeatures(
+    const double* __restrict lo, const double* __restrict hi, const double* __restrict r0,
+    const double* __restrict r1, const double* __restrict lo2, const double* __restrict hi2, int h,
+    const double* __restrict s2h, const double* __restrict inv_n, const double* __restrict inv_ring,
+    const double* __restrict inv, const double* __restrict inv_e, const double* __restrict inv_w,
+    const double* __restrict inv_no, const double* __restrict inv_so, double* __restrict mean,
+    double* __restrict contrast, double* __restrict abs_contrast, double* __restrict texture,
+    double* __restrict dipole, double* __restrict acc, const FeatureWeights* __restrict w, int m) {
   const int jr = h + 1, jl = -h;  // offsets from the cell's column
   for (int l = 0; l < m; ++l) {
     const double a = lo[l + jr], b = hi[l + jr], c = lo[l + jl], d = hi[l + jl];
@@ -252,19 +273,30 @@ MOUND_INLINE void RadiusFeatures(const double* __restrict lo, const double* __re
     const double ring = (s2h[l] - s) * inv_ring[l];
     const double f = (mu - ring) * inv[l];
     mean[l] = mu;
-    contrast[l] = f;
-    abs_contrast[l] = std::fabs(f);
     const double q = lo2[l + jr] - hi2[l + jr] - lo2[l + jl] + hi2[l + jl];
     double var = q * inv_n[l] - mu * mu;
     var = std::max(var, 0.0);
-    texture[l] = std::sqrt(var) * inv[l];
+    const double tex = std::sqrt(var) * inv[l];
     const double east = a - b - lo[l + 1] + hi[l + 1];
     const double west = lo[l] - hi[l] - c + d;
     const double de = east * inv_e[l] - west * inv_w[l];
     const double north = r0[l + jr] - b - r0[l + jl] + d;
     const double south = a - r1[l + jr] - c + r1[l + jl];
     const double dn = north * inv_no[l] - south * inv_so[l];
-    dipole[l] = std::sqrt(de * de + dn * dn) * inv[l];
+    const double dip = std::sqrt(de * de + dn * dn) * inv[l];
+    if constexpr (Mode == RadiusMode::kStore) {
+      contrast[l] = f;
+      abs_contrast[l] = std::fabs(f);
+      texture[l] = tex;
+      dipole[l] = dip;
+    } else {
+      double x = acc[l];
+      x = AddTerm<Mode>(x, f, w[0]);
+      x = AddTerm<Mode>(x, std::fabs(f), w[1]);
+      x = AddTerm<Mode>(x, tex, w[2]);
+      x = AddTerm<Mode>(x, dip, w[3]);
+      acc[l] = x;
+    }
   }
 }
 
@@ -325,16 +357,31 @@ class RowKernel {
         const double* rn = inv_n_[z].data();
         if (rc.stride == 1) {
           const double* const* hv = &half_ptr_[4 * r];
-          RadiusFeatures(
-              p1.Row(rc.i + h + 1) + rc.j0, p1.Row(rc.i - h) + rc.j0, p1.Row(rc.i) + rc.j0,
-              p1.Row(rc.i + 1) + rc.j0, p2.Row(rc.i + h + 1) + rc.j0, p2.Row(rc.i - h) + rc.j0, h,
-              sums_[Index(2 * h)].data(), rn, inv_ring_[r].data(), inv_.data(), hv[0], hv[1], hv[2],
-              hv[3], mean_.data(), f_.data(), ea_.data(), q_.data(), wa_.data(), m);
+          auto radius = [&](auto mode, double* acc, const FeatureWeights* w) MOUND_LAMBDA_INLINE {
+            RadiusFeatures<decltype(mode)::value>(
+                p1.Row(rc.i + h + 1) + rc.j0, p1.Row(rc.i - h) + rc.j0, p1.Row(rc.i) + rc.j0,
+                p1.Row(rc.i + 1) + rc.j0, p2.Row(rc.i + h + 1) + rc.j0, p2.Row(rc.i - h) + rc.j0, h,
+                sums_[Index(2 * h)].data(), rn, inv_ring_[r].data(), inv_.data(), hv[0], hv[1],
+                hv[2], hv[3], mean_.data(), f_.data(), ea_.data(), q_.data(), wa_.data(), acc, w,
+                m);
+          };
+          if constexpr (std::decay_t<Sink>::kLogits) {
+            const FeatureWeights w[4] = {sink.At(k), sink.At(k + 1), sink.At(k + 2),
+                                         sink.At(k + 3)};
+            if (sink.fm.hinge) {
+              radius(std::integral_constant<RadiusMode, RadiusMode::kHinge>(), sink.acc, w);
+            } else {
+              radius(std::integral_constant<RadiusMode, RadiusMode::kLinear>(), sink.acc, w);
+            }
+            k += 4;
+          } else {
+            radius(std::integral_constant<RadiusMode, RadiusMode::kStore>(), nullptr, nullptr);
+            sink(k++, f_.data());
+            sink(k++, ea_.data());
+            sink(k++, q_.data());
+            sink(k++, wa_.data());
+          }
           if (r == 0) std::copy(mean_.begin(), mean_.end(), small_[c].begin());
-          sink(k++, f_.data());
-          sink(k++, ea_.data());
-          sink(k++, q_.data());
-          sink(k++, wa_.data());
           continue;
         }
         Contrast(sums_[z].data(), sums_[Index(2 * h)].data(), rn, inv_ring_[r].data(), inv_.data(),
@@ -560,6 +607,41 @@ void CheckBlock(const PixelBlock& block, const MultiscaleSpec& spec, const CellG
 
 namespace {
 
+// The sinks of RowKernel::Row. Features: each into its column of the row's cells.
+struct FeatureSink {
+  static constexpr bool kLogits = false;
+  double* row;
+  int nf, m;
+  MOUND_INLINE void operator()(int f, const double* __restrict v) const {
+    double* __restrict out = row;
+    for (int l = 0; l < m; ++l) out[static_cast<size_t>(l) * nf + f] = v[l];
+  }
+};
+
+// Logits: one pass per feature adds its term (AddTerm) to the cells' logits. v - v is 0 for
+// a finite feature (acc + 0 is acc, to the bit) and NaN for an infinite one (which clipping
+// would otherwise hide): the cell's logit becomes NaN once a feature is not finite. Row
+// hands it the four features of a channel and radius at once where it computes them in one
+// pass (kLogits, At).
+struct LogitSink {
+  static constexpr bool kLogits = true;
+  const Folded& fm;
+  double* acc;
+  int m;
+  FeatureWeights At(int f) const {
+    return {fm.w_x[f], fm.lo[f], fm.hi[f], fm.w_c[f], fm.w_m[f], fm.mean[f], fm.std[f]};
+  }
+  MOUND_INLINE void operator()(int f, const double* __restrict v) const {
+    double* __restrict out = acc;
+    const FeatureWeights w = At(f);
+    if (fm.hinge) {
+      for (int l = 0; l < m; ++l) out[l] = AddTerm<RadiusMode::kHinge>(out[l], v[l], w);
+    } else {
+      for (int l = 0; l < m; ++l) out[l] = AddTerm<RadiusMode::kLinear>(out[l], v[l], w);
+    }
+  }
+};
+
 // The rows of cells: their features into `out` ((rows * cols) x F, NaN rows where a cell has
 // none).
 MOUND_INLINE void FeatureRows(Tables& t, const MultiscaleSpec& spec, const CellGrid& cells,
@@ -572,9 +654,7 @@ MOUND_INLINE void FeatureRows(Tables& t, const MultiscaleSpec& spec, const CellG
     const RowCells rc{cells.First() + k * cells.stride, cells.First(), cells.stride, m};
     t.AddRowsTo(rc.i + spec.ReachPx() + 1);
     double* row = out + static_cast<size_t>(k) * m * nf;
-    kernel.Row(t, rc, enough.data(), [&](int f, const double* v) MOUND_LAMBDA_INLINE {
-      for (int l = 0; l < m; ++l) row[static_cast<size_t>(l) * nf + f] = v[l];
-    });
+    kernel.Row(t, rc, enough.data(), FeatureSink{row, nf, m});
     for (int l = 0; l < m; ++l) {
       double* x = row + static_cast<size_t>(l) * nf;
       const bool ok =
@@ -595,26 +675,7 @@ MOUND_INLINE void LogitRows(Tables& t, const MultiscaleSpec& spec, const Folded&
     t.AddRowsTo(rc.i + spec.ReachPx() + 1);
     double* __restrict acc = out + static_cast<size_t>(k) * m;
     std::fill(acc, acc + m, fm.constant);
-    // One pass per feature. v - v is 0 for a finite feature (acc + 0 is acc, to the bit)
-    // and NaN for an infinite one (which clipping would otherwise hide): the cell's logit
-    // becomes NaN once a feature is not finite.
-    kernel.Row(t, rc, enough.data(), [&](int f, const double* __restrict v) MOUND_LAMBDA_INLINE {
-      const double wx = fm.w_x[f], lo = fm.lo[f], hi = fm.hi[f];
-      if (fm.hinge) {
-        const double wc = fm.w_c[f], wm = fm.w_m[f], mu = fm.mean[f], sd = fm.std[f];
-        const double clo = mu - sd, chi = mu + sd;
-        for (int l = 0; l < m; ++l) {
-          const double x = std::min(std::max(v[l], lo), hi);
-          const double xc = std::min(std::max(x, clo), chi);
-          const double dev = std::max(std::fabs(x - mu), sd);
-          acc[l] = (acc[l] + (v[l] - v[l])) + (wx * x + wm * dev - wc * xc);
-        }
-      } else {
-        for (int l = 0; l < m; ++l) {
-          acc[l] = (acc[l] + (v[l] - v[l])) + wx * std::min(std::max(v[l], lo), hi);
-        }
-      }
-    });
+    kernel.Row(t, rc, enough.data(), LogitSink{fm, acc, m});
     for (int l = 0; l < m; ++l) {
       if (!enough[l]) acc[l] = kNan;
     }

@@ -235,6 +235,23 @@ TEST(Multiscale, StrideSamplesTheSameCells) {
       }
     }
     EXPECT_GT(finite, 50 * nf) << holes;
+    // Logits too: at stride 1 the fused pass adds the four features' terms itself.
+    std::mt19937 rng(5);
+    std::normal_distribution<double> g(0, 1);
+    for (const Basis basis : {Basis::kNone, Basis::kHinge}) {
+      LinearModel model{
+          basis, true, std::vector<double>(nf, 0.3), std::vector<double>(nf, 0.5), {}};
+      for (int w = 0; w < (basis == Basis::kHinge ? 3 : 1) * nf + 1; ++w)
+        model.weights.push_back(g(rng));
+      const std::vector<double> fine = Logits(b, s, model, CellGrid{9, 1, 31, 31});
+      const std::vector<double> sparse = Logits(b, s, model, CellGrid{8, 3, 10, 10});
+      for (int k = 0; k < 10; ++k) {
+        for (int l = 0; l < 10; ++l) {
+          const double want = fine[(3 * k) * 31 + 3 * l], got = sparse[k * 10 + l];
+          EXPECT_TRUE(got == want || (std::isnan(got) && std::isnan(want))) << k << " " << l;
+        }
+      }
+    }
   }
 }
 
