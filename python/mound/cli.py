@@ -53,7 +53,7 @@ def build_parser(group: str | None = None) -> argparse.ArgumentParser:
     stages = [m for m, groups in STAGES if group in groups] or [m for m, _ in STAGES]
     for name in stages:
         added = importlib.import_module(name).add_parser(sub, Parser)
-        if name == "mound.sim.cli":  # `mound sim grids ...` lives in mound.grids
+        if name == "mound.sim.cli":  # `mound sim grid ...` lives in mound.grids
             importlib.import_module("mound.grids.cli").add_parser(added, Parser)
     return p
 
