@@ -206,8 +206,6 @@ def read_window(scene: SceneInfo, bands: list[int], row0: int, col0: int, rows: 
         window = Window(c0, r0, c1 - c0, r1 - r0)
         with _reading(scene.path, rows, len(bands)) as ds:
             a = ds.read(bands, window=window, out=out) if direct else ds.read(bands, window=window)
-    except InputError:
-        raise
     except Exception as e:  # a truncated or corrupt file fails only when its blocks are read
         raise InputError(f"{scene.path}: cannot read pixels ({str(e).splitlines()[0][:120]})"
                          ) from None
