@@ -1,7 +1,10 @@
 #include "recon/compare_cli.h"
 
+#include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <optional>
+#include <sstream>
 
 #include "common/atomic_file.h"
 #include "common/cli_args.h"
@@ -194,6 +197,33 @@ int RunVerdict(const std::vector<std::string>& args) {
     if (!centre) fail("no registered image");
     site.cameras = CameraCentres(recon, dir + "/recon.json");
     const terrain::VerdictModel& model = built_in ? *built_in : *model_read;
+    if (model.cloud_settings) {
+      // Only a cloud made as the model's training clouds were: densify's options travel in
+      // the dense.json beside its dense.ply.
+      if (a.Has("--cloud")) {
+        const std::string meta =
+            (std::filesystem::path(cloud_path).parent_path() / "dense.json").string();
+        nlohmann::json options;
+        std::ifstream in(meta);
+        if (in) {
+          std::stringstream ss;
+          ss << in.rdbuf();
+          try {
+            options = nlohmann::json::parse(ss.str()).value("options", nlohmann::json());
+          } catch (const nlohmann::json::exception&) {
+            throw InputError(meta + ": not JSON: cannot tell how the --cloud was made");
+          }
+        } else {
+          throw InputError("--cloud: no dense.json beside " + cloud_path +
+                           ": cannot tell whether the cloud was made as the model's training "
+                           "clouds were (judge mound_recon densify's output)");
+        }
+        terrain::CheckCloudSettings(*model.cloud_settings, "dense", options, meta);
+      } else {
+        terrain::CheckCloudSettings(*model.cloud_settings, "sparse", nlohmann::json::object(),
+                                    cloud_path);
+      }
+    }
     const std::string model_file = !built_in ? model_arg
                                    : model_arg == "dense"
                                        ? "built-in dense (data/verdict_model_dense.json)"

@@ -7,6 +7,8 @@
 #include <cstdint>
 #include <cstdlib>
 #include <fstream>
+#include <iomanip>
+#include <sstream>
 #include <utility>
 #include <vector>
 
@@ -259,6 +261,10 @@ Exif ParseExif(const std::vector<uint8_t>& file_bytes) {
         if (auto w = t.Integer(e); w && *w > 0 && *w <= (1u << 20))
           x.width_px = static_cast<int>(*w);
       }
+      if (e.tag == 0xA003) {
+        if (auto h = t.Integer(e); h && *h > 0 && *h <= (1u << 20))
+          x.height_px = static_cast<int>(*h);
+      }
       if (e.tag == 0xA210) {
         const double unit = t.Number(e).value_or(2);
         x.focal_plane_unit_mm = unit == 3 ? 10.0 : unit == 4 ? 1.0 : unit == 5 ? 1e-3 : 25.4;
@@ -311,47 +317,112 @@ std::optional<DjiXmp> ParseDjiXmp(const std::string& packet) {
   d.rtk_std_lon_m = XmpNumber(packet, "RtkStdLon", 0, 1000);
   d.rtk_std_lat_m = XmpNumber(packet, "RtkStdLat", 0, 1000);
   d.rtk_std_hgt_m = XmpNumber(packet, "RtkStdHgt", 0, 1000);
+  d.calibrated_focal_px = XmpNumber(packet, "CalibratedFocalLength", 1, 1e6);
+  d.calibrated_cx_px = XmpNumber(packet, "CalibratedOpticalCenterX", 0, 1e6);
+  d.calibrated_cy_px = XmpNumber(packet, "CalibratedOpticalCenterY", 0, 1e6);
   return d;
 }
 
-std::optional<double> SensorWidthMm(const std::string& model) {
-  // Sensor widths from the makers' specifications (1" 13.2 mm, 1/2.3" 6.17 mm, 1/2" 6.4 mm,
-  // 1/1.3" 9.7 mm, 4/3" 17.3 mm, APS-C 23.5 mm, full frame 35.9 mm).
-  static const std::pair<const char*, double> kTable[] = {
-      {"FC6310", 13.2},    {"FC6310S", 13.2},   {"FC6310R", 13.2},   {"FC6510", 13.2},
-      {"FC6520", 17.3},    {"FC6540", 23.5},    {"L1D-20C", 13.2},   {"FC3411", 13.2},
-      {"FC330", 6.17},     {"FC300X", 6.17},    {"FC300S", 6.17},    {"FC220", 6.17},
-      {"FC2103", 6.17},    {"FC7203", 6.17},    {"FC7303", 6.17},    {"FC3170", 6.4},
-      {"FC3582", 9.7},     {"FC8482", 9.7},     {"M3E", 17.3},       {"L2D-20C", 17.3},
-      {"ZENMUSEP1", 35.9}, {"ILCE-6000", 23.5}, {"ILCE-5100", 23.5}, {"DSC-RX1RM2", 35.9},
+std::optional<SensorSpec> SensorOf(const std::string& model) {
+  // Sensor widths from the makers' published specifications: the sensor's format (1" 13.2
+  // mm, 1/2.3" 6.17 mm, 1/2" 6.4 mm, 1/1.3" 9.7 mm, 4/3" 17.3 mm, APS-C 23.5 mm, full frame
+  // 35.9 mm) or its stated size. The EXIF model is the camera's, not the aircraft's.
+  static const SensorSpec kTable[] = {
+      {"FC6310", 13.2, "DJI Phantom 4 Pro specifications: 1\" CMOS"},
+      {"FC6310S", 13.2, "DJI Phantom 4 Pro V2.0 specifications: 1\" CMOS"},
+      {"FC6310R", 13.2, "DJI Phantom 4 RTK specifications: 1\" CMOS"},
+      {"FC6510", 13.2, "DJI Zenmuse X4S specifications: 1\" CMOS"},
+      {"FC6520", 17.3, "DJI Zenmuse X5S specifications: 4/3\" CMOS"},
+      {"FC6540", 23.5, "DJI Zenmuse X7 specifications: APS-C (23.5 x 15.7 mm)"},
+      {"L1D-20C", 13.2, "DJI Mavic 2 Pro specifications: 1\" CMOS"},
+      {"FC3411", 13.2, "DJI Air 2S specifications: 1\" CMOS"},
+      {"FC330", 6.17, "DJI Phantom 4 specifications: 1/2.3\" CMOS"},
+      {"FC300X", 6.17, "DJI Phantom 3 Professional specifications: 1/2.3\" CMOS"},
+      {"FC300S", 6.17, "DJI Phantom 3 Advanced specifications: 1/2.3\" CMOS"},
+      {"FC220", 6.17, "DJI Mavic Pro specifications: 1/2.3\" CMOS"},
+      {"FC2103", 6.17, "DJI Mavic Air specifications: 1/2.3\" CMOS"},
+      {"FC7203", 6.17, "DJI Mavic Mini specifications: 1/2.3\" CMOS"},
+      {"FC7303", 6.17, "DJI Mini 2 specifications: 1/2.3\" CMOS"},
+      {"FC3170", 6.4, "DJI Mavic Air 2 specifications: 1/2\" CMOS"},
+      {"FC3582", 9.7, "DJI Mini 3 Pro specifications: 1/1.3\" CMOS"},
+      {"FC8482", 9.7, "DJI Mini 4 Pro specifications: 1/1.3\" CMOS"},
+      {"M3E", 17.3, "DJI Mavic 3 Enterprise specifications: 4/3\" CMOS"},
+      {"L2D-20C", 17.3, "DJI Mavic 3 specifications: 4/3\" CMOS Hasselblad camera"},
+      {"ZENMUSEP1", 35.9, "DJI Zenmuse P1 specifications: full frame (35.9 x 24 mm)"},
+      {"ILCE-6000", 23.5, "Sony a6000 specifications: APS-C (23.5 x 15.6 mm)"},
+      {"ILCE-5100", 23.5, "Sony a5100 specifications: APS-C (23.5 x 15.6 mm)"},
+      {"DSC-RX1RM2", 35.9, "Sony RX1R II specifications: full frame (35.9 x 24 mm)"},
+      {"CANONPOWERSHOTSX260HS", 6.17, "Canon PowerShot SX260 HS specifications: 1/2.3\" CMOS"},
   };
   std::string m;
   for (char c : model) {
     if (c != ' ') m += static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
   }
-  for (const auto& [name, width] : kTable) {
-    if (m == name) return width;
+  for (const SensorSpec& s : kTable) {
+    if (m == s.model) return s;
+  }
+  return std::nullopt;
+}
+
+std::optional<double> SensorWidthMm(const std::string& model) {
+  if (auto s = SensorOf(model)) return s->width_mm;
+  return std::nullopt;
+}
+
+namespace {
+
+std::string Fixed(double v, int digits) {
+  std::ostringstream o;
+  o << std::fixed << std::setprecision(digits) << v;
+  return o.str();
+}
+
+}  // namespace
+
+std::optional<FocalPrior> FocalFromExif(const Exif& e, int width_px) {
+  // The EXIF figures refer to the full-size image (PixelXDimension wide); a scaled image
+  // scales them.
+  const double full = e.width_px && *e.width_px > 0 ? *e.width_px : width_px;
+  const double scale = width_px / full;
+  if (e.dji && e.dji->calibrated_focal_px && *e.dji->calibrated_focal_px > 0) {
+    return FocalPrior{*e.dji->calibrated_focal_px * scale, "dji_calibration", 0.005,
+                      "DJI XMP CalibratedFocalLength " + Fixed(*e.dji->calibrated_focal_px, 1) +
+                          " px at " + Fixed(full, 0) + " px wide"};
+  }
+  if (e.focal_mm && *e.focal_mm > 0 && e.focal_plane_x_res && *e.focal_plane_x_res > 0) {
+    const double unit_mm = e.focal_plane_unit_mm.value_or(25.4);
+    return FocalPrior{*e.focal_mm * *e.focal_plane_x_res / unit_mm * scale, "focal_plane", 0.01,
+                      "focal length " + Fixed(*e.focal_mm, 2) + " mm, pixel pitch " +
+                          Fixed(unit_mm / *e.focal_plane_x_res * 1000, 3) +
+                          " um (EXIF FocalPlaneXResolution)"};
+  }
+  if (e.focal_mm && *e.focal_mm > 0) {
+    if (auto s = SensorOf(e.model)) {
+      return FocalPrior{*e.focal_mm / s->width_mm * width_px, "sensor_table", 0.01,
+                        "focal length " + Fixed(*e.focal_mm, 2) + " mm on a " +
+                            Fixed(s->width_mm, 2) + " mm wide sensor (" + s->source + ")"};
+    }
+  }
+  if (e.focal_35mm && *e.focal_35mm > 0) {
+    // The equivalent is defined on the native frame's diagonal: the image's width is taken
+    // as that frame's, whose height is 2/3 of it for a 3:2 image, else 3/4 (a 4:3 sensor,
+    // which is what a 16:9 or 4:3 picture of a UAV camera is cut from).
+    const double h = e.height_px && *e.height_px > 0 ? *e.height_px : 0.0;
+    const double aspect = h > 0 && std::abs(full / h - 1.5) < 0.01 ? 2.0 / 3.0 : 0.75;
+    const double diag = width_px * std::sqrt(1.0 + aspect * aspect);
+    return FocalPrior{*e.focal_35mm / 43.2666 * diag, "35mm", 0.05,
+                      "35 mm equivalent " + Fixed(*e.focal_35mm, 1) + " mm on the diagonal of a " +
+                          (aspect < 0.7 ? std::string("3:2") : std::string("4:3")) +
+                          " frame (camera not in the sensor table)"};
   }
   return std::nullopt;
 }
 
 std::optional<double> FocalPx(const Exif& e, int width_px, std::string* source) {
-  auto said = [&](const char* s, double px) {
-    if (source) *source = s;
-    return std::optional<double>(px);
-  };
-  if (e.focal_mm && *e.focal_mm > 0 && e.focal_plane_x_res && *e.focal_plane_x_res > 0) {
-    const double unit_mm = e.focal_plane_unit_mm.value_or(25.4);
-    // The focal plane resolution refers to the full sensor image (PixelXDimension wide).
-    double px = *e.focal_mm * *e.focal_plane_x_res / unit_mm;
-    if (e.width_px && *e.width_px > 0) px *= static_cast<double>(width_px) / *e.width_px;
-    return said("focal_plane", px);
-  }
-  if (e.focal_35mm && *e.focal_35mm > 0) return said("35mm", *e.focal_35mm / 36.0 * width_px);
-  if (e.focal_mm && *e.focal_mm > 0) {
-    if (auto w = SensorWidthMm(e.model)) return said("sensor_table", *e.focal_mm / *w * width_px);
-  }
-  return std::nullopt;
+  auto f = FocalFromExif(e, width_px);
+  if (!f) return std::nullopt;
+  if (source) *source = f->source;
+  return f->px;
 }
 
 }  // namespace mound::recon

@@ -229,11 +229,11 @@ int RunPhotos(const std::vector<std::string>& args, std::ostream& out) {
     if (e.focal_plane_x_res && e.focal_plane_unit_mm) {
       x["pixel_pitch_mm"] = *e.focal_plane_unit_mm / *e.focal_plane_x_res;
     }
-    std::string source;
     if (e.width_px && *e.width_px > 0) {
-      if (auto f = FocalPx(e, *e.width_px, &source)) {
-        x["focal_px"] = *f;  // for an image PixelXDimension wide
-        x["focal_source"] = source;
+      if (auto f = FocalFromExif(e, *e.width_px)) {
+        x["focal_px"] = f->px;  // for an image PixelXDimension wide
+        x["focal_source"] = f->source;
+        x["focal_detail"] = f->detail;
       }
     }
     j["exif"] = x;

@@ -25,21 +25,97 @@ std::string Temp(const std::string& name, const std::string& text) {
   return p;
 }
 
-TEST(Exif, FocalLengthFromThe35mmEquivalentOrTheSensorTableInThatOrder) {
+TEST(Exif, FocalLengthFromTheSensorTableBeforeThe35mmEquivalent) {
   Exif e;
   e.focal_mm = 8.8;
   e.model = "FC6310";  // Phantom 4 Pro: a 1" sensor, 13.2 mm wide
+  e.focal_35mm = 24;   // the sensor table comes before the 35 mm equivalent
   std::string source;
   EXPECT_NEAR(*FocalPx(e, 5472, &source), 8.8 / 13.2 * 5472, 1e-9);
   EXPECT_EQ(source, "sensor_table");
-  e.focal_35mm = 24;  // the 35 mm equivalent comes before the table
-  EXPECT_NEAR(*FocalPx(e, 5472, &source), 24.0 / 36.0 * 5472, 1e-9);
-  EXPECT_EQ(source, "35mm");
   Exif unknown;
   unknown.focal_mm = 8.8;
   unknown.model = "Some Camera";
   EXPECT_FALSE(FocalPx(unknown, 4000));
   EXPECT_EQ(*SensorWidthMm(" fc6310 "), 13.2);  // spaces and case do not matter
+  unknown.focal_35mm = 24;
+  unknown.width_px = 5472;
+  unknown.height_px = 3648;  // 3:2: the diagonal of a 3:2 frame, 5472 px wide
+  auto f = FocalFromExif(unknown, 5472);
+  ASSERT_TRUE(f);
+  EXPECT_EQ(f->source, "35mm");
+  EXPECT_NEAR(f->px, 24 / 43.2666 * std::hypot(5472.0, 3648.0), 1e-6);
+  EXPECT_EQ(f->rel_sd, 0.05);  // the wider prior
+}
+
+// The focal prior of real cameras, each from its EXIF as the camera writes it (model,
+// focal length, 35 mm equivalent, size), against the focal length the sensor's published
+// width gives: every source, in order, and the 35 mm equivalent's aspect crop.
+TEST(Exif, FocalPriorTable) {
+  struct Row {
+    const char* model;
+    double focal_mm, f35;
+    int w, h;
+    double want_px;
+    const char* source;
+    double tol_px;
+  };
+  const Row rows[] = {
+      // DJI Phantom 3 (FC300S): 3.61 mm on a 6.17 mm wide 1/2.3" sensor, 16:9 cut from 4:3
+      {"FC300S", 3.61, 20, 4000, 2250, 3.61 / 6.17 * 4000, "sensor_table", 1e-9},
+      // three current DJI cameras: Mavic 3 Enterprise, Mavic 3 (Hasselblad), Mini 4 Pro
+      {"M3E", 12.29, 24, 5280, 3956, 12.29 / 17.3 * 5280, "sensor_table", 1e-9},
+      {"L2D-20c", 12.29, 24, 5280, 3956, 12.29 / 17.3 * 5280, "sensor_table", 1e-9},
+      {"FC8482", 6.72, 24, 8064, 6048, 6.72 / 9.7 * 8064, "sensor_table", 1e-9},
+      // a camera the table lacks: the 35 mm equivalent on a 4:3 frame's diagonal
+      {"FC9999", 3.61, 20, 4000, 2250, 20 / 43.2666 * 5000, "35mm", 1e-6},
+  };
+  for (const Row& r : rows) {
+    Exif e;
+    e.model = r.model;
+    e.focal_mm = r.focal_mm;
+    e.focal_35mm = r.f35;
+    e.width_px = r.w;
+    e.height_px = r.h;
+    auto f = FocalFromExif(e, r.w);
+    ASSERT_TRUE(f) << r.model;
+    EXPECT_EQ(f->source, r.source) << r.model;
+    EXPECT_NEAR(f->px, r.want_px, r.tol_px) << r.model;
+    EXPECT_NE(f->detail.find(r.source == std::string("35mm") ? "equivalent" : "specifications"),
+              std::string::npos)
+        << f->detail;
+  }
+  // The FC300S by its 35 mm equivalent alone, the old way (36 mm wide): 2,222 px, 5 % short
+  // of the sensor's 2,340; on the 4:3 diagonal 2,311 px (1.2 % short), inside its 5 % prior.
+  EXPECT_NEAR(20 / 36.0 * 4000, 2222.2, 0.1);
+  EXPECT_NEAR(20 / 43.2666 * 5000 / (3.61 / 6.17 * 4000), 0.988, 0.001);
+  // DJI's calibration in the XMP comes first, scaled to the image's width.
+  Exif d;
+  d.model = "M3E";
+  d.focal_mm = 12.29;
+  d.width_px = 5280;
+  d.dji = DjiXmp{};
+  d.dji->calibrated_focal_px = 3713.29;
+  auto f = FocalFromExif(d, 2640);
+  ASSERT_TRUE(f);
+  EXPECT_EQ(f->source, "dji_calibration");
+  EXPECT_NEAR(f->px, 3713.29 / 2, 1e-9);
+}
+
+// The Phantom 3's real EXIF and XMP (../shared/data/dji/photo_meta): 3.61 mm, 20 mm
+// equivalent, 4000 x 2250, FC300S: 2,340 px from the sensor table.
+TEST(Exif, ARealPhantom3PhotoGetsItsSensorsFocalLength) {
+  const Exif e = ReadExif(std::string(MOUND_SHARED_DATA) + "/dji/photo_meta/phantom3_fc300s.jpg");
+  EXPECT_EQ(e.model, "FC300S");
+  ASSERT_TRUE(e.focal_mm && e.focal_35mm && e.width_px && e.height_px && e.dji);
+  EXPECT_EQ(*e.width_px, 4000);
+  EXPECT_EQ(*e.height_px, 2250);
+  auto f = FocalFromExif(e, 4000);
+  ASSERT_TRUE(f);
+  EXPECT_EQ(f->source, "sensor_table");
+  EXPECT_NEAR(f->px, 2340.4, 0.1);
+  EXPECT_NEAR(*e.dji->abs_alt_m, 198.31, 1e-9);
+  EXPECT_FALSE(e.dji->calibrated_focal_px);  // a 2016 camera writes no calibration
 }
 
 TEST(Exif, ReadsFocalLengthPixelPitchAndGpsOfACanonPhoto) {

@@ -122,6 +122,7 @@ ReconstructResult Reconstruct(const ReconstructOptions& o) {
   // about EXIF's values by default).
   geometry::CameraModel camera;
   std::string camera_source;
+  std::optional<FocalPrior> focal;  // EXIF's focal length, where it came from, its prior
   std::vector<Exif> exif(n);
   int rtk_fixed = 0;  // photos with an RTK fix (DJI XMP), with --gps exif
   // 1 / the variance of each photo's RTK position (DJI XMP RtkStdLon/Lat/Hgt), by file
@@ -137,10 +138,9 @@ ReconstructResult Reconstruct(const ReconstructOptions& o) {
     camera.height = H;
     camera.cx = (W - 1) / 2.0;
     camera.cy = (H - 1) / 2.0;
-    std::string how;
-    std::optional<double> f = FocalPx(exif[0], W, &how);
-    camera_source = f ? "exif (" + how + ")" : "default (1.2 x the longer side)";
-    camera.fx = camera.fy = f.value_or(1.2 * std::max(W, H));
+    focal = FocalFromExif(exif[0], W);
+    camera_source = focal ? "exif (" + focal->source + ")" : "default (1.2 x the longer side)";
+    camera.fx = camera.fy = focal ? focal->px : 1.2 * std::max(W, H);
   }
   // Check() refuses prior and free with a camera file
   const Lens lens = o.lens.value_or(o.camera_file.empty() ? Lens::kPrior : Lens::kFixed);
@@ -255,11 +255,24 @@ ReconstructResult Reconstruct(const ReconstructOptions& o) {
                    {"contrast_threshold", fo.contrast_threshold},
                    {"features", NameOf(o.feature_kind, kFeatureKindNames)},
                    {"matcher", NameOf(o.matcher, kMatcherNames)}};
+  if (o.camera_file.empty()) {
+    // Where the starting focal length came from (recon.json's inputs.focal).
+    doc["inputs"]["focal"] =
+        focal ? nlohmann::json{{"px", focal->px},
+                               {"source", focal->source},
+                               {"prior_rel_sd", lens == Lens::kPrior ? focal->rel_sd : 0.0},
+                               {"detail", focal->detail}}
+              : nlohmann::json{{"px", camera.fx},
+                               {"source", "default"},
+                               {"prior_rel_sd", lens == Lens::kPrior ? 0.01 : 0.0},
+                               {"detail", "no focal length in EXIF: 1.2 x the longer side"}};
+  }
   sfm::MapperOptions mo;
   mo.max_error_px = 4.0;  // COLMAP's filter threshold, full-resolution pixels
   mo.refine_intrinsics = lens != Lens::kFixed;
   if (lens == Lens::kPrior) {
-    mo.focal_prior_sd = 0.01;
+    // as sure as its source: 0.5 % (DJI's calibration) ... 5 % (the 35 mm equivalent)
+    mo.focal_prior_sd = focal ? focal->rel_sd : 0.01;
     mo.distortion_prior_sd = 0.01;
   }
   mo.threads = threads;

@@ -431,10 +431,15 @@ nlohmann::json SiteVerdictJson(const SiteVerdict& v, const terrain::VerdictModel
     doc["model_p_mound"] = v.model_p;
     doc["first_look_p_mound"] = v.first_p;
   } else {
-    if (model.undecided && !v.decide_at)
-      why << "; p(mound) " << v.p_mound << " (undecided in [" << model.undecided->p_low << ", "
-          << model.undecided->p_high << "))";
-    else
+    if (model.undecided && !v.decide_at) {
+      // where p lies against the band: below it no_mound, in it undecided, from its top mound
+      const double lo = model.undecided->p_low, hi = model.undecided->p_high;
+      why << "; p(mound) " << v.p_mound
+          << (v.p_mound < lo   ? " (below the undecided band ["
+              : v.p_mound < hi ? " (in the undecided band ["
+                               : " (above the undecided band [")
+          << lo << ", " << hi << "))";
+    } else
       why << "; p(mound) " << v.p_mound << " (threshold " << threshold << ")";
     doc["look"] = "first";
   }

@@ -487,6 +487,34 @@ TEST(VerdictModel, RefusesMalformedModelsNamingTheField) {
 
 // The beta calibration of the site's score: p = 1 / (1 + exp(-(a ln q - b ln(1 - q) + c))),
 // q = 1 / (1 + exp(-s)); the identity at a = b = 1, c = 0; refused unless increasing.
+// Issue 67: a model records how its training clouds were made; a cloud made otherwise is
+// refused naming the setting, the values and the flag, and a cloud of the other kind too.
+TEST(VerdictModel, JudgesOnlyCloudsLikeItsTrainingClouds) {
+  nlohmann::json d = ModelDoc();
+  d["cloud_settings"] = {{"cloud", "dense"}, {"max_image_size", 320}, {"resolution_m", 0.25}};
+  const VerdictModel m = ParseVerdictModel(d, "m.json");
+  ASSERT_TRUE(m.cloud_settings);
+  const CloudSettings& c = *m.cloud_settings;
+  EXPECT_NO_THROW(CheckCloudSettings(
+      c, "dense", {{"max_image_size", 320}, {"resolution_m", 0.25}, {"threads", 2}}, "d.json"));
+  try {
+    CheckCloudSettings(c, "dense", {{"max_image_size", 640}, {"resolution_m", 0.25}}, "d.json");
+    FAIL() << "a 640 px cloud was accepted";
+  } catch (const InputError& e) {
+    const std::string w = e.what();
+    EXPECT_NE(w.find("d.json: options.max_image_size is 640"), std::string::npos) << w;
+    EXPECT_NE(w.find("--max-image-size 320"), std::string::npos) << w;
+  }
+  EXPECT_THROW(CheckCloudSettings(c, "dense", {{"max_image_size", 320}}, "d.json"), InputError);
+  EXPECT_THROW(CheckCloudSettings(c, "sparse", nlohmann::json::object(), "p.ply"), InputError);
+  for (const nlohmann::json& bad : {nlohmann::json("dense"), nlohmann::json{{"cloud", "lidar"}},
+                                    nlohmann::json{{"cloud", "dense"}, {"max_image_size", "320"}},
+                                    nlohmann::json{{"cloud", "sparse"}, {"max_image_size", 320}}}) {
+    d["cloud_settings"] = bad;
+    EXPECT_THROW(ParseVerdictModel(d, "m.json"), InputError) << bad.dump();
+  }
+}
+
 TEST(VerdictModel, ABetaCalibrationMapsTheHighestRisesScore) {
   const Detection dome =
       DetectMound(SyntheticSite(6.0, 40.0, false, 1), {0, 0}, 58, DetectorOptions{});

@@ -235,8 +235,56 @@ VerdictModel ParseVerdictModel(const nlohmann::json& doc, const std::string& sou
       throw InputError(at + ": p_low, p_high: must be 0 < p_low <= p_high < 1");
     m.undecided = band;
   }
+  if (doc.contains("cloud_settings")) {
+    const nlohmann::json& c = doc["cloud_settings"];
+    const std::string at = source + ": cloud_settings";
+    if (!c.is_object() || !c.contains("cloud") || !c["cloud"].is_string() ||
+        (c["cloud"] != "dense" && c["cloud"] != "sparse"))
+      throw InputError(at + ": expected {\"cloud\": \"dense\" | \"sparse\", options...}");
+    CloudSettings cs;
+    cs.cloud = c["cloud"].get<std::string>();
+    for (const auto& [name, value] : c.items()) {
+      if (name == "cloud") continue;
+      if (!value.is_number() || !std::isfinite(value.get<double>()) ||
+          std::fabs(value.get<double>()) > 1e9)
+        throw InputError(at + ": " + name.substr(0, 40) + ": expected a finite number");
+      if (cs.options.size() >= 64) throw InputError(at + ": more than 64 settings");
+      cs.options.emplace_back(name, value.get<double>());
+    }
+    if (cs.cloud == "sparse" && !cs.options.empty())
+      throw InputError(at + ": a sparse cloud has no densify options");
+    m.cloud_settings = cs;
+  }
   m.doc = doc;
   return m;
+}
+
+void CheckCloudSettings(const CloudSettings& model, const std::string& cloud,
+                        const nlohmann::json& options, const std::string& where) {
+  if (cloud != model.cloud)
+    throw InputError(where + ": a " + cloud + " cloud, and the model was trained on " +
+                     model.cloud + " clouds (--model " + model.cloud + ", or the model of " +
+                     cloud + " clouds)");
+  for (const auto& [name, want] : model.options) {
+    const std::string flag = "--" + [&] {
+      std::string f = name;
+      std::replace(f.begin(), f.end(), '_', '-');
+      return f;
+    }();
+    if (!options.is_object() || !options.contains(name) || !options[name].is_number())
+      throw InputError(where + ": options." + name +
+                       ": missing: cannot tell whether the cloud was made as the model's "
+                       "training clouds were (mound_recon densify " +
+                       flag + " " + nlohmann::json(want).dump() + ")");
+    const double got = options[name].get<double>();
+    if (!(std::fabs(got - want) <= 1e-9 * std::max(1.0, std::fabs(want))))
+      throw InputError(where + ": options." + name + " is " + nlohmann::json(got).dump() +
+                       ", the model was trained on clouds made with " +
+                       nlohmann::json(want).dump() +
+                       ": a model judges only clouds like its training clouds (mound_recon "
+                       "densify " +
+                       flag + " " + nlohmann::json(want).dump() + ")");
+  }
 }
 
 VerdictModel LoadVerdictModel(const std::string& path) {

@@ -59,6 +59,22 @@ struct UndecidedBand {
   double p_low = 0, p_high = 1;
 };
 
+// How the clouds a model was trained on were made (the file's optional `cloud_settings`):
+// `cloud` "dense" (mound_recon densify's dense.ply) or "sparse" (reconstruct's points.ply),
+// and for a dense model the densify options that shape the cloud (dense.json's `options`
+// of the training sites: max_image_size, resolution_m, ...). A cloud made otherwise is not
+// one the model has seen: `mound_recon verdict` refuses it (CheckCloudSettings).
+struct CloudSettings {
+  std::string cloud;
+  std::vector<std::pair<std::string, double>> options;  // name, value
+};
+
+// Nothing when the cloud (its densify `options`, empty for a sparse cloud) was made as the
+// model's training clouds were; else InputError naming `where`, the setting, both values and
+// the flag that makes a cloud like the model's.
+void CheckCloudSettings(const CloudSettings& model, const std::string& cloud,
+                        const nlohmann::json& options, const std::string& where);
+
 struct VerdictModel {
   std::vector<std::string> features;
   std::vector<double> mean, std, weights;
@@ -73,6 +89,7 @@ struct VerdictModel {
   double beta_a = 1, beta_b = 1, beta_c = 0;
   std::optional<SecondLook> second_look;
   std::optional<UndecidedBand> undecided;
+  std::optional<CloudSettings> cloud_settings;
   nlohmann::json doc;  // the whole file (its figures travel into verdict.json)
 
   double Score(const std::vector<double>& f) const;  // s of one rise's features

@@ -8,6 +8,7 @@ from __future__ import annotations
 import json
 import shutil
 import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -16,7 +17,8 @@ import rasterio
 
 from mound.cli import main as mound_main
 from mound.geometry.align import apply, umeyama
-from mound.ply import read_ply_fields
+from mound.ply import read_ply, read_ply_fields, write_ply
+from mound.recon.defaults import DENSIFY_ARGS
 from mound.sim.terrain import load_site_heightfield
 
 DIAMETER_M, HEIGHT_M = 30.0, 3.0
@@ -113,12 +115,65 @@ def test_rasters_and_verdict_of_the_dense_cloud(site: Path, dense: Path, tmp_pat
     assert (rgba[3] == 255).mean() > 0.9          # the images cover the site
     assert rgba[:3, rgba[3] == 255].std() > 10     # and carry its texture
     assert 0.75 * HEIGHT_M < float(relief.max()) < 1.3 * HEIGHT_M
+    # Issue 67: this cloud (0.1 m voxels, 640 px depth maps) is not one the built-in dense
+    # model was trained on: refused, naming the setting; a cloud made as the survey makes
+    # its own is judged.
     r = recon_tool(["verdict", str(site / "recon"), "--cloud", str(dense / "dense.ply"),
+                    "--out", str(tmp_path / "verdict.json")])
+    assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr
+    assert "options.max_image_size is 640" in r.stderr and "--max-image-size 320" in r.stderr
+    assert not (tmp_path / "verdict.json").exists()
+    like = site / "dense_like_the_model"
+    r = recon_tool(["densify", str(site / "recon"), "--out", str(like), "--threads", "2",
+                    *DENSIFY_ARGS])
+    assert r.returncode == 0, r.stderr
+    r = recon_tool(["verdict", str(site / "recon"), "--cloud", str(like / "dense.ply"),
                     "--out", str(tmp_path / "verdict.json")])
     assert r.returncode == 0, r.stderr
     v = json.loads((tmp_path / "verdict.json").read_text())
-    assert v["label"] == "mound" and v["cloud"] == str(dense / "dense.ply")
+    assert v["label"] == "mound" and v["cloud"] == str(like / "dense.ply")
     assert abs(v["measurements"]["rise"]["height_m"] - HEIGHT_M) < 0.5
+    # a cloud whose dense.json is gone cannot be told from another: refused
+    lone = tmp_path / "lone"
+    lone.mkdir()
+    shutil.copy(like / "dense.ply", lone / "dense.ply")
+    r = recon_tool(["verdict", str(site / "recon"), "--cloud", str(lone / "dense.ply"),
+                    "--out", str(tmp_path / "v2.json")])
+    assert r.returncode == 2 and "no dense.json beside" in r.stderr, r.stderr
+    # the sparse model on the dense cloud: another kind of cloud, refused
+    r = recon_tool(["verdict", str(site / "recon"), "--cloud", str(like / "dense.ply"),
+                    "--model", "sparse", "--out", str(tmp_path / "v3.json")])
+    assert r.returncode == 2 and "trained on sparse clouds" in r.stderr, r.stderr
+
+
+@pytest.mark.slow
+def test_a_cloud_without_ground_gives_no_terrain_model(site: Path, tmp_path: Path) -> None:
+    """Issue 67: a cloud in which the ground filter finds (almost) no ground used to give a
+    DTM of a few triangles and an LRM equal to the surface less a constant, with exit 0.
+    Now: exit 3, rasters.json `status: failed` with why, no dtm.tif or lrm.tif, the DSM
+    still written. The cloud: the site's extent filled with points whose heights scatter
+    by metres from cell to cell (a noisy cloud, as at too fine a cell size; measured:
+    0.1 % of the cells pass the filter)."""
+    recon = tmp_path / "recon"
+    shutil.copytree(site / "recon", recon)
+    xyz, _ = read_ply(recon / "points.ply")
+    lo, hi = np.percentile(xyz[:, :2], [5, 95], axis=0)
+    rng = np.random.default_rng(7)
+    gx, gy = np.meshgrid(np.arange(lo[0], hi[0], 0.5), np.arange(lo[1], hi[1], 0.5))
+    z = rng.normal(0.0, 3.0, gx.shape)
+    cloud = np.column_stack([gx.ravel(), gy.ravel(), z.ravel()])
+    write_ply(recon / "points.ply", cloud)
+    out = tmp_path / "rasters"
+    r = subprocess.run([sys.executable, "-m", "mound", "recon", "rasters", str(recon),
+                        "--resolution-m", "0.5", "--out", str(out), "--no-orthophoto"],
+                       capture_output=True, text=True, check=False, timeout=300)
+    assert r.returncode == 3, r.stderr
+    assert "too little ground" in r.stderr and r.stderr.count("\n") == 1, r.stderr
+    doc = json.loads((out / "rasters.json").read_text())
+    assert doc["status"] == "failed" and "too little ground" in doc["reason"]
+    assert doc["ground_share_of_observed"] < 0.02
+    assert (out / "dsm.tif").is_file() and not (out / "dtm.tif").exists()
+    assert not (out / "lrm.tif").exists() and set(doc["files"]) == {"dsm", "hillshade"}
 
 
 @pytest.mark.slow

@@ -718,14 +718,14 @@ def _dji_and_litchi() -> tuple[str, str, str]:
 KML_TEMPLATE, WAYLINES_WPML, LITCHI_CSV = _dji_and_litchi()
 
 
-def _kmz(template: str, waylines: str) -> bytes:
+def _kmz(template: str, waylines: str, deflate: bool = False) -> bytes:
     import io
     import zipfile
 
     from mound.uav import dji
 
     buf = io.BytesIO()
-    with zipfile.ZipFile(buf, "w") as z:
+    with zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED if deflate else zipfile.ZIP_STORED) as z:
         z.writestr(dji.TEMPLATE, template.encode("utf-8", "surrogatepass"))
         z.writestr(dji.WAYLINES, waylines.encode("utf-8", "surrogatepass"))
     return buf.getvalue()
@@ -774,10 +774,20 @@ def test_dji_kmz_reader(waylines: str, keep_template: bool) -> None:
 
 
 @FUZZ
-@given(st.integers(0, 4000), st.binary(min_size=1, max_size=16), st.booleans())
-def test_dji_kmz_zip_bytes(at: int, piece: bytes, truncate: bool) -> None:
-    """The KMZ's zip bytes overwritten or cut short."""
-    data = _kmz(KML_TEMPLATE, WAYLINES_WPML)
+@given(mutated_xml(KML_TEMPLATE))
+def test_dji_kmz_template_reader(template: str) -> None:
+    """Issue 67: the template is read too (its heightMode, heights, imageFormat): a
+    mutated template.kml beside intact waylines gives routes or an InputError."""
+    value_or_input_error(_read_kmz_routes, _file(_kmz(template, WAYLINES_WPML), "m.kmz"))
+
+
+@FUZZ
+@given(st.integers(0, 4000), st.binary(min_size=1, max_size=16), st.booleans(),
+       st.booleans())
+def test_dji_kmz_zip_bytes(at: int, piece: bytes, truncate: bool, deflate: bool) -> None:
+    """The KMZ's zip bytes overwritten or cut short, stored or deflated (a corrupt deflate
+    stream was a zlib.error: issue 67)."""
+    data = _kmz(KML_TEMPLATE, WAYLINES_WPML, deflate)
     at = at % len(data)
     data = data[:at] if truncate else data[:at] + piece + data[at + len(piece):]
     value_or_input_error(_read_kmz_routes, _file(data, "m.kmz"))

@@ -45,6 +45,7 @@ import numpy as np
 from mound import native
 from mound.errors import InputError, NoResultError, ToolNoResultError
 from mound.jsonio import read_json, write_json
+from mound.recon.defaults import DENSIFY_ARGS
 from mound.sim import site as sim
 from mound.sim.card import site_jpegs
 from mound.sim.dem_places import DemPlaces
@@ -60,9 +61,8 @@ from mound.sim.population import read_population
 
 SCHEMA = "mound.verdict_grid"
 VERSION = 1
-# the survey's densify (mound.survey: options.dense_size, site_work.DENSE_RESOLUTION_M):
-# depth maps 320 px on their longer side, points merged on 0.25 m voxels
-DENSIFY_ARGS = ("--max-image-size", "320", "--resolution-m", "0.25")
+# the survey's densify (mound.recon.defaults): depth maps 320 px on their longer side,
+# points merged on 0.25 m voxels
 DEFAULT_DEM = "TM1_564_146.tif"  # the 1 m airborne-laser DEM (../shared/data/dem)
 
 

@@ -27,8 +27,9 @@ Each file is read once: hashed, and every image with GPS decoded from the same b
 its sharpness. Nothing on the card is changed: the site folders hold symbolic links (or
 copies with `copy=True`). Each site records the camera its reconstruction starts from:
 the user's camera.json (copied into the site's folder), else the photos' EXIF (the focal
-length in pixels from the focal plane resolution, the 35 mm equivalent or the sensor
-width of a known UAV camera: mound_recon's one EXIF reader, which refines it).
+length in pixels from DJI's XMP calibration, the focal plane resolution, the sensor width
+of a known camera or, last, the 35 mm equivalent: mound_recon's one EXIF reader, which
+refines it; `focal_source` and `focal_detail` say which and from what).
 """
 
 from __future__ import annotations
@@ -283,7 +284,7 @@ def site_camera(photos: list[PhotoRow], camera_file: str | None) -> dict[str, ob
 
 
 CAMERA_FACTS = ("make", "model", "focal_mm", "focal_35mm", "pixel_pitch_mm", "width_px",
-                "focal_px", "focal_source")
+                "focal_px", "focal_source", "focal_detail")
 
 
 def _listed(listing: object) -> list[Mapping[str, object]]:

@@ -16,7 +16,11 @@ Fields (n = the detector's 25 features, in any order, each once):
 - `second_look` (optional): {p_low in (0, threshold), threshold in (0, 1), scan_factor in
   (1, 100], combine: {first within +-1e6, second in (0, 1e6], bias within +-1e6}};
 - `undecided` (optional): {p_low, p_high with 0 < p_low <= p_high < 1}: three answers,
-  `label_of`.
+  `label_of`;
+- `cloud_settings` (optional): {"cloud": "dense" | "sparse", and for a dense model the
+  densify options of its training clouds, finite numbers within +-1e9, at most 64}: how
+  the clouds it was trained on were made; `mound_recon verdict` refuses a cloud made
+  otherwise (exit 2 naming the setting).
 """
 
 from __future__ import annotations
@@ -84,6 +88,7 @@ class VerdictModel:
     calibration: Beta | None = None
     second_look: SecondLookRule | None = None
     undecided: tuple[float, float] | None = None  # the band [p_low, p_high)
+    cloud_settings: dict[str, Any] | None = None  # how its training clouds were made
 
     @classmethod
     def of(cls, doc: Mapping[str, Any]) -> VerdictModel:
@@ -100,7 +105,8 @@ class VerdictModel:
             SecondLookRule(*(float(sl[k]) for k in ("p_low", "threshold", "scan_factor")),
                            *(float(sl["combine"][k]) for k in ("first", "second", "bias")))
             if sl else None,
-            (float(band["p_low"]), float(band["p_high"])) if band else None)
+            (float(band["p_low"]), float(band["p_high"])) if band else None,
+            dict(doc["cloud_settings"]) if "cloud_settings" in doc else None)
 
 
 def _is_number(v: object) -> TypeGuard[int | float]:
@@ -228,7 +234,38 @@ def check_verdict_model(doc: Any, source: str) -> VerdictModel:
         lo, hi = (_number(u, k, at) for k in ("p_low", "p_high"))
         if not 0 < lo <= hi < 1:
             raise InputError(f"{at}: p_low, p_high: must be 0 < p_low <= p_high < 1")
+    if "cloud_settings" in doc:
+        at = f"{source}: cloud_settings"
+        c = _object(doc, "cloud_settings")
+        if c is None or c.get("cloud") not in ("dense", "sparse"):
+            raise InputError(f'{at}: expected {{"cloud": "dense" | "sparse", options...}}')
+        for name, v in c.items():
+            if name != "cloud" and not (_is_number(v) and abs(v) <= 1e9):
+                raise InputError(f"{at}: {name[:40]}: expected a finite number")
+        if len(c) - 1 > 64:
+            raise InputError(f"{at}: more than 64 settings")
+        if c["cloud"] == "sparse" and len(c) > 1:
+            raise InputError(f"{at}: a sparse cloud has no densify options")
     return VerdictModel.of(doc)
+
+
+def cloud_mismatch(model: VerdictModel, cloud: str, options: Mapping[str, object]) -> str | None:
+    """What differs between how a cloud was made (`cloud` dense or sparse, densify's
+    options) and the model's training clouds (None: nothing, or the model records none):
+    the twin of the C++ CheckCloudSettings, for callers that check before they run."""
+    c = model.cloud_settings
+    if c is None:
+        return None
+    if cloud != c["cloud"]:
+        return f"a {cloud} cloud, and the model was trained on {c['cloud']} clouds"
+    for name, want in c.items():
+        if name == "cloud":
+            continue
+        got = options.get(name)
+        if not _is_number(got) or abs(got - want) > 1e-9 * max(1.0, abs(want)):
+            return (f"{name} {got!r}, the model was trained on clouds made with {want:g} "
+                    f"(mound_recon densify --{name.replace('_', '-')} {want:g})")
+    return None
 
 
 def label_of(model: VerdictModel, p: float, two_answer_at: float | None = None) -> str:

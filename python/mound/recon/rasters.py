@@ -12,6 +12,11 @@ places correctly; heights are metres above the WGS84 ellipsoid, on the origin's 
   dh0 + s * (the window's growth), dh0 = 0.2 m, s = 0.02 (relief steeper than 2 % beyond the
   trend is thinned; a tumulus's flanks, 10-30 %, are removed) — then the ground cells
   interpolated linearly over the grid (nearest value outside their hull).
+  A DTM the filter leaves too little ground for (fewer than MIN_GROUND_SHARE of the
+  observed cells, or fewer than MIN_GROUND_CELLS) is not written: it would be the
+  triangles of a few cells and the LRM the surface less a constant. `rasters.json` then
+  says `status: failed` and why, the DSM, hillshade and orthophoto are still written,
+  and `mound recon rasters` exits 3.
 - LRM (local relief model, after Hesse 2010): DSM minus the DTM smoothed by a Gaussian of
   `relief_sigma_m`, so the broad terrain trend is removed and a mound stands out as a
   positive anomaly of its own height.
@@ -35,7 +40,7 @@ from scipy import ndimage
 from scipy.interpolate import LinearNDInterpolator
 from scipy.spatial import cKDTree
 
-from mound.errors import InputError
+from mound.errors import InputError, NoResultError
 from mound.geometry.camera import Camera, Pose, project
 from mound.geometry.geodesy import Origin, enu_to_geodetic, geodetic_to_enu
 from mound.jsonio import staged_file
@@ -167,8 +172,8 @@ def ground_model(zmin: np.ndarray, res: float, window_m: float = 80.0, slope: fl
         if half * res * 2 >= window_m:
             break
         prev, half = half, half * 2
-    if np.count_nonzero(ground) < 3:
-        raise InputError("cloud: too few ground cells to model the terrain")
+    if np.count_nonzero(ground) < 3:  # no surface through them: write_all says why
+        return np.full(zmin.shape, np.nan), ground
     # Ground cells keep their minima; the others are interpolated linearly over a Delaunay
     # triangulation of the ground cells, and outside its hull take the nearest ground cell.
     # Only the ground cells beside another cell or the grid's edge are triangulated: a
@@ -337,22 +342,55 @@ def from_cloud(origin: Origin, enu: np.ndarray, resolution_m: float = 0.25,
     return Rasters(grid, dsm, dtm, lrm, hillshade(dsm, resolution_m), ground)
 
 
+# The least ground a DTM is made from: a share of the observed cells and a count. See
+# docs/densify.md for the shares measured on simulated sites and on a real card.
+MIN_GROUND_SHARE = 0.02
+MIN_GROUND_CELLS = 100
+
+
+def ground_failure(r: Rasters) -> str | None:
+    """Why the ground filter's DTM cannot be trusted (None: it can)."""
+    observed = int(np.count_nonzero(~np.isnan(r.dsm)))
+    ground = int(np.count_nonzero(r.ground))
+    share = ground / max(observed, 1)
+    if share >= MIN_GROUND_SHARE and ground >= MIN_GROUND_CELLS:
+        return None
+    return (f"too little ground for a terrain model: {ground} of {observed} observed cells "
+            f"({100 * share:.3g} %) passed the ground filter (at least "
+            f"{100 * MIN_GROUND_SHARE:g} % and {MIN_GROUND_CELLS} cells are needed): the scan "
+            "saw little bare ground, or the cloud is too noisy at this cell size; no DTM or "
+            "LRM written")
+
+
 def write_all(r: Rasters, out_dir: Path) -> dict[str, Any]:
-    """dsm.tif, dtm.tif, lrm.tif, hillshade.tif in out_dir; returns their description."""
+    """dsm.tif, dtm.tif, lrm.tif, hillshade.tif in out_dir (without the DTM and LRM where
+    ground_failure says why); returns their description."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
+    failure = ground_failure(r)
     files = {"dsm": (r.dsm, "digital surface model, m above the WGS84 ellipsoid"),
              "dtm": (r.dtm, "terrain model (ground filter), m above the WGS84 ellipsoid"),
              "lrm": (r.lrm, "local relief model (surface - smoothed terrain), m"),
              "hillshade": (r.shade, "hillshade of the surface model, 0-255")}
+    if failure:
+        del files["dtm"], files["lrm"]
+        for name in ("dtm", "lrm"):
+            (out_dir / f"{name}.tif").unlink(missing_ok=True)  # none left from a run before
     for name, (a, desc) in files.items():
         write_geotiff(out_dir / f"{name}.tif", a, r.grid, desc)
     g = r.grid
-    return {"crs": f"EPSG:{g.epsg}", "resolution_m": g.res, "width": g.width,
-            "height": g.height, "west": g.west, "north": g.north, "nodata": NODATA,
-            "files": {k: f"{k}.tif" for k in files},
-            "coverage": float(np.mean(~np.isnan(r.dsm))),
-            "ground_fraction": float(np.mean(r.ground))}
+    observed = int(np.count_nonzero(~np.isnan(r.dsm)))
+    doc: dict[str, Any] = {
+        "status": "failed" if failure else "ok",
+        "crs": f"EPSG:{g.epsg}", "resolution_m": g.res, "width": g.width,
+        "height": g.height, "west": g.west, "north": g.north, "nodata": NODATA,
+        "files": {k: f"{k}.tif" for k in files},
+        "coverage": float(np.mean(~np.isnan(r.dsm))),
+        "ground_fraction": float(np.mean(r.ground)),
+        "ground_share_of_observed": float(np.count_nonzero(r.ground) / max(observed, 1))}
+    if failure:
+        doc["reason"] = failure
+    return doc
 
 
 def from_recon(recon_dir: Path, out_dir: Path, resolution_m: float = 0.25,
@@ -361,7 +399,9 @@ def from_recon(recon_dir: Path, out_dir: Path, resolution_m: float = 0.25,
                images_dir: Path | None = None) -> dict[str, Any]:
     """The rasters of a mound_recon output (recon.json + points.ply, or `cloud` in the same
     frame), written to out_dir with rasters.json (mound.rasters v1); with `ortho` also
-    orthophoto.tif from the images (recon.json's images_dir unless `images_dir`)."""
+    orthophoto.tif from the images (recon.json's images_dir unless `images_dir`).
+    NoResultError (after rasters.json says `status: failed` and why) where the cloud
+    leaves too little ground for a DTM."""
     from mound.jsonio import read_json, write_json
     from mound.ply import read_ply
 
@@ -401,4 +441,6 @@ def from_recon(recon_dir: Path, out_dir: Path, resolution_m: float = 0.25,
     out = {"schema": "mound.rasters", "version": 1, "origin": origin.to_doc(),
            "cloud": str(cloud_path), "points": int(len(xyz)), **summary}
     write_json(Path(out_dir) / "rasters.json", out)
+    if out["status"] == "failed":
+        raise NoResultError(f"{out_dir}/rasters.json: {out['reason']}")
     return out

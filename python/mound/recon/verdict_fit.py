@@ -6,8 +6,10 @@ undecided band; verdict_model.py describes the model, verdict_eval.py judges it.
 from __future__ import annotations
 
 import itertools
+import json
 from collections.abc import Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -283,6 +285,37 @@ def _cloud_of(measured: list[GridSite]) -> str:
     return clouds[0] if len(clouds) == 1 else "mixed"
 
 
+def cloud_settings(measured: list[GridSite]) -> dict[str, Any] | None:
+    """How the training sites' clouds were made (the model's `cloud_settings`): a sparse
+    cloud, or the densify options of DENSE_SETTINGS from each site's dense/dense.json, which
+    must agree; None where a site's cannot be read (old grids: the model then records
+    none and `mound_recon verdict` checks nothing)."""
+    from mound.recon.defaults import DENSE_SETTINGS
+
+    cloud = _cloud_of(measured)
+    if cloud == "sparse":
+        return {"cloud": "sparse"}
+    if cloud != "dense":
+        return None
+    seen: dict[tuple[object, ...], str] = {}
+    for r in measured:
+        path = Path(r.grid) / r.dir / "dense" / "dense.json"
+        try:
+            options = json.loads(path.read_text()).get("options", {})
+        except (OSError, ValueError, AttributeError):
+            return None
+        seen.setdefault(tuple(options.get(k) for k in DENSE_SETTINGS), r.where)
+    if len(seen) > 1:
+        raise InputError("the training sites' dense clouds were made with different settings "
+                         f"({', '.join(DENSE_SETTINGS)}: "
+                         + "; ".join(f"{v} at {w}" for v, w in list(seen.items())[:3])
+                         + "): a model learns one kind of cloud")
+    (values,) = seen
+    if not all(isinstance(v, int | float) for v in values):
+        return None
+    return {"cloud": "dense", **dict(zip(DENSE_SETTINGS, values, strict=True))}
+
+
 def train(rows: list[GridSite], names: list[str], sources: list[str],
           seed: int = 0, mil_mixes: tuple[float, ...] = MIL_MIXES) -> dict[str, Any]:
     """The model document from measured training sites (see the module text): a logistic
@@ -352,6 +385,7 @@ def train(rows: list[GridSite], names: list[str], sources: list[str],
         "threshold": thr, "p_no_rise": (m_nr + 1) / (n_nr + 2),
         **({"second_look": second} if second else {}),
         "undecided": undecided,
+        **({"cloud_settings": cs} if (cs := cloud_settings(measured)) else {}),
         "trained": {"grids": sources, "cloud": _cloud_of(measured),
                     "sites": len(measured), "with_rise": len(sites),
                     "rises": len(d.z_all), "fitted_rises": len(d.z),

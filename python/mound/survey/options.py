@@ -28,6 +28,7 @@ from mound.bounds import (
 )
 from mound.errors import InputError
 from mound.geometry.flight import DEFAULT_SITE_DIAMETER_M
+from mound.recon.defaults import DENSE_MAX_IMAGE_SIZE
 from mound.uav.terrain import TerrainSpec, spec_from_args
 
 ScanPattern = Literal["raster", "orbit", "both"]
@@ -93,7 +94,7 @@ class SurveyOptions:
     image_size: tuple[int, int] = (640, 480)  # px
     sim_seed: int = 1
     max_features: int = 4000
-    dense_size: int = 320               # px; 0: no dense cloud
+    dense_size: int = DENSE_MAX_IMAGE_SIZE  # px; 0: no dense cloud
     reference: str | None = None        # PLY: the paper's test instead of the detector
     verdict_model: str | None = None    # the dense cloud's verdict model; None: built in
     site_timeout: float = 1800.0        # s per tool run of a site
@@ -190,6 +191,8 @@ class SurveyOptions:
                 raise UsageError("--verdict-model: the dense cloud's model; it needs the dense "
                                  "cloud (--dense-size > 0) and the reference-free verdict (no "
                                  "--reference)")
+        if self.dense_size > 0 and not self.reference:
+            self._check_cloud_settings()
         if self.sites and not Path(self.sites).is_file():
             raise UsageError(f"--sites: {self.sites} not found")
         if self.scene:
@@ -216,6 +219,21 @@ class SurveyOptions:
                 native.tool_path(tool)
             except FileNotFoundError as e:
                 raise UsageError(f"{e}") from None
+
+    def _check_cloud_settings(self) -> None:
+        """The dense clouds the survey will make are those its verdict model was trained
+        on (the model's cloud_settings), else a usage error naming --dense-size before
+        anything is flown."""
+        from mound.paths import REPO_ROOT
+        from mound.recon.defaults import DENSE_RESOLUTION_M
+        from mound.recon.model_file import cloud_mismatch, read_verdict_model
+
+        path = self.verdict_model or str(REPO_ROOT / "data" / "verdict_model_dense.json")
+        why = cloud_mismatch(read_verdict_model(path), "dense", {
+            "max_image_size": self.dense_size, "resolution_m": DENSE_RESOLUTION_M})
+        if why:
+            raise UsageError(f"--dense-size {self.dense_size}: {why}; the verdict model "
+                             f"({path}) judges only clouds like its training clouds")
 
     def _check_scene(self) -> None:
         assert self.scene

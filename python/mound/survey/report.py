@@ -66,7 +66,8 @@ def site_rows(tree: RunTree, sites_doc: Sites, plan: Plan | None) -> list[dict[s
                 row["label_source"] = "3-D verdict"
                 for k in ("answer", "undecided", "confidence", "verdict_p_mound",
                           "verdict_cloud", "coverage", "method", "reason", "rise",
-                          "distance_m", "second_look", "first_look"):
+                          "distance_m", "second_look", "first_look", "rasters_error",
+                          "dense_error"):
                     if k in result:
                         row[k] = result[k]
             else:
@@ -305,6 +306,9 @@ def _site_card(r: dict[str, Any]) -> str:
         cov = r.get("coverage")
         if isinstance(cov, dict) and cov.get("status") == "clipped":
             parts.append(f'<p class="failed">coverage: {e(str(cov.get("message", "")))}</p>')
+        for key, what in (("dense_error", "dense cloud"), ("rasters_error", "GeoTIFFs")):
+            if r.get(key):
+                parts.append(f'<p class="failed">{what}: {e(str(r[key]))}</p>')
     files = r.get("files", {})
     if "thumbnails" in files:
         parts.append(_img(files["thumbnails"], f"images of {r['id']}"))

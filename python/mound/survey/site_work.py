@@ -38,7 +38,6 @@ from mound.survey.tree import SiteTree
 
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff")
 RASTER_CELL_M = 2.0    # the GeoTIFFs of each visited site (sparse cloud: ~1 point per m²)
-DENSE_RESOLUTION_M = 0.25  # mound_recon densify's voxel in the survey
 DENSE_CELL_M = 0.5     # the GeoTIFFs from the dense cloud
 
 
@@ -364,6 +363,9 @@ def _rasters(job: SiteJob, row: SiteRow, dense: Path | None) -> None:
         row.extra["rasters"] = {**{k: doc[k] for k in ("crs", "resolution_m", "width",
                                                          "height", "coverage")},
                                 "cloud": "dense" if cloud else "sparse"}
+        row.files["rasters"] = _rel(t.rasters, Path(job.run_root))
+    except NoResultError as e:  # the DSM is written, the DTM and LRM are not: say why
+        row.extra["rasters_error"] = str(e)
         row.files["rasters"] = _rel(t.rasters, Path(job.run_root))
     except (InputError, OSError, ValueError) as e:
         row.extra["rasters_error"] = str(e)

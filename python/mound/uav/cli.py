@@ -7,11 +7,11 @@ from pathlib import Path
 from typing import Any
 
 from mound.bounds import FLIGHTS, HEIGHT_M, SITE_DIAMETER_M, SPEED_M_S, Bound
-from mound.errors import InputError
+from mound.errors import InputError, NoResultError
 from mound.formats.plan import Plan
 from mound.geometry.flight import DEFAULT_SITE_DIAMETER_M
 from mound.geometry.geodesy import Origin
-from mound.jsonio import write_all_atomic
+from mound.jsonio import json_text, write_all_atomic
 from mound.uav import upload
 
 
@@ -57,28 +57,44 @@ def cmd_build(args: argparse.Namespace) -> int:
         raise InputError("--dji-heights wgs84: needs --dem (ellipsoidal heights need the "
                          "ground under home)")
     # Several flights: one mission each, named OUT_1.plan, OUT_2.plan, ... (and the other
-    # formats alike); all are made and checked before any file is written.
+    # formats alike); all are made and checked before any file is written. A DJI or Litchi
+    # file that a limit of its format refuses is not written: the others are, the refusal
+    # is recorded in the .plan's `mound.formats` and said on stderr, and the exit is 3.
     several = len(flights) > 1
     outputs: list[tuple[str | Path, str | bytes]] = []
     missions = []
+    refusals: list[str] = []
+    crew: set[str] = set()
     for number, f in flights:
         m = mission.build(f, origin, spec, terrain)
         flight = number if several else None
         names = ["" if p is None else str(mission_files.flight_path(p, flight))
                  for p in (args.out, args.wpl, args.geojson, args.dji_kmz, args.litchi)]
+        contents, formats = mission_formats.other_formats(m, craft, args.dji_heights,
+                                                          bool(args.litchi))
+        if "dji_kmz" in contents:
+            outputs.append((names[3], contents["dji_kmz"]))
+            formats["dji_kmz"]["file"] = Path(names[3]).name
+        parts = contents.get("litchi_csv", [])
+        paths = [litchi.part_path(names[4], k + 1, len(parts)) for k in range(len(parts))]
+        outputs += list(zip(paths, parts, strict=True))
+        if "litchi_csv" in formats:
+            formats["litchi_csv"]["files"] = [p.name for p in paths]
+            crew.add(formats["litchi_csv"].get("crew", ""))
+        refusals += [f"{'' if flight is None else f'flight {flight}: '}{what} not written: "
+                     f"{doc['refused']}" for what, doc in formats.items() if "refused" in doc]
         if args.out:
-            outputs.append((names[0], mission_files.plan_text(m, args.firmware)))
+            doc = mission_files.plan_document(m, args.firmware)
+            doc["mound"]["formats"] = formats  # type: ignore[index]
+            outputs.append((names[0], json_text(doc)))
         if args.wpl:
             outputs.append((names[1], mission_files.wpl_text(m)))
         if args.geojson:
             outputs.append((names[2], mission_files.geojson_text(m)))
-        if craft is not None:
-            outputs.append((names[3], mission_formats.kmz(m, craft, args.dji_heights)))
-        if args.litchi:
-            parts = mission_formats.litchi_parts(m)
-            outputs += [(litchi.part_path(names[4], k + 1, len(parts)), text)
-                        for k, text in enumerate(parts)]
-        missions.append((number, next(n for n in names if n), m))
+        written = [n for n, _ in outputs]
+        missions.append((number, next((n for n in names if n and n in written), "-"), m))
+    if not outputs:
+        raise NoResultError("; ".join(refusals))
     # All files or none: every file is made and staged before any is put in place.
     write_all_atomic(outputs)
     for flight, out, m in missions:
@@ -86,6 +102,13 @@ def cmd_build(args: argparse.Namespace) -> int:
     for path, _ in outputs:
         if str(path).endswith((".kmz", ".csv")):
             print(f"  -> {path}")
+    for text in sorted(c for c in crew if c):
+        print(f"  Litchi: {text}")
+    if refusals:
+        for r in refusals:
+            print(f"  {r}")
+        raise NoResultError(f"{len(refusals)} file(s) refused by their format's limits, the "
+                            f"others written: {refusals[0]}")
     return 0
 
 

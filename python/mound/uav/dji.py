@@ -22,15 +22,30 @@ the KMZ flies what the `.plan` flies:
   waypoint above home (at least DJI's 20 m), so the straight way home clears what the legs
   cleared; `takeOffSecurityHeight` the first climb's.
 
+- photos start at the first waypoint of a scan (not at the transit point above it, so no
+  photo is taken on the descent) and stop at its last;
+- the camera: `payloadParam` in the template for every aircraft (focus on the first
+  waypoint, average metering) and, on a payload with several lenses (wide, zoom, infrared),
+  `imageFormat` and each `takePhoto`'s `payloadLensIndex` name the wide lens, the one the
+  reconstruction is calibrated for (DJI's M30 export names `wide,ir` in both places);
+- speeds: a leg that climbs or descends is flown no faster than the aircraft's vertical
+  limit allows (`max_ascent_m_s`, `max_descent_m_s`: DJI's published figures for the
+  normal flight mode), and `duration` counts a stop at every waypoint
+  (`toPointAndStop...`: each leg accelerates from rest and brakes to rest).
+
 Heights. `relativeToStartPoint` (default): metres above the take-off point's ground, the
 `.plan`'s own frame. The aircraft's barometric height is zeroed at take-off, as the
 autopilots' relative altitude is, so the file needs no geoid and no GNSS altitude (metres
 of vertical error without RTK). Over a DEM the take-off point's ground is known (the DEM's
 height at home) and written as `takeOffRefPoint` (lat, lon, its WGS84 ellipsoidal height).
-`wgs84` (`--dji-heights wgs84`): ellipsoidal heights, EGM96 heights plus the geoid
-separation through PROJ's EGM96 grid (refused where the grid is missing: without it PROJ
-returns 0 silently, 46.5 m wrong over the shared DEM); only over a DEM (AMSL needs the
-ground) and only worth it with RTK.
+`wgs84` (`--dji-heights wgs84`): heights tied to the earth, only over a DEM (they need the
+ground) and only worth it with RTK. DJI's rules (Cloud API, "DJI WPML") allow a template's
+`heightMode` to be EGM96, relativeToStartPoint, aboveGroundLevel or
+realTimeFollowSurface, and WGS84 only as the waylines' `executeHeightMode`; so, as DJI's
+own exports do, the template states EGM96 heights (`height`; `ellipsoidHeight` beside it)
+and the waylines WGS84 ellipsoidal heights: EGM96 plus the geoid separation through PROJ's
+EGM96 grid (refused where the grid is missing: without it PROJ returns 0 silently, 46.5 m
+wrong over the shared DEM).
 
 Limits of the aircraft and DJI's formats are checked before anything is written: legs
 longer than 2,000 m are split with waypoints on the line (DJI's waypoint missions take
@@ -46,6 +61,7 @@ import io
 import math
 import time
 import zipfile
+import zlib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -55,13 +71,29 @@ import numpy as np
 
 from mound.errors import InputError
 from mound.jsonio import number_text
-from mound.uav.route import NADIR_DEG, Route, RoutePoint, merge_close, split_long_legs
+from mound.uav.route import (
+    NADIR_DEG,
+    Route,
+    RoutePoint,
+    cap_vertical_speed,
+    merge_close,
+    split_long_legs,
+)
 
 WPML_NS = "http://www.dji.com/wpmz/1.0.6"
 KML_NS = "http://www.opengis.net/kml/2.2"
 TEMPLATE = "wpmz/template.kml"
 WAYLINES = "wpmz/waylines.wpml"
 HEIGHT_FRAMES = ("relative", "wgs84")
+# DJI WPML's height modes (Cloud API, "DJI WPML"): a template's heightMode, and a wayline's
+# executeHeightMode (WGS84 only there).
+TEMPLATE_HEIGHT_MODES = ("EGM96", "relativeToStartPoint", "aboveGroundLevel",
+                         "realTimeFollowSurface")
+WAYLINE_HEIGHT_MODES = ("WGS84", "relativeToStartPoint", "realTimeFollowSurface")
+# toPointAndStop...: each leg starts and ends at rest. DJI publishes no waypoint
+# acceleration; 2 m/s^2 is what the enterprise aircraft's logs show for waypoint flight
+# (an estimate, used only for the file's `duration`).
+WAYPOINT_ACCEL_M_S2 = 2.0
 MAX_WAYPOINTS = 65_535
 MIN_LEG_M, MAX_LEG_M = 0.5, 2_000.0
 HEIGHT_RANGE_M = (-200.0, 500.0)
@@ -80,16 +112,31 @@ class Aircraft:
     drone_sub_enum: int
     payload_enum: int
     payload: str
+    lenses: tuple[str, ...]          # the payload's lenses, DJI's names (wide, zoom, ir, ...)
+    max_ascent_m_s: float            # DJI's published vertical limits, normal (N/P) mode
+    max_descent_m_s: float
     max_speed_m_s: float = 15.0
+
+    @property
+    def multi_lens(self) -> bool:
+        return len(self.lenses) > 1
+
+    @property
+    def survey_lens(self) -> str:
+        """The lens the photos are taken with: the wide camera (what the reconstruction's
+        camera model and focal-length table describe), or a single-lens payload's own."""
+        return "wide" if "wide" in self.lenses else self.lenses[0]
 
 
 AIRCRAFT = {a.key: a for a in (
-    Aircraft("m3e", "Mavic 3 Enterprise (M3E)", 77, 0, 66, "M3E camera"),
-    Aircraft("m3t", "Mavic 3 Thermal (M3T)", 77, 1, 67, "M3T camera"),
-    Aircraft("m30", "Matrice 30 (M30)", 67, 0, 52, "M30 camera"),
-    Aircraft("m300", "Matrice 300 RTK", 60, 0, 50, "Zenmuse P1"),
-    Aircraft("m350", "Matrice 350 RTK", 89, 0, 50, "Zenmuse P1"),
-    Aircraft("m4e", "Matrice 4E", 99, 0, 88, "M4E camera"),
+    Aircraft("m3e", "Mavic 3 Enterprise (M3E)", 77, 0, 66, "M3E camera", ("wide", "zoom"),
+             6.0, 6.0),
+    Aircraft("m3t", "Mavic 3 Thermal (M3T)", 77, 1, 67, "M3T camera", ("wide", "zoom", "ir"),
+             6.0, 6.0),
+    Aircraft("m30", "Matrice 30 (M30)", 67, 0, 52, "M30 camera", ("wide", "zoom"), 6.0, 5.0),
+    Aircraft("m300", "Matrice 300 RTK", 60, 0, 50, "Zenmuse P1", ("visable",), 5.0, 4.0),
+    Aircraft("m350", "Matrice 350 RTK", 89, 0, 50, "Zenmuse P1", ("visable",), 5.0, 4.0),
+    Aircraft("m4e", "Matrice 4E", 99, 0, 88, "M4E camera", ("wide", "zoom"), 6.0, 6.0),
 )}
 # Aircraft flown with DJI Fly, which imports no WPML file DJI documents: Litchi flies them.
 NOT_WPML = ("mini4pro", "air3")
@@ -134,9 +181,11 @@ def geoid_separation(lat: np.ndarray, lon: np.ndarray) -> np.ndarray:
 
 
 def prepare(route: Route, craft: Aircraft) -> Route:
-    """The route within DJI's limits (legs split or merged), or InputError naming the
-    limit and the waypoint."""
+    """The route within DJI's limits (legs split or merged, climbs and descents no faster
+    than the aircraft's vertical limits), or InputError naming the limit and the
+    waypoint."""
     route = split_long_legs(merge_close(route, MIN_LEG_M), MAX_LEG_M * 0.999)
+    route = cap_vertical_speed(route, craft.max_ascent_m_s, craft.max_descent_m_s)
     if len(route.points) > MAX_WAYPOINTS:
         raise InputError(f"DJI WPML: {len(route.points)} waypoints, more than a wayline's "
                          f"{MAX_WAYPOINTS:,}: fly fewer sites per flight (--flights)")
@@ -195,7 +244,7 @@ def _gimbal_action(action_id: int, pitch: float, indent: int) -> str:
     s = f"{i}<wpml:action>\n" + _el("actionId", action_id, indent + 2)
     s += _el("actionActuatorFunc", "gimbalRotate", indent + 2)
     s += f"{i}  <wpml:actionActuatorFuncParam>\n"
-    for name, value in (("gimbalHeadingYawBase", "aircraft"), ("gimbalRotateMode", "absoluteAngle"),
+    for name, value in (("gimbalHeadingYawBase", "north"), ("gimbalRotateMode", "absoluteAngle"),
                         ("gimbalPitchRotateEnable", 1), ("gimbalPitchRotateAngle", _f(pitch)),
                         ("gimbalRollRotateEnable", 0), ("gimbalRollRotateAngle", 0),
                         ("gimbalYawRotateEnable", 0), ("gimbalYawRotateAngle", 0),
@@ -206,15 +255,31 @@ def _gimbal_action(action_id: int, pitch: float, indent: int) -> str:
     return s
 
 
-def _photo_action(action_id: int, indent: int) -> str:
+def _photo_action(action_id: int, craft: Aircraft, indent: int) -> str:
+    """takePhoto with the lens named on a multi-lens payload (DJI's M30 export names
+    `payloadLensIndex` with `useGlobalPayloadLensIndex` 0); a single-lens payload's as
+    DJI's M3E export writes it."""
     i = " " * indent
     s = f"{i}<wpml:action>\n" + _el("actionId", action_id, indent + 2)
     s += _el("actionActuatorFunc", "takePhoto", indent + 2)
     s += f"{i}  <wpml:actionActuatorFuncParam>\n"
     s += _el("payloadPositionIndex", 0, indent + 4)
-    s += _el("useGlobalPayloadLensIndex", 1, indent + 4)
+    s += _el("useGlobalPayloadLensIndex", 0, indent + 4)
+    if craft.multi_lens:
+        s += _el("payloadLensIndex", craft.survey_lens, indent + 4)
     s += f"{i}  </wpml:actionActuatorFuncParam>\n{i}</wpml:action>\n"
     return s
+
+
+def _payload_param(craft: Aircraft) -> str:
+    """The template's camera settings (after the placemarks, as DJI's exports place it):
+    focus on the first waypoint, average metering, and on a multi-lens payload the lens
+    whose photos are stored (`imageFormat`)."""
+    s = "      <wpml:payloadParam>\n" + _el("payloadPositionIndex", 0, 8)
+    s += _el("focusMode", "firstPoint", 8) + _el("meteringMode", "average", 8)
+    if craft.multi_lens:
+        s += _el("imageFormat", craft.survey_lens, 8)
+    return s + "      </wpml:payloadParam>\n"
 
 
 def _group(group_id: int, start: int, end: int, trigger: str, param: float | None,
@@ -250,22 +315,30 @@ def _photo_runs(points: tuple[RoutePoint, ...]) -> list[tuple[int, int, float]]:
     return runs
 
 
-def _placemarks(route: Route, heights: Heights, template: bool) -> str:
+def _height(p: RoutePoint, k: int, heights: Heights, datum: str) -> float:
+    """Waypoint k's height in the file's frame: above take-off (relative), EGM96
+    (the template of a wgs84 file) or the WGS84 ellipsoid (its waylines)."""
+    if heights.frame == "relative":
+        return p.height_m
+    egm96 = heights.home_amsl_m + p.height_m  # type: ignore[operator]
+    return egm96 if datum == "EGM96" else egm96 + heights.geoid_m[k]
+
+
+def _placemarks(route: Route, craft: Aircraft, heights: Heights, template: bool) -> str:
     out = []
     runs = {first: (last, d) for first, last, d in _photo_runs(route.points)}
     group_id = 0
     pitch_before: float | None = None
     for k, p in enumerate(route.points):
-        h = p.height_m if heights.frame == "relative" else (
-            heights.home_amsl_m + p.height_m + heights.geoid_m[k])  # type: ignore[operator]
         s = "      <Placemark>\n        <Point>\n          <coordinates>\n"
         s += f"            {p.lon_deg:.9f},{p.lat_deg:.9f}\n"
         s += "          </coordinates>\n        </Point>\n"
         s += _el("index", k, 8)
         if template:
-            s += _el("ellipsoidHeight", _f(h), 8) + _el("height", _f(h), 8)
+            s += _el("ellipsoidHeight", _f(_height(p, k, heights, "WGS84")), 8)
+            s += _el("height", _f(_height(p, k, heights, "EGM96")), 8)
         else:
-            s += _el("executeHeight", _f(h), 8)
+            s += _el("executeHeight", _f(_height(p, k, heights, "WGS84")), 8)
         s += _el("waypointSpeed", _f(p.speed_m_s, 2), 8)
         s += "        <wpml:waypointHeadingParam>\n"
         if p.heading_deg is None:
@@ -296,7 +369,8 @@ def _placemarks(route: Route, heights: Heights, template: bool) -> str:
             pitch_before = p.gimbal_pitch_deg
         if k in runs:
             last, d = runs[k]
-            s += _group(group_id, k, last, "multipleDistance", d, _photo_action(0, 10))
+            s += _group(group_id, k, last, "multipleDistance", d,
+                        _photo_action(0, craft, 10))
             group_id += 1
         if not template:
             s += "        <wpml:waypointGimbalHeadingParam>\n"
@@ -306,6 +380,19 @@ def _placemarks(route: Route, heights: Heights, template: bool) -> str:
         s += "      </Placemark>\n"
         out.append(s)
     return "".join(out)
+
+
+def flight_seconds(legs_m: np.ndarray, speeds_m_s: np.ndarray,
+                   accel_m_s2: float = WAYPOINT_ACCEL_M_S2) -> float:
+    """The time to fly legs that each start and end at rest (a stop at every waypoint):
+    accelerate at `accel_m_s2` to the leg's speed, cruise, brake; a leg too short to
+    reach its speed is a triangle."""
+    legs = np.asarray(legs_m, dtype=float)
+    v = np.maximum(np.asarray(speeds_m_s, dtype=float), 0.1)
+    reach = v * v / accel_m_s2               # the distance spent speeding up and braking
+    t = np.where(legs >= reach, legs / v + v / accel_m_s2,
+                 2.0 * np.sqrt(legs / accel_m_s2))
+    return float(np.sum(t))
 
 
 def kmz_bytes(route: Route, craft: Aircraft, heights: Heights, created_ms: int | None = None
@@ -326,20 +413,20 @@ def kmz_bytes(route: Route, craft: Aircraft, heights: Heights, created_ms: int |
     finish = "goHome" if route.end == "home" else "autoLand"
     legs = route.leg_lengths_m()
     length = float(np.sum(legs))
-    duration = float(np.sum(legs / np.array(
-        [max(p.speed_m_s, 0.1) for p in route.points[:-1]])))
+    duration = flight_seconds(legs, np.array([p.speed_m_s for p in route.points[:-1]]))
     now = created_ms if created_ms is not None else int(time.time() * 1000)
     head = (f'<?xml version="1.0" encoding="UTF-8"?>\n'
             f'<kml xmlns="{KML_NS}" xmlns:wpml="{WPML_NS}">\n')
-    mode = "relativeToStartPoint" if heights.frame == "relative" else "WGS84"
+    tpl_mode, wl_mode = (("relativeToStartPoint", "relativeToStartPoint")
+                         if heights.frame == "relative" else ("EGM96", "WGS84"))
     tpl = head + "  <Document>\n" + _el("author", "mound-survey", 4)
     tpl += _el("createTime", now, 4) + _el("updateTime", now, 4)
     tpl += _mission_config(route, craft, heights, True, finish, rth, takeoff, cruise)
     tpl += "    <Folder>\n" + _el("templateType", "waypoint", 6) + _el("templateId", 0, 6)
     tpl += "      <wpml:waylineCoordinateSysParam>\n" + _el("coordinateMode", "WGS84", 8)
-    tpl += _el("heightMode", mode, 8) + "      </wpml:waylineCoordinateSysParam>\n"
+    tpl += _el("heightMode", tpl_mode, 8) + "      </wpml:waylineCoordinateSysParam>\n"
     tpl += _el("autoFlightSpeed", _f(cruise, 2), 6)
-    tpl += _el("globalHeight", _f(route.points[0].height_m), 6)
+    tpl += _el("globalHeight", _f(_height(route.points[0], 0, heights, "EGM96")), 6)
     tpl += _el("caliFlightEnable", 0, 6) + _el("gimbalPitchMode", "usePointSetting", 6)
     tpl += "      <wpml:globalWaypointHeadingParam>\n"
     tpl += _el("waypointHeadingMode", "followWayline", 8)
@@ -350,13 +437,14 @@ def kmz_bytes(route: Route, craft: Aircraft, heights: Heights, created_ms: int |
     tpl += "      </wpml:globalWaypointHeadingParam>\n"
     tpl += _el("globalWaypointTurnMode", "toPointAndStopWithDiscontinuityCurvature", 6)
     tpl += _el("globalUseStraightLine", 1, 6)
-    tpl += _placemarks(route, heights, True) + "    </Folder>\n  </Document>\n</kml>\n"
+    tpl += _placemarks(route, craft, heights, True) + _payload_param(craft)
+    tpl += "    </Folder>\n  </Document>\n</kml>\n"
     wl = head + "  <Document>\n"
     wl += _mission_config(route, craft, heights, False, finish, rth, takeoff, cruise)
-    wl += "    <Folder>\n" + _el("templateId", 0, 6) + _el("executeHeightMode", mode, 6)
+    wl += "    <Folder>\n" + _el("templateId", 0, 6) + _el("executeHeightMode", wl_mode, 6)
     wl += _el("waylineId", 0, 6) + _el("distance", _f(length, 2), 6)
     wl += _el("duration", _f(duration, 2), 6) + _el("autoFlightSpeed", _f(cruise, 2), 6)
-    wl += _placemarks(route, heights, False) + "    </Folder>\n  </Document>\n</kml>\n"
+    wl += _placemarks(route, craft, heights, False) + "    </Folder>\n  </Document>\n</kml>\n"
     buf = io.BytesIO()
     with zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED) as z:
         for name, text in ((TEMPLATE, tpl), (WAYLINES, wl)):
@@ -390,6 +478,10 @@ class KmzMission:
     rth_height_m: float | None
     takeoff_ref: tuple[float, float, float] | None   # lat, lon, ellipsoidal height
     waylines: tuple[Wayline, ...]
+    template_height_mode: str | None = None    # the template's heightMode (None: no template)
+    template_heights: tuple[float, ...] = ()   # its waypoints' `height`, in that mode
+    lenses: tuple[str, ...] = ()               # every takePhoto's payloadLensIndex, in order
+    image_format: str | None = None            # the template's payloadParam imageFormat
 
     def route(self, wayline: int = 0) -> Route:
         """A wayline as a Route about the take-off point (its first waypoint where the
@@ -425,7 +517,7 @@ def _members(path: str | Path) -> dict[str, bytes]:
                 with z.open(info) as f:
                     data = f.read(MAX_MEMBER_BYTES + 1)
             except (zipfile.BadZipFile, OSError, ValueError, NotImplementedError,
-                    EOFError, RuntimeError) as e:
+                    EOFError, RuntimeError, zlib.error) as e:
                 raise InputError(f"{path}: {name}: cannot inflate ({e})") from None
             if len(data) > MAX_MEMBER_BYTES:
                 raise InputError(f"{path}: {name} inflates beyond {MAX_MEMBER_BYTES:,} bytes")
@@ -440,6 +532,9 @@ def _parse_xml(data: bytes, where: str) -> Any:
 
     try:
         return ET.fromstring(data, forbid_dtd=True)
+    except LookupError as e:  # an encoding Python does not know (x-unknown, base64)
+        raise InputError(f"{where}: the XML declares an encoding that cannot be read "
+                         f"({' '.join(str(e).split())[:80]})") from None
     except (DefusedXmlException, ET.ParseError, ValueError) as e:
         raise InputError(f"{where}: not well-formed XML without a DTD "
                          f"({' '.join(str(e).split())[:100]})") from None
@@ -470,9 +565,9 @@ def _int(el: Any, name: str, where: str, lo: int, hi: int, required: bool = True
 def _wayline(folder: Any, where: str) -> Wayline:
     ns = f"{{{WPML_NS}}}"
     mode = _text(folder, "executeHeightMode", where)
-    if mode not in ("WGS84", "relativeToStartPoint", "realTimeFollowSurface"):
-        raise InputError(f"{where}: wpml:executeHeightMode: {mode!r:.40} is not a WPML height "
-                         "mode")
+    if mode not in WAYLINE_HEIGHT_MODES:
+        raise InputError(f"{where}: wpml:executeHeightMode: {mode!r:.40} is not a wayline "
+                         f"height mode ({', '.join(WAYLINE_HEIGHT_MODES)})")
     wid = _int(folder, "waylineId", where, 0, 65_535)
     default_speed = _num(folder, "autoFlightSpeed", where, 0, 100, required=False) or 0.0
     marks = folder.findall(f"{{{KML_NS}}}Placemark")
@@ -570,8 +665,10 @@ def read_kmz(path: str | Path) -> KmzMission:
         raise InputError(f"{where}: no Folder (wayline)")
     waylines = tuple(_wayline(f, f"{where}: Folder[{k}]") for k, f in enumerate(folders))
     takeoff = None
+    template: dict[str, Any] = {}
     if TEMPLATE in members:
         troot = _parse_xml(members[TEMPLATE], f"{path}: {TEMPLATE}")
+        template = _template(troot, f"{path}: {TEMPLATE}")
         ref = troot.find(f"{{{KML_NS}}}Document/{{{WPML_NS}}}missionConfig/"
                          f"{{{WPML_NS}}}takeOffRefPoint")
         if ref is not None and ref.text:
@@ -590,5 +687,42 @@ def read_kmz(path: str | Path) -> KmzMission:
                                                        65_535, required=False),
         finish_action=str(finish),
         rth_height_m=_num(mc, "globalRTHHeight", where, 0, 10_000, required=False),
-        takeoff_ref=takeoff, waylines=waylines)
+        takeoff_ref=takeoff, waylines=waylines, lenses=_lenses(root, where), **template)
+
+
+def _lenses(root: Any, where: str) -> tuple[str, ...]:
+    """Every takePhoto's payloadLensIndex (empty where a photo names none)."""
+    out = []
+    for param in root.iter(f"{{{WPML_NS}}}actionActuatorFuncParam"):
+        lens = _text(param, "payloadLensIndex", where, required=False)
+        if lens is not None:
+            out.append(lens[:40])
+    return tuple(out)
+
+
+def _template(root: Any, where: str) -> dict[str, Any]:
+    """The template's height mode (one DJI allows there: WGS84 is a waylines mode only),
+    its waypoints' heights in it and its payloadParam's imageFormat."""
+    if root.tag != f"{{{KML_NS}}}kml":
+        raise InputError(f"{where}: the root is not a KML <kml> element")
+    folder = root.find(f"{{{KML_NS}}}Document/{{{KML_NS}}}Folder")
+    if folder is None:
+        return {}
+    sys_param = folder.find(f"{{{WPML_NS}}}waylineCoordinateSysParam")
+    mode = None if sys_param is None else _text(sys_param, "heightMode", where, required=False)
+    if mode is not None and mode not in TEMPLATE_HEIGHT_MODES:
+        raise InputError(f"{where}: wpml:heightMode: {mode!r:.40} is not a template height "
+                         f"mode (DJI allows {', '.join(TEMPLATE_HEIGHT_MODES)}; WGS84 is a "
+                         "waylines executeHeightMode only)")
+    heights = []
+    for k, pm in enumerate(folder.findall(f"{{{KML_NS}}}Placemark")):
+        if pm.find(f"{{{KML_NS}}}Point") is None:
+            continue  # an area template's polygon
+        h = _num(pm, "height", f"{where}: Placemark[{k}]", -2_000, 10_000, required=False)
+        if h is not None:
+            heights.append(float(h))
+    param = folder.find(f"{{{WPML_NS}}}payloadParam")
+    fmt = None if param is None else _text(param, "imageFormat", where, required=False)
+    return {"template_height_mode": mode, "template_heights": tuple(heights),
+            "image_format": None if fmt is None else fmt[:40]}
 

@@ -16,9 +16,16 @@ photo_distinterval. What this project writes:
 - speed of the leg that starts at the row; `photo_distinterval` its photo spacing (-1:
   none), which Litchi applies from that waypoint to the next; no actions (-1, 0).
 Litchi's limits: 99 waypoints per mission (a longer flight is split into parts
-`OUT_part1.csv`, ... each starting at the waypoint the last ended at), altitudes 0..500 m
-above take-off (a site lower than the take-off point is refused: take off lower), speeds
-up to 15 m/s, adjacent waypoints 0.5-2,000 m apart (closer ones merged, longer legs split).
+`OUT_part1.csv`, ... each starting at the waypoint the last ended at), altitudes
+-200..500 m above take-off (Litchi's, as DJI's SDKs: a valley below a take-off knoll is
+flown with negative altitudes), speeds up to 15 m/s, adjacent waypoints 0.5-2,000 m apart
+(closer ones merged, longer legs split), climbs and descents no faster than the consumer
+aircraft's 5 m/s (Mini 4 Pro, Air 3 in their normal mode).
+
+What the CSV cannot carry: the mission's heading mode and finish action are settings of
+the Litchi mission, not of its rows; `CREW_SETTINGS` says what the crew sets before flying
+(without heading mode "Custom" Litchi turns the aircraft along the track and the orbit's
+photos face away from the tumulus).
 """
 
 from __future__ import annotations
@@ -31,7 +38,7 @@ from pathlib import Path
 
 from mound.errors import InputError
 from mound.jsonio import number_text, read_text
-from mound.uav.route import Route, RoutePoint, merge_close, split_long_legs
+from mound.uav.route import Route, RoutePoint, cap_vertical_speed, merge_close, split_long_legs
 
 HEADER = (["latitude", "longitude", "altitude(m)", "heading(deg)", "curvesize(m)",
            "rotationdir", "gimbalmode", "gimbalpitchangle"]
@@ -39,7 +46,12 @@ HEADER = (["latitude", "longitude", "altitude(m)", "heading(deg)", "curvesize(m)
           + ["altitudemode", "speed(m/s)", "poi_latitude", "poi_longitude", "poi_altitude(m)",
              "poi_altitudemode", "photo_timeinterval", "photo_distinterval"])
 MAX_WAYPOINTS = 99
-ALTITUDE_RANGE_M = (0.0, 500.0)
+ALTITUDE_RANGE_M = (-200.0, 500.0)
+MAX_ASCENT_M_S = MAX_DESCENT_M_S = 5.0
+CREW_SETTINGS = ("in Litchi's mission settings set Heading Mode 'Custom' (the rows' headings "
+                 "face the tumulus on the orbit), Finish Action 'Return to home' and Path "
+                 "Mode 'Straight lines'; altitudes are above the take-off point: take off at "
+                 "the plan's home")
 MAX_SPEED_M_S = 15.0
 MIN_LEG_M, MAX_LEG_M = 0.5, 2_000.0
 GIMBAL_INTERPOLATE = 2
@@ -49,11 +61,12 @@ def prepare(route: Route) -> list[Route]:
     """The route within Litchi's limits, in parts of at most 99 waypoints (each starting
     at the waypoint the last ended at); InputError naming the limit and the waypoint."""
     route = split_long_legs(merge_close(route, MIN_LEG_M), MAX_LEG_M * 0.999)
+    route = cap_vertical_speed(route, MAX_ASCENT_M_S, MAX_DESCENT_M_S)
     for k, p in enumerate(route.points):
         if not ALTITUDE_RANGE_M[0] <= p.height_m <= ALTITUDE_RANGE_M[1]:
             raise InputError(f"Litchi: waypoint {k} is {p.height_m:.1f} m above the take-off "
                              f"point; Litchi takes {ALTITUDE_RANGE_M[0]:g}..{ALTITUDE_RANGE_M[1]:g}"
-                             " m above take-off: take off from lower ground")
+                             " m above take-off: take off nearer the sites' height")
         if not 0 < p.speed_m_s <= MAX_SPEED_M_S:
             raise InputError(f"Litchi: waypoint {k}: speed {p.speed_m_s:g} m/s, Litchi flies "
                              f"waypoints at up to {MAX_SPEED_M_S:g} m/s")

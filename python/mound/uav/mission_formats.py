@@ -6,6 +6,7 @@ for `mound mission show` and the round-trip tests."""
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -53,6 +54,40 @@ def kmz(m: mi.Mission, craft: dji.Aircraft, frame: str = "relative") -> bytes:
 
 def litchi_parts(m: mi.Mission) -> list[str]:
     return [litchi.csv_text(r) for r in litchi.prepare(mission_route(m))]
+
+
+def dji_heights_doc(frame: str) -> dict[str, str]:
+    """What a KMZ's heights are above, per file (mission.json's `formats.dji_kmz`)."""
+    if frame == "relative":
+        return {"template": "relativeToStartPoint", "waylines": "relativeToStartPoint"}
+    return {"template": "EGM96", "waylines": "WGS84 (ellipsoidal)"}
+
+
+def other_formats(m: mi.Mission, craft: dji.Aircraft | None, frame: str = "relative",
+                  with_litchi: bool = True) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The DJI and Litchi files of a mission, each made on its own: (contents, formats).
+    contents: `dji_kmz` the KMZ's bytes, `litchi_csv` the CSV parts' texts, for each that
+    could be made; formats: for each asked for (a craft, with_litchi), what it is or
+    `refused` with the limit that refused it (mission.json's `formats`; the caller names
+    the files: `file` and `files` are None and [] until it does). One format's
+    refusal never stops the others: the `.plan` is the reference and is made apart."""
+    contents: dict[str, Any] = {}
+    formats: dict[str, Any] = {}
+    if craft is not None:
+        try:
+            contents["dji_kmz"] = kmz(m, craft, frame)
+            formats["dji_kmz"] = {"file": None, "aircraft": craft.key,
+                                  "heights": dji_heights_doc(frame), "lens": craft.survey_lens}
+        except InputError as e:
+            formats["dji_kmz"] = {"file": None, "aircraft": craft.key, "refused": str(e)}
+    if with_litchi:
+        try:
+            contents["litchi_csv"] = litchi_parts(m)
+            formats["litchi_csv"] = {"files": [], "heights": "above the take-off point",
+                                     "crew": litchi.CREW_SETTINGS}
+        except InputError as e:
+            formats["litchi_csv"] = {"files": [], "refused": str(e)}
+    return contents, formats
 
 
 def read_any(path: str | Path) -> tuple[str, list[Route]]:

@@ -8,9 +8,11 @@ The mission, in order (MAVLink command numbers from common.xml):
         for each scan pattern (raster and/or orbit, from the ScanSpec of
         mound.geometry.flight: the very poses the site simulator renders):
             [orbit: DO_SET_ROI_LOCATION (195) at the site centre]
-            DO_SET_CAM_TRIGG_DIST (206) on, at the pattern's image spacing (trigger now),
-            NAV_WAYPOINTs of the pattern (raster: the ends of each line; orbit: every
-            camera position),
+            NAV_WAYPOINT to the pattern's first waypoint,
+            DO_SET_CAM_TRIGG_DIST (206) on, at the pattern's image spacing (trigger now:
+            the first photo there; none on the way down from the transit height),
+            the pattern's other NAV_WAYPOINTs (raster: the ends of each line; orbit:
+            every camera position),
             DO_SET_CAM_TRIGG_DIST 0 (off), [orbit: DO_SET_ROI_NONE (197)]
         DO_CHANGE_SPEED back to cruise;
     NAV_RETURN_TO_LAUNCH (20) for a closed tour, or NAV_WAYPOINT + NAV_LAND (21) at the end
@@ -359,8 +361,11 @@ class ItemWriter:
             if leg.pattern == "orbit":
                 self.do(DO_SET_ROI_LOCATION, (0.0, 0.0, 0.0, 0.0),
                         centre + up(scan.target_height_m), FRAME_GLOBAL_RELATIVE_ALT_INT)
+            # The camera starts at the pattern's first waypoint (a photo there, then every
+            # trigger_m), not above it: no photo on the way down from the transit height.
+            self.nav(NAV_WAYPOINT, centre + leg.points_enu[0])
             self.do(DO_SET_CAM_TRIGG_DIST, (leg.trigger_m, 0.0, 1.0, 0.0))
-            for p in leg.points_enu:
+            for p in leg.points_enu[1:]:
                 self.nav(NAV_WAYPOINT, centre + p)
             self.do(DO_SET_CAM_TRIGG_DIST, (0.0, 0.0, 0.0, 0.0))
             if leg.pattern == "orbit":

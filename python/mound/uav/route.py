@@ -177,6 +177,22 @@ def split_long_legs(route: Route, max_leg_m: float) -> Route:
     return replace(route, points=tuple(out))
 
 
+def cap_vertical_speed(route: Route, ascent_m_s: float, descent_m_s: float) -> Route:
+    """The route with each leg's speed lowered where its climb or descent would be faster
+    than the aircraft's vertical limits (the leg flown straight at its speed: the vertical
+    part is speed x rise / length). A MAVLink autopilot limits this itself; a DJI or Litchi
+    waypoint flight holds the speed the file names."""
+    e = route.enu()
+    out = list(route.points)
+    for k in range(len(out) - 1):
+        d = e[k + 1] - e[k]
+        length, rise = float(np.linalg.norm(d)), float(d[2])
+        limit = ascent_m_s if rise > 0 else descent_m_s
+        if abs(rise) > 1e-9 and out[k].speed_m_s * abs(rise) / length > limit:
+            out[k] = replace(out[k], speed_m_s=limit * length / abs(rise))
+    return replace(route, points=tuple(out))
+
+
 def merge_close(route: Route, min_leg_m: float) -> Route:
     """The route without a waypoint closer than min_leg_m (3-D) to the one before it: the
     later one's leg settings are kept on the earlier."""

@@ -33,25 +33,18 @@ def write_missions(missions: list[tuple[int | None, Any]], folder: Path, png_fol
         mission_files.write_plan(files["mission.plan"], m, firmware)
         mission_files.write_wpl(files["mission.waypoints"], m)
         mission_files.write_geojson(files["mission.geojson"], m)
-        formats: dict[str, object] = {}
-        try:
-            craft = dji.aircraft(aircraft)
+        contents, formats = mission_formats.other_formats(m, dji.aircraft(aircraft))
+        if "dji_kmz" in contents:
             kmz = mission_files.flight_path(folder / "mission.kmz", k)
-            write_all_atomic([(kmz, mission_formats.kmz(m, craft))])
+            write_all_atomic([(kmz, contents["dji_kmz"])])
             files["mission.kmz"] = kmz
-            formats["dji_kmz"] = {"file": kmz.name, "aircraft": craft.key,
-                                  "heights": "relativeToStartPoint"}
-        except InputError as e:
-            formats["dji_kmz"] = {"file": None, "refused": str(e)}
-        try:
-            parts = mission_formats.litchi_parts(m)
-            csv_path = mission_files.flight_path(folder / "mission.csv", k)
-            paths = [litchi.part_path(csv_path, j + 1, len(parts)) for j in range(len(parts))]
-            write_all_atomic(list(zip(paths, parts, strict=True)))
-            files.update({p.name: p for p in paths})
-            formats["litchi_csv"] = {"files": [p.name for p in paths]}
-        except InputError as e:
-            formats["litchi_csv"] = {"files": [], "refused": str(e)}
+            formats["dji_kmz"]["file"] = kmz.name
+        parts = contents.get("litchi_csv", [])
+        csv_path = mission_files.flight_path(folder / "mission.csv", k)
+        paths = [litchi.part_path(csv_path, j + 1, len(parts)) for j in range(len(parts))]
+        write_all_atomic(list(zip(paths, parts, strict=True)))
+        files.update({p.name: p for p in paths})
+        formats["litchi_csv"]["files"] = [p.name for p in paths]
         png = mission_files.flight_path(png_folder / "mission.png", k)
         figures.mission_map(m.nav_enu, m.footprints, m.sites, png)
         written += [*files.values(), png]

@@ -29,7 +29,8 @@ from mound.survey.stages.mission import write_missions
 def site_jobs(ctx: Context, plan: Plan | None = None) -> list[Any]:
     """The 3-D jobs of the sites `plan` visits (default: plan.json); the sites keep their
     index in sites.json (which seeds their simulation) whichever plan visits them."""
-    from mound.survey.site_work import DENSE_RESOLUTION_M, SiteJob
+    from mound.recon.defaults import DENSE_RESOLUTION_M
+    from mound.survey.site_work import SiteJob
 
     a = ctx.args
     sites_doc = Sites.read(ctx.tree.sites)
