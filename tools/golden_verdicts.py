@@ -60,6 +60,12 @@ def main(argv: list[str]) -> int:
             for f in ("recon.json", "points.ply"):
                 shutil.copy(grid / folder / "recon" / f, site / "recon" / f)
             thin_ply(grid / folder / "dense" / "dense.ply", site / "dense.ply")
+            # how the cloud was made (mound_recon verdict checks it against the model's
+            # cloud_settings): the grid's densify options, the per-image report left out
+            made = json.loads((grid / folder / "dense" / "dense.json").read_text())
+            (site / "dense.json").write_text(json.dumps(
+                {k: made[k] for k in ("schema", "version", "options") if k in made},
+                indent=1) + "\n")
             truth = json.loads((grid / "grid.json").read_text())["rows"][int(folder)]["truth"]
             (site / "truth.json").write_text(json.dumps(truth, indent=1) + "\n")
     for site in sorted(p for p in GOLDEN.iterdir() if p.is_dir()):

@@ -308,8 +308,8 @@ def test_a_grid_of_the_full_flight_from_the_card_judged_on_its_dense_cloud(
     assert v["status"] == "ok" and v["cloud"].endswith("dense/dense.ply")
     dense_points = v["measurements"]["cells_with_points"]
     # densified as the survey densifies its sites (the verdict's dense model is learned so)
+    from mound.recon.defaults import DENSE_RESOLUTION_M
     from mound.survey.options import SurveyOptions
-    from mound.survey.site_work import DENSE_RESOLUTION_M
 
     opts = json.loads((out / "0000" / "dense" / "dense.json").read_text())["options"]
     assert opts["max_image_size"] == SurveyOptions().dense_size

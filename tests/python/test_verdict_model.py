@@ -390,10 +390,10 @@ def test_training_refuses_too_little_or_one_class() -> None:
 def _case(tmp: Path, spec: terrain.TerrainSpec, seed: int,
           dense: bool = False) -> dict[str, Any]:
     """The site flown, reconstructed and judged on its sparse cloud by the sparse model;
-    with `dense` also densified as the survey densifies (mound.sim.grid_run.DENSIFY_ARGS) and
+    with `dense` also densified as the survey densifies (mound.recon.defaults.DENSIFY_ARGS) and
     judged on that cloud by the dense model (verdict_dense.json)."""
     from mound import native
-    from mound.grids.run import DENSIFY_ARGS
+    from mound.recon.defaults import DENSIFY_ARGS
 
     site = sim.SimSpec(terrain=spec, width_px=320, height_px=240, pattern="raster",
                        scan_diameter_m=60.0, seed=seed, texel_m=0.1)
