@@ -25,7 +25,14 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from mound import native
-from mound.errors import InputError, NoResultError, ToolError, ToolNoResultError, ToolTimeout
+from mound.errors import (
+    InputError,
+    NoResultError,
+    ToolError,
+    ToolInputError,
+    ToolNoResultError,
+    ToolTimeout,
+)
 from mound.formats.site_row import SecondLookRecord, SiteRow
 from mound.formats.sites import Site
 from mound.formats.verdict import SecondLookAdvice, Verdict
@@ -184,7 +191,10 @@ def _process_site(job: SiteJob) -> SiteRow:
             if judged is not None:
                 try:
                     verdict("--cloud", str(judged), *_model_args(job))
-                except ToolNoResultError as e:  # e.g. too few dense points on the site
+                # too few dense points on the site, or a cloud the model did not learn
+                # (its settings: refused, exit 2): the sparse cloud is judged, and why not
+                # the dense one is recorded and shown in the report
+                except (ToolNoResultError, ToolInputError) as e:
                     row.extra["dense_verdict_error"] = _reason(e, t)
                     judged = None
             if judged is None:
