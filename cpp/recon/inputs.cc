@@ -59,6 +59,12 @@ GpsPositions ParseGpsPoses(const std::string& text, const std::string& path,
     g.origin =
         geometry::Geodetic{RequireFinite(o, "lat", "origin"), RequireFinite(o, "lon", "origin"),
                            o.contains("alt_m") ? RequireFinite(o, "alt_m", "origin") : 0.0};
+    if (o.contains("alt_datum")) {
+      if (!o["alt_datum"].is_string() ||
+          (o["alt_datum"] != "ellipsoid" && o["alt_datum"] != "egm96"))
+        throw InputError(path + ": origin.alt_datum: expected \"ellipsoid\" or \"egm96\"");
+      g.alt_datum = o["alt_datum"].get<std::string>();
+    }
   }
   const nlohmann::json& images = RequireField(doc, "images", "");
   if (!images.is_array()) throw InputError(path + ": images: expected an array");

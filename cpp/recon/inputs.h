@@ -25,6 +25,11 @@ struct GpsPositions {
   std::map<std::string, Eigen::Vector3d> enu_m;  // by image file name
   std::optional<geometry::Geodetic> origin;
   std::string source;  // "poses" or "exif"
+  // What the origin's height (and so every absolute height of the model) is above:
+  // "ellipsoid" (WGS84; a poses file's origin unless it says `alt_datum`, or photos whose
+  // every DJI RTK fix is 50) or "egm96" (EXIF GPSAltitude: above sea level, EGM96 for DJI's
+  // GNSS-only heights). recon.json's `origin.alt_datum`.
+  std::string alt_datum = "ellipsoid";
 };
 
 // `images[].file` + `gps_enu_m` of a mound.poses v1 file, by the file's base name. A

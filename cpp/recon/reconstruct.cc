@@ -175,6 +175,18 @@ ReconstructResult Reconstruct(const ReconstructOptions& o) {
     }
     rtk_fixed = rtk;
     if (o.align == Align::kAuto && rtk > 0 && rtk == with_gps) align = Align::kFull;
+    // The heights' datum: EXIF's GPSAltitude is above sea level (DJI: EGM96) for a GNSS
+    // position, above the WGS84 ellipsoid with DJI's RTK fix (RtkFlag 50). A card mixing
+    // the two holds heights tens of metres apart for the same place: refused, not fitted.
+    int fixed = 0;
+    for (int i = 0; i < n; ++i)
+      if (exif[i].lat_deg && exif[i].dji && exif[i].dji->rtk_flag == 50) ++fixed;
+    if (fixed > 0 && fixed < with_gps)
+      throw InputError("--gps exif: " + std::to_string(fixed) + " of " + std::to_string(with_gps) +
+                       " photos have a DJI RTK fix (heights above the WGS84 ellipsoid) and the "
+                       "others not (above EGM96 sea level): reconstruct them apart, or give "
+                       "their positions in one datum (--gps poses.json)");
+    gps->alt_datum = fixed > 0 ? "ellipsoid" : "egm96";
   }
 
   // Pairs to match (KLT: the consecutive images it tracked; else sfm::SelectPairs).
@@ -331,7 +343,8 @@ ReconstructResult Reconstruct(const ReconstructOptions& o) {
       if (gps->origin)
         doc["origin"] = {{"lat", gps->origin->lat_deg},
                          {"lon", gps->origin->lon_deg},
-                         {"alt_m", gps->origin->alt_m}};
+                         {"alt_m", gps->origin->alt_m},
+                         {"alt_datum", gps->alt_datum}};
       nlohmann::json outliers = nlohmann::json::array();
       for (size_t k = 0; k < which.size(); ++k)
         if (!fit->inlier[k]) outliers.push_back(files[which[k]]);

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import shutil
+import subprocess
 from pathlib import Path
 from typing import Any
 
@@ -20,6 +21,7 @@ from PIL.TiffImagePlugin import IFDRational
 from mound import native
 from mound.cli import main as mound_main
 from mound.errors import InputError
+from mound.paths import build_dir
 from mound.photos.sort import SortSpec, sort_card
 
 
@@ -400,3 +402,19 @@ def test_rtk_fixed_dji_photos_are_georegistered_in_three_dimensions(tmp_path: Pa
     assert recon["gps_fit"]["method"].startswith("full")
     assert recon["gps_fit"]["rtk_fixed_images"] == len(list(rtk.glob("*.jpg")))
     assert recon["gps_fit"]["weighted_by_rtk_std"] is True
+    # Issue 67: what the heights are above. EXIF GPS altitude is above sea level (EGM96)
+    # without a fix, above the ellipsoid with DJI's RTK fix; recon.json says which.
+    assert recon["origin"]["alt_datum"] == "ellipsoid"
+    plain = json.loads((tmp_path / "plain" / "recon.json").read_text())
+    assert plain["origin"]["alt_datum"] == "egm96"
+    # A card mixing the two (one photo without the fix) holds heights tens of metres apart
+    # for the same place: refused, naming the counts.
+    first = sorted(rtk.glob("*.jpg"))[0]
+    im = Image.open(images / first.name)
+    im.save(first, exif=im.info["exif"], quality=95)   # its XMP (and fix) gone
+    r = subprocess.run([str(build_dir() / "mound_recon"), "reconstruct", str(rtk), "--gps",
+                        "exif", "--out", str(tmp_path / "mixed")], capture_output=True,
+                       text=True, check=False, timeout=300)
+    n = len(list(rtk.glob("*.jpg")))
+    assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr
+    assert f"{n - 1} of {n} photos have a DJI RTK fix" in r.stderr

@@ -143,3 +143,39 @@ def test_bad_reconstructions_and_clouds_are_refused(tmp_path: Path,
         assert args[0] in capsys.readouterr().err
     for name in "abcd":  # nothing written for a refused input
         assert not list((tmp_path / name).glob("*.tif"))
+
+
+def test_the_rasters_say_what_their_heights_are_above(tmp_path: Path) -> None:
+    """Issue 67: a model georeferenced from the photos' EXIF GPS altitude (above sea
+    level, EGM96) gives rasters whose CRS is compound, UTM + EGM96 height, and whose bands
+    say so; an ellipsoidal origin (a poses file, DJI's RTK fix) keeps the UTM CRS and says
+    "ellipsoid"; an old recon.json without the datum is read by its gps_source and says
+    so; an unknown datum is refused."""
+    from pyproj import CRS
+
+    cloud = mound_cloud()
+    for k, (origin_extra, inputs, want) in enumerate((
+            ({"alt_datum": "egm96"}, {}, "egm96"),
+            ({"alt_datum": "ellipsoid"}, {}, "ellipsoid"),
+            ({}, {"gps_source": "exif"}, "egm96"))):
+        sub = tmp_path / str(k)
+        sub.mkdir()
+        d = recon_dir(sub, cloud, origin={**ORIGIN.to_doc(), **origin_extra}, inputs=inputs)
+        out = sub / "rasters"
+        assert mound_main(["recon", "rasters", str(d), "--out", str(out), "--resolution-m",
+                           "1", "--no-orthophoto"]) == 0
+        doc = json.loads((out / "rasters.json").read_text())
+        assert doc["vertical_datum"] == want and doc["crs"] == "EPSG:32635"
+        assert ("vertical_datum_note" in doc) == (not origin_extra)
+        with rasterio.open(out / "dsm.tif") as ds:
+            crs = CRS.from_wkt(ds.crs.to_wkt())
+            words = ds.descriptions[0]
+        if want == "egm96":
+            assert crs.is_compound and [c.to_epsg() for c in crs.sub_crs_list] == [32635, 5773]
+            assert doc["file_crs"] == "EPSG:32635+5773" and "EGM96 geoid" in words
+        else:
+            assert crs.to_epsg() == 32635 and "WGS84 ellipsoid" in words
+    d = recon_dir(tmp_path / "bad" if (tmp_path / "bad").mkdir() is None else tmp_path,
+                  cloud, origin={**ORIGIN.to_doc(), "alt_datum": "navd88"})
+    with pytest.raises(InputError, match="alt_datum"):
+        rasters.from_recon(d, tmp_path / "bad_out")

@@ -3,7 +3,10 @@
 The cloud lies in the site's local ENU frame (metres, WGS84 origin stated in recon.json).
 Each point is taken to geodetic coordinates exactly (mound.geometry.geodesy) and then to
 UTM (PROJ through pyproj), so the rasters are north-up grids in a projected CRS that QGIS
-places correctly; heights are metres above the WGS84 ellipsoid, on the origin's datum.
+places correctly. Heights are metres above the datum of the model's origin (recon.json's
+`origin.alt_datum`): the WGS84 ellipsoid (a poses file; DJI photos with an RTK fix) or
+EGM96 (the photos' EXIF GPS altitude, above sea level): then the files' CRS is compound,
+UTM + EGM96 height (EPSG:326zz+5773), and every height band says which.
 
 - DSM (digital surface model): the highest point of each cell; empty cells are nodata.
 - DTM (terrain): a progressive morphological ground filter (Zhang et al. 2003) on the cell
@@ -31,7 +34,7 @@ places correctly; heights are metres above the WGS84 ellipsoid, on the origin's 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -87,6 +90,19 @@ class Grid:
     res: float
     width: int
     height: int
+    alt_datum: str = "ellipsoid"  # what the heights are above: "ellipsoid" or "egm96"
+
+    @property
+    def crs(self) -> str:
+        """The files' CRS: UTM, compound with EGM96 height (EPSG:5773) where the heights
+        are above the geoid; GeoTIFF has no code for ellipsoidal heights, so those say it
+        in each band's description and rasters.json's `vertical_datum`."""
+        return f"EPSG:{self.epsg}+5773" if self.alt_datum == "egm96" else f"EPSG:{self.epsg}"
+
+    @property
+    def height_words(self) -> str:
+        return "m above the EGM96 geoid" if self.alt_datum == "egm96" else \
+            "m above the WGS84 ellipsoid"
 
     @classmethod
     def covering(cls, epsg: int, e: np.ndarray, n: np.ndarray, res: float) -> Grid:
@@ -225,7 +241,7 @@ def write_geotiff(path: Path, a: np.ndarray, grid: Grid, description: str) -> No
     data = np.where(np.isnan(a), NODATA, a).astype(np.float32)
     with staged_file(path, ".tif") as tmp, rasterio.open(
             tmp, "w", driver="GTiff", width=grid.width, height=grid.height, count=1,
-            dtype="float32", crs=f"EPSG:{grid.epsg}", transform=grid.transform(),
+            dtype="float32", crs=grid.crs, transform=grid.transform(),
             nodata=NODATA, compress="deflate") as ds:
         ds.write(data, 1)
         ds.set_band_description(1, description)
@@ -284,7 +300,7 @@ def write_rgba_geotiff(path: Path, rgba: np.ndarray, grid: Grid) -> None:
 
     with staged_file(path, ".tif") as tmp, rasterio.open(
             tmp, "w", driver="GTiff", width=grid.width, height=grid.height, count=4,
-            dtype="uint8", crs=f"EPSG:{grid.epsg}", transform=grid.transform(),
+            dtype="uint8", crs=grid.crs, transform=grid.transform(),
             photometric="RGB", compress="deflate") as ds:
         ds.write(np.moveaxis(rgba, 2, 0))
         ds.colorinterp = [ColorInterp.red, ColorInterp.green, ColorInterp.blue,
@@ -318,8 +334,13 @@ class Rasters:
 
 
 def from_cloud(origin: Origin, enu: np.ndarray, resolution_m: float = 0.25,
-               ground_window_m: float = 80.0, relief_sigma_m: float = 30.0) -> Rasters:
-    """The rasters of an ENU cloud (n, 3)."""
+               ground_window_m: float = 80.0, relief_sigma_m: float = 30.0,
+               alt_datum: str = "ellipsoid") -> Rasters:
+    """The rasters of an ENU cloud (n, 3); its heights, the origin's plus z, above
+    `alt_datum` (recon.json's origin.alt_datum)."""
+    if alt_datum not in ALT_DATUMS:
+        raise InputError(f"origin.alt_datum: expected one of {', '.join(ALT_DATUMS)}, "
+                         f"got {alt_datum!r:.40}")
     if not (np.isfinite(resolution_m) and 0.01 <= resolution_m <= 100):
         raise InputError(f"--resolution-m: expected 0.01..100 m, got {resolution_m}")
     if not (np.isfinite(ground_window_m) and 2 * resolution_m <= ground_window_m <= 1e4):
@@ -335,12 +356,14 @@ def from_cloud(origin: Origin, enu: np.ndarray, resolution_m: float = 0.25,
         raise InputError("cloud: no finite points")
     epsg = utm_epsg(origin.lat_deg, origin.lon_deg)
     utm = enu_to_utm(origin, enu, epsg)
-    grid = Grid.covering(epsg, utm[:, 0], utm[:, 1], resolution_m)
+    grid = replace(Grid.covering(epsg, utm[:, 0], utm[:, 1], resolution_m), alt_datum=alt_datum)
     dsm, zmin = surfaces(grid, utm[:, 0], utm[:, 1], utm[:, 2])
     dtm, ground = ground_model(zmin, resolution_m, window_m=ground_window_m)
     lrm = local_relief(dsm, dtm, resolution_m, sigma_m=relief_sigma_m)
     return Rasters(grid, dsm, dtm, lrm, hillshade(dsm, resolution_m), ground)
 
+
+ALT_DATUMS = ("ellipsoid", "egm96")
 
 # The least ground a DTM is made from: a share of the observed cells and a count. See
 # docs/densify.md for the shares measured on simulated sites and on a real card.
@@ -368,8 +391,8 @@ def write_all(r: Rasters, out_dir: Path) -> dict[str, Any]:
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     failure = ground_failure(r)
-    files = {"dsm": (r.dsm, "digital surface model, m above the WGS84 ellipsoid"),
-             "dtm": (r.dtm, "terrain model (ground filter), m above the WGS84 ellipsoid"),
+    files = {"dsm": (r.dsm, f"digital surface model, {r.grid.height_words}"),
+             "dtm": (r.dtm, f"terrain model (ground filter), {r.grid.height_words}"),
              "lrm": (r.lrm, "local relief model (surface - smoothed terrain), m"),
              "hillshade": (r.shade, "hillshade of the surface model, 0-255")}
     if failure:
@@ -382,7 +405,8 @@ def write_all(r: Rasters, out_dir: Path) -> dict[str, Any]:
     observed = int(np.count_nonzero(~np.isnan(r.dsm)))
     doc: dict[str, Any] = {
         "status": "failed" if failure else "ok",
-        "crs": f"EPSG:{g.epsg}", "resolution_m": g.res, "width": g.width,
+        "crs": f"EPSG:{g.epsg}", "vertical_datum": g.alt_datum, "file_crs": g.crs,
+        "resolution_m": g.res, "width": g.width,
         "height": g.height, "west": g.west, "north": g.north, "nodata": NODATA,
         "files": {k: f"{k}.tif" for k in files},
         "coverage": float(np.mean(~np.isnan(r.dsm))),
@@ -415,6 +439,18 @@ def from_recon(recon_dir: Path, out_dir: Path, resolution_m: float = 0.25,
         raise InputError(f"{where}: frame {doc.get('frame')!r}, scale {doc.get('scale')!r}: "
                          "rasters need a metric ENU model (reconstruct with --gps)")
     origin = Origin.from_doc(doc.get("origin") or {}, f"{where}: origin")
+    # what the model's heights are above (recon.json before 2026-11-29 does not say: its
+    # origin came from a poses file, ellipsoidal, or from EXIF, EGM96 — stated, not guessed)
+    alt_datum = (doc.get("origin") or {}).get("alt_datum")
+    datum_note = None
+    if alt_datum is None:
+        alt_datum = "egm96" if (doc.get("inputs") or {}).get("gps_source") == "exif" \
+            else "ellipsoid"
+        datum_note = (f"recon.json states no origin.alt_datum (made before 2026-11-29): "
+                      f"{alt_datum} taken from its gps_source")
+    if alt_datum not in ALT_DATUMS:
+        raise InputError(f"{where}: origin.alt_datum: expected one of "
+                         f"{', '.join(ALT_DATUMS)}, got {alt_datum!r:.40}")
     cloud_path = Path(cloud) if cloud else recon_dir / "points.ply"
     xyz, _ = read_ply(cloud_path)
     if len(xyz) == 0:
@@ -430,7 +466,7 @@ def from_recon(recon_dir: Path, out_dir: Path, resolution_m: float = 0.25,
             ortho_note = "no registered image"
         else:
             ortho_note = f"images_dir {named!r} not found (give --images)"
-    r = from_cloud(origin, xyz, resolution_m, ground_window_m, relief_sigma_m)
+    r = from_cloud(origin, xyz, resolution_m, ground_window_m, relief_sigma_m, alt_datum)
     summary = write_all(r, out_dir)
     if views is not None:
         write_rgba_geotiff(Path(out_dir) / "orthophoto.tif",
@@ -439,7 +475,8 @@ def from_recon(recon_dir: Path, out_dir: Path, resolution_m: float = 0.25,
     else:
         summary["orthophoto_skipped"] = ortho_note
     out = {"schema": "mound.rasters", "version": 1, "origin": origin.to_doc(),
-           "cloud": str(cloud_path), "points": int(len(xyz)), **summary}
+           "cloud": str(cloud_path), "points": int(len(xyz)), **summary,
+           **({"vertical_datum_note": datum_note} if datum_note else {})}
     write_json(Path(out_dir) / "rasters.json", out)
     if out["status"] == "failed":
         raise NoResultError(f"{out_dir}/rasters.json: {out['reason']}")
