@@ -418,3 +418,51 @@ def test_rtk_fixed_dji_photos_are_georegistered_in_three_dimensions(tmp_path: Pa
     n = len(list(rtk.glob("*.jpg")))
     assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr
     assert f"{n - 1} of {n} photos have a DJI RTK fix" in r.stderr
+
+
+@pytest.mark.slow
+def test_a_card_without_a_plan_gets_sites_from_its_photos(sim_card: dict[str, Any],
+                                                          caliterra: Path,
+                                                          tmp_path: Path) -> None:
+    """Issue 67, a crew that flew by hand: no plan and no sites file. The simulated card's
+    two sites (300 m and 500 m from home) are proposed where the plan put them, each with
+    every photo the plan gives it and a reach from its photos (not a fixed 60 m); the
+    transit frames stay transit. Caliterra's 40 photos make one site holding all of them
+    (goal: >= 95 %); its sites.json read back as --sites sorts the card the same way."""
+    from mound.geometry.geodesy import Origin, geodetic_to_enu
+
+    out = tmp_path / "sorted"
+    doc = sort_card(str(sim_card["dir"] / "card"), None, str(out))
+    proposed = json.loads((out / "sites.json").read_text())
+    assert proposed["schema"] == "mound.sites" and doc["proposed"]["link_m"] > 0
+    plan_origin = Origin(38.5705, 27.9862, 95.0)
+    o = Origin.from_doc(proposed["origin"])
+    centres = {}
+    for s in proposed["sites"]:
+        lat, lon = _enu_to_ll(o, s["x_m"], s["y_m"])
+        centres[s["id"]] = geodetic_to_enu(plan_origin, np.array([[lat, lon, 0.0]]))[0][:2]
+    truth = {f["file"]: f["site"] for f in sim_card["truth"]["files"]}
+    got = {r["file"]: r["site"] for r in doc["photos"]}
+    assert len(centres) == 2
+    for want_id, want_xy in (("a", (300, 0)), ("b", (300, 400))):
+        mine = min(centres, key=lambda k: np.hypot(*(centres[k] - np.array(want_xy))))
+        assert np.hypot(*(centres[mine] - np.array(want_xy))) < 15, (mine, centres[mine])
+        assert {f for f, s in truth.items() if s == want_id} == {
+            f for f, s in got.items() if s == mine}
+    reach = [s["reach_m"] for s in proposed["sites"]]
+    assert all(20 < r < 60 for r in reach), reach
+    assert {r["reason"] for r in doc["photos"] if truth[r["file"]] is None} == {"transit"}
+    # Caliterra
+    cal = sort_card(str(caliterra), None, str(tmp_path / "cal"))
+    n = len(cal["photos"])
+    assert sum(1 for r in cal["photos"] if r["site"]) >= 0.95 * n
+    again = sort_card(str(caliterra), str(tmp_path / "cal" / "sites.json"),
+                      str(tmp_path / "cal2"))
+    assert [r["site"] for r in again["photos"]] == [r["site"] for r in cal["photos"]]
+
+
+def _enu_to_ll(origin: Any, x: float, y: float) -> tuple[float, float]:
+    from mound.geometry.geodesy import enu_to_geodetic
+
+    lat, lon, _ = enu_to_geodetic(origin, np.array([[x, y, 0.0]]))[0]
+    return float(lat), float(lon)

@@ -17,6 +17,11 @@ def cmd_sort(args: argparse.Namespace) -> int:
     doc = sort_card(args.card, args.plan or args.sites, args.out, spec, args.camera)
     counts = ", ".join(f"{n} {k}" for k, n in sorted(doc["counts"].items()))
     print(f"{len(doc['photos'])} files: {counts} -> {args.out}/photos.json")
+    if "proposed" in doc:
+        p = doc["proposed"]
+        print(f"  no sites file: {len(p['sites'])} sites proposed from the photos (spacing "
+              f"{p['spacing_m']:.1f} m, linked within {p['link_m']:.1f} m; home at "
+              f"{p['home']}) -> {args.out}/sites.json")
     for sid, info in doc["sites"].items():
         if info["photos"] or info["blurred"]:
             print(f"  {sid}: {info['photos']} photos ({info['blurred']} blurred), "
@@ -29,10 +34,12 @@ def add_parser(sub: Any, parser_class: type) -> None:
         dest="cmd", required=True, parser_class=parser_class)
     s = grp.add_parser("sort", help="sort a photo card into the scanned sites (links)")
     s.add_argument("card", help="the card's folder (DCIM tree or a copy); never changed")
-    src = s.add_mutually_exclusive_group(required=True)
+    src = s.add_mutually_exclusive_group()
     src.add_argument("--plan", help="plan.json of the flights (their sites and scan)")
     src.add_argument("--sites", help="the sites: a mound.sites document or a GeoJSON "
-                     "(what mound scene score --home writes; python/mission.py --sites)")
+                     "(what mound scene score --home writes; python/mission.py --sites). "
+                     "Neither: the sites are proposed from the photos (a crew that flew "
+                     "by hand) and written as OUT/sites.json")
     s.add_argument("--out", required=True, help="folder: photos.json and <site id>/")
     s.add_argument("--site-diameter", type=SORT_NUMBERS["site_diameter_m"][1].arg(),
                    default=DEFAULT_SITE_DIAMETER_M,

@@ -100,6 +100,101 @@ class CardSites:
     xy: np.ndarray          # (n, 2) ENU metres
     home_xy: np.ndarray     # (2,)
     reach_m: float          # the scan's farthest camera position from a site centre
+    # per site, where each has its own (sites proposed from the photos); else reach_m
+    site_reach_m: np.ndarray | None = None
+    proposed: dict[str, Any] | None = None  # how the sites were proposed (no sites file)
+
+    def reach_of(self) -> np.ndarray:
+        return (self.site_reach_m if self.site_reach_m is not None
+                else np.full(len(self.ids), self.reach_m))
+
+
+# A card without a plan: photos whose positions chain within LINK_SPACINGS times the
+# card's median spacing (nearest neighbour) are one site. Survey strips lie 2-3.5 spacings
+# apart at the usual 60-70 % side and 75-80 % forward overlap; the separate sites of a
+# flight hundreds of metres.
+LINK_SPACINGS = 4.0
+PROPOSED_PREFIX = "c"
+
+
+def propose_sites(rows: list[PhotoRow], spec: SortSpec) -> CardSites:
+    """Sites proposed from the card's own GPS photos (no plan, no sites file): home where
+    the first photo (by capture time, else by name) was taken, with the take-off ground's
+    height where DJI's XMP gives it (AbsoluteAltitude less RelativeAltitude); the photos
+    chained within LINK_SPACINGS x the median nearest-neighbour spacing (single linkage)
+    are a site when they are at least MIN_PHOTOS, its centre their mean position and its
+    reach the farthest of them from it (a site's size from its photos, not a fixed
+    diameter); smaller groups are left as transit. Ids c01, c02, ... in the order flown."""
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    gps = [r for r in rows if r.lat is not None and r.reason is None]
+    if not gps:
+        raise InputError("no sites file and no GPS photo on the card to propose sites from")
+    order = sorted(range(len(gps)), key=lambda k: (_time(gps[k].time) or datetime.max,
+                                                   gps[k].file))
+    first = gps[order[0]]
+    ground = None
+    if first.dji_xmp and "abs_alt_m" in first.dji_xmp and "rel_alt_m" in first.dji_xmp:
+        ground = first.dji_xmp["abs_alt_m"] - first.dji_xmp["rel_alt_m"]
+    assert first.lat is not None and first.lon is not None  # a GPS photo
+    origin = Origin(first.lat, first.lon, 0.0 if ground is None else ground)
+    xy = geodetic_to_enu(origin, np.array([[r.lat, r.lon, 0.0] for r in gps]))[:, :2]
+    if len(gps) > 1:
+        tree = cKDTree(xy)
+        d, _ = tree.query(xy, k=2)
+        spacing = float(np.median(d[:, 1]))
+    else:
+        spacing = 0.0
+    link = max(LINK_SPACINGS * spacing, 1.0)
+    n = len(gps)
+    if n > 1:
+        pairs = cKDTree(xy).query_pairs(link, output_type="ndarray")
+        from scipy.sparse import coo_matrix
+
+        graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+        _, label = connected_components(graph, directed=False)
+    else:
+        label = np.zeros(1, dtype=int)
+    rank = {k: i for i, k in enumerate(order)}
+    groups = sorted((np.flatnonzero(label == g) for g in np.unique(label)),
+                    key=lambda ks: min(rank[int(k)] for k in ks))
+    centres, reach = [], []
+    for ks in groups:
+        if len(ks) < MIN_PHOTOS:
+            continue
+        c = xy[ks].mean(axis=0)
+        centres.append(c)
+        reach.append(float(np.max(np.linalg.norm(xy[ks] - c, axis=1))))
+    if not centres:
+        raise InputError(f"no sites file, and no group of {MIN_PHOTOS} or more photos on the "
+                         f"card to propose a site from ({len(gps)} GPS photos, spacing "
+                         f"{spacing:.1f} m)")
+    ids = [f"{PROPOSED_PREFIX}{k + 1:02d}" for k in range(len(centres))]
+    how = {"method": "photos chained within link_m (single linkage); a site: a group of "
+                     f"at least {MIN_PHOTOS}, its centre their mean, its reach the farthest",
+           "spacing_m": spacing, "link_m": link, "home": first.file,
+           "home_ground": "DJI XMP AbsoluteAltitude - RelativeAltitude" if ground is not None
+           else "unknown (origin alt_m 0)",
+           "sites": {i: {"x_m": float(c[0]), "y_m": float(c[1]), "reach_m": r,
+                         "diameter_m": 2 * r}
+                     for i, c, r in zip(ids, centres, reach, strict=True)}}
+    return CardSites(origin, ids, np.array(centres).reshape(-1, 2), np.zeros(2),
+                     float(max(reach)), np.array(reach), how)
+
+
+def proposed_sites_doc(sites: CardSites) -> dict[str, Any]:
+    """The proposed sites as a mound.sites document (what `--sites` reads: the survey and
+    `mound photos sort --sites` can take it as it is; the site's scan scale its size)."""
+    assert sites.proposed is not None and sites.site_reach_m is not None
+    return {"schema": "mound.sites", "version": 1, "origin": sites.origin.to_doc(),
+            "home": {"id": "home", "x_m": 0.0, "y_m": 0.0}, "end": {"id": "home"},
+            "budget_m": 1e6,
+            "sites": [{"id": i, "x_m": float(xy[0]), "y_m": float(xy[1]), "reward": 1.0,
+                       "reach_m": float(min(max(r, 1.0), 1e4)), "proposed_from": "photos"}
+                      for i, xy, r in zip(sites.ids, sites.xy, sites.site_reach_m,
+                                          strict=True)],
+            "proposed": sites.proposed}
 
 
 def sites_of(path: str, spec: SortSpec) -> CardSites:
@@ -119,9 +214,23 @@ def sites_of(path: str, spec: SortSpec) -> CardSites:
     sites = user_sites(doc, Path(path), scan, None, default_budget_m=1.0, need_truth=False,
                        need_p_mound=False)
     assert sites.origin is not None  # the reader requires one
+    # a site's own reach_m (a site proposed from a card's photos) instead of the scan's
+    raw = doc.get("sites") if doc.get("schema") == "mound.sites" else None
+    own = ([r.get("reach_m") if isinstance(r, dict) else None for r in raw]
+           if isinstance(raw, list) and len(raw) == len(sites.sites) else [])
+    site_reach = None
+    numbers = [float(r) for r in own if isinstance(r, int | float) and not isinstance(r, bool)]
+    if own and len(numbers) == len(own):
+        for s, r in zip(sites.sites, numbers, strict=True):
+            if not 0 < r <= 1e4:
+                raise InputError(f"{path}: sites[{s.id}].reach_m: expected (0, 10000] m, "
+                                 f"got {r!r}")
+        site_reach = np.array(numbers)
     return CardSites(sites.origin, [s.id for s in sites.sites],
                      np.array([s.xy for s in sites.sites], dtype=float).reshape(-1, 2),
-                     np.array([sites.home.x_m, sites.home.y_m], dtype=float), scan.reach_m())
+                     np.array([sites.home.x_m, sites.home.y_m], dtype=float),
+                     scan.reach_m() if site_reach is None else float(site_reach.max()),
+                     site_reach)
 
 
 def _scan_of(doc: Mapping[str, object], path: str, spec: SortSpec) -> ScanSpec:
@@ -366,12 +475,15 @@ def _place(rows: list[PhotoRow], sites: CardSites, spec: SortSpec) -> None:
         llh = np.array([[r.lat, r.lon, 0.0] for r in gps])
         enu = geodetic_to_enu(sites.origin, llh)[:, :2]
         d = np.linalg.norm(enu[:, None, :] - sites.xy[None, :, :], axis=2)
-        near = d.argmin(axis=1)
+        reach = sites.reach_of()
+        # the nearest site whose scan area (its reach + the GPS margin) holds the photo
+        inside = np.where(d <= reach[None, :] + spec.margin_m, d, np.inf)
+        near = inside.argmin(axis=1)
         lo = np.minimum(sites.xy.min(axis=0), sites.home_xy) - sites.reach_m - spec.transit_margin_m
         hi = np.maximum(sites.xy.max(axis=0), sites.home_xy) + sites.reach_m + spec.transit_margin_m
         for k, r in enumerate(gps):
             r.enu_m = [round(float(enu[k, 0]), 2), round(float(enu[k, 1]), 2)]
-            if d[k, near[k]] <= sites.reach_m + spec.margin_m:
+            if np.isfinite(inside[k, near[k]]):
                 r.site = sites.ids[near[k]]
             elif np.all(enu[k] >= lo) and np.all(enu[k] <= hi):
                 r.reason = "transit"
@@ -401,20 +513,26 @@ def _per_site(rows: list[PhotoRow], sites: CardSites, spec: SortSpec,
     return per_site
 
 
-def sort_card(card: str, sites_path: str, out_dir: str, spec: SortSpec | None = None,
+def sort_card(card: str, sites_path: str | None, out_dir: str, spec: SortSpec | None = None,
               camera: str | None = None) -> dict[str, Any]:
     """Sorts CARD into OUT_DIR (photos.json and one folder per site, with a copy of
-    `camera` (a mound.camera file) when given); returns photos.json. InputError when
-    nothing usable is left (naming why)."""
+    `camera` (a mound.camera file) when given); returns photos.json. Without a sites file
+    (`sites_path` None) the sites are proposed from the photos (propose_sites) and written
+    as OUT_DIR/sites.json. InputError when nothing usable is left (naming why)."""
     spec = spec or SortSpec()
     spec.validate()
     if camera is not None:
         read_json(camera, "mound.camera", 1)
-    sites = sites_of(sites_path, spec)
+    sites = sites_of(sites_path, spec) if sites_path is not None else None
     listing = native.run_json("mound_recon", ["photos", card])
     root = Path(card)
     rows = _photo_rows(listing, root)
     _mark_other_flights(rows, spec)
+    if sites is None:
+        sites = propose_sites(rows, spec)
+        Path(out_dir).mkdir(parents=True, exist_ok=True)
+        write_json(Path(out_dir) / "sites.json", proposed_sites_doc(sites))
+        sites_path = str(Path(out_dir) / "sites.json")
     _place(rows, sites, spec)
     per_site = _per_site(rows, sites, spec, camera)
     reasons: dict[str, int] = {}
@@ -424,6 +542,7 @@ def sort_card(card: str, sites_path: str, out_dir: str, spec: SortSpec | None = 
     doc: dict[str, object] = {
         "schema": SCHEMA, "version": VERSION, "card": str(root.resolve()),
         "sites_file": str(sites_path), "spec": {**spec.__dict__, "reach_m": sites.reach_m},
+        **({"proposed": sites.proposed} if sites.proposed else {}),
         "photos": [r.to_doc() for r in rows], "sites": per_site, "counts": reasons,
         "skipped_folders": listing.get("skipped", [])}
     dji = [r.dji_xmp for r in rows if r.dji_xmp is not None]
