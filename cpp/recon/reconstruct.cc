@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cctype>
 #include <chrono>
+#include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <map>
 #include <utility>
@@ -50,6 +52,46 @@ nlohmann::json PoseJson(const geometry::Rigid3d& p) {
   nlohmann::json rows = nlohmann::json::array();
   for (int r = 0; r < 3; ++r) rows.push_back({R(r, 0), R(r, 1), R(r, 2)});
   return {{"R", rows}, {"t", {p.translation.x(), p.translation.y(), p.translation.z()}}};
+}
+
+// Seconds since an arbitrary epoch of an EXIF "YYYY:MM:DD HH:MM:SS" (days counted as
+// 31 per month: only differences within a flight are used); nothing when malformed.
+std::optional<double> ExifSeconds(const std::string& t) {
+  int y, mo, d, h, mi, s;
+  if (t.size() != 19 || std::sscanf(t.c_str(), "%d:%d:%d %d:%d:%d", &y, &mo, &d, &h, &mi, &s) != 6)
+    return std::nullopt;
+  return ((((y * 12.0 + mo) * 31 + d) * 24 + h) * 60 + mi) * 60 + s;
+}
+
+// GNSS latency (DJI's consumer aircraft record where they were a fraction of a second
+// before the shutter): on a back-and-forth pattern alternate strips are shifted along
+// track in opposite directions, and the fit drops a whole strip as outliers. The GPS
+// positions are corrected by lambda x the photo's own step d_k (half the displacement
+// from the photo before to the photo after, in capture order), lambda the same for the
+// whole flight and searched on -1.5 .. 1.5 steps; kept where it explains the GPS clearly
+// better (more inliers, or the RMSE down by a fifth) than none.
+struct Latency {
+  double steps = 0;
+  std::vector<Eigen::Vector3d> step;  // d_k per fitted photo (horizontal)
+};
+
+Latency GpsSteps(const std::vector<Eigen::Vector3d>& world, const std::vector<double>& order_key) {
+  Latency l;
+  const size_t n = world.size();
+  std::vector<size_t> order(n);
+  for (size_t k = 0; k < n; ++k) order[k] = k;
+  std::stable_sort(order.begin(), order.end(),
+                   [&](size_t a, size_t b) { return order_key[a] < order_key[b]; });
+  l.step.assign(n, Eigen::Vector3d::Zero());
+  for (size_t j = 0; j < n; ++j) {
+    const size_t before = order[j == 0 ? 0 : j - 1], after = order[j + 1 < n ? j + 1 : n - 1];
+    const double span = (j > 0) + (j + 1 < n);
+    if (span == 0) continue;
+    Eigen::Vector3d d = (world[after] - world[before]) / span;
+    d.z() = 0;
+    l.step[order[j]] = d;
+  }
+  return l;
 }
 
 }  // namespace
@@ -332,10 +374,87 @@ ReconstructResult Reconstruct(const ReconstructOptions& o) {
       if (r.registered[i])
         down_in_model += r.cam_from_world[i].rotation.conjugate() * Eigen::Vector3d::UnitZ();
     const bool weighted = !weights.empty() && weights.size() == model.size();
-    const auto fit =
-        align == Align::kLevel
-            ? sfm::FitLevelledSim3Robust(model, world, down_in_model, seed)
-            : sfm::FitSim3Robust(model, world, seed, 0.5, weighted ? &weights : nullptr);
+    auto fit_to = [&](const std::vector<Eigen::Vector3d>& w) {
+      return align == Align::kLevel
+                 ? sfm::FitLevelledSim3Robust(model, w, down_in_model, seed)
+                 : sfm::FitSim3Robust(model, w, seed, 0.5, weighted ? &weights : nullptr);
+    };
+    auto fit = fit_to(world);
+    // GNSS latency, for positions from the photos' EXIF (see GpsSteps): the capture order
+    // from EXIF's time where every fitted photo has one, else the file names' order.
+    nlohmann::json latency_doc;
+    std::vector<Eigen::Vector3d> step;
+    if (gps->source == "exif" && fit && model.size() >= 6) {
+      std::vector<double> key(which.size()), seconds;
+      bool timed = true;
+      for (size_t k = 0; k < which.size(); ++k) {
+        const auto t = ExifSeconds(exif[which[k]].datetime);
+        timed = timed && t.has_value();
+        if (t) seconds.push_back(*t);
+        key[k] = t ? *t * 1e4 + k : static_cast<double>(k);  // ties kept in name order
+      }
+      if (!timed)
+        for (size_t k = 0; k < key.size(); ++k) key[k] = static_cast<double>(k);
+      step = GpsSteps(world, key).step;
+      // Each lambda scored by the same yardstick: the mean squared horizontal residual of
+      // the best 80 % of the photos (the fits' own inlier thresholds adapt to their
+      // residuals, so their inlier counts are not comparable from one lambda to the next).
+      auto trimmed = [&](const sfm::GeoFit& f, const std::vector<Eigen::Vector3d>& w) {
+        std::vector<double> r2;
+        for (size_t k = 0; k < w.size(); ++k) {
+          const Eigen::Vector3d e = f.world_from_model * model[k] - w[k];
+          r2.push_back(e.x() * e.x() + e.y() * e.y());
+        }
+        std::sort(r2.begin(), r2.end());
+        const size_t keep = std::max<size_t>(1, r2.size() * 4 / 5);
+        double sum = 0;
+        for (size_t k = 0; k < keep; ++k) sum += r2[k];
+        return sum / keep;
+      };
+      double best_steps = 0, best_score = trimmed(*fit, world);
+      auto best = fit;
+      for (int j = -30; j <= 30; ++j) {
+        if (j == 0) continue;
+        std::vector<Eigen::Vector3d> w = world;
+        for (size_t k = 0; k < w.size(); ++k) w[k] += j * 0.05 * step[k];
+        auto f = fit_to(w);
+        if (!f) continue;
+        const double score = trimmed(*f, w);
+        if (score < best_score) {
+          best = f;
+          best_score = score;
+          best_steps = j * 0.05;
+        }
+      }
+      // clearly better: two more photos explained, or the RMSE down by a fifth (one more
+      // inlier or a few percent is what a photo's noise alone can buy)
+      const bool clearer = best_steps != 0 &&
+                           (best->inliers >= fit->inliers + 2 || best->rmse_m < 0.8 * fit->rmse_m);
+      best_steps = std::round(best_steps * 100) / 100;
+      std::vector<double> dt;
+      if (timed) {
+        std::sort(seconds.begin(), seconds.end());
+        for (size_t k = 1; k < seconds.size(); ++k) dt.push_back(seconds[k] - seconds[k - 1]);
+        std::nth_element(dt.begin(), dt.begin() + dt.size() / 2, dt.end());
+      }
+      latency_doc = {{"applied", clearer},
+                     {"steps", clearer ? best_steps : 0.0},
+                     {"best_steps", best_steps},
+                     {"order", timed ? "EXIF capture time" : "file names"},
+                     {"without", {{"inliers", fit->inliers}, {"rmse_m", fit->rmse_m}}},
+                     {"with_best", {{"inliers", best->inliers}, {"rmse_m", best->rmse_m}}},
+                     {"note",
+                      "GPS positions moved by steps x each photo's own step (half the "
+                      "displacement between its neighbours in capture order): GNSS latency"}};
+      if (timed && !dt.empty()) {
+        latency_doc["seconds"] = (clearer ? best_steps : 0.0) * dt[dt.size() / 2];
+        latency_doc["photo_interval_s"] = dt[dt.size() / 2];
+      }
+      if (clearer) {
+        for (size_t k = 0; k < world.size(); ++k) world[k] += best_steps * step[k];
+        fit = best;
+      }
+    }
     if (fit && fit->inliers >= 3) {
       sfm::Transform(fit->world_from_model, &r);
       doc["frame"] = "enu";
@@ -346,11 +465,25 @@ ReconstructResult Reconstruct(const ReconstructOptions& o) {
                          {"alt_m", gps->origin->alt_m},
                          {"alt_datum", gps->alt_datum}};
       nlohmann::json outliers = nlohmann::json::array();
-      for (size_t k = 0; k < which.size(); ++k)
-        if (!fit->inlier[k]) outliers.push_back(files[which[k]]);
+      nlohmann::json explained = nlohmann::json::array();
+      for (size_t k = 0; k < which.size(); ++k) {
+        if (fit->inlier[k]) continue;
+        outliers.push_back(files[which[k]]);
+        // each outlier's residual, along and across the flight where its step is known
+        const Eigen::Vector3d e = fit->world_from_model * model[k] - world[k];
+        nlohmann::json o = {
+            {"file", files[which[k]]}, {"residual_m", e.norm()}, {"vertical_m", e.z()}};
+        if (k < step.size() && step[k].norm() > 1e-6) {
+          const Eigen::Vector3d u = step[k].normalized();
+          o["along_track_m"] = e.dot(u);
+          o["across_track_m"] = (Eigen::Vector3d(e.x(), e.y(), 0) - e.dot(u) * u).norm();
+        }
+        explained.push_back(o);
+      }
       doc["gps_fit"] = {{"images", model.size()},
                         {"inliers", fit->inliers},
                         {"outliers", outliers},
+                        {"outlier_residuals", explained},
                         {"rmse_m", fit->rmse_m},
                         {"rmse_horizontal_m", fit->rmse_horizontal_m},
                         {"rmse_vertical_m", fit->rmse_vertical_m},
@@ -361,6 +494,7 @@ ReconstructResult Reconstruct(const ReconstructOptions& o) {
                                        ? "level: vertical from the images, heading, scale and "
                                          "position from horizontal GPS, height offset by median"
                                        : "full: 7-parameter similarity to the GPS positions"}};
+      if (!latency_doc.is_null()) doc["gps_fit"]["latency"] = latency_doc;
     } else {
       doc["gps_fit"] = {{"images", model.size()},
                         {"note", "fewer than 3 registered images with GPS: frame left arbitrary"}};

@@ -390,6 +390,7 @@ def test_rtk_fixed_dji_photos_are_georegistered_in_three_dimensions(tmp_path: Pa
     recon = json.loads((tmp_path / "plain" / "recon.json").read_text())
     assert recon["gps_fit"]["method"].startswith("level")
     assert recon["gps_fit"]["rtk_fixed_images"] == 0
+    assert recon["gps_fit"]["latency"]["applied"] is False  # no latency in these photos
     assert recon["gps_fit"]["weighted_by_rtk_std"] is False
     rtk = tmp_path / "rtk"
     rtk.mkdir()
@@ -466,3 +467,28 @@ def _enu_to_ll(origin: Any, x: float, y: float) -> tuple[float, float]:
 
     lat, lon, _ = enu_to_geodetic(origin, np.array([[x, y, 0.0]]))[0]
     return float(lat), float(lon)
+
+
+@pytest.mark.slow
+def test_dji_gps_latency_is_estimated_and_every_strip_kept(tmp_path: Path) -> None:
+    """Issue 67: DJI's GNSS latency shifts alternate strips of a back-and-forth raster
+    along track in opposite directions, and the GPS fit dropped a whole strip (8 of 18
+    photos here). A simulated card whose EXIF positions lag the shutter by 0.6 s (one
+    photo every 2 s) is fitted with the latency estimated (0.6 s on the 0.05-step grid)
+    and every photo kept; the same site without latency applies none."""
+    out = tmp_path / "site"
+    assert mound_main(["sim", "site", "--size", "320", "240", "--pattern", "raster",
+                       "--jpeg", "--gps-sigma", "0.2", "0.3", "--gps-latency", "0.6",
+                       "--out", str(out)]) == 0
+    native.run_tool("mound_recon", ["reconstruct", str(out / "images"), "--gps", "exif",
+                                    "--out", str(tmp_path / "recon")])
+    fit = json.loads((tmp_path / "recon" / "recon.json").read_text())["gps_fit"]
+    lat = fit["latency"]
+    assert lat["applied"] is True and lat["order"] == "EXIF capture time"
+    assert lat["seconds"] == pytest.approx(0.6, abs=0.1) and lat["photo_interval_s"] == 2
+    assert lat["without"]["inliers"] <= fit["images"] - 6   # a strip lost without it
+    assert fit["inliers"] >= fit["images"] - 1 and fit["outliers"] == [
+        o["file"] for o in fit["outlier_residuals"]]
+    assert mound_main(["sim", "site", "--gps-latency", "0.5", "--out",
+                       str(tmp_path / "x")]) == 2  # it moves the EXIF GPS: --jpeg only
+    assert not (tmp_path / "x").exists()

@@ -190,7 +190,10 @@ def proposed_sites_doc(sites: CardSites) -> dict[str, Any]:
     return {"schema": "mound.sites", "version": 1, "origin": sites.origin.to_doc(),
             "home": {"id": "home", "x_m": 0.0, "y_m": 0.0}, "end": {"id": "home"},
             "budget_m": 1e6,
+            # no scene scored these places: p_mound 0.5, no prior either way (the survey
+            # needs one; the verdict decides from the photos)
             "sites": [{"id": i, "x_m": float(xy[0]), "y_m": float(xy[1]), "reward": 1.0,
+                       "p_mound": 0.5,
                        "reach_m": float(min(max(r, 1.0), 1e4)), "proposed_from": "photos"}
                       for i, xy, r in zip(sites.ids, sites.xy, sites.site_reach_m,
                                           strict=True)],

@@ -106,14 +106,27 @@ def save_jpeg(rgb: np.ndarray | Path, out: Path, facts: ExifFacts, quality: int 
 
 
 def site_jpegs(site_dir: str | Path, start: datetime, every_s: float = 2.0,
-               quality: int = 95) -> list[tuple[str, datetime]]:
+               quality: int = 95, gps_latency_s: float = 0.0) -> list[tuple[str, datetime]]:
     """The simulated site's images as JPEGs with EXIF (the PNGs replaced; poses.json and
-    site.json name the JPEGs); returns (file, capture time) in flight order."""
+    site.json name the JPEGs); returns (file, capture time) in flight order. With
+    `gps_latency_s` the EXIF position is where the camera was that long before the shutter
+    (DJI's GNSS latency: the camera's velocity from its neighbours in flight order, at one
+    photo every `every_s`), so alternate strips of a raster are shifted along track in
+    opposite directions; poses.json's gps_enu_m keeps the positions without it."""
     d = Path(site_dir)
     poses = read_json(d / "poses.json", "mound.poses", 1)
     cam = read_json(d / "camera.json", "mound.camera", 1)
     origin = Origin.from_doc(poses["origin"], f"{d}/poses.json: origin")
     gps = np.array([im["gps_enu_m"] for im in poses["images"]], dtype=float)
+    if gps_latency_s:
+        c = np.array([im["centre_enu_m"] for im in poses["images"]], dtype=float)
+        ahead = np.vstack([c[1:], c[-1:]])
+        behind = np.vstack([c[:1], c[:-1]])
+        span = np.array([2.0] * len(c))
+        span[0] = span[-1] = 1.0
+        velocity = (ahead - behind) / (span[:, None] * every_s)
+        velocity[:, 2] = 0.0
+        gps = gps - gps_latency_s * velocity
     llh = enu_to_geodetic(origin, gps)
     out: list[tuple[str, datetime]] = []
     for k, im in enumerate(poses["images"]):
@@ -129,7 +142,7 @@ def site_jpegs(site_dir: str | Path, start: datetime, every_s: float = 2.0,
     site = read_json(d / "site.json", "mound.sim_site", 1)
     site["files"]["images"] = [im["file"] for im in poses["images"]]
     site["jpeg"] = {"quality": quality, "start": start.isoformat(), "every_s": every_s,
-                    "sensor_width_mm": SENSOR_WIDTH_MM}
+                    "sensor_width_mm": SENSOR_WIDTH_MM, "gps_latency_s": gps_latency_s}
     write_json(d / "site.json", site)
     return out
 

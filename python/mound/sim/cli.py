@@ -74,11 +74,13 @@ def cmd_sim_site(args: argparse.Namespace) -> int:
         spec = replace(spec, orbit_images=args.orbit_images)
     if args.scan_diameter is not None:
         spec = replace(spec, scan_diameter_m=args.scan_diameter)
+    if args.gps_latency and not args.jpeg:
+        raise InputError("--gps-latency goes with --jpeg (it moves the EXIF GPS)")
     site = sim.simulate(spec, args.out, threads=args.threads)
     if args.jpeg:
         from mound.sim.card import site_jpegs
 
-        site_jpegs(args.out, _start_time(args.start_time))
+        site_jpegs(args.out, _start_time(args.start_time), gps_latency_s=args.gps_latency)
     t = site["timings"]
     print(f"{'tumulus' if spec.terrain.mound else 'flat control'} ({args.preset}, seed "
           f"{args.seed}): {site['stats']['images']} images {spec.width_px}x{spec.height_px} "
@@ -195,6 +197,9 @@ def add_parser(sub: Any, parser_class: Any) -> Any:
                     help="JPEGs with EXIF (GPS, altitude, time, focal length) instead of PNGs")
     st.add_argument("--start-time", default="2026-06-01T09:00:00",
                     help="--jpeg: the first image's capture time (camera local time)")
+    st.add_argument("--gps-latency", type=Bound(-5, 5, "s").arg(), default=0.0,
+                    help="--jpeg: the EXIF position is where the camera was this long before "
+                    "the shutter (DJI's GNSS latency; one photo every 2 s; default 0)")
     st.set_defaults(func=cmd_sim_site)
     sfl = simp.add_parser("flight", help="a planned survey's photos as one card folder "
                           "(DCIM/100MEDIA/DJI_NNNN.JPG with EXIF; transit frames included)")
