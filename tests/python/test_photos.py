@@ -492,3 +492,41 @@ def test_dji_gps_latency_is_estimated_and_every_strip_kept(tmp_path: Path) -> No
     assert mound_main(["sim", "site", "--gps-latency", "0.5", "--out",
                        str(tmp_path / "x")]) == 2  # it moves the EXIF GPS: --jpeg only
     assert not (tmp_path / "x").exists()
+
+
+@pytest.mark.slow
+def test_a_simulated_dji_card_goes_from_photos_to_verdict(tmp_path: Path) -> None:
+    """Issue 67: a simulated card carrying what a DJI Phantom 3 writes (make DJI, model
+    FC300S, no focal plane resolution, the drone-dji XMP) with DJI's GNSS latency (0.6 s,
+    one photo every 2 s) goes through `photos sort` without a plan, `reconstruct --gps
+    exif`, `densify` as the survey does and `verdict`: the site proposed from the photos,
+    the focal length from the sensor table (exactly the simulator's), the heights stated
+    above EGM96, the latency found and every strip kept, and the 12 m tumulus judged
+    `mound`."""
+    from mound.recon.defaults import DENSIFY_ARGS
+
+    site = tmp_path / "site"
+    assert mound_main(["sim", "site", "--size", "640", "480", "--pattern", "raster",
+                       "--jpeg", "--exif-style", "dji", "--gps-latency", "0.6",
+                       "--out", str(site)]) == 0
+    doc = sort_card(str(site / "images"), None, str(tmp_path / "sorted"))
+    assert list(doc["sites"]) == ["c01"] and doc["sites"]["c01"]["photos"] == 18
+    assert doc["sites"]["c01"]["camera"]["source"] == "exif (sensor_table)"
+    assert doc["dji_xmp"]["photos"] == 18
+    recon, dense = tmp_path / "recon", tmp_path / "dense"
+    native.run_tool("mound_recon", ["reconstruct", str(tmp_path / "sorted" / "c01"), "--gps",
+                                    "exif", "--out", str(recon), "--threads", "2"])
+    native.run_tool("mound_recon", ["densify", str(recon), "--out", str(dense), "--threads",
+                                    "2", *DENSIFY_ARGS])
+    native.run_tool("mound_recon", ["verdict", str(recon), "--cloud", str(dense / "dense.ply"),
+                                    "--out", str(tmp_path / "verdict.json")])
+    r = json.loads((recon / "recon.json").read_text())
+    true_f = json.loads((site / "camera.json").read_text())["K"][0][0]
+    assert r["inputs"]["focal"]["source"] == "sensor_table"
+    assert r["inputs"]["focal"]["px"] == pytest.approx(true_f, rel=1e-6)
+    assert r["origin"]["alt_datum"] == "egm96" and r["registered"] == 18
+    fit = r["gps_fit"]
+    assert fit["latency"]["applied"] and fit["latency"]["seconds"] == pytest.approx(0.6, abs=0.1)
+    assert fit["inliers"] == 18
+    v = json.loads((tmp_path / "verdict.json").read_text())
+    assert v["label"] == "mound" and v["cloud"].endswith("dense.ply")

@@ -43,6 +43,15 @@ EXIF_TIME = "%Y:%m:%d %H:%M:%S"
 CARD_TRUTH = "mound.card_truth"
 
 
+EXIF_STYLES = ("sim", "dji")
+# "dji": what a DJI Phantom 3's FC300S writes (../shared/data/dji/photo_meta): make DJI,
+# model FC300S, the focal length in mm and the 35 mm equivalent but no focal plane
+# resolution (the focal length in pixels then comes from the sensor table), and the XMP
+# drone-dji packet (AbsoluteAltitude = GPSAltitude, RelativeAltitude above take-off,
+# gimbal and aircraft attitude).
+DJI_SENSOR = (6.17, 4.55)   # mm, the FC300S's 1/2.3" sensor
+
+
 @dataclass(frozen=True)
 class ExifFacts:
     lat: float
@@ -53,6 +62,27 @@ class ExifFacts:
     width_px: int
     make: str = "mound-survey"
     model: str = "sim"
+    style: str = "sim"
+    height_px: int | None = None
+    takeoff_alt_m: float | None = None   # "dji": RelativeAltitude = alt_m less this
+    yaw_deg: float = 0.0                 # "dji": the aircraft's and gimbal's heading
+
+
+def dji_xmp(f: ExifFacts) -> bytes:
+    """The drone-dji XMP packet a DJI aircraft writes (the attributes of the FC300S's)."""
+    rel = f.alt_m - (f.takeoff_alt_m if f.takeoff_alt_m is not None else f.alt_m)
+    return ('<?xpacket begin="\ufeff" id="W5M0MpCehiHzreSzNTczkc9d"?>'
+            '<x:xmpmeta xmlns:x="adobe:ns:meta/"><rdf:RDF xmlns:rdf='
+            '"http://www.w3.org/1999/02/22-rdf-syntax-ns#"><rdf:Description rdf:about='
+            '"DJI Meta Data" xmlns:tiff="http://ns.adobe.com/tiff/1.0/"'
+            ' xmlns:drone-dji="http://www.dji.com/drone-dji/1.0/"'
+            ' tiff:Make="DJI" tiff:Model="FC300S"'
+            f' drone-dji:AbsoluteAltitude="{f.alt_m:+.2f}"'
+            f' drone-dji:RelativeAltitude="{rel:+.2f}"'
+            f' drone-dji:GimbalRollDegree="+0.00" drone-dji:GimbalYawDegree="{f.yaw_deg:+.2f}"'
+            ' drone-dji:GimbalPitchDegree="-90.00" drone-dji:FlightRollDegree="+0.00"'
+            f' drone-dji:FlightYawDegree="{f.yaw_deg:+.2f}" drone-dji:FlightPitchDegree="+0.00"'
+            '/></rdf:RDF></x:xmpmeta><?xpacket end="w"?>').encode()
 
 
 def _rational(x: float, denominator: int = 1_000_000) -> Any:
@@ -76,16 +106,23 @@ def exif_of(f: ExifFacts) -> Any:
 
     ex = Image.Exif()
     stamp = f.time.strftime(EXIF_TIME)
-    ex[0x010F], ex[0x0110], ex[0x0132] = f.make, f.model, stamp
+    dji = f.style == "dji"
+    ex[0x010F], ex[0x0110], ex[0x0132] = ("DJI", "FC300S", stamp) if dji else (
+        f.make, f.model, stamp)
     e = ex.get_ifd(0x8769)
     pitch_mm = SENSOR_WIDTH_MM / f.width_px
     e[0x9003] = stamp
     e[0x920A] = _rational(f.focal_px * pitch_mm)               # FocalLength, mm
-    e[0xA405] = int(round(f.focal_px / f.width_px * 36))       # FocalLengthIn35mmFilm
-    e[0xA20E] = _rational(10.0 / pitch_mm)                     # FocalPlaneXResolution
-    e[0xA20F] = _rational(10.0 / pitch_mm)
-    e[0xA210] = 3                                              # ... per centimetre
+    if dji:  # the 35 mm equivalent on the sensor's diagonal, as DJI writes it
+        e[0xA405] = int(round(f.focal_px * pitch_mm * 43.27 / math.hypot(*DJI_SENSOR)))
+    else:
+        e[0xA405] = int(round(f.focal_px / f.width_px * 36))   # FocalLengthIn35mmFilm
+        e[0xA20E] = _rational(10.0 / pitch_mm)                 # FocalPlaneXResolution
+        e[0xA20F] = _rational(10.0 / pitch_mm)
+        e[0xA210] = 3                                          # ... per centimetre
     e[0xA002] = f.width_px                                     # PixelXDimension
+    if f.height_px:
+        e[0xA003] = f.height_px                                # PixelYDimension
     g = ex.get_ifd(0x8825)
     g[0] = b"\x02\x03\x00\x00"
     g[1], g[2] = ("N" if f.lat >= 0 else "S"), _dms(f.lat)
@@ -101,18 +138,24 @@ def save_jpeg(rgb: np.ndarray | Path, out: Path, facts: ExifFacts, quality: int 
     im = Image.open(rgb) if isinstance(rgb, Path) else Image.fromarray(rgb)
     with im:
         tmp = out.with_name(out.name + ".tmp")
-        im.convert("RGB").save(tmp, format="JPEG", quality=quality, exif=exif_of(facts))
+        extra = {"xmp": dji_xmp(facts)} if facts.style == "dji" else {}
+        im.convert("RGB").save(tmp, format="JPEG", quality=quality, exif=exif_of(facts),
+                               **extra)
     tmp.replace(out)
 
 
 def site_jpegs(site_dir: str | Path, start: datetime, every_s: float = 2.0,
-               quality: int = 95, gps_latency_s: float = 0.0) -> list[tuple[str, datetime]]:
+               quality: int = 95, gps_latency_s: float = 0.0,
+               style: str = "sim") -> list[tuple[str, datetime]]:
     """The simulated site's images as JPEGs with EXIF (the PNGs replaced; poses.json and
     site.json name the JPEGs); returns (file, capture time) in flight order. With
     `gps_latency_s` the EXIF position is where the camera was that long before the shutter
     (DJI's GNSS latency: the camera's velocity from its neighbours in flight order, at one
     photo every `every_s`), so alternate strips of a raster are shifted along track in
-    opposite directions; poses.json's gps_enu_m keeps the positions without it."""
+    opposite directions; poses.json's gps_enu_m keeps the positions without it. `style`
+    "dji" writes the metadata of a DJI FC300S (EXIF_STYLES) instead of the simulator's."""
+    if style not in EXIF_STYLES:
+        raise InputError(f"--exif-style: expected one of {', '.join(EXIF_STYLES)}")
     d = Path(site_dir)
     poses = read_json(d / "poses.json", "mound.poses", 1)
     cam = read_json(d / "camera.json", "mound.camera", 1)
@@ -133,8 +176,15 @@ def site_jpegs(site_dir: str | Path, start: datetime, every_s: float = 2.0,
         png = d / im["file"]
         jpg = png.with_suffix(".jpg")
         when = start + timedelta(seconds=k * every_s)
+        yaw = 0.0
+        if style == "dji":  # the heading: from this photo towards the next (last: previous)
+            j = min(k + 1, len(gps) - 1)
+            ahead = gps[j] - gps[k] if j != k else gps[k] - gps[k - 1]
+            yaw = math.degrees(math.atan2(ahead[0], ahead[1]))
         save_jpeg(png, jpg, ExifFacts(float(llh[k, 0]), float(llh[k, 1]), float(llh[k, 2]),
-                                      when, float(cam["K"][0][0]), int(cam["width"])), quality)
+                                      when, float(cam["K"][0][0]), int(cam["width"]),
+                                      style=style, height_px=int(cam["height"]),
+                                      takeoff_alt_m=origin.alt_m, yaw_deg=yaw), quality)
         png.unlink()
         im["file"] = str(Path(im["file"]).with_suffix(".jpg"))
         out.append((im["file"], when))
@@ -142,7 +192,8 @@ def site_jpegs(site_dir: str | Path, start: datetime, every_s: float = 2.0,
     site = read_json(d / "site.json", "mound.sim_site", 1)
     site["files"]["images"] = [im["file"] for im in poses["images"]]
     site["jpeg"] = {"quality": quality, "start": start.isoformat(), "every_s": every_s,
-                    "sensor_width_mm": SENSOR_WIDTH_MM, "gps_latency_s": gps_latency_s}
+                    "sensor_width_mm": SENSOR_WIDTH_MM, "gps_latency_s": gps_latency_s,
+                    "exif_style": style}
     write_json(d / "site.json", site)
     return out
 

@@ -80,7 +80,8 @@ def cmd_sim_site(args: argparse.Namespace) -> int:
     if args.jpeg:
         from mound.sim.card import site_jpegs
 
-        site_jpegs(args.out, _start_time(args.start_time), gps_latency_s=args.gps_latency)
+        site_jpegs(args.out, _start_time(args.start_time), gps_latency_s=args.gps_latency,
+                   style=args.exif_style)
     t = site["timings"]
     print(f"{'tumulus' if spec.terrain.mound else 'flat control'} ({args.preset}, seed "
           f"{args.seed}): {site['stats']['images']} images {spec.width_px}x{spec.height_px} "
@@ -197,6 +198,9 @@ def add_parser(sub: Any, parser_class: Any) -> Any:
                     help="JPEGs with EXIF (GPS, altitude, time, focal length) instead of PNGs")
     st.add_argument("--start-time", default="2026-06-01T09:00:00",
                     help="--jpeg: the first image's capture time (camera local time)")
+    st.add_argument("--exif-style", choices=("sim", "dji"), default="sim",
+                    help="--jpeg: the simulator's EXIF, or a DJI Phantom 3's (make DJI, model "
+                    "FC300S, no focal plane resolution, the drone-dji XMP packet)")
     st.add_argument("--gps-latency", type=Bound(-5, 5, "s").arg(), default=0.0,
                     help="--jpeg: the EXIF position is where the camera was this long before "
                     "the shutter (DJI's GNSS latency; one photo every 2 s; default 0)")
