@@ -11,3 +11,10 @@ DENSE_RESOLUTION_M = 0.25      # m: the fused cloud's voxel
 DENSE_SETTINGS = ("max_image_size", "resolution_m")
 DENSIFY_ARGS = ("--max-image-size", str(DENSE_MAX_IMAGE_SIZE),
                 "--resolution-m", str(DENSE_RESOLUTION_M))
+
+# Structure from motion. The simulated survey's sites (640 x 480, a known lens) keep the
+# fast setting; photos from a real card get COLMAP's density of keypoints (SIFT's contrast
+# threshold 0.01, 6,000 features per image): on real photos it matches or beats pycolmap's
+# camera accuracy (docs/results.md, issue 58) at 2.6-5 x its speed.
+SIM_MAX_FEATURES = 4000
+CARD_RECON_ARGS = ("--contrast-threshold", "0.01", "--max-features", "6000")

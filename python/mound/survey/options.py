@@ -93,7 +93,7 @@ class SurveyOptions:
     learn_weight: float = 1.0
     image_size: tuple[int, int] = (640, 480)  # px
     sim_seed: int = 1
-    max_features: int = 4000
+    max_features: int | None = None     # None: by the photos' source (recon.defaults)
     dense_size: int = DENSE_MAX_IMAGE_SIZE  # px; 0: no dense cloud
     reference: str | None = None        # PLY: the paper's test instead of the detector
     verdict_model: str | None = None    # the dense cloud's verdict model; None: built in

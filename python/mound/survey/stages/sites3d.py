@@ -29,10 +29,15 @@ from mound.survey.stages.mission import write_missions
 def site_jobs(ctx: Context, plan: Plan | None = None) -> list[Any]:
     """The 3-D jobs of the sites `plan` visits (default: plan.json); the sites keep their
     index in sites.json (which seeds their simulation) whichever plan visits them."""
-    from mound.recon.defaults import DENSE_RESOLUTION_M
+    from mound.recon.defaults import CARD_RECON_ARGS, DENSE_RESOLUTION_M, SIM_MAX_FEATURES
     from mound.survey.site_work import SiteJob
 
     a = ctx.args
+    # real photos (a card, or folders sorted by hand) get COLMAP's keypoint density, the
+    # simulated sites the fast setting; --max-features overrides the count for both
+    card = bool(a.photos or a.images_root)
+    recon_args = (("--max-features", str(a.max_features)) if a.max_features is not None
+                  else CARD_RECON_ARGS if card else ("--max-features", str(SIM_MAX_FEATURES)))
     sites_doc = Sites.read(ctx.tree.sites)
     if plan is None:
         plan = Plan.read(ctx.tree.plan)
@@ -40,7 +45,7 @@ def site_jobs(ctx: Context, plan: Plan | None = None) -> list[Any]:
     root = ctx.tree.root.resolve()
     options: dict[str, Any] = {"image_size": tuple(a.image_size), "pattern": a.scan_pattern,
                "site_diameter_m": a.site_diameter, "sim_seed": a.sim_seed,
-               "recon_args": ("--max-features", str(a.max_features)),
+               "recon_args": recon_args,
                "dense_args": ("--max-image-size", str(a.dense_size), "--resolution-m",
                               str(DENSE_RESOLUTION_M)) if a.dense_size > 0 else (),
                "verdict_args": ("--reference", str(Path(a.reference).resolve()))
