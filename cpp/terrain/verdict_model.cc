@@ -266,11 +266,8 @@ void CheckCloudSettings(const CloudSettings& model, const std::string& cloud,
                      model.cloud + " clouds (--model " + model.cloud + ", or the model of " +
                      cloud + " clouds)");
   for (const auto& [name, want] : model.options) {
-    const std::string flag = "--" + [&] {
-      std::string f = name;
-      std::replace(f.begin(), f.end(), '_', '-');
-      return f;
-    }();
+    std::string flag = "--" + name;  // densify's option: max_image_size -> --max-image-size
+    std::replace(flag.begin(), flag.end(), '_', '-');
     if (!options.is_object() || !options.contains(name) || !options[name].is_number())
       throw InputError(where + ": options." + name +
                        ": missing: cannot tell whether the cloud was made as the model's "
