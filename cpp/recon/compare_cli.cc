@@ -1,10 +1,8 @@
 #include "recon/compare_cli.h"
 
 #include <filesystem>
-#include <fstream>
 #include <iostream>
 #include <optional>
-#include <sstream>
 
 #include "common/atomic_file.h"
 #include "common/cli_args.h"
@@ -203,22 +201,14 @@ int RunVerdict(const std::vector<std::string>& args) {
       if (a.Has("--cloud")) {
         const std::string meta =
             (std::filesystem::path(cloud_path).parent_path() / "dense.json").string();
-        nlohmann::json options;
-        std::ifstream in(meta);
-        if (in) {
-          std::stringstream ss;
-          ss << in.rdbuf();
-          try {
-            options = nlohmann::json::parse(ss.str()).value("options", nlohmann::json());
-          } catch (const nlohmann::json::exception&) {
-            throw InputError(meta + ": not JSON: cannot tell how the --cloud was made");
-          }
-        } else {
+        if (!std::filesystem::is_regular_file(meta))
           throw InputError("--cloud: no dense.json beside " + cloud_path +
                            ": cannot tell whether the cloud was made as the model's training "
                            "clouds were (judge mound_recon densify's output)");
-        }
-        terrain::CheckCloudSettings(*model.cloud_settings, "dense", options, meta);
+        const nlohmann::json made = ParseJson(ReadFile(meta), meta);
+        terrain::CheckCloudSettings(
+            *model.cloud_settings, "dense",
+            made.is_object() ? made.value("options", nlohmann::json()) : nlohmann::json(), meta);
       } else {
         terrain::CheckCloudSettings(*model.cloud_settings, "sparse", nlohmann::json::object(),
                                     cloud_path);
