@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "common/error.h"
+#include "common/json_util.h"
 #include "terrain/default_verdict_model.h"
 
 namespace mound::terrain {
@@ -272,15 +273,14 @@ void CheckCloudSettings(const CloudSettings& model, const std::string& cloud,
       throw InputError(where + ": options." + name +
                        ": missing: cannot tell whether the cloud was made as the model's "
                        "training clouds were (mound_recon densify " +
-                       flag + " " + nlohmann::json(want).dump() + ")");
+                       flag + " " + FormatNumber(want) + ")");
     const double got = options[name].get<double>();
     if (!(std::fabs(got - want) <= 1e-9 * std::max(1.0, std::fabs(want))))
-      throw InputError(where + ": options." + name + " is " + nlohmann::json(got).dump() +
-                       ", the model was trained on clouds made with " +
-                       nlohmann::json(want).dump() +
+      throw InputError(where + ": options." + name + " is " + FormatNumber(got) +
+                       ", the model was trained on clouds made with " + FormatNumber(want) +
                        ": a model judges only clouds like its training clouds (mound_recon "
                        "densify " +
-                       flag + " " + nlohmann::json(want).dump() + ")");
+                       flag + " " + FormatNumber(want) + ")");
   }
 }
 
