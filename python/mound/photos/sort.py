@@ -117,7 +117,7 @@ LINK_SPACINGS = 4.0
 PROPOSED_PREFIX = "c"
 
 
-def propose_sites(rows: list[PhotoRow], spec: SortSpec) -> CardSites:
+def propose_sites(rows: list[PhotoRow]) -> CardSites:
     """Sites proposed from the card's own GPS photos (no plan, no sites file): home where
     the first photo (by capture time, else by name) was taken, with the take-off ground's
     height where DJI's XMP gives it (AbsoluteAltitude less RelativeAltitude); the photos
@@ -125,6 +125,7 @@ def propose_sites(rows: list[PhotoRow], spec: SortSpec) -> CardSites:
     are a site when they are at least MIN_PHOTOS, its centre their mean position and its
     reach the farthest of them from it (a site's size from its photos, not a fixed
     diameter); smaller groups are left as transit. Ids c01, c02, ... in the order flown."""
+    from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
     from scipy.spatial import cKDTree
 
@@ -140,22 +141,15 @@ def propose_sites(rows: list[PhotoRow], spec: SortSpec) -> CardSites:
     assert first.lat is not None and first.lon is not None  # a GPS photo
     origin = Origin(first.lat, first.lon, 0.0 if ground is None else ground)
     xy = geodetic_to_enu(origin, np.array([[r.lat, r.lon, 0.0] for r in gps]))[:, :2]
-    if len(gps) > 1:
-        tree = cKDTree(xy)
-        d, _ = tree.query(xy, k=2)
-        spacing = float(np.median(d[:, 1]))
-    else:
-        spacing = 0.0
-    link = max(LINK_SPACINGS * spacing, 1.0)
     n = len(gps)
+    spacing, label = 0.0, np.zeros(n, dtype=int)
     if n > 1:
-        pairs = cKDTree(xy).query_pairs(link, output_type="ndarray")
-        from scipy.sparse import coo_matrix
-
+        tree = cKDTree(xy)
+        spacing = float(np.median(tree.query(xy, k=2)[0][:, 1]))
+        pairs = tree.query_pairs(max(LINK_SPACINGS * spacing, 1.0), output_type="ndarray")
         graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
         _, label = connected_components(graph, directed=False)
-    else:
-        label = np.zeros(1, dtype=int)
+    link = max(LINK_SPACINGS * spacing, 1.0)
     rank = {k: i for i, k in enumerate(order)}
     groups = sorted((np.flatnonzero(label == g) for g in np.unique(label)),
                     key=lambda ks: min(rank[int(k)] for k in ks))
@@ -532,7 +526,7 @@ def sort_card(card: str, sites_path: str | None, out_dir: str, spec: SortSpec | 
     rows = _photo_rows(listing, root)
     _mark_other_flights(rows, spec)
     if sites is None:
-        sites = propose_sites(rows, spec)
+        sites = propose_sites(rows)
         Path(out_dir).mkdir(parents=True, exist_ok=True)
         write_json(Path(out_dir) / "sites.json", proposed_sites_doc(sites))
         sites_path = str(Path(out_dir) / "sites.json")
