@@ -29,8 +29,8 @@ the KMZ flies what the `.plan` flies:
   `imageFormat` and each `takePhoto`'s `payloadLensIndex` name the wide lens, the one the
   reconstruction is calibrated for (DJI's M30 export names `wide,ir` in both places);
 - speeds: a leg that climbs or descends is flown no faster than the aircraft's vertical
-  limit allows (`max_ascent_m_s`, `max_descent_m_s`: DJI's published figures for the
-  normal flight mode), and `duration` counts a stop at every waypoint
+  limit allows (`max_ascent_m_s`, `max_descent_m_s`: DJI's figures for the normal flight
+  mode, 6 m/s where only sport-mode ones were found), and `duration` counts a stop at every waypoint
   (`toPointAndStop...`: each leg accelerates from rest and brakes to rest).
 
 Heights. `relativeToStartPoint` (default): metres above the take-off point's ground, the
@@ -91,8 +91,8 @@ TEMPLATE_HEIGHT_MODES = ("EGM96", "relativeToStartPoint", "aboveGroundLevel",
                          "realTimeFollowSurface")
 WAYLINE_HEIGHT_MODES = ("WGS84", "relativeToStartPoint", "realTimeFollowSurface")
 # toPointAndStop...: each leg starts and ends at rest. DJI publishes no waypoint
-# acceleration; 2 m/s^2 is what the enterprise aircraft's logs show for waypoint flight
-# (an estimate, used only for the file's `duration`).
+# acceleration; 2 m/s^2 is an assumption, not a measurement (used only for the file's
+# `duration`).
 WAYPOINT_ACCEL_M_S2 = 2.0
 MAX_WAYPOINTS = 65_535
 MIN_LEG_M, MAX_LEG_M = 0.5, 2_000.0
@@ -113,7 +113,8 @@ class Aircraft:
     payload_enum: int
     payload: str
     lenses: tuple[str, ...]          # the payload's lenses, DJI's names (wide, zoom, ir, ...)
-    max_ascent_m_s: float            # DJI's published vertical limits, normal (N/P) mode
+    max_ascent_m_s: float            # vertical limits: DJI's normal (N/P) mode figures, or
+    #                                  lower where DJI gives only sport-mode ones (M4E)
     max_descent_m_s: float
     max_speed_m_s: float = 15.0
 
