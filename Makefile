@@ -32,8 +32,12 @@ test: build test-cpp test-python lint docs
 test-cpp: build
 	cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
 
+# The run traces which tests start a compiled tool (tools/native_tests.py): test-asan
+# runs those again under the sanitizers, and only those when the trace is current.
 test-python: build
-	$(PY) -m pytest -q
+	rm -f $(BUILD)/tool-trace.txt
+	MOUND_TOOL_TRACE=$(abspath $(BUILD))/tool-trace.txt $(PY) -m pytest -q
+	$(PY) tools/native_tests.py write $(BUILD)/tool-trace.txt $(BUILD)/native-tests.txt
 
 # The edit-test loop (< 1 min after the build): every ctest binary (~15 s) and the pytest
 # tests not marked slow (~40 s). `make test` still runs everything.
@@ -72,7 +76,8 @@ fuzz-smoke: setup
 	tools/fuzz/run.sh smoke 10
 
 # The whole test suite once more with every tool and test built under AddressSanitizer +
-# UndefinedBehaviorSanitizer (build-asan/; the Python tests run those tools).
+# UndefinedBehaviorSanitizer (build-asan/): every ctest binary, and the Python tests that
+# start a compiled tool (all of them when `make test` has not traced the current sources).
 ASAN_BUILD ?= build-asan
 test-asan: setup
 	cmake -S . -B $(ASAN_BUILD) -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DMOUND_SANITIZE=ON
@@ -80,7 +85,8 @@ test-asan: setup
 	cd $(ASAN_BUILD) && ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
 	  ctest --output-on-failure -j $(JOBS)
 	MOUND_BUILD_DIR=$(abspath $(ASAN_BUILD)) ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 \
-	  UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 $(PY) -m pytest -q
+	  UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 $(PY) -m pytest -q \
+	  $$($(PY) tools/native_tests.py args $(BUILD)/native-tests.txt)
 
 # The main job: the whole survey in one command (python/mission.py re-executes itself
 # under .venv): train the classifier, make standard field 0 at 250 m spacing, plan the tour,

@@ -38,8 +38,11 @@
 
 namespace mound::mvs {
 
+// The defaults of max_image_size and resolution_m are the clouds the shipped verdict
+// models were trained on (their cloud_settings): `mound_recon densify` with no option
+// makes a cloud the dense model judges; the survey and the grids pass none either.
 struct DenseOptions {
-  int max_image_size = 640;  // longer side of the depth maps (pixels; images downscaled)
+  int max_image_size = 320;  // longer side of the depth maps (pixels; images downscaled)
   int source_views = 4;      // source views per reference image
   int best_views = 2;        // a hypothesis's score: mean NCC of its best views
   int window = 7;            // NCC window side, pixels at the depth-map scale (odd)
@@ -51,7 +54,7 @@ struct DenseOptions {
   int min_consistent = 2;            // source depth maps that must confirm a point
   double max_reprojection_px = 1.0;  // forward-backward, depth-map pixels
   double max_relative_depth = 0.01;
-  double resolution_m = 0.1;                      // voxel of the fused cloud (>= 1 mm)
+  double resolution_m = 0.25;                     // voxel of the fused cloud (>= 1 mm)
   Eigen::Vector3d up = Eigen::Vector3d::UnitZ();  // sweep-plane normal (the ground's)
   int threads = 1;
   int image_cache_mb = 1024;  // images kept decoded and scaled (ComputeDepthMaps)

@@ -11,6 +11,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
+#include <unordered_map>
 
 #include "common/error.h"
 #include "sfm/cascade_hash.h"
@@ -210,8 +211,50 @@ MatchList MatchWith(const ImageFeatures& a, const SearchIndex& index_a, const Im
 
 }  // namespace
 
+std::vector<int> FirstAtSamePixel(const ImageFeatures& f) {
+  std::vector<int> first(f.keypoints.size());
+  std::unordered_map<uint64_t, int> seen;
+  seen.reserve(f.keypoints.size());
+  for (size_t k = 0; k < f.keypoints.size(); ++k) {
+    // Exactly the same position: OpenCV gives every orientation of a keypoint the same one.
+    const float x = static_cast<float>(f.keypoints[k].x()),
+                y = static_cast<float>(f.keypoints[k].y());
+    uint32_t bx = 0, by = 0;
+    std::memcpy(&bx, &x, sizeof bx);
+    std::memcpy(&by, &y, sizeof by);
+    first[k] = seen.emplace((uint64_t{bx} << 32) | by, static_cast<int>(k)).first->second;
+  }
+  return first;
+}
+
+MatchList OnePerPixel(const MatchList& matches, const std::vector<int>& first_a,
+                      const std::vector<int>& first_b) {
+  MatchList m;
+  m.reserve(matches.size());
+  for (const auto& [i, j] : matches) {
+    const bool in_range = i >= 0 && j >= 0 && static_cast<size_t>(i) < first_a.size() &&
+                          static_cast<size_t>(j) < first_b.size();
+    if (!in_range) throw InternalError("OnePerPixel: a match names no keypoint");
+    m.emplace_back(first_a[static_cast<size_t>(i)], first_b[static_cast<size_t>(j)]);
+  }
+  std::sort(m.begin(), m.end());
+  m.erase(std::unique(m.begin(), m.end()), m.end());
+  // A pixel matched to two different pixels (its orientations disagree): neither is kept.
+  std::unordered_map<int, int> uses_a, uses_b;
+  for (const auto& [i, j] : m) {
+    ++uses_a[i];
+    ++uses_b[j];
+  }
+  MatchList out;
+  out.reserve(m.size());
+  for (const auto& [i, j] : m)
+    if (uses_a[i] == 1 && uses_b[j] == 1) out.emplace_back(i, j);
+  return out;
+}
+
 MatchList MatchDescriptors(const ImageFeatures& a, const ImageFeatures& b, float ratio) {
-  return MatchWith(a, SearchIndex(a), b, SearchIndex(b), ratio);
+  return OnePerPixel(MatchWith(a, SearchIndex(a), b, SearchIndex(b), ratio), FirstAtSamePixel(a),
+                     FirstAtSamePixel(b));
 }
 
 namespace {
@@ -263,6 +306,7 @@ struct DescriptorMatcher::Impl {
   mutable std::vector<std::unique_ptr<CascadeHasher::Hashed>> hashed;
   mutable std::vector<std::once_flag> built;
   std::unique_ptr<CascadeHasher> hasher;
+  std::vector<std::vector<int>> first_at;  // FirstAtSamePixel of each image
   const SearchIndex& Index(int i) const {
     std::call_once(built[i], [&] {
       index[i] = std::make_unique<SearchIndex>(features[i], kind == MatcherKind::kExact);
@@ -279,10 +323,16 @@ struct DescriptorMatcher::Impl {
 
 DescriptorMatcher::DescriptorMatcher(const std::vector<ImageFeatures>& features, float ratio,
                                      MatcherKind kind)
-    : impl_(new Impl{features, ratio, kind,
+    : impl_(new Impl{features,
+                     ratio,
+                     kind,
                      std::vector<std::unique_ptr<SearchIndex>>(features.size()),
                      std::vector<std::unique_ptr<CascadeHasher::Hashed>>(features.size()),
-                     std::vector<std::once_flag>(features.size()), nullptr}) {
+                     std::vector<std::once_flag>(features.size()),
+                     nullptr,
+                     {}}) {
+  impl_->first_at.reserve(features.size());
+  for (const ImageFeatures& f : features) impl_->first_at.push_back(FirstAtSamePixel(f));
   if (kind == MatcherKind::kCascadeHash)
     impl_->hasher = std::make_unique<CascadeHasher>(MeanDescriptor(features));
 }
@@ -293,12 +343,12 @@ MatchList DescriptorMatcher::Match(int i, int j) const {
   const int n = static_cast<int>(impl_->features.size());
   if (i < 0 || j < 0 || i >= n || j >= n)
     throw InternalError("DescriptorMatcher::Match: image out of range");
-  if (impl_->kind == MatcherKind::kCascadeHash) {
-    return MatchHashed(impl_->features[i], impl_->Hash(i), impl_->features[j], impl_->Hash(j),
-                       *impl_->hasher, impl_->ratio);
-  }
-  return MatchWith(impl_->features[i], impl_->Index(i), impl_->features[j], impl_->Index(j),
-                   impl_->ratio);
+  const MatchList m = impl_->kind == MatcherKind::kCascadeHash
+                          ? MatchHashed(impl_->features[i], impl_->Hash(i), impl_->features[j],
+                                        impl_->Hash(j), *impl_->hasher, impl_->ratio)
+                          : MatchWith(impl_->features[i], impl_->Index(i), impl_->features[j],
+                                      impl_->Index(j), impl_->ratio);
+  return OnePerPixel(m, impl_->first_at[i], impl_->first_at[j]);
 }
 
 VerifiedPair VerifyPair(int i1, int i2, const ImageFeatures& a, const ImageFeatures& b,

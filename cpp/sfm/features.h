@@ -29,11 +29,14 @@ struct ImageFeatures {
 
 struct FeatureOptions {
   int max_image_size = 2000;  // longer side, pixels; larger images are downscaled
-  int max_features = 8000;
+  // Real photos' settings (what the survey runs on a card; on Caliterra and fountain-P11
+  // they match or beat pycolmap's cameras, docs/results.md issue 58). The simulated sites
+  // (640 x 480 renders) take 4000 and 0.04 (python/mound/recon/defaults.py).
+  int max_features = 6000;
   // SIFT's contrast threshold (OpenCV's, divided by the 3 scales of an octave for the DoG
   // peaks): 0.04 is OpenCV's default; COLMAP's peak threshold 0.02 / 3 is 0.02 here, which
-  // finds ~2.5x the keypoints on a survey image.
-  double contrast_threshold = 0.04;
+  // finds ~2.5x the keypoints on a survey image; 0.01 finds COLMAP's density.
+  double contrast_threshold = 0.01;
 };
 
 // OpenCV's own parallel loops (inside SIFT, resizing, RANSAC) use at most `threads` threads
@@ -61,7 +64,21 @@ struct KltResult {
   std::vector<MatchList> consecutive;
 };
 KltResult TrackKlt(const std::vector<std::string>& paths, const FeatureOptions& options);
+// Descriptor matches of a in b (ratio test, mutual check), one per pixel pair
+// (OnePerPixel).
 MatchList MatchDescriptors(const ImageFeatures& a, const ImageFeatures& b, float ratio = 0.8f);
+
+// OpenCV's SIFT returns one keypoint per dominant orientation at the same pixel (each with
+// its own descriptor): 18 % of a real DJI card's observations were such twins, 36 % of
+// Caliterra's 3-D points had a twin, counted twice in bundle adjustment. Both descriptors
+// are kept for matching (COLMAP's choice: a second orientation finds matches the first
+// misses); a match then names the first keypoint at its pixel, so that a pixel is observed
+// once. FirstAtSamePixel: for each keypoint, the first one at exactly its position.
+std::vector<int> FirstAtSamePixel(const ImageFeatures& f);
+// The matches in those first keypoints' indices, each pixel pair once; a pixel whose
+// orientations matched two different pixels of the other image is dropped (ambiguous).
+MatchList OnePerPixel(const MatchList& matches, const std::vector<int>& first_a,
+                      const std::vector<int>& first_b);
 
 // The same for many pairs of one image set: each image's search index is built once, on
 // first use, and shared by every pair it is in; the backward search of the mutual check
@@ -69,8 +86,9 @@ MatchList MatchDescriptors(const ImageFeatures& a, const ImageFeatures& b, float
 // trees (4 trees, 64 checks) for 1,000 descriptors or more, brute force below; or cascade
 // hashing (cascade_hash.h: codes centred on the set's mean descriptor, the 20 nearest in
 // Hamming distance compared exactly); or exact (brute force over every descriptor: the
-// reference the approximate ones are measured against, ~50x slower). Match() is
-// thread-safe and its result does not depend on the order of calls or on the threads.
+// reference the approximate ones are measured against, ~50x slower). Matches are one per
+// pixel pair (OnePerPixel). Match() is thread-safe and its result does not depend on the order of
+// calls or on the threads.
 enum class MatcherKind { kFlann, kCascadeHash, kExact };
 
 class DescriptorMatcher {

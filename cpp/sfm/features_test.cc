@@ -181,5 +181,39 @@ TEST(DescriptorMatcher, ApproximateMatchersKeepTheExactMatches) {
   }
 }
 
+// OpenCV's SIFT gives a keypoint with two dominant orientations twice, at the same pixel:
+// the matches name each pixel once, in both images, so that no pixel becomes two
+// observations (of one 3-D point counted twice, or of two 3-D points at one place).
+TEST(DescriptorMatcher, EachPixelIsMatchedOnce) {
+  const Image a = Texture(0, 0), b = Warped(25, 1.15, 5);
+  std::vector<ImageFeatures> f = {ExtractFeatures(a.pixels.data(), a.width, a.height, 4000),
+                                  ExtractFeatures(b.pixels.data(), b.width, b.height, 4000)};
+  const std::vector<int> first = FirstAtSamePixel(f[0]);
+  int twins = 0;
+  for (size_t k = 0; k < first.size(); ++k) {
+    ASSERT_LE(first[k], static_cast<int>(k));
+    EXPECT_EQ(f[0].keypoints[static_cast<size_t>(first[k])], f[0].keypoints[k]);
+    twins += first[k] != static_cast<int>(k);
+  }
+  std::printf("%d of %zu keypoints share a pixel with an earlier one\n", twins, first.size());
+  ASSERT_GT(twins, 0);  // what this test is about: OpenCV does return them
+  for (const MatcherKind kind :
+       {MatcherKind::kFlann, MatcherKind::kCascadeHash, MatcherKind::kExact}) {
+    const MatchList m = DescriptorMatcher(f, 0.8f, kind).Match(0, 1);
+    ASSERT_GT(m.size(), 300u);
+    std::set<int> in_a, in_b;
+    for (const auto& [i, j] : m) {
+      EXPECT_TRUE(in_a.insert(i).second) << "keypoint " << i << " of a matched twice";
+      EXPECT_TRUE(in_b.insert(j).second) << "keypoint " << j << " of b matched twice";
+      EXPECT_EQ(first[static_cast<size_t>(i)], i);  // the first keypoint at its pixel
+    }
+  }
+  // Twins that agree become one match; twins that disagree none.
+  const std::vector<int> id = {0, 1, 2, 3};
+  EXPECT_EQ(OnePerPixel({{1, 2}, {0, 2}, {3, 3}}, {0, 0, 2, 3}, id), MatchList({{0, 2}, {3, 3}}));
+  EXPECT_EQ(OnePerPixel({{0, 1}, {1, 2}, {3, 3}}, {0, 0, 2, 3}, id), MatchList({{3, 3}}));
+  EXPECT_THROW(OnePerPixel({{4, 0}}, id, id), InternalError);
+}
+
 }  // namespace
 }  // namespace mound::sfm

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import Any
 
@@ -66,3 +67,16 @@ def raw(dem_path: Path) -> tuple[Any, Any]:
 
     with rasterio.open(dem_path) as ds:
         return ds.read(1).astype(np.float64), ds.transform
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """Under $MOUND_TOOL_TRACE (tools/native_tests.py), the tests that take a built tool as
+    a fixture are traced up front: a session fixture locates its tool only once."""
+    trace = os.environ.get("MOUND_TOOL_TRACE")
+    if not trace:
+        return
+    tools = {"mound_plan", "mound_render", "mound_recon"}
+    with open(trace, "a", encoding="utf-8") as f:
+        for item in items:
+            if tools & set(getattr(item, "fixturenames", ())):
+                f.write(item.nodeid + "\n")

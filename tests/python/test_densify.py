@@ -18,7 +18,7 @@ import rasterio
 from mound.cli import main as mound_main
 from mound.geometry.align import apply, umeyama
 from mound.ply import read_ply, read_ply_fields, write_ply
-from mound.recon.defaults import DENSIFY_ARGS
+from mound.recon.defaults import SIM_RECON_ARGS
 from mound.sim.terrain import load_site_heightfield
 
 DIAMETER_M, HEIGHT_M = 30.0, 3.0
@@ -39,7 +39,7 @@ def site(tmp_path_factory: pytest.TempPathFactory, mound_recon: Path) -> Path:
                        "--size", "640", "480", "--threads", "2", "--out", str(out / "site")]) == 0
     r = recon_tool(["reconstruct", str(out / "site" / "images"), "--out", str(out / "recon"),
                     "--camera", str(out / "site" / "camera.json"), "--gps",
-                    str(out / "site" / "poses.json"), "--threads", "2"])
+                    str(out / "site" / "poses.json"), "--threads", "2", *SIM_RECON_ARGS])
     assert r.returncode == 0, r.stderr
     return out
 
@@ -47,7 +47,7 @@ def site(tmp_path_factory: pytest.TempPathFactory, mound_recon: Path) -> Path:
 @pytest.fixture(scope="module")
 def dense(site: Path) -> Path:
     r = recon_tool(["densify", str(site / "recon"), "--out", str(site / "dense"),
-                    "--resolution-m", "0.1", "--threads", "2"])
+                    "--max-image-size", "640", "--resolution-m", "0.1", "--threads", "2"])
     assert r.returncode == 0, r.stderr
     return site / "dense"
 
@@ -116,16 +116,15 @@ def test_rasters_and_verdict_of_the_dense_cloud(site: Path, dense: Path, tmp_pat
     assert rgba[:3, rgba[3] == 255].std() > 10     # and carry its texture
     assert 0.75 * HEIGHT_M < float(relief.max()) < 1.3 * HEIGHT_M
     # Issue 67: this cloud (0.1 m voxels, 640 px depth maps) is not one the built-in dense
-    # model was trained on: refused, naming the setting; a cloud made as the survey makes
-    # its own is judged.
+    # model was trained on: refused, naming the setting; a cloud made with densify's
+    # defaults (as the survey and the grids make theirs) is judged.
     r = recon_tool(["verdict", str(site / "recon"), "--cloud", str(dense / "dense.ply"),
                     "--out", str(tmp_path / "verdict.json")])
     assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr
     assert "options.max_image_size is 640" in r.stderr and "--max-image-size 320" in r.stderr
     assert not (tmp_path / "verdict.json").exists()
     like = site / "dense_like_the_model"
-    r = recon_tool(["densify", str(site / "recon"), "--out", str(like), "--threads", "2",
-                    *DENSIFY_ARGS])
+    r = recon_tool(["densify", str(site / "recon"), "--out", str(like), "--threads", "2"])
     assert r.returncode == 0, r.stderr
     r = recon_tool(["verdict", str(site / "recon"), "--cloud", str(like / "dense.ply"),
                     "--out", str(tmp_path / "verdict.json")])

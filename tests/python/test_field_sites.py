@@ -307,13 +307,15 @@ def test_a_grid_of_the_full_flight_from_the_card_judged_on_its_dense_cloud(
     v = json.loads((out / "0000" / "verdict.json").read_text())
     assert v["status"] == "ok" and v["cloud"].endswith("dense/dense.ply")
     dense_points = v["measurements"]["cells_with_points"]
-    # densified as the survey densifies its sites (the verdict's dense model is learned so)
-    from mound.recon.defaults import DENSE_RESOLUTION_M
-    from mound.survey.options import SurveyOptions
+    # densified as the built-in dense model's training clouds were (densify's defaults)
+    from mound.paths import REPO_ROOT
+    from mound.recon.model_file import read_verdict_model
 
     opts = json.loads((out / "0000" / "dense" / "dense.json").read_text())["options"]
-    assert opts["max_image_size"] == SurveyOptions().dense_size
-    assert opts["resolution_m"] == DENSE_RESOLUTION_M
+    c = read_verdict_model(REPO_ROOT / "data" / "verdict_model_dense.json").cloud_settings
+    assert c is not None
+    assert (opts["max_image_size"], opts["resolution_m"]) == (c["max_image_size"],
+                                                              c["resolution_m"])
     stamp = (out / "0000" / "dense" / "dense.ply").stat().st_mtime_ns
     assert main(["sim", "grid", "--out", str(out), "--sites", "1", "--seed", "7",
                  "--pattern", "both", "--dense", "--card", "--remeasure", "--workers",

@@ -503,8 +503,6 @@ def test_a_simulated_dji_card_goes_from_photos_to_verdict(tmp_path: Path) -> Non
     the focal length from the sensor table (exactly the simulator's), the heights stated
     above EGM96, the latency found and every strip kept, and the 12 m tumulus judged
     `mound`."""
-    from mound.recon.defaults import DENSIFY_ARGS
-
     site = tmp_path / "site"
     assert mound_main(["sim", "site", "--size", "640", "480", "--pattern", "raster",
                        "--jpeg", "--exif-style", "dji", "--gps-latency", "0.6",
@@ -517,7 +515,7 @@ def test_a_simulated_dji_card_goes_from_photos_to_verdict(tmp_path: Path) -> Non
     native.run_tool("mound_recon", ["reconstruct", str(tmp_path / "sorted" / "c01"), "--gps",
                                     "exif", "--out", str(recon), "--threads", "2"])
     native.run_tool("mound_recon", ["densify", str(recon), "--out", str(dense), "--threads",
-                                    "2", *DENSIFY_ARGS])
+                                    "2"])
     native.run_tool("mound_recon", ["verdict", str(recon), "--cloud", str(dense / "dense.ply"),
                                     "--out", str(tmp_path / "verdict.json")])
     r = json.loads((recon / "recon.json").read_text())
@@ -536,13 +534,11 @@ def test_a_simulated_dji_card_goes_from_photos_to_verdict(tmp_path: Path) -> Non
 def test_the_survey_and_the_standalone_path_give_the_same_verdict(tmp_path: Path) -> None:
     """Issue 67: on a card (simulated DJI, a 2 m x 30 m tumulus, GNSS latency), the survey
     run on the sites the card proposes (`mission.py --sites DIR/sites.json --photos CARD`)
-    and the docs' standalone commands with recon.defaults' settings (CARD_RECON_ARGS,
-    DENSIFY_ARGS) give the same verdict, p to the last bits (measured: 0.99998993 both)."""
+    and the docs' standalone commands with the tools' defaults give the same verdict, p to
+    the last bits (measured: 0.99998993 both)."""
     import sys
 
     from mound.paths import REPO_ROOT
-    from mound.recon.defaults import CARD_RECON_ARGS, DENSIFY_ARGS
-
     site = tmp_path / "site"
     assert mound_main(["sim", "site", "--size", "640", "480", "--pattern", "raster",
                        "--jpeg", "--exif-style", "dji", "--gps-latency", "0.6", "--height",
@@ -555,10 +551,9 @@ def test_the_survey_and_the_standalone_path_give_the_same_verdict(tmp_path: Path
     assert r.returncode == 0, r.stdout[-2000:] + r.stderr[-2000:]
     alone = tmp_path / "alone"
     native.run_tool("mound_recon", ["reconstruct", str(tmp_path / "sorted" / "c01"), "--gps",
-                                    "exif", "--out", str(alone), "--threads", "1",
-                                    *CARD_RECON_ARGS])
+                                    "exif", "--out", str(alone), "--threads", "1"])
     native.run_tool("mound_recon", ["densify", str(alone), "--out", str(alone / "dense"),
-                                    "--threads", "1", *DENSIFY_ARGS])
+                                    "--threads", "1"])
     native.run_tool("mound_recon", ["verdict", str(alone), "--cloud",
                                     str(alone / "dense" / "dense.ply"), "--out",
                                     str(alone / "verdict.json")])

@@ -512,10 +512,10 @@ def test_the_photo_card_gives_the_same_verdicts(survey: dict[str, Any], tmp_path
                      "--image-size", "320", "240", "--truth", str(tmp_path / "truth.json")])
     assert code == 0
     run = tmp_path / "run"
-    # the simulated folders' reconstruction settings (--max-features 4000 at SIFT's default
-    # contrast), so that the card path is compared with them like for like: a card's photos
-    # otherwise get COLMAP's keypoint density (issue 67), which on these 320 x 240 frames
-    # bent s023's ground by 0.34 m
+    # the simulated folders' reconstruction settings (--max-features 4000, which takes
+    # SIFT's contrast 0.04 with it), so that the card path is compared with them like for
+    # like: a card's photos otherwise get COLMAP's keypoint density (issue 67), which on
+    # these 320 x 240 frames bent s023's ground by 0.34 m
     r = run_driver(["--out", str(run), *SMALL, "--photos", str(card), "--dense-size", "0",
                     "--max-features", "4000"])
     assert r.returncode == 0, r.stdout + r.stderr

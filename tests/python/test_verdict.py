@@ -16,6 +16,7 @@ import pytest
 
 from mound.cli import main as mound_main
 from mound.ply import read_ply, read_ply_fields
+from mound.recon.defaults import SIM_RECON_ARGS
 
 
 def run_recon(args: list[str]) -> subprocess.CompletedProcess[str]:
@@ -31,7 +32,8 @@ def reconstruct(tmp: pytest.TempPathFactory, mound: str) -> tuple[Path, Path]:
                        "--orbit-images", "12", "--size", "640", "480", "--out", str(site)]) == 0
     out = tmp.mktemp(f"recon_{mound}")
     r = run_recon(["reconstruct", str(site / "images"), "--out", str(out), "--camera",
-                   str(site / "camera.json"), "--gps", str(site / "poses.json"), "--threads", "2"])
+                   str(site / "camera.json"), "--gps", str(site / "poses.json"), "--threads", "2",
+                   *SIM_RECON_ARGS])
     assert r.returncode == 0, r.stderr
     return site, out
 

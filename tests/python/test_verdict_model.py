@@ -390,10 +390,10 @@ def test_training_refuses_too_little_or_one_class() -> None:
 def _case(tmp: Path, spec: terrain.TerrainSpec, seed: int,
           dense: bool = False) -> dict[str, Any]:
     """The site flown, reconstructed and judged on its sparse cloud by the sparse model;
-    with `dense` also densified as the survey densifies (mound.recon.defaults.DENSIFY_ARGS) and
+    with `dense` also densified as the survey densifies (densify's defaults) and
     judged on that cloud by the dense model (verdict_dense.json)."""
     from mound import native
-    from mound.recon.defaults import DENSIFY_ARGS
+    from mound.recon.defaults import SIM_RECON_ARGS
 
     site = sim.SimSpec(terrain=spec, width_px=320, height_px=240, pattern="raster",
                        scan_diameter_m=60.0, seed=seed, texel_m=0.1)
@@ -401,12 +401,13 @@ def _case(tmp: Path, spec: terrain.TerrainSpec, seed: int,
     s = tmp / "sim"
     native.run_tool("mound_recon", ["reconstruct", str(s / "images"), "--out",
                                     str(tmp / "recon"), "--camera", str(s / "camera.json"),
-                                    "--gps", str(s / "poses.json"), "--threads", "2"])
+                                    "--gps", str(s / "poses.json"), "--threads", "2",
+                                    *SIM_RECON_ARGS])
     native.run_tool("mound_recon", ["verdict", str(tmp / "recon"), "--out",
                                     str(tmp / "verdict.json")])
     if dense:
         native.run_tool("mound_recon", ["densify", str(tmp / "recon"), "--out",
-                                        str(tmp / "dense"), "--threads", "2", *DENSIFY_ARGS])
+                                        str(tmp / "dense"), "--threads", "2"])
         native.run_tool("mound_recon", ["verdict", str(tmp / "recon"), "--cloud",
                                         str(tmp / "dense" / "dense.ply"), "--out",
                                         str(tmp / "verdict_dense.json")])

@@ -45,7 +45,7 @@ import numpy as np
 from mound import native
 from mound.errors import InputError, NoResultError, ToolNoResultError
 from mound.jsonio import read_json, write_json
-from mound.recon.defaults import DENSIFY_ARGS
+from mound.recon.defaults import SIM_RECON_ARGS
 from mound.sim import site as sim
 from mound.sim.card import site_jpegs
 from mound.sim.dem_places import DemPlaces
@@ -61,8 +61,6 @@ from mound.sim.population import read_population
 
 SCHEMA = "mound.verdict_grid"
 VERSION = 1
-# the survey's densify (mound.recon.defaults): depth maps 320 px on their longer side,
-# points merged on 0.25 m voxels
 DEFAULT_DEM = "TM1_564_146.tif"  # the 1 m airborne-laser DEM (../shared/data/dem)
 
 
@@ -99,7 +97,7 @@ def _site(out: Path, spec: sim.SimSpec, threads: int, remeasure: bool,
                 site_jpegs(simdir, datetime(2026, 6, 1, 9, 0, 0))
             else:
                 camera = ["--camera", str(simdir / "camera.json"), "--gps",
-                          str(simdir / "poses.json")]
+                          str(simdir / "poses.json"), *SIM_RECON_ARGS]
             times["simulate"] = time.perf_counter() - t
             t = time.perf_counter()
             try:
@@ -117,7 +115,7 @@ def _site(out: Path, spec: sim.SimSpec, threads: int, remeasure: bool,
                 try:
                     native.run_tool("mound_recon", [
                         "densify", str(recon), "--out", str(out / "dense"), "--threads",
-                        str(threads), *DENSIFY_ARGS], 1800, log=out / "log.txt")
+                        str(threads)], 1800, log=out / "log.txt")
                 except ToolNoResultError:
                     pass  # no dense cloud: the verdict then says status failed
                 times["densify"] = time.perf_counter() - t

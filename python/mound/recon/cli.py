@@ -262,8 +262,10 @@ def cmd_recon_figure(args: argparse.Namespace) -> int:
 
 def cmd_recon_rasters(args: argparse.Namespace) -> int:
     from mound.recon import rasters
+    from mound.recon.defaults import DENSE_CELL_M, SPARSE_CELL_M
 
-    doc = rasters.from_recon(Path(args.recon_dir), Path(args.out), args.resolution_m,
+    cell = args.resolution_m or (DENSE_CELL_M if args.cloud else SPARSE_CELL_M)
+    doc = rasters.from_recon(Path(args.recon_dir), Path(args.out), cell,
                              Path(args.cloud) if args.cloud else None,
                              args.ground_window_m, args.relief_sigma_m,
                              ortho=not args.no_orthophoto,
@@ -339,7 +341,8 @@ def add_parser(sub: Any, parser_class: Any) -> None:
     rr.add_argument("recon_dir")
     rr.add_argument("--out", required=True, help="output folder")
     rr.add_argument("--resolution-m", type=Bound(0.01, 100, "m").arg(),
-                    default=0.25, help="cell size, m")
+                    help="cell size, m (default: the survey's, 0.5 with a dense --cloud, 2 "
+                    "for the sparse points)")
     rr.add_argument("--cloud", help="a PLY cloud in the model's frame instead of points.ply")
     rr.add_argument("--ground-window-m", type=Bound(0, 10_000, "m", above=True).arg(), default=80.0,
                     help="largest window of the ground filter (> the mounds' diameter), m")

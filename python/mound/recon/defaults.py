@@ -1,20 +1,25 @@
-"""The dense cloud the learned verdict is trained on and judges, in one place: the grids
-(`mound sim grid --dense`), the survey (`--dense-size`) and the docs' standalone path all
-densify with these settings, and the models trained on those clouds record them
-(`cloud_settings`), so that `mound_recon verdict` can refuse a cloud made otherwise."""
+"""The settings of the 3-D stage that Python chooses, in one place.
+
+The C++ tools' own defaults are the settings for real photos and for the verdict:
+`mound_recon reconstruct` extracts what the survey extracts from a card (6,000 SIFT
+features at contrast 0.01, COLMAP's density), and `mound_recon densify` makes the clouds
+the shipped verdict models were trained on (320 px depth maps, 0.25 m voxels: the models'
+`cloud_settings`, which the survey passes on and `mound_recon verdict` checks). So the
+tutorial, the standalone tools and the survey agree on a card; what differs is chosen here,
+by name.
+"""
 
 from __future__ import annotations
 
-DENSE_MAX_IMAGE_SIZE = 320     # px: the depth maps' longer side
-DENSE_RESOLUTION_M = 0.25      # m: the fused cloud's voxel
 # The densify options a model's cloud_settings records (dense.json's `options` names).
 DENSE_SETTINGS = ("max_image_size", "resolution_m")
-DENSIFY_ARGS = ("--max-image-size", str(DENSE_MAX_IMAGE_SIZE),
-                "--resolution-m", str(DENSE_RESOLUTION_M))
 
-# Structure from motion. The simulated survey's sites (640 x 480, a known lens) keep the
-# fast setting; photos from a real card get COLMAP's density of keypoints (SIFT's contrast
-# threshold 0.01, 6,000 features per image): on real photos it matches or beats pycolmap's
-# camera accuracy (docs/results.md, issue 58) at 2.6-5 x its speed.
-SIM_MAX_FEATURES = 4000
-CARD_RECON_ARGS = ("--contrast-threshold", "0.01", "--max-features", "6000")
+# Structure from motion of the simulated sites (640 x 480 renders of a known lens): the fast
+# setting, which the training grids and the survey's simulated flights share. Real photos
+# take the tool's defaults.
+SIM_RECON_ARGS = ("--max-features", "4000", "--contrast-threshold", "0.04")
+
+# Cells of a site's GeoTIFFs (mound recon rasters, the survey): the sparse cloud holds ~1
+# point per m², the dense one (0.25 m voxels) ~16.
+SPARSE_CELL_M = 2.0
+DENSE_CELL_M = 0.5

@@ -163,13 +163,15 @@ def _stage3d_arguments(p: argparse.ArgumentParser, D: SurveyOptions) -> None:
     g.add_argument("--sim-seed", type=NUMBERS["sim_seed"].arg(),
                    default=D.sim_seed, help="seed of the simulated sites")
     g.add_argument("--max-features", type=NUMBERS["max_features"].arg(), default=D.max_features,
-                   help="SIFT features per image (mound_recon reconstruct; default: 4000 "
-                   "for simulated sites, and for photos from a card (--photos, --images-root) "
-                   "COLMAP's density: 6000 at SIFT contrast 0.01)")
+                   help="SIFT features per image at the simulated sites' SIFT contrast 0.04 "
+                   "(mound_recon reconstruct; default: 4000 for simulated sites, and for "
+                   "photos from a card (--photos, --images-root) the tool's defaults: 6000 "
+                   "at contrast 0.01, COLMAP's density)")
     g.add_argument("--dense-size", type=NUMBERS["dense_size"].arg(),
                    default=D.dense_size, metavar="PX",
-                   help="depth maps of mound_recon densify, longer side px (0: no dense "
-                   "cloud; the site's GeoTIFFs then come from the sparse one)")
+                   help="depth maps of mound_recon densify, longer side px (default: the "
+                   "verdict model's training clouds, 320 for the built-in one; 0: no dense "
+                   "cloud, the site's GeoTIFFs then come from the sparse one)")
     g.add_argument("--reference", help="judge by the paper's test against this reference "
                    "mound (PLY) instead of the reference-free dome detector")
     g.add_argument("--verdict-model", metavar="FILE",

@@ -28,7 +28,6 @@ from mound.bounds import (
 )
 from mound.errors import InputError
 from mound.geometry.flight import DEFAULT_SITE_DIAMETER_M
-from mound.recon.defaults import DENSE_MAX_IMAGE_SIZE
 from mound.uav.terrain import TerrainSpec, spec_from_args
 
 ScanPattern = Literal["raster", "orbit", "both"]
@@ -94,7 +93,7 @@ class SurveyOptions:
     image_size: tuple[int, int] = (640, 480)  # px
     sim_seed: int = 1
     max_features: int | None = None     # None: by the photos' source (recon.defaults)
-    dense_size: int = DENSE_MAX_IMAGE_SIZE  # px; 0: no dense cloud
+    dense_size: int | None = None       # px; 0: no dense cloud; None: the verdict model's
     reference: str | None = None        # PLY: the paper's test instead of the detector
     verdict_model: str | None = None    # the dense cloud's verdict model; None: built in
     site_timeout: float = 1800.0        # s per tool run of a site
@@ -152,7 +151,7 @@ class SurveyOptions:
                     raise UsageError(str(e)) from None
         if min(self.image_size) < 64:
             raise UsageError("--image-size: at least 64 x 64 px")
-        if self.dense_size != 0 and self.dense_size < 32:
+        if self.dense_size is not None and self.dense_size != 0 and self.dense_size < 32:
             raise UsageError("--dense-size: 0 (no dense cloud) or at least 32 px")
         if self.images_root and not Path(self.images_root).is_dir():
             raise UsageError(f"--images-root: {self.images_root} is not a folder")
@@ -191,7 +190,7 @@ class SurveyOptions:
                 raise UsageError("--verdict-model: the dense cloud's model; it needs the dense "
                                  "cloud (--dense-size > 0) and the reference-free verdict (no "
                                  "--reference)")
-        if self.dense_size > 0 and not self.reference:
+        if self.dense_size != 0 and not self.reference:
             self._check_cloud_settings()
         if self.sites and not Path(self.sites).is_file():
             raise UsageError(f"--sites: {self.sites} not found")
@@ -220,17 +219,43 @@ class SurveyOptions:
             except FileNotFoundError as e:
                 raise UsageError(f"{e}") from None
 
+    def dense_model_path(self) -> str:
+        """The dense cloud's verdict model: --verdict-model, else the built-in one."""
+        from mound.paths import REPO_ROOT
+
+        return self.verdict_model or str(REPO_ROOT / "data" / "verdict_model_dense.json")
+
+    def densify_args(self) -> tuple[str, ...]:
+        """`mound_recon densify`'s options for the survey's dense clouds: the clouds its
+        verdict model was trained on (the model's cloud_settings; --dense-size replaces the
+        depth maps' size, which check() refuses unless the model records none); none
+        without a dense cloud, the tool's defaults for a model that records nothing."""
+        from mound.recon.defaults import DENSE_SETTINGS
+        from mound.recon.model_file import read_verdict_model
+
+        if self.dense_size == 0:
+            return ()
+        c = read_verdict_model(self.dense_model_path()).cloud_settings or {}
+        settings = {k: c[k] for k in DENSE_SETTINGS if k in c}
+        if self.dense_size is not None:
+            settings["max_image_size"] = self.dense_size
+        args: list[str] = []
+        for name, value in settings.items():
+            args += ["--" + name.replace("_", "-"), f"{value:g}"]
+        return tuple(args)
+
     def _check_cloud_settings(self) -> None:
         """The dense clouds the survey will make are those its verdict model was trained
         on (the model's cloud_settings), else a usage error naming --dense-size before
         anything is flown."""
-        from mound.paths import REPO_ROOT
-        from mound.recon.defaults import DENSE_RESOLUTION_M
         from mound.recon.model_file import cloud_mismatch, read_verdict_model
 
-        path = self.verdict_model or str(REPO_ROOT / "data" / "verdict_model_dense.json")
-        why = cloud_mismatch(read_verdict_model(path), "dense", {
-            "max_image_size": self.dense_size, "resolution_m": DENSE_RESOLUTION_M})
+        path = self.dense_model_path()
+        model = read_verdict_model(path)
+        if self.dense_size is None or model.cloud_settings is None:
+            return  # the model's own settings, or a model that records none
+        settings = {k: v for k, v in model.cloud_settings.items() if k != "cloud"}
+        why = cloud_mismatch(model, "dense", {**settings, "max_image_size": self.dense_size})
         if why:
             raise UsageError(f"--dense-size {self.dense_size}: {why}; the verdict model "
                              f"({path}) judges only clouds like its training clouds")

@@ -44,8 +44,6 @@ from mound.sim.card import SiteGround
 from mound.survey.tree import SiteTree
 
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff")
-RASTER_CELL_M = 2.0    # the GeoTIFFs of each visited site (sparse cloud: ~1 point per m²)
-DENSE_CELL_M = 0.5     # the GeoTIFFs from the dense cloud
 
 
 @dataclass(frozen=True)
@@ -362,11 +360,14 @@ def _rasters(job: SiteJob, row: SiteRow, dense: Path | None) -> None:
     """The DSM, DTM, relief model, hillshade and orthophoto GeoTIFFs of a metric model in
     sites/ID/rasters/ (mound.recon.rasters, which refuses a model without a metric ENU
     frame): from the dense cloud at DENSE_CELL_M, else from the sparse one at
-    RASTER_CELL_M. The verdict stands without them; the row says why they are missing."""
+    SPARSE_CELL_M (mound.recon.defaults). The verdict stands without them; the row says
+    why they are missing."""
     from mound.recon import rasters
 
     t = job.tree
-    cloud, cell = (dense, DENSE_CELL_M) if dense is not None else (None, RASTER_CELL_M)
+    from mound.recon.defaults import DENSE_CELL_M, SPARSE_CELL_M
+
+    cloud, cell = (dense, DENSE_CELL_M) if dense is not None else (None, SPARSE_CELL_M)
     t0 = time.perf_counter()
     try:
         doc = rasters.from_recon(t.recon, t.rasters, resolution_m=cell, cloud=cloud)

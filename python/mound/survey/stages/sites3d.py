@@ -26,18 +26,27 @@ from mound.survey.ledger import digest
 from mound.survey.stages.mission import write_missions
 
 
+def _without(args: tuple[str, ...], flag: str) -> tuple[str, ...]:
+    """`args` (flag, value pairs) without `flag` and its value."""
+    pairs = zip(args[::2], args[1::2], strict=True)
+    return tuple(x for f, v in pairs if f != flag for x in (f, v))
+
+
 def site_jobs(ctx: Context, plan: Plan | None = None) -> list[Any]:
     """The 3-D jobs of the sites `plan` visits (default: plan.json); the sites keep their
     index in sites.json (which seeds their simulation) whichever plan visits them."""
-    from mound.recon.defaults import CARD_RECON_ARGS, DENSE_RESOLUTION_M, SIM_MAX_FEATURES
+    from mound.recon.defaults import SIM_RECON_ARGS
     from mound.survey.site_work import SiteJob
 
     a = ctx.args
-    # real photos (a card, or folders sorted by hand) get COLMAP's keypoint density, the
-    # simulated sites the fast setting; --max-features overrides the count for both
+    # real photos (a card, or folders sorted by hand) get the tool's defaults (COLMAP's
+    # keypoint density), the simulated sites the fast setting; --max-features N asks for
+    # the fast setting with N features for both
     card = bool(a.photos or a.images_root)
-    recon_args = (("--max-features", str(a.max_features)) if a.max_features is not None
-                  else CARD_RECON_ARGS if card else ("--max-features", str(SIM_MAX_FEATURES)))
+    recon_args: tuple[str, ...] = () if card else SIM_RECON_ARGS
+    if a.max_features is not None:
+        recon_args = (*_without(SIM_RECON_ARGS, "--max-features"), "--max-features",
+                      str(a.max_features))
     sites_doc = Sites.read(ctx.tree.sites)
     if plan is None:
         plan = Plan.read(ctx.tree.plan)
@@ -46,8 +55,7 @@ def site_jobs(ctx: Context, plan: Plan | None = None) -> list[Any]:
     options: dict[str, Any] = {"image_size": tuple(a.image_size), "pattern": a.scan_pattern,
                "site_diameter_m": a.site_diameter, "sim_seed": a.sim_seed,
                "recon_args": recon_args,
-               "dense_args": ("--max-image-size", str(a.dense_size), "--resolution-m",
-                              str(DENSE_RESOLUTION_M)) if a.dense_size > 0 else (),
+               "dense_args": a.densify_args() if a.dense_size != 0 else (),
                "verdict_args": ("--reference", str(Path(a.reference).resolve()))
                if a.reference else (), "threads": a.site_threads,
                "timeout_s": a.site_timeout,
