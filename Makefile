@@ -13,7 +13,7 @@ ifeq ($(origin MOUND_DATA),undefined)
 endif
 
 .PHONY: all build setup test test-cpp test-python lint demo demo-stages figures bench clean \
-        fuzz fuzz-smoke test-asan docs test-fast format
+        fuzz fuzz-smoke fuzz-build build-asan test-asan docs test-fast format
 
 all: build
 
@@ -75,13 +75,18 @@ fuzz: setup
 fuzz-smoke: setup
 	tools/fuzz/run.sh smoke 10
 
+fuzz-build: setup
+	tools/fuzz/run.sh build
+
 # The whole test suite once more with every tool and test built under AddressSanitizer +
 # UndefinedBehaviorSanitizer (build-asan/): every ctest binary, and the Python tests that
 # start a compiled tool (all of them when `make test` has not traced the current sources).
 ASAN_BUILD ?= build-asan
-test-asan: setup
+build-asan: setup
 	cmake -S . -B $(ASAN_BUILD) -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DMOUND_SANITIZE=ON
 	cmake --build $(ASAN_BUILD) -j $(JOBS)
+
+test-asan: build-asan
 	cd $(ASAN_BUILD) && ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
 	  ctest --output-on-failure -j $(JOBS)
 	MOUND_BUILD_DIR=$(abspath $(ASAN_BUILD)) ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 \

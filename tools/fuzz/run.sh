@@ -2,6 +2,7 @@
 # The project's fuzzing (issue 14). Builds the libFuzzer targets with clang + ASan + UBSan
 # into build-fuzz/ and runs them:
 #
+#   tools/fuzz/run.sh build            only build them (CI builds while other work runs)
 #   tools/fuzz/run.sh regress          every input of fuzz/regressions/<target>/ once
 #   tools/fuzz/run.sh smoke [SECONDS]  regressions, then each target SECONDS (default 10)
 #   tools/fuzz/run.sh fuzz [SECONDS]   each target SECONDS (default 120) from fuzz/corpus
@@ -24,7 +25,12 @@ if [ ! -f "$BUILD/build.ninja" ]; then
   CC=clang CXX=clang++ cmake -S . -B "$BUILD" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
     -DMOUND_FUZZ=ON > /dev/null
 fi
-cmake --build "$BUILD" -j "$JOBS" > /dev/null
+if ! cmake --build "$BUILD" -j "$JOBS" > "$BUILD/build.log" 2>&1; then
+  tail -n 40 "$BUILD/build.log" >&2
+  echo "$0: the fuzz build failed ($BUILD/build.log)" >&2
+  exit 1
+fi
+[ "$MODE" = build ] && exit 0
 mkdir -p "$BUILD/findings"
 export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=1}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
@@ -77,6 +83,6 @@ case "$MODE" in
     printf '%s\n' "${TARGETS[@]}" | xargs -P "$JOBS" -I{} bash -c "fuzz_one {} $SECONDS_PER_TARGET" \
       || status=1
     ;;
-  *) echo "usage: $0 regress | smoke [SECONDS] | fuzz [SECONDS]" >&2; exit 2 ;;
+  *) echo "usage: $0 build | regress | smoke [SECONDS] | fuzz [SECONDS]" >&2; exit 2 ;;
 esac
 exit $status
