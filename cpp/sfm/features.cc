@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <map>
 #include <mutex>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
@@ -213,17 +214,12 @@ MatchList MatchWith(const ImageFeatures& a, const SearchIndex& index_a, const Im
 
 std::vector<int> FirstAtSamePixel(const ImageFeatures& f) {
   std::vector<int> first(f.keypoints.size());
-  std::unordered_map<uint64_t, int> seen;
-  seen.reserve(f.keypoints.size());
-  for (size_t k = 0; k < f.keypoints.size(); ++k) {
-    // Exactly the same position: OpenCV gives every orientation of a keypoint the same one.
-    const float x = static_cast<float>(f.keypoints[k].x()),
-                y = static_cast<float>(f.keypoints[k].y());
-    uint32_t bx = 0, by = 0;
-    std::memcpy(&bx, &x, sizeof bx);
-    std::memcpy(&by, &y, sizeof by);
-    first[k] = seen.emplace((uint64_t{bx} << 32) | by, static_cast<int>(k)).first->second;
-  }
+  // Exactly the same position: OpenCV gives every orientation of a keypoint the same one.
+  std::map<std::pair<double, double>, int> seen;
+  for (size_t k = 0; k < f.keypoints.size(); ++k)
+    first[k] =
+        seen.emplace(std::make_pair(f.keypoints[k].x(), f.keypoints[k].y()), static_cast<int>(k))
+            .first->second;
   return first;
 }
 

@@ -87,8 +87,8 @@ MatchList OnePerPixel(const MatchList& matches, const std::vector<int>& first_a,
 // hashing (cascade_hash.h: codes centred on the set's mean descriptor, the 20 nearest in
 // Hamming distance compared exactly); or exact (brute force over every descriptor: the
 // reference the approximate ones are measured against, ~50x slower). Matches are one per
-// pixel pair (OnePerPixel). Match() is thread-safe and its result does not depend on the order of
-// calls or on the threads.
+// pixel pair (OnePerPixel). Match() is thread-safe and its result does not depend on the
+// order of calls or on the threads.
 enum class MatcherKind { kFlann, kCascadeHash, kExact };
 
 class DescriptorMatcher {

@@ -164,3 +164,35 @@ def test_mound_help_anywhere(argv: list[str], usage: str,
     with pytest.raises(SystemExit) as done:
         mound_main(argv)
     assert done.value.code == 0 and capsys.readouterr().out.startswith(usage)
+
+
+def test_the_sanitized_run_takes_only_a_current_list_of_the_tests_that_run_tools(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """tools/native_tests.py: the traced ids, once each, stamped with the sources; `args`
+    hands pytest that list only while the stamp is the sources', else nothing (the whole
+    suite runs); an empty trace writes no list."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("native_tests",
+                                                  REPO_ROOT / "tools" / "native_tests.py")
+    assert spec is not None and spec.loader is not None
+    nt = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(nt)
+    trace, listing = tmp_path / "trace.txt", tmp_path / "native-tests.txt"
+    trace.write_text("tests/a.py::t[1]\ntests/b.py::u\ntests/a.py::t[1]\n")
+    assert nt.main(["write", str(trace), str(listing)]) == 0
+    lines = listing.read_text().splitlines()
+    assert lines == [f"# sources {nt.sources_stamp()}", "tests/a.py::t[1]", "tests/b.py::u"]
+    capsys.readouterr()
+    assert nt.main(["args", str(listing)]) == 0
+    argfile = tmp_path / "native-tests.txt.args"
+    assert capsys.readouterr().out.strip() == f"@{argfile}"
+    assert argfile.read_text().splitlines() == ["tests/a.py::t[1]", "tests/b.py::u"]
+    listing.write_text("# sources 0000\ntests/a.py::t[1]\n")  # written from other sources
+    assert nt.main(["args", str(listing)]) == 0
+    out = capsys.readouterr()
+    assert out.out == "" and "other sources" in out.err
+    trace.write_text("")
+    assert nt.main(["write", str(trace), str(listing)]) == 0 and not listing.exists()
+    assert nt.main(["args", str(listing)]) == 0 and capsys.readouterr().out == ""
+    assert nt.main(["bogus"]) == 2

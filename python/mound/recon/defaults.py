@@ -17,7 +17,12 @@ DENSE_SETTINGS = ("max_image_size", "resolution_m")
 # Structure from motion of the simulated sites (640 x 480 renders of a known lens): the fast
 # setting, which the training grids and the survey's simulated flights share. Real photos
 # take the tool's defaults.
-SIM_RECON_ARGS = ("--max-features", "4000", "--contrast-threshold", "0.04")
+def sim_recon_args(max_features: int = 4000) -> tuple[str, ...]:
+    """`mound_recon reconstruct`'s options of the fast setting with `max_features`."""
+    return ("--max-features", str(max_features), "--contrast-threshold", "0.04")
+
+
+SIM_RECON_ARGS = sim_recon_args()
 
 # Cells of a site's GeoTIFFs (mound recon rasters, the survey): the sparse cloud holds ~1
 # point per m², the dense one (0.25 m voxels) ~16.

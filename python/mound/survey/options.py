@@ -151,7 +151,7 @@ class SurveyOptions:
                     raise UsageError(str(e)) from None
         if min(self.image_size) < 64:
             raise UsageError("--image-size: at least 64 x 64 px")
-        if self.dense_size is not None and self.dense_size != 0 and self.dense_size < 32:
+        if self.dense_size and self.dense_size < 32:  # None: the model's; 0: none
             raise UsageError("--dense-size: 0 (no dense cloud) or at least 32 px")
         if self.images_root and not Path(self.images_root).is_dir():
             raise UsageError(f"--images-root: {self.images_root} is not a folder")

@@ -363,10 +363,9 @@ def _rasters(job: SiteJob, row: SiteRow, dense: Path | None) -> None:
     SPARSE_CELL_M (mound.recon.defaults). The verdict stands without them; the row says
     why they are missing."""
     from mound.recon import rasters
-
-    t = job.tree
     from mound.recon.defaults import DENSE_CELL_M, SPARSE_CELL_M
 
+    t = job.tree
     cloud, cell = (dense, DENSE_CELL_M) if dense is not None else (None, SPARSE_CELL_M)
     t0 = time.perf_counter()
     try:

@@ -26,16 +26,10 @@ from mound.survey.ledger import digest
 from mound.survey.stages.mission import write_missions
 
 
-def _without(args: tuple[str, ...], flag: str) -> tuple[str, ...]:
-    """`args` (flag, value pairs) without `flag` and its value."""
-    pairs = zip(args[::2], args[1::2], strict=True)
-    return tuple(x for f, v in pairs if f != flag for x in (f, v))
-
-
 def site_jobs(ctx: Context, plan: Plan | None = None) -> list[Any]:
     """The 3-D jobs of the sites `plan` visits (default: plan.json); the sites keep their
     index in sites.json (which seeds their simulation) whichever plan visits them."""
-    from mound.recon.defaults import SIM_RECON_ARGS
+    from mound.recon.defaults import SIM_RECON_ARGS, sim_recon_args
     from mound.survey.site_work import SiteJob
 
     a = ctx.args
@@ -43,10 +37,8 @@ def site_jobs(ctx: Context, plan: Plan | None = None) -> list[Any]:
     # keypoint density), the simulated sites the fast setting; --max-features N asks for
     # the fast setting with N features for both
     card = bool(a.photos or a.images_root)
-    recon_args: tuple[str, ...] = () if card else SIM_RECON_ARGS
-    if a.max_features is not None:
-        recon_args = (*_without(SIM_RECON_ARGS, "--max-features"), "--max-features",
-                      str(a.max_features))
+    recon_args = (sim_recon_args(a.max_features) if a.max_features is not None
+                  else () if card else SIM_RECON_ARGS)
     sites_doc = Sites.read(ctx.tree.sites)
     if plan is None:
         plan = Plan.read(ctx.tree.plan)
