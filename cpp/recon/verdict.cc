@@ -249,6 +249,20 @@ std::vector<std::pair<std::string, std::string>> UndecidedReasons(const SiteVerd
   std::ostringstream s;
   s.precision(2);
   const terrain::Detection& d = v.detection;
+  if (!v.terrain.empty()) {
+    std::ostringstream t;
+    t.precision(3);
+    t << "terrain unlike the model's training sites:";
+    for (size_t k = 0; k < v.terrain.size(); ++k) {
+      const terrain::TerrainExcess& e = v.terrain[k];
+      const bool angle = e.name == "site_slope_rad";  // said in degrees
+      const double f = angle ? 180 / M_PI : 1;
+      t << (k ? ";" : "") << " " << (angle ? "site slope" : e.name) << " " << f * e.value
+        << (angle ? " deg" : "") << " outside its training sites' [" << f * e.low << ", "
+        << f * e.high << "]";
+    }
+    say("terrain", t);
+  }
   if (v.coverage.status == "clipped") {
     s << "clipped by the scan: " << v.coverage.message;
     say("clipped", s);
@@ -351,6 +365,8 @@ SiteVerdict JudgeSite(const std::vector<Eigen::Vector3d>& cloud, const Eigen::Ve
   v.label =
       options.decide_at ? (v.mound ? "mound" : "no_mound") : model.Label(v.p_mound, v.threshold);
   if (!v.detection.judged.empty()) v.judged = best;
+  v.terrain = model.OutsideTerrain(v.detection);
+  if (!v.terrain.empty() && !options.decide_at) v.label = "undecided";
   v.coverage =
       JudgeCoverage(v.detection, v.judged ? &v.detection.judged[*v.judged] : nullptr, v.radius_m);
   return v;
@@ -389,6 +405,20 @@ nlohmann::json SiteVerdictJson(const SiteVerdict& v, const terrain::VerdictModel
                       {"site_sag_m", d.site_sag_m},
                       {"site_ridge_m", d.site_ridge_m},
                       {"ground_sag_m", d.ground_sag_m}};
+  {  // the ground the site stands on, and the model's domain of it
+    nlohmann::json t = nlohmann::json::object();
+    const std::vector<double> values = terrain::TerrainDescriptors(d);
+    for (size_t k = 0; k < values.size(); ++k) t[terrain::TerrainDescriptorNames()[k]] = values[k];
+    m["terrain"] = t;
+    nlohmann::json outside = nlohmann::json::array();
+    for (const terrain::TerrainExcess& e : v.terrain)
+      outside.push_back({{"name", e.name}, {"value", e.value}, {"range", {e.low, e.high}}});
+    doc["terrain"] = {
+        {"status", model.terrain_ranges.empty() ? "unchecked"
+                   : v.terrain.empty()          ? "inside"
+                                                : "outside"},
+        {"outside", outside}};
+  }
   // Every judged rise (the training data of `mound recon train-verdict`), the one that
   // decided the site as `rise` with its `features`.
   nlohmann::json all = nlohmann::json::array();
@@ -445,7 +475,8 @@ nlohmann::json SiteVerdictJson(const SiteVerdict& v, const terrain::VerdictModel
   }
   if (model.second_look && !v.second_look) {
     const terrain::SecondLook& l = *model.second_look;
-    const bool advised = model.SecondLookAdvised(v.p_mound);
+    // a wider look at ground the model never saw would not be judged on it either
+    const bool advised = model.SecondLookAdvised(v.p_mound) && v.terrain.empty();
     doc["second_look"] = {{"advised", advised}, {"p_low", l.p_low}, {"scan_factor", l.scan_factor}};
     if (advised) {
       std::ostringstream say;

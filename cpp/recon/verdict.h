@@ -132,10 +132,14 @@ struct SiteVerdict {
   std::optional<double> decide_at;  // SiteVerdictOptions::decide_at
   std::optional<size_t> judged;     // the rise that decided, in detection.judged
   Coverage coverage;
+  // The site's ground outside the model's terrain domain (VerdictModel::OutsideTerrain):
+  // the label is then "undecided" whatever p says (not with decide_at), for the field team.
+  std::vector<terrain::TerrainExcess> terrain;
 };
 
 // Why a site is undecided, read from its measurements (they describe the doubt, they do not
-// decide): "clipped" (the rise runs off the scan), "sparse_cloud" (< 70 % of the site's
+// decide, save "terrain"): "terrain" (its ground lies outside the model's terrain domain:
+// ground the model never saw), "clipped" (the rise runs off the scan), "sparse_cloud" (< 70 % of the site's
 // cells hold points), "no_rise" (nothing above the relief threshold), "masked" (the ground
 // around the rise stands >= half its height in some direction: relief of its own size),
 // "cut" (the dome fit's residual >= 25 % of the height, or the footprint fills < half its

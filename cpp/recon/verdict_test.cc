@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <sstream>
 
 #include "common/error.h"
 #include "terrain/synthetic_site.h"
@@ -216,6 +217,47 @@ TEST(JudgeSite, TheUndecidedBandGivesThreeAnswersAndDecideAtTwo) {
   nlohmann::json bad = built_in.doc;
   bad["undecided"] = 0.5;
   EXPECT_THROW(terrain::ParseVerdictModel(bad, "bad.json"), InputError);
+}
+
+// Issue 68: a site on ground outside the model's terrain domain is undecided with reason
+// "terrain" whatever its p, and no second look is advised (a wider look at the same unseen
+// ground); decide_at keeps the paper's two answers; inside the domain nothing changes.
+TEST(JudgeSite, GroundOutsideTheTerrainDomainIsUndecided) {
+  nlohmann::json doc = terrain::DenseVerdictModel().doc;
+  doc["terrain_domain"] = {{"ranges", {{"site_slope_rad", {0.0, 0.3}}}}, {"sites", 1}};
+  const terrain::VerdictModel model = terrain::ParseVerdictModel(doc, "domain.json");
+  SiteVerdictOptions o;
+  o.radius_m = 40;
+  std::vector<Eigen::Vector3d> clear = SyntheticSite(5, 30, false, 4), steep = clear;
+  for (Eigen::Vector3d& p : steep) p.z() += std::tan(25 * M_PI / 180) * p.x();
+  const SiteVerdict inside = JudgeSite(clear, {0, 0}, o, model);
+  EXPECT_EQ(inside.label, "mound");
+  EXPECT_TRUE(inside.terrain.empty());
+  EXPECT_EQ(SiteVerdictJson(inside, model, "domain.json", o.detector)["terrain"]["status"],
+            "inside");
+  const SiteVerdict outside = JudgeSite(steep, {0, 0}, o, model);
+  EXPECT_GE(outside.p_mound, model.threshold);  // the model alone would call it a mound
+  EXPECT_EQ(outside.label, "undecided");
+  ASSERT_EQ(outside.terrain.size(), 1u);
+  const nlohmann::json j = SiteVerdictJson(outside, model, "domain.json", o.detector);
+  EXPECT_EQ(j["terrain"]["status"], "outside");
+  EXPECT_EQ(j["terrain"]["outside"][0]["name"], "site_slope_rad");
+  EXPECT_EQ(j["undecided"]["reasons"][0]["code"], "terrain");
+  const std::string text = j["undecided"]["reasons"][0]["text"];
+  std::ostringstream want;  // in degrees, as the field team reads it
+  want.precision(3);
+  want << "site slope " << outside.detection.site_slope_rad * 180 / M_PI
+       << " deg outside its training sites' [0, 17.2]";
+  EXPECT_NE(text.find(want.str()), std::string::npos) << text;
+  EXPECT_EQ(j["undecided"]["next"], "field_team");
+  EXPECT_NEAR(j["measurements"]["terrain"]["site_slope_rad"].get<double>(),
+              outside.detection.site_slope_rad, 1e-12);
+  SiteVerdictOptions two = o;
+  two.decide_at = 0.5;
+  EXPECT_EQ(JudgeSite(steep, {0, 0}, two, model).label, "mound");
+  EXPECT_EQ(SiteVerdictJson(JudgeSite(steep, {0, 0}, o, terrain::DenseVerdictModel()),
+                            terrain::DenseVerdictModel(), "dense", o.detector)["terrain"]["status"],
+            "unchecked");
 }
 
 // A torn reconstruction (points strewn hundreds of metres off, as a bad bundle adjustment

@@ -217,7 +217,18 @@ Detection DetectMound(const std::vector<Eigen::Vector3d>& points, const Eigen::V
       const Eigen::Vector2d fall = Fall(q);
       d.site_sag_m = fall[0];
       d.site_ridge_m = fall[1];
+      std::vector<double> left;
+      left.reserve(cells.size());
+      for (size_t k : cells) {
+        const Eigen::Vector2d p = xy(k);
+        left.push_back(g.z[k] - Basis(p.x(), p.y()).dot(q));
+      }
+      d.site_relief_m = Quantile(left, 0.99) - Quantile(left, 0.01);
     }
+    // the plane: the top-left 3 x 3 of the quadratic's normal equations
+    const Eigen::Vector3d plane = A.topLeftCorner<3, 3>().ldlt().solve(b.head<3>());
+    if (plane.allFinite())
+      d.site_slope_rad = std::atan(plane.tail<2>().norm() / radius_m);
     if (coef.allFinite()) d.ground_sag_m = Fall(coef)[0];
   }
   // Coefficients in metres of x, y from the centre.
@@ -311,6 +322,16 @@ const std::vector<std::string>& VerdictFeatureNames() {
 std::vector<double> VerdictFeatures(const Detection& d) {
   if (!d.Tallest()) throw InternalError("VerdictFeatures: no rise");
   return VerdictFeatures(d, *d.Tallest());
+}
+
+const std::vector<std::string>& TerrainDescriptorNames() {
+  static const std::vector<std::string> names = {"site_slope_rad", "site_relief_m", "site_sag_m",
+                                                 "site_ridge_m", "ground_noise_m"};
+  return names;
+}
+
+std::vector<double> TerrainDescriptors(const Detection& d) {
+  return {d.site_slope_rad, d.site_relief_m, d.site_sag_m, d.site_ridge_m, d.ground_noise_m};
 }
 
 std::vector<double> VerdictFeatures(const Detection& d, const Rise& t) {

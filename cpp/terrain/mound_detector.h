@@ -124,6 +124,12 @@ struct Detection {
   // The same fall (least falling direction) of the ground fit alone: > 0 when the ground
   // itself is domed (it follows a mound wider than the scan), ~0 on ground around a tumulus.
   double ground_sag_m = 0;
+  // The ground the site stands on, for the verdict model's terrain domain (how far a site
+  // lies from the ground the model was trained on): the slope of the least-squares plane
+  // through every cell (rad), and the relief the whole site's quadratic leaves (the 1st to
+  // the 99th percentile of the cells' residuals, m: ridges, valleys, terraces, knolls and
+  // the tumulus itself).
+  double site_slope_rad = 0, site_relief_m = 0;
   std::vector<double> ground_coefficients;  // z = c0 + c1 x + c2 y + c3 x^2 + c4 x y + c5 y^2 (x, y
                                             // from the centre)
 };
@@ -134,6 +140,12 @@ struct Detection {
 const std::vector<std::string>& VerdictFeatureNames();
 std::vector<double> VerdictFeatures(const Detection& d);
 std::vector<double> VerdictFeatures(const Detection& d, const Rise& rise);
+
+// The ground a site stands on, as the verdict model's terrain domain reads it (names:
+// TerrainDescriptorNames(): site_slope_rad, site_relief_m, site_sag_m, site_ridge_m,
+// ground_noise_m; the Detection's fields of those names).
+const std::vector<std::string>& TerrainDescriptorNames();
+std::vector<double> TerrainDescriptors(const Detection& d);
 
 // `points` in a metric frame with z up; `centre` and `radius_m` the site (horizontal).
 // Throws NoResultError when fewer than 100 points fall within the site.

@@ -515,6 +515,45 @@ TEST(VerdictModel, JudgesOnlyCloudsLikeItsTrainingClouds) {
   }
 }
 
+// Issue 68: the ground a site stands on is measured (the slope of its plane, the relief its
+// quadratic leaves), and a model with a terrain domain names each descriptor outside it;
+// a malformed domain is refused naming the field.
+TEST(VerdictModel, NamesTheGroundOutsideItsTerrainDomain) {
+  // the synthetic site slopes 3 % and 2 % (atan 0.036 = 2.1 deg); tilted by 25 deg more
+  std::vector<Eigen::Vector3d> gentle = testing::SyntheticSite(0, 0, false, 5), steep = gentle;
+  for (Eigen::Vector3d& p : steep) p.z() += std::tan(25 * M_PI / 180) * p.x();
+  const Detection a = DetectMound(gentle, {0, 0}, 40, DetectorOptions{});
+  const Detection b = DetectMound(steep, {0, 0}, 40, DetectorOptions{});
+  EXPECT_NEAR(a.site_slope_rad, std::atan(std::hypot(0.03, 0.02)), 0.01);
+  EXPECT_NEAR(b.site_slope_rad, std::atan(std::hypot(0.03 + std::tan(25 * M_PI / 180), 0.02)),
+              0.01);
+  // a plane adds no relief, save the cells' step along it (a cell's median point is not at
+  // its centre)
+  EXPECT_NEAR(a.site_relief_m, b.site_relief_m, std::tan(25 * M_PI / 180) * b.cell_m);
+  EXPECT_GT(a.site_relief_m, 0.1);                        // the undulation and the noise
+  EXPECT_LT(a.site_relief_m, 1.5);
+  nlohmann::json d = ModelDoc();
+  d["terrain_domain"] = {{"ranges", {{"site_slope_rad", {0.0, 0.3}}, {"site_relief_m", {0, 20}}}},
+                         {"sites", 320}};
+  const VerdictModel m = ParseVerdictModel(d, "m.json");
+  EXPECT_TRUE(m.OutsideTerrain(a).empty());
+  const std::vector<TerrainExcess> out = m.OutsideTerrain(b);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].name, "site_slope_rad");
+  EXPECT_DOUBLE_EQ(out[0].value, b.site_slope_rad);
+  EXPECT_EQ(out[0].high, 0.3);
+  EXPECT_TRUE(ParseVerdictModel(ModelDoc(), "m.json").OutsideTerrain(b).empty());  // no domain
+  for (const nlohmann::json& bad :
+       {nlohmann::json(1), nlohmann::json::object(), nlohmann::json{{"ranges", nlohmann::json::object()}},
+        nlohmann::json{{"ranges", {{"slope", {0, 1}}}}},
+        nlohmann::json{{"ranges", {{"site_slope_rad", {1, 0}}}}},
+        nlohmann::json{{"ranges", {{"site_slope_rad", {0, 1, 2}}}}},
+        nlohmann::json{{"ranges", {{"site_slope_rad", {0, "1"}}}}}}) {
+    d["terrain_domain"] = bad;
+    EXPECT_THROW(ParseVerdictModel(d, "m.json"), InputError) << bad.dump();
+  }
+}
+
 TEST(VerdictModel, ABetaCalibrationMapsTheHighestRisesScore) {
   const Detection dome =
       DetectMound(SyntheticSite(6.0, 40.0, false, 1), {0, 0}, 58, DetectorOptions{});

@@ -102,6 +102,15 @@ double VerdictModel::SecondLookProbability(double p_first, double p_second) cons
   return 1 / (1 + std::exp(-(l.first * logit(p_first) + l.second * logit(p_second) + l.bias)));
 }
 
+std::vector<TerrainExcess> VerdictModel::OutsideTerrain(const Detection& d) const {
+  std::vector<TerrainExcess> out;
+  const std::vector<double> v = TerrainDescriptors(d);
+  for (const auto& [at, range] : terrain_ranges)
+    if (!(v[at] >= range.first && v[at] <= range.second))
+      out.push_back({TerrainDescriptorNames()[at], v[at], range.first, range.second});
+  return out;
+}
+
 VerdictModel ParseVerdictModel(const nlohmann::json& doc, const std::string& source) {
   if (!doc.is_object()) throw InputError(source + ": expected a JSON object");
   if (!doc.contains("schema") || doc["schema"] != "mound.verdict_model")
@@ -255,6 +264,24 @@ VerdictModel ParseVerdictModel(const nlohmann::json& doc, const std::string& sou
     if (cs.cloud == "sparse" && !cs.options.empty())
       throw InputError(at + ": a sparse cloud has no densify options");
     m.cloud_settings = cs;
+  }
+  if (doc.contains("terrain_domain")) {
+    const nlohmann::json& t = doc["terrain_domain"];
+    const std::string at = source + ": terrain_domain";
+    if (!t.is_object() || !t.contains("ranges") || !t["ranges"].is_object() ||
+        t["ranges"].empty())
+      throw InputError(at + ": expected {\"ranges\": {descriptor: [low, high], ...}}");
+    const std::vector<std::string>& names = TerrainDescriptorNames();
+    for (const auto& [name, range] : t["ranges"].items()) {
+      const auto it = std::find(names.begin(), names.end(), name);
+      if (it == names.end())
+        throw InputError(at + ".ranges: " + name.substr(0, 40) +
+                         ": not a terrain descriptor of this detector");
+      const std::vector<double> lh = Numbers(t["ranges"], name, 2, at + ".ranges");
+      if (!(lh[0] <= lh[1]) || std::fabs(lh[0]) > 1e9 || std::fabs(lh[1]) > 1e9)
+        throw InputError(at + ".ranges: " + name + ": expected [low, high], low <= high");
+      m.terrain_ranges.push_back({static_cast<size_t>(it - names.begin()), {lh[0], lh[1]}});
+    }
   }
   m.doc = doc;
   return m;

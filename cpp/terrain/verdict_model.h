@@ -31,6 +31,12 @@
 //   by `mound recon train-verdict` on its sites' out-of-fold p; a site in it is advised a
 //   second look (with "second_look") or a person. Without it the model gives two answers,
 //   "mound" at p >= threshold, as the threshold always does for the paper's protocol.
+// and optionally "terrain_domain": {"ranges": {name: [low, high], ...}, "sites": n, ...}:
+//   the ground the model was trained on, as the training sites' TerrainDescriptors (names
+//   of TerrainDescriptorNames(), each at most once) ranged; a site whose ground lies
+//   outside any range is ground the model never saw, and its verdict is "undecided" with
+//   reason "terrain" whatever its p (`OutsideTerrain`; the paper's two answers, decide_at,
+//   stay as they are). Other fields (sites, grids, how measured) travel as they are.
 // Two models ship in the repository and are compiled into the tool, learned on the same
 // simulated sites judged on two clouds: data/verdict_model.json on the sparse cloud of
 // `reconstruct` (the default), data/verdict_model_dense.json on the dense cloud of
@@ -75,6 +81,12 @@ struct CloudSettings {
 void CheckCloudSettings(const CloudSettings& model, const std::string& cloud,
                         const nlohmann::json& options, const std::string& where);
 
+// One descriptor of a site's ground outside the model's terrain domain (see above).
+struct TerrainExcess {
+  std::string name;
+  double value = 0, low = 0, high = 0;
+};
+
 struct VerdictModel {
   std::vector<std::string> features;
   std::vector<double> mean, std, weights;
@@ -90,6 +102,8 @@ struct VerdictModel {
   std::optional<SecondLook> second_look;
   std::optional<UndecidedBand> undecided;
   std::optional<CloudSettings> cloud_settings;
+  // terrain_domain's ranges, by TerrainDescriptorNames() position (empty: no domain)
+  std::vector<std::pair<size_t, std::pair<double, double>>> terrain_ranges;
   nlohmann::json doc;  // the whole file (its figures travel into verdict.json)
 
   double Score(const std::vector<double>& f) const;  // s of one rise's features
@@ -107,6 +121,8 @@ struct VerdictModel {
   // The second look's calibrated p from this model's p of the first flight and of the
   // wider one (requires second_look).
   double SecondLookProbability(double p_first, double p_second) const;
+  // The descriptors of the site's ground outside the terrain domain (none without one).
+  std::vector<TerrainExcess> OutsideTerrain(const Detection& d) const;
 };
 
 // The first flight's p_mound from its verdict.json (`path` names it in errors; what

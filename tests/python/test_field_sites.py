@@ -3,6 +3,7 @@ slope or on the real 1 m laser DEM; confusers; their ground truth; the grid's dr
 
 from __future__ import annotations
 
+import subprocess
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -215,6 +216,24 @@ def test_grid_draws_are_seeded_and_span_the_field(shared_data: Path) -> None:
     assert all(s.pattern == "both" for s in full)
 
 
+def test_steep_ground_is_a_family_no_mixed_grid_draws(shared_data: Path) -> None:
+    """Issue 68's held-out terrain: every site of a steep grid on a 15-35 degree slope,
+    half of them over a DEM patch, half with a tumulus; the mixed grids' slopes stay at
+    2-15 degrees."""
+    dem = [DemPlaces.open(str(shared_data / DEM))]
+    rng_m, rng_s = np.random.default_rng([3, 2026]), np.random.default_rng([3, 2026])
+    mixed = [draws.draw(rng_m, k, dem, (320, 240)) for k in range(200)]
+    steep = [draws.draw(rng_s, k, dem, (320, 240), ground="steep") for k in range(200)]
+    assert all(s.terrain.slope_deg == 0 or 2 <= s.terrain.slope_deg <= 15 for s in mixed)
+    assert all(draws.STEEP_DEG[0] <= s.terrain.slope_deg <= draws.STEEP_DEG[1] for s in steep)
+    assert max(s.terrain.slope_deg for s in steep) > 32
+    on_dem = sum(s.terrain.dem_path is not None for s in steep)
+    assert 70 < on_dem < 130
+    assert 0.4 < sum(s.terrain.mound for s in steep) / len(steep) < 0.6
+    with pytest.raises(InputError, match="--ground"):
+        draws.draw(np.random.default_rng(1), 0, dem, (320, 240), ground="alpine")
+
+
 @pytest.mark.parametrize("profile", terrain.PROFILES)
 def test_the_highest_tumulus_drawn_has_flanks_at_the_angle_of_repose(profile: str) -> None:
     """max_height's closed forms against the simulator's own radial profile: at that height
@@ -325,6 +344,45 @@ def test_a_grid_of_the_full_flight_from_the_card_judged_on_its_dense_cloud(
     assert again["measurements"]["cells_with_points"] == dense_points
     assert (out / "0000" / "dense" / "dense.ply").stat().st_mtime_ns == stamp
     assert "densify" in again["grid_times_s"] and "reconstruct" in again["grid_times_s"]
+    # issue 68: the grid's ground as a model's terrain domain (one site: each range a
+    # point), read by both readers; the site lies inside it, and outside once the slope's
+    # range is moved off it
+    from mound.recon.model_file import TERRAIN_DESCRIPTORS
+
+    ground = again["measurements"]["terrain"]
+    assert sorted(ground) == sorted(TERRAIN_DESCRIPTORS)  # the C++ detector's names
+    model = tmp_path / "domain.json"
+    assert main(["recon", "terrain-domain", str(out), "--model",
+                 str(REPO_ROOT / "data" / "verdict_model_dense.json"), "--out",
+                 str(model)]) == 0
+    m = read_verdict_model(model)
+    assert {n: (lo, hi) for n, lo, hi in m.terrain_ranges} == {
+        n: (ground[n], ground[n]) for n in TERRAIN_DESCRIPTORS}
+    site = out / "0000"
+
+    def judged(model_path: Path) -> dict[str, Any]:
+        r = subprocess.run([str(mound_recon), "verdict", str(site / "recon"), "--cloud",
+                            str(site / "dense" / "dense.ply"), "--model", str(model_path),
+                            "--out", str(tmp_path / "v.json")], capture_output=True, text=True,
+                           timeout=600, check=False)
+        assert r.returncode == 0, r.stderr
+        return dict(json.loads((tmp_path / "v.json").read_text()))
+
+    assert judged(model)["terrain"] == {"status": "inside", "outside": []}
+    doc = json.loads(model.read_text())
+    slope = ground["site_slope_rad"]
+    doc["terrain_domain"]["ranges"]["site_slope_rad"] = [slope + 0.1, slope + 0.2]
+    model.write_text(json.dumps(doc))
+    v = judged(model)
+    assert v["label"] == "undecided" and v["terrain"]["status"] == "outside"
+    assert v["undecided"]["reasons"][0]["code"] == "terrain"
+    assert v["p_mound"] == again["p_mound"]  # the model's p, reported, not acted on
+    # a grid whose verdicts predate the terrain measurements gives no domain (exit 2)
+    del again["measurements"]["terrain"]
+    (site / "verdict.json").write_text(json.dumps(again))
+    assert main(["recon", "terrain-domain", str(out), "--model", str(model), "--out",
+                 str(tmp_path / "none.json")]) == 2
+    assert not (tmp_path / "none.json").exists()
 
 
 @pytest.mark.slow

@@ -340,6 +340,8 @@ def _valid_model() -> dict[str, Any]:
     doc["second_look"] = {"p_low": 0.3, "threshold": 0.6, "scan_factor": 2.0,
                           "combine": {"first": 0.5, "second": 1.0, "bias": -0.2}}
     doc["undecided"] = {"p_low": 0.2, "p_high": 0.9}
+    doc["terrain_domain"] = {"ranges": {"site_slope_rad": [0.0, 0.4], "site_relief_m": [0, 30]},
+                             "sites": 320}
     return doc
 
 
@@ -427,6 +429,17 @@ BAD_MODELS: list[tuple[str, Callable[[dict[str, Any]], None], str]] = [
     ("undecided out of order", _set(("undecided", "p_low"), 0.95), "undecided"),
     ("undecided.p_low 0", _set(("undecided", "p_low"), 0.0), "undecided"),
     ("undecided.p_high 1", _set(("undecided", "p_high"), 1.0), "undecided"),
+    ("terrain_domain a list", _set(("terrain_domain",), [0, 1]), "terrain_domain"),
+    ("terrain_domain without ranges", _drop(("terrain_domain", "ranges")), "terrain_domain"),
+    ("terrain_domain.ranges empty", _set(("terrain_domain", "ranges"), {}), "terrain_domain"),
+    ("terrain_domain: an unknown descriptor", _set(("terrain_domain", "ranges", "slope"),
+                                                   [0, 1]), "terrain_domain.ranges: slope"),
+    ("terrain_domain: a range reversed", _set(("terrain_domain", "ranges", "site_slope_rad"),
+                                              [0.5, 0.1]), "terrain_domain.ranges"),
+    ("terrain_domain: a range of three", _set(("terrain_domain", "ranges", "site_relief_m"),
+                                              [0, 1, 2]), "terrain_domain.ranges"),
+    ("terrain_domain: a range with a string",
+     _set(("terrain_domain", "ranges", "site_relief_m"), [0, "9"]), "terrain_domain.ranges"),
     ("top level a list", lambda d: d.clear(), "expected a JSON object"),
 ]
 

@@ -75,6 +75,16 @@ def test_three_answers_on_held_out_sites() -> None:
     assert f["all"]["all"]["tumuli"] == 3 and f["all"]["all"]["confirmed"]["count"] == 1
     assert f["with_trench"]["by_height"]["0-0.5 m"]["undecided"]["count"] == 1
     assert f["all"]["by_height"]["2-5 m"]["two_answer_mound"]["count"] == 1
+    # issue 68: sites on ground outside the model's terrain domain are undecided whatever
+    # their p: here the confident miss (b) and the confident false alarm (e)
+    sites = sites_of([{"dir": d, "truth": t} for d, t in zip("abcde", truths, strict=True)])
+    outside = np.array([False, True, False, False, True])
+    t = vb.three_answers(p, sites, (0.1, 0.95), 0.8, outside)
+    assert t["confident_misses"]["count"] == 0 and t["confident_false_alarms"]["count"] == 0
+    assert t["undecided"]["count"] == 4
+    assert t["terrain"] == {"outside": 2, "tumuli_outside": 1, "sites_outside": ["b", "e"],
+                            "would_be": {"mound": 1, "no_mound": 1, "undecided": 0}}
+    assert t["frontier_inside_domain"]["undecided_at_goals"] >= 2 / 5
 
 
 def test_a_model_without_a_band_gives_two_answers_and_one_with_it_three() -> None:

@@ -51,7 +51,7 @@ def cmd_sim_grid(args: argparse.Namespace) -> int:
                          pattern=args.pattern, dense=args.dense, card=args.card,
                          flights_from=args.flights_from, second_look=args.second_look,
                          dem_part=args.dem_part, population=args.population,
-                         second_look_kind=args.second_look_kind)
+                         second_look_kind=args.second_look_kind, ground=args.ground)
     print(f"{doc['measured']} of {doc['sites']} sites measured in {doc['wall_s']:.0f} s -> "
           f"{args.out}/grid.json")
     if "earlier_tools" in doc:
@@ -89,6 +89,10 @@ def add_parser(simp: Any, parser_class: Any) -> None:
                     "from a measured inventory (GeoJSON with length_m, width_m, height_m, "
                     "robber_trench; kazanlak: the Kazanlak inventory) instead of the uniform "
                     "ranges")
+    sg.add_argument("--ground", choices=("mixed", "steep"), default="mixed",
+                    help="mixed: undulating, 2-15 degree slopes and DEM patches (the training "
+                    "grids'; default); steep: every site on a 15-35 degree slope, over a DEM "
+                    "patch or undulating ground (terrain no training grid held)")
     sg.add_argument("--workers", type=WORKERS.arg(), default=2, help="sites at once")
     sg.add_argument("--threads", type=THREADS.arg(), default=1, help="threads per site")
     sg.add_argument("--pattern", choices=("raster", "both"), default="raster",

@@ -145,7 +145,7 @@ def make_grid(out: str | Path, sites: int, seed: int, size: tuple[int, int] = (6
               flights_from: str | Path | None = None,
               second_look: bool = False, dem_part: str = "all",
               second_look_kind: str = "wider",
-              population: str | None = None) -> dict[str, Any]:
+              population: str | None = None, ground: str = "mixed") -> dict[str, Any]:
     """Draws and runs the grid (see the module text); returns grid.json's document."""
     if not 1 <= sites <= 100_000:
         raise InputError("--sites: must be 1 .. 100,000")
@@ -165,7 +165,8 @@ def make_grid(out: str | Path, sites: int, seed: int, size: tuple[int, int] = (6
     dem_doc: str | list[str] | None = (None if not paths else paths[0] if len(paths) == 1
                                        else paths)
     draws = {"dem": dem_doc, "dem_part": dem_part,
-             "population": pop.summary() if pop else "uniform"}
+             "population": pop.summary() if pop else "uniform",
+             **({"ground": ground} if ground != "mixed" else {})}  # mixed: as grids before
     root = Path(out)
     if flights_from is not None:
         _check_flights_from(Path(flights_from), root, sites, seed, size, pattern, card, draws)
@@ -178,8 +179,8 @@ def make_grid(out: str | Path, sites: int, seed: int, size: tuple[int, int] = (6
                 if not (site / part).exists():
                     (site / part).symlink_to(src / part, target_is_directory=True)
     rng = np.random.default_rng([seed, 2026])
-    specs = [draw(rng, 100_000 * seed + k, dems, size, pattern=pattern, population=pop)
-             for k in range(sites)]
+    specs = [draw(rng, 100_000 * seed + k, dems, size, pattern=pattern, population=pop,
+                  ground=ground) for k in range(sites)]
     start = time.perf_counter()
     rows: list[dict[str, Any]] = [{}] * sites
 

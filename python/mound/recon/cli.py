@@ -15,6 +15,31 @@ from mound.errors import InputError
 from mound.jsonio import write_json
 
 
+def cmd_recon_terrain_domain(args: argparse.Namespace) -> int:
+    """The model with the grids' terrain domain (verdict_fit.terrain_domain) beside its
+    other fields, checked by the model reader before it is written."""
+    from mound.jsonio import load_json
+    from mound.recon import verdict_model as vm
+    from mound.recon.model_file import check_verdict_model
+
+    doc = dict(load_json(args.model))
+    check_verdict_model(doc, args.model)
+    measured = [r for g in args.grids for r in vm.load_grid(g) if r.measured]
+    domain = vm.terrain_domain(measured, [str(Path(g)) for g in args.grids])
+    if domain is None:
+        raise InputError(f"{', '.join(args.grids)}: no measured site, or a verdict without "
+                         "measurements.terrain (remeasure the grid: mound sim grid --remeasure)")
+    doc["terrain_domain"] = domain
+    check_verdict_model(doc, args.out)
+    write_json(args.out, doc)
+    for name, (lo, hi) in domain["ranges"].items():
+        f = 180 / math.pi if name.endswith("_rad") else 1.0
+        unit = "deg" if name.endswith("_rad") else "m"
+        print(f"{name}: {f * lo:.3g} .. {f * hi:.3g} {unit}")
+    print(f"terrain domain of {domain['sites']} sites -> {args.out}")
+    return 0
+
+
 def cmd_recon_train_verdict(args: argparse.Namespace) -> int:
     from mound.recon import verdict_model as vm
 
@@ -97,6 +122,15 @@ def _print_three_answers(t: dict[str, Any]) -> None:
           f"{100 * b['confident_misses']:.1f} % confident misses and "
           f"{100 * b['confident_false_alarms']:.1f} % confident false alarms "
           f"({b['times_the_goals']:.1f} x the goals)")
+    if "terrain" in t:
+        te, would = t["terrain"], t["terrain"]["would_be"]
+        print(f"  terrain: {te['outside']} sites ({te['tumuli_outside']} with a tumulus) on "
+              f"ground outside the model's domain, undecided (by p alone {would['mound']} "
+              f"mound, {would['no_mound']} no_mound, {would['undecided']} undecided)")
+        if "frontier_inside_domain" in t:
+            fi = t["frontier_inside_domain"]
+            print(f"  the frontier with the terrain domain: the goals need "
+                  f"{100 * fi['undecided_at_goals']:.1f} % undecided")
     f = t["field_recall"]["all"]
     print("  tumuli confirmed mound (two answers' mound) by height: " + "; ".join(
         f"{k} {c['confirmed']['count']}/{c['tumuli']} ({c['two_answer_mound']['count']})"
@@ -314,6 +348,14 @@ def add_parser(sub: Any, parser_class: Any) -> None:
     ev.add_argument("--paper-sites", type=Bound(1, 100_000, integer=True).arg(),
                     help="at most this many sites for --paper")
     ev.set_defaults(func=cmd_recon_eval_verdict)
+    td = rc.add_parser("terrain-domain", help="write into a verdict model the ground its "
+                       "training sites stood on (terrain_domain), measured on grids drawn as its "
+                       "training grids were")
+    td.add_argument("grids", nargs="+", help="grid folders (mound sim grid; their verdicts "
+                    "measure the sites' terrain)")
+    td.add_argument("--model", required=True, help="the verdict model (mound.verdict_model v1)")
+    td.add_argument("--out", required=True, help="the model with its terrain_domain")
+    td.set_defaults(func=cmd_recon_terrain_domain)
     vb = rc.add_parser("verdict-bound", help="the oracle's ceiling: goal tumuli a matched "
                        "filter told their centre, size and profile finds on the true surface at "
                        "1 %% false alarms (mound.verdict_bound v1)")

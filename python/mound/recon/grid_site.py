@@ -128,6 +128,8 @@ class GridSite:
     coverage: str | None = None  # the verdict's coverage.status ("clipped", ...)
     site_centre_enu_m: tuple[float, float] | None = None
     site_radius_m: float | None = None
+    # the ground it stands on (verdict.json's measurements.terrain; None: an older verdict)
+    ground: Mapping[str, float] | None = None
 
     @property
     def where(self) -> str:
@@ -168,7 +170,8 @@ def grid_site(name: str, row: Mapping[str, object], verdict: Mapping[str, object
         "dense" if str(cloud).endswith("dense.ply") else "sparse",
         status if isinstance(status, str) else None,
         None if centre is None else _xy(centre, f"{vwhere}: measurements.site_centre_enu_m"),
-        optional_number(m, "site_radius_m", f"{vwhere}: measurements", lo=0.0))
+        optional_number(m, "site_radius_m", f"{vwhere}: measurements", lo=0.0),
+        _relief(m.get("terrain"), f"{vwhere}: measurements.terrain"))
 
 
 def _relief(v: object, where: str) -> Mapping[str, float] | None:

@@ -20,7 +20,10 @@ Fields (n = the detector's 25 features, in any order, each once):
 - `cloud_settings` (optional): {"cloud": "dense" | "sparse", and for a dense model the
   densify options of its training clouds, finite numbers within +-1e9, at most 64}: how
   the clouds it was trained on were made; `mound_recon verdict` refuses a cloud made
-  otherwise (exit 2 naming the setting).
+  otherwise (exit 2 naming the setting);
+- `terrain_domain` (optional): {"ranges": {descriptor: [low, high] with low <= high, within
+  +-1e9; at least one; names of TERRAIN_DESCRIPTORS}, other fields free}: the ground the
+  model was trained on; a site outside any range is `undecided` with reason `terrain`.
 """
 
 from __future__ import annotations
@@ -45,6 +48,10 @@ DETECTOR_FEATURES = (
     "flank_slope", "clipped", "outside", "offset", "log_snr", "coverage", "log_rises",
     "site_sag", "site_ridge", "roughness", "ring_high", "ring_spread", "ground_slope",
     "shape_cone", "shape_drum", "flat_top", "point_top", "point_spread")
+
+# The site's ground as the terrain domain reads it (TerrainDescriptorNames, same order).
+TERRAIN_DESCRIPTORS = ("site_slope_rad", "site_relief_m", "site_sag_m", "site_ridge_m",
+                       "ground_noise_m")
 
 
 class Beta(NamedTuple):
@@ -89,6 +96,8 @@ class VerdictModel:
     second_look: SecondLookRule | None = None
     undecided: tuple[float, float] | None = None  # the band [p_low, p_high)
     cloud_settings: dict[str, Any] | None = None  # how its training clouds were made
+    # terrain_domain's ranges: descriptor -> (low, high); empty: no domain
+    terrain_ranges: tuple[tuple[str, float, float], ...] = ()
 
     @classmethod
     def of(cls, doc: Mapping[str, Any]) -> VerdictModel:
@@ -106,7 +115,9 @@ class VerdictModel:
                            *(float(sl["combine"][k]) for k in ("first", "second", "bias")))
             if sl else None,
             (float(band["p_low"]), float(band["p_high"])) if band else None,
-            dict(doc["cloud_settings"]) if "cloud_settings" in doc else None)
+            dict(doc["cloud_settings"]) if "cloud_settings" in doc else None,
+            tuple((str(k), float(v[0]), float(v[1]))
+                  for k, v in doc.get("terrain_domain", {}).get("ranges", {}).items()))
 
 
 def _is_number(v: object) -> TypeGuard[int | float]:
@@ -246,7 +257,27 @@ def check_verdict_model(doc: Any, source: str) -> VerdictModel:
             raise InputError(f"{at}: more than 64 settings")
         if c["cloud"] == "sparse" and len(c) > 1:
             raise InputError(f"{at}: a sparse cloud has no densify options")
+    if "terrain_domain" in doc:
+        at = f"{source}: terrain_domain"
+        t = _object(doc, "terrain_domain")
+        ranges = _object(t, "ranges") if t is not None else None
+        if not ranges:
+            raise InputError(f'{at}: expected {{"ranges": {{descriptor: [low, high], ...}}}}')
+        for name in ranges:
+            if name not in TERRAIN_DESCRIPTORS:
+                raise InputError(f"{at}.ranges: {name[:40]}: not a terrain descriptor of this "
+                                 "detector")
+            lo, hi = _numbers(ranges, name, 2, f"{at}.ranges")
+            if not (lo <= hi and abs(lo) <= 1e9 and abs(hi) <= 1e9):
+                raise InputError(f"{at}.ranges: {name}: expected [low, high], low <= high")
     return VerdictModel.of(doc)
+
+
+def outside_terrain(model: VerdictModel, terrain: Mapping[str, float]) -> list[str]:
+    """The descriptors of a site's ground (verdict.json's `measurements.terrain`) outside
+    the model's terrain domain: VerdictModel::OutsideTerrain."""
+    return [name for name, lo, hi in model.terrain_ranges
+            if not lo <= float(terrain[name]) <= hi]
 
 
 def cloud_mismatch(model: VerdictModel, cloud: str, options: Mapping[str, object]) -> str | None:

@@ -193,16 +193,34 @@ def frontier(p: np.ndarray, y: np.ndarray, goal: np.ndarray) -> dict[str, Any]:
 
 
 def three_answers(p: np.ndarray, sites: Sequence[GridSite], band: tuple[float, float],
-                  threshold: float) -> dict[str, Any]:
+                  threshold: float, outside: np.ndarray | None = None) -> dict[str, Any]:
     """The three answers' figures on held-out sites (see the module text): p of every
-    measured site, the sites (their truth), the model's band and two-answer threshold."""
+    measured site, the sites (their truth), the model's band and two-answer threshold;
+    `outside` (a model with a terrain domain) the sites whose ground lies outside it,
+    undecided whatever their p, with `frontier_inside_domain` what any band could do on
+    the others (the outside sites counted undecided)."""
     truths = [s.truth for s in sites]
     y = np.array([t.mound for t in truths])
     goal = np.array([band_goal(t) for t in truths])
     lab = answers(p, band)
+    terrain: dict[str, Any] = {}
+    if outside is not None:
+        lab = np.where(outside, UNDECIDED, lab)
+        inside = ~outside
+        terrain = {"terrain": {
+            "outside": int(outside.sum()), "tumuli_outside": int(y[outside].sum()),
+            "sites_outside": [sites[k].dir for k in np.flatnonzero(outside)],
+            "would_be": {name: int((answers(p, band)[outside] == code).sum())
+                         for name, code in (("mound", MOUND), ("no_mound", NO),
+                                            ("undecided", UNDECIDED))}}}
+        if inside.any():
+            f = frontier(p[inside], y[inside], goal[inside])
+            f["undecided_at_goals"] = float(
+                (f["undecided_at_goals"] * inside.sum() + outside.sum()) / len(p))
+            terrain["frontier_inside_domain"] = f
     und = lab == UNDECIDED
     n_und = int(und.sum())
-    return {
+    return {**terrain,
         "band": list(band), "sites": len(p),
         "confident_misses": {**_rate(int((lab[goal] == NO).sum()), int(goal.sum())),
                              "goal": MAX_MISS,

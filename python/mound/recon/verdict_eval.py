@@ -21,7 +21,7 @@ from mound.classify.metrics import (
 from mound.errors import InputError
 from mound.jsonio import read_json
 from mound.recon.grid_site import GridSite
-from mound.recon.model_file import VerdictModel
+from mound.recon.model_file import VerdictModel, outside_terrain
 from mound.recon.verdict_band import three_answers
 from mound.recon.verdict_data import (
     CLEAR_OF_GROUND,
@@ -90,6 +90,18 @@ def _goal_rates(lab: np.ndarray, big: list[int], neg: list[int],
                               "rate_95ci": _interval(fa, len(neg))}}
 
 
+def _outside(model: VerdictModel, measured: list[GridSite]) -> np.ndarray | None:
+    """The sites whose ground lies outside the model's terrain domain (None: the model has
+    none); a site whose verdict did not measure its ground is an error (remeasure it)."""
+    if not model.terrain_ranges:
+        return None
+    missing = [r.where for r in measured if r.ground is None]
+    if missing:
+        raise InputError(f"{missing[0]}: the verdict does not measure the site's terrain, "
+                         "and the model has a terrain_domain (mound sim grid --remeasure)")
+    return np.array([bool(outside_terrain(model, r.ground or {})) for r in measured])
+
+
 def evaluate(model: VerdictModel, rows: list[GridSite]) -> dict[str, Any]:
     measured = [r for r in rows if r.measured]
     p = probability(model, [r.rises for r in measured])
@@ -148,8 +160,8 @@ def evaluate(model: VerdictModel, rows: list[GridSite]) -> dict[str, Any]:
         **({"two_looks": two_looks(model, measured, p, big, neg)}
            if model.second_look else {}),
         **({"three_answers": three_answers(
-            p, measured,
-            model.undecided, thr)} if model.undecided else {}),
+            p, measured, model.undecided, thr, _outside(model, measured))}
+           if model.undecided else {}),
     }
 
 

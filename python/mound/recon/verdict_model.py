@@ -65,6 +65,7 @@ from mound.recon.verdict_fit import (
     VERSION,
     probability,
     product_pairs,
+    terrain_domain,
     train,
 )
 from mound.recon.verdict_second import SECOND_LOOK_FOLDS, second_look_p
@@ -76,5 +77,5 @@ __all__ = [
     "SCHEMA", "SECOND_LOOK_FACTOR", "SECOND_LOOK_FOLDS", "VERSION", "detection_figure",
     "evaluate", "feature_names_of", "figure", "grid_cloud", "grid_label", "load_grid",
     "paper_agreement", "probability", "product_pairs", "rise_labels", "second_look_p",
-    "site_terrain", "stands_clear", "train",
+    "site_terrain", "stands_clear", "terrain_domain", "train",
 ]

@@ -18,8 +18,11 @@ The draws (half of the sites carry a tumulus):
 - no mound: bare ground (25 %) or one confuser (75 %): an elongated hillock, a ridge, a
   ditch, a terrace edge, a group of trees, a building or a haystack, within 15 m of the
   centre;
-- ground (either class): undulating (45 %), on a slope of 2-15 degrees (30 %) or a patch of
-  a real DEM (25 %; skipped when no DEM is given): one of the DEMs given (`--dem`, repeated)
+- ground (either class), `ground="mixed"` (the training grids'): undulating (45 %), on a
+  slope of 2-15 degrees (30 %) or a patch of a real DEM (25 %; skipped when no DEM is
+  given); `ground="steep"` (a terrain family no training grid has held, for held-out
+  grids): every site on a slope of 15-35 degrees, over a DEM's patch (half, when DEMs are
+  given) or undulating ground. A DEM patch is one of the DEMs given (`--dem`, repeated)
   drawn among those on which the site's square fits wholly on valid cells, the centre
   uniform over where it fits within the DEM's `dem_part` (dem_places.py: train, the first
   60 % across its longer axis; heldout, the rest; training and held-out grids then share
@@ -43,6 +46,7 @@ from typing import Any
 
 import numpy as np
 
+from mound.errors import InputError
 from mound.geometry.flight import DEFAULT_SITE_DIAMETER_M
 from mound.sim import site as sim
 from mound.sim import terrain
@@ -154,9 +158,14 @@ def _place_on_dem(rng: np.random.Generator, dems: list[DemPlaces],
     return {"dem_path": d.path, "dem_x_m": x, "dem_y_m": y}
 
 
+GROUNDS = ("mixed", "steep")
+STEEP_DEG = (15.0, 35.0)  # ground="steep": the slopes no training grid held
+
+
 def draw(rng: np.random.Generator, seed: int, dems: list[DemPlaces] | None,
          size: tuple[int, int], scan_m: float = SCAN_M, texel_m: float = 0.1,
-         pattern: str = "raster", population: Population | None = None) -> sim.SimSpec:
+         pattern: str = "raster", population: Population | None = None,
+         ground: str = "mixed") -> sim.SimSpec:
     """One site of the grid (see the module text); `dems` opened once for the grid (each
     open reads the whole DEM)."""
     over: dict[str, Any] = {"seed": seed, "resolution_m": 0.5}
@@ -196,7 +205,13 @@ def draw(rng: np.random.Generator, seed: int, dems: list[DemPlaces] | None,
     size_m = max(160.0, extent + 40.0)
     size_m = math.ceil(size_m / 4) * 4
     over["size_m"] = size_m
-    if g < 0.30:
+    if ground == "steep":
+        over.update(slope_deg=float(rng.uniform(*STEEP_DEG)),
+                    slope_azimuth_deg=float(rng.uniform(0, 360)))
+        g = 0.30 if g < 0.5 else 1.0  # over a DEM's patch (below) or undulating ground
+    elif ground != "mixed":
+        raise InputError(f"--ground: one of {', '.join(GROUNDS)}, got {ground!r}")
+    if g < 0.30 and ground == "mixed":
         over.update(slope_deg=float(rng.uniform(2, 15)),
                     slope_azimuth_deg=float(rng.uniform(0, 360)))
     elif g < 0.55 and dems:
