@@ -2,7 +2,8 @@
 // `mound_recon verdict --model` reads) and the first look's reader (the verdict.json that
 // `verdict --second-look` reads): each a value or an InputError; a read model's
 // probabilities, and a read first look's p, are finite numbers in [0, 1], and so is the
-// second look's p from them.
+// second look's p from them; a read terrain domain's ranges are ordered and what it names
+// outside lies outside.
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -40,6 +41,12 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       in_unit(m.SecondLookProbability(0.0, 1.0));
       in_unit(m.SecondLookProbability(1.0, 0.0));
     }
+    // the terrain domain: each excess names a descriptor whose value lies outside its range
+    mound::terrain::Detection d;
+    d.site_slope_rad = 0.6;
+    d.site_relief_m = -1;
+    for (const mound::terrain::TerrainExcess& e : m.OutsideTerrain(d))
+      if (!(e.low <= e.high) || (e.value >= e.low && e.value <= e.high)) std::abort();
   });
   return 0;
 }
