@@ -493,3 +493,32 @@ def test_a_rise_at_the_edge_of_the_site_is_flagged(tmp_path: Path, mound_recon: 
     rise = v["measurements"]["rise"]
     whole = abs(rise["base_diameter_m"] - 40.0) < 8.0 and v["coverage"]["status"] == "whole"
     assert whole or v["coverage"]["status"] == "clipped", v["coverage"]
+
+
+def test_the_terrain_domain_is_the_training_sites_ground_widened_by_its_margin() -> None:
+    """Issue 68: each descriptor from the sites' lowest to highest, widened by
+    DOMAIN_MARGIN of that range on either side, with the share of the sites outside the
+    others' domain; none from sites whose verdicts do not measure their ground."""
+    from mound.recon.model_file import TERRAIN_DESCRIPTORS, outside_terrain
+
+    rng = np.random.default_rng(3)
+    base = vm.sites_of([{"dir": f"{k:04d}", "truth": {"mound": False, "height_m": 0.0,
+                                                       "diameter_m": 0.0}} for k in range(40)])
+    grounds = [{n: float(rng.uniform(0, 1)) for n in TERRAIN_DESCRIPTORS} for _ in base]
+    grounds[7]["site_slope_rad"] = 5.0  # one site far steeper than the others
+    sites = [replace(s, measured=True, ground=g) for s, g in zip(base, grounds, strict=True)]
+    d = vf.terrain_domain(sites, ["g"])
+    assert d is not None and d["sites"] == 40 and d["margin"] == vf.DOMAIN_MARGIN
+    for n in TERRAIN_DESCRIPTORS:
+        v = [g[n] for g in grounds]
+        w = max(v) - min(v)
+        assert d["ranges"][n] == pytest.approx([min(v) - vf.DOMAIN_MARGIN * w,
+                                                max(v) + vf.DOMAIN_MARGIN * w])
+    # left out, the steep site lies outside the others' domain (and maybe a few at the edges)
+    assert 1 / 40 <= d["outside_left_out"] < 0.3
+    doc = json.loads((REPO_ROOT / "data" / "verdict_model_dense.json").read_text())
+    model = check_verdict_model({**doc, "terrain_domain": d}, "m.json")
+    assert outside_terrain(model, grounds[0]) == []
+    assert outside_terrain(model, {**grounds[0], "site_slope_rad": 6.0}) == ["site_slope_rad"]
+    assert vf.terrain_domain([replace(sites[0], ground=None), *sites[1:]], ["g"]) is None
+    assert vf.terrain_domain([], ["g"]) is None
