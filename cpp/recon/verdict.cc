@@ -413,11 +413,10 @@ nlohmann::json SiteVerdictJson(const SiteVerdict& v, const terrain::VerdictModel
     nlohmann::json outside = nlohmann::json::array();
     for (const terrain::TerrainExcess& e : v.terrain)
       outside.push_back({{"name", e.name}, {"value", e.value}, {"range", {e.low, e.high}}});
-    doc["terrain"] = {
-        {"status", model.terrain_ranges.empty() ? "unchecked"
-                   : v.terrain.empty()          ? "inside"
-                                                : "outside"},
-        {"outside", outside}};
+    doc["terrain"] = {{"status", model.terrain_ranges.empty() ? "unchecked"
+                                 : v.terrain.empty()          ? "inside"
+                                                              : "outside"},
+                      {"outside", outside}};
   }
   // Every judged rise (the training data of `mound recon train-verdict`), the one that
   // decided the site as `rise` with its `features`.

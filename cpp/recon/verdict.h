@@ -139,9 +139,9 @@ struct SiteVerdict {
 
 // Why a site is undecided, read from its measurements (they describe the doubt, they do not
 // decide, save "terrain"): "terrain" (its ground lies outside the model's terrain domain:
-// ground the model never saw), "clipped" (the rise runs off the scan), "sparse_cloud" (< 70 % of the site's
-// cells hold points), "no_rise" (nothing above the relief threshold), "masked" (the ground
-// around the rise stands >= half its height in some direction: relief of its own size),
+// ground the model never saw), "clipped" (the rise runs off the scan), "sparse_cloud" (< 70 % of
+// the site's cells hold points), "no_rise" (nothing above the relief threshold), "masked" (the
+// ground around the rise stands >= half its height in some direction: relief of its own size),
 // "cut" (the dome fit's residual >= 25 % of the height, or the footprint fills < half its
 // disc: a looters' trench or pit, or damage), "low" (< 1 m high); "weak" when none of these.
 // Each with a sentence for the field team.

@@ -227,8 +227,7 @@ Detection DetectMound(const std::vector<Eigen::Vector3d>& points, const Eigen::V
     }
     // the plane: the top-left 3 x 3 of the quadratic's normal equations
     const Eigen::Vector3d plane = A.topLeftCorner<3, 3>().ldlt().solve(b.head<3>());
-    if (plane.allFinite())
-      d.site_slope_rad = std::atan(plane.tail<2>().norm() / radius_m);
+    if (plane.allFinite()) d.site_slope_rad = std::atan(plane.tail<2>().norm() / radius_m);
     if (coef.allFinite()) d.ground_sag_m = Fall(coef)[0];
   }
   // Coefficients in metres of x, y from the centre.

@@ -530,7 +530,7 @@ TEST(VerdictModel, NamesTheGroundOutsideItsTerrainDomain) {
   // a plane adds no relief, save the cells' step along it (a cell's median point is not at
   // its centre)
   EXPECT_NEAR(a.site_relief_m, b.site_relief_m, std::tan(25 * M_PI / 180) * b.cell_m);
-  EXPECT_GT(a.site_relief_m, 0.1);                        // the undulation and the noise
+  EXPECT_GT(a.site_relief_m, 0.1);  // the undulation and the noise
   EXPECT_LT(a.site_relief_m, 1.5);
   nlohmann::json d = ModelDoc();
   d["terrain_domain"] = {{"ranges", {{"site_slope_rad", {0.0, 0.3}}, {"site_relief_m", {0, 20}}}},
@@ -543,12 +543,12 @@ TEST(VerdictModel, NamesTheGroundOutsideItsTerrainDomain) {
   EXPECT_DOUBLE_EQ(out[0].value, b.site_slope_rad);
   EXPECT_EQ(out[0].high, 0.3);
   EXPECT_TRUE(ParseVerdictModel(ModelDoc(), "m.json").OutsideTerrain(b).empty());  // no domain
-  for (const nlohmann::json& bad :
-       {nlohmann::json(1), nlohmann::json::object(), nlohmann::json{{"ranges", nlohmann::json::object()}},
-        nlohmann::json{{"ranges", {{"slope", {0, 1}}}}},
-        nlohmann::json{{"ranges", {{"site_slope_rad", {1, 0}}}}},
-        nlohmann::json{{"ranges", {{"site_slope_rad", {0, 1, 2}}}}},
-        nlohmann::json{{"ranges", {{"site_slope_rad", {0, "1"}}}}}}) {
+  for (const nlohmann::json& bad : {nlohmann::json(1), nlohmann::json::object(),
+                                    nlohmann::json{{"ranges", nlohmann::json::object()}},
+                                    nlohmann::json{{"ranges", {{"slope", {0, 1}}}}},
+                                    nlohmann::json{{"ranges", {{"site_slope_rad", {1, 0}}}}},
+                                    nlohmann::json{{"ranges", {{"site_slope_rad", {0, 1, 2}}}}},
+                                    nlohmann::json{{"ranges", {{"site_slope_rad", {0, "1"}}}}}}) {
     d["terrain_domain"] = bad;
     EXPECT_THROW(ParseVerdictModel(d, "m.json"), InputError) << bad.dump();
   }

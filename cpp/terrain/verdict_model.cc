@@ -268,8 +268,7 @@ VerdictModel ParseVerdictModel(const nlohmann::json& doc, const std::string& sou
   if (doc.contains("terrain_domain")) {
     const nlohmann::json& t = doc["terrain_domain"];
     const std::string at = source + ": terrain_domain";
-    if (!t.is_object() || !t.contains("ranges") || !t["ranges"].is_object() ||
-        t["ranges"].empty())
+    if (!t.is_object() || !t.contains("ranges") || !t["ranges"].is_object() || t["ranges"].empty())
       throw InputError(at + ": expected {\"ranges\": {descriptor: [low, high], ...}}");
     const std::vector<std::string>& names = TerrainDescriptorNames();
     for (const auto& [name, range] : t["ranges"].items()) {
