@@ -520,5 +520,8 @@ def test_the_terrain_domain_is_the_training_sites_ground_widened_by_its_margin()
     model = check_verdict_model({**doc, "terrain_domain": d}, "m.json")
     assert outside_terrain(model, grounds[0]) == []
     assert outside_terrain(model, {**grounds[0], "site_slope_rad": 6.0}) == ["site_slope_rad"]
+    partial = {k: v for k, v in grounds[0].items() if k != "site_relief_m"}
+    with pytest.raises(InputError, match="measurements.terrain: site_relief_m: missing"):
+        outside_terrain(model, partial)
     assert vf.terrain_domain([replace(sites[0], ground=None), *sites[1:]], ["g"]) is None
     assert vf.terrain_domain([], ["g"]) is None

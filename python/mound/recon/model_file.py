@@ -275,7 +275,12 @@ def check_verdict_model(doc: Any, source: str) -> VerdictModel:
 
 def outside_terrain(model: VerdictModel, terrain: Mapping[str, float]) -> list[str]:
     """The descriptors of a site's ground (verdict.json's `measurements.terrain`) outside
-    the model's terrain domain: VerdictModel::OutsideTerrain."""
+    the model's terrain domain: VerdictModel::OutsideTerrain. A descriptor the domain
+    names and `terrain` lacks is an InputError naming it."""
+    missing = [name for name, _, _ in model.terrain_ranges if name not in terrain]
+    if missing:
+        raise InputError(f"measurements.terrain: {missing[0]}: missing (the model's "
+                         "terrain_domain ranges it; remeasure the site)")
     return [name for name, lo, hi in model.terrain_ranges
             if not lo <= float(terrain[name]) <= hi]
 

@@ -99,7 +99,13 @@ def _outside(model: VerdictModel, measured: list[GridSite]) -> np.ndarray | None
     if missing:
         raise InputError(f"{missing[0]}: the verdict does not measure the site's terrain, "
                          "and the model has a terrain_domain (mound sim grid --remeasure)")
-    return np.array([bool(outside_terrain(model, r.ground or {})) for r in measured])
+    out = []
+    for r in measured:
+        try:
+            out.append(bool(outside_terrain(model, r.ground or {})))
+        except InputError as e:
+            raise InputError(f"{r.where}/verdict.json: {e}") from None
+    return np.array(out)
 
 
 def evaluate(model: VerdictModel, rows: list[GridSite]) -> dict[str, Any]:
