@@ -205,12 +205,11 @@ def three_answers(p: np.ndarray, sites: Sequence[GridSite], band: tuple[float, f
     lab = answers(p, band)
     terrain: dict[str, Any] = {}
     if outside is not None:
-        lab = np.where(outside, UNDECIDED, lab)
         inside = ~outside
         terrain = {"terrain": {
             "outside": int(outside.sum()), "tumuli_outside": int(y[outside].sum()),
             "sites_outside": [sites[k].dir for k in np.flatnonzero(outside)],
-            "would_be": {name: int((answers(p, band)[outside] == code).sum())
+            "would_be": {name: int((lab[outside] == code).sum())
                          for name, code in (("mound", MOUND), ("no_mound", NO),
                                             ("undecided", UNDECIDED))}}}
         if inside.any():
@@ -218,6 +217,7 @@ def three_answers(p: np.ndarray, sites: Sequence[GridSite], band: tuple[float, f
             f["undecided_at_goals"] = float(
                 (f["undecided_at_goals"] * inside.sum() + outside.sum()) / len(p))
             terrain["frontier_inside_domain"] = f
+        lab = np.where(outside, UNDECIDED, lab)
     und = lab == UNDECIDED
     n_und = int(und.sum())
     return {**terrain,

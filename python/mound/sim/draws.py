@@ -205,16 +205,14 @@ def draw(rng: np.random.Generator, seed: int, dems: list[DemPlaces] | None,
     size_m = max(160.0, extent + 40.0)
     size_m = math.ceil(size_m / 4) * 4
     over["size_m"] = size_m
-    if ground == "steep":
-        over.update(slope_deg=float(rng.uniform(*STEEP_DEG)),
-                    slope_azimuth_deg=float(rng.uniform(0, 360)))
-        g = 0.30 if g < 0.5 else 1.0  # over a DEM's patch (below) or undulating ground
-    elif ground != "mixed":
+    if ground not in GROUNDS:
         raise InputError(f"--ground: one of {', '.join(GROUNDS)}, got {ground!r}")
-    if g < 0.30 and ground == "mixed":
-        over.update(slope_deg=float(rng.uniform(2, 15)),
+    steep = ground == "steep"
+    if steep or g < 0.30:
+        over.update(slope_deg=float(rng.uniform(*(STEEP_DEG if steep else (2, 15)))),
                     slope_azimuth_deg=float(rng.uniform(0, 360)))
-    elif g < 0.55 and dems:
+    # steep: half over a DEM's patch; mixed: a quarter, the sites not on a slope
+    if (g < 0.5 if steep else 0.30 <= g < 0.55) and dems:
         place = _place_on_dem(rng, dems, size_m)
         if place is None:  # wider than any DEM holds: undulating ground (truth: dem false)
             LOG.warning("site %d: %g m across fits on no DEM's part; its ground undulates",
