@@ -234,6 +234,39 @@ def test_steep_ground_is_a_family_no_mixed_grid_draws(shared_data: Path) -> None
         draws.draw(np.random.default_rng(1), 0, dem, (320, 240), ground="alpine")
 
 
+def test_ridged_ground_is_ridges_and_terraces_no_other_grid_draws() -> None:
+    """Issue 68's second held-out terrain family: ridge and valley on every site (crests
+    60-160 m apart, flanks of at most 32 degrees before the regional slope), terraced on
+    half; the built ground has the drawn relief, and a terrace's tread is flat."""
+    rng = np.random.default_rng([5, 2026])
+    ridged = [draws.draw(rng, k, None, (320, 240), ground="ridged") for k in range(200)]
+    t = [s.terrain for s in ridged]
+    assert all(60 <= g.ridge_wavelength_m <= 160 for g in t)
+    assert all(3 <= g.ridge_relief_m <= g.ridge_wavelength_m / 5 for g in t)
+    assert 70 < sum(g.terrace_step_m > 0 for g in t) < 130
+    assert all(g.dem_path is None and 0 <= g.slope_deg <= 10 for g in t)
+    assert 0.4 < sum(g.mound for g in t) / len(t) < 0.6
+    # no mixed or steep draw has ridges or terraces
+    rng = np.random.default_rng([5, 2026])
+    for ground in ("mixed", "steep"):
+        assert all(draws.draw(rng, k, None, (320, 240), ground=ground).terrain.ridge_relief_m
+                   == 0 for k in range(50))
+    # the ground as built: bare ridges span their relief plus the regional slope's rise
+    bare = replace(t[0], mound=False, confusers=(), terrace_step_m=0.0, resolution_m=0.5,
+                   slope_deg=0.0, ground_relief_m=0.0)
+    hf = terrain.build(bare)
+    assert hf.z_m.max() - hf.z_m.min() == pytest.approx(bare.ridge_relief_m, rel=0.05)
+    assert bare.truth()["ridge_relief_m"] == bare.ridge_relief_m
+    # terraces: 2 m steps on a 10 degree slope; most of the ground is flat tread
+    steps = terrain.build(replace(bare, ridge_relief_m=0.0, slope_deg=10.0,
+                                  terrace_step_m=2.0, terrace_riser=0.25))
+    gy, gx = np.gradient(steps.z_m, 0.5)
+    flat = np.hypot(gx, gy) < 1e-9
+    assert 0.6 < flat.mean() < 0.8
+    assert np.unique(np.round(steps.z_m[flat] / 2.0, 6)).size == np.unique(
+        np.round(steps.z_m[flat] / 2.0)).size  # every tread at a whole number of steps
+
+
 @pytest.mark.parametrize("profile", terrain.PROFILES)
 def test_the_highest_tumulus_drawn_has_flanks_at_the_angle_of_repose(profile: str) -> None:
     """max_height's closed forms against the simulator's own radial profile: at that height

@@ -85,6 +85,22 @@ def test_three_answers_on_held_out_sites() -> None:
     assert t["terrain"] == {"outside": 2, "tumuli_outside": 1, "sites_outside": ["b", "e"],
                             "would_be": {"mound": 1, "no_mound": 1, "undecided": 0}}
     assert t["frontier_inside_domain"]["undecided_at_goals"] >= 2 / 5
+    # per kind of ground (the truth's slope, DEM, ridges): a 20 degree DEM patch holds the
+    # confident miss, terraced ridges the undecided bare site; a truth without its ground
+    # is "unknown"
+    grounds = [{"slope_deg": 0.0, "dem": False}, {"slope_deg": 20.0, "dem": True},
+               {"slope_deg": 3.0, "dem": False, "ridge_relief_m": 9.0,
+                "terrace_step_m": 2.0}, {"slope_deg": 3.0, "dem": False, "ridge_relief_m": 9.0,
+                                         "terrace_step_m": 2.0}, {}]
+    sites = sites_of([{"dir": d, "truth": {**t, **g}}
+                      for d, t, g in zip("abcde", truths, grounds, strict=True)])
+    k = vb.three_answers(p, sites, (0.1, 0.95), 0.8)["by_terrain"]
+    assert list(k) == ["dem, 15-35 deg", "ridges, terraced", "undulating, flat", "unknown"]
+    assert k["dem, 15-35 deg"]["confident_misses"]["count"] == 1
+    assert k["ridges, terraced"]["undecided"] == {**k["ridges, terraced"]["undecided"],
+                                                  "count": 2, "of": 2}
+    assert k["undulating, flat"]["confirmed_2m"]["count"] == 1
+    assert k["unknown"]["confident_false_alarms"]["count"] == 1
 
 
 def test_a_model_without_a_band_gives_two_answers_and_one_with_it_three() -> None:

@@ -89,10 +89,11 @@ def add_parser(simp: Any, parser_class: Any) -> None:
                     "from a measured inventory (GeoJSON with length_m, width_m, height_m, "
                     "robber_trench; kazanlak: the Kazanlak inventory) instead of the uniform "
                     "ranges")
-    sg.add_argument("--ground", choices=("mixed", "steep"), default="mixed",
-                    help="mixed: undulating, 2-15 degree slopes and DEM patches (the training "
-                    "grids'; default); steep: every site on a 15-35 degree slope, over a DEM "
-                    "patch or undulating ground (terrain no training grid held)")
+    sg.add_argument("--ground", choices=("mixed", "steep", "ridged"), default="mixed",
+                    help="mixed: undulating, 2-15 degree slopes and DEM patches (default); "
+                    "steep: every site on a 15-35 degree slope, over a DEM patch or "
+                    "undulating ground; ridged: ridge-and-valley ground, terraced on half "
+                    "the sites (no DEM)")
     sg.add_argument("--workers", type=WORKERS.arg(), default=2, help="sites at once")
     sg.add_argument("--threads", type=THREADS.arg(), default=1, help="threads per site")
     sg.add_argument("--pattern", choices=("raster", "both"), default="raster",

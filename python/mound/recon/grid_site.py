@@ -73,6 +73,20 @@ class SiteTruth:
                 **({"profile": self.profile} if self.profile else {})}
 
     @property
+    def terrain_kind(self) -> str:
+        """The ground the site was drawn on, as the figures split it: ridges (terraced or
+        not), or a DEM's patch or undulating ground with its regional slope (flat, 2-15 or
+        15-35 degrees); "unknown" for a truth that does not say."""
+        d = self.doc
+        slope = d.get("slope_deg")
+        if not isinstance(slope, int | float) or "dem" not in d:
+            return "unknown"
+        if d.get("ridge_relief_m"):  # on a regional slope of at most 10 degrees
+            return "ridges, terraced" if d.get("terrace_step_m") else "ridges"
+        grade = "flat" if slope == 0 else "2-15 deg" if slope < 15 else "15-35 deg"
+        return f"{'dem' if d.get('dem') else 'undulating'}, {grade}"
+
+    @property
     def reach_m(self) -> float:
         """How far from the site centre the object reaches (its centre's offset + radius)."""
         return math.hypot(*self.centre_enu_m) + self.diameter_m / 2

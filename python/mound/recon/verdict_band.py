@@ -240,8 +240,30 @@ def three_answers(p: np.ndarray, sites: Sequence[GridSite], band: tuple[float, f
         "decided": {"sites": int((~und).sum()),
                     "wrong": int(((lab == MOUND) & ~y).sum() + ((lab == NO) & y).sum())},
         "field_recall": field_recall(truths, lab, p >= threshold),
+        "by_terrain": by_terrain(truths, lab),
         "frontier": frontier(p, y, goal),
     }
+
+
+def by_terrain(truths: Sequence[SiteTruth], lab: np.ndarray) -> dict[str, Any]:
+    """The three answers per kind of ground (SiteTruth.terrain_kind): the confident
+    misses and false alarms, the undecided, and the tumuli >= 2 m high confirmed mound,
+    each with its exact 95 % interval."""
+    kinds = sorted({t.terrain_kind for t in truths})
+    out: dict[str, Any] = {}
+    for kind in kinds:
+        idx = np.array([t.terrain_kind == kind for t in truths])
+        y = np.array([t.mound for t in truths]) & idx
+        goal = np.array([band_goal(t) for t in truths]) & idx
+        high = np.array([t.mound and t.height_m >= 2.0 for t in truths]) & idx
+        neg = idx & ~y
+        out[kind] = {
+            "sites": int(idx.sum()),
+            "confident_misses": _rate(int((lab[goal] == NO).sum()), int(goal.sum())),
+            "confident_false_alarms": _rate(int((lab[neg] == MOUND).sum()), int(neg.sum())),
+            "undecided": _rate(int((lab[idx] == UNDECIDED).sum()), int(idx.sum())),
+            "confirmed_2m": _rate(int((lab[high] == MOUND).sum()), int(high.sum()))}
+    return out
 
 
 def recall_figure(three: dict[str, Any], out: str, title: str = "") -> None:

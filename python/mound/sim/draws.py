@@ -22,7 +22,10 @@ The draws (half of the sites carry a tumulus):
   slope of 2-15 degrees (30 %) or a patch of a real DEM (25 %; skipped when no DEM is
   given); `ground="steep"` (a terrain family no training grid has held, for held-out
   grids): every site on a slope of 15-35 degrees, over a DEM's patch (half, when DEMs are
-  given) or undulating ground. A DEM patch is one of the DEMs given (`--dem`, repeated)
+  given) or undulating ground; `ground="ridged"` (another family no training grid holds):
+  ridge-and-valley ground, crests 60-160 m apart and 3 m to a fifth of that high (flanks
+  up to 32 degrees), on a regional slope of 0-10 degrees, terraced (steps of 1-3 m) on half
+  the sites, no DEM. A DEM patch is one of the DEMs given (`--dem`, repeated)
   drawn among those on which the site's square fits wholly on valid cells, the centre
   uniform over where it fits within the DEM's `dem_part` (dem_places.py: train, the first
   60 % across its longer axis; heldout, the rest; training and held-out grids then share
@@ -158,8 +161,22 @@ def _place_on_dem(rng: np.random.Generator, dems: list[DemPlaces],
     return {"dem_path": d.path, "dem_x_m": x, "dem_y_m": y}
 
 
-GROUNDS = ("mixed", "steep")
+GROUNDS = ("mixed", "steep", "ridged")
 STEEP_DEG = (15.0, 35.0)  # ground="steep": the slopes no training grid held
+
+
+def _ridged(rng: np.random.Generator) -> dict[str, Any]:
+    """ground="ridged": ridge and valley (a fifth of the wavelength at most: flanks of at
+    most atan(pi / 5), 32 degrees), a regional slope, terraces on half the sites."""
+    lam = float(rng.uniform(60, 160))
+    out: dict[str, Any] = {
+        "ridge_wavelength_m": lam, "ridge_relief_m": float(rng.uniform(3, lam / 5)),
+        "ridge_azimuth_deg": float(rng.uniform(0, 180)),
+        "slope_deg": float(rng.uniform(0, 10)), "slope_azimuth_deg": float(rng.uniform(0, 360))}
+    if rng.random() < 0.5:
+        out.update(terrace_step_m=float(rng.uniform(1, 3)),
+                   terrace_riser=float(rng.uniform(0.2, 0.4)))
+    return out
 
 
 def draw(rng: np.random.Generator, seed: int, dems: list[DemPlaces] | None,
@@ -208,11 +225,13 @@ def draw(rng: np.random.Generator, seed: int, dems: list[DemPlaces] | None,
     if ground not in GROUNDS:
         raise InputError(f"--ground: one of {', '.join(GROUNDS)}, got {ground!r}")
     steep = ground == "steep"
-    if steep or g < 0.30:
+    if ground == "ridged":
+        over.update(_ridged(rng))
+    elif steep or g < 0.30:
         over.update(slope_deg=float(rng.uniform(*(STEEP_DEG if steep else (2, 15)))),
                     slope_azimuth_deg=float(rng.uniform(0, 360)))
     # steep: half over a DEM's patch; mixed: a quarter, the sites not on a slope
-    if (g < 0.5 if steep else 0.30 <= g < 0.55) and dems:
+    if ground != "ridged" and (g < 0.5 if steep else 0.30 <= g < 0.55) and dems:
         place = _place_on_dem(rng, dems, size_m)
         if place is None:  # wider than any DEM holds: undulating ground (truth: dem false)
             LOG.warning("site %d: %g m across fits on no DEM's part; its ground undulates",

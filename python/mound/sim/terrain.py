@@ -18,7 +18,11 @@ trench (`trench_width_m`, `trench_depth_m`, `trench_azimuth_deg`: a V-shaped cut
 the centre, across the whole mound); ground on a slope (`slope_deg` rising towards
 `slope_azimuth_deg`, clockwise from north) or a patch of a real DEM (`dem_path`, centred
 on `dem_x_m`, `dem_y_m` in the DEM's CRS; its heights less the patch's median, so the
-site's datum stays near 0); and confusers (`Confuser`), alone on a site without a mound:
+site's datum stays near 0); ridge-and-valley ground (issue 68: `ridge_relief_m` from
+valley floor to crest, crests `ridge_wavelength_m` apart along `ridge_azimuth_deg`,
+meandering by a tenth of that) and hillside terraces (`terrace_step_m`: the ground's height
+cut into flat treads of that rise, each riser `terrace_riser` of the step's run); and
+confusers (`Confuser`), alone on a site without a mound:
 an elongated natural hillock, a ridge or a ditch across the site, a terrace edge (a step),
 a group of trees (steep crowns), a building (a box with vertical walls) or a haystack (a
 small steep dome). `truth()` says what stands on the site.
@@ -104,6 +108,11 @@ class TerrainSpec:
     # Continue the patch beyond the DEM's edge (dem_patch's point reflection) rather than
     # refuse the site: the second look's wider site near the edge (sim/looks.py, `wider`).
     dem_extend: bool = False
+    ridge_relief_m: float = 0.0      # 0: no ridges; valley floor to crest
+    ridge_wavelength_m: float = 100.0
+    ridge_azimuth_deg: float = 0.0   # the crests run across this direction
+    terrace_step_m: float = 0.0      # 0: no terraces; the rise of one terrace
+    terrace_riser: float = 0.3       # the share of a terrace's run its riser takes
     confusers: tuple[Confuser, ...] = ()
     seed: int = 0
 
@@ -135,6 +144,10 @@ class TerrainSpec:
             need(max(abs(self.mound_x_m), abs(self.mound_y_m)) + self.base_length_m / 2
                  <= self.size_m / 2, "the mound (offset included) must fit on the site")
         need(0 <= self.slope_deg < 45, f"slope_deg must be in [0, 45), got {self.slope_deg}")
+        need(self.ridge_relief_m >= 0, "ridge_relief_m must be >= 0")
+        need(self.ridge_wavelength_m > 0, "ridge_wavelength_m must be > 0")
+        need(self.terrace_step_m >= 0, "terrace_step_m must be >= 0")
+        need(0 < self.terrace_riser <= 1, "terrace_riser must be in (0, 1]")
         for c in self.confusers:
             c.validate()
 
@@ -157,16 +170,26 @@ class TerrainSpec:
                     "centre_enu_m": [self.mound_x_m, self.mound_y_m],
                     "pit": self.pit_radius_m > 0 and self.pit_depth_m > 0,
                     "trench": self.trench_width_m > 0 and self.trench_depth_m > 0,
-                    "slope_deg": self.slope_deg, "dem": self.dem_path is not None}
+                    **self._ground_truth()}
         if self.confusers:
             c = self.confusers[0]
             return {"mound": False, "kind": c.kind, "height_m": c.height_m,
                     "diameter_m": c.width_m, "length_m": c.length_m,
-                    "centre_enu_m": [c.x_m, c.y_m], "slope_deg": self.slope_deg,
-                    "dem": self.dem_path is not None}
+                    "centre_enu_m": [c.x_m, c.y_m], **self._ground_truth()}
         return {"mound": False, "kind": "flat", "height_m": 0.0, "diameter_m": 0.0,
-                "centre_enu_m": [0.0, 0.0], "slope_deg": self.slope_deg,
-                "dem": self.dem_path is not None}
+                "centre_enu_m": [0.0, 0.0], **self._ground_truth()}
+
+    def _ground_truth(self) -> dict[str, object]:
+        """The ground under the site: its slope, a DEM's patch or not, and its ridges and
+        terraces when it has them."""
+        out: dict[str, object] = {"slope_deg": self.slope_deg,
+                                  "dem": self.dem_path is not None}
+        if self.ridge_relief_m > 0:
+            out.update(ridge_relief_m=self.ridge_relief_m,
+                       ridge_wavelength_m=self.ridge_wavelength_m)
+        if self.terrace_step_m > 0:
+            out["terrace_step_m"] = self.terrace_step_m
+        return out
 
 
 PRESETS = {
@@ -401,6 +424,25 @@ def mound_added(spec: TerrainSpec, xx: np.ndarray, yy: np.ndarray,
     return mound
 
 
+def _ridges(spec: TerrainSpec, xx: np.ndarray, yy: np.ndarray) -> np.ndarray:
+    """Ridge-and-valley ground: crests `ridge_wavelength_m` apart across
+    `ridge_azimuth_deg`, `ridge_relief_m` above the valley floors, meandering along the
+    crest by a tenth of the wavelength (phase from the site's seed)."""
+    u, v = _along_across(xx, yy, 0.0, 0.0, spec.ridge_azimuth_deg)
+    lam = spec.ridge_wavelength_m
+    phase = np.random.default_rng([spec.seed, 68]).uniform(0, 2 * np.pi, size=2)
+    meander = lam / 10 * np.sin(2 * np.pi * v / (2.5 * lam) + phase[1])
+    return spec.ridge_relief_m / 2 * np.cos(2 * np.pi * (u + meander) / lam + phase[0])
+
+
+def _terraced(z: np.ndarray, step_m: float, riser: float) -> np.ndarray:
+    """Hillside terraces: the height cut into flat treads `step_m` apart, each riser the
+    last `riser` share of its step's run (a dry-stone wall's face, battered)."""
+    f = z / step_m
+    k = np.floor(f)
+    return step_m * (k + np.clip((f - k - (1 - riser)) / riser, 0.0, 1.0))
+
+
 def build(spec: TerrainSpec) -> Heightfield:
     spec.validate()
     n = int(round(spec.size_m / spec.resolution_m)) + 1
@@ -417,9 +459,13 @@ def build(spec: TerrainSpec) -> Heightfield:
     if spec.dem_path is not None:
         z = dem_patch(spec.dem_path, spec.dem_x_m, spec.dem_y_m, axis, spec.dem_ground_m,
                       spec.dem_vertical, extend=spec.dem_extend)
+    if spec.ridge_relief_m > 0:
+        z = z + _ridges(spec, xx, yy)
     if spec.slope_deg > 0:
         u, _ = _along_across(xx, yy, 0.0, 0.0, spec.slope_azimuth_deg)
         z = z + np.tan(np.deg2rad(spec.slope_deg)) * u
+    if spec.terrace_step_m > 0:
+        z = _terraced(z, spec.terrace_step_m, spec.terrace_riser)
     if spec.mound:
         mound = mound_added(spec, xx, yy)
         z = z + mound
