@@ -362,8 +362,8 @@ SiteVerdict JudgeSite(const std::vector<Eigen::Vector3d>& cloud, const Eigen::Ve
                 : v.second_look   ? model.second_look->threshold
                                   : model.threshold;
   v.mound = v.p_mound >= v.threshold;
-  v.label =
-      options.decide_at ? (v.mound ? "mound" : "no_mound") : model.Label(v.p_mound, v.threshold);
+  v.label = options.decide_at ? (v.mound ? "mound" : "no_mound")
+                              : model.Label(v.p_mound, v.threshold, v.detection.site_slope_rad);
   if (!v.detection.judged.empty()) v.judged = best;
   v.terrain = model.OutsideTerrain(v.detection);
   if (!v.terrain.empty() && !options.decide_at) v.label = "undecided";
@@ -386,9 +386,9 @@ nlohmann::json SiteVerdictJson(const SiteVerdict& v, const terrain::VerdictModel
   if (v.decide_at) {
     doc["decision"] = {{"rule", "decide_at"}, {"p", *v.decide_at}};
   } else if (model.undecided) {
-    doc["decision"] = {{"rule", "undecided_band"},
-                       {"p_low", model.undecided->p_low},
-                       {"p_high", model.undecided->p_high}};
+    const terrain::UndecidedBand band = model.BandFor(d.site_slope_rad);
+    doc["decision"] = {{"rule", "undecided_band"}, {"p_low", band.p_low}, {"p_high", band.p_high}};
+    if (!model.slope_bands.empty()) doc["decision"]["site_slope_rad"] = d.site_slope_rad;
   } else {
     doc["decision"] = {{"rule", "threshold"}, {"p", v.threshold}};
   }
@@ -462,7 +462,8 @@ nlohmann::json SiteVerdictJson(const SiteVerdict& v, const terrain::VerdictModel
   } else {
     if (model.undecided && !v.decide_at) {
       // where p lies against the band: below it no_mound, in it undecided, from its top mound
-      const double lo = model.undecided->p_low, hi = model.undecided->p_high;
+      const terrain::UndecidedBand band = model.BandFor(d.site_slope_rad);
+      const double lo = band.p_low, hi = band.p_high;
       why << "; p(mound) " << v.p_mound
           << (v.p_mound < lo   ? " (below the undecided band ["
               : v.p_mound < hi ? " (in the undecided band ["
@@ -475,13 +476,13 @@ nlohmann::json SiteVerdictJson(const SiteVerdict& v, const terrain::VerdictModel
   if (model.second_look && !v.second_look) {
     const terrain::SecondLook& l = *model.second_look;
     // a wider look at ground the model never saw would not be judged on it either
-    const bool advised = model.SecondLookAdvised(v.p_mound) && v.terrain.empty();
+    const bool advised = model.SecondLookAdvised(v.p_mound, d.site_slope_rad) && v.terrain.empty();
     doc["second_look"] = {{"advised", advised}, {"p_low", l.p_low}, {"scan_factor", l.scan_factor}};
     if (advised) {
       std::ostringstream say;
       say.precision(3);
-      const double lo = model.undecided ? model.undecided->p_low : l.p_low;
-      const double hi = model.undecided ? model.undecided->p_high : model.threshold;
+      const double lo = model.undecided ? model.BandFor(d.site_slope_rad).p_low : l.p_low;
+      const double hi = model.undecided ? model.BandFor(d.site_slope_rad).p_high : model.threshold;
       say << "undecided (p " << v.p_mound << " in [" << lo << ", " << hi
           << ")): fly the site again with a scan " << l.scan_factor
           << " x as wide and judge that flight with --second-look";

@@ -554,6 +554,39 @@ TEST(VerdictModel, NamesTheGroundOutsideItsTerrainDomain) {
   }
 }
 
+TEST(VerdictModel, AnUndecidedBandPerSlopeDecidesBySitesGround) {
+  nlohmann::json d = ModelDoc();
+  d["undecided"] = {{"p_low", 0.2}, {"p_high", 0.95}};
+  const double split = 18 * M_PI / 180;
+  d["undecided"]["by_slope"] = {
+      {{"site_slope_rad", {-M_PI / 2, split}}, {"p_low", 0.35}, {"p_high", 0.99}},
+      {{"site_slope_rad", {split, M_PI / 2}}, {"p_low", 0.13}, {"p_high", 0.92}}};
+  const VerdictModel m = ParseVerdictModel(d, "m.json");
+  ASSERT_EQ(m.slope_bands.size(), 2u);
+  // p 0.3: gentle ground's band starts above it, steep ground's below it
+  EXPECT_EQ(m.Label(0.3, 0.5, 0.1), "no_mound");
+  EXPECT_EQ(m.Label(0.3, 0.5, 0.5), "undecided");
+  EXPECT_EQ(m.Label(0.93, 0.5, 0.1), "undecided");
+  EXPECT_EQ(m.Label(0.93, 0.5, 0.5), "mound");
+  EXPECT_EQ(m.BandFor(split).p_low, 0.13);        // a band holds its low end
+  EXPECT_EQ(m.BandFor(2.0).p_low, 0.13);          // beyond the last: the last
+  EXPECT_EQ(m.BandFor(std::nan("")).p_low, 0.2);  // no slope: the one band
+  EXPECT_EQ(ParseVerdictModel(ModelDoc(), "m.json").Label(0.93, 0.5, 0.5), "mound");
+  for (const nlohmann::json& bad :
+       {nlohmann::json(1), nlohmann::json::array({d["undecided"]["by_slope"][0]}),
+        nlohmann::json{{{"site_slope_rad", {-M_PI / 2, 0.3}}, {"p_low", 0.1}, {"p_high", 0.9}},
+                       {{"site_slope_rad", {0.4, M_PI / 2}}, {"p_low", 0.1}, {"p_high", 0.9}}},
+        nlohmann::json{{{"site_slope_rad", {-M_PI / 2, 0.3}}, {"p_low", 0.1}, {"p_high", 0.9}},
+                       {{"site_slope_rad", {0.3, 0.2}}, {"p_low", 0.1}, {"p_high", 0.9}}},
+        nlohmann::json{{{"site_slope_rad", {-M_PI / 2, 0.3}}, {"p_low", 0.9}, {"p_high", 0.1}},
+                       {{"site_slope_rad", {0.3, M_PI / 2}}, {"p_low", 0.1}, {"p_high", 0.9}}},
+        nlohmann::json{{{"site_slope_rad", {-M_PI / 2, 0.3}}, {"p_low", 0.1}},
+                       {{"site_slope_rad", {0.3, M_PI / 2}}, {"p_low", 0.1}, {"p_high", 0.9}}}}) {
+    d["undecided"]["by_slope"] = bad;
+    EXPECT_THROW(ParseVerdictModel(d, "m.json"), InputError) << bad.dump();
+  }
+}
+
 TEST(VerdictModel, ABetaCalibrationMapsTheHighestRisesScore) {
   const Detection dome =
       DetectMound(SyntheticSite(6.0, 40.0, false, 1), {0, 0}, 58, DetectorOptions{});

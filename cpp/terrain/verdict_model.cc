@@ -36,6 +36,40 @@ std::vector<double> Numbers(const nlohmann::json& doc, const std::string& key, s
   return out;
 }
 
+// undecided.by_slope: 2 to 8 bands {site_slope_rad: [low, high), p_low, p_high}, ascending
+// and contiguous within [-pi/2, pi/2] (the Python reader's _check_slope_bands).
+std::vector<SlopeBand> ParseSlopeBands(const nlohmann::json& doc, const std::string& at) {
+  if (!doc.is_array() || doc.size() < 2 || doc.size() > 8)
+    throw InputError(at + ": expected 2 to 8 bands");
+  std::vector<SlopeBand> out;
+  double end = -M_PI / 2;
+  for (size_t k = 0; k < doc.size(); ++k) {
+    const std::string where = at + "[" + std::to_string(k) + "]";
+    const nlohmann::json& b = doc[k];
+    if (!b.is_object()) throw InputError(where + ": expected {site_slope_rad, p_low, p_high}");
+    const auto r = b.find("site_slope_rad");
+    if (r == b.end() || !r->is_array() || r->size() != 2 || !(*r)[0].is_number() ||
+        !(*r)[1].is_number() || !std::isfinite((*r)[0].get<double>()) ||
+        !std::isfinite((*r)[1].get<double>()))
+      throw InputError(where + ": site_slope_rad: expected [low, high]");
+    SlopeBand s;
+    s.slope_low = (*r)[0].get<double>();
+    s.slope_high = (*r)[1].get<double>();
+    if (!(-M_PI / 2 - 1e-9 <= s.slope_low && s.slope_low < s.slope_high &&
+          s.slope_high <= M_PI / 2 + 1e-9))
+      throw InputError(where + ": site_slope_rad: must be low < high within [-pi/2, pi/2]");
+    if (k && std::fabs(s.slope_low - end) > 1e-9)
+      throw InputError(where + ": site_slope_rad: must start where the last ended");
+    end = s.slope_high;
+    s.band.p_low = Number(b, "p_low", where);
+    s.band.p_high = Number(b, "p_high", where);
+    if (!(s.band.p_low > 0 && s.band.p_low <= s.band.p_high && s.band.p_high < 1))
+      throw InputError(where + ": p_low, p_high: must be 0 < p_low <= p_high < 1");
+    out.push_back(s);
+  }
+  return out;
+}
+
 }  // namespace
 
 double VerdictModel::Score(const std::vector<double>& f) const {
@@ -81,15 +115,28 @@ double VerdictModel::Probability(const Detection& d, size_t* best) const {
   return 1 / (1 + std::exp(-Calibrated(top)));  // g increasing: the highest rise's p
 }
 
-std::string VerdictModel::Label(double p, double two_answer_at) const {
-  if (undecided)
-    return p >= undecided->p_high ? "mound" : p < undecided->p_low ? "no_mound" : "undecided";
+UndecidedBand VerdictModel::BandFor(double slope_rad) const {
+  if (!undecided) throw InternalError("BandFor: the model has no undecided band");
+  if (slope_bands.empty() || !std::isfinite(slope_rad)) return *undecided;
+  for (const SlopeBand& b : slope_bands)
+    if (slope_rad < b.slope_high) return b.band;
+  return slope_bands.back().band;
+}
+
+std::string VerdictModel::Label(double p, double two_answer_at, double slope_rad) const {
+  if (undecided) {
+    const UndecidedBand b = BandFor(slope_rad);
+    return p >= b.p_high ? "mound" : p < b.p_low ? "no_mound" : "undecided";
+  }
   return p >= two_answer_at ? "mound" : "no_mound";
 }
 
-bool VerdictModel::SecondLookAdvised(double p) const {
+bool VerdictModel::SecondLookAdvised(double p, double slope_rad) const {
   if (!second_look) return false;
-  if (undecided) return p >= undecided->p_low && p < undecided->p_high;
+  if (undecided) {
+    const UndecidedBand b = BandFor(slope_rad);
+    return p >= b.p_low && p < b.p_high;
+  }
   return p >= second_look->p_low && p < threshold;
 }
 
@@ -244,6 +291,7 @@ VerdictModel ParseVerdictModel(const nlohmann::json& doc, const std::string& sou
     if (!(band.p_low > 0 && band.p_low <= band.p_high && band.p_high < 1))
       throw InputError(at + ": p_low, p_high: must be 0 < p_low <= p_high < 1");
     m.undecided = band;
+    if (u.contains("by_slope")) m.slope_bands = ParseSlopeBands(u["by_slope"], at + ".by_slope");
   }
   if (doc.contains("cloud_settings")) {
     const nlohmann::json& c = doc["cloud_settings"];

@@ -30,7 +30,10 @@
 //   "no_mound" at p < l, "undecided" in [l, h), "mound" at p >= h (`Label`), the band chosen
 //   by `mound recon train-verdict` on its sites' out-of-fold p; a site in it is advised a
 //   second look (with "second_look") or a person. Without it the model gives two answers,
-//   "mound" at p >= threshold, as the threshold always does for the paper's protocol.
+//   "mound" at p >= threshold, as the threshold always does for the paper's protocol. Its
+//   optional "by_slope": [{"site_slope_rad": [low, high], "p_low", "p_high"}, ...] (2 to 8,
+//   ascending, each from where the last ended, within [-pi/2, pi/2]): a band per measured
+//   site slope (`BandFor`), the steep ground's p being less sure than the gentle's.
 // and optionally "terrain_domain": {"ranges": {name: [low, high], ...}, "sites": n, ...}:
 //   the ground the model was trained on, as the training sites' TerrainDescriptors (names
 //   of TerrainDescriptorNames(), each at most once) ranged; a site whose ground lies
@@ -44,6 +47,7 @@
 // reads another.
 #pragma once
 
+#include <cmath>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
@@ -63,6 +67,13 @@ struct SecondLook {
 // The band of p that leaves a site undecided (see above).
 struct UndecidedBand {
   double p_low = 0, p_high = 1;
+};
+
+// undecided.by_slope's band: the band of the sites whose measured slope lies in
+// [slope_low, slope_high) radians (the bands ascend, each from where the last ended).
+struct SlopeBand {
+  double slope_low = 0, slope_high = 0;
+  UndecidedBand band;
 };
 
 // How the clouds a model was trained on were made (the file's optional `cloud_settings`):
@@ -101,6 +112,7 @@ struct VerdictModel {
   double beta_a = 1, beta_b = 1, beta_c = 0;
   std::optional<SecondLook> second_look;
   std::optional<UndecidedBand> undecided;
+  std::vector<SlopeBand> slope_bands;  // undecided.by_slope (empty: one band for all)
   std::optional<CloudSettings> cloud_settings;
   // terrain_domain's ranges, by TerrainDescriptorNames() position (empty: no domain)
   std::vector<std::pair<size_t, std::pair<double, double>>> terrain_ranges;
@@ -112,12 +124,16 @@ struct VerdictModel {
   // p(mound) of a detection: the highest over its judged rises, or p_no_rise without one;
   // `best` (if given) the index in d.judged of the rise that gave it.
   double Probability(const Detection& d, size_t* best = nullptr) const;
-  // "mound", "no_mound" or "undecided" for p: by the undecided band, or (without one) "mound"
-  // at p >= `two_answer_at`.
-  std::string Label(double p, double two_answer_at) const;
+  // The undecided band of a site whose ground slopes `slope_rad` (measured, the
+  // detector's site_slope_rad): its by_slope band (beyond the first or last, the nearest),
+  // or the one band without them or for a NaN slope. Requires `undecided`.
+  UndecidedBand BandFor(double slope_rad) const;
+  // "mound", "no_mound" or "undecided" for p: by the undecided band (BandFor the site's
+  // slope), or (without one) "mound" at p >= `two_answer_at`.
+  std::string Label(double p, double two_answer_at, double slope_rad = std::nan("")) const;
   // Whether a first look's p advises a second look: the model has a second_look and p lies
   // in the undecided band, or (without one) in [second_look.p_low, threshold).
-  bool SecondLookAdvised(double p) const;
+  bool SecondLookAdvised(double p, double slope_rad = std::nan("")) const;
   // The second look's calibrated p from this model's p of the first flight and of the
   // wider one (requires second_look).
   double SecondLookProbability(double p_first, double p_second) const;

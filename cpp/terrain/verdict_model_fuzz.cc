@@ -41,6 +41,13 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       in_unit(m.SecondLookProbability(0.0, 1.0));
       in_unit(m.SecondLookProbability(1.0, 0.0));
     }
+    // three answers by the site's slope: every band (one or by slope) lies in (0, 1)
+    if (m.undecided)
+      for (const double slope : {-2.0, 0.0, 0.3, 1.0, 2.0, std::nan("")}) {
+        const mound::terrain::UndecidedBand b = m.BandFor(slope);
+        if (!(b.p_low > 0 && b.p_low <= b.p_high && b.p_high < 1)) std::abort();
+        (void)m.Label(p, m.threshold, slope);
+      }
     // the terrain domain: each excess names a descriptor whose value lies outside its range
     mound::terrain::Detection d;
     d.site_slope_rad = 0.6;

@@ -339,7 +339,9 @@ def _valid_model() -> dict[str, Any]:
     doc = json.loads((REPO_ROOT / "data" / "verdict_model_dense.json").read_text())
     doc["second_look"] = {"p_low": 0.3, "threshold": 0.6, "scan_factor": 2.0,
                           "combine": {"first": 0.5, "second": 1.0, "bias": -0.2}}
-    doc["undecided"] = {"p_low": 0.2, "p_high": 0.9}
+    doc["undecided"] = {"p_low": 0.2, "p_high": 0.9, "by_slope": [
+        {"site_slope_rad": [-math.pi / 2, 0.3], "p_low": 0.35, "p_high": 0.95},
+        {"site_slope_rad": [0.3, math.pi / 2], "p_low": 0.1, "p_high": 0.9}]}
     doc["terrain_domain"] = {"ranges": {"site_slope_rad": [0.0, 0.4], "site_relief_m": [0, 30]},
                              "sites": 320}
     return doc
@@ -429,6 +431,18 @@ BAD_MODELS: list[tuple[str, Callable[[dict[str, Any]], None], str]] = [
     ("undecided out of order", _set(("undecided", "p_low"), 0.95), "undecided"),
     ("undecided.p_low 0", _set(("undecided", "p_low"), 0.0), "undecided"),
     ("undecided.p_high 1", _set(("undecided", "p_high"), 1.0), "undecided"),
+    ("undecided.by_slope one band", _set(("undecided", "by_slope"), [
+        {"site_slope_rad": [-1.5, 0.3], "p_low": 0.35, "p_high": 0.95}]), "undecided.by_slope"),
+    ("undecided.by_slope a gap", _set(("undecided", "by_slope", 1, "site_slope_rad"),
+                                      [0.4, 1.5]), "undecided.by_slope[1]"),
+    ("undecided.by_slope reversed", _set(("undecided", "by_slope", 1, "site_slope_rad"),
+                                         [0.3, 0.2]), "undecided.by_slope[1]"),
+    ("undecided.by_slope beyond pi/2", _set(("undecided", "by_slope", 1, "site_slope_rad"),
+                                            [0.3, 2.0]), "undecided.by_slope[1]"),
+    ("undecided.by_slope a band out of order", _set(("undecided", "by_slope", 0, "p_low"),
+                                                    0.99), "undecided.by_slope[0]"),
+    ("undecided.by_slope without p_high", _drop(("undecided", "by_slope", 0, "p_high")),
+     "undecided.by_slope[0]"),
     ("terrain_domain a list", _set(("terrain_domain",), [0, 1]), "terrain_domain"),
     ("terrain_domain without ranges", _drop(("terrain_domain", "ranges")), "terrain_domain"),
     ("terrain_domain.ranges empty", _set(("terrain_domain", "ranges"), {}), "terrain_domain"),

@@ -3,11 +3,11 @@ the grids' size), judged on their dense clouds:
 - a 4 m x 18 m cone on a 25 degree hillside over a patch of the 1 m laser DEM;
 - a natural knoll of that DEM (about 2.2 m over a 60 m mean, some 77 m across) with no
   tumulus.
-The built-in dense model calls the cone a mound and the knoll not; the three-answer model
-does not call the knoll a mound; with its terrain domain (the ground its training sites
-stood on, measured) the 25 degree hillside lies outside what it learned and is undecided
-with reason `terrain`, never a confident answer, while the same cone on the DEM's own
-gentle ground is a mound."""
+The built-in dense model calls the cone a mound and the knoll not; the three-answer model,
+trained on ground to 35 degrees (its terrain domain reaches 40), calls the cone a mound
+and does not call the knoll one; the same model whose domain stops where the gentle
+training grids' ground stops (17 degrees) leaves the 25 degree hillside undecided with
+reason `terrain`, never a confident answer."""
 
 from __future__ import annotations
 
@@ -27,7 +27,7 @@ DEM = "TM1_564_146.tif"
 KNOLL = ("564686", "146252")  # EPSG:3794, the DEM's CRS
 HILLSIDE = ("564486", "146252")  # 200 m west: gentle ground, 25 degrees added
 CONE = ["--profile", "conical", "--diameter", "18", "--height", "4", "--erosion", "0.5"]
-THREE = REPO_ROOT / "data" / "verdict_model_dense_three.json"
+THREE = REPO_ROOT / "data" / "verdict_model_dense_three_steep.json"
 
 
 def _run(tool: Path, args: list[str]) -> None:
@@ -80,14 +80,27 @@ def test_a_cone_on_a_25_degree_hillside_is_a_mound_and_the_dems_knoll_is_not(
     for model in ("dense", THREE):
         knoll = _verdict(mound_recon, sites["knoll"], model)
         assert knoll["label"] != "mound", (model, knoll["reason"])
+    # the three-answer model learned steep ground: the hillside inside its domain, judged
+    # by the band of its slope
+    three = _verdict(mound_recon, sites["cone25"], THREE)
+    assert three["terrain"]["status"] == "inside", three["terrain"]
+    assert three["label"] == "mound", three["reason"]
+    if read_verdict_model(THREE).slope_bands:
+        assert three["decision"]["site_slope_rad"] == pytest.approx(0.436, abs=0.04)
 
 
 @pytest.mark.slow
 def test_ground_outside_the_training_range_is_undecided_with_reason_terrain(
-        sites: dict[str, Path], mound_recon: Path) -> None:
-    model = read_verdict_model(THREE)
+        sites: dict[str, Path], mound_recon: Path, tmp_path: Path) -> None:
+    # the model as its gentle training grids alone would bound it: their sites' slope to
+    # 16.9 degrees, with the domain's margin (terrain-domain on g56_train_{k,u}_first160)
+    doc = json.loads(THREE.read_text())
+    doc["terrain_domain"]["ranges"]["site_slope_rad"] = [-0.0258, 0.2942]
+    gentle = tmp_path / "three_gentle_domain.json"
+    gentle.write_text(json.dumps(doc))
+    model = read_verdict_model(gentle)
     slope = {n: (lo, hi) for n, lo, hi in model.terrain_ranges}["site_slope_rad"]
-    v = _verdict(mound_recon, sites["cone25"], THREE)
+    v = _verdict(mound_recon, sites["cone25"], gentle)
     measured = v["measurements"]["terrain"]["site_slope_rad"]
     assert measured > slope[1], (measured, slope)  # steeper than any training site
     assert v["label"] == "undecided" and v["terrain"]["status"] == "outside"
@@ -95,5 +108,5 @@ def test_ground_outside_the_training_range_is_undecided_with_reason_terrain(
     assert v["undecided"]["next"] == "field_team"
     assert v["p_mound"] >= model.threshold  # p alone would have called it, on unseen ground
     # the knoll's ground is the DEM's, which training held: decided by p as before
-    knoll = _verdict(mound_recon, sites["knoll"], THREE)
+    knoll = _verdict(mound_recon, sites["knoll"], gentle)
     assert knoll["terrain"]["status"] == "inside", knoll["terrain"]

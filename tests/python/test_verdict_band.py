@@ -5,6 +5,7 @@ placed inside any DEM's valid cells, train and held-out parts apart."""
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import numpy as np
@@ -114,6 +115,41 @@ def test_a_model_without_a_band_gives_two_answers_and_one_with_it_three() -> Non
     assert [label_of(three, q) for q in (0.1, 0.2, 0.89, 0.9)] == [
         "no_mound", "undecided", "undecided", "mound"]
     assert label_of(three, 0.5, two_answer_at=0.5) == "mound"  # the paper's protocol
+
+
+def test_bands_by_slope_where_steep_grounds_p_is_less_sure() -> None:
+    """Issue 68: gentle sites' p well apart by class, steep sites' (slope >= 20 degrees)
+    p spread: one band is as wide as the steep sites need everywhere; two bands, split at
+    a slope chosen by the nested undecided, leave fewer sites undecided, each meeting its
+    side's budgets; the model reads them and labels a site by its slope."""
+    rng = np.random.default_rng(7)
+    n = 1600
+    slope = np.radians(rng.uniform(0, 35, n))
+    steep = slope >= np.radians(20)
+    y = rng.random(n) < 0.5
+    goal = y & (rng.random(n) < 0.8)
+    z = np.where(y, 3.5, -3.5) + rng.normal(0, np.where(steep, 3.0, 1.0), (10, n))
+    p = 1 / (1 + np.exp(-z))
+    doc = vb.band_doc(p, y, goal, 0.8, slope)
+    split = doc["trained"]["by_slope"]
+    low, high = doc["by_slope"]
+    assert 16 <= math.degrees(low["site_slope_rad"][1]) <= 24  # near the true 20
+    assert low["site_slope_rad"][0] == -math.pi / 2 and high["site_slope_rad"][1] == math.pi / 2
+    o = split["out_of_fold"]
+    assert o["undecided"] < 0.8 * o["one_band"]["undecided"]
+    assert high["p_high"] - high["p_low"] > low["p_high"] - low["p_low"]  # steep: wider
+    # without a slope, or when one band does as well, no bands by slope
+    assert "by_slope" not in vb.band_doc(p, y, goal, 0.8)
+    flat = vb.band_doc(p[:, ~steep], y[~steep], goal[~steep], 0.8, slope[~steep])
+    assert "by_slope" not in flat or flat["trained"]["by_slope"]["out_of_fold"][
+        "undecided"] < flat["trained"]["out_of_fold"]["undecided"]
+    model = json.loads((Path(__file__).parents[2] / "data" / "verdict_model_dense.json")
+                       .read_text())
+    m = VerdictModel.of({**model, "undecided": doc})
+    q = (low["p_low"] + high["p_low"]) / 2  # in the steep band, below the gentle one
+    assert label_of(m, q, slope_rad=0.1) == "no_mound"
+    assert label_of(m, q, slope_rad=0.5) == "undecided"
+    assert m.band_for(None) == m.undecided == (doc["p_low"], doc["p_high"])
 
 
 # ------------------------------------------------------------------- the population

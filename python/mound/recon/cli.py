@@ -78,6 +78,14 @@ def cmd_recon_train_verdict(args: argparse.Namespace) -> int:
           f"{o['confident_misses']:.1f} of {o['goal_tumuli']} tumuli >= 1 m x 10 m called "
           f"no_mound, {o['confident_false_alarms']:.1f} of {o['negatives']} sites without one "
           f"called mound, {o['undecided']:.1f} of {o['sites']} sites undecided")
+    if "by_slope" in u:
+        sb = u["trained"]["by_slope"]["out_of_fold"]
+        bands = ", ".join(f"slope {math.degrees(b['site_slope_rad'][0]):.0f}-"
+                          f"{math.degrees(b['site_slope_rad'][1]):.0f} deg: p in "
+                          f"[{b['p_low']:.3f}, {b['p_high']:.3f})" for b in u["by_slope"])
+        print(f"  by the site's slope ({bands}): out of fold (nested) "
+              f"{sb['confident_misses']:.1f} confident misses, {sb['confident_false_alarms']:.1f}"
+              f" confident false alarms, {sb['undecided']:.1f} sites undecided")
     if args.heldout:
         held = [r for g in args.heldout for r in vm.load_grid(g, args.second_look_kind)]
         report = vm.evaluate(vm.VerdictModel.of(model), held)
@@ -109,7 +117,8 @@ def _print_three_answers(t: dict[str, Any]) -> None:
                 f"{100 * lo:.1f}-{100 * hi:.1f} %)")
 
     u = t["undecided"]
-    print(f"  three answers (undecided for p in [{t['band'][0]:.3f}, {t['band'][1]:.3f})): "
+    print(f"  three answers (undecided for p in [{t['band'][0]:.3f}, {t['band'][1]:.3f})"
+          + (", or its band by the site's slope" if t.get("band_by_slope") else "") + "): "
           f"confident misses {rate(t['confident_misses'])}; confident false alarms "
           f"{rate(t['confident_false_alarms'])}; undecided {rate(u)}"
           + (f", of them tumuli {u['tumulus_share']:.2f} against mean p {u['mean_p']:.2f}"

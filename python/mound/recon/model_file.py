@@ -16,7 +16,9 @@ Fields (n = the detector's 25 features, in any order, each once):
 - `second_look` (optional): {p_low in (0, threshold), threshold in (0, 1), scan_factor in
   (1, 100], combine: {first within +-1e6, second in (0, 1e6], bias within +-1e6}};
 - `undecided` (optional): {p_low, p_high with 0 < p_low <= p_high < 1}: three answers,
-  `label_of`;
+  `label_of`; its optional `by_slope`: 2 to 8 bands {site_slope_rad: [low, high) within
+  [-pi/2, pi/2], each from where the last ended, p_low, p_high as above}: the band of a
+  site by its measured slope (`band_for`; beyond the first or last, the nearest);
 - `cloud_settings` (optional): {"cloud": "dense" | "sparse", and for a dense model the
   densify options of its training clouds, finite numbers within +-1e9, at most 64}: how
   the clouds it was trained on were made; `mound_recon verdict` refuses a cloud made
@@ -98,6 +100,8 @@ class VerdictModel:
     cloud_settings: dict[str, Any] | None = None  # how its training clouds were made
     # terrain_domain's ranges: descriptor -> (low, high); empty: no domain
     terrain_ranges: tuple[tuple[str, float, float], ...] = ()
+    # undecided.by_slope: (slope low, slope high, p_low, p_high), ascending; empty: none
+    slope_bands: tuple[tuple[float, float, float, float], ...] = ()
 
     @classmethod
     def of(cls, doc: Mapping[str, Any]) -> VerdictModel:
@@ -117,7 +121,21 @@ class VerdictModel:
             (float(band["p_low"]), float(band["p_high"])) if band else None,
             dict(doc["cloud_settings"]) if "cloud_settings" in doc else None,
             tuple((str(k), float(v[0]), float(v[1]))
-                  for k, v in doc.get("terrain_domain", {}).get("ranges", {}).items()))
+                  for k, v in doc.get("terrain_domain", {}).get("ranges", {}).items()),
+            tuple((float(b["site_slope_rad"][0]), float(b["site_slope_rad"][1]),
+                   float(b["p_low"]), float(b["p_high"]))
+                  for b in (band or {}).get("by_slope", [])))
+
+    def band_for(self, slope_rad: float | None) -> tuple[float, float] | None:
+        """The undecided band of a site whose measured slope is `slope_rad` (its
+        `by_slope` band; the one band without them or without a slope):
+        VerdictModel::BandFor."""
+        if not self.slope_bands or slope_rad is None or not math.isfinite(slope_rad):
+            return self.undecided
+        for _, hi, p_low, p_high in self.slope_bands:
+            if slope_rad < hi:
+                return p_low, p_high
+        return self.slope_bands[-1][2], self.slope_bands[-1][3]
 
 
 def _is_number(v: object) -> TypeGuard[int | float]:
@@ -245,6 +263,8 @@ def check_verdict_model(doc: Any, source: str) -> VerdictModel:
         lo, hi = (_number(u, k, at) for k in ("p_low", "p_high"))
         if not 0 < lo <= hi < 1:
             raise InputError(f"{at}: p_low, p_high: must be 0 < p_low <= p_high < 1")
+        if "by_slope" in u:
+            _check_slope_bands(u["by_slope"], f"{at}.by_slope")
     if "cloud_settings" in doc:
         at = f"{source}: cloud_settings"
         c = _object(doc, "cloud_settings")
@@ -271,6 +291,29 @@ def check_verdict_model(doc: Any, source: str) -> VerdictModel:
             if not (lo <= hi and abs(lo) <= 1e9 and abs(hi) <= 1e9):
                 raise InputError(f"{at}.ranges: {name}: expected [low, high], low <= high")
     return VerdictModel.of(doc)
+
+
+def _check_slope_bands(bands: object, at: str) -> None:
+    """undecided.by_slope: 2 to 8 bands, ascending and contiguous in [-pi/2, pi/2]."""
+    if not isinstance(bands, list) or not 2 <= len(bands) <= 8:
+        raise InputError(f"{at}: expected 2 to 8 bands")
+    end = -math.pi / 2
+    for k, b in enumerate(bands):
+        where = f"{at}[{k}]"
+        if not isinstance(b, dict):
+            raise InputError(f"{where}: expected {{site_slope_rad, p_low, p_high}}")
+        r = b.get("site_slope_rad")
+        if not (isinstance(r, list) and len(r) == 2 and all(_is_number(v) for v in r)):
+            raise InputError(f"{where}: site_slope_rad: expected [low, high]")
+        if not -math.pi / 2 - 1e-9 <= r[0] < r[1] <= math.pi / 2 + 1e-9:
+            raise InputError(f"{where}: site_slope_rad: must be low < high within "
+                             "[-pi/2, pi/2]")
+        if k and abs(r[0] - end) > 1e-9:
+            raise InputError(f"{where}: site_slope_rad: must start where the last ended")
+        end = r[1]
+        lo, hi = (_number(b, key, where) for key in ("p_low", "p_high"))
+        if not 0 < lo <= hi < 1:
+            raise InputError(f"{where}: p_low, p_high: must be 0 < p_low <= p_high < 1")
 
 
 def outside_terrain(model: VerdictModel, terrain: Mapping[str, float]) -> list[str]:
@@ -304,12 +347,13 @@ def cloud_mismatch(model: VerdictModel, cloud: str, options: Mapping[str, object
     return None
 
 
-def label_of(model: VerdictModel, p: float, two_answer_at: float | None = None) -> str:
-    """The answer of a (checked) model for p: by its undecided band, "no_mound" below it,
-    "undecided" in [p_low, p_high), "mound" from p_high; without a band (or with
-    `two_answer_at` given, the paper's protocol) "mound" at p >= that threshold (default
-    the model's): VerdictModel::Label."""
-    band = model.undecided
+def label_of(model: VerdictModel, p: float, two_answer_at: float | None = None,
+             slope_rad: float | None = None) -> str:
+    """The answer of a (checked) model for p: by its undecided band (for a site of
+    `slope_rad`, band_for), "no_mound" below it, "undecided" in [p_low, p_high), "mound"
+    from p_high; without a band (or with `two_answer_at` given, the paper's protocol)
+    "mound" at p >= that threshold (default the model's): VerdictModel::Label."""
+    band = model.band_for(slope_rad)
     if band is not None and two_answer_at is None:
         return "mound" if p >= band[1] else "no_mound" if p < band[0] else "undecided"
     at = model.threshold if two_answer_at is None else two_answer_at

@@ -108,6 +108,15 @@ def _outside(model: VerdictModel, measured: list[GridSite]) -> np.ndarray | None
     return np.array(out)
 
 
+def _site_bands(model: VerdictModel, measured: list[GridSite]
+                ) -> tuple[np.ndarray, np.ndarray] | None:
+    """Each site's undecided band by its measured slope (None: the model has one band)."""
+    if not model.slope_bands:
+        return None
+    bands = [model.band_for((r.ground or {}).get("site_slope_rad")) for r in measured]
+    return (np.array([b[0] for b in bands if b]), np.array([b[1] for b in bands if b]))
+
+
 def evaluate(model: VerdictModel, rows: list[GridSite]) -> dict[str, Any]:
     measured = [r for r in rows if r.measured]
     p = probability(model, [r.rises for r in measured])
@@ -166,7 +175,8 @@ def evaluate(model: VerdictModel, rows: list[GridSite]) -> dict[str, Any]:
         **({"two_looks": two_looks(model, measured, p, big, neg)}
            if model.second_look else {}),
         **({"three_answers": three_answers(
-            p, measured, model.undecided, thr, _outside(model, measured))}
+            p, measured, model.undecided, thr, _outside(model, measured),
+            _site_bands(model, measured))}
            if model.undecided else {}),
     }
 

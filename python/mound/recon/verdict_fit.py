@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import itertools
 import json
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -412,8 +413,10 @@ def train(rows: list[GridSite], names: list[str], sources: list[str],
     p_all = np.concatenate([p_oof.reshape(len(oofs), -1),
                             np.full((len(oofs), n_nr), (m_nr + 1) / (n_nr + 2))], axis=1)
     truths = [r.truth for r in sites + no_rise]
+    slope = np.array([(r.ground or {}).get("site_slope_rad", math.nan)
+                      for r in sites + no_rise])
     undecided = band_doc(p_all, np.array([t.mound for t in truths]),
-                         np.array([band_goal(t) for t in truths]), thr)
+                         np.array([band_goal(t) for t in truths]), thr, slope)
     return {
         "schema": SCHEMA, "version": VERSION, "features": names,
         "mean": d.mean.tolist(), "std": d.std.tolist(), "basis": basis,
