@@ -255,6 +255,11 @@ std::vector<std::pair<std::string, std::string>> UndecidedReasons(const SiteVerd
     t << "terrain unlike the model's training sites:";
     for (size_t k = 0; k < v.terrain.size(); ++k) {
       const terrain::TerrainExcess& e = v.terrain[k];
+      if (e.name == "training_distance") {  // every descriptor in range, but not together
+        t << (k ? ";" : "") << " its ground " << e.value
+          << " from its nearest training sites' (standardised; at most " << e.high << ")";
+        continue;
+      }
       const bool angle = e.name == "site_slope_rad";  // said in degrees
       const double f = angle ? 180 / M_PI : 1;
       t << (k ? ";" : "") << " " << (angle ? "site slope" : e.name) << " " << f * e.value

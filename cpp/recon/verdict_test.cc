@@ -255,6 +255,26 @@ TEST(JudgeSite, GroundOutsideTheTerrainDomainIsUndecided) {
   SiteVerdictOptions two = o;
   two.decide_at = 0.5;
   EXPECT_EQ(JudgeSite(steep, {0, 0}, two, model).label, "mound");
+  // ground each of whose descriptors lies in range, far from the training sites' (the clear
+  // site's ground its one point, unit scale): undecided, the distance named
+  const std::vector<double> g = terrain::TerrainDescriptors(inside.detection);
+  doc["terrain_domain"]["ranges"] = {{"site_slope_rad", {-1.0, 1.0}}};
+  std::vector<double> away = g;
+  away[1] += 3;  // site_relief_m 3 m more
+  doc["terrain_domain"]["neighbours"] = {{"k", 1},
+                                         {"centre", std::vector<double>(g.size(), 0.0)},
+                                         {"scale", std::vector<double>(g.size(), 1.0)},
+                                         {"points", {away}},
+                                         {"max_distance", 1.0}};
+  const terrain::VerdictModel far = terrain::ParseVerdictModel(doc, "far.json");
+  const SiteVerdict unlike = JudgeSite(clear, {0, 0}, o, far);
+  EXPECT_EQ(unlike.label, "undecided");
+  ASSERT_EQ(unlike.terrain.size(), 1u);
+  EXPECT_EQ(unlike.terrain[0].name, "training_distance");
+  EXPECT_NEAR(unlike.terrain[0].value, 3, 1e-9);
+  const nlohmann::json u = SiteVerdictJson(unlike, far, "far.json", o.detector);
+  const std::string why = u["undecided"]["reasons"][0]["text"];
+  EXPECT_NE(why.find("from its nearest training sites'"), std::string::npos) << why;
   EXPECT_EQ(SiteVerdictJson(JudgeSite(steep, {0, 0}, o, terrain::DenseVerdictModel()),
                             terrain::DenseVerdictModel(), "dense", o.detector)["terrain"]["status"],
             "unchecked");

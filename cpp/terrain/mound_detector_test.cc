@@ -543,6 +543,38 @@ TEST(VerdictModel, NamesTheGroundOutsideItsTerrainDomain) {
   EXPECT_DOUBLE_EQ(out[0].value, b.site_slope_rad);
   EXPECT_EQ(out[0].high, 0.3);
   EXPECT_TRUE(ParseVerdictModel(ModelDoc(), "m.json").OutsideTerrain(b).empty());  // no domain
+  // neighbours: the gentle site's own ground as the one training point (k 1, unit scale):
+  // it lies at distance 0, the tilted site at its descriptors' distance from it
+  const std::vector<double> ga = TerrainDescriptors(a), gb = TerrainDescriptors(b);
+  double far = 0;
+  for (size_t j = 0; j < ga.size(); ++j) far += (gb[j] - ga[j]) * (gb[j] - ga[j]);
+  far = std::sqrt(far);
+  d["terrain_domain"]["ranges"] = {{"site_relief_m", {-100, 100}}};
+  d["terrain_domain"]["neighbours"] = {{"k", 1},
+                                       {"centre", std::vector<double>(ga.size(), 0.0)},
+                                       {"scale", std::vector<double>(ga.size(), 1.0)},
+                                       {"points", {ga}},
+                                       {"max_distance", far / 2}};
+  const VerdictModel n = ParseVerdictModel(d, "m.json");
+  ASSERT_TRUE(n.terrain_neighbours);
+  EXPECT_NEAR(n.terrain_neighbours->Distance(ga), 0, 1e-12);
+  EXPECT_TRUE(n.OutsideTerrain(a).empty());
+  const std::vector<TerrainExcess> nb = n.OutsideTerrain(b);
+  ASSERT_EQ(nb.size(), 1u);
+  EXPECT_EQ(nb[0].name, "training_distance");
+  EXPECT_NEAR(nb[0].value, far, 1e-9);
+  for (const auto& [field, bad] :
+       std::vector<std::pair<std::string, nlohmann::json>>{{"k", 0},
+                                                           {"k", 1.5},
+                                                           {"scale", std::vector<double>(5, 0.0)},
+                                                           {"centre", {1, 2}},
+                                                           {"points", nlohmann::json::array()},
+                                                           {"points", {{1, 2, 3}}},
+                                                           {"max_distance", -1}}) {
+    nlohmann::json e = d;
+    e["terrain_domain"]["neighbours"][field] = bad;
+    EXPECT_THROW(ParseVerdictModel(e, "m.json"), InputError) << field << " " << bad.dump();
+  }
   for (const nlohmann::json& bad : {nlohmann::json(1), nlohmann::json::object(),
                                     nlohmann::json{{"ranges", nlohmann::json::object()}},
                                     nlohmann::json{{"ranges", {{"slope", {0, 1}}}}},

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <fstream>
 #include <limits>
 #include <sstream>
@@ -68,6 +69,44 @@ std::vector<SlopeBand> ParseSlopeBands(const nlohmann::json& doc, const std::str
     out.push_back(s);
   }
   return out;
+}
+
+// terrain_domain.neighbours (see verdict_model.h; the Python reader's _check_neighbours).
+TerrainNeighbours ParseTerrainNeighbours(const nlohmann::json& doc, const std::string& at) {
+  const size_t n = TerrainDescriptorNames().size();
+  if (!doc.is_object())
+    throw InputError(at + ": expected {k, centre, scale, points, max_distance}");
+  TerrainNeighbours t;
+  if (!doc.contains("k") || !doc["k"].is_number_integer() || doc["k"].get<int64_t>() < 1 ||
+      doc["k"].get<int64_t>() > 50)
+    throw InputError(at + ": k: expected an integer in 1..50");
+  t.k = doc["k"].get<int>();
+  t.centre = Numbers(doc, "centre", n, at);
+  t.scale = Numbers(doc, "scale", n, at);
+  for (size_t j = 0; j < n; ++j)
+    if (!(std::fabs(t.centre[j]) <= 1e9) || !(t.scale[j] >= 1e-9 && t.scale[j] <= 1e9))
+      throw InputError(at + ": centre within +-1e9, scale in [1e-9, 1e9]");
+  const auto p = doc.find("points");
+  if (p == doc.end() || !p->is_array() || p->size() < static_cast<size_t>(t.k) ||
+      p->size() > 100000)
+    throw InputError(at + ": points: expected k to 100,000 points");
+  for (size_t j = 0; j < p->size(); ++j) {
+    const nlohmann::json& q = (*p)[j];
+    const std::string where = at + ": points[" + std::to_string(j) + "]";
+    if (!q.is_array() || q.size() != n)
+      throw InputError(where + ": expected " + std::to_string(n) + " finite numbers");
+    std::vector<double> row;
+    for (const auto& x : q) {
+      if (!x.is_number() || !std::isfinite(x.get<double>()) || std::fabs(x.get<double>()) > 1e9)
+        throw InputError(where + ": expected " + std::to_string(n) + " finite numbers");
+      row.push_back(x.get<double>());
+    }
+    t.points.push_back(std::move(row));
+  }
+  t.max_distance = Number(doc, "max_distance", at);
+  if (!(t.max_distance >= 0 && t.max_distance <= 1e9))
+    throw InputError(at + ": max_distance: must be in [0, 1e9]");
+  return t;
 }
 
 }  // namespace
@@ -149,12 +188,35 @@ double VerdictModel::SecondLookProbability(double p_first, double p_second) cons
   return 1 / (1 + std::exp(-(l.first * logit(p_first) + l.second * logit(p_second) + l.bias)));
 }
 
+double TerrainNeighbours::Distance(const std::vector<double>& descriptors) const {
+  std::vector<double> d;
+  d.reserve(points.size());
+  for (const std::vector<double>& q : points) {
+    double s = 0;
+    for (size_t j = 0; j < q.size(); ++j) {
+      const double z = (descriptors[j] - centre[j]) / scale[j] - q[j];
+      s += z * z;
+    }
+    d.push_back(std::sqrt(s));
+  }
+  const size_t n = std::min(static_cast<size_t>(k), d.size());
+  std::partial_sort(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(n), d.end());
+  double sum = 0;
+  for (size_t j = 0; j < n; ++j) sum += d[j];
+  return n ? sum / static_cast<double>(n) : 0.0;
+}
+
 std::vector<TerrainExcess> VerdictModel::OutsideTerrain(const Detection& d) const {
   std::vector<TerrainExcess> out;
   const std::vector<double> v = TerrainDescriptors(d);
   for (const auto& [at, range] : terrain_ranges)
     if (!(v[at] >= range.first && v[at] <= range.second))
       out.push_back({TerrainDescriptorNames()[at], v[at], range.first, range.second});
+  if (terrain_neighbours) {
+    const double far = terrain_neighbours->Distance(v);
+    if (!(far <= terrain_neighbours->max_distance))
+      out.push_back({"training_distance", far, 0.0, terrain_neighbours->max_distance});
+  }
   return out;
 }
 
@@ -329,6 +391,8 @@ VerdictModel ParseVerdictModel(const nlohmann::json& doc, const std::string& sou
         throw InputError(at + ".ranges: " + name + ": expected [low, high], low <= high");
       m.terrain_ranges.push_back({static_cast<size_t>(it - names.begin()), {lh[0], lh[1]}});
     }
+    if (t.contains("neighbours"))
+      m.terrain_neighbours = ParseTerrainNeighbours(t["neighbours"], at + ".neighbours");
   }
   m.doc = doc;
   return m;

@@ -39,7 +39,11 @@
 //   of TerrainDescriptorNames(), each at most once) ranged; a site whose ground lies
 //   outside any range is ground the model never saw, and its verdict is "undecided" with
 //   reason "terrain" whatever its p (`OutsideTerrain`; the paper's two answers, decide_at,
-//   stay as they are). Other fields (sites, grids, how measured) travel as they are.
+//   stay as they are). Its optional "neighbours": {"k" (1..50), "centre", "scale" (> 0; one
+//   per descriptor), "points" (k to 100,000 training sites' standardised descriptors),
+//   "max_distance" (>= 0)}: a site farther than that, on average, from its k nearest
+//   training sites is outside too (TerrainNeighbours). Other fields (sites, grids, how
+//   measured) travel as they are.
 // Two models ship in the repository and are compiled into the tool, learned on the same
 // simulated sites judged on two clouds: data/verdict_model.json on the sparse cloud of
 // `reconstruct` (the default), data/verdict_model_dense.json on the dense cloud of
@@ -98,6 +102,17 @@ struct TerrainExcess {
   double value = 0, low = 0, high = 0;
 };
 
+// terrain_domain.neighbours: the training sites' ground, each of TerrainDescriptors()
+// less `centre` over `scale`; a site whose mean distance to its `k` nearest lies beyond
+// `max_distance` is ground unlike the training sites' (named "training_distance").
+struct TerrainNeighbours {
+  int k = 5;
+  std::vector<double> centre, scale;
+  std::vector<std::vector<double>> points;
+  double max_distance = 0;
+  double Distance(const std::vector<double>& descriptors) const;
+};
+
 struct VerdictModel {
   std::vector<std::string> features;
   std::vector<double> mean, std, weights;
@@ -116,6 +131,7 @@ struct VerdictModel {
   std::optional<CloudSettings> cloud_settings;
   // terrain_domain's ranges, by TerrainDescriptorNames() position (empty: no domain)
   std::vector<std::pair<size_t, std::pair<double, double>>> terrain_ranges;
+  std::optional<TerrainNeighbours> terrain_neighbours;  // terrain_domain.neighbours
   nlohmann::json doc;  // the whole file (its figures travel into verdict.json)
 
   double Score(const std::vector<double>& f) const;  // s of one rise's features

@@ -343,7 +343,10 @@ def _valid_model() -> dict[str, Any]:
         {"site_slope_rad": [-math.pi / 2, 0.3], "p_low": 0.35, "p_high": 0.95},
         {"site_slope_rad": [0.3, math.pi / 2], "p_low": 0.1, "p_high": 0.9}]}
     doc["terrain_domain"] = {"ranges": {"site_slope_rad": [0.0, 0.4], "site_relief_m": [0, 30]},
-                             "sites": 320}
+                             "sites": 320, "neighbours": {
+                                 "k": 2, "centre": [0.1, 2, 0.5, 0.5, 0.3],
+                                 "scale": [0.1, 3, 1, 1, 0.2], "max_distance": 1.5,
+                                 "points": [[0, 0, 0, 0, 0], [1, -1, 0.5, 0, 2]]}}
     return doc
 
 
@@ -454,6 +457,21 @@ BAD_MODELS: list[tuple[str, Callable[[dict[str, Any]], None], str]] = [
                                               [0, 1, 2]), "terrain_domain.ranges"),
     ("terrain_domain: a range with a string",
      _set(("terrain_domain", "ranges", "site_relief_m"), [0, "9"]), "terrain_domain.ranges"),
+    ("neighbours a list", _set(("terrain_domain", "neighbours"), []),
+     "terrain_domain.neighbours"),
+    ("neighbours.k 0", _set(("terrain_domain", "neighbours", "k"), 0),
+     "terrain_domain.neighbours: k"),
+    ("neighbours.k more than its points", _set(("terrain_domain", "neighbours", "k"), 3),
+     "terrain_domain.neighbours: points"),
+    ("neighbours.scale 0", _set(("terrain_domain", "neighbours", "scale"), [0, 1, 1, 1, 1]),
+     "terrain_domain.neighbours"),
+    ("neighbours.centre short", _set(("terrain_domain", "neighbours", "centre"), [0, 1]),
+     "terrain_domain.neighbours: centre"),
+    ("neighbours.points a short point", _set(("terrain_domain", "neighbours", "points", 1),
+                                             [1, 2]), "terrain_domain.neighbours: points[1]"),
+    ("neighbours.max_distance negative",
+     _set(("terrain_domain", "neighbours", "max_distance"), -1.0),
+     "terrain_domain.neighbours: max_distance"),
     ("top level a list", lambda d: d.clear(), "expected a JSON object"),
 ]
 

@@ -519,9 +519,42 @@ def test_the_terrain_domain_is_the_training_sites_ground_widened_by_its_margin()
     doc = json.loads((REPO_ROOT / "data" / "verdict_model_dense.json").read_text())
     model = check_verdict_model({**doc, "terrain_domain": d}, "m.json")
     assert outside_terrain(model, grounds[0]) == []
-    assert outside_terrain(model, {**grounds[0], "site_slope_rad": 6.0}) == ["site_slope_rad"]
+    # out of its range, and so far from every training site's ground too
+    assert outside_terrain(model, {**grounds[0], "site_slope_rad": 6.0}) == [
+        "site_slope_rad", "training_distance"]
     partial = {k: v for k, v in grounds[0].items() if k != "site_relief_m"}
     with pytest.raises(InputError, match="measurements.terrain: site_relief_m: missing"):
         outside_terrain(model, partial)
     assert vf.terrain_domain([replace(sites[0], ground=None), *sites[1:]], ["g"]) is None
     assert vf.terrain_domain([], ["g"]) is None
+
+
+def test_ground_unlike_every_training_sites_is_outside_though_each_descriptor_is_in_range(
+        ) -> None:
+    """Issue 68: the training sites' ground on a line (each descriptor rising with the
+    others); a site whose every descriptor lies in its range but off the line is far from
+    its nearest training sites (training_distance), one on the line is not; the distance
+    bound is the NEIGHBOURS_QUANTILE of the sites' own, left out one at a time."""
+    from mound.recon.model_file import TERRAIN_DESCRIPTORS, outside_terrain
+
+    rng = np.random.default_rng(5)
+    t = rng.uniform(0, 1, 200)
+    grounds = [{n: float(v + rng.normal(0, 0.01)) for n in TERRAIN_DESCRIPTORS} for v in t]
+    base = vm.sites_of([{"dir": f"{k:04d}", "truth": {"mound": False, "height_m": 0.0,
+                                                       "diameter_m": 0.0}} for k in range(200)])
+    sites = [replace(s, measured=True, ground=g) for s, g in zip(base, grounds, strict=True)]
+    d = vf.terrain_domain(sites, ["g"])
+    assert d is not None
+    nb = d["neighbours"]
+    assert nb["k"] == vf.NEIGHBOURS_K and len(nb["points"]) == 200
+    doc = json.loads((REPO_ROOT / "data" / "verdict_model_dense.json").read_text())
+    model = check_verdict_model({**doc, "terrain_domain": d}, "m.json")
+    on_line = {n: 0.5 for n in TERRAIN_DESCRIPTORS}
+    off_line = {**on_line, "site_slope_rad": 0.05, "site_relief_m": 0.95}
+    assert outside_terrain(model, on_line) == []
+    assert outside_terrain(model, off_line) == ["training_distance"]  # each in its range
+    assert model.terrain_neighbours is not None
+    own = [model.terrain_neighbours.distance(g) for g in grounds]
+    # a training site is its own nearest point: the bound, over left-out distances, lies
+    # above the distances the sites have with themselves counted
+    assert np.quantile(own, 0.95) <= nb["max_distance"]

@@ -24,8 +24,11 @@ Fields (n = the detector's 25 features, in any order, each once):
   the clouds it was trained on were made; `mound_recon verdict` refuses a cloud made
   otherwise (exit 2 naming the setting);
 - `terrain_domain` (optional): {"ranges": {descriptor: [low, high] with low <= high, within
-  +-1e9; at least one; names of TERRAIN_DESCRIPTORS}, other fields free}: the ground the
-  model was trained on; a site outside any range is `undecided` with reason `terrain`.
+  +-1e9; at least one; names of TERRAIN_DESCRIPTORS}, optionally "neighbours": {k in 1..50,
+  centre and scale (> 0): one number per TERRAIN_DESCRIPTORS, points: k to 100,000 sites'
+  standardised descriptors, max_distance >= 0}, other fields free}: the ground the model
+  was trained on; a site outside any range, or whose mean distance to its k nearest
+  training sites exceeds max_distance, is `undecided` with reason `terrain`.
 """
 
 from __future__ import annotations
@@ -79,6 +82,35 @@ class SecondLookRule:
 
 
 @dataclass(frozen=True)
+class TerrainNeighbours:
+    """terrain_domain.neighbours: the training sites' ground, each descriptor of
+    TERRAIN_DESCRIPTORS less `centre` over `scale`; a site whose mean distance to its `k`
+    nearest lies beyond `max_distance` is ground unlike the training sites'."""
+
+    k: int
+    centre: tuple[float, ...]
+    scale: tuple[float, ...]
+    points: tuple[tuple[float, ...], ...]
+    max_distance: float
+
+    @classmethod
+    def of(cls, doc: Mapping[str, Any]) -> TerrainNeighbours:
+        return cls(int(doc["k"]), tuple(float(v) for v in doc["centre"]),
+                   tuple(float(v) for v in doc["scale"]),
+                   tuple(tuple(float(v) for v in q) for q in doc["points"]),
+                   float(doc["max_distance"]))
+
+    def distance(self, terrain: Mapping[str, float]) -> float:
+        """The mean distance of a site's ground to its k nearest training sites."""
+        import numpy as np
+
+        z = (np.array([float(terrain[n]) for n in TERRAIN_DESCRIPTORS])
+             - np.array(self.centre)) / np.array(self.scale)
+        d = np.sqrt(((np.array(self.points) - z) ** 2).sum(axis=1))
+        return float(np.sort(d)[: self.k].mean())
+
+
+@dataclass(frozen=True)
 class VerdictModel:
     """A verdict model as the Python side scores with it (the fields of the module text);
     `of` takes a valid document: check_verdict_model's, or verdict_fit.train's own."""
@@ -100,6 +132,8 @@ class VerdictModel:
     cloud_settings: dict[str, Any] | None = None  # how its training clouds were made
     # terrain_domain's ranges: descriptor -> (low, high); empty: no domain
     terrain_ranges: tuple[tuple[str, float, float], ...] = ()
+    # terrain_domain.neighbours: the training sites' standardised ground (None: none)
+    terrain_neighbours: TerrainNeighbours | None = None
     # undecided.by_slope: (slope low, slope high, p_low, p_high), ascending; empty: none
     slope_bands: tuple[tuple[float, float, float, float], ...] = ()
 
@@ -122,9 +156,11 @@ class VerdictModel:
             dict(doc["cloud_settings"]) if "cloud_settings" in doc else None,
             tuple((str(k), float(v[0]), float(v[1]))
                   for k, v in doc.get("terrain_domain", {}).get("ranges", {}).items()),
-            tuple((float(b["site_slope_rad"][0]), float(b["site_slope_rad"][1]),
-                   float(b["p_low"]), float(b["p_high"]))
-                  for b in (band or {}).get("by_slope", [])))
+            terrain_neighbours=TerrainNeighbours.of(doc["terrain_domain"]["neighbours"])
+            if "neighbours" in doc.get("terrain_domain", {}) else None,
+            slope_bands=tuple((float(b["site_slope_rad"][0]), float(b["site_slope_rad"][1]),
+                               float(b["p_low"]), float(b["p_high"]))
+                              for b in (band or {}).get("by_slope", [])))
 
     def band_for(self, slope_rad: float | None) -> tuple[float, float] | None:
         """The undecided band of a site whose measured slope is `slope_rad` (its
@@ -290,7 +326,33 @@ def check_verdict_model(doc: Any, source: str) -> VerdictModel:
             lo, hi = _numbers(ranges, name, 2, f"{at}.ranges")
             if not (lo <= hi and abs(lo) <= 1e9 and abs(hi) <= 1e9):
                 raise InputError(f"{at}.ranges: {name}: expected [low, high], low <= high")
+        if t is not None and "neighbours" in t:
+            _check_neighbours(t["neighbours"], f"{at}.neighbours")
     return VerdictModel.of(doc)
+
+
+def _check_neighbours(doc: object, at: str) -> None:
+    """terrain_domain.neighbours (see the module text): ParseTerrainNeighbours's twin."""
+    n = len(TERRAIN_DESCRIPTORS)
+    if not isinstance(doc, dict):
+        raise InputError(f"{at}: expected {{k, centre, scale, points, max_distance}}")
+    k = doc.get("k")
+    if not (isinstance(k, int) and not isinstance(k, bool) and 1 <= k <= 50):
+        raise InputError(f"{at}: k: expected an integer in 1..50")
+    centre = _numbers(doc, "centre", n, at)
+    scale = _numbers(doc, "scale", n, at)
+    if not all(abs(c) <= 1e9 for c in centre) or not all(1e-9 <= v <= 1e9 for v in scale):
+        raise InputError(f"{at}: centre within +-1e9, scale in [1e-9, 1e9]")
+    points = doc.get("points")
+    if not isinstance(points, list) or not k <= len(points) <= 100_000:
+        raise InputError(f"{at}: points: expected k to 100,000 points")
+    for j, q in enumerate(points):
+        if not (isinstance(q, list) and len(q) == n
+                and all(_is_number(v) and abs(v) <= 1e9 for v in q)):
+            raise InputError(f"{at}: points[{j}]: expected {n} finite numbers")
+    d = _number(doc, "max_distance", at)
+    if not 0 <= d <= 1e9:
+        raise InputError(f"{at}: max_distance: must be in [0, 1e9]")
 
 
 def _check_slope_bands(bands: object, at: str) -> None:
@@ -324,8 +386,17 @@ def outside_terrain(model: VerdictModel, terrain: Mapping[str, float]) -> list[s
     if missing:
         raise InputError(f"measurements.terrain: {missing[0]}: missing (the model's "
                          "terrain_domain ranges it; remeasure the site)")
-    return [name for name, lo, hi in model.terrain_ranges
-            if not lo <= float(terrain[name]) <= hi]
+    out = [name for name, lo, hi in model.terrain_ranges
+           if not lo <= float(terrain[name]) <= hi]
+    nb = model.terrain_neighbours
+    if nb is not None:
+        missing = [n for n in TERRAIN_DESCRIPTORS if n not in terrain]
+        if missing:
+            raise InputError(f"measurements.terrain: {missing[0]}: missing (the model's "
+                             "terrain_domain neighbours need it; remeasure the site)")
+        if not nb.distance(terrain) <= nb.max_distance:
+            out.append("training_distance")
+    return out
 
 
 def cloud_mismatch(model: VerdictModel, cloud: str, options: Mapping[str, object]) -> str | None:
