@@ -241,7 +241,8 @@ Coverage JudgeCoverage(const terrain::Detection& d, const terrain::Rise* judged,
   return c;
 }
 
-std::vector<std::pair<std::string, std::string>> UndecidedReasons(const SiteVerdict& v) {
+std::vector<std::pair<std::string, std::string>> UndecidedReasons(
+    const SiteVerdict& v, const terrain::VerdictModel& model) {
   std::vector<std::pair<std::string, std::string>> out;
   auto say = [&](const std::string& code, const std::ostringstream& text) {
     out.emplace_back(code, text.str());
@@ -292,7 +293,20 @@ std::vector<std::pair<std::string, std::string>> UndecidedReasons(const SiteVerd
       << " m rise stands " << r.ring_high << " of its height in one direction";
     say("masked", t);
   }
-  if (r.roughness >= 0.25 || r.fill < 0.5) {
+  if (model.reasons) {  // learned: a cut tumulus's roughness, and a natural rise's beyond it
+    const terrain::ReasonThresholds& l = *model.reasons;
+    std::ostringstream t;
+    t.precision(2);
+    if (r.roughness >= l.irregular_roughness) {
+      t << "irregular, as natural rises are: the dome fit leaves " << r.roughness
+        << " of the height (from " << l.irregular_roughness << " more often a natural rise)";
+      say("irregular", t);
+    } else if (r.roughness >= l.cut_roughness) {
+      t << "cut (a looters' trench or pit, or damage): the dome fit leaves " << r.roughness
+        << " of the height (from " << l.cut_roughness << " more often a cut tumulus)";
+      say("cut", t);
+    }
+  } else if (r.roughness >= 0.25 || r.fill < 0.5) {
     std::ostringstream t;
     t.precision(2);
     t << "cut or irregular (a looters' trench or pit, or damage): the dome fit leaves "
@@ -497,7 +511,7 @@ nlohmann::json SiteVerdictJson(const SiteVerdict& v, const terrain::VerdictModel
   }
   if (v.label == "undecided") {
     nlohmann::json reasons = nlohmann::json::array();
-    for (const auto& [code, text] : UndecidedReasons(v))
+    for (const auto& [code, text] : UndecidedReasons(v, model))
       reasons.push_back({{"code", code}, {"text", text}});
     const bool second = doc.contains("second_look") && doc["second_look"].value("advised", false);
     doc["undecided"] = {{"reasons", reasons}, {"next", second ? "second_look" : "field_team"}};

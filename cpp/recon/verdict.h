@@ -143,9 +143,12 @@ struct SiteVerdict {
 // the site's cells hold points), "no_rise" (nothing above the relief threshold), "masked" (the
 // ground around the rise stands >= half its height in some direction: relief of its own size),
 // "cut" (the dome fit's residual >= 25 % of the height, or the footprint fills < half its
-// disc: a looters' trench or pit, or damage), "low" (< 1 m high); "weak" when none of these.
+// disc: a looters' trench or pit, or damage; with the model's learned `reasons`: "cut" from
+// its cut_roughness, "irregular" — as natural rises are — from its irregular_roughness),
+// "low" (< 1 m high); "weak" when none of these.
 // Each with a sentence for the field team.
-std::vector<std::pair<std::string, std::string>> UndecidedReasons(const SiteVerdict& v);
+std::vector<std::pair<std::string, std::string>> UndecidedReasons(
+    const SiteVerdict& v, const terrain::VerdictModel& model);
 
 // NoResultError when too few points lie on the site for a terrain model.
 SiteVerdict JudgeSite(const std::vector<Eigen::Vector3d>& cloud, const Eigen::Vector2d& centre,

@@ -217,6 +217,34 @@ TEST(JudgeSite, TheUndecidedBandGivesThreeAnswersAndDecideAtTwo) {
   nlohmann::json bad = built_in.doc;
   bad["undecided"] = 0.5;
   EXPECT_THROW(terrain::ParseVerdictModel(bad, "bad.json"), InputError);
+  // learned reasons: the weak rise's roughness r named "cut" by thresholds below it and
+  // above its "irregular" one, "irregular" by thresholds both below it, neither above it
+  const double r = in_band.detection.judged[*in_band.judged].roughness;
+  auto codes_of = [&](double cut, double irregular) {
+    nlohmann::json d = doc;
+    d["reasons"] = {{"cut_roughness", cut}, {"irregular_roughness", irregular}};
+    const terrain::VerdictModel m = terrain::ParseVerdictModel(d, "reasons.json");
+    std::vector<std::string> out;
+    for (const auto& [code, text] : UndecidedReasons(JudgeSite(weak, {0, 0}, o, m), m))
+      out.push_back(code);
+    return out;
+  };
+  auto has = [](const std::vector<std::string>& v, const std::string& c) {
+    return std::find(v.begin(), v.end(), c) != v.end();
+  };
+  EXPECT_TRUE(has(codes_of(r / 2, r * 2), "cut"));
+  EXPECT_FALSE(has(codes_of(r / 2, r * 2), "irregular"));
+  EXPECT_TRUE(has(codes_of(r / 4, r / 2), "irregular"));
+  EXPECT_FALSE(has(codes_of(r / 4, r / 2), "cut"));
+  EXPECT_FALSE(has(codes_of(r * 2, r * 4), "cut"));
+  for (const nlohmann::json& reasons :
+       {nlohmann::json(1), nlohmann::json{{"cut_roughness", 0.2}},
+        nlohmann::json{{"cut_roughness", 0.3}, {"irregular_roughness", 0.2}},
+        nlohmann::json{{"cut_roughness", 0.0}, {"irregular_roughness", 0.2}}}) {
+    bad = built_in.doc;
+    bad["reasons"] = reasons;
+    EXPECT_THROW(terrain::ParseVerdictModel(bad, "bad.json"), InputError) << reasons.dump();
+  }
 }
 
 // Issue 68: a site on ground outside the model's terrain domain is undecided with reason

@@ -375,6 +375,18 @@ VerdictModel ParseVerdictModel(const nlohmann::json& doc, const std::string& sou
       throw InputError(at + ": a sparse cloud has no densify options");
     m.cloud_settings = cs;
   }
+  if (doc.contains("reasons")) {
+    const nlohmann::json& r = doc["reasons"];
+    const std::string at = source + ": reasons";
+    if (!r.is_object()) throw InputError(at + ": expected {cut_roughness, irregular_roughness}");
+    ReasonThresholds t;
+    t.cut_roughness = Number(r, "cut_roughness", at);
+    t.irregular_roughness = Number(r, "irregular_roughness", at);
+    if (!(t.cut_roughness > 0 && t.cut_roughness <= t.irregular_roughness &&
+          t.irregular_roughness <= 1000))
+      throw InputError(at + ": must be 0 < cut_roughness <= irregular_roughness <= 1000");
+    m.reasons = t;
+  }
   if (doc.contains("terrain_domain")) {
     const nlohmann::json& t = doc["terrain_domain"];
     const std::string at = source + ": terrain_domain";

@@ -44,6 +44,8 @@
 //   "max_distance" (>= 0)}: a site farther than that, on average, from its k nearest
 //   training sites is outside too (TerrainNeighbours). Other fields (sites, grids, how
 //   measured) travel as they are.
+// and optionally "reasons": {"cut_roughness": a, "irregular_roughness": b} (0 < a <= b <=
+//   1000): ReasonThresholds.
 // Two models ship in the repository and are compiled into the tool, learned on the same
 // simulated sites judged on two clouds: data/verdict_model.json on the sparse cloud of
 // `reconstruct` (the default), data/verdict_model_dense.json on the dense cloud of
@@ -113,6 +115,14 @@ struct TerrainNeighbours {
   double Distance(const std::vector<double>& descriptors) const;
 };
 
+// The optional "reasons": the rise's roughness (the dome fit's residual over its height)
+// that names an undecided site's cause: "cut" (a looters' trench or pit) from
+// cut_roughness, "irregular" (as natural rises are) from irregular_roughness, both learned
+// by train-verdict from its sites' truth. Without it the reasons' fixed rule holds.
+struct ReasonThresholds {
+  double cut_roughness = 0.25, irregular_roughness = 1e9;
+};
+
 struct VerdictModel {
   std::vector<std::string> features;
   std::vector<double> mean, std, weights;
@@ -132,6 +142,7 @@ struct VerdictModel {
   // terrain_domain's ranges, by TerrainDescriptorNames() position (empty: no domain)
   std::vector<std::pair<size_t, std::pair<double, double>>> terrain_ranges;
   std::optional<TerrainNeighbours> terrain_neighbours;  // terrain_domain.neighbours
+  std::optional<ReasonThresholds> reasons;
   nlohmann::json doc;  // the whole file (its figures travel into verdict.json)
 
   double Score(const std::vector<double>& f) const;  // s of one rise's features

@@ -339,6 +339,7 @@ def _valid_model() -> dict[str, Any]:
     doc = json.loads((REPO_ROOT / "data" / "verdict_model_dense.json").read_text())
     doc["second_look"] = {"p_low": 0.3, "threshold": 0.6, "scan_factor": 2.0,
                           "combine": {"first": 0.5, "second": 1.0, "bias": -0.2}}
+    doc["reasons"] = {"cut_roughness": 0.06, "irregular_roughness": 0.15}
     doc["undecided"] = {"p_low": 0.2, "p_high": 0.9, "by_slope": [
         {"site_slope_rad": [-math.pi / 2, 0.3], "p_low": 0.35, "p_high": 0.95},
         {"site_slope_rad": [0.3, math.pi / 2], "p_low": 0.1, "p_high": 0.9}]}
@@ -457,6 +458,11 @@ BAD_MODELS: list[tuple[str, Callable[[dict[str, Any]], None], str]] = [
                                               [0, 1, 2]), "terrain_domain.ranges"),
     ("terrain_domain: a range with a string",
      _set(("terrain_domain", "ranges", "site_relief_m"), [0, "9"]), "terrain_domain.ranges"),
+    ("reasons a number", _set(("reasons",), 1), "reasons"),
+    ("reasons without irregular_roughness", _drop(("reasons", "irregular_roughness")),
+     "reasons: irregular_roughness"),
+    ("reasons out of order", _set(("reasons", "cut_roughness"), 0.9), "reasons"),
+    ("reasons.cut_roughness 0", _set(("reasons", "cut_roughness"), 0.0), "reasons"),
     ("neighbours a list", _set(("terrain_domain", "neighbours"), []),
      "terrain_domain.neighbours"),
     ("neighbours.k 0", _set(("terrain_domain", "neighbours", "k"), 0),

@@ -80,6 +80,11 @@ def test_a_cone_on_a_25_degree_hillside_is_a_mound_and_the_dems_knoll_is_not(
     for model in ("dense", THREE):
         knoll = _verdict(mound_recon, sites["knoll"], model)
         assert knoll["label"] != "mound", (model, knoll["reason"])
+    # the knoll's rise is rough as natural rises are (the model's learned reasons): named
+    # irregular, not cut
+    if knoll["label"] == "undecided":
+        codes = [r["code"] for r in knoll["undecided"]["reasons"]]
+        assert "irregular" in codes and "cut" not in codes, codes
     # the three-answer model learned steep ground: the hillside inside its domain, judged
     # by the band of its slope
     three = _verdict(mound_recon, sites["cone25"], THREE)

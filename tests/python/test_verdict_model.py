@@ -558,3 +558,27 @@ def test_ground_unlike_every_training_sites_is_outside_though_each_descriptor_is
     # a training site is its own nearest point: the bound, over left-out distances, lies
     # above the distances the sites have with themselves counted
     assert np.quantile(own, 0.95) <= nb["max_distance"]
+
+
+def test_the_reasons_thresholds_are_learned_from_the_training_sites_truth() -> None:
+    """Issue 68 item 5: a cut tumulus's rise rougher than an uncut one's, a natural rise's
+    rougher still; the learned cut_roughness lies between the first two, the irregular one
+    between tumuli and natural rises; too few of a kind: no reasons."""
+    rng = np.random.default_rng(9)
+    docs, rough = [], []
+    for k in range(300):
+        kind = k % 3  # 0 uncut tumulus, 1 cut tumulus, 2 no tumulus
+        truth = ({"mound": True, "height_m": 3.0, "diameter_m": 30.0, "trench": kind == 1}
+                 if kind < 2 else {"mound": False, "height_m": 0.0, "diameter_m": 0.0})
+        docs.append({"dir": f"{k:04d}", "truth": truth})
+        rough.append(float(rng.normal((0.03, 0.1, 0.4)[kind], 0.01)))
+    sites = [replace(s, measured=True, rise=vm.Rise({"roughness": r}))
+             for s, r in zip(vm.sites_of(docs), rough, strict=True)]
+    got = vf.reason_thresholds(sites)
+    assert got is not None
+    assert 0.04 < got["cut_roughness"] <= 0.1
+    assert 0.1 < got["irregular_roughness"] <= 0.4
+    assert got["trained"]["cut_youden_j"] > 0.9 and got["trained"]["goal_tumuli_cut"] == 100
+    assert vf.reason_thresholds(sites[:40]) is None  # 13 or 14 of each kind
+    doc = json.loads((REPO_ROOT / "data" / "verdict_model_dense.json").read_text())
+    assert check_verdict_model({**doc, "reasons": got}, "m.json") is not None

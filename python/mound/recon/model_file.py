@@ -23,6 +23,9 @@ Fields (n = the detector's 25 features, in any order, each once):
   densify options of its training clouds, finite numbers within +-1e9, at most 64}: how
   the clouds it was trained on were made; `mound_recon verdict` refuses a cloud made
   otherwise (exit 2 naming the setting);
+- `reasons` (optional): {cut_roughness, irregular_roughness with 0 < cut <= irregular <=
+  1000}: the rise's roughness that names an undecided site "cut", and "irregular" (as
+  natural rises are), learned by train-verdict;
 - `terrain_domain` (optional): {"ranges": {descriptor: [low, high] with low <= high, within
   +-1e9; at least one; names of TERRAIN_DESCRIPTORS}, optionally "neighbours": {k in 1..50,
   centre and scale (> 0): one number per TERRAIN_DESCRIPTORS, points: k to 100,000 sites'
@@ -313,6 +316,14 @@ def check_verdict_model(doc: Any, source: str) -> VerdictModel:
             raise InputError(f"{at}: more than 64 settings")
         if c["cloud"] == "sparse" and len(c) > 1:
             raise InputError(f"{at}: a sparse cloud has no densify options")
+    if "reasons" in doc:
+        at = f"{source}: reasons"
+        r = _object(doc, "reasons")
+        if r is None:
+            raise InputError(f"{at}: expected {{cut_roughness, irregular_roughness}}")
+        cut, irregular = (_number(r, k, at) for k in ("cut_roughness", "irregular_roughness"))
+        if not 0 < cut <= irregular <= 1000:
+            raise InputError(f"{at}: must be 0 < cut_roughness <= irregular_roughness <= 1000")
     if "terrain_domain" in doc:
         at = f"{source}: terrain_domain"
         t = _object(doc, "terrain_domain")

@@ -332,7 +332,50 @@ DOMAIN_MARGIN = 0.1
 # error among the sites left inside, at 0.975 and above one confident miss of 44
 # (2026-11-29); the largest quantile without it.
 NEIGHBOURS_K = 5
+# The reasons' thresholds need this many goal tumuli with and without a cut, and sites
+# with and without a tumulus, among the training sites.
+REASON_MIN = 20
 NEIGHBOURS_QUANTILE = 0.95
+
+
+def _youden(x: np.ndarray, pos: np.ndarray) -> tuple[float, float]:
+    """The threshold t (x >= t calls positive) that best separates `pos` from the rest
+    (Youden's J = true positive rate - false positive rate), and its J."""
+    best = (float(np.inf), 0.0)
+    for t in np.unique(x):
+        j = float(np.mean(x[pos] >= t) - np.mean(x[~pos] >= t))
+        if j > best[1]:
+            best = (float(t), j)
+    return best
+
+
+def reason_thresholds(sites: list[GridSite]) -> dict[str, Any] | None:
+    """The model's `reasons` from the training sites' judged rises (their roughness, the
+    dome fit's residual over the height) and truth: cut_roughness separates the tumuli
+    >= 2 m high and 15 m across (goal_tumulus: a cut shows on them) with a looters' trench
+    or pit from those without, irregular_roughness the sites
+    without a tumulus from those with one (at least cut_roughness); each the threshold of
+    best Youden's J. None without REASON_MIN of each kind."""
+    rows = [r for r in sites if r.rise is not None and "roughness" in r.rise.features]
+    rough = np.array([float((r.rise.features if r.rise else {})["roughness"]) for r in rows])
+    goal = np.array([goal_tumulus(r.truth) for r in rows], dtype=bool)
+    cut = np.array([r.truth.cut for r in rows], dtype=bool)
+    mound = np.array([r.truth.mound for r in rows], dtype=bool)
+    if min(int((goal & cut).sum()), int((goal & ~cut).sum()), int(mound.sum()),
+           int((~mound).sum())) < REASON_MIN:
+        return None
+    t_cut, j_cut = _youden(rough[goal], cut[goal])
+    t_nat, j_nat = _youden(rough, ~mound)
+    t_nat = max(t_nat, t_cut)
+    return {"cut_roughness": t_cut, "irregular_roughness": t_nat,
+            "trained": {"cut_youden_j": j_cut, "irregular_youden_j": j_nat,
+                        "goal_tumuli_cut": int((goal & cut).sum()),
+                        "goal_tumuli_uncut": int((goal & ~cut).sum()),
+                        "sites_without_tumulus": int((~mound).sum()),
+                        "method": "the judged rise's roughness: cut_roughness the threshold "
+                                  "of best Youden's J between the tumuli >= 2 m x 15 m with "
+                                  "a trench or pit and without; irregular_roughness between "
+                                  "the sites without a tumulus and with one"}}
 
 
 def terrain_neighbours(x: np.ndarray) -> dict[str, Any]:
@@ -463,6 +506,7 @@ def train(rows: list[GridSite], names: list[str], sources: list[str],
         "undecided": undecided,
         **({"cloud_settings": cs} if (cs := cloud_settings(measured)) else {}),
         **({"terrain_domain": td} if (td := terrain_domain(measured, sources)) else {}),
+        **({"reasons": rs} if (rs := reason_thresholds(sites)) else {}),
         "trained": {"grids": sources, "cloud": _cloud_of(measured),
                     "sites": len(measured), "with_rise": len(sites),
                     "rises": len(d.z_all), "fitted_rises": len(d.z),
