@@ -6,6 +6,7 @@
 #include <fstream>
 #include <limits>
 #include <sstream>
+#include <tuple>
 
 #include "common/error.h"
 #include "common/json_util.h"
@@ -37,6 +38,22 @@ std::vector<double> Numbers(const nlohmann::json& doc, const std::string& key, s
   return out;
 }
 
+// Two numbers of an object, `low_key` and `high_key`, with 0 < low <= high < ceiling (the
+// Python reader's _ordered_pair).
+std::pair<double, double> OrderedPair(const nlohmann::json& doc, const std::string& low_key,
+                                      const std::string& high_key, double ceiling,
+                                      const std::string& at) {
+  if (!doc.is_object()) throw InputError(at + ": expected {" + low_key + ", " + high_key + "}");
+  const double lo = Number(doc, low_key, at), hi = Number(doc, high_key, at);
+  if (!(lo > 0 && lo <= hi && hi < ceiling)) {
+    std::ostringstream why;
+    why << at << ": " << low_key << ", " << high_key << ": must be 0 < " << low_key
+        << " <= " << high_key << " < " << ceiling;
+    throw InputError(why.str());
+  }
+  return {lo, hi};
+}
+
 // undecided.by_slope: 2 to 8 bands {site_slope_rad: [low, high), p_low, p_high}, ascending
 // and contiguous within [-pi/2, pi/2] (the Python reader's _check_slope_bands).
 std::vector<SlopeBand> ParseSlopeBands(const nlohmann::json& doc, const std::string& at) {
@@ -62,10 +79,7 @@ std::vector<SlopeBand> ParseSlopeBands(const nlohmann::json& doc, const std::str
     if (k && std::fabs(s.slope_low - end) > 1e-9)
       throw InputError(where + ": site_slope_rad: must start where the last ended");
     end = s.slope_high;
-    s.band.p_low = Number(b, "p_low", where);
-    s.band.p_high = Number(b, "p_high", where);
-    if (!(s.band.p_low > 0 && s.band.p_low <= s.band.p_high && s.band.p_high < 1))
-      throw InputError(where + ": p_low, p_high: must be 0 < p_low <= p_high < 1");
+    std::tie(s.band.p_low, s.band.p_high) = OrderedPair(b, "p_low", "p_high", 1, where);
     out.push_back(s);
   }
   return out;
@@ -346,12 +360,8 @@ VerdictModel ParseVerdictModel(const nlohmann::json& doc, const std::string& sou
   if (doc.contains("undecided")) {
     const nlohmann::json& u = doc["undecided"];
     const std::string at = source + ": undecided";
-    if (!u.is_object()) throw InputError(at + ": expected {p_low, p_high}");
     UndecidedBand band;
-    band.p_low = Number(u, "p_low", at);
-    band.p_high = Number(u, "p_high", at);
-    if (!(band.p_low > 0 && band.p_low <= band.p_high && band.p_high < 1))
-      throw InputError(at + ": p_low, p_high: must be 0 < p_low <= p_high < 1");
+    std::tie(band.p_low, band.p_high) = OrderedPair(u, "p_low", "p_high", 1, at);
     m.undecided = band;
     if (u.contains("by_slope")) m.slope_bands = ParseSlopeBands(u["by_slope"], at + ".by_slope");
   }
@@ -376,15 +386,9 @@ VerdictModel ParseVerdictModel(const nlohmann::json& doc, const std::string& sou
     m.cloud_settings = cs;
   }
   if (doc.contains("reasons")) {
-    const nlohmann::json& r = doc["reasons"];
-    const std::string at = source + ": reasons";
-    if (!r.is_object()) throw InputError(at + ": expected {cut_roughness, irregular_roughness}");
     ReasonThresholds t;
-    t.cut_roughness = Number(r, "cut_roughness", at);
-    t.irregular_roughness = Number(r, "irregular_roughness", at);
-    if (!(t.cut_roughness > 0 && t.cut_roughness <= t.irregular_roughness &&
-          t.irregular_roughness <= 1000))
-      throw InputError(at + ": must be 0 < cut_roughness <= irregular_roughness <= 1000");
+    std::tie(t.cut_roughness, t.irregular_roughness) = OrderedPair(
+        doc["reasons"], "cut_roughness", "irregular_roughness", 1000, source + ": reasons");
     m.reasons = t;
   }
   if (doc.contains("terrain_domain")) {

@@ -44,7 +44,7 @@
 //   "max_distance" (>= 0)}: a site farther than that, on average, from its k nearest
 //   training sites is outside too (TerrainNeighbours). Other fields (sites, grids, how
 //   measured) travel as they are.
-// and optionally "reasons": {"cut_roughness": a, "irregular_roughness": b} (0 < a <= b <=
+// and optionally "reasons": {"cut_roughness": a, "irregular_roughness": b} (0 < a <= b <
 //   1000): ReasonThresholds.
 // Two models ship in the repository and are compiled into the tool, learned on the same
 // simulated sites judged on two clouds: data/verdict_model.json on the sparse cloud of

@@ -23,7 +23,7 @@ Fields (n = the detector's 25 features, in any order, each once):
   densify options of its training clouds, finite numbers within +-1e9, at most 64}: how
   the clouds it was trained on were made; `mound_recon verdict` refuses a cloud made
   otherwise (exit 2 naming the setting);
-- `reasons` (optional): {cut_roughness, irregular_roughness with 0 < cut <= irregular <=
+- `reasons` (optional): {cut_roughness, irregular_roughness with 0 < cut <= irregular <
   1000}: the rise's roughness that names an undecided site "cut", and "irregular" (as
   natural rises are), learned by train-verdict;
 - `terrain_domain` (optional): {"ranges": {descriptor: [low, high] with low <= high, within
@@ -297,12 +297,8 @@ def check_verdict_model(doc: Any, source: str) -> VerdictModel:
     if "undecided" in doc:
         at = f"{source}: undecided"
         u = _object(doc, "undecided")
-        if u is None:
-            raise InputError(f"{at}: expected {{p_low, p_high}}")
-        lo, hi = (_number(u, k, at) for k in ("p_low", "p_high"))
-        if not 0 < lo <= hi < 1:
-            raise InputError(f"{at}: p_low, p_high: must be 0 < p_low <= p_high < 1")
-        if "by_slope" in u:
+        _ordered_pair(u, "p_low", "p_high", 1, at)
+        if u is not None and "by_slope" in u:
             _check_slope_bands(u["by_slope"], f"{at}.by_slope")
     if "cloud_settings" in doc:
         at = f"{source}: cloud_settings"
@@ -318,12 +314,7 @@ def check_verdict_model(doc: Any, source: str) -> VerdictModel:
             raise InputError(f"{at}: a sparse cloud has no densify options")
     if "reasons" in doc:
         at = f"{source}: reasons"
-        r = _object(doc, "reasons")
-        if r is None:
-            raise InputError(f"{at}: expected {{cut_roughness, irregular_roughness}}")
-        cut, irregular = (_number(r, k, at) for k in ("cut_roughness", "irregular_roughness"))
-        if not 0 < cut <= irregular <= 1000:
-            raise InputError(f"{at}: must be 0 < cut_roughness <= irregular_roughness <= 1000")
+        _ordered_pair(_object(doc, "reasons"), "cut_roughness", "irregular_roughness", 1000, at)
     if "terrain_domain" in doc:
         at = f"{source}: terrain_domain"
         t = _object(doc, "terrain_domain")
@@ -366,6 +357,18 @@ def _check_neighbours(doc: object, at: str) -> None:
         raise InputError(f"{at}: max_distance: must be in [0, 1e9]")
 
 
+def _ordered_pair(doc: Mapping[str, object] | None, low_key: str, high_key: str,
+                  ceiling: float, at: str) -> tuple[float, float]:
+    """Two numbers of an object with 0 < low <= high < ceiling: OrderedPair's twin."""
+    if doc is None:
+        raise InputError(f"{at}: expected {{{low_key}, {high_key}}}")
+    lo, hi = _number(doc, low_key, at), _number(doc, high_key, at)
+    if not 0 < lo <= hi < ceiling:
+        raise InputError(f"{at}: {low_key}, {high_key}: must be 0 < {low_key} <= {high_key} "
+                         f"< {ceiling:g}")
+    return lo, hi
+
+
 def _check_slope_bands(bands: object, at: str) -> None:
     """undecided.by_slope: 2 to 8 bands, ascending and contiguous in [-pi/2, pi/2]."""
     if not isinstance(bands, list) or not 2 <= len(bands) <= 8:
@@ -384,9 +387,7 @@ def _check_slope_bands(bands: object, at: str) -> None:
         if k and abs(r[0] - end) > 1e-9:
             raise InputError(f"{where}: site_slope_rad: must start where the last ended")
         end = r[1]
-        lo, hi = (_number(b, key, where) for key in ("p_low", "p_high"))
-        if not 0 < lo <= hi < 1:
-            raise InputError(f"{where}: p_low, p_high: must be 0 < p_low <= p_high < 1")
+        _ordered_pair(b, "p_low", "p_high", 1, where)
 
 
 def outside_terrain(model: VerdictModel, terrain: Mapping[str, float]) -> list[str]:
