@@ -396,6 +396,10 @@ nlohmann::json SiteVerdictJson(const SiteVerdict& v, const terrain::VerdictModel
                                const terrain::DetectorOptions& detector) {
   const terrain::Detection& d = v.detection;
   const terrain::Rise* judged = v.judged ? &d.judged[*v.judged] : nullptr;
+  // the site's undecided band (by its slope when the model has bands by slope)
+  const bool banded = model.undecided.has_value();
+  const terrain::UndecidedBand band =
+      banded ? model.BandFor(d.site_slope_rad) : terrain::UndecidedBand{};
   nlohmann::json doc;
   doc["method"] = "reference_free_model";
   doc["p_mound"] = v.p_mound;
@@ -404,8 +408,7 @@ nlohmann::json SiteVerdictJson(const SiteVerdict& v, const terrain::VerdictModel
   doc["two_answer"] = {{"label", v.mound ? "mound" : "no_mound"}, {"threshold", v.threshold}};
   if (v.decide_at) {
     doc["decision"] = {{"rule", "decide_at"}, {"p", *v.decide_at}};
-  } else if (model.undecided) {
-    const terrain::UndecidedBand band = model.BandFor(d.site_slope_rad);
+  } else if (banded) {
     doc["decision"] = {{"rule", "undecided_band"}, {"p_low", band.p_low}, {"p_high", band.p_high}};
     if (!model.slope_bands.empty()) doc["decision"]["site_slope_rad"] = d.site_slope_rad;
   } else {
@@ -479,9 +482,8 @@ nlohmann::json SiteVerdictJson(const SiteVerdict& v, const terrain::VerdictModel
     doc["model_p_mound"] = v.model_p;
     doc["first_look_p_mound"] = v.first_p;
   } else {
-    if (model.undecided && !v.decide_at) {
+    if (banded && !v.decide_at) {
       // where p lies against the band: below it no_mound, in it undecided, from its top mound
-      const terrain::UndecidedBand band = model.BandFor(d.site_slope_rad);
       const double lo = band.p_low, hi = band.p_high;
       why << "; p(mound) " << v.p_mound
           << (v.p_mound < lo   ? " (below the undecided band ["
@@ -500,8 +502,8 @@ nlohmann::json SiteVerdictJson(const SiteVerdict& v, const terrain::VerdictModel
     if (advised) {
       std::ostringstream say;
       say.precision(3);
-      const double lo = model.undecided ? model.BandFor(d.site_slope_rad).p_low : l.p_low;
-      const double hi = model.undecided ? model.BandFor(d.site_slope_rad).p_high : model.threshold;
+      const double lo = banded ? band.p_low : l.p_low;
+      const double hi = banded ? band.p_high : model.threshold;
       say << "undecided (p " << v.p_mound << " in [" << lo << ", " << hi
           << ")): fly the site again with a scan " << l.scan_factor
           << " x as wide and judge that flight with --second-look";

@@ -65,14 +65,10 @@ std::vector<SlopeBand> ParseSlopeBands(const nlohmann::json& doc, const std::str
     const std::string where = at + "[" + std::to_string(k) + "]";
     const nlohmann::json& b = doc[k];
     if (!b.is_object()) throw InputError(where + ": expected {site_slope_rad, p_low, p_high}");
-    const auto r = b.find("site_slope_rad");
-    if (r == b.end() || !r->is_array() || r->size() != 2 || !(*r)[0].is_number() ||
-        !(*r)[1].is_number() || !std::isfinite((*r)[0].get<double>()) ||
-        !std::isfinite((*r)[1].get<double>()))
-      throw InputError(where + ": site_slope_rad: expected [low, high]");
+    const std::vector<double> r = Numbers(b, "site_slope_rad", 2, where);
     SlopeBand s;
-    s.slope_low = (*r)[0].get<double>();
-    s.slope_high = (*r)[1].get<double>();
+    s.slope_low = r[0];
+    s.slope_high = r[1];
     if (!(-M_PI / 2 - 1e-9 <= s.slope_low && s.slope_low < s.slope_high &&
           s.slope_high <= M_PI / 2 + 1e-9))
       throw InputError(where + ": site_slope_rad: must be low < high within [-pi/2, pi/2]");
@@ -203,14 +199,13 @@ double VerdictModel::SecondLookProbability(double p_first, double p_second) cons
 }
 
 double TerrainNeighbours::Distance(const std::vector<double>& descriptors) const {
+  std::vector<double> z(centre.size());  // the site's ground, standardised once
+  for (size_t j = 0; j < z.size(); ++j) z[j] = (descriptors[j] - centre[j]) / scale[j];
   std::vector<double> d;
   d.reserve(points.size());
   for (const std::vector<double>& q : points) {
     double s = 0;
-    for (size_t j = 0; j < q.size(); ++j) {
-      const double z = (descriptors[j] - centre[j]) / scale[j] - q[j];
-      s += z * z;
-    }
+    for (size_t j = 0; j < q.size(); ++j) s += (z[j] - q[j]) * (z[j] - q[j]);
     d.push_back(std::sqrt(s));
   }
   const size_t n = std::min(static_cast<size_t>(k), d.size());

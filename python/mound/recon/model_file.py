@@ -378,9 +378,7 @@ def _check_slope_bands(bands: object, at: str) -> None:
         where = f"{at}[{k}]"
         if not isinstance(b, dict):
             raise InputError(f"{where}: expected {{site_slope_rad, p_low, p_high}}")
-        r = b.get("site_slope_rad")
-        if not (isinstance(r, list) and len(r) == 2 and all(_is_number(v) for v in r)):
-            raise InputError(f"{where}: site_slope_rad: expected [low, high]")
+        r = _numbers(b, "site_slope_rad", 2, where)
         if not -math.pi / 2 - 1e-9 <= r[0] < r[1] <= math.pi / 2 + 1e-9:
             raise InputError(f"{where}: site_slope_rad: must be low < high within "
                              "[-pi/2, pi/2]")

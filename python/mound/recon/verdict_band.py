@@ -315,14 +315,14 @@ def by_terrain(truths: Sequence[SiteTruth], lab: np.ndarray) -> dict[str, Any]:
     """The three answers per kind of ground (SiteTruth.terrain_kind): the confident
     misses and false alarms, the undecided, and the tumuli >= 2 m high confirmed mound,
     each with its exact 95 % interval."""
-    kinds = sorted({t.terrain_kind for t in truths})
+    kind_of = np.array([t.terrain_kind for t in truths])
+    mound = np.array([t.mound for t in truths], dtype=bool)
+    goal_all = np.array([band_goal(t) for t in truths], dtype=bool)
+    high_all = mound & np.array([t.height_m >= 2.0 for t in truths], dtype=bool)
     out: dict[str, Any] = {}
-    for kind in kinds:
-        idx = np.array([t.terrain_kind == kind for t in truths])
-        y = np.array([t.mound for t in truths]) & idx
-        goal = np.array([band_goal(t) for t in truths]) & idx
-        high = np.array([t.mound and t.height_m >= 2.0 for t in truths]) & idx
-        neg = idx & ~y
+    for kind in sorted(set(kind_of.tolist())):
+        idx = kind_of == kind
+        goal, high, neg = goal_all & idx, high_all & idx, idx & ~mound
         out[kind] = {
             "sites": int(idx.sum()),
             "confident_misses": _rate(int((lab[goal] == NO).sum()), int(goal.sum())),

@@ -113,8 +113,9 @@ def _site_bands(model: VerdictModel, measured: list[GridSite]
     """Each site's undecided band by its measured slope (None: the model has one band)."""
     if not model.slope_bands:
         return None
-    bands = [model.band_for((r.ground or {}).get("site_slope_rad")) for r in measured]
-    return (np.array([b[0] for b in bands if b]), np.array([b[1] for b in bands if b]))
+    bands = np.array([model.band_for((r.ground or {}).get("site_slope_rad"))
+                      for r in measured], dtype=float).reshape(-1, 2)
+    return bands[:, 0], bands[:, 1]
 
 
 def evaluate(model: VerdictModel, rows: list[GridSite]) -> dict[str, Any]:

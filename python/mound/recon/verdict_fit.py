@@ -356,11 +356,12 @@ def reason_thresholds(sites: list[GridSite]) -> dict[str, Any] | None:
     or pit from those without, irregular_roughness the sites
     without a tumulus from those with one (at least cut_roughness); each the threshold of
     best Youden's J. None without REASON_MIN of each kind."""
-    rows = [r for r in sites if r.rise is not None and "roughness" in r.rise.features]
-    rough = np.array([float((r.rise.features if r.rise else {})["roughness"]) for r in rows])
-    goal = np.array([goal_tumulus(r.truth) for r in rows], dtype=bool)
-    cut = np.array([r.truth.cut for r in rows], dtype=bool)
-    mound = np.array([r.truth.mound for r in rows], dtype=bool)
+    judged = [(r.truth, r.rise) for r in sites
+              if r.rise is not None and "roughness" in r.rise.features]
+    rough = np.array([float(rise.features["roughness"]) for _, rise in judged])
+    goal = np.array([goal_tumulus(t) for t, _ in judged], dtype=bool)
+    cut = np.array([t.cut for t, _ in judged], dtype=bool)
+    mound = np.array([t.mound for t, _ in judged], dtype=bool)
     if min(int((goal & cut).sum()), int((goal & ~cut).sum()), int(mound.sum()),
            int((~mound).sum())) < REASON_MIN:
         return None
