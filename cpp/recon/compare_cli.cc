@@ -93,8 +93,8 @@ int RunCompare(const std::vector<std::string>& args) {
 int RunVerdict(const std::vector<std::string>& args) {
   const Args a = ParseArgs(args, 1,
                            {"--out", "--reference", "--radius", "--threshold-ratio", "--model",
-                            "--ground-order", "--relief-threshold", "--init", "--max-points",
-                            "--seed", "--cloud", "--second-look", "--decide-at"},
+                            "--ground-order", "--relief-threshold", "--candidates", "--init",
+                            "--max-points", "--seed", "--cloud", "--second-look", "--decide-at"},
                            {"--no-scale"});
   if (a.positional.size() != 1)
     throw InputError("verdict: expected exactly one RECON_DIR (see --help)");
@@ -129,6 +129,11 @@ int RunVerdict(const std::vector<std::string>& args) {
       const double g = ParseNumber(a.options.at("--ground-order"), "--ground-order");
       if (g != 1 && g != 2) throw InputError("--ground-order: 1 (a plane) or 2 (a quadratic)");
       site.detector.ground_order = static_cast<int>(g);
+    }
+    if (a.Has("--candidates")) {
+      const auto c = terrain::CandidatesFromName(a.options.at("--candidates"));
+      if (!c) throw InputError("--candidates: site_ground or local_relief");
+      site.detector.candidates = *c;
     }
     if (a.Has("--second-look")) {
       const std::string first = a.options.at("--second-look"), at = "--second-look: " + first;
@@ -195,6 +200,9 @@ int RunVerdict(const std::vector<std::string>& args) {
     if (!centre) fail("no registered image");
     site.cameras = CameraCentres(recon, dir + "/recon.json");
     const terrain::VerdictModel& model = built_in ? *built_in : *model_read;
+    // the model's candidate set unless --candidates names one (then the verdict says whether
+    // the model was trained on it)
+    if (!a.Has("--candidates")) site.detector.candidates = model.candidates;
     if (model.cloud_settings) {
       // Only a cloud made as the model's training clouds were: densify's options travel in
       // the dense.json beside its dense.ply.

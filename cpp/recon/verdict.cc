@@ -250,6 +250,13 @@ std::vector<std::pair<std::string, std::string>> UndecidedReasons(
   std::ostringstream s;
   s.precision(2);
   const terrain::Detection& d = v.detection;
+  if (v.other_candidates) {
+    std::ostringstream t;
+    t << "measured with " << terrain::CandidatesName(d.candidates)
+      << " candidate rises; the model was trained on " << terrain::CandidatesName(model.candidates)
+      << " ones (judge the site with the model's: omit --candidates)";
+    say("model", t);
+  }
   if (!v.terrain.empty()) {
     std::ostringstream t;
     t.precision(3);
@@ -386,6 +393,8 @@ SiteVerdict JudgeSite(const std::vector<Eigen::Vector3d>& cloud, const Eigen::Ve
   if (!v.detection.judged.empty()) v.judged = best;
   v.terrain = model.OutsideTerrain(v.detection);
   if (!v.terrain.empty() && !options.decide_at) v.label = "undecided";
+  v.other_candidates = options.detector.candidates != model.candidates;
+  if (v.other_candidates && !options.decide_at) v.label = "undecided";
   v.coverage =
       JudgeCoverage(v.detection, v.judged ? &v.detection.judged[*v.judged] : nullptr, v.radius_m);
   return v;
@@ -426,7 +435,8 @@ nlohmann::json SiteVerdictJson(const SiteVerdict& v, const terrain::VerdictModel
                       {"rises", d.rises},
                       {"site_sag_m", d.site_sag_m},
                       {"site_ridge_m", d.site_ridge_m},
-                      {"ground_sag_m", d.ground_sag_m}};
+                      {"ground_sag_m", d.ground_sag_m},
+                      {"candidates", terrain::CandidatesName(d.candidates)}};
   {  // the ground the site stands on, and the model's domain of it
     nlohmann::json t = nlohmann::json::object();
     const std::vector<double> values = terrain::TerrainDescriptors(d);
@@ -497,7 +507,8 @@ nlohmann::json SiteVerdictJson(const SiteVerdict& v, const terrain::VerdictModel
   if (model.second_look && !v.second_look) {
     const terrain::SecondLook& l = *model.second_look;
     // a wider look at ground the model never saw would not be judged on it either
-    const bool advised = model.SecondLookAdvised(v.p_mound, d.site_slope_rad) && v.terrain.empty();
+    const bool advised = model.SecondLookAdvised(v.p_mound, d.site_slope_rad) &&
+                         v.terrain.empty() && !v.other_candidates;
     doc["second_look"] = {{"advised", advised}, {"p_low", l.p_low}, {"scan_factor", l.scan_factor}};
     if (advised) {
       std::ostringstream say;
@@ -524,7 +535,8 @@ nlohmann::json SiteVerdictJson(const SiteVerdict& v, const terrain::VerdictModel
   doc["measurements"] = m;
   doc["model"] = {{"file", model_file},
                   {"threshold", threshold},
-                  {"relief_threshold_m", detector.relief_threshold_m}};
+                  {"relief_threshold_m", detector.relief_threshold_m},
+                  {"candidates", terrain::CandidatesName(model.candidates)}};
   if (model.doc.contains("trained")) doc["model"]["trained"] = model.doc["trained"];
   return doc;
 }

@@ -135,10 +135,15 @@ struct SiteVerdict {
   // The site's ground outside the model's terrain domain (VerdictModel::OutsideTerrain):
   // the label is then "undecided" whatever p says (not with decide_at), for the field team.
   std::vector<terrain::TerrainExcess> terrain;
+  // The site was measured with candidate rises other than those the model was trained on
+  // (SiteVerdictOptions::detector.candidates against VerdictModel::candidates): the label is
+  // then "undecided" (not with decide_at), reason "model".
+  bool other_candidates = false;
 };
 
 // Why a site is undecided, read from its measurements (they describe the doubt, they do not
-// decide, save "terrain"): "terrain" (its ground lies outside the model's terrain domain:
+// decide, save "model" and "terrain"): "model" (measured with candidate rises other than the
+// model's training sites were), "terrain" (its ground lies outside the model's terrain domain:
 // ground the model never saw), "clipped" (the rise runs off the scan), "sparse_cloud" (< 70 % of
 // the site's cells hold points), "no_rise" (nothing above the relief threshold), "masked" (the
 // ground around the rise stands >= half its height in some direction: relief of its own size),

@@ -308,6 +308,47 @@ TEST(JudgeSite, GroundOutsideTheTerrainDomainIsUndecided) {
             "unchecked");
 }
 
+// A model names the candidate rises it was trained on; a site measured with another set is
+// undecided (reason model, no second look), whatever p says; measured with the model's set,
+// it is judged. A model without detector.candidates is a site_ground model.
+TEST(JudgeSite, CandidatesOtherThanTheModelsAreUndecided) {
+  nlohmann::json doc = terrain::DenseVerdictModel().doc;
+  doc["detector"] = {{"candidates", "local_relief"}};
+  const terrain::VerdictModel local = terrain::ParseVerdictModel(doc, "local.json");
+  EXPECT_EQ(local.candidates, terrain::DetectorOptions::Candidates::kLocalRelief);
+  EXPECT_EQ(terrain::DenseVerdictModel().candidates,
+            terrain::DetectorOptions::Candidates::kSiteGround);
+  SiteVerdictOptions o;
+  o.radius_m = 40;
+  const std::vector<Eigen::Vector3d> cloud = SyntheticSite(5, 30, false, 4);
+  const SiteVerdict other = JudgeSite(cloud, {0, 0}, o, local);  // site_ground measured
+  EXPECT_TRUE(other.other_candidates);
+  EXPECT_GE(other.p_mound, local.threshold);
+  EXPECT_EQ(other.label, "undecided");
+  const nlohmann::json j = SiteVerdictJson(other, local, "local.json", o.detector);
+  EXPECT_EQ(j["undecided"]["reasons"][0]["code"], "model");
+  EXPECT_EQ(j["measurements"]["candidates"], "site_ground");
+  EXPECT_EQ(j["model"]["candidates"], "local_relief");
+  o.detector.candidates = terrain::DetectorOptions::Candidates::kLocalRelief;
+  const SiteVerdict same = JudgeSite(cloud, {0, 0}, o, local);
+  EXPECT_FALSE(same.other_candidates);
+  EXPECT_EQ(same.label, "mound");
+  EXPECT_EQ(SiteVerdictJson(same, local, "local.json", o.detector)["measurements"]["candidates"],
+            "local_relief");
+  for (const nlohmann::json& bad :
+       {nlohmann::json("local_relief"), nlohmann::json::object(),
+        nlohmann::json{{"candidates", "ridges"}}, nlohmann::json{{"candidates", 1}},
+        nlohmann::json{{"candidates", "local_relief"}, {"cell_m", 0.5}}}) {
+    doc["detector"] = bad;
+    try {
+      terrain::ParseVerdictModel(doc, "bad.json");
+      ADD_FAILURE() << bad.dump();
+    } catch (const InputError& e) {
+      EXPECT_EQ(std::string(e.what()).rfind("bad.json: detector", 0), 0u) << e.what();
+    }
+  }
+}
+
 // A torn reconstruction (points strewn hundreds of metres off, as a bad bundle adjustment
 // leaves them) reaches beyond what its cameras could see and is not judged; the same site
 // whole is.

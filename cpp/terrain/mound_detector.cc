@@ -41,6 +41,16 @@ void DetectorOptions::Check() const {
     throw InputError("detector.relief_threshold_m: must be > 0");
 }
 
+const char* CandidatesName(DetectorOptions::Candidates c) {
+  return c == DetectorOptions::Candidates::kLocalRelief ? "local_relief" : "site_ground";
+}
+
+std::optional<DetectorOptions::Candidates> CandidatesFromName(const std::string& name) {
+  if (name == "site_ground") return DetectorOptions::Candidates::kSiteGround;
+  if (name == "local_relief") return DetectorOptions::Candidates::kLocalRelief;
+  return std::nullopt;
+}
+
 Detection DetectMound(const std::vector<Eigen::Vector3d>& points, const Eigen::Vector2d& centre,
                       double radius_m, const DetectorOptions& o) {
   o.Check();
@@ -58,6 +68,7 @@ Detection DetectMound(const std::vector<Eigen::Vector3d>& points, const Eigen::V
   }
   Detection d;
   d.radius_m = radius_m;
+  d.candidates = o.candidates;
   const double area = M_PI * radius_m * radius_m;
   d.cell_m = o.cell_m > 0 ? o.cell_m
                           : std::clamp(std::sqrt(area / (site.size() / 4.0)), 0.25,
@@ -271,9 +282,16 @@ Detection DetectMound(const std::vector<Eigen::Vector3d>& points, const Eigen::V
       if (candidates.size() < kReliefCandidates) candidates.push_back(c);
     }
   }
-  for (const internal::Candidate& c :
-       internal::ScaleSpaceCandidates(g, o.relief_threshold_m, kScaleSpaceCandidates))
+  const bool local = o.candidates == DetectorOptions::Candidates::kLocalRelief;
+  for (const internal::Candidate& c : internal::ScaleSpaceCandidates(
+           g, o.relief_threshold_m, kScaleSpaceCandidates, /*measured_only=*/local))
     candidates.push_back(c);
+  // every one, though a site-ground candidate lies near: on steep ground those converge on
+  // the landform, these on what stands out of it
+  if (local)
+    for (const internal::Candidate& c :
+         internal::LocalReliefCandidates(g, o.relief_threshold_m, kLocalReliefCandidates))
+      candidates.push_back(c);
   // Each candidate fitted and measured over its own ground twice: over a plane, its radius
   // free, and over a quadratic at its own scale (radius within kOwnScale of the
   // candidate's), where that window fits within the site (CurvedGroundFits) — a tumulus on

@@ -31,6 +31,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -44,6 +45,14 @@ struct DetectorOptions {
   // wider than the scan: the site's own curvature (site_sag_m) tells that case.
   int ground_order = 2;
   double relief_threshold_m = 0.3;
+  // The candidate rises: kSiteGround those of the relief over the site's ground and of the
+  // heights' scale space (as the built-in models were trained); kLocalRelief those and the
+  // blobs of the local relief at every scale (LocalReliefCandidates in rise_fit.h: a rise
+  // measured against the landform around it, so a tumulus on a steep slope, a ridge or
+  // beside a larger landform is a candidate of its own). A verdict model names the set it
+  // was trained on (its `detector.candidates`).
+  enum class Candidates { kSiteGround, kLocalRelief };
+  Candidates candidates = Candidates::kSiteGround;
 
   // InputError naming the field ("detector.ground_order: ...") when out of range.
   void Check() const;
@@ -101,6 +110,12 @@ struct Rise {
 // the heights' scale space.
 inline constexpr size_t kReliefCandidates = 8;
 inline constexpr size_t kScaleSpaceCandidates = 24;
+inline constexpr size_t kLocalReliefCandidates = 24;
+
+// The name of a candidate set in files and flags ("site_ground", "local_relief"), and back
+// (nullopt: no such set).
+const char* CandidatesName(DetectorOptions::Candidates c);
+std::optional<DetectorOptions::Candidates> CandidatesFromName(const std::string& name);
 
 struct Detection {
   // Every distinct rise measured (a scan of real ground holds natural rises too, often
@@ -111,6 +126,7 @@ struct Detection {
   // The most prominent rise, or nullptr when none rose above the relief threshold.
   const Rise* Tallest() const { return judged.empty() ? nullptr : &judged.front(); }
   int rises = 0;  // components above the relief threshold
+  DetectorOptions::Candidates candidates = DetectorOptions::Candidates::kSiteGround;  // the set
   double cell_m = 0;
   int grid_width = 0, grid_height = 0, cells_with_points = 0, cells_inside = 0;
   double radius_m = 0;

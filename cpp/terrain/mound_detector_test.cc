@@ -295,6 +295,107 @@ TEST(ScaleSpaceCandidates, OnePerBlobSoASmallTumulusBelowAHillIsACandidate) {
     }
 }
 
+// A grid over ground z(x, y), measured within the site but for the cells `gap` admits
+// (filled as DetectMound fills them: here, flat at the gap's lowest neighbour's height, a
+// plateau as diffusion leaves across a wide gap on a slope).
+template <class Z, class Gap>
+internal::HeightGrid GroundGrid(double radius, double cell, Z z, Gap gap) {
+  internal::HeightGrid g = SquareGrid(radius, cell);
+  double low = std::numeric_limits<double>::infinity();
+  for (int j = 0; j < g.h; ++j)
+    for (int i = 0; i < g.w; ++i)
+      if (!gap(g.Centre(i, j))) low = std::min(low, z(g.Centre(i, j)));
+  for (int j = 0; j < g.h; ++j)
+    for (int i = 0; i < g.w; ++i) {
+      const Eigen::Vector2d c = g.Centre(i, j);
+      const bool in = c.norm() <= g.radius, hole = gap(c);
+      g.z.push_back(!in ? std::numeric_limits<double>::quiet_NaN() : hole ? low : z(c));
+      g.inside.push_back(in);
+      g.measured.push_back(in && !hole);
+    }
+  return g;
+}
+
+// The first candidate (in the order given) within `near` m of `at` with a radius in
+// [r_low, r_high], or -1.
+int CandidateAt(const std::vector<internal::Candidate>& c, const Eigen::Vector2d& at, double near,
+                double r_low, double r_high) {
+  for (size_t k = 0; k < c.size(); ++k)
+    if ((c[k].centre - at).norm() < near && c[k].radius_m >= r_low && c[k].radius_m <= r_high)
+      return static_cast<int>(k);
+  return -1;
+}
+
+// Issue 68's steep grid: a 5 m x 36 m tumulus on a 34-degree slope, the cloud missing a
+// third of the scan uphill (the images saw it too obliquely). Filled, the gap is a plateau
+// that stands tens of metres off the slope: the site-ground candidates (the scale space of
+// every cell) were all its edges, none the tumulus. The local relief measures the cells
+// that hold points against the landform around them: the tumulus is its strongest blob.
+TEST(LocalReliefCandidates, ATumulusOnASteepSlopeBesideAGapInTheCloud) {
+  const double slope = std::tan(34 * M_PI / 180);
+  const Eigen::Vector2d at(1, -6);
+  auto z = [&](const Eigen::Vector2d& c) {
+    const double r = (c - at).norm() / 18;
+    return 100 - slope * c.x() + (r < 1 ? 5 * (1 - r) : 0);  // a cone
+  };
+  auto gap = [](const Eigen::Vector2d& c) { return c.x() < -25; };
+  const internal::HeightGrid g = GroundGrid(55, 0.5, z, gap);
+  const std::vector<internal::Candidate> local = internal::LocalReliefCandidates(g, 0.3, 24);
+  const int k = CandidateAt(local, at, 6, 8, 30);
+  EXPECT_EQ(k, 0) << "the tumulus is not the local relief's strongest blob";
+  const std::vector<internal::Candidate> site = internal::ScaleSpaceCandidates(g, 0.3, 24);
+  EXPECT_EQ(CandidateAt(site, at, 6, 8, 30), -1) << "the filled gap no longer hides it";
+  EXPECT_GE(
+      CandidateAt(internal::ScaleSpaceCandidates(g, 0.3, 24, /*measured_only=*/true), at, 6, 8, 30),
+      0);
+  // the detector: with local_relief candidates a rise is judged on the tumulus (a cloud of
+  // 4 points a cell, 3 cm of noise)
+  std::vector<Eigen::Vector3d> points;
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> u(-55, 55);
+  std::normal_distribution<double> noise(0, 0.03);
+  while (points.size() < 150000) {
+    const Eigen::Vector2d c(u(rng), u(rng));
+    if (c.norm() <= 55 && !gap(c)) points.emplace_back(c.x(), c.y(), z(c) + noise(rng));
+  }
+  DetectorOptions o;
+  o.cell_m = 0.5;
+  auto judged_on = [&](const Detection& d) {
+    return std::any_of(d.judged.begin(), d.judged.end(), [&](const Rise& r) {
+      return (r.centre - at).norm() < 4 && std::fabs(r.base_diameter_m - 36) < 8;
+    });
+  };
+  o.candidates = DetectorOptions::Candidates::kLocalRelief;
+  const Detection d = DetectMound(points, {0, 0}, 55, o);
+  EXPECT_EQ(d.candidates, DetectorOptions::Candidates::kLocalRelief);
+  EXPECT_TRUE(judged_on(d));
+}
+
+// A ridge runs on along its crest and a terrace's edge along the step: the least of the four
+// axes' contrasts leaves neither a blob, however high (as the ridged grid draws them: crests
+// 100 m apart with 12 m of relief; risers of 2 m); a tumulus on the ridge's crest is one.
+TEST(LocalReliefCandidates, ARidgeAndATerraceAreNotBlobsATumulusOnTheRidgeIs) {
+  auto ridge = [](const Eigen::Vector2d& c) {  // crest along x at y = 0, on a 3 % slope
+    return 50 + 0.03 * c.x() + 6 * std::cos(2 * M_PI * c.y() / 100);
+  };
+  auto terrace = [](const Eigen::Vector2d& c) {  // steps 25 m apart, risers 2 m over 6 m
+    const double run = 25, riser = 6, k = std::floor(c.x() / run), t = c.x() - k * run;
+    return 50 + 2 * (k + std::clamp((t - (run - riser)) / riser, 0.0, 1.0));
+  };
+  auto none = [](const Eigen::Vector2d&) { return false; };
+  EXPECT_TRUE(internal::LocalReliefCandidates(GroundGrid(60, 0.5, ridge, none), 0.3, 24).empty());
+  EXPECT_TRUE(internal::LocalReliefCandidates(GroundGrid(60, 0.5, terrace, none), 0.3, 24).empty());
+  const Eigen::Vector2d at(-10, 2);
+  auto tumulus = [&](const Eigen::Vector2d& c) {
+    const double r = (c - at).norm() / 10;
+    return ridge(c) + (r < 1 ? 2 * (1 - r * r) : 0);
+  };
+  const std::vector<internal::Candidate> c =
+      internal::LocalReliefCandidates(GroundGrid(60, 0.5, tumulus, none), 0.3, 24);
+  ASSERT_FALSE(c.empty());
+  EXPECT_EQ(CandidateAt(c, at, 4, 4, 16), 0);
+}
+
 // The height of a detection's highest rise: ModelDoc's score rises with the height alone, so
 // the site's p is that rise's (not necessarily the most prominent one, Tallest(): over a
 // curved ground the same dome may be measured taller).

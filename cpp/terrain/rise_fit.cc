@@ -14,6 +14,9 @@ namespace {
 constexpr int kShapes = 3;  // paraboloid, cone, drum
 // The scale space's radii: from 2.5 m (or 2 cells) up to the site's radius in this factor.
 constexpr double kScaleStep = 1.3;
+// The local relief's side boxes count where at least this share of their cells hold points
+// (their centroid, not their centre, is where their mean lies).
+constexpr double kSideFill = 0.25;
 
 double Phi(int shape, double t) {
   if (t >= 1) return 0;
@@ -22,32 +25,48 @@ double Phi(int shape, double t) {
   return std::min(1.0, 2 * (1 - t));
 }
 
-// Summed-area tables of the site's heights and of its valid cells.
+// Summed-area tables of the site's heights and of its valid cells (and of the valid cells'
+// column and row indices: their centroid); `measured_only`: the cells that hold points, not
+// those filled from their neighbours.
 struct Tables {
   int w = 0, h = 0;
-  std::vector<double> sum, count;  // (w + 1) x (h + 1)
-  explicit Tables(const HeightGrid& g) : w(g.w), h(g.h) {
+  std::vector<double> sum, count, si, sj;  // (w + 1) x (h + 1)
+  explicit Tables(const HeightGrid& g, bool measured_only = false) : w(g.w), h(g.h) {
     sum.assign(static_cast<size_t>(w + 1) * (h + 1), 0.0);
-    count = sum;
+    count = si = sj = sum;
     for (int j = 0; j < h; ++j)
       for (int i = 0; i < w; ++i) {
         const double z = g.z[g.Index(i, j)];
-        const bool ok = g.inside[g.Index(i, j)] && !std::isnan(z);
+        const bool ok = g.inside[g.Index(i, j)] && !std::isnan(z) &&
+                        (!measured_only || g.measured[g.Index(i, j)]);
         const size_t a = At(i + 1, j + 1);
-        sum[a] = (ok ? z : 0) + sum[At(i, j + 1)] + sum[At(i + 1, j)] - sum[At(i, j)];
-        count[a] = (ok ? 1 : 0) + count[At(i, j + 1)] + count[At(i + 1, j)] - count[At(i, j)];
+        auto add = [&](std::vector<double>& t, double v) {
+          t[a] = v + t[At(i, j + 1)] + t[At(i + 1, j)] - t[At(i, j)];
+        };
+        add(sum, ok ? z : 0);
+        add(count, ok ? 1 : 0);
+        add(si, ok ? i : 0);
+        add(sj, ok ? j : 0);
       }
   }
   size_t At(int i, int j) const { return static_cast<size_t>(j) * (w + 1) + i; }
-  // Sum and count over the cells within half-width b of (i, j), clipped to the grid.
-  std::pair<double, double> Box(int i, int j, int b) const {
+  struct Sums {
+    double z = 0, n = 0, i = 0, j = 0;
+  };
+  // The sums over the cells within half-width b of (i, j), clipped to the grid.
+  Sums Of(int i, int j, int b) const {
     const int i0 = std::max(0, i - b), j0 = std::max(0, j - b);
     const int i1 = std::min(w, i + b + 1), j1 = std::min(h, j + b + 1);
-    if (i0 >= i1 || j0 >= j1) return {0, 0};
+    if (i0 >= i1 || j0 >= j1) return {};
     auto s = [&](const std::vector<double>& t) {
       return t[At(i1, j1)] - t[At(i0, j1)] - t[At(i1, j0)] + t[At(i0, j0)];
     };
-    return {s(sum), s(count)};
+    return {s(sum), s(count), s(si), s(sj)};
+  }
+  // Sum and count over the cells within half-width b of (i, j), clipped to the grid.
+  std::pair<double, double> Box(int i, int j, int b) const {
+    const Sums s = Of(i, j, b);
+    return {s.z, s.n};
   }
 };
 
@@ -184,29 +203,26 @@ Fit Refine(const HeightGrid& g, const Candidate& start, bool curved) {
 
 }  // namespace
 
-std::vector<Candidate> ScaleSpaceCandidates(const HeightGrid& g, double min_contrast_m,
-                                            size_t max_count) {
-  const Tables t(g);
-  std::vector<double> radii;
-  for (double R = std::max(2.5, 2 * g.cell); R <= g.radius; R *= kScaleStep) radii.push_back(R);
+namespace {
+
+// Whether candidate c is a blob already kept: within half the larger radius of one, at a
+// scale within two steps of it.
+bool SameBlob(const std::vector<Candidate>& kept, const Candidate& c) {
+  return std::any_of(kept.begin(), kept.end(), [&](const Candidate& q) {
+    const double big = std::max(q.radius_m, c.radius_m);
+    const double small = std::min(q.radius_m, c.radius_m);
+    return (q.centre - c.centre).norm() < big / 2 &&
+           big < kScaleStep * kScaleStep * small * 1.001;  // 1.001: two steps exactly
+  });
+}
+
+// The blobs of a scale space: `resp` (radii x cells) the response at each radius and cell;
+// its local maxima over position and radius above `min_contrast_m`, the strongest
+// `max_count` by contrast x radius, one per blob (see ScaleSpaceCandidates).
+std::vector<Candidate> Blobs(const HeightGrid& g, const std::vector<double>& radii,
+                             const std::vector<double>& resp, double min_contrast_m,
+                             size_t max_count) {
   const size_t nc = g.z.size();
-  std::vector<double> resp(radii.size() * nc, -std::numeric_limits<double>::infinity());
-  for (size_t s = 0; s < radii.size(); ++s) {
-    const int a = std::max(1, static_cast<int>(std::lround(0.5 * radii[s] / g.cell)));
-    const int b1 = std::max(a + 1, static_cast<int>(std::lround(radii[s] / g.cell)));
-    const int b2 = std::max(b1 + 1, static_cast<int>(std::lround(1.5 * radii[s] / g.cell)));
-    const double full_in = (2.0 * a + 1) * (2.0 * a + 1);
-    const double full_ring = (2.0 * b2 + 1) * (2.0 * b2 + 1) - (2.0 * b1 + 1) * (2.0 * b1 + 1);
-    for (int j = 0; j < g.h; ++j)
-      for (int i = 0; i < g.w; ++i) {
-        if (!g.inside[g.Index(i, j)]) continue;
-        const auto [si, ni] = t.Box(i, j, a);
-        const auto [s1, n1] = t.Box(i, j, b1);
-        const auto [s2, n2] = t.Box(i, j, b2);
-        if (ni < 0.5 * full_in || n2 - n1 < 0.2 * full_ring) continue;
-        resp[s * nc + g.Index(i, j)] = si / ni - (s2 - s1) / (n2 - n1);
-      }
-  }
   struct Peak {
     double score;
     Candidate c;
@@ -240,15 +256,85 @@ std::vector<Candidate> ScaleSpaceCandidates(const HeightGrid& g, double min_cont
   std::vector<Candidate> out;
   for (const Peak& p : peaks) {
     if (out.size() >= max_count) break;
-    const bool same = std::any_of(out.begin(), out.end(), [&](const Candidate& q) {
-      const double big = std::max(q.radius_m, p.c.radius_m);
-      const double small = std::min(q.radius_m, p.c.radius_m);
-      return (q.centre - p.c.centre).norm() < big / 2 &&
-             big < kScaleStep * kScaleStep * small * 1.001;  // 1.001: two steps exactly
-    });
-    if (!same) out.push_back(p.c);
+    if (!SameBlob(out, p.c)) out.push_back(p.c);
   }
   return out;
+}
+
+}  // namespace
+
+std::vector<Candidate> ScaleSpaceCandidates(const HeightGrid& g, double min_contrast_m,
+                                            size_t max_count, bool measured_only) {
+  const Tables t(g, measured_only);
+  std::vector<double> radii;
+  for (double R = std::max(2.5, 2 * g.cell); R <= g.radius; R *= kScaleStep) radii.push_back(R);
+  const size_t nc = g.z.size();
+  std::vector<double> resp(radii.size() * nc, -std::numeric_limits<double>::infinity());
+  for (size_t s = 0; s < radii.size(); ++s) {
+    const int a = std::max(1, static_cast<int>(std::lround(0.5 * radii[s] / g.cell)));
+    const int b1 = std::max(a + 1, static_cast<int>(std::lround(radii[s] / g.cell)));
+    const int b2 = std::max(b1 + 1, static_cast<int>(std::lround(1.5 * radii[s] / g.cell)));
+    const double full_in = (2.0 * a + 1) * (2.0 * a + 1);
+    const double full_ring = (2.0 * b2 + 1) * (2.0 * b2 + 1) - (2.0 * b1 + 1) * (2.0 * b1 + 1);
+    for (int j = 0; j < g.h; ++j)
+      for (int i = 0; i < g.w; ++i) {
+        if (!g.inside[g.Index(i, j)]) continue;
+        const auto [si, ni] = t.Box(i, j, a);
+        const auto [s1, n1] = t.Box(i, j, b1);
+        const auto [s2, n2] = t.Box(i, j, b2);
+        if (ni < 0.5 * full_in || n2 - n1 < 0.2 * full_ring) continue;
+        resp[s * nc + g.Index(i, j)] = si / ni - (s2 - s1) / (n2 - n1);
+      }
+  }
+  return Blobs(g, radii, resp, min_contrast_m, max_count);
+}
+
+std::vector<Candidate> LocalReliefCandidates(const HeightGrid& g, double min_contrast_m,
+                                             size_t max_count) {
+  const Tables t(g, /*measured_only=*/true);
+  std::vector<double> radii;
+  for (double R = std::max(2.5, 2 * g.cell); R <= g.radius / 1.25; R *= kScaleStep)
+    radii.push_back(R);
+  const size_t nc = g.z.size();
+  std::vector<double> resp(radii.size() * nc, -std::numeric_limits<double>::infinity());
+  // The four axes through a cell (E-W, N-S and the diagonals), as unit steps.
+  const std::array<Eigen::Vector2d, 4> axes = {Eigen::Vector2d(1, 0), Eigen::Vector2d(0, 1),
+                                               Eigen::Vector2d(M_SQRT1_2, M_SQRT1_2),
+                                               Eigen::Vector2d(M_SQRT1_2, -M_SQRT1_2)};
+  for (size_t s = 0; s < radii.size(); ++s) {
+    const int a = std::max(1, static_cast<int>(std::lround(0.5 * radii[s] / g.cell)));
+    const double full = (2.0 * a + 1) * (2.0 * a + 1);
+    const double reach = std::max(2.0 * a + 1, 1.25 * radii[s] / g.cell);  // cells
+    for (int j = 0; j < g.h; ++j)
+      for (int i = 0; i < g.w; ++i) {
+        if (!g.inside[g.Index(i, j)]) continue;
+        const Tables::Sums in = t.Of(i, j, a);
+        if (in.n < 0.5 * full) continue;
+        const Eigen::Vector2d c(in.i / in.n, in.j / in.n);  // the inner box's centroid
+        const double mean = in.z / in.n;
+        double low = std::numeric_limits<double>::infinity();
+        size_t pairs = 0;
+        for (const Eigen::Vector2d& u : axes) {
+          const int di = static_cast<int>(std::lround(reach * u.x()));
+          const int dj = static_cast<int>(std::lround(reach * u.y()));
+          const Tables::Sums p = t.Of(i + di, j + dj, a), m = t.Of(i - di, j - dj, a);
+          if (p.n < kSideFill * full || m.n < kSideFill * full) continue;
+          // The two side boxes' line, at the inner centroid's projection on it: the ground a
+          // plane through them would give there (exact on a plane, whatever the clipping).
+          const Eigen::Vector2d cp(p.i / p.n, p.j / p.n), cm(m.i / m.n, m.j / m.n);
+          const Eigen::Vector2d span = cp - cm;
+          const double len2 = span.squaredNorm();
+          if (!(len2 > 0)) continue;
+          const double f = (c - cm).dot(span) / len2;
+          const double ground = m.z / m.n + f * (p.z / p.n - m.z / m.n);
+          low = std::min(low, mean - ground);
+          ++pairs;
+        }
+        // every axis: the one a ridge runs along is the one that says it is no blob
+        if (pairs == axes.size()) resp[s * nc + g.Index(i, j)] = low;
+      }
+  }
+  return Blobs(g, radii, resp, min_contrast_m, max_count);
 }
 
 bool MeasureRise(const HeightGrid& g, const Candidate& start, double relief_threshold_m, Rise* out,

@@ -94,9 +94,23 @@ struct Candidate {
 
 // Scale-space candidates (the strongest `max_count` local maxima with a contrast above
 // `min_contrast_m`, by contrast x radius, one per blob: a weaker maximum near a stronger
-// one at a like scale is left out).
+// one at a like scale is left out). `measured_only`: over the cells that hold points alone
+// (the cells filled from their neighbours across a gap in the cloud make plateaus of their
+// own: on a steep slope, blobs stronger than any tumulus).
 std::vector<Candidate> ScaleSpaceCandidates(const HeightGrid& g, double min_contrast_m,
-                                            size_t max_count);
+                                            size_t max_count, bool measured_only = false);
+
+// Local-relief candidates (DetectorOptions::candidates = kLocalRelief): the same blob
+// search on a response that measures a rise against the landform around it, not the
+// site's: the mean of a box of half-width R/2 less the ground that each of the four axes
+// through it gives (the line through two boxes of that size 1.25 R away on either side,
+// at the inner box's centroid: exact on a plane, however steep, and whatever the site's
+// edge clips), the least of the four (the inner box at least half measured, each side box a
+// quarter: a gap in the cloud beside a tumulus leaves it its axes). A tumulus stands above
+// its ground along every axis; a ridge, a terrace's edge or a valley's side runs on along
+// one, and a slope along all.
+std::vector<Candidate> LocalReliefCandidates(const HeightGrid& g, double min_contrast_m,
+                                             size_t max_count);
 
 // Over a curved ground a candidate's radius is held within this factor of its own (over a
 // plane it is free, up to 1.25 x the site's radius).

@@ -380,6 +380,16 @@ VerdictModel ParseVerdictModel(const nlohmann::json& doc, const std::string& sou
       throw InputError(at + ": a sparse cloud has no densify options");
     m.cloud_settings = cs;
   }
+  if (doc.contains("detector")) {
+    const nlohmann::json& t = doc["detector"];
+    const std::string at = source + ": detector";
+    if (!t.is_object() || t.size() != 1 || !t.contains("candidates") ||
+        !t["candidates"].is_string())
+      throw InputError(at + ": expected {\"candidates\": \"site_ground\" | \"local_relief\"}");
+    const auto c = CandidatesFromName(t["candidates"].get<std::string>());
+    if (!c) throw InputError(at + ".candidates: site_ground or local_relief");
+    m.candidates = *c;
+  }
   if (doc.contains("reasons")) {
     ReasonThresholds t;
     std::tie(t.cut_roughness, t.irregular_roughness) = OrderedPair(

@@ -143,6 +143,10 @@ struct VerdictModel {
   std::vector<std::pair<size_t, std::pair<double, double>>> terrain_ranges;
   std::optional<TerrainNeighbours> terrain_neighbours;  // terrain_domain.neighbours
   std::optional<ReasonThresholds> reasons;
+  // The candidate rises the model was trained on (`detector.candidates`; without it the
+  // site-ground set the built-in models were trained on): a site measured with another set
+  // is undecided (reason "model"), its p not the model's to give.
+  DetectorOptions::Candidates candidates = DetectorOptions::Candidates::kSiteGround;
   nlohmann::json doc;  // the whole file (its figures travel into verdict.json)
 
   double Score(const std::vector<double>& f) const;  // s of one rise's features

@@ -472,6 +472,19 @@ def test_a_dense_grid_from_a_sparse_grids_flights(
     assert main(["sim", "grid", "--out", str(dense), "--seed", "5", *common, "--dense",
                  "--flights-from", str(sparse), "--remeasure"]) == 0
     assert "earlier_tools" not in json.loads((dense / "grid.json").read_text())
+    # resumed with another candidate set: every verdict measured again with it (issue 68),
+    # the grid and its sites say which
+    from mound.recon import verdict_model as vm
+
+    assert vm.load_grid(dense)[0].candidates == "site_ground"
+    assert main(["sim", "grid", "--out", str(dense), "--seed", "5", *common, "--dense",
+                 "--flights-from", str(sparse), "--candidates", "local_relief"]) == 0
+    v = json.loads((dense / "0000" / "verdict.json").read_text())
+    assert v["measurements"]["candidates"] == "local_relief"
+    assert v["model"]["candidates"] == "site_ground"  # the built-in model: not its set
+    assert v["label"] == "undecided" and v["undecided"]["reasons"][0]["code"] == "model"
+    assert json.loads((dense / "grid.json").read_text())["candidates"] == "local_relief"
+    assert vm.load_grid(dense)[0].candidates == "local_relief"
 
 
 @pytest.mark.slow

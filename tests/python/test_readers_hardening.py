@@ -340,6 +340,7 @@ def _valid_model() -> dict[str, Any]:
     doc["second_look"] = {"p_low": 0.3, "threshold": 0.6, "scan_factor": 2.0,
                           "combine": {"first": 0.5, "second": 1.0, "bias": -0.2}}
     doc["reasons"] = {"cut_roughness": 0.06, "irregular_roughness": 0.15}
+    doc["detector"] = {"candidates": "local_relief"}
     doc["undecided"] = {"p_low": 0.2, "p_high": 0.9, "by_slope": [
         {"site_slope_rad": [-math.pi / 2, 0.3], "p_low": 0.35, "p_high": 0.95},
         {"site_slope_rad": [0.3, math.pi / 2], "p_low": 0.1, "p_high": 0.9}]}
@@ -458,6 +459,10 @@ BAD_MODELS: list[tuple[str, Callable[[dict[str, Any]], None], str]] = [
                                               [0, 1, 2]), "terrain_domain.ranges"),
     ("terrain_domain: a range with a string",
      _set(("terrain_domain", "ranges", "site_relief_m"), [0, "9"]), "terrain_domain.ranges"),
+    ("detector a string", _set(("detector",), "local_relief"), "detector"),
+    ("detector.candidates unknown", _set(("detector", "candidates"), "ridges"),
+     "detector.candidates"),
+    ("detector with another field", _set(("detector", "cell_m"), 0.5), "detector"),
     ("reasons a number", _set(("reasons",), 1), "reasons"),
     ("reasons without irregular_roughness", _drop(("reasons", "irregular_roughness")),
      "reasons: irregular_roughness"),

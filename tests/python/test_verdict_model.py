@@ -582,3 +582,22 @@ def test_the_reasons_thresholds_are_learned_from_the_training_sites_truth() -> N
     assert vf.reason_thresholds(sites[:40]) is None  # 13 or 14 of each kind
     doc = json.loads((REPO_ROOT / "data" / "verdict_model_dense.json").read_text())
     assert check_verdict_model({**doc, "reasons": got}, "m.json") is not None
+
+
+def test_a_model_learns_one_candidate_set_and_judges_only_sites_measured_with_it() -> None:
+    """Issue 68 item 1: sites measured with local_relief candidates train a model that names
+    them (detector.candidates, which mound_recon verdict then measures with); sites of two
+    sets do not train one model; a model judges no grid measured with another set."""
+    sites = synthetic(400, 3)
+    local = [replace(s, candidates="local_relief") for s in sites]
+    model = vm.train(local, NAMES, ["g"])
+    assert model["detector"] == {"candidates": "local_relief"}
+    assert _m(model).candidates == "local_relief"
+    assert vm.evaluate(_m(model), local[:200])["measured"] == 200
+    with pytest.raises(InputError, match="measured with site_ground candidate rises, the "
+                       "model was trained on local_relief"):
+        vm.evaluate(_m(model), sites[:200])
+    with pytest.raises(InputError, match="different candidate rises"):
+        vm.train(local[:200] + sites[200:], NAMES, ["g"])
+    plain = vm.train(sites, NAMES, ["g"])  # site_ground: as the built-in models, no field
+    assert "detector" not in plain and _m(plain).candidates == "site_ground"

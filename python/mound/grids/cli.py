@@ -15,6 +15,7 @@ from mound.bounds import (
     Bound,
 )
 from mound.errors import EXIT_NO_RESULT, InputError
+from mound.recon.defaults import CANDIDATES
 
 
 def cmd_sim_grid(args: argparse.Namespace) -> int:
@@ -51,7 +52,8 @@ def cmd_sim_grid(args: argparse.Namespace) -> int:
                          pattern=args.pattern, dense=args.dense, card=args.card,
                          flights_from=args.flights_from, second_look=args.second_look,
                          dem_part=args.dem_part, population=args.population,
-                         second_look_kind=args.second_look_kind, ground=args.ground)
+                         second_look_kind=args.second_look_kind, ground=args.ground,
+                         candidates=args.candidates)
     print(f"{doc['measured']} of {doc['sites']} sites measured in {doc['wall_s']:.0f} s -> "
           f"{args.out}/grid.json")
     if "earlier_tools" in doc:
@@ -109,6 +111,12 @@ def add_parser(simp: Any, parser_class: Any) -> None:
                     help="take each site's flight and reconstruction from this grid (the same "
                     "--seed, --size, --pattern and --card): e.g. --dense on a sparse grid's "
                     "sites without flying them again")
+    sg.add_argument("--candidates", choices=CANDIDATES, default="site_ground",
+                    help="the candidate rises each verdict measures (mound_recon verdict "
+                    "--candidates): site_ground, as the built-in models were trained "
+                    "(default); local_relief, those and the local relief's blobs at every "
+                    "scale (a model trained on the grid then names it). A site measured "
+                    "with another set is measured again")
     sg.add_argument("--remeasure", action="store_true",
                     help="rerun only the verdicts (after a change of the detector)")
     sg.add_argument("--second-look", action="store_true",

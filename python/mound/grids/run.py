@@ -45,7 +45,7 @@ import numpy as np
 from mound import native
 from mound.errors import InputError, NoResultError, ToolNoResultError
 from mound.jsonio import read_json, write_json
-from mound.recon.defaults import SIM_RECON_ARGS
+from mound.recon.defaults import CANDIDATES, SIM_RECON_ARGS
 from mound.sim import site as sim
 from mound.sim.card import site_jpegs
 from mound.sim.dem_places import DemPlaces
@@ -70,16 +70,29 @@ def _p_of(verdict: dict[str, Any]) -> float | None:
     return float(p) if isinstance(p, int | float) else None
 
 
+def _candidates_of(verdict: dict[str, Any]) -> str | None:
+    """The candidate set a verdict measured (site_ground before verdicts named it; None: a
+    failed verdict, which measured nothing)."""
+    m = verdict.get("measurements")
+    if not isinstance(m, dict):
+        return None
+    c = m.get("candidates", "site_ground")
+    return c if isinstance(c, str) else None
+
+
 def _site(out: Path, spec: sim.SimSpec, threads: int, remeasure: bool,
-          dense: bool = False, card: bool = False) -> dict[str, Any]:
+          dense: bool = False, card: bool = False,
+          candidates: str = "site_ground") -> dict[str, Any]:
     simdir, recon, verdict = out / "sim", out / "recon", out / "verdict.json"
     row: dict[str, Any] = {"dir": out.name, "truth": spec.terrain.truth()}
     times: dict[str, float] = {}
     if verdict.exists() and not remeasure:
         doc = read_json(verdict, "mound.verdict", 1)
-        row.update(status=doc.get("status"), times=doc.get("grid_times_s", {}),
-                   p_mound=_p_of(doc))
-        return row
+        # a verdict of another candidate set is measured again (the grid holds one set)
+        if _candidates_of(doc) in (None, candidates):
+            row.update(status=doc.get("status"), times=doc.get("grid_times_s", {}),
+                       p_mound=_p_of(doc))
+            return row
     if verdict.exists():  # remeasuring: keep the times of the flight and reconstruction
         try:
             times.update({k: v for k, v in read_json(verdict, "mound.verdict", 1).get(
@@ -120,6 +133,8 @@ def _site(out: Path, spec: sim.SimSpec, threads: int, remeasure: bool,
                     pass  # no dense cloud: the verdict then says status failed
                 times["densify"] = time.perf_counter() - t
             verdict_args = ["--cloud", str(cloud)]
+        if candidates != "site_ground":
+            verdict_args += ["--candidates", candidates]
         t = time.perf_counter()
         try:
             native.run_tool("mound_recon", ["verdict", str(recon), "--out", str(verdict),
@@ -145,12 +160,15 @@ def make_grid(out: str | Path, sites: int, seed: int, size: tuple[int, int] = (6
               flights_from: str | Path | None = None,
               second_look: bool = False, dem_part: str = "all",
               second_look_kind: str = "wider",
-              population: str | None = None, ground: str = "mixed") -> dict[str, Any]:
+              population: str | None = None, ground: str = "mixed",
+              candidates: str = "site_ground") -> dict[str, Any]:
     """Draws and runs the grid (see the module text); returns grid.json's document."""
     if not 1 <= sites <= 100_000:
         raise InputError("--sites: must be 1 .. 100,000")
     if second_look_kind not in SECOND_LOOKS:
         raise InputError(f"--second-look-kind: one of {', '.join(SECOND_LOOKS)}")
+    if candidates not in CANDIDATES:
+        raise InputError(f"--candidates: one of {', '.join(CANDIDATES)}")
     paths = [] if dem is None else [dem] if isinstance(dem, str) else list(dem)
     for p in paths:
         if not Path(p).is_file():
@@ -185,13 +203,14 @@ def make_grid(out: str | Path, sites: int, seed: int, size: tuple[int, int] = (6
     rows: list[dict[str, Any]] = [{}] * sites
 
     def one(k: int) -> None:
-        rows[k] = _site(root / f"{k:04d}", specs[k], threads, remeasure, dense, card)
+        rows[k] = _site(root / f"{k:04d}", specs[k], threads, remeasure, dense, card,
+                        candidates)
         p = rows[k].get("p_mound")  # the first look's (grid.json's rows carry it)
         if second_look and p is not None and SECOND_LOOK_P[0] <= p < SECOND_LOOK_P[1]:
             folder = SECOND_LOOKS[second_look_kind]
             second = _site(root / f"{k:04d}" / folder,
                            second_look_spec(specs[k], second_look_kind), threads, remeasure,
-                           dense, card)
+                           dense, card, candidates)
             rows[k][folder] = {"status": second.get("status"), "times": second.get("times"),
                                  **({"reason": second["reason"]} if "reason" in second else {})}
         if progress:
@@ -226,6 +245,7 @@ def make_grid(out: str | Path, sites: int, seed: int, size: tuple[int, int] = (6
                                "first_p": list(SECOND_LOOK_P)}}
               if second_look or before_kinds else {}),
            "cloud": "dense" if dense else "sparse",
+           **({"candidates": candidates} if candidates != "site_ground" else {}),
            "camera": "exif" if card else "calibrated",
            **draws, **({"flights_from": str(flights_from)} if flights_from else {}),
            "wall_s": time.perf_counter() - start,

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 
 from mound.errors import InputError
 from mound.jsonio import finite_number, optional_number, require_number, short_repr
+from mound.recon.defaults import CANDIDATES
 
 
 def _object(doc: object, where: str) -> Mapping[str, object]:
@@ -144,6 +145,9 @@ class GridSite:
     site_radius_m: float | None = None
     # the ground it stands on (verdict.json's measurements.terrain; None: an older verdict)
     ground: Mapping[str, float] | None = None
+    # the candidate rises its verdict measured (measurements.candidates; site_ground before
+    # verdicts named it): a model scores only sites measured with the set it was trained on
+    candidates: str = CANDIDATES[0]
 
     @property
     def where(self) -> str:
@@ -173,6 +177,10 @@ def grid_site(name: str, row: Mapping[str, object], verdict: Mapping[str, object
     coverage = verdict.get("coverage")
     status = _object(coverage, f"{vwhere}: coverage").get("status") if coverage else None
     centre = m.get("site_centre_enu_m")
+    candidates = m.get("candidates", CANDIDATES[0])
+    if candidates not in CANDIDATES:
+        raise InputError(f"{vwhere}: measurements.candidates: one of {', '.join(CANDIDATES)}, "
+                         f"got {short_repr(candidates)}")
     return GridSite(
         name, truth, verdict.get("status") == "ok",
         rises_of(m.get("judged_rises", []), f"{vwhere}: measurements.judged_rises"),
@@ -185,7 +193,7 @@ def grid_site(name: str, row: Mapping[str, object], verdict: Mapping[str, object
         status if isinstance(status, str) else None,
         None if centre is None else _xy(centre, f"{vwhere}: measurements.site_centre_enu_m"),
         optional_number(m, "site_radius_m", f"{vwhere}: measurements", lo=0.0),
-        _relief(m.get("terrain"), f"{vwhere}: measurements.terrain"))
+        _relief(m.get("terrain"), f"{vwhere}: measurements.terrain"), str(candidates))
 
 
 def _relief(v: object, where: str) -> Mapping[str, float] | None:

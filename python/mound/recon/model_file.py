@@ -23,6 +23,9 @@ Fields (n = the detector's 25 features, in any order, each once):
   densify options of its training clouds, finite numbers within +-1e9, at most 64}: how
   the clouds it was trained on were made; `mound_recon verdict` refuses a cloud made
   otherwise (exit 2 naming the setting);
+- `detector` (optional): {"candidates": "site_ground" | "local_relief"}: the candidate rises
+  its training sites were measured with (without it site_ground, the built-in models');
+  a site measured with another set is `undecided` with reason `model`;
 - `reasons` (optional): {cut_roughness, irregular_roughness with 0 < cut <= irregular <
   1000}: the rise's roughness that names an undecided site "cut", and "irregular" (as
   natural rises are), learned by train-verdict;
@@ -44,6 +47,7 @@ from typing import Any, NamedTuple, TypeGuard
 
 from mound.errors import InputError
 from mound.jsonio import load_json
+from mound.recon.defaults import CANDIDATES
 
 SCHEMA = "mound.verdict_model"
 VERSION = 1
@@ -139,6 +143,7 @@ class VerdictModel:
     terrain_neighbours: TerrainNeighbours | None = None
     # undecided.by_slope: (slope low, slope high, p_low, p_high), ascending; empty: none
     slope_bands: tuple[tuple[float, float, float, float], ...] = ()
+    candidates: str = CANDIDATES[0]  # detector.candidates: the set it was trained on
 
     @classmethod
     def of(cls, doc: Mapping[str, Any]) -> VerdictModel:
@@ -163,7 +168,8 @@ class VerdictModel:
             if "neighbours" in doc.get("terrain_domain", {}) else None,
             slope_bands=tuple((float(b["site_slope_rad"][0]), float(b["site_slope_rad"][1]),
                                float(b["p_low"]), float(b["p_high"]))
-                              for b in (band or {}).get("by_slope", [])))
+                              for b in (band or {}).get("by_slope", [])),
+            candidates=str(doc.get("detector", {}).get("candidates", CANDIDATES[0])))
 
     def band_for(self, slope_rad: float | None) -> tuple[float, float] | None:
         """The undecided band of a site whose measured slope is `slope_rad` (its
@@ -312,6 +318,13 @@ def check_verdict_model(doc: Any, source: str) -> VerdictModel:
             raise InputError(f"{at}: more than 64 settings")
         if c["cloud"] == "sparse" and len(c) > 1:
             raise InputError(f"{at}: a sparse cloud has no densify options")
+    if "detector" in doc:
+        at = f"{source}: detector"
+        d = _object(doc, "detector")
+        if d is None or len(d) != 1 or not isinstance(d.get("candidates"), str):
+            raise InputError(f'{at}: expected {{"candidates": "site_ground" | "local_relief"}}')
+        if d["candidates"] not in CANDIDATES:
+            raise InputError(f"{at}.candidates: site_ground or local_relief")
     if "reasons" in doc:
         at = f"{source}: reasons"
         _ordered_pair(_object(doc, "reasons"), "cut_roughness", "irregular_roughness", 1000, at)

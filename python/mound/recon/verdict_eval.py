@@ -33,7 +33,7 @@ from mound.recon.verdict_data import (
     site_terrain,
     stands_clear,
 )
-from mound.recon.verdict_fit import probability
+from mound.recon.verdict_fit import check_candidates, probability
 from mound.recon.verdict_second import second_look_p
 from mound.sim import terrain
 
@@ -120,6 +120,7 @@ def _site_bands(model: VerdictModel, measured: list[GridSite]
 
 def evaluate(model: VerdictModel, rows: list[GridSite]) -> dict[str, Any]:
     measured = [r for r in rows if r.measured]
+    check_candidates(model, measured)
     p = probability(model, [r.rises for r in measured])
     thr = model.threshold
     y = np.array([r.truth.mound for r in measured])
@@ -234,6 +235,7 @@ def paper_agreement(folder: str | Path, model: VerdictModel, work: str | Path,
     if not (root / "grid.json").is_file():
         raise InputError(f"{root}: no grid.json (--paper judges a finished grid)")
     rows = load_grid(root)
+    check_candidates(model, [r for r in rows if r.measured])
     p = probability(model, [r.rises for r in rows])
     sites: list[dict[str, Any]] = []
     for row, q in zip(rows, p, strict=True):

@@ -23,6 +23,7 @@ from mound.classify.metrics import (
     roc_auc,
 )
 from mound.errors import InputError
+from mound.recon.defaults import CANDIDATES
 from mound.recon.grid_site import GridSite, Rise
 from mound.recon.model_file import Beta, VerdictModel
 from mound.recon.verdict_band import band_doc, band_goal
@@ -286,6 +287,29 @@ def _cloud_of(measured: list[GridSite]) -> str:
     return clouds[0] if len(clouds) == 1 else "mixed"
 
 
+def candidates_of(measured: Sequence[GridSite]) -> str:
+    """The candidate set the sites' verdicts measured (GridSite.candidates): one for all, or
+    InputError naming a site of each (a model learns one set's rises)."""
+    seen: dict[str, str] = {}
+    for r in measured:
+        seen.setdefault(r.candidates, r.where)
+    if len(seen) > 1:
+        raise InputError("the sites were measured with different candidate rises ("
+                         + "; ".join(f"{c} at {w}" for c, w in seen.items())
+                         + "): remeasure the grids with one (mound sim grid --candidates)")
+    return next(iter(seen), CANDIDATES[0])
+
+
+def check_candidates(model: VerdictModel, measured: Sequence[GridSite]) -> None:
+    """InputError when a site was measured with other candidate rises than the model was
+    trained on (its p would not be the model's to give)."""
+    for r in measured:
+        if r.candidates != model.candidates:
+            raise InputError(f"{r.where}: measured with {r.candidates} candidate rises, the "
+                             f"model was trained on {model.candidates} ones (remeasure the "
+                             f"grid: mound sim grid --candidates {model.candidates})")
+
+
 def cloud_settings(measured: list[GridSite]) -> dict[str, Any] | None:
     """How the training sites' clouds were made (the model's `cloud_settings`): a sparse
     cloud, or the densify options of DENSE_SETTINGS from each site's dense/dense.json, which
@@ -508,6 +532,8 @@ def train(rows: list[GridSite], names: list[str], sources: list[str],
         **({"cloud_settings": cs} if (cs := cloud_settings(measured)) else {}),
         **({"terrain_domain": td} if (td := terrain_domain(measured, sources)) else {}),
         **({"reasons": rs} if (rs := reason_thresholds(sites)) else {}),
+        **({"detector": {"candidates": c}} if (c := candidates_of(measured)) != CANDIDATES[0]
+           else {}),
         "trained": {"grids": sources, "cloud": _cloud_of(measured),
                     "sites": len(measured), "with_rise": len(sites),
                     "rises": len(d.z_all), "fitted_rises": len(d.z),
