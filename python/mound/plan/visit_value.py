@@ -1,0 +1,109 @@
+"""The value of visiting a site, given what the 3-D verdict is measured to say (issue 69).
+
+The paper's reward is a site's binary entropy, as if a visit always settled it. A visit
+settles a site only as often as the verdict answers: its three answers (`mound`,
+`no_mound`, `undecided`) have a measured confusion, a tumulus's by its height class and a
+bare site's as a whole (an `eval-verdict` report's `three_answers`). Here a site's value is
+the expected fall in wrong final labels from visiting it, where a tumulus not confirmed
+`mound` by a visit is a wrong (unknown) label and a site without one called `mound` is a
+wrong one too:
+
+    value = p P(mound | tumulus) - (1 - p) P(mound | none)
+
+with P(mound | tumulus) averaged over the population's height classes. An undecided answer
+moves p by Bayes' rule (`after_undecided`); the site may be visited again (a second look)
+at the value its new p gives.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+from mound.errors import InputError
+
+ANSWERS = ("mound", "undecided", "no_mound")
+# eval-verdict's height classes (three_answers.field_recall.all.by_height), lower bounds in m
+HEIGHT_CLASSES = (("0-0.5 m", 0.0), ("0.5-1 m", 0.5), ("1-2 m", 1.0), ("2-5 m", 2.0),
+                  (">= 5 m", 5.0))
+
+
+def height_class(height_m: float) -> str:
+    """The report's height class of a tumulus `height_m` high."""
+    name = HEIGHT_CLASSES[0][0]
+    for n, low in HEIGHT_CLASSES:
+        if height_m >= low:
+            name = n
+    return name
+
+
+@dataclass(frozen=True)
+class Confusion:
+    """The verdict's three answers' rates: `tumulus[c]` for a tumulus of height class c,
+    `none` for a site without one; each (mound, undecided, no_mound), summing to 1."""
+
+    tumulus: Mapping[str, tuple[float, float, float]]
+    none: tuple[float, float, float]
+
+    @classmethod
+    def from_report(cls, doc: Mapping[str, object], where: str) -> Confusion:
+        """From an `eval-verdict` report (its three_answers): per height class the tumuli
+        confirmed, undecided and called no_mound; the sites without a tumulus called mound
+        (confident false alarms) and left undecided (the undecided less its tumuli)."""
+        try:
+            t = doc["three_answers"]
+            by = t["field_recall"]["all"]["by_height"]  # type: ignore[index]
+            out: dict[str, tuple[float, float, float]] = {}
+            for name, _ in HEIGHT_CLASSES:
+                c = by[name]
+                n = float(c["tumuli"])
+                if n <= 0:
+                    raise InputError(f"{where}: three_answers.field_recall: no tumulus of "
+                                     f"{name}")
+                out[name] = (c["confirmed"]["count"] / n, c["undecided"]["count"] / n,
+                             c["no_mound"]["count"] / n)
+            neg = float(t["confident_false_alarms"]["of"])  # type: ignore[index]
+            fa = float(t["confident_false_alarms"]["count"])  # type: ignore[index]
+            und = float(t["undecided"]["count"]) - float(t["undecided"]["tumuli"])  # type: ignore[index]
+        except (KeyError, TypeError) as e:
+            raise InputError(f"{where}: not an eval-verdict report with three answers "
+                             f"({e})") from None
+        if not neg > 0 or not 0 <= und <= neg:
+            raise InputError(f"{where}: three_answers: no sites without a tumulus")
+        return cls(out, (fa / neg, und / neg, 1 - (fa + und) / neg))
+
+    def tumulus_mean(self, weights: Mapping[str, float]) -> np.ndarray:
+        """A tumulus's answer rates averaged over height classes weighted by `weights`."""
+        w = np.array([weights.get(n, 0.0) for n, _ in HEIGHT_CLASSES], dtype=float)
+        if not w.sum() > 0:
+            raise InputError("height class weights: none above 0")
+        rates = np.array([self.tumulus[n] for n, _ in HEIGHT_CLASSES])
+        return (w / w.sum()) @ rates
+
+
+def visit_value(p: np.ndarray, tumulus: np.ndarray, none: tuple[float, float, float]
+                ) -> np.ndarray:
+    """The expected fall in wrong final labels from visiting sites of p(tumulus) `p`: a
+    tumulus confirmed (rate tumulus[0]) is one wrong label fewer, a site without one called
+    mound (none[0]) one more."""
+    p = np.asarray(p, dtype=float)
+    return p * tumulus[0] - (1 - p) * none[0]
+
+
+def after_undecided(p: np.ndarray, tumulus: np.ndarray, none: tuple[float, float, float]
+                    ) -> np.ndarray:
+    """p(tumulus) of sites whose visit answered `undecided` (Bayes' rule)."""
+    p = np.asarray(p, dtype=float)
+    a, b = p * tumulus[1], (1 - p) * none[1]
+    return np.where(a + b > 0, a / np.maximum(a + b, 1e-300), p)
+
+
+def after_answer(p: float, answer: str, tumulus: np.ndarray,
+                 none: tuple[float, float, float]) -> float:
+    """p(tumulus) of a site after the verdict answered `answer` (Bayes' rule): how much a
+    `mound` or `no_mound` says, which the classifier learns as the example's weight."""
+    k = ANSWERS.index(answer)
+    a, b = p * tumulus[k], (1 - p) * none[k]
+    return float(a / (a + b)) if a + b > 0 else p
