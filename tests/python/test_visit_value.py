@@ -51,3 +51,32 @@ def test_value_and_what_an_answer_says() -> None:
     mix = vv.Confusion({n: (1.0, 0.0, 0.0) if n == ">= 5 m" else (0.0, 1.0, 0.0)
                         for n, _ in vv.HEIGHT_CLASSES}, none)
     assert mix.tumulus_mean({">= 5 m": 1.0, "1-2 m": 3.0}) == pytest.approx([0.25, 0.75, 0.0])
+
+
+def test_a_model_carries_the_confusion_its_band_gives_its_training_sites() -> None:
+    """train-verdict writes trained.confusion (issue 69: the value of a visit stored with
+    the model); Confusion.from_model reads it and refuses a malformed one, naming it."""
+    from test_verdict_model import NAMES, synthetic
+
+    from mound.recon import verdict_model as vm
+
+    model = vm.train(synthetic(400, 5), NAMES, ["g"])
+    c = model["trained"]["confusion"]
+    assert c["answers"] == ["mound", "undecided", "no_mound"]
+    # the synthetic tumuli: 3 m high, those without a rise 0.5 m
+    assert set(c["tumulus"]) == {"2-5 m", "0.5-1 m"}
+    for rates in (*c["tumulus"].values(), c["none"]):
+        assert sum(rates) == pytest.approx(1.0)
+    assert c["tumulus"]["2-5 m"][0] > c["none"][0]  # tumuli are called mound more often
+    full = {"trained": {"confusion": {"tumulus": {n: c["tumulus"]["2-5 m"]
+                                                  for n, _ in vv.HEIGHT_CLASSES},
+                                      "none": c["none"]}}}
+    got = vv.Confusion.from_model(full, "m.json")
+    assert got.none == pytest.approx(tuple(c["none"]))
+    with pytest.raises(InputError, match=r"m.json: trained.confusion.tumulus: no '0-0.5 m'"):
+        vv.Confusion.from_model({"trained": {"confusion": c}}, "m.json")
+    with pytest.raises(InputError, match="m.json: trained.confusion: missing"):
+        vv.Confusion.from_model({"trained": {}}, "m.json")
+    full["trained"]["confusion"]["none"] = [0.5, 0.6, 0.1]  # type: ignore[index]
+    with pytest.raises(InputError, match=r"trained.confusion.none: expected 3 rates"):
+        vv.Confusion.from_model(full, "m.json")

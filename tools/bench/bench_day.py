@@ -5,7 +5,8 @@ Each day is a standard Statlog field (`make_field`, seeds 0 ..: 100 sites 250 m 
 holding a positive example, the survey's scan and classifier), its tumuli given heights
 drawn from the Kazanlak inventory. A visit's verdict is drawn from the three-answer
 confusion an `eval-verdict` report measured (`--confusion`, default the three-answer model
-on 319 held-out Kazanlak sites): a tumulus by its height class, a bare site as a whole.
+on 319 held-out Kazanlak sites; or a model's own, `trained.confusion`): a tumulus by its
+height class, a bare site as a whole.
 The same batteries (`--batteries` K of `--budget` m each) and the same draws (a site's
 k-th visit answers alike under every policy) for every policy:
 
@@ -206,10 +207,14 @@ def main() -> None:
     ap.add_argument("--batteries", type=int, default=4)
     ap.add_argument("--budget", type=float, default=5000.0, help="m per battery")
     ap.add_argument("--confusion",
-                    default=str(ROOT / "docs/results/verdict_three_answers_kazanlak.json"))
+                    default=str(ROOT / "docs/results/verdict_three_answers_kazanlak.json"),
+                    help="an eval-verdict report, or a verdict model trained since "
+                    "2026-11-29 (its trained.confusion)")
     ap.add_argument("--out", help="per-day results (JSON)")
     a = ap.parse_args()
-    conf = vv.Confusion.from_report(json.loads(Path(a.confusion).read_text()), a.confusion)
+    doc = json.loads(Path(a.confusion).read_text())
+    conf = (vv.Confusion.from_model(doc, a.confusion) if doc.get("schema") ==
+            "mound.verdict_model" else vv.Confusion.from_report(doc, a.confusion))
     heights = np.array([r.height_m for r in read_population(str(population_path(
         "kazanlak"))).rows])
     mix = {}

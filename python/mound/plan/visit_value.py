@@ -74,6 +74,27 @@ class Confusion:
             raise InputError(f"{where}: three_answers: no sites without a tumulus")
         return cls(out, (fa / neg, und / neg, 1 - (fa + und) / neg))
 
+    @classmethod
+    def from_model(cls, doc: Mapping[str, object], where: str) -> Confusion:
+        """From a verdict model trained since 2026-11-29 (`trained.confusion`, train-verdict's:
+        the rates its band gives its training sites' out-of-fold p); InputError naming
+        `where` and the field when it has none or it is malformed."""
+        trained = doc.get("trained")
+        c = trained.get("confusion") if isinstance(trained, Mapping) else None
+        at = f"{where}: trained.confusion"
+        if not isinstance(c, Mapping):
+            raise InputError(f"{at}: missing (retrain the model with mound recon "
+                             "train-verdict)")
+        tum = c.get("tumulus")
+        if not isinstance(tum, Mapping):
+            raise InputError(f"{at}.tumulus: expected rates by height class")
+        out = {}
+        for name, _ in HEIGHT_CLASSES:
+            if name not in tum:
+                raise InputError(f"{at}.tumulus: no {name!r} (no such tumulus in training)")
+            out[name] = _rates(tum[name], f"{at}.tumulus.{name}")
+        return cls(out, _rates(c.get("none"), f"{at}.none"))
+
     def tumulus_mean(self, weights: Mapping[str, float]) -> np.ndarray:
         """A tumulus's answer rates averaged over height classes weighted by `weights`."""
         w = np.array([weights.get(n, 0.0) for n, _ in HEIGHT_CLASSES], dtype=float)
@@ -81,6 +102,17 @@ class Confusion:
             raise InputError("height class weights: none above 0")
         rates = np.array([self.tumulus[n] for n, _ in HEIGHT_CLASSES])
         return (w / w.sum()) @ rates
+
+
+def _rates(v: object, at: str) -> tuple[float, float, float]:
+    """Three answer rates (mound, undecided, no_mound) in [0, 1] summing to 1."""
+    xs = [float(x) for x in v if isinstance(x, int | float) and not isinstance(x, bool)] \
+        if isinstance(v, list) else []
+    if (not isinstance(v, list) or len(v) != 3 or len(xs) != 3
+            or not all(0 <= x <= 1 for x in xs) or abs(sum(xs) - 1) > 1e-6):
+        raise InputError(f"{at}: expected 3 rates in [0, 1] summing to 1 (mound, undecided, "
+                         "no_mound)")
+    return xs[0], xs[1], xs[2]
 
 
 def visit_value(p: np.ndarray, tumulus: np.ndarray, none: tuple[float, float, float]

@@ -190,6 +190,37 @@ def band_doc(p: np.ndarray, y: np.ndarray, goal: np.ndarray,
                 **({"by_slope": split} if split else {})}}
 
 
+def confusion_doc(p: np.ndarray, truths: Sequence[SiteTruth], band: dict[str, Any],
+                  slope: np.ndarray) -> dict[str, Any]:
+    """The three answers' rates the model's band (`band`: band_doc's, by the site's
+    `slope` when it has bands by slope) gives the training sites' out-of-fold p (splits x
+    sites): per height class of tumulus (mound, undecided, no_mound) and for a site without
+    one; what a visit is worth (mound.plan.visit_value) is read from it."""
+    lo = np.full(len(truths), float(band["p_low"]))
+    hi = np.full(len(truths), float(band["p_high"]))
+    for b in band.get("by_slope", []):
+        at = (slope >= b["site_slope_rad"][0]) & (slope < b["site_slope_rad"][1])
+        lo[at], hi[at] = b["p_low"], b["p_high"]
+    lab = answers(np.atleast_2d(p), (lo, hi))
+
+    def rates(idx: list[int]) -> list[float]:
+        a = lab[:, idx].ravel()
+        return [float(np.mean(a == MOUND)), float(np.mean(a == UNDECIDED)),
+                float(np.mean(a == NO))]
+
+    classes: dict[str, list[int]] = {}
+    for k, t in enumerate(truths):
+        if t.mound:
+            classes.setdefault(_height_class(t.height_m), []).append(k)
+    none = [k for k, t in enumerate(truths) if not t.mound]
+    return {"tumulus": {c: rates(idx) for c, idx in sorted(classes.items())},
+            "tumuli": {c: len(idx) for c, idx in sorted(classes.items())},
+            "none": rates(none) if none else None, "sites_without": len(none),
+            "answers": ["mound", "undecided", "no_mound"],
+            "method": "the chosen band (by the site's slope where the model has bands by "
+                      "slope) over the training sites' out-of-fold p of every CV split"}
+
+
 def _height_class(h: float) -> str:
     for lo, hi in itertools.pairwise(HEIGHT_CLASSES):
         if lo <= h < hi:

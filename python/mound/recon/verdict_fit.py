@@ -26,7 +26,7 @@ from mound.errors import InputError
 from mound.recon.defaults import CANDIDATES
 from mound.recon.grid_site import GridSite, Rise
 from mound.recon.model_file import Beta, VerdictModel
-from mound.recon.verdict_band import band_doc, band_goal
+from mound.recon.verdict_band import band_doc, band_goal, confusion_doc
 from mound.recon.verdict_data import (
     GROUND_CLASSES,
     MAX_FA,
@@ -518,6 +518,7 @@ def train(rows: list[GridSite], names: list[str], sources: list[str],
                       for r in sites + no_rise])
     undecided = band_doc(p_all, np.array([t.mound for t in truths]),
                          np.array([band_goal(t) for t in truths]), thr, slope)
+    confusion = confusion_doc(p_all, truths, undecided, slope)
     return {
         "schema": SCHEMA, "version": VERSION, "features": names,
         "mean": d.mean.tolist(), "std": d.std.tolist(), "basis": basis,
@@ -549,6 +550,7 @@ def train(rows: list[GridSite], names: list[str], sources: list[str],
                     "calibration_log_loss": {"platt": _log_loss(expit(u_oof), y_oof),
                                              "beta": _log_loss(p_oof, y_oof)},
                     "cv_repeats": len(oofs),
+                    "confusion": confusion,
                     **({"second_look_not_kept": not_kept} if not_kept else {}),
                     "out_of_fold": {"auc": roc_auc(p_oof, y_oof.astype(float)),
                                     "ece": expected_calibration_error(p_oof,
