@@ -10,7 +10,7 @@ import pytest
 
 from mound.errors import InputError
 from mound.paths import REPO_ROOT
-from mound.plan import visit_value as vv
+from mound.recon import visit_value as vv
 
 REPORT = REPO_ROOT / "docs" / "results" / "verdict_three_answers_kazanlak.json"
 
@@ -41,7 +41,7 @@ def test_value_and_what_an_answer_says() -> None:
     assert v[0] == pytest.approx(-0.01) and v[-1] == pytest.approx(0.8)
     assert np.all(np.diff(v) > 0)  # the likelier a tumulus, the more a visit is worth
     # an undecided answer is likelier from a bare site here: p falls, and never leaves [0, 1]
-    q = vv.after_undecided(p, tum, none)
+    q = vv.after_answer(p, "undecided", tum, none)
     assert np.all(q[1:-1] < p[1:-1]) and q[0] == 0 and q[-1] == 1
     assert q[2] == pytest.approx(0.5 * 0.15 / (0.5 * 0.15 + 0.5 * 0.3))
     # a mound answer makes a site likely a tumulus, a no_mound one unlikely
@@ -49,7 +49,7 @@ def test_value_and_what_an_answer_says() -> None:
     assert vv.after_answer(0.5, "no_mound", tum, none) == pytest.approx(0.05 / 0.74)
     assert vv.height_class(0.3) == "0-0.5 m" and vv.height_class(5.0) == ">= 5 m"
     mix = vv.Confusion({n: (1.0, 0.0, 0.0) if n == ">= 5 m" else (0.0, 1.0, 0.0)
-                        for n, _ in vv.HEIGHT_CLASSES}, none)
+                        for n in vv.HEIGHT_CLASS_NAMES}, none)
     assert mix.tumulus_mean({">= 5 m": 1.0, "1-2 m": 3.0}) == pytest.approx([0.25, 0.75, 0.0])
 
 
@@ -69,7 +69,7 @@ def test_a_model_carries_the_confusion_its_band_gives_its_training_sites() -> No
         assert sum(rates) == pytest.approx(1.0)
     assert c["tumulus"]["2-5 m"][0] > c["none"][0]  # tumuli are called mound more often
     full = {"trained": {"confusion": {"tumulus": {n: c["tumulus"]["2-5 m"]
-                                                  for n, _ in vv.HEIGHT_CLASSES},
+                                                  for n in vv.HEIGHT_CLASS_NAMES},
                                       "none": c["none"]}}}
     got = vv.Confusion.from_model(full, "m.json")
     assert got.none == pytest.approx(tuple(c["none"]))

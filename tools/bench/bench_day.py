@@ -12,7 +12,7 @@ k-th visit answers alike under every policy) for every policy:
 
 - `once-entropy`: today — mound_plan plans the K flights at once on the paper's reward
   (the binary entropy of p); all are flown;
-- `once-value`: planned once on the value of a visit (mound.plan.visit_value: the expected
+- `once-value`: planned once on the value of a visit (mound.recon.visit_value: the expected
   fall in wrong final labels given the verdict's confusion);
 - `battery`: after each battery the verdicts are learned (the classifier refitted with
   the decided sites as examples weighted by how sure the answer makes them), every site's
@@ -53,11 +53,12 @@ from mound.classify.reward import binary_entropy_bits  # noqa: E402
 from mound.formats.plan import Plan  # noqa: E402
 from mound.formats.sites import Sites  # noqa: E402
 from mound.jsonio import write_json  # noqa: E402
-from mound.plan import visit_value as vv  # noqa: E402
 from mound.plan.field import make_field, sites_document  # noqa: E402
+from mound.recon import visit_value as vv  # noqa: E402
 from mound.sim.population import population_path, read_population  # noqa: E402
 from mound.survey.context import scan_spec  # noqa: E402
 from mound.survey.options import SurveyOptions  # noqa: E402
+from mound.survey.stages.learn import NO_ROUND_TRIP  # noqa: E402
 
 POLICIES = ("once-entropy", "once-value", "battery", "battery-no-revisit")
 LEARN_WEIGHT = 100.0  # training examples a verified site counts as (bench_learn's best)
@@ -102,8 +103,8 @@ def plan(sites: Sites, keep: list[int], rewards: np.ndarray, flights: int, work:
     r = subprocess.run([str(ROOT / "build" / "mound_plan"), str(path), "--flights",
                         str(flights), "--seed", "1", "--out", str(work / "plan.json")],
                        capture_output=True, text=True)
-    if r.returncode in (2, 3) and ("too small to leave home" in r.stderr or r.returncode == 3):
-        return None
+    if r.returncode == 3 or (r.returncode == 2 and NO_ROUND_TRIP in r.stderr):
+        return None  # no flight over these sites (mound_plan's words, as the survey reads them)
     if r.returncode != 0:
         raise SystemExit(f"mound_plan exit {r.returncode}: {r.stderr[-500:]}")
     return Plan.read(work / "plan.json")
@@ -158,7 +159,7 @@ def run(policy: str, day: Day, conf: vv.Confusion, tum: np.ndarray, model0: Mode
             a = out.answers[i]
             if a == "undecided":
                 continue
-            post = vv.after_answer(float(p[i]), a, tum, conf.none)
+            post = float(vv.after_answer(p[i], a, tum, conf.none))
             ex_rows.append(int(day.rows[i]))
             ex_y.append(1.0 if a == "mound" else -1.0)
             ex_w.append(LEARN_WEIGHT * (post if a == "mound" else 1 - post))
@@ -169,7 +170,7 @@ def run(policy: str, day: Day, conf: vv.Confusion, tum: np.ndarray, model0: Mode
         for i, a in out.answers.items():  # an undecided visit's evidence, every one of them
             if a == "undecided":
                 for _ in range(out.visits[i]):
-                    p[i] = float(vv.after_undecided(np.array([p[i]]), tum, conf.none)[0])
+                    p[i] = float(vv.after_answer(p[i], "undecided", tum, conf.none))
     out.p_final = p
     return out
 

@@ -175,12 +175,21 @@ class VerdictModel:
         """The undecided band of a site whose measured slope is `slope_rad` (its
         `by_slope` band; the one band without them or without a slope):
         VerdictModel::BandFor."""
-        if not self.slope_bands or slope_rad is None or not math.isfinite(slope_rad):
-            return self.undecided
-        for _, hi, p_low, p_high in self.slope_bands:
-            if slope_rad < hi:
-                return p_low, p_high
-        return self.slope_bands[-1][2], self.slope_bands[-1][3]
+        return band_at(self.undecided, self.slope_bands, slope_rad)
+
+
+def band_at(one: tuple[float, float] | None,
+            slope_bands: tuple[tuple[float, float, float, float], ...],
+            slope_rad: float | None) -> tuple[float, float] | None:
+    """The band of a site of slope `slope_rad` among `slope_bands` ((slope low, slope high,
+    p_low, p_high), ascending; beyond the first or last, the nearest), or `one` without
+    them or without a slope (VerdictModel.band_for)."""
+    if not slope_bands or slope_rad is None or not math.isfinite(slope_rad):
+        return one
+    for _, hi, p_low, p_high in slope_bands:
+        if slope_rad < hi:
+            return p_low, p_high
+    return slope_bands[-1][2], slope_bands[-1][3]
 
 
 def _is_number(v: object) -> TypeGuard[int | float]:

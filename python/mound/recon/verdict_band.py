@@ -41,6 +41,7 @@ import numpy as np
 
 from mound.classify.metrics import clopper_pearson
 from mound.recon.grid_site import GridSite, SiteTruth
+from mound.recon.model_file import band_at
 
 GOAL_HEIGHT_M = 1.0
 GOAL_ACROSS_M = 10.0
@@ -57,6 +58,8 @@ HEIGHT_CLASSES = (0.0, 0.5, 1.0, 2.0, 5.0, math.inf)  # m: < 0.5, 0.5-1, 1-2, 2-
 
 NO, UNDECIDED, MOUND = 0, 1, 2
 NAMES = ("no_mound", "undecided", "mound")
+# the order of a confusion's rates (confusion_doc, mound.recon.visit_value)
+ANSWERS = (NAMES[MOUND], NAMES[UNDECIDED], NAMES[NO])
 
 
 def band_goal(truth: SiteTruth) -> bool:
@@ -195,13 +198,12 @@ def confusion_doc(p: np.ndarray, truths: Sequence[SiteTruth], band: dict[str, An
     """The three answers' rates the model's band (`band`: band_doc's, by the site's
     `slope` when it has bands by slope) gives the training sites' out-of-fold p (splits x
     sites): per height class of tumulus (mound, undecided, no_mound) and for a site without
-    one; what a visit is worth (mound.plan.visit_value) is read from it."""
-    lo = np.full(len(truths), float(band["p_low"]))
-    hi = np.full(len(truths), float(band["p_high"]))
-    for b in band.get("by_slope", []):
-        at = (slope >= b["site_slope_rad"][0]) & (slope < b["site_slope_rad"][1])
-        lo[at], hi[at] = b["p_low"], b["p_high"]
-    lab = answers(np.atleast_2d(p), (lo, hi))
+    one; what a visit is worth (mound.recon.visit_value) is read from it."""
+    one = (float(band["p_low"]), float(band["p_high"]))
+    by = tuple((b["site_slope_rad"][0], b["site_slope_rad"][1], b["p_low"], b["p_high"])
+               for b in band.get("by_slope", []))
+    site = np.array([band_at(one, by, float(s)) for s in slope], dtype=float).reshape(-1, 2)
+    lab = answers(np.atleast_2d(p), (site[:, 0], site[:, 1]))
 
     def rates(idx: list[int]) -> list[float]:
         a = lab[:, idx].ravel()
@@ -211,21 +213,26 @@ def confusion_doc(p: np.ndarray, truths: Sequence[SiteTruth], band: dict[str, An
     classes: dict[str, list[int]] = {}
     for k, t in enumerate(truths):
         if t.mound:
-            classes.setdefault(_height_class(t.height_m), []).append(k)
+            classes.setdefault(height_class(t.height_m), []).append(k)
     none = [k for k, t in enumerate(truths) if not t.mound]
     return {"tumulus": {c: rates(idx) for c, idx in sorted(classes.items())},
             "tumuli": {c: len(idx) for c, idx in sorted(classes.items())},
             "none": rates(none) if none else None, "sites_without": len(none),
-            "answers": ["mound", "undecided", "no_mound"],
+            "answers": list(ANSWERS),
             "method": "the chosen band (by the site's slope where the model has bands by "
                       "slope) over the training sites' out-of-fold p of every CV split"}
 
 
-def _height_class(h: float) -> str:
+def height_class(h: float) -> str:
+    """The name of the height class (HEIGHT_CLASSES) of a tumulus `h` m high, as the
+    reports' field_recall.by_height names it ("?" below the first)."""
     for lo, hi in itertools.pairwise(HEIGHT_CLASSES):
         if lo <= h < hi:
             return f"{lo:g}-{hi:g} m" if math.isfinite(hi) else f">= {lo:g} m"
     return "?"
+
+
+HEIGHT_CLASS_NAMES = tuple(height_class(lo) for lo in HEIGHT_CLASSES[:-1])
 
 
 def field_recall(truths: Sequence[SiteTruth], lab3: np.ndarray,
@@ -248,7 +255,7 @@ def field_recall(truths: Sequence[SiteTruth], lab3: np.ndarray,
         classes = {}
         for lo, hi in itertools.pairwise(HEIGHT_CLASSES):
             idx = [k for k in sel if lo <= truths[k].height_m < hi]
-            classes[_height_class(lo)] = row(idx)
+            classes[height_class(lo)] = row(idx)
         out[name] = {"all": row(sel), "by_height": classes}
     return out
 

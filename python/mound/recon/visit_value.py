@@ -10,9 +10,9 @@ wrong one too:
 
     value = p P(mound | tumulus) - (1 - p) P(mound | none)
 
-with P(mound | tumulus) averaged over the population's height classes. An undecided answer
-moves p by Bayes' rule (`after_undecided`); the site may be visited again (a second look)
-at the value its new p gives.
+with P(mound | tumulus) averaged over the population's height classes. An answer moves p by
+Bayes' rule (`after_answer`): after an undecided one the site may be visited again (a
+second look) at the value its new p gives.
 """
 
 from __future__ import annotations
@@ -23,20 +23,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from mound.errors import InputError
+from mound.recon.verdict_band import ANSWERS, HEIGHT_CLASS_NAMES, height_class
 
-ANSWERS = ("mound", "undecided", "no_mound")
-# eval-verdict's height classes (three_answers.field_recall.all.by_height), lower bounds in m
-HEIGHT_CLASSES = (("0-0.5 m", 0.0), ("0.5-1 m", 0.5), ("1-2 m", 1.0), ("2-5 m", 2.0),
-                  (">= 5 m", 5.0))
-
-
-def height_class(height_m: float) -> str:
-    """The report's height class of a tumulus `height_m` high."""
-    name = HEIGHT_CLASSES[0][0]
-    for n, low in HEIGHT_CLASSES:
-        if height_m >= low:
-            name = n
-    return name
+__all__ = ["ANSWERS", "HEIGHT_CLASS_NAMES", "Confusion", "after_answer", "height_class",
+           "visit_value"]
 
 
 @dataclass(frozen=True)
@@ -56,7 +46,7 @@ class Confusion:
             t = doc["three_answers"]
             by = t["field_recall"]["all"]["by_height"]  # type: ignore[index]
             out: dict[str, tuple[float, float, float]] = {}
-            for name, _ in HEIGHT_CLASSES:
+            for name in HEIGHT_CLASS_NAMES:
                 c = by[name]
                 n = float(c["tumuli"])
                 if n <= 0:
@@ -89,7 +79,7 @@ class Confusion:
         if not isinstance(tum, Mapping):
             raise InputError(f"{at}.tumulus: expected rates by height class")
         out = {}
-        for name, _ in HEIGHT_CLASSES:
+        for name in HEIGHT_CLASS_NAMES:
             if name not in tum:
                 raise InputError(f"{at}.tumulus: no {name!r} (no such tumulus in training)")
             out[name] = _rates(tum[name], f"{at}.tumulus.{name}")
@@ -97,10 +87,10 @@ class Confusion:
 
     def tumulus_mean(self, weights: Mapping[str, float]) -> np.ndarray:
         """A tumulus's answer rates averaged over height classes weighted by `weights`."""
-        w = np.array([weights.get(n, 0.0) for n, _ in HEIGHT_CLASSES], dtype=float)
+        w = np.array([weights.get(n, 0.0) for n in HEIGHT_CLASS_NAMES], dtype=float)
         if not w.sum() > 0:
             raise InputError("height class weights: none above 0")
-        rates = np.array([self.tumulus[n] for n, _ in HEIGHT_CLASSES])
+        rates = np.array([self.tumulus[n] for n in HEIGHT_CLASS_NAMES])
         return (w / w.sum()) @ rates
 
 
@@ -124,18 +114,12 @@ def visit_value(p: np.ndarray, tumulus: np.ndarray, none: tuple[float, float, fl
     return p * tumulus[0] - (1 - p) * none[0]
 
 
-def after_undecided(p: np.ndarray, tumulus: np.ndarray, none: tuple[float, float, float]
-                    ) -> np.ndarray:
-    """p(tumulus) of sites whose visit answered `undecided` (Bayes' rule)."""
-    p = np.asarray(p, dtype=float)
-    a, b = p * tumulus[1], (1 - p) * none[1]
-    return np.where(a + b > 0, a / np.maximum(a + b, 1e-300), p)
-
-
-def after_answer(p: float, answer: str, tumulus: np.ndarray,
-                 none: tuple[float, float, float]) -> float:
-    """p(tumulus) of a site after the verdict answered `answer` (Bayes' rule): how much a
-    `mound` or `no_mound` says, which the classifier learns as the example's weight."""
+def after_answer(p: np.ndarray | float, answer: str, tumulus: np.ndarray,
+                 none: tuple[float, float, float]) -> np.ndarray:
+    """p(tumulus) of sites after the verdict answered `answer` (Bayes' rule; p unchanged
+    where the answer is impossible either way): how much a `mound` or `no_mound` says, which
+    the classifier learns as the example's weight, and where an `undecided` leaves p."""
     k = ANSWERS.index(answer)
+    p = np.asarray(p, dtype=float)
     a, b = p * tumulus[k], (1 - p) * none[k]
-    return float(a / (a + b)) if a + b > 0 else p
+    return np.where(a + b > 0, a / np.maximum(a + b, 1e-300), p)
