@@ -268,6 +268,7 @@ GRID_VERDICT = {"schema": "mound.verdict", "version": 1, "status": "ok",
                 "cloud": "dense/dense.ply", "coverage": {"status": "clipped"},
                 "measurements": {
                     "site_centre_enu_m": [0.5, 0.5], "site_radius_m": 30.0,
+                    "candidates": "local_relief",
                     "rise": {"height_m": 2.5, "base_diameter_m": 18.0, "roundness": 0.8,
                              "dome_r2": 0.9, "centre_enu_m": [1.0, -1.5]},
                     "judged_rises": [{"centre_enu_m": [1.0, -1.5], "base_diameter_m": 18.0,
@@ -286,6 +287,7 @@ def _valid_grid_site(sites: list[Any]) -> None:
         assert r.centre_enu_m is None or all(math.isfinite(v) for v in r.centre_enu_m)
     assert s.site_radius_m is None or s.site_radius_m >= 0
     assert s.cloud in ("dense", "sparse") and s.measured is True
+    assert s.candidates in ("site_ground", "local_relief")
 
 
 def _read_grid(row_text: str, verdict_text: str) -> list[Any]:
@@ -556,6 +558,7 @@ def _verdict_model() -> dict[str, Any]:
     doc.pop("trained"), doc.pop("heldout")  # reports, not read: mutations go to the model
     doc["second_look"] = {"p_low": 0.3, "threshold": 0.6, "scan_factor": 2.0,
                           "combine": {"first": 0.5, "second": 1.0, "bias": -0.2}}
+    doc["detector"] = {"candidates": "local_relief"}
     return doc
 
 
@@ -581,6 +584,54 @@ def _judge_with_model(path: Path) -> None:
 @given(mutated_json(VERDICT_MODEL))
 def test_verdict_model_reader(text: str) -> None:
     value_or_input_error(_judge_with_model, _file(text, "model.json"))
+
+
+def _confusion_seeds() -> tuple[dict[str, Any], dict[str, Any]]:
+    """An eval-verdict report's three answers (the held-out Kazanlak one, cut to what the
+    reader reads) and a model's trained.confusion."""
+    from mound.paths import REPO_ROOT
+
+    r = json.loads((REPO_ROOT / "docs" / "results" / "verdict_three_answers_kazanlak.json")
+                   .read_text())["three_answers"]
+    by = {c: {k: v for k, v in row.items() if k in ("tumuli", "confirmed", "undecided",
+                                                     "no_mound")}
+          for c, row in r["field_recall"]["all"]["by_height"].items()}
+    report = {"three_answers": {"field_recall": {"all": {"by_height": by}},
+                                "confident_false_alarms": r["confident_false_alarms"],
+                                "undecided": r["undecided"]}}
+    rates = [0.5, 0.3, 0.2]
+    model = {"trained": {"confusion": {
+        "tumulus": {c: rates for c in by}, "none": [0.01, 0.3, 0.69]}}}
+    return report, model
+
+
+CONFUSION_REPORT, CONFUSION_MODEL = _confusion_seeds()
+
+
+def _valid_confusion(c: Any) -> None:
+    for rates in (*c.tumulus.values(), c.none):
+        assert len(rates) == 3 and all(math.isfinite(x) for x in rates), rates
+
+
+@FUZZ
+@given(mutated_json(CONFUSION_REPORT), mutated_json(CONFUSION_MODEL))
+def test_visit_value_confusion_readers(report: str, model: str) -> None:
+    """bench_day's --confusion: a report's three answers or a model's trained.confusion,
+    mutated: rates the value of a visit can use, or a clear error."""
+    from mound.recon.visit_value import Confusion
+
+    def read(text: str, kind: str) -> Any:
+        try:
+            doc = json.loads(text)
+        except ValueError:
+            raise InputError("not JSON") from None
+        if not isinstance(doc, dict):
+            raise InputError("not an object")
+        return (Confusion.from_report if kind == "report" else Confusion.from_model)(
+            doc, "c.json")
+
+    value_or_input_error(read, report, "report", check=_valid_confusion)
+    value_or_input_error(read, model, "model", check=_valid_confusion)
 
 
 PHOTO_SITES = {"schema": "mound.sites", "version": 1, "origin": ORIGIN.to_doc(),

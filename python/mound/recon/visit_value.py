@@ -19,10 +19,12 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from mound.errors import InputError
+from mound.jsonio import finite_number
 from mound.recon.verdict_band import ANSWERS, HEIGHT_CLASS_NAMES, height_class
 
 __all__ = ["ANSWERS", "HEIGHT_CLASS_NAMES", "Confusion", "after_answer", "height_class",
@@ -42,26 +44,30 @@ class Confusion:
         """From an `eval-verdict` report (its three_answers): per height class the tumuli
         confirmed, undecided and called no_mound; the sites without a tumulus called mound
         (confident false alarms) and left undecided (the undecided less its tumuli)."""
-        try:
-            t = doc["three_answers"]
-            by = t["field_recall"]["all"]["by_height"]  # type: ignore[index]
-            out: dict[str, tuple[float, float, float]] = {}
-            for name in HEIGHT_CLASS_NAMES:
-                c = by[name]
-                n = float(c["tumuli"])
-                if n <= 0:
-                    raise InputError(f"{where}: three_answers.field_recall: no tumulus of "
-                                     f"{name}")
-                out[name] = (c["confirmed"]["count"] / n, c["undecided"]["count"] / n,
-                             c["no_mound"]["count"] / n)
-            neg = float(t["confident_false_alarms"]["of"])  # type: ignore[index]
-            fa = float(t["confident_false_alarms"]["count"])  # type: ignore[index]
-            und = float(t["undecided"]["count"]) - float(t["undecided"]["tumuli"])  # type: ignore[index]
-        except (KeyError, TypeError) as e:
-            raise InputError(f"{where}: not an eval-verdict report with three answers "
-                             f"({e})") from None
-        if not neg > 0 or not 0 <= und <= neg:
-            raise InputError(f"{where}: three_answers: no sites without a tumulus")
+        at = f"{where}: three_answers"
+        t = _field(doc, "three_answers", where)
+        by = _field(_field(_field(t, "field_recall", at), "all", f"{at}.field_recall"),
+                    "by_height", f"{at}.field_recall.all")
+        out: dict[str, tuple[float, float, float]] = {}
+        for name in HEIGHT_CLASS_NAMES:
+            c_at = f"{at}.field_recall.all.by_height.{name}"
+            c = _field(by, name, f"{at}.field_recall.all.by_height")
+            n = finite_number(c.get("tumuli"), f"{c_at}.tumuli", lo=0)
+            k = [finite_number(_field(c, a, c_at).get("count"), f"{c_at}.{a}.count", lo=0)
+                 for a in ("confirmed", "undecided", "no_mound")]
+            if not n > 0 or abs(sum(k) - n) > 1e-9 * n:
+                raise InputError(f"{c_at}: expected tumuli > 0, each confirmed, undecided or "
+                                 "called no_mound")
+            out[name] = (k[0] / n, k[1] / n, k[2] / n)
+        fa_doc = _field(t, "confident_false_alarms", at)
+        und_doc = _field(t, "undecided", at)
+        neg = finite_number(fa_doc.get("of"), f"{at}.confident_false_alarms.of", lo=0)
+        fa = finite_number(fa_doc.get("count"), f"{at}.confident_false_alarms.count", lo=0)
+        und = (finite_number(und_doc.get("count"), f"{at}.undecided.count", lo=0)
+               - finite_number(und_doc.get("tumuli"), f"{at}.undecided.tumuli", lo=0))
+        if not neg > 0 or not 0 <= und or not fa + und <= neg:
+            raise InputError(f"{at}: no sites without a tumulus, or more of them called "
+                             "mound and undecided than there are")
         return cls(out, (fa / neg, und / neg, 1 - (fa + und) / neg))
 
     @classmethod
@@ -94,12 +100,21 @@ class Confusion:
         return (w / w.sum()) @ rates
 
 
+def _field(doc: object, key: str, at: str) -> Mapping[str, Any]:
+    """doc[key], an object, else InputError naming `at`.key."""
+    v = doc.get(key) if isinstance(doc, Mapping) else None
+    if not isinstance(v, Mapping):
+        raise InputError(f"{at}: {key}: expected an object (not an eval-verdict report with "
+                         "three answers?)")
+    return v
+
+
 def _rates(v: object, at: str) -> tuple[float, float, float]:
     """Three answer rates (mound, undecided, no_mound) in [0, 1] summing to 1."""
-    xs = [float(x) for x in v if isinstance(x, int | float) and not isinstance(x, bool)] \
-        if isinstance(v, list) else []
-    if (not isinstance(v, list) or len(v) != 3 or len(xs) != 3
-            or not all(0 <= x <= 1 for x in xs) or abs(sum(xs) - 1) > 1e-6):
+    if not isinstance(v, list) or len(v) != 3:
+        raise InputError(f"{at}: expected 3 rates (mound, undecided, no_mound)")
+    xs = [finite_number(x, f"{at}[{k}]", lo=0, hi=1) for k, x in enumerate(v)]
+    if abs(sum(xs) - 1) > 1e-6:
         raise InputError(f"{at}: expected 3 rates in [0, 1] summing to 1 (mound, undecided, "
                          "no_mound)")
     return xs[0], xs[1], xs[2]
