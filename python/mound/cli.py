@@ -15,6 +15,8 @@
     mound recon rasters RECON_DIR --out DIR [--resolution-m 0.25] [--cloud dense.ply]
     mound mission build PLAN.json [--origin LAT,LON[,ALT]] --out MISSION.plan [...]
     mound mission upload MISSION.plan --connect udpout:HOST:PORT [--verify] [...]
+    mound fly --connect udpout:HOST:PORT --sites SITES.json --confusion MODEL.json
+              --range-m M --out DIR [...]
     mound scene train SCENE.tif [...] --labels KNOWN.geojson --out MODEL.json [...]
     mound scene score SCENE.tif --model MODEL.json --out DIR [--stride-m S] [...]
     mound scene eval SCENE.tif [...] --labels KNOWN.geojson [--figure PNG] [...]
@@ -43,7 +45,8 @@ STAGES = (("mound.classify.cli", ("data", "classify")),
           ("mound.recon.cli", ("recon",)),
           ("mound.uav.cli", ("mission",)),
           ("mound.scene.cli", ("scene",)),
-          ("mound.photos.cli", ("photos",)))
+          ("mound.photos.cli", ("photos",)),
+          ("mound.survey.fly", ("fly",)))
 
 
 def build_parser(group: str | None = None) -> argparse.ArgumentParser:

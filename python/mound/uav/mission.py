@@ -93,4 +93,4 @@ def _flat(origin: Origin, spec: MissionSpec, nodes: list[Node], closed: bool,
         raise InputError(f"mission: flight distance {distance:.1f} m exceeds the plan's "
                          f"budget_m {budget:g} m{hint}")
     return Mission(w.items, origin, distance, budget, closed, sites_out, w.path, footprints,
-                   spec)
+                   spec, scans=w.scans)

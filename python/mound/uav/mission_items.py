@@ -242,6 +242,9 @@ class Mission:
     spec: MissionSpec
     # With a DEM: home_amsl_m, energy_m, the legs' heights and terrain profiles.
     terrain: dict[str, Any] | None = None
+    # Each site's scan as the indexes of its first and last item (ItemWriter.scans): what
+    # an in-flight re-plan keeps of a mission the aircraft is flying.
+    scans: dict[str, tuple[int, int]] = field(default_factory=dict)
 
     def summary(self) -> dict[str, object]:
         terrain: dict[str, Any] = (
@@ -325,6 +328,7 @@ class ItemWriter:
         self.datum_m = float(datum_m)
         self.items: list[MissionItem] = []
         self.path: list[np.ndarray] = [np.asarray(start, dtype=float)]
+        self.scans: dict[str, tuple[int, int]] = {}  # site id -> its scan's first, last item
 
     def _geo(self, p: np.ndarray) -> tuple[int, int]:
         lat, lon, _ = enu_to_geodetic(self.origin, np.array([[p[0], p[1], 0.0]]))[0]
@@ -355,6 +359,7 @@ class ItemWriter:
         scan = spec.scan
         cam = scan.camera()
         images = 0
+        first = len(self.items)
         footprints: list[Footprint] = []
         self.do(DO_CHANGE_SPEED, (1.0, spec.scan_speed_m_s, -1.0, 0.0))
         for leg in legs if legs is not None else scan.legs():
@@ -377,4 +382,5 @@ class ItemWriter:
                 footprints.append(Footprint(site_id, leg.pattern, k, (
                     on_ground + image_footprint(cam, pose, reach)).tolist()))
         self.do(DO_CHANGE_SPEED, (1.0, spec.cruise_speed_m_s, -1.0, 0.0))
+        self.scans[site_id] = (first, len(self.items) - 1)
         return images, footprints

@@ -101,7 +101,7 @@ def build_over_terrain(plan: Plan, origin: Origin, spec: mi.MissionSpec,
         "lowest_clearance_m": min(d["clearance_m"] for d in leg_docs) if leg_docs else None,
     }
     return mi.Mission(w.items, origin, path_length(pts), budget, closed, sites_out, nav_rel,
-                      footprints, spec, terrain_doc)
+                      footprints, spec, terrain_doc, w.scans)
 
 
 def _profile(model: TerrainModel, start: int, pts: np.ndarray, dem: Any) -> dict[str, object]:

@@ -198,3 +198,32 @@ def upload_verified(link: Link, items: list[MissionItem], verify: bool = True,
         if stats.ack_lost:
             stats.notes.append("read-back matches: the upload succeeded")
     return stats
+
+
+def set_current(link: Link, seq: int, timeout_s: float = 0.5, retries: int = 5) -> None:
+    """Makes item `seq` the vehicle's current one (MISSION_SET_CURRENT) and waits until its
+    MISSION_CURRENT says so; LinkError when it never does."""
+    for _ in range(retries + 1):
+        link.conn.mav.mission_set_current_send(link.target_system, link.target_component, seq)
+        deadline = time.monotonic() + timeout_s
+        while (left := deadline - time.monotonic()) > 0:
+            msg = link.recv(["MISSION_CURRENT"], left)
+            if msg is not None and msg.seq == seq:
+                return
+    raise LinkError(f"the vehicle did not make item {seq} current after {retries + 1} "
+                    "MISSION_SET_CURRENT")
+
+
+def replace(link: Link, items: list[MissionItem], keep: int, timeout_s: float = 1.0,
+            retries: int = 5) -> TransferStats:
+    """Replaces the mission the vehicle is flying with `items`, whose items up to `keep` (the
+    current one) are those it holds: uploaded, read back and compared, then item `keep` made
+    current again (a vehicle may reset its current item on a new mission, as MAVSDK's
+    server does). The MAVLink protocol keeps the old mission until the new one is accepted,
+    so a failed transfer (LinkError) leaves the vehicle flying the old one."""
+    if not 0 <= keep < len(items):
+        raise ValueError(f"keep {keep}: not an item of a {len(items)}-item mission")
+    stats = upload_verified(link, items, True, timeout_s, retries)
+    set_current(link, keep)
+    stats.notes.append(f"item {keep} current again")
+    return stats
