@@ -18,7 +18,11 @@ k-th visit answers alike under every policy) for every policy:
   the decided sites as examples weighted by how sure the answer makes them), every site's
   p and value recomputed, an undecided site's p moved by Bayes' rule and kept as a node
   for a second look, and the batteries left re-planned; the first of them is flown;
-- `battery-no-revisit`: the same without second looks.
+- `battery-no-revisit`: the same without second looks;
+- `in-flight`: as `battery`, and within each battery the rest of it re-planned after each
+  site's answer (`mound fly`'s loop): the site's p moved by Bayes' rule, mound_plan
+  planning from the site just flown to home with the distance left, the first site of
+  that plan flown next.
 
 A second look answers as a first look does (no grid has flown second looks with the
 three-answer model: an assumption, stated). Printed per policy over the days: tumuli
@@ -51,7 +55,7 @@ from mound.classify import coarse, statlog  # noqa: E402
 from mound.classify.model import Model  # noqa: E402
 from mound.classify.reward import binary_entropy_bits  # noqa: E402
 from mound.formats.plan import Plan  # noqa: E402
-from mound.formats.sites import Sites  # noqa: E402
+from mound.formats.sites import Node, Sites  # noqa: E402
 from mound.jsonio import write_json  # noqa: E402
 from mound.plan.field import make_field, sites_document  # noqa: E402
 from mound.recon import visit_value as vv  # noqa: E402
@@ -60,7 +64,7 @@ from mound.survey.context import scan_spec  # noqa: E402
 from mound.survey.options import SurveyOptions  # noqa: E402
 from mound.survey.stages.learn import NO_ROUND_TRIP  # noqa: E402
 
-POLICIES = ("once-entropy", "once-value", "battery", "battery-no-revisit")
+POLICIES = ("once-entropy", "once-value", "battery", "battery-no-revisit", "in-flight")
 LEARN_WEIGHT = 100.0  # training examples a verified site counts as (bench_learn's best)
 MAX_VISITS = 3
 
@@ -91,15 +95,22 @@ def answer(day: Day, conf: vv.Confusion, k: int, visit: int) -> str:
         else vv.ANSWERS[2]
 
 
-def plan(sites: Sites, keep: list[int], rewards: np.ndarray, flights: int, work: Path
+def plan(sites: Sites, keep: list[int], rewards: np.ndarray, flights: int, work: Path,
+         start: tuple[float, float] | None = None, budget_m: float | None = None
          ) -> Plan | None:
-    """mound_plan's K flights over the sites `keep` with `rewards` (None: none possible)."""
+    """mound_plan's K flights over the sites `keep` with `rewards` (None: none possible);
+    from `start` to home with `budget_m` when given (a flight under way)."""
     chosen = [replace(sites.sites[k], reward=float(rewards[k])) for k in keep
               if rewards[k] > 1e-9]
-    if not chosen:
+    if not chosen or (budget_m is not None and budget_m <= 0):
         return None
     path = work / "sites.json"
-    write_json(path, sites.with_sites(chosen).to_doc())
+    doc = sites.with_sites(chosen)
+    if start is not None:
+        doc = replace(doc, home=Node("here", *start), end=sites.home)
+    if budget_m is not None:
+        doc = replace(doc, budget_m=budget_m)
+    write_json(path, doc.to_doc())
     r = subprocess.run([str(ROOT / "build" / "mound_plan"), str(path), "--flights",
                         str(flights), "--seed", "1", "--out", str(work / "plan.json")],
                        capture_output=True, text=True)
@@ -122,6 +133,37 @@ def fly(day: Day, conf: vv.Confusion, out: Outcome, ids: list[str]) -> list[int]
     return flown
 
 
+def fly_replanning(day: Day, conf: vv.Confusion, tum: np.ndarray, out: Outcome,
+                   planned: list[str], p: np.ndarray, work: Path) -> list[int]:
+    """One battery flown as `mound fly` flies it: the first site of the battery's plan,
+    then after each answer (p moved by Bayes' rule, in `p`) the rest re-planned from there
+    with the distance left. The distance used goes to `out`."""
+    sites = day.sites.sites
+    index = {s.id: k for k, s in enumerate(sites)}
+    at = (day.sites.home.x_m, day.sites.home.y_m)
+    left = day.sites.budget_m - day.sites.takeoff_landing_m
+    flown: list[int] = []
+    nxt = index[planned[0]]
+    while True:
+        s = sites[nxt]
+        leg = float(np.hypot(s.x_m - at[0], s.y_m - at[1])) + s.scan_cost_m
+        flown += fly(day, conf, out, [s.id])
+        p[nxt] = float(vv.after_answer(p[nxt], out.answers[nxt], tum, conf.none))
+        left -= leg
+        out.used_m += leg
+        at = (s.x_m, s.y_m)
+        keep = [i for i in range(len(sites)) if i not in out.answers
+                or (out.answers[i] == "undecided" and out.visits[i] < MAX_VISITS)]
+        pl = plan(day.sites, keep, vv.visit_value(p, tum, conf.none), 1, work, at,
+                  left + day.sites.takeoff_landing_m)
+        if pl is None or not pl.flights[0].sites:
+            break
+        nxt = index[pl.flights[0].sites[0]]
+    home = float(np.hypot(at[0] - day.sites.home.x_m, at[1] - day.sites.home.y_m))
+    out.used_m += home + day.sites.takeoff_landing_m
+    return flown
+
+
 def run(policy: str, day: Day, conf: vv.Confusion, tum: np.ndarray, model0: Model,
         train: statlog.Split, test: statlog.Split, k_flights: int, work: Path) -> Outcome:
     n = len(day.sites.sites)
@@ -138,7 +180,7 @@ def run(policy: str, day: Day, conf: vv.Confusion, tum: np.ndarray, model0: Mode
                 out.flights += 1
         out.p_final = p
         return out
-    revisit = policy == "battery"
+    revisit = policy in ("battery", "in-flight")
     ex_rows: list[int] = []
     ex_y: list[float] = []
     ex_w: list[float] = []
@@ -151,8 +193,11 @@ def run(policy: str, day: Day, conf: vv.Confusion, tum: np.ndarray, model0: Mode
         first = next((f for f in pl.flights if f.sites), None) if pl else None
         if first is None:
             break
-        flown = fly(day, conf, out, list(first.sites))
-        out.used_m += first.cost_m
+        if policy == "in-flight":
+            flown = fly_replanning(day, conf, tum, out, list(first.sites), p, work)
+        else:
+            flown = fly(day, conf, out, list(first.sites))
+            out.used_m += first.cost_m
         out.flights += 1
         # learn the decided answers, each weighted by how sure it makes the site
         for i in flown:

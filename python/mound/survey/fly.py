@@ -366,10 +366,12 @@ def fly(link: mavlink_link.Link, state: InFlight, judge: Judge, out: Path) -> di
 
 def _replace(link: mavlink_link.Link, state: InFlight, cur: int, charge: float,
              pending: set[str]) -> None:
+    t = time.monotonic()
     r = state.replan(cur, charge, pending)
     if r is None:
         return
     new, why = r
+    t_plan = time.monotonic()
     try:
         stats = transfer.replace(link, new, min(cur, len(new) - 1))
     except mavlink_link.LinkError as e:  # the vehicle flies the mission it held
@@ -377,6 +379,8 @@ def _replace(link: mavlink_link.Link, state: InFlight, cur: int, charge: float,
                                      "why": why, "failed": str(e)})
         return
     state.accept(new, cur, why, stats)
+    state.log["uploads"][-1].update(plan_s=round(t_plan - t, 3),
+                                    transfer_s=round(time.monotonic() - t_plan, 3))
 
 
 def cmd_fly(args: argparse.Namespace) -> int:

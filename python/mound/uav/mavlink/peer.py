@@ -133,6 +133,7 @@ class _Flight(threading.Thread):
         self.drained = 0.0           # charge lost beyond the distance flown (a fault)
         self.landed = False
         self.done: list[tuple[int, int]] = []  # (mission number, item) in the order done
+        self.track: list[tuple[float, float, float]] = [(0.0, 0.0, 0.0)]  # at each item done
         self._stop_event = threading.Event()
 
     def drain(self, fraction: float) -> None:
@@ -214,6 +215,7 @@ class _Flight(threading.Thread):
                     continue  # replaced meanwhile: fly what it holds now
                 v.current = seq + 1 if not last else seq
             self.done.append((number, seq))
+            self.track.append((self.pos[0], self.pos[1], self.pos[2]))
             v._server.set_current_item_complete()
             if last and item.command in (NAV_RTL, NAV_LAND):
                 self.landed = True
