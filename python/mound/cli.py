@@ -15,6 +15,7 @@
     mound recon rasters RECON_DIR --out DIR [--resolution-m 0.25] [--cloud dense.ply]
     mound mission build PLAN.json [--origin LAT,LON[,ALT]] --out MISSION.plan [...]
     mound mission upload MISSION.plan --connect udpout:HOST:PORT [--verify] [...]
+    mound day --out DIR [survey options] [--batteries K] [--photos CARD_1 --photos CARD_2 ...]
     mound fly --connect udpout:HOST:PORT --sites SITES.json --confusion MODEL.json
               --range-m M --out DIR [...]
     mound scene train SCENE.tif [...] --labels KNOWN.geojson --out MODEL.json [...]
@@ -46,7 +47,8 @@ STAGES = (("mound.classify.cli", ("data", "classify")),
           ("mound.uav.cli", ("mission",)),
           ("mound.scene.cli", ("scene",)),
           ("mound.photos.cli", ("photos",)),
-          ("mound.survey.fly", ("fly",)))
+          ("mound.survey.fly", ("fly",)),
+          ("mound.survey.day", ("day",)))
 
 
 def build_parser(group: str | None = None) -> argparse.ArgumentParser:
@@ -82,6 +84,10 @@ def main(argv: list[str] | None = None) -> int:
 
 def _main(argv: list[str]) -> int:
     try:
+        if argv and argv[0] == "day":  # the survey's own options pass through
+            from mound.survey import day
+
+            return day.main(argv[1:])
         wants_help = "-h" in argv or "--help" in argv
         parser = build_parser(None if wants_help or not argv else argv[0])
         if wants_help:

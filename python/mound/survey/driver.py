@@ -155,6 +155,13 @@ def _stage3d_arguments(p: argparse.ArgumentParser, D: SurveyOptions) -> None:
                    "(weighted by their confidence) retrain the coarse classifier, p_mound "
                    "and rewards are recomputed and the next flight is re-planned over the "
                    "sites not yet flown")
+    g.add_argument("--cards", nargs="*", metavar="CARD_DIR", default=D.cards,
+                   help="with --learn: the day battery by battery on real flights. Each "
+                   "battery's missions (.plan, .kmz, .csv) are written to battery_K/; "
+                   "run again with battery K's card added (--cards CARD1 ... CARDK): it is "
+                   "sorted into that battery's sites and judged, the classifier learns, and "
+                   "battery K+1 is re-planned. --cards alone: battery 1's missions only "
+                   "(`mound day` runs this)")
     g.add_argument("--learn-weight", type=NUMBERS["learn_weight"].arg(), default=D.learn_weight,
                    help="--learn: training examples a verified site counts as (times the "
                    "verdict's confidence)")

@@ -8,8 +8,8 @@ The loop:
    uploaded, read back and compared.
 2. The aircraft flies it. When MISSION_CURRENT passes a site's last scan item, the site is
    judged (the judge runs beside the loop: the aircraft does not wait). Its answer moves
-   the site's p by Bayes' rule with the verdict's confusion; an undecided site may be
-   visited again (up to `max_visits`).
+   the site's p by Bayes' rule with the verdict's confusion (an undecided site may be
+   flown again with `max_visits` 2).
 3. After each answer, and whenever BATTERY_STATUS says the charge left cannot fly what is
    left of the mission, the rest is re-planned: the items up to the end of the site being
    flown (or approached) are kept as they are, mound_plan plans the rest from its last
@@ -110,7 +110,7 @@ class Scan:
 class FlyOptions:
     range_m: float            # a full battery's flight distance
     reserve: float = 0.15     # share of the range kept for landing
-    max_visits: int = 2
+    max_visits: int = 1       # 2: an undecided site may be flown again, the same scan
     seed: int = 1
     timeout_s: float = 3600.0
 
@@ -430,7 +430,10 @@ def add_parser(sub: Any, parser_class: type) -> None:
                    help="a full battery's flight distance, m")
     p.add_argument("--reserve", type=Bound(0, 0.9).arg(), default=0.15,
                    help="share of the range kept for landing (default 0.15)")
-    p.add_argument("--max-visits", type=Bound(1, 5, integer=True).arg(), default=2)
+    p.add_argument("--max-visits", type=Bound(1, 5, integer=True).arg(), default=1,
+                   help="visits of a site in the flight (default 1; 2: an undecided site "
+                   "may be flown again with the same scan, which the verdict's second look "
+                   "does not ask for: it asks for a wider one)")
     p.add_argument("--judge", choices=("simulate",), default="simulate",
                    help="simulate: answers drawn from the confusion and the sites' truth")
     p.add_argument("--judge-delay", type=Bound(0, 600).arg(), default=0.0,

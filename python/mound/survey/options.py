@@ -90,6 +90,7 @@ class SurveyOptions:
     images_root: str | None = None
     learn: bool = False
     learn_weight: float = 1.0
+    cards: tuple[str, ...] | None = None  # --learn, battery by battery: battery k's card
     image_size: tuple[int, int] = (640, 480)  # px
     sim_seed: int = 1
     max_features: int | None = None     # None: by the photos' source (recon.defaults)
@@ -121,6 +122,8 @@ class SurveyOptions:
         kw["image_size"] = tuple(kw["image_size"])
         if kw["scene"] is not None:
             kw["scene"] = tuple(kw["scene"])
+        if kw["cards"] is not None:
+            kw["cards"] = tuple(kw["cards"])
         return cls(**kw)
 
     @property
@@ -173,8 +176,20 @@ class SurveyOptions:
                                  "features; --sites and --scene sites have none here")
             if self.photos or self.images_root:
                 raise UsageError("--learn re-plans each flight after the one before: it "
-                                 "flies simulated flights (photos of re-planned flights come "
-                                 "one card at a time)")
+                                 "flies simulated flights, or real ones with --cards (photos "
+                                 "of re-planned flights come one card at a time)")
+        if self.cards is not None:
+            if not self.learn:
+                raise UsageError("--cards: the day battery by battery goes with --learn")
+            if self.second_photos:
+                raise UsageError("--cards: the second looks of a day on cards are flown in "
+                                 "its batteries, not from --second-photos")
+            for k, card in enumerate(self.cards, start=1):
+                if not Path(card).is_dir():
+                    raise UsageError(f"--cards: battery {k}'s card {card} is not a folder")
+            if len(self.cards) > self.flights:
+                raise UsageError(f"--cards: {len(self.cards)} cards for --flights "
+                                 f"{self.flights} batteries")
         if self.reference and not Path(self.reference).is_file():
             raise UsageError(f"--reference: {self.reference} not found")
         if self.verdict_model:

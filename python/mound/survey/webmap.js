@@ -101,6 +101,14 @@
     secondPaths.push(line);
   });
   seconds.addTo(map);
+  // A day on cards (mound day): the battery to fly next, planned after the last card.
+  const nextBattery = L.layerGroup();
+  if (D.next_battery) {
+    const nb = D.next_battery;
+    nextBattery.addLayer(L.polyline(nb.path, { color: "#00838f", weight: 3, dashArray: "2 6" })
+      .bindTooltip(`battery ${nb.battery}, to fly next (battery_${nb.battery}/)`));
+    nextBattery.addTo(map);
+  }
   // Each mission file as written (.plan, DJI .kmz, Litchi .csv), read back: the same path.
   const FORMAT = { plan: ["#212121", null], kmz: ["#2e7d32", "4 4"], csv: ["#6a1b9a", "1 5"] };
   const written = L.layerGroup();
@@ -133,6 +141,7 @@
   };
   if (D.overlays.some((o) => o.name === "scene_p_mound")) layers["scene p(mound)"] = scene;
   if (secondPaths.length) layers["second looks"] = seconds;
+  if (D.next_battery) layers["next battery"] = nextBattery;
   if ((D.mission_files || []).length) layers["mission files (.plan, .kmz, .csv)"] = written;
   L.control.layers(null, layers, { collapsed: false }).addTo(map);
   L.control.scale({ metric: true, imperial: false }).addTo(map);
@@ -155,6 +164,7 @@
   body.dataset.markers = String(markers.length);
   body.dataset.paths = String(paths.length);
   body.dataset.secondLooks = String(secondPaths.length);
+  body.dataset.nextBattery = D.next_battery ? String(D.next_battery.battery) : "";
   body.dataset.footprints = String((D.footprints || []).length);
   body.dataset.missionFiles = JSON.stringify(written.getLayers().map((l) => l.getLatLngs().length));
   body.dataset.overlays = JSON.stringify(drawn.map((d) => {

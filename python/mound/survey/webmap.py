@@ -191,13 +191,25 @@ def map_data(tree: RunTree, summary: dict[str, Any], sites_doc: Sites, plan: Pla
 
     mission_files = []
     for path in sorted([*tree.root.glob("mission*.plan"), *tree.root.glob("mission*.kmz"),
-                        *tree.root.glob("mission*.csv")]):
+                        *tree.root.glob("mission*.csv"),
+                        *tree.root.glob("battery_*/mission*.plan"),
+                        *tree.root.glob("battery_*/mission*.kmz"),
+                        *tree.root.glob("battery_*/mission*.csv")]):
         _, routes = mission_formats.read_any(path)
         for r in routes:
-            mission_files.append({"file": path.name, "format": path.suffix[1:],
+            mission_files.append({"file": str(path.relative_to(tree.root)),
+                                  "format": path.suffix[1:],
                                   "waypoints": len(r.points),
                                   "path": [[p.lat_deg, p.lon_deg] for p in r.points]})
+    # a day on cards (`mound day`): the battery to fly next, as planned after the last card
+    next_battery = None
+    learn_doc = tree.learn / "learn.json"
+    waiting = load_json(learn_doc).get("waiting_for_battery") if learn_doc.is_file() else None
+    if isinstance(waiting, int) and (tree.root / f"battery_{waiting}" / "plan.json").is_file():
+        nb = Plan.read(tree.root / f"battery_{waiting}" / "plan.json")
+        next_battery = {"battery": waiting, **paths(nb.flights)[0]}
     return {"schema": "mound.map", "version": 1, "second_looks": second_looks,
+            "next_battery": next_battery,
             "mission_files": mission_files,
             "home": {"id": home.id, "lat": pos[home.id][0], "lon": pos[home.id][1]},
             "sites": sites, "flights": flights, "overlays": overlays,

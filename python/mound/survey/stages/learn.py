@@ -38,7 +38,7 @@ from mound.formats.plan import Flight, Plan
 from mound.formats.site_row import SiteRow
 from mound.formats.sites import Sites
 from mound.jsonio import read_json, write_json
-from mound.survey.context import Context, mission_terrain, run_stage
+from mound.survey.context import Context, card_digest, mission_terrain, run_stage
 from mound.survey.stages.sites3d import run_jobs, second_look_missions, site_jobs
 from mound.uav import files as mission_files
 from mound.uav import mission
@@ -121,6 +121,43 @@ def _replan(ctx: Context, left: Sites, k: int, fdir: Path) -> tuple[Plan | None,
         why = (e.tail.strip().splitlines() or [str(e)])[-1]
         return None, f"flight {k}: no flight over the sites left ({why})"
     return Plan.read(fdir / "plan_all.json"), ""
+
+
+def _write_battery(ctx: Context, plan: Plan, sites: Sites, bdir: Path) -> list[str]:
+    """A day on cards: battery k's folder DIR/battery_k/ (INTERFACES.md, `mound day`): its
+    plan and the sites it was planned on (plan.json, sites.json: what `mound photos sort`
+    and `mound sim flight` read) and its mission
+    in every format the crew flies (the mission stage's files: .plan, .waypoints, .kmz,
+    .csv, .geojson, mission.png, mission.json); a format a limit refuses is left out and
+    mission.json says why."""
+    from mound.survey.stages.mission import write_missions
+
+    if plan.origin is None:
+        raise InputError("plan: origin: missing (the mission is flown in WGS84)")
+    m = mission.build(plan, plan.origin, None, mission_terrain(ctx.args))
+    bdir.mkdir(parents=True, exist_ok=True)
+    write_json(bdir / "plan.json", plan.to_doc())
+    write_json(bdir / "sites.json", sites.to_doc())
+    written, summary = write_missions([(None, m)], bdir, bdir, ctx.args.firmware,
+                                      ctx.args.aircraft)
+    write_json(bdir / "mission.json", summary)
+    root = ctx.tree.root
+    return [str(p.relative_to(root))
+            for p in [bdir / "plan.json", bdir / "sites.json", *written,
+                      bdir / "mission.json"]]
+
+
+def _battery_photos(ctx: Context, card: str, bdir: Path, flight: Plan) -> dict[str, Path]:
+    """Battery k's card sorted into its sites: bdir/photos/<id> (and photos.json)."""
+    from mound.photos.sort import SortSpec, sort_card
+
+    a = ctx.args
+    doc = sort_card(card, str(bdir / "plan.json"), str(bdir / "photos"),
+                    SortSpec(site_diameter_m=a.site_diameter), a.camera)
+    ok = sum(1 for v in doc["sites"].values() if v["status"] == "ok")
+    ctx.say(f"[learn] {card}: {len(doc['photos'])} files, {ok} of {len(doc['sites'])} "
+            "sites with enough photos")
+    return {sid: bdir / "photos" / sid for sid in flight.visited()}
 
 
 @dataclass(frozen=True)
@@ -237,7 +274,8 @@ def stage_learn(ctx: Context) -> str:
         history: list[FlightLearned] = []
         flights_flown: list[Flight] = []
         outputs: list[str] = []
-        all_rows: list[SiteRow] = []
+        latest: dict[str, SiteRow] = {}  # each site's row
+        waiting: int | None = None        # a day on cards: the battery whose card is due
         complete = True
         stopped = ""
         root = t.root.resolve()
@@ -259,11 +297,22 @@ def stage_learn(ctx: Context) -> str:
                 stopped = f"flight {k}: no site within the budget"
                 break
             write_json(fdir / "plan.json", flight.to_doc())
-            _write_mission(ctx, flight, fdir / "mission.plan")
-            jobs = site_jobs(ctx, flight)
+            if a.cards is None:
+                _write_mission(ctx, flight, fdir / "mission.plan")
+                jobs = site_jobs(ctx, flight)
+            else:
+                bdir = t.root / f"battery_{k}"
+                outputs += _write_battery(ctx, flight, current, bdir)
+                if k > len(a.cards):
+                    waiting = k
+                    stopped = (f"battery {k}: its missions are in battery_{k}/; fly it and "
+                               "run again with its card added")
+                    break
+                jobs = site_jobs(ctx, flight, _battery_photos(ctx, a.cards[k - 1], bdir,
+                                                              flight))
             rows, note, done = run_jobs(ctx, jobs, f"flight {k}")
             complete = complete and done
-            all_rows += rows.values()
+            latest.update(rows)
             outputs += [str(j.tree.result.relative_to(root)) for j in jobs]
             ids = [j.site.id for j in jobs]
             flown += ids
@@ -293,9 +342,9 @@ def stage_learn(ctx: Context) -> str:
             if history else auc0, "held_out_rows": int(len(test.cls) - len(field_rows)),
             "evaluation": "sat.tst without the field's rows",
             "flights": [h.to_doc() for h in history],
-            "stopped": stopped})
+            "stopped": stopped, "waiting_for_battery": waiting})
         outputs += ["learn/learn.json", "learn/plan_flown.json", "learn/sites_final.json"]
-        made, said = second_look_missions(ctx, all_rows, t.final_plan(True),
+        made, said = second_look_missions(ctx, list(latest.values()), t.final_plan(True),
                                           t.final_sites(True))
         outputs += made
         note = (f"{len(history)} flights, {len(flown)} sites flown, "
@@ -307,4 +356,6 @@ def stage_learn(ctx: Context) -> str:
     return run_stage(ctx, "sites3d", {"plan": ctx.keys["plan"], "photos": ctx.keys["photos"],
                                       "learn": a.learn_weight, "flights": a.flights,
                                       "algo": a.algo, "seed": a.plan_seed,
+                                      "cards": None if a.cards is None else
+                                      [card_digest(Path(c)) for c in a.cards],
                                       "first": [j.key for j in site_jobs(ctx)]}, work)

@@ -16,6 +16,8 @@ def stage_photos(ctx: Context) -> str:
     a = ctx.args
     if not a.photos:
         note = ("not needed: photos from --images-root" if a.images_root
+                else "battery by battery (--cards): each card is sorted as its battery is "
+                "judged (battery_K/photos/)" if a.cards is not None
                 else "not needed: each visited site's flight is simulated")
         ctx.stages.append(StageRun("photos", 0.0, True, note))
         ctx.say(f"[photos] {note}")

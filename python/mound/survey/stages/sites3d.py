@@ -4,6 +4,7 @@ looks' missions; learn.py flies it flight by flight."""
 from __future__ import annotations
 
 import shutil
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -26,9 +27,11 @@ from mound.survey.ledger import digest
 from mound.survey.stages.mission import write_missions
 
 
-def site_jobs(ctx: Context, plan: Plan | None = None) -> list[Any]:
+def site_jobs(ctx: Context, plan: Plan | None = None,
+              photos: Mapping[str, Path] | None = None) -> list[Any]:
     """The 3-D jobs of the sites `plan` visits (default: plan.json); the sites keep their
-    index in sites.json (which seeds their simulation) whichever plan visits them."""
+    index in sites.json (which seeds their simulation) whichever plan visits them. A day
+    on cards gives each site's folder of photos (`photos`)."""
     from mound.recon.defaults import SIM_RECON_ARGS, sim_recon_args
     from mound.survey.site_work import SiteJob
 
@@ -36,7 +39,7 @@ def site_jobs(ctx: Context, plan: Plan | None = None) -> list[Any]:
     # real photos (a card, or folders sorted by hand) get the tool's defaults (COLMAP's
     # keypoint density), the simulated sites the fast setting; --max-features N asks for
     # the fast setting with N features for both
-    card = bool(a.photos or a.images_root)
+    card = bool(a.photos or a.images_root or photos is not None)
     recon_args = (sim_recon_args(a.max_features) if a.max_features is not None
                   else () if card else SIM_RECON_ARGS)
     sites_doc = Sites.read(ctx.tree.sites)
@@ -56,7 +59,7 @@ def site_jobs(ctx: Context, plan: Plan | None = None) -> list[Any]:
     jobs = []
     terrain = sites_doc.terrain() or {}
     grounds = {n["id"]: n["ground_amsl_m"] for n in terrain.get("nodes", [])}
-    photos = images_root(ctx)
+    root_photos = images_root(ctx)
     if sites_doc.origin is None:
         raise InputError(f"{ctx.tree.sites}: origin: missing (the sites are flown in WGS84)")
     for index, s in enumerate(sites_doc.sites):
@@ -64,9 +67,11 @@ def site_jobs(ctx: Context, plan: Plan | None = None) -> list[Any]:
             continue
         ter = (SiteGround(str(Path(a.dem).resolve()), terrain["vertical"], grounds[s.id])
                if a.dem and s.id in grounds else None)
-        images = str((photos / s.id).resolve()) if photos else None
-        second = ctx.tree.second_photos / s.id
-        second_images = (str(second.resolve()) if a.second_photos and second.is_dir()
+        folder = (photos.get(s.id) if photos is not None
+                  else root_photos / s.id if root_photos else None)
+        images = str(folder.resolve()) if folder else None
+        second_dir = ctx.tree.second_photos / s.id
+        second_images = (str(second_dir.resolve()) if a.second_photos and second_dir.is_dir()
                          else None)
         first = {"site": {"id": s.id, "x_m": s.x_m, "y_m": s.y_m,
                           "truth": s.truth.to_doc() if s.truth else None,
@@ -78,7 +83,7 @@ def site_jobs(ctx: Context, plan: Plan | None = None) -> list[Any]:
                     if a.verdict_model else {}),
                  "terrain": ter and {**ter.to_doc(), "dem": ctx.terrain}}
         # the second card changes the site's key, not its first look's (site_work reuses it)
-        key = digest({**first, **({"second_images": folder_digest(second)}
+        key = digest({**first, **({"second_images": folder_digest(second_dir)}
                                   if second_images else {})})
         jobs.append(SiteJob(site=s, index=index, run_root=str(root), run_id=ctx.run_id,
                             origin=sites_doc.origin, key=key, first_key=digest(first),
