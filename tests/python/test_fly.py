@@ -137,3 +137,19 @@ def test_mound_fly_command_line(field_sites: Sites, tmp_path: Path,
                            str(tmp_path / "o2"), "--connect", v.connect_string])
     assert code == 2
     assert "truth" in capsys.readouterr().err
+
+
+def test_a_vehicle_position_out_of_range_is_ignored(field_sites: Sites, tmp_path: Path
+                                                    ) -> None:
+    from types import SimpleNamespace
+
+    conf, tum = confusion()
+    state = fly.InFlight(field_sites, conf, tum, fly.FlyOptions(RANGE_M), tmp_path)
+    o = field_sites.origin
+    assert o is not None
+    for lat, lon in ((2**31 - 1, 0), (0, -(2**31)), (900_000_001, 0)):
+        state.position(SimpleNamespace(lat=lat, lon=lon, relative_alt=0))
+        assert state.aircraft is None
+    state.position(SimpleNamespace(lat=round(o.lat_deg * 1e7), lon=round(o.lon_deg * 1e7),
+                                   relative_alt=30_000))
+    assert state.aircraft is not None and np.allclose(state.aircraft, [0, 0, 30], atol=0.05)

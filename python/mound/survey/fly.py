@@ -230,7 +230,10 @@ class InFlight:
 
     # -- the loop's decisions --------------------------------------------------------------
     def position(self, msg: Any) -> None:
-        """The aircraft's position from a GLOBAL_POSITION_INT."""
+        """The aircraft's position from a GLOBAL_POSITION_INT (one out of range is
+        ignored)."""
+        if not (abs(msg.lat) <= 900_000_000 and abs(msg.lon) <= 1_800_000_000):
+            return
         e = geodetic_to_enu(self.origin, np.array([[msg.lat * 1e-7, msg.lon * 1e-7, 0.0]]))[0]
         self.aircraft = np.array([e[0], e[1], msg.relative_alt * 1e-3])
 
@@ -323,10 +326,11 @@ def fly(link: mavlink_link.Link, state: InFlight, judge: Judge, out: Path) -> di
             replan = False
             if msg is not None and msg.get_type() == "GLOBAL_POSITION_INT":
                 state.position(msg)
-            elif msg is not None and msg.get_type() == "MISSION_CURRENT":
+            elif msg is not None and msg.get_type() == "MISSION_CURRENT" and \
+                    msg.seq < len(state.items):
                 cur = int(msg.seq)
             elif msg is not None and msg.get_type() == "BATTERY_STATUS" and \
-                    msg.battery_remaining >= 0:
+                    0 <= msg.battery_remaining <= 100:  # -1: the vehicle does not know
                 charge = msg.battery_remaining / 100
                 # a re-plan the battery asks for, once per 2 % of charge lost
                 replan = charge <= low_at - 0.02 and state.needs_replan(cur, charge)
