@@ -13,6 +13,7 @@ import pytest
 
 from mound.cli import main as mound_main
 from mound.formats.plan import Plan
+from mound.paths import REPO_ROOT
 from mound.uav import mission_formats
 
 DAY = ["--batteries", "2", "--budget", "2000", "--image-size", "320", "240",
@@ -86,3 +87,30 @@ def test_a_two_battery_day_on_simulated_cards(tmp_path: Path,
         got = body_data((out / "map.html").as_uri() + "#selftest", tmp_path / "chromium")
         assert json.loads(got["errors"]) == [] and got["next-battery"] == "2"
         assert len(json.loads(got["mission-files"])) == len(data["mission_files"])
+
+
+def test_the_day_planned_on_the_value_of_a_visit(tmp_path: Path) -> None:
+    """--reward value: every site's reward is the value of a visit given the verdict's
+    measured confusion (never below 0), the day's first battery planned on it."""
+    import numpy as np
+
+    from mound.recon import visit_value as vv
+    from mound.survey.reward import kazanlak_mix
+
+    report = REPO_ROOT / "docs" / "results" / "verdict_three_answers_kazanlak.json"
+    out = tmp_path / "day"
+    assert mound_main(["day", "--out", str(out), "--batteries", "2", "--budget", "3000",
+                       "--no-progress", "--reward", "value", "--confusion",
+                       str(report)]) == 0
+    sites = json.loads((out / "sites.json").read_text())
+    conf = vv.Confusion.from_report(json.loads(report.read_text()), str(report))
+    tum = conf.tumulus_mean(kazanlak_mix())
+    p = np.array([s["p_mound"] for s in sites["sites"]])
+    want = np.maximum(vv.visit_value(p, tum, conf.none), 0.0)
+    assert np.allclose([s["reward"] for s in sites["sites"]], want)
+    assert sites["provenance"]["reward"] == "value"
+    plan = battery_files(out, 1)
+    assert plan.visited()
+    # the value's largest sites are the likeliest tumuli; the entropy's are p near 0.5
+    top = max(sites["sites"], key=lambda s: s["reward"])
+    assert top["p_mound"] == max(s["p_mound"] for s in sites["sites"])

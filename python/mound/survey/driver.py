@@ -44,6 +44,7 @@ from mound.survey.options import (
     Algo,
     DjiAircraft,
     Firmware,
+    RewardKind,
     ScanPattern,
     SurveyOptions,
 )
@@ -118,6 +119,14 @@ def _flight_arguments(p: argparse.ArgumentParser, D: SurveyOptions) -> None:
     g.add_argument("--algo", default=D.algo, choices=get_args(Algo),
                    help="mound_plan's algorithm (default alns: ALNS-OP, 1 s at most; newalg: "
                    "the paper's)")
+    g.add_argument("--reward", default=D.reward, choices=get_args(RewardKind),
+                   help="what a visit is worth to the planner: entropy (the paper's binary "
+                   "entropy of p, in bits) or value (the expected fall in wrong final labels "
+                   "given the verdict's three-answer confusion, --confusion); it replaces "
+                   "the rewards of a --sites file")
+    g.add_argument("--confusion", metavar="FILE", help="--reward value: a verdict model "
+                   "with trained.confusion, or an eval-verdict report (e.g. "
+                   "docs/results/verdict_three_answers_kazanlak.json)")
     g.add_argument("--plan-seed", type=NUMBERS["plan_seed"].arg(),
                    default=D.plan_seed, help="mound_plan's seed")
     g.add_argument("--flights", type=NUMBERS["flights"].arg(), default=D.flights,

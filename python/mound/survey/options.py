@@ -33,6 +33,7 @@ from mound.uav.terrain import TerrainSpec, spec_from_args
 ScanPattern = Literal["raster", "orbit", "both"]
 Algo = Literal["alns", "newalg", "newalg-ls", "greedy", "tsiligirides", "glv"]
 Firmware = Literal["px4", "ardupilot"]
+RewardKind = Literal["entropy", "value"]
 DjiAircraft = Literal["m3e", "m3t", "m30", "m300", "m350", "m4e", "mini4pro", "air3"]
 DemVertical = Literal["ellipsoid", "egm96", "egm2008"]
 
@@ -71,6 +72,8 @@ class SurveyOptions:
     scan_pattern: ScanPattern = "raster"
     site_diameter: float = DEFAULT_SITE_DIAMETER_M         # m
     algo: Algo = "alns"
+    reward: RewardKind = "entropy"      # what a visit is worth to the planner
+    confusion: str | None = None        # --reward value: the verdict's three-answer confusion
     plan_seed: int = 1
     flights: int = 1
     dem: str | None = None
@@ -207,6 +210,20 @@ class SurveyOptions:
                                  "--reference)")
         if self.dense_size != 0 and not self.reference:
             self._check_cloud_settings()
+        if self.confusion and self.reward != "value":
+            raise UsageError("--confusion goes with --reward value")
+        if self.reward == "value":
+            from mound.survey.reward import read_confusion
+
+            if not self.confusion:
+                raise UsageError("--reward value: needs --confusion (a verdict model with "
+                                 "trained.confusion, or an eval-verdict report)")
+            if not Path(self.confusion).is_file():
+                raise UsageError(f"--confusion: {self.confusion} not found")
+            try:
+                read_confusion(self.confusion)
+            except InputError as e:
+                raise UsageError(f"--confusion: {e}") from None
         if self.sites and not Path(self.sites).is_file():
             raise UsageError(f"--sites: {self.sites} not found")
         if self.scene:

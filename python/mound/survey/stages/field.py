@@ -15,6 +15,7 @@ from mound.geojson import point_feature_doc
 from mound.geometry.geodesy import Origin
 from mound.jsonio import load_json, read_json, write_json
 from mound.survey.context import Context, digest_files, run_stage, scan_spec
+from mound.survey.reward import describe
 
 
 def scene_sites(ctx: Context, scan: Any) -> Sites:
@@ -136,6 +137,10 @@ def stage_field(ctx: Context) -> str:
                     "spacing": a.spacing, "scan": scan.to_doc(), "budget": a.budget,
                     "home": a.home}
     material["terrain"] = ctx.terrain
+    if a.reward != "entropy":  # (entropy: the material of runs before --reward)
+        from mound.survey.reward import confusion_digest
+
+        material["reward"] = [a.reward, confusion_digest(a.confusion)]
 
     def work() -> tuple[list[str], str, bool]:
         if a.scene:
@@ -155,6 +160,10 @@ def stage_field(ctx: Context) -> str:
                 home = parse_lat_lon(a.home)
                 assert home is not None  # a.home is set
                 out = replace(out, origin=Origin(home[0], home[1], 0.0))
+        if a.reward != "entropy":
+            from mound.survey.reward import reward_of, with_rewards
+
+            out = with_rewards(out, reward_of(a.reward, a.confusion), a.reward)
         if a.dem:
             from mound.uav import terrain
 
@@ -164,7 +173,8 @@ def stage_field(ctx: Context) -> str:
         what = (f"field seed {a.field_seed}" if not (a.sites or a.scene) else
                 f"{a.sites}" if a.sites else f"{len(a.scenes)} scene(s)")
         return (["sites.json"], f"{what}: {len(out.sites)} sites, {prov['positives']} "
-                f"true mounds, total reward {prov['total_reward']:.2f} bits, scan cost "
+                f"true mounds, total reward {prov['total_reward']:.2f} "
+                f"{describe(a.reward)}, scan cost "
                 f"{out.sites[0].scan_cost_m:.0f} m per site"
                 f"{' (energy, over the DEM)' if a.dem else ''}, budget "
                 f"{out.budget_m:.0f} m", True)

@@ -39,6 +39,7 @@ from mound.formats.site_row import SiteRow
 from mound.formats.sites import Sites
 from mound.jsonio import read_json, write_json
 from mound.survey.context import Context, card_digest, mission_terrain, run_stage
+from mound.survey.reward import Reward, reward_of
 from mound.survey.stages.sites3d import run_jobs, second_look_missions, site_jobs
 from mound.uav import files as mission_files
 from mound.uav import mission
@@ -59,11 +60,12 @@ def statlog_rows(sites: Sites) -> np.ndarray:
     return np.array(rows, dtype=int)
 
 
-def with_model(sites: Sites, model: Model, test: statlog.Split) -> Sites:
-    """The sites with every site's p_mound and reward from `model` (the site's Statlog
-    row's features)."""
+def with_model(sites: Sites, model: Model, test: statlog.Split,
+               reward_of: Reward = binary_entropy_bits) -> Sites:
+    """The sites with every site's p_mound and reward (`reward_of` p) from `model` (the
+    site's Statlog row's features)."""
     p = model.predict(test.x[statlog_rows(sites)])
-    reward = binary_entropy_bits(p)
+    reward = reward_of(p)
     return sites.with_sites(
         [replace(s, p_mound=float(pk), reward=float(rk))
          for s, pk, rk in zip(sites.sites, p, reward, strict=True)],
@@ -325,7 +327,7 @@ def stage_learn(ctx: Context) -> str:
                                  extra=(test.x[np.array(ex_rows, dtype=int)],
                                         np.array(ex_y), np.array(ex_w)))
             write_json(fdir / "model.json", model.to_doc())
-            current = with_model(sites0, model, test)
+            current = with_model(sites0, model, test, reward_of(a.reward, a.confusion))
             write_json(fdir / "sites_after.json", current.to_doc())
             changes, flips = _changes(before, current, flown)
             auc = held_out_auc(model, test, field_rows)
