@@ -62,6 +62,7 @@ from mound.recon import visit_value as vv  # noqa: E402
 from mound.sim.population import population_path, read_population  # noqa: E402
 from mound.survey.context import scan_spec  # noqa: E402
 from mound.survey.options import SurveyOptions  # noqa: E402
+from mound.survey.reward import kazanlak_mix, read_confusion  # noqa: E402
 from mound.survey.stages.learn import NO_ROUND_TRIP  # noqa: E402
 
 POLICIES = ("once-entropy", "once-value", "battery", "battery-no-revisit", "in-flight")
@@ -258,16 +259,11 @@ def main() -> None:
                     "2026-11-29 (its trained.confusion)")
     ap.add_argument("--out", help="per-day results (JSON)")
     a = ap.parse_args()
-    doc = json.loads(Path(a.confusion).read_text())
-    conf = (vv.Confusion.from_model(doc, a.confusion) if doc.get("schema") ==
-            "mound.verdict_model" else vv.Confusion.from_report(doc, a.confusion))
+    conf = read_confusion(a.confusion)
+    assert isinstance(conf, vv.Confusion)
     heights = np.array([r.height_m for r in read_population(str(population_path(
         "kazanlak"))).rows])
-    mix = {}
-    for h in heights:
-        c = vv.height_class(float(h))
-        mix[c] = mix.get(c, 0.0) + 1.0
-    tum = conf.tumulus_mean(mix)
+    tum = conf.tumulus_mean(kazanlak_mix())
     train, test = statlog.load("sat.trn"), statlog.load("sat.tst")
     model0 = coarse.load_model(None)
     print(f"{a.days} days, {a.batteries} batteries of {a.budget:.0f} m; confusion "
