@@ -181,18 +181,7 @@ class SurveyOptions:
                 raise UsageError("--learn re-plans each flight after the one before: it "
                                  "flies simulated flights, or real ones with --cards (photos "
                                  "of re-planned flights come one card at a time)")
-        if self.cards is not None:
-            if not self.learn:
-                raise UsageError("--cards: the day battery by battery goes with --learn")
-            if self.second_photos:
-                raise UsageError("--cards: the second looks of a day on cards are flown in "
-                                 "its batteries, not from --second-photos")
-            for k, card in enumerate(self.cards, start=1):
-                if not Path(card).is_dir():
-                    raise UsageError(f"--cards: battery {k}'s card {card} is not a folder")
-            if len(self.cards) > self.flights:
-                raise UsageError(f"--cards: {len(self.cards)} cards for --flights "
-                                 f"{self.flights} batteries")
+        self._check_day()
         if self.reference and not Path(self.reference).is_file():
             raise UsageError(f"--reference: {self.reference} not found")
         if self.verdict_model:
@@ -210,20 +199,6 @@ class SurveyOptions:
                                  "--reference)")
         if self.dense_size != 0 and not self.reference:
             self._check_cloud_settings()
-        if self.confusion and self.reward != "value":
-            raise UsageError("--confusion goes with --reward value")
-        if self.reward == "value":
-            from mound.survey.reward import read_confusion
-
-            if not self.confusion:
-                raise UsageError("--reward value: needs --confusion (a verdict model with "
-                                 "trained.confusion, or an eval-verdict report)")
-            if not Path(self.confusion).is_file():
-                raise UsageError(f"--confusion: {self.confusion} not found")
-            try:
-                read_confusion(self.confusion)
-            except InputError as e:
-                raise UsageError(f"--confusion: {e}") from None
         if self.sites and not Path(self.sites).is_file():
             raise UsageError(f"--sites: {self.sites} not found")
         if self.scene:
@@ -275,6 +250,35 @@ class SurveyOptions:
         for name, value in settings.items():
             args += ["--" + name.replace("_", "-"), f"{value:g}"]
         return tuple(args)
+
+    def _check_day(self) -> None:
+        """--cards (a day battery by battery) and --reward value."""
+        if self.cards is not None:
+            if not self.learn:
+                raise UsageError("--cards: the day battery by battery goes with --learn")
+            if self.second_photos:
+                raise UsageError("--cards: the second looks of a day on cards are flown in "
+                                 "its batteries, not from --second-photos")
+            for k, card in enumerate(self.cards, start=1):
+                if not Path(card).is_dir():
+                    raise UsageError(f"--cards: battery {k}'s card {card} is not a folder")
+            if len(self.cards) > self.flights:
+                raise UsageError(f"--cards: {len(self.cards)} cards for --flights "
+                                 f"{self.flights} batteries")
+        if self.confusion and self.reward != "value":
+            raise UsageError("--confusion goes with --reward value")
+        if self.reward == "value":
+            from mound.survey.reward import read_confusion
+
+            if not self.confusion:
+                raise UsageError("--reward value: needs --confusion (a verdict model with "
+                                 "trained.confusion, or an eval-verdict report)")
+            if not Path(self.confusion).is_file():
+                raise UsageError(f"--confusion: {self.confusion} not found")
+            try:
+                read_confusion(self.confusion)
+            except InputError as e:
+                raise UsageError(f"--confusion: {e}") from None
 
     def _check_cloud_settings(self) -> None:
         """The dense clouds the survey will make are those its verdict model was trained

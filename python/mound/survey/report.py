@@ -24,11 +24,11 @@ from mound.errors import InputError
 from mound.formats.plan import Plan
 from mound.formats.site_row import SiteRow
 from mound.formats.sites import Sites
-from mound.jsonio import load_json, read_json, write_atomic
+from mound.jsonio import read_json, write_atomic
 from mound.survey import figures
 from mound.survey.context import StageRun
 from mound.survey.options import SurveyOptions
-from mound.survey.tree import RunTree, SiteTree
+from mound.survey.tree import RunTree, SiteTree, waiting_for_card
 
 SCHEMA = "mound.survey"
 VERSION = 1
@@ -120,16 +120,6 @@ def field_team(judged: list[dict[str, Any]]) -> list[dict[str, Any]]:
     return out
 
 
-def _waiting(tree: RunTree) -> str | None:
-    """A day on cards waiting for a battery's card: why (learn.json's `stopped`)."""
-    path = tree.learn / "learn.json"
-    if not path.is_file():
-        return None
-    doc = load_json(path)
-    return (str(doc.get("stopped", "")) if isinstance(doc, dict)
-            and doc.get("waiting_for_battery") is not None else None)
-
-
 def build_summary(tree: RunTree, args: SurveyOptions, stages: list[StageRun],
                   started: float) -> dict[str, Any]:
     learned = args.learn
@@ -155,7 +145,7 @@ def build_summary(tree: RunTree, args: SurveyOptions, stages: list[StageRun],
         status, reason = "failed", "no visited site could be judged (see sites[].failure)"
     elif len(judged) < len(visited):
         status, reason = "partial", f"{len(visited) - len(judged)} visited sites failed"
-    waiting = _waiting(tree) if args.cards is not None else None
+    waiting = waiting_for_card(tree) if args.cards is not None else None
     if waiting is not None and status != "partial":
         status, reason = "waiting", waiting
     doc: dict[str, Any] = {

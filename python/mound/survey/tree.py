@@ -23,6 +23,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+from mound.jsonio import load_json
+
 
 @dataclass(frozen=True)
 class RunTree:
@@ -175,3 +177,13 @@ class SiteTree:
     def second(self) -> SiteTree:
         """The second look's files (a wider flight over a site the first left undecided)."""
         return SiteTree(self.root / "second")
+
+
+def waiting_for_card(tree: RunTree) -> str | None:
+    """A day on cards waiting for a battery's card: why (learn.json's `stopped`)."""
+    path = tree.learn / "learn.json"
+    if not path.is_file():
+        return None
+    doc = load_json(path)
+    return (str(doc.get("stopped", "")) if isinstance(doc, dict)
+            and doc.get("waiting_for_battery") is not None else None)

@@ -201,13 +201,8 @@ def map_data(tree: RunTree, summary: dict[str, Any], sites_doc: Sites, plan: Pla
                                   "format": path.suffix[1:],
                                   "waypoints": len(r.points),
                                   "path": [[p.lat_deg, p.lon_deg] for p in r.points]})
-    # a day on cards (`mound day`): the battery to fly next, as planned after the last card
-    next_battery = None
-    learn_doc = tree.learn / "learn.json"
-    waiting = load_json(learn_doc).get("waiting_for_battery") if learn_doc.is_file() else None
-    if isinstance(waiting, int) and (tree.root / f"battery_{waiting}" / "plan.json").is_file():
-        nb = Plan.read(tree.root / f"battery_{waiting}" / "plan.json")
-        next_battery = {"battery": waiting, **paths(nb.flights)[0]}
+    nb = _next_battery(tree)
+    next_battery = {"battery": nb[0], **paths(nb[1].flights)[0]} if nb else None
     return {"schema": "mound.map", "version": 1, "second_looks": second_looks,
             "next_battery": next_battery,
             "mission_files": mission_files,
@@ -216,6 +211,16 @@ def map_data(tree: RunTree, summary: dict[str, Any], sites_doc: Sites, plan: Pla
             "footprints": footprints,
             "budget_m": plan.budget_m if plan else None,
             "metrics": summary.get("metrics", {})}
+
+
+def _next_battery(tree: RunTree) -> tuple[int, Plan] | None:
+    """A day on cards (`mound day`): the battery to fly next and its plan."""
+    learn_doc = tree.learn / "learn.json"
+    waiting = load_json(learn_doc).get("waiting_for_battery") if learn_doc.is_file() else None
+    plan = tree.root / f"battery_{waiting}" / "plan.json"
+    if isinstance(waiting, int) and plan.is_file():
+        return waiting, Plan.read(plan)
+    return None
 
 
 class Frustum(NamedTuple):

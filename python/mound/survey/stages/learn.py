@@ -24,6 +24,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -149,6 +150,21 @@ def _write_battery(ctx: Context, plan: Plan, sites: Sites, bdir: Path) -> list[s
                       bdir / "mission.json"]]
 
 
+def _flight_jobs(ctx: Context, k: int, flight: Plan, current: Sites, fdir: Path,
+                 outputs: list[str]) -> list[Any] | None:
+    """Flight k's site jobs: simulated, or on a day on cards (--cards) its battery's folder
+    written and its card's photos (None: its card is not there yet)."""
+    a = ctx.args
+    if a.cards is None:
+        _write_mission(ctx, flight, fdir / "mission.plan")
+        return site_jobs(ctx, flight)
+    bdir = ctx.tree.root / f"battery_{k}"
+    outputs += _write_battery(ctx, flight, current, bdir)
+    if k > len(a.cards):
+        return None
+    return site_jobs(ctx, flight, _battery_photos(ctx, a.cards[k - 1], bdir, flight))
+
+
 def _battery_photos(ctx: Context, card: str, bdir: Path, flight: Plan) -> dict[str, Path]:
     """Battery k's card sorted into its sites: bdir/photos/<id> (and photos.json)."""
     from mound.photos.sort import SortSpec, sort_card
@@ -259,8 +275,7 @@ def stage_learn(ctx: Context) -> str:
     t = ctx.tree
 
     def work() -> tuple[list[str], str, bool]:
-        train = statlog.load("sat.trn")
-        test = statlog.load("sat.tst")
+        train, test = statlog.load("sat.trn"), statlog.load("sat.tst")
         model = Model.from_doc(read_json(t.model, MODEL_SCHEMA, MODEL_VERSION), str(t.model))
         sites0 = Sites.read(t.sites)
         field_rows = statlog_rows(sites0)
@@ -278,9 +293,7 @@ def stage_learn(ctx: Context) -> str:
         outputs: list[str] = []
         latest: dict[str, SiteRow] = {}  # each site's row
         waiting: int | None = None        # a day on cards: the battery whose card is due
-        complete = True
-        stopped = ""
-        root = t.root.resolve()
+        complete, stopped, root = True, "", t.root.resolve()
         for k in range(1, a.flights + 1):
             fdir = t.learn / f"flight_{k}"
             fdir.mkdir(parents=True, exist_ok=True)
@@ -299,19 +312,12 @@ def stage_learn(ctx: Context) -> str:
                 stopped = f"flight {k}: no site within the budget"
                 break
             write_json(fdir / "plan.json", flight.to_doc())
-            if a.cards is None:
-                _write_mission(ctx, flight, fdir / "mission.plan")
-                jobs = site_jobs(ctx, flight)
-            else:
-                bdir = t.root / f"battery_{k}"
-                outputs += _write_battery(ctx, flight, current, bdir)
-                if k > len(a.cards):
-                    waiting = k
-                    stopped = (f"battery {k}: its missions are in battery_{k}/; fly it and "
-                               "run again with its card added")
-                    break
-                jobs = site_jobs(ctx, flight, _battery_photos(ctx, a.cards[k - 1], bdir,
-                                                              flight))
+            jobs = _flight_jobs(ctx, k, flight, current, fdir, outputs)
+            if jobs is None:
+                waiting = k
+                stopped = (f"battery {k}: its missions are in battery_{k}/; fly it and "
+                           "run again with its card added")
+                break
             rows, note, done = run_jobs(ctx, jobs, f"flight {k}")
             complete = complete and done
             latest.update(rows)
