@@ -19,6 +19,9 @@ k-th visit answers alike under every policy) for every policy:
   p and value recomputed, an undecided site's p moved by Bayes' rule and kept as a node
   for a second look, and the batteries left re-planned; the first of them is flown;
 - `battery-no-revisit`: the same without second looks;
+- `oracle` (a ceiling, not a policy): as `battery`, planned on the truth (a tumulus's
+  value as if p were 1, a bare site's as if 0): the most tumuli these batteries and this
+  verdict could confirm;
 - `in-flight`: as `battery`, and within each battery the rest of it re-planned after each
   site's answer (`mound fly`'s loop): the site's p moved by Bayes' rule, mound_plan
   planning from the site just flown to home with the distance left, the first site of
@@ -65,7 +68,8 @@ from mound.survey.options import SurveyOptions  # noqa: E402
 from mound.survey.reward import kazanlak_mix, read_confusion  # noqa: E402
 from mound.survey.stages.learn import NO_ROUND_TRIP  # noqa: E402
 
-POLICIES = ("once-entropy", "once-value", "battery", "battery-no-revisit", "in-flight")
+POLICIES = ("once-entropy", "once-value", "battery", "battery-no-revisit", "in-flight",
+            "oracle")
 LEARN_WEIGHT = 100.0  # training examples a verified site counts as (bench_learn's best)
 MAX_VISITS = 3
 
@@ -181,7 +185,8 @@ def run(policy: str, day: Day, conf: vv.Confusion, tum: np.ndarray, model0: Mode
                 out.flights += 1
         out.p_final = p
         return out
-    revisit = policy in ("battery", "in-flight")
+    revisit = policy in ("battery", "in-flight", "oracle")
+    truth = day.tumulus.astype(float)
     ex_rows: list[int] = []
     ex_y: list[float] = []
     ex_w: list[float] = []
@@ -190,7 +195,8 @@ def run(policy: str, day: Day, conf: vv.Confusion, tum: np.ndarray, model0: Mode
         keep = [i for i in range(n) if i not in out.answers
                 or (revisit and out.answers[i] == "undecided"
                     and out.visits[i] < MAX_VISITS)]
-        pl = plan(day.sites, keep, vv.visit_value(p, tum, conf.none), k_flights - k, work)
+        pl = plan(day.sites, keep, vv.visit_value(truth if policy == "oracle" else p, tum,
+                                                  conf.none), k_flights - k, work)
         first = next((f for f in pl.flights if f.sites), None) if pl else None
         if first is None:
             break
@@ -257,6 +263,8 @@ def main() -> None:
                     default=str(ROOT / "docs/results/verdict_three_answers_kazanlak.json"),
                     help="an eval-verdict report, or a verdict model trained since "
                     "2026-11-29 (its trained.confusion)")
+    ap.add_argument("--policies", default=",".join(POLICIES),
+                    help="those to run, comma-separated (once-entropy, the base, always)")
     ap.add_argument("--out", help="per-day results (JSON)")
     a = ap.parse_args()
     conf = read_confusion(a.confusion)
@@ -270,12 +278,16 @@ def main() -> None:
           f"{Path(a.confusion).name}: a tumulus (Kazanlak mix) mound/undecided/no_mound "
           f"{tum[0]:.3f}/{tum[1]:.3f}/{tum[2]:.3f}, a bare site {conf.none[0]:.4f}/"
           f"{conf.none[1]:.3f}/{conf.none[2]:.3f}", flush=True)
-    rows: dict[str, list[dict[str, float]]] = {p: [] for p in POLICIES}
+    chosen = ["once-entropy"] + [q for q in a.policies.split(",") if q != "once-entropy"]
+    unknown = [q for q in chosen if q not in POLICIES]
+    if unknown:
+        raise SystemExit(f"--policies: {unknown[0]!r} is not one of {', '.join(POLICIES)}")
+    rows: dict[str, list[dict[str, float]]] = {p: [] for p in chosen}
     with tempfile.TemporaryDirectory() as tmp:
         for d in range(a.days):
             day = make_day(d, test, model0, a.budget, heights)
             line = [f"day {d}: {int(day.tumulus.sum())} tumuli"]
-            for pol in POLICIES:
+            for pol in chosen:
                 s = score(day, run(pol, day, conf, tum, model0, train, test, a.batteries,
                                    Path(tmp)))
                 rows[pol].append(s)

@@ -18,6 +18,7 @@ battery: the sites by p, the first plan, the path flown, the answers.
 
     MOUND_DATA=../shared/data .venv/bin/python tools/bench/bench_fly.py [--batteries 10]
         [--range-m 5000] [--fault] [--figure docs/figures/field_day_fly.png]
+        [--figure-battery 0]
 """
 
 from __future__ import annotations
@@ -91,7 +92,7 @@ def reference_uploads(missions: list[list], reps: int = 3) -> list[float]:
     return times
 
 
-def figure(log: dict, aircraft: object, path: str) -> None:
+def figure(log: dict, aircraft: object, path: str, fault: bool) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -125,7 +126,9 @@ def figure(log: dict, aircraft: object, path: str) -> None:
     ax.set_xlim(box[:, 0].min() - 300, box[:, 0].max() + 600)
     ax.set_ylim(box[:, 1].min() - 300, box[:, 1].max() + 600)
     n = len(log["uploads"])
-    ax.set_title(f"One battery with mound fly: {n} missions, {n - 1} replaced in the air")
+    ax.set_title(f"One battery with mound fly: {n} missions, {n - 1} replaced in the air"
+                 + ("\n(a cell fault as the first site is judged: home at once)" if fault
+                    else ""), fontsize=10)
     ax.set_xlabel("east of home (m)")
     ax.set_ylabel("north of home (m)")
     ax.set_aspect("equal")
@@ -142,6 +145,7 @@ def main() -> None:
     ap.add_argument("--judge-delay", type=float, default=0.05)
     ap.add_argument("--fault", action="store_true")
     ap.add_argument("--figure")
+    ap.add_argument("--figure-battery", type=int, default=0, help="the battery drawn")
     a = ap.parse_args()
     test = statlog.load("sat.tst")
     model = coarse.load_model(None)
@@ -166,8 +170,8 @@ def main() -> None:
                   f"{aircraft.landed} with {aircraft.charge():.0%} "  # type: ignore
                   f"(reserve {fly.FlyOptions(a.range_m).reserve:.0%}), flown "
                   f"{aircraft.flown_m:.0f} m", flush=True)  # type: ignore[attr-defined]
-            if d == 0 and a.figure:
-                figure(log, aircraft, a.figure)
+            if d == a.figure_battery and a.figure:
+                figure(log, aircraft, a.figure, a.fault)
     print(f"\nre-plan (mound_plan and the mission built), s: min {min(plans):.3f} median "
           f"{statistics.median(plans):.3f} ({len(plans)} re-plans)")
     print(f"replacement in the air (upload, read back, current item set), s: min "
