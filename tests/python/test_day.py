@@ -46,6 +46,8 @@ def test_a_two_battery_day_on_simulated_cards(tmp_path: Path,
     doc = json.loads((out / "day.json").read_text())
     assert doc["schema"] == "mound.day" and doc["status"] == "waiting" and not doc["flown"]
     plan1 = battery_files(out, 1)
+    # the day planned once is not written as missions: the crew flies battery_K/ only
+    assert not list(out.glob("mission*.plan")) and not (out / "mission.json").exists()
     assert doc["next"] == {"battery": 1, "folder": "battery_1",
                            "sites": sorted(plan1.visited(), key=plan1.visit_order().index)}
     # battery 1 flies: its card
@@ -75,12 +77,15 @@ def test_a_two_battery_day_on_simulated_cards(tmp_path: Path,
     # the day's own flags are refused when given to it as survey options
     assert mound_main(["day", "--out", str(out), "--learn"]) == 2
     assert "--learn: mound day sets it" in capsys.readouterr().err
+    assert mound_main(["day", "--out", str(out), "--connect", "udpout:127.0.0.1:14550"]) == 2
+    assert "--connect: a day on cards uploads no mission" in capsys.readouterr().err
     # the map: the flight flown, the next battery, its mission files read back
     js = (out / "map" / "survey.js").read_text()
     data = json.loads(js[js.index("=") + 1:].strip().rstrip(";"))
     assert data["next_battery"]["battery"] == 2 and len(data["flights"]) == 1
-    assert {f["file"] for f in data["mission_files"]} >= {
-        "battery_2/mission.plan", "battery_2/mission.kmz", "battery_2/mission.csv"}
+    assert data["footprints"]  # the batteries' image footprints
+    assert {f["file"] for f in data["mission_files"]} == {
+        f"battery_{k}/mission.{x}" for k in (1, 2) for x in ("plan", "kmz", "csv")}
     if shutil.which("chromium"):
         from pages import body_data
 

@@ -259,6 +259,9 @@ class SurveyOptions:
             if self.second_photos:
                 raise UsageError("--cards: the second looks of a day on cards are flown in "
                                  "its batteries, not from --second-photos")
+            if self.connect:
+                raise UsageError("--connect: a day on cards uploads no mission; upload "
+                                 "battery_K/mission.plan with `mound mission upload`")
             for k, card in enumerate(self.cards, start=1):
                 if not Path(card).is_dir():
                     raise UsageError(f"--cards: battery {k}'s card {card} is not a folder")

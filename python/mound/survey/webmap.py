@@ -169,7 +169,8 @@ def map_data(tree: RunTree, summary: dict[str, Any], sites_doc: Sites, plan: Pla
     for k, tif in enumerate(sorted(tree.root.glob("scene/*/p_mound.tif"))):
         overlay(tif, "scene_p_mound", "prob", None, f"scene{k:02d}_p_mound.png")
     footprints = []
-    for gj in sorted(tree.root.glob("mission*.geojson")):
+    for gj in sorted([*tree.root.glob("mission*.geojson"),
+                      *tree.root.glob("battery_*/mission*.geojson")]):
         for f in load_json(gj).get("features", []):
             if f.get("properties", {}).get("kind") == "image_footprint":
                 ring = f["geometry"]["coordinates"][0]

@@ -68,6 +68,9 @@ def stage_mission(ctx: Context) -> str:
     t = ctx.tree
 
     def work() -> tuple[list[str], str, bool]:
+        if a.cards is not None:  # the day planned once is not what the crew flies
+            return [], ("a day on cards: each battery's missions are written as the day "
+                        "goes, in battery_K/"), True
         plan = Plan.read(t.plan)
         if not plan.visited():
             return [], "nothing to fly: no site fits the budget", True
@@ -117,5 +120,6 @@ def stage_mission(ctx: Context) -> str:
         return ([*made, "mission.json"], note, True)
 
     return run_stage(ctx, "mission", {"plan": ctx.keys["plan"], "connect": a.connect,
+                                      **({"cards": True} if a.cards is not None else {}),
                                       "firmware": a.firmware, "aircraft": a.aircraft,
                                       "terrain": ctx.terrain}, work)
