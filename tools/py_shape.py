@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """The shape of the Python package, measured from its source (issue 57): the largest
 modules and functions, the import cycles between modules (imports inside functions
-included), and how often `dict[str, Any]` is written.
+included), the private names one module imports from another (issue 70), and how often
+`dict[str, Any]` is written.
 
     python tools/py_shape.py [--json]
 """
@@ -52,6 +53,23 @@ def imports_of(name: str, path: Path, known: set[str]) -> set[str]:
                     out.add(mod)
     out.discard(name)
     return out
+
+
+def private_imports_of(name: str, text: str) -> list[str]:
+    """`module:line name` for each private name (`_x`, not a dunder) that module `name`
+    imports from another module of the package."""
+    out = []
+    for node in ast.walk(ast.parse(text)):
+        if isinstance(node, ast.ImportFrom) and not node.level and node.module and \
+                node.module.startswith("mound") and node.module != name:
+            out += [f"{name}:{node.lineno} {node.module}.{a.name}" for a in node.names
+                    if a.name.startswith("_") and not a.name.startswith("__")]
+    return out
+
+
+def private_imports() -> list[str]:
+    return [x for n, p in modules().items()
+            for x in private_imports_of(n, p.read_text(encoding="utf-8"))]
 
 
 def import_graph() -> dict[str, set[str]]:
@@ -132,6 +150,7 @@ def shape() -> dict[str, object]:
         "largest_functions": [{"function": f, "lines": n} for n, f in funcs[:5]],
         "functions_over_100": sum(n > 100 for n, _ in funcs),
         "import_cycles": cycles(import_graph()),
+        "private_imports": private_imports(),
         "dict_str_any": sum(p.read_text(encoding="utf-8").count("dict[str, Any]")
                             for p in mods.values()),
     }
@@ -153,6 +172,10 @@ def main() -> int:
     print(f"import cycles: {len(cyc)}")  # type: ignore[arg-type]
     for c in cyc:  # type: ignore[attr-defined]
         print("  " + " <-> ".join(c))
+    priv = s["private_imports"]
+    print(f"private names imported across modules: {len(priv)}")  # type: ignore[arg-type]
+    for x in priv:  # type: ignore[attr-defined]
+        print("  " + x)
     print(f"dict[str, Any] written {s['dict_str_any']} times")
     return 0
 

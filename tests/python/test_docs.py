@@ -93,6 +93,17 @@ def test_no_import_cycle_between_python_modules() -> None:
     assert any("mound.jsonio" in c for c in shape.cycles(planted))
 
 
+def test_no_private_name_is_imported_from_another_module() -> None:
+    """A module's `_name` is its own (issue 70): what another module needs is public. The
+    checker finds a planted import, and leaves dunders and a module's own names alone."""
+    shape = _tool("py_shape", "tools/py_shape.py")
+    assert shape.private_imports() == []
+    planted = "from mound.plan.exact import flow_graph, _helper\nfrom mound.x import __all__\n"
+    assert shape.private_imports_of("mound.plan.cli", planted) == [
+        "mound.plan.cli:1 mound.plan.exact._helper"]
+    assert shape.private_imports_of("mound.plan.exact", "from mound.plan.exact import _a") == []
+
+
 def test_the_plan_example_is_shortened_but_keeps_its_ends() -> None:
     short = _hooks()._short
     assert short(["home", *[f"s{i:03d}" for i in range(50)], "home"]).endswith('"s049", "home"]')

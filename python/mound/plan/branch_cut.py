@@ -39,7 +39,13 @@ from typing import Any
 import numpy as np
 from pyscipopt import SCIP_PARAMSETTING, SCIP_RESULT, Conshdlr, Model, quicksum
 
-from mound.plan.exact import ExactResult, _components, _route_of, flow_graph, min_cut_from_home
+from mound.plan.exact import (
+    ExactResult,
+    connected_components,
+    flow_graph,
+    min_cut_from_home,
+    route_from_edges,
+)
 from mound.plan.sites import OpProblem
 
 
@@ -52,7 +58,7 @@ class _Gsec(Conshdlr):
     def _violated_integral(self, sol: Any) -> list[tuple[int, frozenset[int]]]:
         out = []
         for f in range(self.bc.flights):
-            comps = _components(self.bc.n, self.bc.used_edges(sol, f))
+            comps = connected_components(self.bc.n, self.bc.used_edges(sol, f))
             out += [(f, frozenset(c)) for c in comps if 0 not in c]
         return out
 
@@ -178,7 +184,7 @@ class _Model:
         n = self.n
         support = [self.edges[k] for k in np.flatnonzero(xs > 1e-6)]
         found: list[tuple[frozenset[int], int]] = []
-        for comp in _components(n, support):
+        for comp in connected_components(n, support):
             if 0 in comp:
                 continue
             s = frozenset(comp)
@@ -268,8 +274,9 @@ class _Model:
 
     def route_of(self, sol: Any, flight: int = 0) -> list[int]:
         used = self.used_edges(sol, flight)
-        home = next((comp for comp in _components(self.n, used) if 0 in comp), [0])
-        return _route_of(self.n, [e for e in used if e[0] in home], self.p.closed, self.p.end)
+        home = next((comp for comp in connected_components(self.n, used) if 0 in comp), [0])
+        return route_from_edges(self.n, [e for e in used if e[0] in home], self.p.closed,
+                                self.p.end)
 
 
 def solve(p: OpProblem, time_limit_s: float = 60.0,

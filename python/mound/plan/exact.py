@@ -45,7 +45,7 @@ class ExactResult:
     gap: float = field(default=0.0)
 
 
-def _components(n: int, edges: list[tuple[int, int]]) -> list[list[int]]:
+def connected_components(n: int, edges: list[tuple[int, int]]) -> list[list[int]]:
     parent = list(range(n))
 
     def find(a: int) -> int:
@@ -62,7 +62,7 @@ def _components(n: int, edges: list[tuple[int, int]]) -> list[list[int]]:
     return list(groups.values())
 
 
-def _route_of(n: int, edges: list[tuple[int, int]], closed: bool, end: int) -> list[int]:
+def route_from_edges(n: int, edges: list[tuple[int, int]], closed: bool, end: int) -> list[int]:
     """Walks the used edges from home (to the end node of a path)."""
     adj: dict[int, list[int]] = {}
     for a, b in edges:
@@ -255,9 +255,9 @@ def solve(p: OpProblem, time_limit_s: float = 60.0, mip_gap: float = 1e-9,
         if x.size == 0:
             break
         used = [edges[k] for k in range(ne) for _ in range(round(x[k]))]
-        comps = _components(n, used)
+        comps = connected_components(n, used)
         home_comp = next((comp for comp in comps if 0 in comp), [0])
-        route = _route_of(n, [e for e in used if e[0] in home_comp], p.closed, p.end)
+        route = route_from_edges(n, [e for e in used if e[0] in home_comp], p.closed, p.end)
         if status != "optimal":
             break
         outside = [comp for comp in comps if 0 not in comp]

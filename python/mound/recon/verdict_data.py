@@ -30,11 +30,11 @@ HEIGHT_BINS = (0.5, 1.0, 2.0, 4.0, 8.0, 30.0)
 DIAMETER_BINS = (10.0, 15.0, 30.0, 60.0, 150.0)
 
 
-def _folds(n: int, k: int, seed: int) -> np.ndarray:
+def site_folds(n: int, k: int, seed: int) -> np.ndarray:
     return np.random.default_rng(seed).permutation(n) % k
 
 
-def _found_by_ground(found: np.ndarray, ground: dict[str, np.ndarray]) -> dict[str, object]:
+def found_by_ground(found: np.ndarray, ground: dict[str, np.ndarray]) -> dict[str, object]:
     """Of the sites in each of `ground`'s masks, how many `found` (CV splits x sites) holds,
     the mean over the splits."""
     return {"clear_of_ground": CLEAR_OF_GROUND,
@@ -200,7 +200,7 @@ def goal_tumulus(truth: SiteTruth) -> bool:
     return truth.mound and truth.height_m >= 2 and truth.diameter_m >= 15
 
 
-def _features(rise: Rise, names: list[str], where: str) -> list[float]:
+def rise_features(rise: Rise, names: list[str], where: str) -> list[float]:
     """A judged rise's features in the order of `names`; InputError naming the verdict file
     `where` when one is missing (measured by another detector)."""
     missing = [n for n in names if n not in rise.features]

@@ -30,14 +30,14 @@ from mound.recon.verdict_band import band_doc, band_goal, confusion_doc
 from mound.recon.verdict_data import (
     GROUND_CLASSES,
     MAX_FA,
-    _features,
-    _folds,
-    _found_by_ground,
+    found_by_ground,
     goal_tumulus,
+    rise_features,
     rise_labels,
+    site_folds,
     stands_clear,
 )
-from mound.recon.verdict_second import MIN_SECOND_LOOK_GAIN, _second_look_rule
+from mound.recon.verdict_second import MIN_SECOND_LOOK_GAIN, second_look_rule
 
 SCHEMA = "mound.verdict_model"
 
@@ -218,7 +218,7 @@ def _rises(sites: list[GridSite], names: list[str]) -> _Rises:
     feats, site_of, y = [], [], []
     for i, r in enumerate(sites):
         for rise, label in zip(r.rises, rise_labels(r), strict=True):
-            feats.append(_features(rise, names, f"{r.where}/verdict.json"))
+            feats.append(rise_features(rise, names, f"{r.where}/verdict.json"))
             site_of.append(i)
             y.append(label)
     x_all, site_idx = np.array(feats), np.array(site_of)
@@ -231,7 +231,7 @@ def _rises(sites: list[GridSite], names: list[str]) -> _Rises:
     feats2, site_of2 = [], []
     for i, r in enumerate(sites):
         for rise in r.second or ():
-            feats2.append(_features(rise, names, f"{r.where}/second/verdict.json"))
+            feats2.append(rise_features(rise, names, f"{r.where}/second/verdict.json"))
             site_of2.append(i)
     return _Rises(
         sites, np.array([r.truth.mound for r in sites]), mean, std, z_all,
@@ -246,7 +246,7 @@ def _out_of_fold(d: _Rises, split: int, key: Key, seed: int) -> tuple[np.ndarray
     second look's (-inf: none)."""
     basis, l2, z_clip, mil = key
     n = len(d.sites)
-    fold_of_site = _folds(n, 5, seed + split)
+    fold_of_site = site_folds(n, 5, seed + split)
     folds_all = fold_of_site[d.site_idx]
     folds = folds_all[d.fitted]
     oof = np.full(n, -np.inf)
@@ -504,7 +504,7 @@ def train(rows: list[GridSite], names: list[str], sources: list[str],
     # the goal's tumuli that stand clear of their ground, and those it masks (stands_clear)
     ground = {name: goal_site & np.array([stands_clear(r.relief) is want for r in sites])
               for name, want in GROUND_CLASSES}
-    second, not_kept = _kept(_second_look_rule(
+    second, not_kept = _kept(second_look_rule(
         g_oof.reshape(len(oofs), -1),
         _calibrated(a * np.stack([o2 for _, o2 in repeats]) + b, cal),
         thr, y_site, goal_site, ground))
@@ -557,7 +557,7 @@ def train(rows: list[GridSite], names: list[str], sources: list[str],
                                                                       y_oof.astype(float)),
                                     "false_alarm_rate": float(np.mean(neg >= thr)),
                                     "detection_rate": float(np.mean(p_oof[y_oof] >= thr)),
-                                    "goal_found_by_ground": _found_by_ground(
+                                    "goal_found_by_ground": found_by_ground(
                                         p_oof.reshape(len(oofs), -1) >= thr, ground)},
                     "method": "logistic regression on the judged rises (L-BFGS, basis, L2, "
                               "z_clip and the share of the sites' multiple-instance loss by "

@@ -12,7 +12,7 @@ from scipy.special import expit, logit
 
 from mound.classify import logistic
 from mound.recon.model_file import VerdictModel
-from mound.recon.verdict_data import MAX_FA, Rule, _folds, _found_by_ground
+from mound.recon.verdict_data import MAX_FA, Rule, found_by_ground, site_folds
 from mound.sim.looks import SECOND_LOOK_FACTOR, SECOND_LOOK_P
 
 # The second look: a site whose first p lies in [p_low, threshold) is flown again with a
@@ -66,7 +66,7 @@ def _first_look_at(p1: np.ndarray, y: np.ndarray, goal: np.ndarray,
 def _choose_second_look(u1: np.ndarray, u2: np.ndarray, thr: float, y: np.ndarray,
                         goal: np.ndarray) -> Rule | None:
     """The second look's band, threshold and combination chosen on these sites (see
-    _second_look_rule); None when they hold too few second looks."""
+    second_look_rule); None when they hold too few second looks."""
     p1 = expit(u1)
     has2 = np.isfinite(u2)
     fit = has2 & (p1 >= SECOND_LOOK_P_MIN) & (p1 < thr)
@@ -109,7 +109,7 @@ def _second_look_labels(u1: np.ndarray, u2: np.ndarray, thr: float,
     return np.where(flown, p2 >= t2, p1 >= thr), flown
 
 
-def _second_look_rule(u1: np.ndarray, u2: np.ndarray, thr: float,
+def second_look_rule(u1: np.ndarray, u2: np.ndarray, thr: float,
                       y: np.ndarray, goal: np.ndarray,
                       ground: dict[str, np.ndarray] | None = None) -> dict[str, Any] | None:
     """The second look (see the module text) from the out-of-fold logits of the model's
@@ -139,7 +139,7 @@ def _second_look_rule(u1: np.ndarray, u2: np.ndarray, thr: float,
     # the file's: what is judged is what the second look adds)
     final = np.zeros_like(final_in)
     flown = np.zeros_like(flown_in)
-    fold_of = _folds(len(y), SECOND_LOOK_FOLDS, SECOND_LOOK_FOLD_SEED)
+    fold_of = site_folds(len(y), SECOND_LOOK_FOLDS, SECOND_LOOK_FOLD_SEED)
     unchosen = 0
     for k in range(SECOND_LOOK_FOLDS):
         out = fold_of == k
@@ -163,7 +163,7 @@ def _second_look_rule(u1: np.ndarray, u2: np.ndarray, thr: float,
                             "goal_found": float(final[:, goal].sum() / reps),
                             "goal_found_first_look": float((p1 >= thr)[:, goal].sum() / reps),
                             "goal_sites": int(goal.sum()),
-                            **({"goal_found_by_ground": _found_by_ground(final, ground)}
+                            **({"goal_found_by_ground": found_by_ground(final, ground)}
                                if ground else {}),
                             "found": float(final[:, y].sum() / reps),
                             "found_first_look": float((p1 >= thr)[:, y].sum() / reps),
