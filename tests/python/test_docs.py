@@ -104,6 +104,17 @@ def test_no_private_name_is_imported_from_another_module() -> None:
     assert shape.private_imports_of("mound.plan.exact", "from mound.plan.exact import _a") == []
 
 
+def test_every_spec_checks_itself_with_check() -> None:
+    """One name for a spec's self-check (issue 70: `validate` in 8 classes, `check` in 2)."""
+    import ast
+
+    shape = _tool("py_shape", "tools/py_shape.py")
+    named = [f"{m}:{node.lineno}" for m, path in shape.modules().items()
+             for node in ast.walk(ast.parse(path.read_text(encoding="utf-8")))
+             if isinstance(node, ast.FunctionDef) and node.name == "validate"]
+    assert named == []
+
+
 def test_the_plan_example_is_shortened_but_keeps_its_ends() -> None:
     short = _hooks()._short
     assert short(["home", *[f"s{i:03d}" for i in range(50)], "home"]).endswith('"s049", "home"]')

@@ -271,10 +271,10 @@ def test_photos_sort_names_the_flag_it_has(tmp_path: Path,
     one_line_exit_2(code, err, "--site-diameter")
     assert "--site-diameter-m" not in err
     with pytest.raises(InputError, match=r"^--site-diameter: ") as e:
-        SortSpec(site_diameter_m=math.nan).validate()
+        SortSpec(site_diameter_m=math.nan).check()
     assert "--site-diameter-m" not in str(e.value)
     with pytest.raises(InputError, match=r"^--blur-ratio: "):
-        SortSpec(blur_ratio=math.inf).validate()
+        SortSpec(blur_ratio=math.inf).check()
 
 
 # ------------------------------------------------------- every number of every command

@@ -267,7 +267,7 @@ def test_range_checks_refuse_nan_as_well_as_out_of_range(bad: float) -> None:
             Camera.from_fov(bad, 480, 1.0)  # type: ignore[arg-type]
     if not bad == 0.0:  # no slack is a valid slack
         with pytest.raises(InputError, match="budget_slack"):
-            MissionSpec(budget_slack=bad).validate()
+            MissionSpec(budget_slack=bad).check()
     if bad != float("inf"):
         with pytest.raises(InputError, match="texel_m"):
-            SimSpec(terrain=preset("bin_tepe"), texel_m=bad).validate()
+            SimSpec(terrain=preset("bin_tepe"), texel_m=bad).check()

@@ -194,7 +194,7 @@ def test_a_grid_of_the_population_draws_its_measured_tumuli(shared_data: Path) -
     assert len(elongated) > 10 and len({round(m.mound_azimuth_deg) for m in elongated}) > 5
     assert sum(m.trench_width_m > 0 or m.pit_radius_m > 0 for m in mounds) > 0.3 * len(mounds)
     # the site holds the whole tumulus, its long axis included
-    assert all(m.validate() is None for m in mounds)
+    assert all(m.check() is None for m in mounds)
 
 
 def test_an_elongated_tumulus_stretches_along_its_azimuth() -> None:

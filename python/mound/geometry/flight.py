@@ -146,7 +146,7 @@ class ScanSpec(FlightLayout):
         cam = Camera.from_fov(self.width_px, self.height_px, self.hfov_rad)
         return replace(cam, dist=tuple(float(d) for d in self.dist))
 
-    def validate(self) -> None:
+    def check(self) -> None:
         _require(self.pattern in PATTERNS,
                  f"scan: pattern must be one of {PATTERNS}, got {self.pattern!r}")
         for name, bound in SCAN_NUMBERS.items():
@@ -159,7 +159,7 @@ class ScanSpec(FlightLayout):
 
     def shots(self) -> list[tuple[str, Shot]]:
         """The camera poses of the scan, labelled by pattern, relative to the site centre."""
-        self.validate()
+        self.check()
         cam = self.camera()
         d = self.scale_m
         out: list[tuple[str, Shot]] = []
@@ -267,7 +267,7 @@ class ScanSpec(FlightLayout):
                 raise InputError(f"{where}.{key}: expected a finite number or null")
             kwargs[key] = value
         spec = cls(**kwargs)
-        spec.validate()
+        spec.check()
         return spec
 
 

@@ -86,7 +86,7 @@ class SortSpec:
     blur_ratio: float = 0.3
     copy: bool = False
 
-    def validate(self) -> None:
+    def check(self) -> None:
         """InputError naming the flag (as `mound photos sort` spells it) of a value out of
         its bound (NaN and inf included)."""
         for name, (flag, bound) in SORT_NUMBERS.items():
@@ -517,7 +517,7 @@ def sort_card(card: str, sites_path: str | None, out_dir: str, spec: SortSpec | 
     (`sites_path` None) the sites are proposed from the photos (propose_sites) and written
     as OUT_DIR/sites.json. InputError when nothing usable is left (naming why)."""
     spec = spec or SortSpec()
-    spec.validate()
+    spec.check()
     if camera is not None:
         read_json(camera, "mound.camera", 1)
     sites = sites_of(sites_path, spec) if sites_path is not None else None

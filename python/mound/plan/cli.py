@@ -46,7 +46,7 @@ def field_costs(args: argparse.Namespace) -> tuple[ScanSpec | None, float | None
     scan = mission_items.scan_for_site(
         DEFAULT_SITE_DIAMETER_M if args.site_diameter is None else args.site_diameter,
         args.scan_pattern, args.altitude)
-    scan.validate()
+    scan.check()
     budget = mission_items.flight_budget_m() if args.budget is None else args.budget
     return scan, None, budget
 

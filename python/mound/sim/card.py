@@ -271,7 +271,7 @@ class CardSpec:
     # scan this many times as wide (mound.sim.looks.wider), 1: the survey's own scan
     scan_factor: float = 1.0
 
-    def validate(self) -> None:
+    def check(self) -> None:
         for name in ("speed_mps", "shot_every_s", "between_flights_s", "site_diameter_m"):
             if not (math.isfinite(getattr(self, name)) and getattr(self, name) > 0):
                 raise InputError(f"--{name.replace('_', '-')}: must be > 0")
@@ -301,7 +301,7 @@ def write_card(plan_path: str, sites_path: str, out_dir: str, spec: CardSpec | N
     from mound.sim import site as sim
     from mound.sim.looks import wider
     spec = spec or CardSpec()
-    spec.validate()
+    spec.check()
     plan = Plan.read(plan_path)
     sites_doc = Sites.read(sites_path)
     if (sites_doc.terrain() or {}).get("nodes"):

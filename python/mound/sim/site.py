@@ -81,8 +81,8 @@ class SimSpec(FlightLayout):
     def camera(self) -> Camera:
         return self.scan().camera()
 
-    def validate(self) -> None:
-        self.terrain.validate()
+    def check(self) -> None:
+        self.terrain.check()
         self.lighting.sun_vector()
         if self.pattern not in PATTERNS:
             raise InputError(f"sim: pattern must be one of {PATTERNS}, got {self.pattern!r}")
@@ -130,7 +130,7 @@ def simulate(spec: SimSpec, out_dir: str | Path, threads: int | None = None) -> 
     """Renders the site into `out_dir`; returns the site.json document. Parameters are
     refused before anything is written; if the simulation fails later, an `out_dir` this
     call created is removed again, so a refused or failed run leaves nothing behind."""
-    spec.validate()
+    spec.check()
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise InputError(f"--out: {out} exists and is not a folder")

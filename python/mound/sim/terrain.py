@@ -62,7 +62,7 @@ class Confuser:
     count: int = 1
     seed: int = 0
 
-    def validate(self) -> None:
+    def check(self) -> None:
         if self.kind not in CONFUSERS:
             raise InputError(f"terrain: confuser kind must be one of {CONFUSERS}, got "
                              f"{self.kind!r}")
@@ -116,7 +116,7 @@ class TerrainSpec:
     confusers: tuple[Confuser, ...] = ()
     seed: int = 0
 
-    def validate(self) -> None:
+    def check(self) -> None:
         def need(ok: bool, msg: str) -> None:
             if not ok:
                 raise InputError(f"terrain: {msg}")
@@ -149,7 +149,7 @@ class TerrainSpec:
         need(self.terrace_step_m >= 0, "terrace_step_m must be >= 0")
         need(0 < self.terrace_riser <= 1, "terrace_riser must be in (0, 1]")
         for c in self.confusers:
-            c.validate()
+            c.check()
 
     @property
     def base_length_m(self) -> float:
@@ -203,7 +203,7 @@ def preset(name: str, **overrides: object) -> TerrainSpec:
     if name not in PRESETS:
         raise InputError(f"terrain: unknown preset {name!r} ({', '.join(PRESETS)})")
     spec = replace(PRESETS[name], **overrides)  # type: ignore[arg-type]
-    spec.validate()
+    spec.check()
     return spec
 
 
@@ -444,7 +444,7 @@ def _terraced(z: np.ndarray, step_m: float, riser: float) -> np.ndarray:
 
 
 def build(spec: TerrainSpec) -> Heightfield:
-    spec.validate()
+    spec.check()
     n = int(round(spec.size_m / spec.resolution_m)) + 1
     axis = np.linspace(-spec.size_m / 2, spec.size_m / 2, n)
     xx, yy = np.meshgrid(axis, axis)

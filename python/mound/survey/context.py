@@ -107,7 +107,7 @@ def scan_spec(args: SurveyOptions) -> Any:
     scan = mission_items.scan_for_site(args.site_diameter, args.scan_pattern)
     from dataclasses import replace
     scan = replace(scan, width_px=args.image_size[0], height_px=args.image_size[1])
-    scan.validate()
+    scan.check()
     return scan
 
 

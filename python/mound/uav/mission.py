@@ -41,7 +41,7 @@ def build(plan: Plan, origin: Origin, spec: MissionSpec | None = None,
     if spec is None:
         scan = plan.scan()
         spec = MissionSpec(scan=scan) if scan is not None else MissionSpec()
-    spec.validate()
+    spec.check()
     nodes, closed, budget = plan_nodes(plan)
     if len(nodes) <= 2 and (closed or len(nodes) < 2):
         raise InputError("tour: the plan visits no site, there is nothing to fly")

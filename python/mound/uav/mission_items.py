@@ -161,10 +161,10 @@ class MissionSpec:
     scan_speed_m_s: float = 5.0
     budget_slack: float = 0.0          # allowed excess over budget_m, as a fraction
 
-    def validate(self) -> None:
+    def check(self) -> None:
         if self.scan.pattern not in PATTERNS:
             raise InputError(f"mission: pattern must be one of {PATTERNS}")
-        self.scan.validate()
+        self.scan.check()
         for name in ("cruise_speed_m_s", "scan_speed_m_s"):
             if not getattr(self, name) > 0:
                 raise InputError(f"mission: {name} must be > 0")

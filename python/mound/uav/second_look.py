@@ -55,7 +55,7 @@ def second_look_flights(sites: Sites, plan: Plan | None, ids: list[str],
     scan = plan.scan() if plan else None
     base = MissionSpec(scan=scan) if scan is not None else MissionSpec()
     spec = replace(base, scan=replace(base.scan, scale_m=base.scan.scale_m * scan_factor))
-    spec.validate()
+    spec.check()
     cost = spec.scan.site_cost_m()
     by_id = sites.by_id()
     home, end = sites.home, sites.end

@@ -60,7 +60,7 @@ class TerrainSpec:
     descent_factor: float = 2.0
     vertical: str = "egm96"          # what the DEM's heights are above (before conversion)
 
-    def validate(self) -> None:
+    def check(self) -> None:
         for name in ("clearance_m", "scan_clearance_m", "footprint_m"):
             CLEARANCE_M.check(getattr(self, name), f"--{name.replace('_', '-')}")
         for name in ("climb_factor", "descent_factor"):
@@ -82,7 +82,7 @@ class TerrainSpec:
         if not isinstance(vertical, str):
             raise InputError(f"{where}.vertical: expected a string")
         spec = cls(**kw, vertical=vertical)
-        spec.validate()
+        spec.check()
         return spec
 
 
@@ -133,7 +133,7 @@ class TerrainModel:
     """Heights and leg costs of a set of nodes over a DEM (see the module docstring)."""
 
     def __init__(self, dem: Dem, spec: TerrainSpec, scan: ScanSpec, nodes: list[Node]) -> None:
-        spec.validate()
+        spec.check()
         self.dem, self.spec, self.scan, self.nodes = dem, spec, scan, nodes
         self.legs = scan.legs()
         self.transit = scan.transit_m(self.legs)
@@ -327,5 +327,5 @@ def spec_from_args(args: Any) -> TerrainSpec:
     spec = TerrainSpec(clearance_m=args.clearance_m, scan_clearance_m=args.scan_clearance_m,
                        footprint_m=args.footprint_m, climb_factor=args.climb_factor,
                        descent_factor=args.descent_factor)
-    spec.validate()
+    spec.check()
     return spec

@@ -22,7 +22,7 @@ def build_over_terrain(plan: Plan, origin: Origin, spec: mi.MissionSpec,
                        terrain: mi.TerrainInput, nodes: list[Node], closed: bool,
                        budget: float) -> mi.Mission:
     tspec = terrain.spec if terrain.spec is not None else TerrainSpec()
-    tspec.validate()
+    tspec.check()
     scan = spec.scan
     # The tour's nodes once each (a closed tour's return to home is node 0 again).
     stops = nodes[:-1] if closed else nodes
