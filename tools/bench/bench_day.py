@@ -95,9 +95,7 @@ class Outcome:
 
 def answer(day: Day, conf: vv.Confusion, k: int, visit: int) -> str:
     rates = conf.tumulus[day.klass[k]] if day.tumulus[k] else conf.none
-    u = day.u[k, min(visit, MAX_VISITS - 1)]
-    return vv.ANSWERS[0] if u < rates[0] else vv.ANSWERS[1] if u < rates[0] + rates[1] \
-        else vv.ANSWERS[2]
+    return vv.drawn_answer(rates, day.u[k, min(visit, MAX_VISITS - 1)])
 
 
 def plan(sites: Sites, keep: list[int], rewards: np.ndarray, flights: int, work: Path,
@@ -268,7 +266,6 @@ def main() -> None:
     ap.add_argument("--out", help="per-day results (JSON)")
     a = ap.parse_args()
     conf = read_confusion(a.confusion)
-    assert isinstance(conf, vv.Confusion)
     heights = np.array([r.height_m for r in read_population(str(population_path(
         "kazanlak"))).rows])
     tum = conf.tumulus_mean(kazanlak_mix())

@@ -17,7 +17,7 @@ second look) at the value its new p gives.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -27,8 +27,8 @@ from mound.errors import InputError
 from mound.jsonio import finite_number
 from mound.recon.verdict_band import ANSWERS, HEIGHT_CLASS_NAMES, height_class
 
-__all__ = ["ANSWERS", "HEIGHT_CLASS_NAMES", "Confusion", "after_answer", "height_class",
-           "visit_value"]
+__all__ = ["ANSWERS", "HEIGHT_CLASS_NAMES", "Confusion", "after_answer", "drawn_answer",
+           "height_class", "visit_value"]
 
 
 @dataclass(frozen=True)
@@ -138,3 +138,10 @@ def after_answer(p: np.ndarray | float, answer: str, tumulus: np.ndarray,
     p = np.asarray(p, dtype=float)
     a, b = p * tumulus[k], (1 - p) * none[k]
     return np.where(a + b > 0, a / np.maximum(a + b, 1e-300), p)
+
+
+def drawn_answer(rates: Sequence[float] | np.ndarray, u: float) -> str:
+    """The answer a uniform draw `u` in [0, 1) picks from the three answers' `rates` (in
+    ANSWERS' order): what a simulated visit answers."""
+    return ANSWERS[0] if u < rates[0] else ANSWERS[1] if u < rates[0] + rates[1] \
+        else ANSWERS[2]

@@ -42,8 +42,9 @@ from mound.errors import InputError, ToolInputError, ToolNoResultError
 from mound.formats.plan import Plan
 from mound.formats.sites import Node, Site, Sites
 from mound.geometry.geodesy import Origin, geodetic_to_enu
-from mound.jsonio import load_json, write_json
+from mound.jsonio import write_json
 from mound.recon import visit_value as vv
+from mound.survey.reward import read_confusion
 from mound.survey.stages.learn import NO_ROUND_TRIP
 from mound.uav import mission
 from mound.uav.mavlink import link as mavlink_link
@@ -93,8 +94,7 @@ class SimulatedJudge:
         else:
             rates = np.asarray(self.conf.none)
         time.sleep(self.delay_s)
-        u = float(self.rng.random())
-        return vv.ANSWERS[int(np.searchsorted(np.cumsum(rates), u, side="right").clip(0, 2))]
+        return vv.drawn_answer(rates, float(self.rng.random()))
 
 
 @dataclass
@@ -393,10 +393,7 @@ def cmd_fly(args: argparse.Namespace) -> int:
     if untold is not None:
         raise InputError(f"{args.sites}: sites: {untold}.truth: missing (--judge simulate "
                          "draws each answer from the site's truth)")
-    doc = load_json(args.confusion)
-    conf = (vv.Confusion.from_model(doc, args.confusion)
-            if isinstance(doc, dict) and doc.get("schema") == "mound.verdict_model"
-            else vv.Confusion.from_report(doc, args.confusion))
+    conf = read_confusion(args.confusion)
     tumulus = conf.tumulus_mean({c: 1.0 for c in conf.tumulus})
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)

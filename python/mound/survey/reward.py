@@ -10,6 +10,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -18,10 +19,13 @@ from mound.errors import InputError
 from mound.formats.sites import Sites
 from mound.jsonio import load_json
 
+if TYPE_CHECKING:
+    from mound.recon.visit_value import Confusion
+
 Reward = Callable[[np.ndarray], np.ndarray]
 
 
-def read_confusion(path: str) -> object:
+def read_confusion(path: str) -> Confusion:
     """The confusion a model or a report holds (InputError naming the file when neither)."""
     from mound.recon import visit_value as vv
 
@@ -57,7 +61,6 @@ def reward_of(kind: str, confusion: str | None) -> Reward:
     from mound.recon import visit_value as vv
 
     conf = read_confusion(confusion)
-    assert isinstance(conf, vv.Confusion)
     tumulus = conf.tumulus_mean(kazanlak_mix())
     # a visit that can only add a false alarm on average (p tiny) is worth nothing
     return lambda p: np.maximum(vv.visit_value(np.asarray(p, dtype=float), tumulus,
