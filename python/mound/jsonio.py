@@ -1,4 +1,5 @@
-"""Versioned JSON documents: atomic writes and checked reads (../shared/STYLE.md)."""
+"""Versioned JSON documents: atomic writes and checked reads (../shared/STYLE.md); and the
+checked reading of other outside text: numbers in text fields, XML without DTDs."""
 
 from __future__ import annotations
 
@@ -281,3 +282,19 @@ def check_doc(doc: Any, path: str | Path, schema: str, max_version: int) -> dict
     if not isinstance(version, int) or isinstance(version, bool) or not 1 <= version <= max_version:
         raise InputError(f"version: unsupported {schema} version {version!r} in {path}")
     return doc
+
+
+def parse_xml(data: bytes, where: str) -> Any:
+    """The XML tree of `data`; no DTD, entities or external references (defusedxml), else
+    InputError naming `where`."""
+    import defusedxml.ElementTree as ET
+    from defusedxml import DefusedXmlException
+
+    try:
+        return ET.fromstring(data, forbid_dtd=True)
+    except LookupError as e:  # an encoding Python does not know (x-unknown, base64)
+        raise InputError(f"{where}: the XML declares an encoding that cannot be read "
+                         f"({' '.join(str(e).split())[:80]})") from None
+    except (DefusedXmlException, ET.ParseError, ValueError) as e:
+        raise InputError(f"{where}: not well-formed XML without a DTD "
+                         f"({' '.join(str(e).split())[:100]})") from None

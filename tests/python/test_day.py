@@ -14,7 +14,7 @@ import pytest
 from mound.cli import main as mound_main
 from mound.formats.plan import Plan
 from mound.paths import REPO_ROOT
-from mound.uav import mission_formats
+from mound.uav import mission_format
 
 DAY = ["--batteries", "2", "--budget", "2000", "--image-size", "320", "240",
        "--no-progress", "--max-features", "4000", "--dense-size", "0"]
@@ -30,8 +30,9 @@ def battery_files(out: Path, k: int) -> Plan:
     format's reader over the plan's sites."""
     b = out / f"battery_{k}"
     plan = Plan.read(b / "plan.json")
-    for name in ("mission.plan", "mission.kmz", "mission.csv"):
-        _, routes = mission_formats.read_any(b / name)
+    for fmt in (f for f in mission_format.registry() if f.readable):
+        name = f"mission{fmt.suffix}"
+        _, routes = mission_format.read_any(b / name)
         assert routes and len(routes[0].points) >= 2 * len(plan.visited()), name
     assert json.loads((b / "mission.json").read_text())["schema"] == "mound.mission"
     return plan
@@ -85,7 +86,8 @@ def test_a_two_battery_day_on_simulated_cards(tmp_path: Path,
     assert data["next_battery"]["battery"] == 2 and len(data["flights"]) == 1
     assert data["footprints"]  # the batteries' image footprints
     assert {f["file"] for f in data["mission_files"]} == {
-        f"battery_{k}/mission.{x}" for k in (1, 2) for x in ("plan", "kmz", "csv")}
+        f"battery_{k}/mission{f.suffix}" for k in (1, 2) for f in mission_format.registry()
+        if f.readable}
     if shutil.which("chromium"):
         from pages import body_data
 

@@ -30,9 +30,10 @@ from mound.formats.sites import Sites
 from mound.geometry.dem import use_proj_grids
 from mound.geometry.geodesy import Origin, geodetic_to_enu
 from mound.paths import REPO_ROOT
-from mound.uav import dji, litchi, mission_formats, mission_items, terrain
+from mound.uav import dji, litchi, mission_items, terrain
 from mound.uav import files as mission_files
-from mound.uav.route import Route, RoutePoint
+from mound.uav.filetypes import dji_kmz
+from mound.uav.route import Route, RoutePoint, items_route, mission_route
 
 DJI_NS = "{" + dji.WPML_NS + "}"
 
@@ -69,7 +70,7 @@ def three(raw, dem_path, tmp_path_factory) -> dict[str, Any]:
 
 def _plan_route(path: Path) -> Route:
     items, _, _ = mission_files.read_mission(path)
-    return mission_formats.items_route(items)
+    return items_route(items)
 
 
 def _dji_element_set() -> set[str]:
@@ -234,7 +235,7 @@ def test_limits_and_aircraft_are_checked_before_anything_is_written(three, dem_p
     assert written == [f"x_{f}.plan" for f in sorted(three["flights"])], written
     doc = json.loads((tmp / f"x_{three['flights'][0]}.plan").read_text())
     formats = doc["mound"]["formats"]
-    assert "15 m/s" in formats["dji_kmz"]["refused"] and formats["dji_kmz"]["file"] is None
+    assert "15 m/s" in formats["dji_kmz"]["refused"] and formats["dji_kmz"]["files"] == []
     assert "15 m/s" in formats["litchi_csv"]["refused"] and formats["litchi_csv"]["files"] == []
 
 
@@ -358,7 +359,7 @@ def test_every_kmz_keeps_djis_rules(built, tmp_path, frame: str) -> None:
     known = _dji_element_set()
     m = built[0]
     for key, craft in dji.AIRCRAFT.items():
-        data = mission_formats.kmz(m, craft, frame)
+        data = dji_kmz.kmz(m, craft, frame)
         files = _members(data)
         tpl, wl = files[dji.TEMPLATE], files[dji.WAYLINES]
         modes = re.findall(r"<wpml:heightMode>(\w+)<", tpl)
@@ -420,7 +421,7 @@ def test_photos_start_at_the_scan_and_climbs_keep_the_aircrafts_limits(built) ->
     aircraft's vertical limits; the KMZ's duration counts a stop at every waypoint."""
     craft = dji.AIRCRAFT["m30"]
     for m in built:
-        route = mission_formats.mission_route(m)
+        route = mission_route(m)
         e = route.enu()
         photographed = [k for k, p in enumerate(route.points[:-1]) if p.photo_every_m > 0]
         assert photographed
@@ -438,7 +439,7 @@ def test_photos_start_at_the_scan_and_climbs_keep_the_aircrafts_limits(built) ->
             vz = v * d[:, 2] / np.linalg.norm(d, axis=1)
             assert np.all(vz <= up_ + 1e-9) and np.all(-vz <= down + 1e-9)
             assert np.max(vz) == pytest.approx(up_)  # the climbs are flown at the limit
-        wl = _members(mission_formats.kmz(m, craft))[dji.WAYLINES]
+        wl = _members(dji_kmz.kmz(m, craft))[dji.WAYLINES]
         duration = float(re.search(r"<wpml:duration>([\d.]+)<", wl).group(1))
         r = dji.prepare(route, craft)
         legs = r.leg_lengths_m()
@@ -545,4 +546,4 @@ def test_a_valley_below_a_knoll_is_written_in_every_format(raw, dem_path, tmp_pa
     k = dji.read_kmz(tmp_path / "v.kmz")
     assert min(p.height_m for p in k.waylines[0].points) == pytest.approx(lowest, abs=0.01)
     formats = json.loads((tmp_path / "v.plan").read_text())["mound"]["formats"]
-    assert formats["dji_kmz"]["file"] == "v.kmz" and formats["litchi_csv"]["files"] == ["v.csv"]
+    assert formats["dji_kmz"]["files"] == ["v.kmz"] and formats["litchi_csv"]["files"] == ["v.csv"]

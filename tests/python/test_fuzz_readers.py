@@ -752,18 +752,20 @@ def test_the_field_work_seeds_are_valid() -> None:
 # ------------------------------------------------ issue 55: DJI and Litchi mission files
 
 def _dji_and_litchi() -> tuple[str, str, str]:
-    from mound.uav import dji, litchi, mission_formats
+    from mound.uav import dji, litchi
+    from mound.uav.filetypes.dji_kmz import kmz
+    from mound.uav.route import mission_route
 
     plan = json.loads(json.dumps({**PLAN, "scan": mission_items.scan_for_site(
         60.0, "both").to_doc()}))
     m = build_mission(plan, ORIGIN, None)
-    data = mission_formats.kmz(m, dji.AIRCRAFT["m3e"])
+    data = kmz(m, dji.AIRCRAFT["m3e"])
     import io
     import zipfile
 
     with zipfile.ZipFile(io.BytesIO(data)) as z:
         template, waylines = (z.read(n).decode() for n in (dji.TEMPLATE, dji.WAYLINES))
-    return template, waylines, litchi.csv_text(litchi.prepare(mission_formats.mission_route(m))[0])
+    return template, waylines, litchi.csv_text(litchi.prepare(mission_route(m))[0])
 
 
 KML_TEMPLATE, WAYLINES_WPML, LITCHI_CSV = _dji_and_litchi()

@@ -271,14 +271,14 @@ def test_map_page_in_headless_chromium(survey: dict[str, Any], tmp_path: Path) -
                      for gj in out.glob("mission*.geojson")
                      for f in json.loads(gj.read_text())["features"])
     assert int(attr("footprints")) == footprints > 0
-    # every mission file (.plan, DJI .kmz, Litchi .csv) drawn from its own reader's path,
-    # the same number of waypoints as the reader finds
-    from mound.uav import mission_formats
+    # every mission file of every readable format (.plan, WPL, DJI .kmz, Litchi .csv, ...)
+    # drawn from its own reader's path, the same number of waypoints as the reader finds
+    from mound.uav import mission_format
 
-    files = sorted([*out.glob("mission*.plan"), *out.glob("mission*.kmz"),
-                    *out.glob("mission*.csv")])
-    assert {p.suffix for p in files} == {".plan", ".kmz", ".csv"}
-    want = [len(r.points) for p in files for r in mission_formats.read_any(p)[1]]
+    readable = [f for f in mission_format.registry() if f.readable]
+    files = [p for f in readable for p in sorted(out.glob(f"mission*{f.suffix}"))]
+    assert {p.suffix for p in files} == {f.suffix for f in readable}
+    want = [len(r.points) for p in files for r in mission_format.read_any(p)[1]]
     assert json.loads(attr("mission-files")) == want
     overlays = json.loads(attr("overlays"))
     visited = [r for r in summary["sites"] if r["visited"] and r.get("files", {}).get("rasters")]
@@ -657,7 +657,8 @@ def test_two_flights_over_the_dem(tmp_path: Path) -> None:
     flights = [f for f in plan["flights"] if len(f["tour"]) > 2]
     assert len(flights) == 2
     visited = set()
-    from mound.uav import dji, litchi, mission_formats
+    from mound.uav import dji, litchi
+    from mound.uav.route import items_route
 
     for f in flights:
         items, _, _ = mission_files.read_mission(out / f"mission_{f['flight']}.plan")
@@ -665,7 +666,7 @@ def test_two_flights_over_the_dem(tmp_path: Path) -> None:
         assert f["cost_m"] <= plan["budget_m"] + 1e-6
         visited |= set(f["tour"][1:-1])
         # the same flight for DJI Pilot 2 and for Litchi, read back as the .plan flies
-        route = mission_formats.items_route(items)
+        route = items_route(items)
         kmz = dji.read_kmz(out / f"mission_{f['flight']}.kmz").route()
         want = dji.prepare(route, dji.AIRCRAFT["m3e"])
         assert want.differs_from(type(want)(want.home_lat_deg, want.home_lon_deg, kmz.points,

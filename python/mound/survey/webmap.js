@@ -109,11 +109,14 @@
       .bindTooltip(`battery ${nb.battery}, to fly next (battery_${nb.battery}/)`));
     nextBattery.addTo(map);
   }
-  // Each mission file as written (.plan, DJI .kmz, Litchi .csv), read back: the same path.
-  const FORMAT = { plan: ["#212121", null], kmz: ["#2e7d32", "4 4"], csv: ["#6a1b9a", "1 5"] };
+  // Each mission file as written (every readable format the run wrote), read back: the
+  // same path. A style per format, in the order the formats come.
+  const STYLE = [["#212121", null], ["#2e7d32", "4 4"], ["#6a1b9a", "1 5"],
+    ["#e65100", "6 2"], ["#0277bd", "2 3"], ["#ad1457", "8 3 2 3"]];
+  const kinds = [...new Set((D.mission_files || []).map((f) => f.format))];
   const written = L.layerGroup();
   (D.mission_files || []).forEach((f) => {
-    const [color, dash] = FORMAT[f.format] || ["#000000", null];
+    const [color, dash] = STYLE[kinds.indexOf(f.format) % STYLE.length];
     written.addLayer(L.polyline(f.path, { color, weight: 1, dashArray: dash })
       .bindTooltip(`${f.file} (${f.waypoints} waypoints), as read back`));
   });
@@ -142,7 +145,7 @@
   if (D.overlays.some((o) => o.name === "scene_p_mound")) layers["scene p(mound)"] = scene;
   if (secondPaths.length) layers["second looks"] = seconds;
   if (D.next_battery) layers["next battery"] = nextBattery;
-  if ((D.mission_files || []).length) layers["mission files (.plan, .kmz, .csv)"] = written;
+  if (kinds.length) layers[`mission files (${kinds.map((k) => `.${k}`).join(", ")})`] = written;
   L.control.layers(null, layers, { collapsed: false }).addTo(map);
   L.control.scale({ metric: true, imperial: false }).addTo(map);
   const legend = L.control({ position: "bottomleft" });

@@ -188,20 +188,18 @@ def map_data(tree: RunTree, summary: dict[str, Any], sites_doc: Sites, plan: Pla
                     if sl_plan.is_file() else [])
     # every mission file of the run read back by its own reader: the map draws each path
     # (a file the survey wrote that its reader refuses is a bug: not caught here)
-    from mound.uav import mission_formats
+    from mound.uav import mission_format
 
     mission_files = []
-    for path in sorted([*tree.root.glob("mission*.plan"), *tree.root.glob("mission*.kmz"),
-                        *tree.root.glob("mission*.csv"),
-                        *tree.root.glob("battery_*/mission*.plan"),
-                        *tree.root.glob("battery_*/mission*.kmz"),
-                        *tree.root.glob("battery_*/mission*.csv")]):
-        _, routes = mission_formats.read_any(path)
-        for r in routes:
-            mission_files.append({"file": str(path.relative_to(tree.root)),
-                                  "format": path.suffix[1:],
-                                  "waypoints": len(r.points),
-                                  "path": [[p.lat_deg, p.lon_deg] for p in r.points]})
+    for fmt in (f for f in mission_format.registry() if f.readable):
+        for path in sorted([*tree.root.glob(f"mission*{fmt.suffix}"),
+                            *tree.root.glob(f"battery_*/mission*{fmt.suffix}")]):
+            _, routes = fmt.read(path)
+            for r in routes:
+                mission_files.append({"file": str(path.relative_to(tree.root)),
+                                      "format": path.suffix[1:],
+                                      "waypoints": len(r.points),
+                                      "path": [[p.lat_deg, p.lon_deg] for p in r.points]})
     nb = _next_battery(tree)
     next_battery = {"battery": nb[0], **paths(nb[1].flights)[0]} if nb else None
     return {"schema": "mound.map", "version": 1, "second_looks": second_looks,

@@ -11,13 +11,13 @@ from mound.errors import InputError, NoResultError
 from mound.formats.plan import Plan
 from mound.geometry.flight import DEFAULT_SITE_DIAMETER_M
 from mound.geometry.geodesy import Origin
-from mound.jsonio import json_text, write_all_atomic
+from mound.jsonio import write_all_atomic
 from mound.uav import upload
 
 
 def cmd_build(args: argparse.Namespace) -> int:
-    from mound.uav import dji, litchi, mission, mission_formats, mission_items
     from mound.uav import files as mission_files
+    from mound.uav import mission, mission_format, mission_items
 
     plan = Plan.read(args.plan)
     if args.origin:
@@ -49,17 +49,19 @@ def cmd_build(args: argparse.Namespace) -> int:
             raise InputError(f"--flight: the plan has no flight {args.flight} that visits a site")
     if not flights:
         raise InputError("flights: the plan visits no site, there is nothing to fly")
-    if not any((args.out, args.wpl, args.geojson, args.dji_kmz, args.litchi)):
-        raise InputError("mission build: no output: give --out (.plan), --dji-kmz, --litchi, "
-                         "--wpl or --geojson")
-    craft = dji.aircraft(args.aircraft) if args.dji_kmz else None
-    if args.dji_heights == "wgs84" and not args.dem:
-        raise InputError("--dji-heights wgs84: needs --dem (ellipsoidal heights need the "
-                         "ground under home)")
+    # Each format asked for by its option (the registry's: --out, --wpl, --dji-kmz, ...).
+    asked = {f.name: getattr(args, mission_format.option_dest(f))
+             for f in mission_format.registry() if getattr(args, mission_format.option_dest(f))}
+    if not asked:
+        raise InputError("mission build: no output: give " + ", ".join(
+            f.option for f in mission_format.registry()))
+    opts = mission_format.WriteOptions(args.firmware, args.aircraft, args.dji_heights,
+                                       bool(args.dem))
+    mission_format.check(asked, opts)
     # Several flights: one mission each, named OUT_1.plan, OUT_2.plan, ... (and the other
-    # formats alike); all are made and checked before any file is written. A DJI or Litchi
-    # file that a limit of its format refuses is not written: the others are, the refusal
-    # is recorded in the .plan's `mound.formats` and said on stderr, and the exit is 3.
+    # formats alike); all are made and checked before any file is written. A file that a
+    # limit of its format refuses is not written: the others are, the refusal is recorded
+    # in the .plan's `mound.formats` and said on stdout, and the exit is 3.
     several = len(flights) > 1
     outputs: list[tuple[str | Path, str | bytes]] = []
     missions = []
@@ -68,41 +70,25 @@ def cmd_build(args: argparse.Namespace) -> int:
     for number, f in flights:
         m = mission.build(f, origin, spec, terrain)
         flight = number if several else None
-        names = ["" if p is None else str(mission_files.flight_path(p, flight))
-                 for p in (args.out, args.wpl, args.geojson, args.dji_kmz, args.litchi)]
-        contents, formats = mission_formats.other_formats(m, craft, args.dji_heights,
-                                                          bool(args.litchi))
-        if "dji_kmz" in contents:
-            outputs.append((names[3], contents["dji_kmz"]))
-            formats["dji_kmz"]["file"] = Path(names[3]).name
-        parts = contents.get("litchi_csv", [])
-        paths = [litchi.part_path(names[4], k + 1, len(parts)) for k in range(len(parts))]
-        outputs += list(zip(paths, parts, strict=True))
-        if "litchi_csv" in formats:
-            formats["litchi_csv"]["files"] = [p.name for p in paths]
-            crew.add(formats["litchi_csv"].get("crew", ""))
-        refusals += [f"{'' if flight is None else f'flight {flight}: '}{what} not written: "
-                     f"{doc['refused']}" for what, doc in formats.items() if "refused" in doc]
-        if args.out:
-            doc = mission_files.plan_document(m, args.firmware)
-            doc["mound"]["formats"] = formats  # type: ignore[index]
-            outputs.append((names[0], json_text(doc)))
-        if args.wpl:
-            outputs.append((names[1], mission_files.wpl_text(m)))
-        if args.geojson:
-            outputs.append((names[2], mission_files.geojson_text(m)))
-        written = [n for n, _ in outputs]
-        missions.append((number, next((n for n in names if n and n in written), "-"), m))
+        paths = {name: mission_files.flight_path(p, flight) for name, p in asked.items()}
+        files, record = mission_format.write_flight(m, paths, opts)
+        outputs += files
+        crew |= {str(doc["crew"]) for doc in record.values() if "crew" in doc}
+        refusals += [f"{'' if flight is None else f'flight {flight}: '}{r}"
+                     for r in mission_format.refusals(record)]
+        first = next((str(p) for p, _ in reversed(files)), "-")
+        missions.append((number, first, m))
     if not outputs:
         raise NoResultError("; ".join(refusals))
     # All files or none: every file is made and staged before any is put in place.
     write_all_atomic(outputs)
     for flight, out, m in missions:
         _report(m, out, flight if several else None)
+    shown = {str(p) for _, p, _ in missions}
     for path, _ in outputs:
-        if str(path).endswith((".kmz", ".csv")):
+        if str(path) not in shown:
             print(f"  -> {path}")
-    for text in sorted(c for c in crew if c):
+    for text in sorted(crew):
         print(f"  Litchi: {text}")
     if refusals:
         for r in refusals:
@@ -130,9 +116,16 @@ def _report(m: Any, out: str, flight: int | None) -> None:
 
 
 def cmd_show(args: argparse.Namespace) -> int:
-    from mound.uav import mission_formats
+    from mound.uav import mission_format
 
-    print(mission_formats.show(args.mission))
+    print(mission_format.show(args.mission))
+    return 0
+
+
+def cmd_formats(args: argparse.Namespace) -> int:
+    from mound.uav import mission_format
+
+    print(mission_format.listing())
     return 0
 
 
@@ -159,19 +152,17 @@ def add_parser(sub: Any, parser_class: type) -> None:
     b.add_argument("plan")
     b.add_argument("--origin", help="LAT,LON[,ALT] of the plan's ENU origin (default: "
                    "the plan's origin)")
-    b.add_argument("--out", help="QGroundControl .plan file (MAVLink: PX4, ArduPilot)")
-    b.add_argument("--wpl", help="also a 'QGC WPL 110' waypoint file")
-    b.add_argument("--geojson", help="also the path, sites and image footprints as GeoJSON")
-    b.add_argument("--dji-kmz", metavar="OUT.kmz", help="also a DJI WPML mission for DJI "
-                   "Pilot 2 / FlightHub 2 (one wayline per flight; see --aircraft)")
+    from mound.uav import mission_format
+
+    for fmt in mission_format.registry():
+        b.add_argument(fmt.option, metavar=f"OUT{fmt.suffix}",
+                       dest=mission_format.option_dest(fmt), help=fmt.help)
     b.add_argument("--aircraft", default="m3e",
                    help="--dji-kmz: the aircraft, one of m3e, m3t, m30, m300, m350, m4e "
                    "(default m3e; mini4pro and air3 fly with --litchi)")
     b.add_argument("--dji-heights", choices=("relative", "wgs84"), default="relative",
                    help="--dji-kmz heights: above the take-off point's ground (default; the "
                    "barometer zeroed at take-off) or WGS84 ellipsoidal (needs --dem; for RTK)")
-    b.add_argument("--litchi", metavar="OUT.csv", help="also a Litchi CSV mission (consumer "
-                   "DJI aircraft; a flight over 99 waypoints in parts OUT_part1.csv, ...)")
     b.add_argument("--pattern", choices=("raster", "orbit", "both"),
                    help="scan pattern (default: the plan's scan, else raster); any of these "
                    "four options replaces the plan's scan")
@@ -188,10 +179,12 @@ def add_parser(sub: Any, parser_class: type) -> None:
 
     add_terrain_arguments(b)
     b.set_defaults(func=cmd_build)
-    sh = grp.add_parser("show", help="the waypoints of a mission file (.plan, WPL, DJI .kmz, "
-                        "Litchi .csv) as a table")
+    sh = grp.add_parser("show", help="the waypoints of a mission file (" + ", ".join(
+        mission_format.readable_suffixes()) + ") as a table")
     sh.add_argument("mission")
     sh.set_defaults(func=cmd_show)
+    fm = grp.add_parser("formats", help="the mission file formats: option, limits")
+    fm.set_defaults(func=cmd_formats)
     u = grp.add_parser("upload", help="upload a .plan or WPL mission over MAVLink")
     u.add_argument("mission")
     u.add_argument("--connect", required=True,

@@ -70,7 +70,7 @@ from xml.sax.saxutils import escape
 import numpy as np
 
 from mound.errors import InputError
-from mound.jsonio import number_text
+from mound.jsonio import number_text, parse_xml
 from mound.uav.route import (
     NADIR_DEG,
     Route,
@@ -526,21 +526,6 @@ def _members(path: str | Path) -> dict[str, bytes]:
     return out
 
 
-def _parse_xml(data: bytes, where: str) -> Any:
-    """The XML tree; no DTD, entities or external references (defusedxml)."""
-    import defusedxml.ElementTree as ET
-    from defusedxml import DefusedXmlException
-
-    try:
-        return ET.fromstring(data, forbid_dtd=True)
-    except LookupError as e:  # an encoding Python does not know (x-unknown, base64)
-        raise InputError(f"{where}: the XML declares an encoding that cannot be read "
-                         f"({' '.join(str(e).split())[:80]})") from None
-    except (DefusedXmlException, ET.ParseError, ValueError) as e:
-        raise InputError(f"{where}: not well-formed XML without a DTD "
-                         f"({' '.join(str(e).split())[:100]})") from None
-
-
 def _text(el: Any, name: str, where: str, required: bool = True) -> str | None:
     child = el.find(f"{{{WPML_NS}}}{name}")
     if child is None or child.text is None or not child.text.strip():
@@ -646,7 +631,7 @@ def read_kmz(path: str | Path) -> KmzMission:
     """A DJI WPML KMZ (ours or DJI's own): its waylines' waypoints, heights in the file's
     frame, photos and gimbal pitches; InputError naming the file and element."""
     members = _members(path)
-    root = _parse_xml(members[WAYLINES], f"{path}: {WAYLINES}")
+    root = parse_xml(members[WAYLINES], f"{path}: {WAYLINES}")
     if root.tag != f"{{{KML_NS}}}kml":
         raise InputError(f"{path}: {WAYLINES}: the root is not a KML <kml> element")
     doc = root.find(f"{{{KML_NS}}}Document")
@@ -668,7 +653,7 @@ def read_kmz(path: str | Path) -> KmzMission:
     takeoff = None
     template: dict[str, Any] = {}
     if TEMPLATE in members:
-        troot = _parse_xml(members[TEMPLATE], f"{path}: {TEMPLATE}")
+        troot = parse_xml(members[TEMPLATE], f"{path}: {TEMPLATE}")
         template = _template(troot, f"{path}: {TEMPLATE}")
         ref = troot.find(f"{{{KML_NS}}}Document/{{{WPML_NS}}}missionConfig/"
                          f"{{{WPML_NS}}}takeOffRefPoint")

@@ -158,6 +158,22 @@ def route_of(items: list[mi.MissionItem], home_lat_deg: float, home_lon_deg: flo
     return Route(home_lat_deg, home_lon_deg, tuple(out), end)
 
 
+def items_route(items: list[mi.MissionItem]) -> Route:
+    """The route of MAVLink items whose first is the take-off (this project's missions;
+    an ArduPilot list's item 0, home, is skipped)."""
+    items = list(items)
+    if items and items[0].command == mi.NAV_WAYPOINT and items[0].frame == mi.FRAME_GLOBAL:
+        items = items[1:]
+    if not items or items[0].command != mi.NAV_TAKEOFF:
+        raise InputError("the mission does not start with a take-off (NAV_TAKEOFF)")
+    return route_of(items, items[0].lat_deg, items[0].lon_deg)
+
+
+def mission_route(m: mi.Mission) -> Route:
+    """The route of a built mission, about its take-off point."""
+    return items_route(m.items)
+
+
 def split_long_legs(route: Route, max_leg_m: float) -> Route:
     """The route with waypoints added (same heights, speed and settings as the leg's
     start) so that no leg is longer than max_leg_m (3-D)."""

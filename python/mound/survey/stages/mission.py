@@ -14,42 +14,31 @@ from mound.survey.context import Context, mission_terrain, run_stage
 
 def write_missions(missions: list[tuple[int | None, Any]], folder: Path, png_folder: Path,
                    firmware: str, aircraft: str = "m3e") -> tuple[list[Path], dict[str, Any]]:
-    """Each flight's mission (k None: the only one) in every format a crew flies:
-    FOLDER/mission.plan, .waypoints (MAVLink), .kmz (DJI WPML for `aircraft`), .csv
-    (Litchi; mission_partN.csv past 99 waypoints), .geojson (mission_K.* of several), and
-    its map PNG_FOLDER/mission.png (mission_K.png); returns the files and the mound.mission
+    """Each flight's mission (k None: the only one) in every registered format
+    (uav/mission_format.py: mission.plan, .waypoints, .geojson, .kmz for `aircraft`, .csv
+    in parts past 99 waypoints, ...; mission_K.* of several), and its map
+    PNG_FOLDER/mission.png (mission_K.png); returns the files and the mound.mission
     summary: the only flight's own, or of several their totals, each under `flights`. A
-    DJI or Litchi file a limit of theirs refuses is not written, and the summary's
-    `formats` says why (the .plan is the reference and is always written)."""
+    format a limit of its own refuses is not written, and the summary's `formats` says why
+    (the .plan is the reference and is always written)."""
     from mound.survey import figures
-    from mound.uav import dji, litchi, mission_formats
     from mound.uav import files as mission_files
+    from mound.uav import mission_format
 
     written: list[Path] = []
     summaries = []
     for k, m in missions:
-        files = {name: mission_files.flight_path(folder / name, k)
-                 for name in ("mission.plan", "mission.waypoints", "mission.geojson")}
-        mission_files.write_plan(files["mission.plan"], m, firmware)
-        mission_files.write_wpl(files["mission.waypoints"], m)
-        mission_files.write_geojson(files["mission.geojson"], m)
-        contents, formats = mission_formats.other_formats(m, dji.aircraft(aircraft))
-        if "dji_kmz" in contents:
-            kmz = mission_files.flight_path(folder / "mission.kmz", k)
-            write_all_atomic([(kmz, contents["dji_kmz"])])
-            files["mission.kmz"] = kmz
-            formats["dji_kmz"]["file"] = kmz.name
-        parts = contents.get("litchi_csv", [])
-        csv_path = mission_files.flight_path(folder / "mission.csv", k)
-        paths = [litchi.part_path(csv_path, j + 1, len(parts)) for j in range(len(parts))]
-        write_all_atomic(list(zip(paths, parts, strict=True)))
-        files.update({p.name: p for p in paths})
-        formats["litchi_csv"]["files"] = [p.name for p in paths]
+        opts = mission_format.WriteOptions(firmware, aircraft, "relative", m.terrain is not None)
+        paths = {f.name: mission_files.flight_path(folder / f"mission{f.suffix}", k)
+                 for f in mission_format.registry()}
+        mission_format.check(paths, opts)
+        files, formats = mission_format.write_flight(m, paths, opts)
+        write_all_atomic(files)
         png = mission_files.flight_path(png_folder / "mission.png", k)
         figures.mission_map(m.nav_enu, m.footprints, m.sites, png)
-        written += [*files.values(), png]
-        summaries.append({**m.summary(), "flight": k or 1, "file": files["mission.plan"].name,
-                          "formats": formats})
+        written += [*(p for p, _ in files), png]
+        summaries.append({**m.summary(), "flight": k or 1,
+                          "file": paths[mission_format.reference().name].name, "formats": formats})
     summary = dict(summaries[0]) if len(summaries) == 1 else {
         "schema": "mound.mission", "version": 1, "origin": summaries[0]["origin"],
         "items": sum(x["items"] for x in summaries),
