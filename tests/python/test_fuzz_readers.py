@@ -860,11 +860,56 @@ def test_litchi_reader(text: str) -> None:
     value_or_input_error(read, _file(text, "m.csv"))
 
 
+def _gpx_seed() -> str:
+    from mound.uav.filetypes import gpx
+
+    plan = json.loads(json.dumps({**PLAN, "scan": mission_items.scan_for_site(
+        60.0, "both").to_doc()}))
+    return gpx.gpx_text(build_mission(plan, ORIGIN, None))
+
+
+GPX_TEXT = _gpx_seed()
+
+
+@st.composite
+def mutated_gpx(draw: st.DrawFn, text: str) -> str:
+    """GPX with attribute values (lat, lon, the legs' extension) replaced by nasty tokens,
+    then its element texts and lines mutated as any XML's."""
+    import re
+
+    spans = [m.span(1) for m in re.finditer(r'="([^"]*)"', text)]
+    for _ in range(draw(st.integers(0, 3))):
+        a, b = draw(st.sampled_from(spans))
+        if b <= len(text):
+            token = draw(st.sampled_from(["", "nan", "inf", "-1", "1e400", "91", "-181", "x"])
+                         | st.text(max_size=6))
+            text = text[:a] + token.replace('"', "").replace("<", "").replace("&", "") + text[b:]
+    return draw(mutated_xml(text))
+
+
+def _read_gpx_route(path: Path) -> None:
+    import numpy as np
+
+    from mound.uav.filetypes import gpx
+
+    _, r = gpx.read_gpx(path)
+    assert len(r.points) >= 2 and np.all(np.isfinite(r.enu()))
+
+
+@FUZZ
+@given(mutated_gpx(GPX_TEXT))
+def test_gpx_reader(text: str) -> None:
+    """Issue 70: a GPX track of this project's, mutated: a route with finite positions and
+    heights, or an InputError."""
+    value_or_input_error(_read_gpx_route, _file(text, "m.gpx"))
+
+
 def test_the_mission_format_seeds_are_valid() -> None:
     from mound.uav import litchi
 
     _read_kmz_routes(_file(_kmz(KML_TEMPLATE, WAYLINES_WPML), "m.kmz"))
     assert len(litchi.read_litchi(_file(LITCHI_CSV, "m.csv"))) > 5
+    _read_gpx_route(_file(GPX_TEXT, "m.gpx"))
 
 
 # ---- issue 56: the measured population a grid draws its tumuli from

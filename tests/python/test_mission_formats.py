@@ -14,6 +14,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 from test_mission import grid_plan
 
 from mound.paths import REPO_ROOT
@@ -83,3 +84,65 @@ def test_no_output_names_every_formats_option(tmp_path) -> None:
     r = mound("mission", "build", str(plan))
     assert r.returncode == 2 and r.stderr.count("\n") == 1
     assert all(f.option in r.stderr for f in mission_format.registry())
+
+
+# ------------------------------------------ the GPX track for ground crews (filetypes/gpx)
+
+def _flat_mission() -> object:
+    from test_mission import ORIGIN
+
+    from mound.formats.plan import Plan
+    from mound.uav import mission, mission_items
+
+    return mission.build(Plan.from_doc(grid_plan(3), "test"), ORIGIN,
+                         mission_items.MissionSpec())
+
+
+def test_the_gpx_track_is_the_plans_route_as_gpxpy_reads_it(tmp_path) -> None:
+    """gpxpy (an independent reader) finds home and the sites as waypoints and the route's
+    every waypoint as a track point, `ele` the origin's altitude plus the height above
+    home; our reader gives back the .plan's whole route (speeds, photos, gimbal, end)."""
+    import gpxpy
+
+    from mound.uav.filetypes import gpx
+    from mound.uav.route import mission_route
+
+    m = _flat_mission()
+    path = tmp_path / "m.gpx"
+    path.write_text(gpx.gpx_text(m))  # type: ignore[arg-type]
+    route = mission_route(m)  # type: ignore[arg-type]
+    g = gpxpy.parse(path.read_text())
+    assert [w.name for w in g.waypoints] == ["home", "s0", "s1", "s2"]
+    assert g.waypoints[0].elevation == pytest.approx(95.0)
+    assert len(g.tracks) == 1 and len(g.tracks[0].segments) == 1
+    pts = g.tracks[0].segments[0].points
+    assert len(pts) == len(route.points) > 10
+    for p, q in zip(pts, route.points, strict=True):
+        assert (p.latitude, p.longitude) == pytest.approx((q.lat_deg, q.lon_deg), abs=1e-7)
+        assert p.elevation == pytest.approx(95.0 + q.height_m, abs=1e-3)
+    assert "above mean sea level" in (g.description or "")
+    _, back = gpx.read_gpx(path)
+    assert back.differs_from(route) is None, back.differs_from(route)
+    assert back.end == route.end == "home"
+
+
+@pytest.mark.parametrize("name,edit,names", [
+    ("not_xml", lambda t: "lat,lon\n1,2\n", "not well-formed"),
+    ("entity", lambda t: t.replace('<?xml version="1.0" encoding="UTF-8"?>',
+                                   '<?xml version="1.0"?><!DOCTYPE gpx [<!ENTITY a "b">]>'),
+     "DTD"),
+    ("gpx_1_0", lambda t: t.replace("GPX/1/1", "GPX/1/0"), "not GPX 1.1"),
+    ("no_track", lambda t: t[:t.index("<trk>")] + "</gpx>\n", "no trk"),
+    ("lat", lambda t: t.replace('lat="', 'lat="9', 2), "lat"),
+    ("speed", lambda t: t.replace('speed_m_s="', 'speed_m_s="nan', 1), "speed_m_s"),
+    ("ele", lambda t: t.replace("<ele>", "<ele>x", 1), "ele"),
+])
+def test_bad_gpx_files_are_refused_naming_the_file(tmp_path, name: str, edit, names: str
+                                                   ) -> None:
+    from mound.uav.filetypes import gpx
+
+    path = tmp_path / f"{name}.gpx"
+    path.write_text(edit(gpx.gpx_text(_flat_mission())))  # type: ignore[arg-type]
+    r = mound("mission", "show", str(path))
+    assert r.returncode == 2 and r.stderr.count("\n") == 1, r.stderr
+    assert str(path) in r.stderr and names in r.stderr, r.stderr
