@@ -63,18 +63,27 @@ PlyCloud ReadPly(const std::string& path) {
   return ParsePly(in, path);
 }
 
-PlyCloud ParsePly(std::istream& in, const std::string& path) {
+namespace {
+
+struct Header {
+  std::string format;  // ascii, binary_little_endian or binary_big_endian
+  std::vector<Element> elements;
+};
+
+// The header up to end_header (its comments into `comments`), `*line_no` its last line.
+Header ReadHeader(std::istream& in, const std::string& path, int* line_no,
+                  std::vector<std::string>* comments) {
   auto fail = [&](int line, const std::string& what) {
     throw InputError(path + ":" + std::to_string(line) + ": " + what);
   };
   std::string line;
-  int ln = 0;
+  int& ln = *line_no;
   if (!std::getline(in, line) || (line != "ply" && line != "ply\r"))
     fail(1, "not a PLY file (no 'ply' magic line)");
   ++ln;
-  std::string format;
-  std::vector<Element> elements;
-  PlyCloud cloud;
+  Header h;
+  std::string& format = h.format;
+  std::vector<Element>& elements = h.elements;
   bool ended = false;
   while (std::getline(in, line)) {
     ++ln;
@@ -88,7 +97,7 @@ PlyCloud ParsePly(std::istream& in, const std::string& path) {
       if (format != "ascii" && format != "binary_little_endian" && format != "binary_big_endian")
         fail(ln, "unknown format '" + format + "'");
     } else if (word == "comment" || word == "obj_info") {
-      cloud.comments.push_back(line.size() > 8 ? line.substr(8) : "");
+      comments->push_back(line.size() > 8 ? line.substr(8) : "");
     } else if (word == "element") {
       Element e;
       std::string count;
@@ -120,6 +129,47 @@ PlyCloud ParsePly(std::istream& in, const std::string& path) {
   }
   if (!ended) fail(ln, "no end_header");
   if (format.empty()) fail(ln, "no format line");
+  return h;
+}
+
+// The vertex element's columns: x, y, z and (8-bit) red, green, blue; -1 where absent.
+struct Columns {
+  int x = -1, y = -1, z = -1, r = -1, g = -1, b = -1;
+};
+
+Columns FindColumns(const Element& v) {
+  Columns c;
+  for (size_t k = 0; k < v.props.size(); ++k) {
+    const std::string& n = v.props[k].name;
+    const int kk = static_cast<int>(k);
+    if (n == "x")
+      c.x = kk;
+    else if (n == "y")
+      c.y = kk;
+    else if (n == "z")
+      c.z = kk;
+    else if (n == "red" && v.props[k].type.find("char") != std::string::npos)
+      c.r = kk;
+    else if (n == "green" && v.props[k].type.find("char") != std::string::npos)
+      c.g = kk;
+    else if (n == "blue" && v.props[k].type.find("char") != std::string::npos)
+      c.b = kk;
+  }
+  return c;
+}
+
+}  // namespace
+
+PlyCloud ParsePly(std::istream& in, const std::string& path) {
+  auto fail = [&](int line, const std::string& what) {
+    throw InputError(path + ":" + std::to_string(line) + ": " + what);
+  };
+  std::string line;
+  int ln = 0;
+  PlyCloud cloud;
+  const Header head = ReadHeader(in, path, &ln, &cloud.comments);
+  const std::string& format = head.format;
+  const std::vector<Element>& elements = head.elements;
   size_t vi = elements.size();
   for (size_t i = 0; i < elements.size(); ++i)
     if (elements[i].name == "vertex") {
@@ -129,23 +179,8 @@ PlyCloud ParsePly(std::istream& in, const std::string& path) {
   if (vi == elements.size()) fail(ln, "no vertex element");
   const Element& v = elements[vi];
   if (v.has_list) fail(ln, "element vertex: list properties are not supported");
-  int ix = -1, iy = -1, iz = -1, ir = -1, ig = -1, ib = -1;
-  for (size_t k = 0; k < v.props.size(); ++k) {
-    const std::string& n = v.props[k].name;
-    const int kk = static_cast<int>(k);
-    if (n == "x")
-      ix = kk;
-    else if (n == "y")
-      iy = kk;
-    else if (n == "z")
-      iz = kk;
-    else if (n == "red" && v.props[k].type.find("char") != std::string::npos)
-      ir = kk;
-    else if (n == "green" && v.props[k].type.find("char") != std::string::npos)
-      ig = kk;
-    else if (n == "blue" && v.props[k].type.find("char") != std::string::npos)
-      ib = kk;
-  }
+  const Columns col = FindColumns(v);
+  const int ix = col.x, iy = col.y, iz = col.z, ir = col.r, ig = col.g, ib = col.b;
   if (ix < 0 || iy < 0 || iz < 0) fail(ln, "element vertex lacks x, y or z");
   const bool colours = ir >= 0 && ig >= 0 && ib >= 0;
   const bool binary = format != "ascii";

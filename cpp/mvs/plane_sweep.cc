@@ -127,6 +127,164 @@ std::pair<double, double> SweptHeightRange(std::vector<double> heights, double c
 
 namespace {
 
+// The sweep's inner loops run over flat arrays without branches (so that the compiler
+// vectorises them): -2 marks "no score".
+constexpr float kNone = -2.f;
+
+// The number of planes: the shift of sample pixels between the lowest and highest plane in
+// each source image (the 75th percentile over 8 x 6 samples of the largest over the
+// sources), one plane per max_step_px of it, within min_planes .. max_planes.
+int PlaneCount(const DenseInput& in, const ScaledImage& R, const geometry::Rigid3d& Tr,
+               const std::vector<int>& sources,
+               const std::vector<std::shared_ptr<const ScaledImage>>& S, const Eigen::Vector3d& up,
+               double lo, double hi, const DenseOptions& o) {
+  const int W = R.camera.width, H = R.camera.height;
+  const Eigen::Vector3d Cr = Tr.Centre();
+  std::vector<double> shifts;
+  for (int sy = 0; sy < 6; ++sy)
+    for (int sx = 0; sx < 8; ++sx) {
+      const double x = (sx + 0.5) * W / 8.0, y = (sy + 0.5) * H / 6.0;
+      const Eigen::Vector3d ray = RayInWorld(R.camera, Tr, x, y);
+      const double ur = up.dot(ray);
+      if (std::fabs(ur) < 1e-9) continue;
+      const double l_lo = (lo - up.dot(Cr)) / ur, l_hi = (hi - up.dot(Cr)) / ur;
+      if (l_lo <= 0 || l_hi <= 0) continue;
+      double most = 0;
+      for (size_t k = 0; k < S.size(); ++k) {
+        Eigen::Vector2d a, b;
+        if (Project(S[k]->camera, in.cam_from_world[sources[k]], Cr + l_lo * ray, &a) &&
+            Project(S[k]->camera, in.cam_from_world[sources[k]], Cr + l_hi * ray, &b)) {
+          most = std::max(most, (a - b).norm());
+        }
+      }
+      if (most > 0) shifts.push_back(most);
+    }
+  const double shift = shifts.empty() ? 0.0 : Quantile(shifts, 0.75);
+  return std::clamp(static_cast<int>(std::ceil(shift / o.max_step_px)) + 1, o.min_planes,
+                    o.max_planes);
+}
+
+// The reference image's window statistics and each pixel's n_c . x^ (the plane's depth is
+// d_c / it), as flat arrays.
+struct RefWindows {
+  cv::Mat mean_i;
+  std::vector<float> nd, std_i, inv_std_i, nd_sign;
+};
+
+RefWindows ReferenceWindows(const ScaledImage& R, const Eigen::Vector3d& n_c, const cv::Size& win) {
+  const int W = R.camera.width, H = R.camera.height;
+  const size_t npx = static_cast<size_t>(W) * H;
+  RefWindows rw;
+  cv::Mat mean_ii, grey_sq;
+  cv::boxFilter(R.grey, rw.mean_i, CV_32F, win);
+  cv::multiply(R.grey, R.grey, grey_sq);
+  cv::boxFilter(grey_sq, mean_ii, CV_32F, win);
+  rw.nd.resize(npx);
+  rw.std_i.resize(npx);
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const size_t p = static_cast<size_t>(y) * W + x;
+      rw.nd[p] = static_cast<float>(n_c.dot(
+          Eigen::Vector3d((x - R.camera.cx) / R.camera.fx, (y - R.camera.cy) / R.camera.fy, 1.0)));
+      const float mi = rw.mean_i.at<float>(y, x);
+      rw.std_i[p] = std::sqrt(std::max(0.f, mean_ii.at<float>(y, x) - mi * mi));
+    }
+  rw.inv_std_i.resize(npx);
+  rw.nd_sign.resize(npx);
+  for (size_t p = 0; p < npx; ++p) {
+    rw.inv_std_i[p] = rw.std_i[p] > 1e-4f ? 1.f / rw.std_i[p] : 0.f;
+    rw.nd_sign[p] = rw.nd[p] > 0 ? 1.f : (rw.nd[p] < 0 ? -1.f : 0.f);
+  }
+  return rw;
+}
+
+// The images a plane's NCC is computed in, kept from one source and plane to the next.
+struct NccScratch {
+  cv::Mat warped, prod[3], boxed[3];
+};
+
+// One source's NCC with the reference on the plane n_c . X_cam = d_c (the source warped
+// by the plane's homography): `ncc` per pixel, kNone where the source does not see it, the
+// plane lies behind the camera or a window has no texture.
+void SourceNcc(const ScaledImage& R, const ScaledImage& source, const geometry::Rigid3d& rel,
+               const Eigen::Vector3d& n_c, double d_c, const RefWindows& rw, const cv::Size& win,
+               NccScratch* sc, std::vector<float>* ncc) {
+  const size_t npx = ncc->size();
+  const float plane_sign = d_c > 0 ? 1.f : -1.f;
+  const Eigen::Matrix3d Hm = source.camera.K() *
+                             (rel.RotationMatrix() + rel.translation * n_c.transpose() / d_c) *
+                             R.camera.K().inverse();
+  cv::Mat Hcv(3, 3, CV_64F);
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) Hcv.at<double>(r, c) = Hm(r, c);
+  // Outside the source image reads -1 (grey values are 0..1): a pixel whose bilinear
+  // sample touches it comes out negative and is skipped.
+  cv::warpPerspective(source.grey, sc->warped, Hcv, R.grey.size(),
+                      cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, cv::BORDER_CONSTANT, cv::Scalar(-1));
+  const float* w = sc->warped.ptr<float>(0);
+  const float* g = R.grey.ptr<float>(0);
+  float* q1 = sc->prod[1].ptr<float>(0);
+  float* q2 = sc->prod[2].ptr<float>(0);
+  for (size_t p = 0; p < npx; ++p) {
+    q1[p] = w[p] * w[p];
+    q2[p] = g[p] * w[p];
+  }
+  // Box means of J, J^2 and I J (separate planes: contiguous loads below).
+  cv::boxFilter(sc->warped, sc->boxed[0], CV_32F, win);
+  cv::boxFilter(sc->prod[1], sc->boxed[1], CV_32F, win);
+  cv::boxFilter(sc->prod[2], sc->boxed[2], CV_32F, win);
+  const float* b0 = sc->boxed[0].ptr<float>(0);
+  const float* b1 = sc->boxed[1].ptr<float>(0);
+  const float* b2 = sc->boxed[2].ptr<float>(0);
+  const float* mi = rw.mean_i.ptr<float>(0);  // continuous, row-major like p
+  const float* inv_std_i = rw.inv_std_i.data();
+  const float* nd_sign = rw.nd_sign.data();
+  float* out = ncc->data();
+  for (size_t p = 0; p < npx; ++p) {
+    const float mean_j = b0[p], var_j = std::max(b1[p] - mean_j * mean_j, 0.f);
+    const float inv = inv_std_i[p] / std::sqrt(var_j + 1e-12f);
+    const float c = std::min(std::max((b2[p] - mi[p] * mean_j) * inv, -1.f), 1.f);
+    // Inside the source, the plane in front of the camera, texture in both windows.
+    const bool ok = (w[p] >= 0) & (nd_sign[p] == plane_sign) & (var_j > 1e-8f) & (inv_std_i[p] > 0);
+    out[p] = ok ? c : kNone;
+  }
+}
+
+// Each pixel's best plane so far, the scores of the planes either side of it (for the
+// sub-plane refinement) and the last plane's score.
+struct BestPlanes {
+  std::vector<float> prev, best, s_minus, s_plus, best_k;  // best_k float: no mixed types
+  explicit BestPlanes(size_t npx)
+      : prev(npx, kNone),
+        best(npx, kNone),
+        s_minus(npx, kNone),
+        s_plus(npx, kNone),
+        best_k(npx, -1.f) {}
+};
+
+// Plane k's score per pixel, the mean of its best kb NCCs in `top` (none when fewer views
+// saw it), kept where it beats the pixel's best. `sums`: scratch.
+void KeepBest(const std::vector<std::vector<float>>& top, int k, std::vector<float>* sums,
+              BestPlanes* b) {
+  const int kb = static_cast<int>(top.size());
+  const size_t npx = sums->size();
+  std::vector<float>& ncc = *sums;
+  std::copy(top[0].begin(), top[0].end(), ncc.begin());
+  for (int i = 1; i < kb; ++i)
+    for (size_t p = 0; p < npx; ++p) ncc[p] += top[i][p];
+  const float* last = top[kb - 1].data();
+  const float inv_kb = 1.f / kb, kf = static_cast<float>(k);
+  for (size_t p = 0; p < npx; ++p) {
+    const float s = last[p] > kNone ? ncc[p] * inv_kb : kNone;
+    const bool better = s > b->best[p];
+    b->s_plus[p] = better ? kNone : (b->best_k[p] == kf - 1 ? s : b->s_plus[p]);
+    b->s_minus[p] = better ? b->prev[p] : b->s_minus[p];
+    b->best_k[p] = better ? kf : b->best_k[p];
+    b->best[p] = better ? s : b->best[p];
+    b->prev[p] = s;
+  }
+}
+
 DepthMap Sweep(const DenseInput& in, int ref, const std::vector<int>& sources,
                const DenseOptions& o, const ScaledImages& images) {
   const auto t0 = std::chrono::steady_clock::now();
@@ -162,156 +320,61 @@ DepthMap Sweep(const DenseInput& in, int ref, const std::vector<int>& sources,
     m.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     return m;
   }
-  const Eigen::Vector3d Cr = Tr.Centre();
-  const auto [lo, hi] = SweptHeightRange(heights, up.dot(Cr));
-
+  const auto [lo, hi] = SweptHeightRange(heights, up.dot(Tr.Centre()));
   std::vector<std::shared_ptr<const ScaledImage>> S;
   std::vector<geometry::Rigid3d> rel;  // source_from_ref
   for (int j : sources) {
     S.push_back(images.Get(j));
     rel.push_back(in.cam_from_world[j] * Tr.Inverse());
   }
-  // Plane spacing: the shift of sample pixels between the lowest and highest plane in each
-  // source image (the 75th percentile over 8 x 6 samples of the largest over the sources).
-  std::vector<double> shifts;
-  for (int sy = 0; sy < 6; ++sy)
-    for (int sx = 0; sx < 8; ++sx) {
-      const double x = (sx + 0.5) * W / 8.0, y = (sy + 0.5) * H / 6.0;
-      const Eigen::Vector3d ray = RayInWorld(R.camera, Tr, x, y);
-      const double ur = up.dot(ray);
-      if (std::fabs(ur) < 1e-9) continue;
-      const double l_lo = (lo - up.dot(Cr)) / ur, l_hi = (hi - up.dot(Cr)) / ur;
-      if (l_lo <= 0 || l_hi <= 0) continue;
-      double most = 0;
-      for (size_t k = 0; k < S.size(); ++k) {
-        Eigen::Vector2d a, b;
-        if (Project(S[k]->camera, in.cam_from_world[sources[k]], Cr + l_lo * ray, &a) &&
-            Project(S[k]->camera, in.cam_from_world[sources[k]], Cr + l_hi * ray, &b)) {
-          most = std::max(most, (a - b).norm());
-        }
-      }
-      if (most > 0) shifts.push_back(most);
-    }
-  const double shift = shifts.empty() ? 0.0 : Quantile(shifts, 0.75);
-  const int planes = std::clamp(static_cast<int>(std::ceil(shift / o.max_step_px)) + 1,
-                                o.min_planes, o.max_planes);
+  const int planes = PlaneCount(in, R, Tr, sources, S, up, lo, hi, o);
   const double step = (hi - lo) / (planes - 1);
   m.height_min = lo;
   m.height_max = hi;
   m.planes = planes;
 
-  // Reference window statistics and each pixel's n_c . x^ (the plane's depth is d_c / it).
-  cv::Mat mean_i, mean_ii, grey_sq;
   const cv::Size win(o.window, o.window);
-  cv::boxFilter(R.grey, mean_i, CV_32F, win);
-  cv::multiply(R.grey, R.grey, grey_sq);
-  cv::boxFilter(grey_sq, mean_ii, CV_32F, win);
   const Eigen::Vector3d n_c = Tr.rotation * up;  // the planes' normal in the reference camera
-  std::vector<float> nd(npx), std_i(npx);
-  for (int y = 0; y < H; ++y)
-    for (int x = 0; x < W; ++x) {
-      const size_t p = static_cast<size_t>(y) * W + x;
-      nd[p] = static_cast<float>(n_c.dot(
-          Eigen::Vector3d((x - R.camera.cx) / R.camera.fx, (y - R.camera.cy) / R.camera.fy, 1.0)));
-      const float mi = mean_i.at<float>(y, x);
-      std_i[p] = std::sqrt(std::max(0.f, mean_ii.at<float>(y, x) - mi * mi));
-    }
-  const Eigen::Matrix3d Kr_inv = R.camera.K().inverse();
-  // The sweep's inner loops run over flat arrays without branches (so that the compiler
-  // vectorises them): -2 marks "no score".
-  const float kNone = -2.f;
+  const RefWindows rw = ReferenceWindows(R, n_c, win);
   const int kb = min_sources;
-  std::vector<float> prev(npx, kNone), best(npx, kNone), s_minus(npx, kNone), s_plus(npx, kNone),
-      ncc(npx);
+  std::vector<float> ncc(npx);
   std::vector<std::vector<float>> top(kb, std::vector<float>(npx));  // the best kb NCCs, descending
-  std::vector<float> best_k(npx, -1.f);  // float: the loop below mixes no types
-  std::vector<float> inv_std_i(npx), nd_sign(npx);
-  for (size_t p = 0; p < npx; ++p) {
-    inv_std_i[p] = std_i[p] > 1e-4f ? 1.f / std_i[p] : 0.f;
-    nd_sign[p] = nd[p] > 0 ? 1.f : (nd[p] < 0 ? -1.f : 0.f);
-  }
-  const float* mi = mean_i.ptr<float>(0);  // continuous, row-major like p
-  cv::Mat warped, prod[3] = {cv::Mat(), cv::Mat(H, W, CV_32F), cv::Mat(H, W, CV_32F)}, boxed[3];
+  BestPlanes b(npx);
+  NccScratch sc;
+  sc.prod[1] = cv::Mat(H, W, CV_32F);
+  sc.prod[2] = cv::Mat(H, W, CV_32F);
   for (int k = 0; k < planes; ++k) {
     const double h = lo + k * step;
     const double d_c = h + n_c.dot(Tr.translation);  // plane n_c . X_cam = d_c
     if (std::fabs(d_c) < 1e-9) continue;
-    const float plane_sign = d_c > 0 ? 1.f : -1.f;
     for (auto& t : top) std::fill(t.begin(), t.end(), kNone);
     for (size_t j = 0; j < S.size(); ++j) {
-      const Eigen::Matrix3d Hm =
-          S[j]->camera.K() *
-          (rel[j].RotationMatrix() + rel[j].translation * n_c.transpose() / d_c) * Kr_inv;
-      cv::Mat Hcv(3, 3, CV_64F);
-      for (int r = 0; r < 3; ++r)
-        for (int c = 0; c < 3; ++c) Hcv.at<double>(r, c) = Hm(r, c);
-      // Outside the source image reads -1 (grey values are 0..1): a pixel whose bilinear
-      // sample touches it comes out negative and is skipped.
-      cv::warpPerspective(S[j]->grey, warped, Hcv, R.grey.size(),
-                          cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, cv::BORDER_CONSTANT,
-                          cv::Scalar(-1));
-      const float* w = warped.ptr<float>(0);
-      const float* g = R.grey.ptr<float>(0);
-      float* q1 = prod[1].ptr<float>(0);
-      float* q2 = prod[2].ptr<float>(0);
-      for (size_t p = 0; p < npx; ++p) {
-        q1[p] = w[p] * w[p];
-        q2[p] = g[p] * w[p];
-      }
-      // Box means of J, J^2 and I J (separate planes: contiguous loads below).
-      cv::boxFilter(warped, boxed[0], CV_32F, win);
-      cv::boxFilter(prod[1], boxed[1], CV_32F, win);
-      cv::boxFilter(prod[2], boxed[2], CV_32F, win);
-      const float* b0 = boxed[0].ptr<float>(0);
-      const float* b1 = boxed[1].ptr<float>(0);
-      const float* b2 = boxed[2].ptr<float>(0);
-      for (size_t p = 0; p < npx; ++p) {
-        const float mean_j = b0[p], var_j = std::max(b1[p] - mean_j * mean_j, 0.f);
-        const float inv = inv_std_i[p] / std::sqrt(var_j + 1e-12f);
-        const float c = std::min(std::max((b2[p] - mi[p] * mean_j) * inv, -1.f), 1.f);
-        // Inside the source, the plane in front of the camera, texture in both windows.
-        const bool ok =
-            (w[p] >= 0) & (nd_sign[p] == plane_sign) & (var_j > 1e-8f) & (inv_std_i[p] > 0);
-        ncc[p] = ok ? c : kNone;
-      }
+      SourceNcc(R, *S[j], rel[j], n_c, d_c, rw, win, &sc, &ncc);
       for (int i = 0; i < kb; ++i) {
         float* t = top[i].data();
         for (size_t p = 0; p < npx; ++p) {
-          const float hi = std::max(t[p], ncc[p]), lo_ = std::min(t[p], ncc[p]);
-          t[p] = hi;
+          const float hi_ = std::max(t[p], ncc[p]), lo_ = std::min(t[p], ncc[p]);
+          t[p] = hi_;
           ncc[p] = lo_;
         }
       }
     }
-    // A hypothesis's score: the mean of its best kb NCCs (none when fewer views saw it).
-    std::copy(top[0].begin(), top[0].end(), ncc.begin());  // ncc now holds the sums
-    for (int i = 1; i < kb; ++i)
-      for (size_t p = 0; p < npx; ++p) ncc[p] += top[i][p];
-    const float* last = top[kb - 1].data();
-    const float inv_kb = 1.f / kb, kf = static_cast<float>(k);
-    for (size_t p = 0; p < npx; ++p) {
-      const float s = last[p] > kNone ? ncc[p] * inv_kb : kNone;
-      const bool better = s > best[p];
-      s_plus[p] = better ? kNone : (best_k[p] == kf - 1 ? s : s_plus[p]);
-      s_minus[p] = better ? prev[p] : s_minus[p];
-      best_k[p] = better ? kf : best_k[p];
-      best[p] = better ? s : best[p];
-      prev[p] = s;
-    }
+    KeepBest(top, k, &ncc, &b);  // ncc now holds the sums
   }
+  // Each pixel's depth: its best plane, refined by the parabola through its neighbours.
   for (int y = 0; y < H; ++y)
     for (int x = 0; x < W; ++x) {
       const size_t p = static_cast<size_t>(y) * W + x;
-      if (best[p] < o.min_ncc || std_i[p] < o.min_texture || best_k[p] <= 0 ||
-          best_k[p] >= planes - 1)
+      if (b.best[p] < o.min_ncc || rw.std_i[p] < o.min_texture || b.best_k[p] <= 0 ||
+          b.best_k[p] >= planes - 1)
         continue;
       double delta = 0;
-      if (s_minus[p] > kNone && s_plus[p] > kNone) {
-        const double den = s_minus[p] - 2.0 * best[p] + s_plus[p];
-        if (den < 0) delta = std::clamp(0.5 * (s_minus[p] - s_plus[p]) / den, -0.5, 0.5);
+      if (b.s_minus[p] > kNone && b.s_plus[p] > kNone) {
+        const double den = b.s_minus[p] - 2.0 * b.best[p] + b.s_plus[p];
+        if (den < 0) delta = std::clamp(0.5 * (b.s_minus[p] - b.s_plus[p]) / den, -0.5, 0.5);
       }
-      const double h = lo + (best_k[p] + delta) * step;
-      const double depth = (h + n_c.dot(Tr.translation)) / nd[p];
+      const double hgt = lo + (b.best_k[p] + delta) * step;
+      const double depth = (hgt + n_c.dot(Tr.translation)) / rw.nd[p];
       if (depth > 0) {
         m.depth[p] = static_cast<float>(depth);
         ++m.valid;

@@ -375,6 +375,127 @@ PlanResult SolveAlns(const OpInstance& inst, const AlnsOptions& opt, AlnsStats* 
 
 namespace mound::plan {
 
+namespace {
+
+// K flights and their totals.
+struct Multi {
+  std::vector<Solution> fl;
+  double reward = 0, cost = 0;
+};
+
+// More reward, or as much for less cost.
+bool Better(const Multi& a, const Multi& b) {
+  const double eps = 1e-12 * (1.0 + std::abs(b.reward));
+  if (a.reward > b.reward + eps) return true;
+  return a.reward >= b.reward - eps && a.cost < b.cost - 1e-9;
+}
+
+// K flights searched together over one Search, whose `taken` marks the sites the other
+// flights visit while one flight is searched.
+class FlightsSearch {
+ public:
+  FlightsSearch(const OpInstance& inst, int flights, uint64_t seed)
+      : inst_(inst),
+        flights_(flights),
+        search_(inst, seed),
+        taken_(inst.Size(), 0),
+        blocked_(inst.Size(), 0) {}
+
+  Search& search() { return search_; }
+
+  void MarkOthers(const std::vector<Solution>& fl, int k) {
+    std::fill(taken_.begin(), taken_.end(), 0);
+    for (int j = 0; j < static_cast<int>(fl.size()); ++j) {
+      if (j == k) continue;
+      for (int v : fl[j].route)
+        if (inst_.IsSite(v)) taken_[v] = 1;
+    }
+    search_.SetTaken(taken_);
+  }
+
+  void Total(Multi* m) {
+    m->reward = m->cost = 0;
+    for (auto& s : m->fl) {
+      search_.Evaluate(&s);
+      m->reward += s.reward;
+      m->cost += s.cost;
+    }
+  }
+
+  // Moves between every pair of flights, then each flight refilled and searched again.
+  void Improve(Multi* m) {
+    for (int round = 0; round < 10; ++round) {
+      bool moved = false;
+      for (int a = 0; a < flights_; ++a)
+        for (int b = a + 1; b < flights_; ++b) moved |= search_.BetweenRoutes(&m->fl[a], &m->fl[b]);
+      bool grew = false;
+      for (int k = 0; k < flights_; ++k) {
+        const double before = m->fl[k].reward;
+        MarkOthers(m->fl, k);
+        search_.LocalSearch(&m->fl[k]);
+        grew |= m->fl[k].reward > before + 1e-12;
+      }
+      if (!moved && !grew) break;
+    }
+    Total(m);
+  }
+
+  // Each flight polished (seed + k), then improved together.
+  void Polish(Multi* m, uint64_t seed) {
+    for (int k = 0; k < flights_; ++k) {
+      MarkOthers(m->fl, k);
+      search_.Polish(&m->fl[k], seed + k);
+    }
+    Improve(m);
+  }
+
+  // Every site with a reward is on a flight.
+  bool AllVisited(const Multi& m) const {
+    int rewarded = 0, on = 0;
+    for (int v = inst_.FirstSite(); v < inst_.Size(); ++v) rewarded += inst_.nodes[v].reward > 0;
+    for (const auto& s : m.fl)
+      for (int v : s.route) on += inst_.IsSite(v) && inst_.nodes[v].reward > 0;
+    return on == rewarded;
+  }
+
+  // One iteration's candidate: one flight (half of the time) or all of them ruined by
+  // operator `op`, each refilled in a random order with noise, and improved together.
+  void RuinAndRecreate(Multi* cand, int op) {
+    std::mt19937_64& rng = search_.Rng();
+    const int n = inst_.Size();
+    const bool all = rng() % 2 == 0;
+    const int one = static_cast<int>(rng() % flights_);
+    std::fill(blocked_.begin(), blocked_.end(), 0);
+    for (int k = 0; k < flights_; ++k) {
+      if (!all && k != one) continue;
+      const int m = static_cast<int>(cand->fl[k].route.size()) - 2;
+      if (m <= 0) continue;
+      search_.Ruin(&cand->fl[k], op, RuinSize(m, rng));
+      for (int v = 0; v < n; ++v) blocked_[v] |= search_.Blocked()[v];
+    }
+    static constexpr double kNoise[] = {0.1, 0.3, 0.6};
+    const double noise = kNoise[rng() % 3];
+    std::vector<int> order(flights_);
+    std::iota(order.begin(), order.end(), 0);
+    std::shuffle(order.begin(), order.end(), rng);
+    for (int k : order) {
+      MarkOthers(cand->fl, k);
+      search_.Blocked() = blocked_;
+      search_.Recreate(&cand->fl[k], noise);
+      search_.LocalSearch(&cand->fl[k]);
+    }
+    Improve(cand);
+  }
+
+ private:
+  const OpInstance& inst_;
+  const int flights_;
+  Search search_;
+  std::vector<char> taken_, blocked_;
+};
+
+}  // namespace
+
 FlightsResult SolveAlnsFlights(const OpInstance& inst, int flights, const AlnsOptions& opt,
                                AlnsStats* out_stats) {
   if (flights == 1) {
@@ -401,119 +522,38 @@ FlightsResult SolveAlnsFlights(const OpInstance& inst, int flights, const AlnsOp
     return r;
   });
 
-  Search search(inst, opt.seed ^ 0xA5A5A5A5ULL);
+  FlightsSearch fs(inst, flights, opt.seed ^ 0xA5A5A5A5ULL);
+  Search& search = fs.search();
   std::mt19937_64& rng = search.Rng();
-  const int n = inst.Size();
-  std::vector<char> taken(n, 0);
-  auto mark_others = [&](const std::vector<Solution>& fl, int k) {
-    std::fill(taken.begin(), taken.end(), 0);
-    for (int j = 0; j < static_cast<int>(fl.size()); ++j) {
-      if (j == k) continue;
-      for (int v : fl[j].route)
-        if (inst.IsSite(v)) taken[v] = 1;
-    }
-    search.SetTaken(taken);
-  };
-  struct Multi {
-    std::vector<Solution> fl;
-    double reward = 0, cost = 0;
-  };
-  auto total = [&](Multi* m) {
-    m->reward = m->cost = 0;
-    for (auto& s : m->fl) {
-      search.Evaluate(&s);
-      m->reward += s.reward;
-      m->cost += s.cost;
-    }
-  };
-  auto better = [&](const Multi& a, const Multi& b) {
-    const double eps = 1e-12 * (1.0 + std::abs(b.reward));
-    if (a.reward > b.reward + eps) return true;
-    return a.reward >= b.reward - eps && a.cost < b.cost - 1e-9;
-  };
-  // Moves between every pair of flights, then each flight refilled and searched again.
-  auto improve = [&](Multi* m) {
-    for (int round = 0; round < 10; ++round) {
-      bool moved = false;
-      for (int a = 0; a < flights; ++a)
-        for (int b = a + 1; b < flights; ++b) moved |= search.BetweenRoutes(&m->fl[a], &m->fl[b]);
-      bool grew = false;
-      for (int k = 0; k < flights; ++k) {
-        const double before = m->fl[k].reward;
-        mark_others(m->fl, k);
-        search.LocalSearch(&m->fl[k]);
-        grew |= m->fl[k].reward > before + 1e-12;
-      }
-      if (!moved && !grew) break;
-    }
-    total(m);
-  };
-
   Multi best;
   for (auto& r : seq.routes) best.fl.push_back(search.Make(r));
-  improve(&best);
+  fs.Improve(&best);
   const double seq_reward = seq.reward;
   Multi cur = best;
 
   const int restart = schedule.Restart();
   Roulette roulette;
   int it = 0, since_best = 0, new_bests = 0, last_polish = 0;
-  std::vector<char> blocked(n, 0);
   auto ticks = [&] { return static_cast<double>(search.Ticks() + start_ticks); };
-  int rewarded = 0;
-  for (int v = inst.FirstSite(); v < n; ++v) rewarded += inst.nodes[v].reward > 0;
-  auto all_visited = [&](const Multi& m) {
-    int on = 0;
-    for (const auto& s : m.fl)
-      for (int v : s.route) on += inst.IsSite(v) && inst.nodes[v].reward > 0;
-    return on == rewarded;
-  };
   for (; schedule.Going(it, since_best); ++it) {
-    if (all_visited(best)) break;
+    if (fs.AllVisited(best)) break;
     if (schedule.OutOfTime(ticks())) break;
     const int op = roulette.Pick(rng);
     Multi cand = cur;
-    // Ruin one flight (half of the time) or all of them.
-    const bool all = rng() % 2 == 0;
-    const int one = static_cast<int>(rng() % flights);
-    std::fill(blocked.begin(), blocked.end(), 0);
-    for (int k = 0; k < flights; ++k) {
-      if (!all && k != one) continue;
-      const int m = static_cast<int>(cand.fl[k].route.size()) - 2;
-      if (m <= 0) continue;
-      search.Ruin(&cand.fl[k], op, RuinSize(m, rng));
-      for (int v = 0; v < n; ++v) blocked[v] |= search.Blocked()[v];
-    }
-    static constexpr double kNoise[] = {0.1, 0.3, 0.6};
-    const double noise = kNoise[rng() % 3];
-    std::vector<int> order(flights);
-    std::iota(order.begin(), order.end(), 0);
-    std::shuffle(order.begin(), order.end(), rng);
-    for (int k : order) {
-      mark_others(cand.fl, k);
-      search.Blocked() = blocked;
-      search.Recreate(&cand.fl[k], noise);
-      search.LocalSearch(&cand.fl[k]);
-    }
-    improve(&cand);
-
+    fs.RuinAndRecreate(&cand, op);
     const double threshold = schedule.Threshold(ticks(), since_best);
     ++since_best;
-    if (better(cand, best)) {
+    if (Better(cand, best)) {
       best = cand;
       ++new_bests;
       since_best = 0;
       roulette.Score(op, 33);
       if (it - last_polish >= 50) {
-        for (int k = 0; k < flights; ++k) {
-          mark_others(best.fl, k);
-          search.Polish(&best.fl[k], opt.seed + static_cast<uint64_t>(it) + k);
-        }
-        improve(&best);
+        fs.Polish(&best, opt.seed + static_cast<uint64_t>(it));
         last_polish = it;
       }
       cur = best;
-    } else if (better(cand, cur)) {
+    } else if (Better(cand, cur)) {
       roulette.Score(op, 9);
       cur = std::move(cand);
     } else if (cand.reward >= best.reward * (1.0 - threshold)) {
@@ -523,11 +563,7 @@ FlightsResult SolveAlnsFlights(const OpInstance& inst, int flights, const AlnsOp
     if (since_best > 0 && since_best % restart == 0) cur = best;
     roulette.Next();
   }
-  for (int k = 0; k < flights; ++k) {
-    mark_others(best.fl, k);
-    search.Polish(&best.fl[k], opt.seed + 0x9E3779B9ULL + k);
-  }
-  improve(&best);
+  fs.Polish(&best, opt.seed + 0x9E3779B9ULL);
 
   FlightsResult res;
   for (auto& s : best.fl) res.routes.push_back(s.route);

@@ -90,6 +90,72 @@ int RunCompare(const std::vector<std::string>& args) {
   return kExitOk;
 }
 
+namespace {
+
+// The reference-free verdict's options from its flags, checked.
+SiteVerdictOptions SiteOptions(const Args& a) {
+  SiteVerdictOptions site;
+  if (a.Has("--radius")) {
+    site.radius_m = ParseNumber(a.options.at("--radius"), "--radius");
+    if (!(*site.radius_m > 0)) throw InputError("--radius: must be > 0");
+  }
+  if (a.Has("--relief-threshold")) {
+    site.detector.relief_threshold_m =
+        ParseNumber(a.options.at("--relief-threshold"), "--relief-threshold");
+    if (!(site.detector.relief_threshold_m > 0))
+      throw InputError("--relief-threshold: must be > 0");
+  }
+  if (a.Has("--ground-order")) {
+    const double g = ParseNumber(a.options.at("--ground-order"), "--ground-order");
+    if (g != 1 && g != 2) throw InputError("--ground-order: 1 (a plane) or 2 (a quadratic)");
+    site.detector.ground_order = static_cast<int>(g);
+  }
+  if (a.Has("--candidates")) {
+    const auto c = terrain::CandidatesFromName(a.options.at("--candidates"));
+    if (!c) throw InputError("--candidates: site_ground or local_relief");
+    site.detector.candidates = *c;
+  }
+  if (a.Has("--second-look")) {
+    const std::string first = a.options.at("--second-look"), at = "--second-look: " + first;
+    std::string text;
+    try {
+      text = ReadFile(first);
+    } catch (const InputError& e) {
+      throw InputError(std::string("--second-look: ") + e.what());
+    }
+    site.first_look_p = terrain::FirstLookP(ParseJson(text, at), at);
+  }
+  if (a.Has("--decide-at")) {
+    site.decide_at = ParseNumber(a.options.at("--decide-at"), "--decide-at");
+    if (!(*site.decide_at > 0 && *site.decide_at < 1))
+      throw InputError("--decide-at: must be in (0, 1)");
+  }
+  site.Check();
+  return site;
+}
+
+// Only a cloud made as the model's training clouds were is judged: densify's options travel
+// in the dense.json beside its dense.ply (--cloud); the sparse cloud has none.
+void CheckCloudMadeAsTrained(const terrain::CloudSettings& trained, const Args& a,
+                             const std::string& cloud_path) {
+  if (a.Has("--cloud")) {
+    const std::string meta =
+        (std::filesystem::path(cloud_path).parent_path() / "dense.json").string();
+    if (!std::filesystem::is_regular_file(meta))
+      throw InputError("--cloud: no dense.json beside " + cloud_path +
+                       ": cannot tell whether the cloud was made as the model's training "
+                       "clouds were (judge mound_recon densify's output)");
+    const nlohmann::json made = ParseJson(ReadFile(meta), meta);
+    terrain::CheckCloudSettings(
+        trained, "dense",
+        made.is_object() ? made.value("options", nlohmann::json()) : nlohmann::json(), meta);
+  } else {
+    terrain::CheckCloudSettings(trained, "sparse", nlohmann::json::object(), cloud_path);
+  }
+}
+
+}  // namespace
+
 int RunVerdict(const std::vector<std::string>& args) {
   const Args a = ParseArgs(args, 1,
                            {"--out", "--reference", "--radius", "--threshold-ratio", "--model",
@@ -115,42 +181,7 @@ int RunVerdict(const std::vector<std::string>& args) {
     }
     paper.Check();
   } else {
-    if (a.Has("--radius")) {
-      site.radius_m = ParseNumber(a.options.at("--radius"), "--radius");
-      if (!(*site.radius_m > 0)) throw InputError("--radius: must be > 0");
-    }
-    if (a.Has("--relief-threshold")) {
-      site.detector.relief_threshold_m =
-          ParseNumber(a.options.at("--relief-threshold"), "--relief-threshold");
-      if (!(site.detector.relief_threshold_m > 0))
-        throw InputError("--relief-threshold: must be > 0");
-    }
-    if (a.Has("--ground-order")) {
-      const double g = ParseNumber(a.options.at("--ground-order"), "--ground-order");
-      if (g != 1 && g != 2) throw InputError("--ground-order: 1 (a plane) or 2 (a quadratic)");
-      site.detector.ground_order = static_cast<int>(g);
-    }
-    if (a.Has("--candidates")) {
-      const auto c = terrain::CandidatesFromName(a.options.at("--candidates"));
-      if (!c) throw InputError("--candidates: site_ground or local_relief");
-      site.detector.candidates = *c;
-    }
-    if (a.Has("--second-look")) {
-      const std::string first = a.options.at("--second-look"), at = "--second-look: " + first;
-      std::string text;
-      try {
-        text = ReadFile(first);
-      } catch (const InputError& e) {
-        throw InputError(std::string("--second-look: ") + e.what());
-      }
-      site.first_look_p = terrain::FirstLookP(ParseJson(text, at), at);
-    }
-    if (a.Has("--decide-at")) {
-      site.decide_at = ParseNumber(a.options.at("--decide-at"), "--decide-at");
-      if (!(*site.decide_at > 0 && *site.decide_at < 1))
-        throw InputError("--decide-at: must be in (0, 1)");
-    }
-    site.Check();
+    site = SiteOptions(a);
   }
   // --model sparse | dense | FILE; by default the built-in model of the cloud judged: the
   // sparse one for points.ply, the dense one for --cloud (densify's dense.ply). A file is
@@ -203,25 +234,7 @@ int RunVerdict(const std::vector<std::string>& args) {
     // the model's candidate set unless --candidates names one (then the verdict says whether
     // the model was trained on it)
     if (!a.Has("--candidates")) site.detector.candidates = model.candidates;
-    if (model.cloud_settings) {
-      // Only a cloud made as the model's training clouds were: densify's options travel in
-      // the dense.json beside its dense.ply.
-      if (a.Has("--cloud")) {
-        const std::string meta =
-            (std::filesystem::path(cloud_path).parent_path() / "dense.json").string();
-        if (!std::filesystem::is_regular_file(meta))
-          throw InputError("--cloud: no dense.json beside " + cloud_path +
-                           ": cannot tell whether the cloud was made as the model's training "
-                           "clouds were (judge mound_recon densify's output)");
-        const nlohmann::json made = ParseJson(ReadFile(meta), meta);
-        terrain::CheckCloudSettings(
-            *model.cloud_settings, "dense",
-            made.is_object() ? made.value("options", nlohmann::json()) : nlohmann::json(), meta);
-      } else {
-        terrain::CheckCloudSettings(*model.cloud_settings, "sparse", nlohmann::json::object(),
-                                    cloud_path);
-      }
-    }
+    if (model.cloud_settings) CheckCloudMadeAsTrained(*model.cloud_settings, a, cloud_path);
     const std::string model_file = !built_in ? model_arg
                                    : model_arg == "dense"
                                        ? "built-in dense (data/verdict_model_dense.json)"

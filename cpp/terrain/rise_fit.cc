@@ -337,6 +337,119 @@ std::vector<Candidate> LocalReliefCandidates(const HeightGrid& g, double min_con
   return Blobs(g, radii, resp, min_contrast_m, max_count);
 }
 
+namespace {
+
+// The points' own relief over the rise's ground and their residual from its dome, within
+// its base (Rise::point_top, point_spread; the cells' `disc` and `resid` where too few).
+void PointFigures(const HeightGrid& g, const Fit& f, const std::vector<double>& disc,
+                  const std::vector<double>& resid, double h, Rise* r) {
+  const Eigen::Vector2d c = f.centre;
+  const double R = f.radius;
+  std::vector<double> core, point_resid;
+  for (const Eigen::Vector3d& p : g.points) {
+    const Eigen::Vector2d d = p.head<2>() - c;
+    const double rad = d.norm();
+    if (rad > R) continue;
+    const double rel = p.z() - f.Ground(d);
+    point_resid.push_back(rel - f.H * Phi(f.shape, rad / R));
+    if (rad <= R / 2) core.push_back(rel);
+  }
+  if (core.size() < 3) core = disc;
+  r->point_top = Quantile(core, 0.95) / h;
+  if (point_resid.size() < 5) point_resid = resid;
+  const double med = Median(point_resid);
+  for (double& e : point_resid) e = std::fabs(e - med);
+  r->point_spread = 1.4826 * Median(point_resid) / h;
+}
+
+// How much of the relief's variance in the window the radial profile explains (the rings'
+// means): 1 for a rise symmetric about its centre.
+double Symmetry(const std::vector<std::pair<size_t, double>>& window,
+                const std::vector<double>& rsum, const std::vector<double>& rcnt) {
+  double mean = 0;
+  for (const auto& [b, rel] : window) mean += rel;
+  mean /= window.size();
+  double tot = 0, sse = 0;
+  for (const auto& [b, rel] : window) {
+    tot += (rel - mean) * (rel - mean);
+    sse += (rel - rsum[b] / rcnt[b]) * (rel - rsum[b] / rcnt[b]);
+  }
+  return tot > 0 ? 1 - sse / tot : 0;
+}
+
+// The share of the base disc (centre c, radius R) outside the site (on a lattice of the
+// disc).
+double OutsideShare(const Eigen::Vector2d& c, double R, double site_radius) {
+  int all = 0, off = 0;
+  for (int b = -12; b <= 12; ++b)
+    for (int a = -12; a <= 12; ++a) {
+      const Eigen::Vector2d p = c + R * Eigen::Vector2d(a, b) / 12;
+      if ((p - c).norm() > R) continue;
+      ++all;
+      off += p.norm() > site_radius ? 1 : 0;
+    }
+  return all ? static_cast<double>(off) / all : 0;
+}
+
+// The footprint's figures (its cells `comp`, `in` marking them): volume, roundness, flank
+// slope, flat top, the share of its outline on the site's edge, its extent.
+template <class Relief>
+void FootprintFigures(const HeightGrid& g, const std::vector<size_t>& comp,
+                      const std::vector<char>& in, const Relief& relief, const Eigen::Vector2d& c,
+                      Rise* rise) {
+  Rise& r = *rise;
+  const double cell_area = g.cell * g.cell;
+  Eigen::Vector2d m = Eigen::Vector2d::Zero();
+  for (size_t k : comp) m += g.Centre(k);
+  m /= comp.size();
+  Eigen::Matrix2d M = Eigen::Matrix2d::Zero();
+  std::vector<double> slopes;
+  int outline = 0, on_edge = 0;
+  int top = 0;
+  for (size_t k : comp) {
+    const double rel = relief(k);
+    r.volume_m3 += rel * cell_area;
+    top += rel >= 0.85 * r.height_m ? 1 : 0;
+    const Eigen::Vector2d p = g.Centre(k) - m;
+    M += p * p.transpose();
+    const int i = static_cast<int>(k % g.w), j = static_cast<int>(k / g.w);
+    auto at = [&](int a, int b) {
+      if (a < 0 || b < 0 || a >= g.w || b >= g.h) return std::numeric_limits<double>::quiet_NaN();
+      const size_t n = g.Index(a, b);
+      return g.inside[n] && !std::isnan(g.z[n]) ? relief(n)
+                                                : std::numeric_limits<double>::quiet_NaN();
+    };
+    // The flank's slope is the outward, downhill component of the gradient: a flank
+    // falls away from the centre, while the walls of a looters' trench through the top
+    // (or of a pit's far side) face across or inwards and would make a trenched tumulus
+    // as steep as a building.
+    const double gx = (at(i + 1, j) - at(i - 1, j)) / (2 * g.cell);
+    const double gy = (at(i, j + 1) - at(i, j - 1)) / (2 * g.cell);
+    const Eigen::Vector2d out_dir = g.Centre(k) - c;
+    if (std::isfinite(gx) && std::isfinite(gy) && out_dir.norm() >= g.cell)
+      slopes.push_back(std::max(0.0, -Eigen::Vector2d(gx, gy).dot(out_dir.normalized())));
+    bool boundary = false, edge = false;
+    for (const auto& [di, dj] : {std::pair{1, 0}, {-1, 0}, {0, 1}, {0, -1}}) {
+      const int a = i + di, b = j + dj;
+      const bool off = a < 0 || b < 0 || a >= g.w || b >= g.h || !g.inside[g.Index(a, b)];
+      if (off || !in[g.Index(a, b)]) boundary = true;
+      if (off) edge = true;
+    }
+    outline += boundary ? 1 : 0;
+    on_edge += edge ? 1 : 0;
+    r.extent_m = std::max(r.extent_m, g.Centre(k).norm());
+  }
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es(M / comp.size());
+  r.roundness = es.eigenvalues()[1] > 0
+                    ? std::sqrt(std::max(0.0, es.eigenvalues()[0]) / es.eigenvalues()[1])
+                    : 0;
+  r.flank_slope_rad = slopes.empty() ? 0 : std::atan(Quantile(slopes, 0.9));
+  r.flat_top = static_cast<double>(top) / comp.size();
+  r.clipped = outline > 0 ? static_cast<double>(on_edge) / outline : 0;
+}
+
+}  // namespace
+
 bool MeasureRise(const HeightGrid& g, const Candidate& start, double relief_threshold_m, Rise* out,
                  bool curved_ground) {
   const Fit f = Refine(g, start, curved_ground);
@@ -395,34 +508,8 @@ bool MeasureRise(const HeightGrid& g, const Candidate& start, double relief_thre
   double ss = 0;
   for (double e : resid) ss += e * e;
   r.roughness = std::sqrt(ss / resid.size()) / std::max(f.H, 0.05);
-  {  // the points' own relief and residual (Rise::point_top, point_spread)
-    std::vector<double> core, point_resid;
-    for (const Eigen::Vector3d& p : g.points) {
-      const Eigen::Vector2d d = p.head<2>() - c;
-      const double rad = d.norm();
-      if (rad > R) continue;
-      const double rel = p.z() - f.Ground(d);
-      point_resid.push_back(rel - f.H * Phi(f.shape, rad / R));
-      if (rad <= R / 2) core.push_back(rel);
-    }
-    if (core.size() < 3) core = disc;
-    r.point_top = Quantile(core, 0.95) / h;
-    if (point_resid.size() < 5) point_resid = resid;
-    const double med = Median(point_resid);
-    for (double& e : point_resid) e = std::fabs(e - med);
-    r.point_spread = 1.4826 * Median(point_resid) / h;
-  }
-  {
-    double mean = 0;
-    for (const auto& [b, rel] : window) mean += rel;
-    mean /= window.size();
-    double tot = 0, sse = 0;
-    for (const auto& [b, rel] : window) {
-      tot += (rel - mean) * (rel - mean);
-      sse += (rel - rsum[b] / rcnt[b]) * (rel - rsum[b] / rcnt[b]);
-    }
-    r.symmetry = tot > 0 ? 1 - sse / tot : 0;
-  }
+  PointFigures(g, f, disc, resid, h, &r);
+  r.symmetry = Symmetry(window, rsum, rcnt);
   double hi = -std::numeric_limits<double>::infinity(), lo = -hi;
   for (int s = 0; s < 8; ++s)
     if (sec_cnt[s] > 0) {
@@ -431,18 +518,7 @@ bool MeasureRise(const HeightGrid& g, const Candidate& start, double relief_thre
     }
   r.ring_high = std::isfinite(hi) ? hi / h : 0;
   r.ring_spread = std::isfinite(hi) ? (hi - lo) / h : 0;
-  // The share of the base disc outside the site (on a lattice of the disc).
-  {
-    int all = 0, off = 0;
-    for (int b = -12; b <= 12; ++b)
-      for (int a = -12; a <= 12; ++a) {
-        const Eigen::Vector2d p = c + R * Eigen::Vector2d(a, b) / 12;
-        if ((p - c).norm() > R) continue;
-        ++all;
-        off += p.norm() > g.radius ? 1 : 0;
-      }
-    r.outside = all ? static_cast<double>(off) / all : 0;
-  }
+  r.outside = OutsideShare(c, R, g.radius);
   // The footprint: the 4-connected cells of relief above max(threshold, a quarter of the
   // height) grown from the peak, within 3 R of the centre (a ridge runs on; a tumulus
   // ends at its foot).
@@ -457,55 +533,7 @@ bool MeasureRise(const HeightGrid& g, const Candidate& start, double relief_thre
   r.cells = static_cast<int>(comp.size());
   r.area_m2 = comp.size() * cell_area;
   r.fill = r.area_m2 / (M_PI * R * R);
-  if (!comp.empty()) {
-    Eigen::Vector2d m = Eigen::Vector2d::Zero();
-    for (size_t k : comp) m += g.Centre(k);
-    m /= comp.size();
-    Eigen::Matrix2d M = Eigen::Matrix2d::Zero();
-    std::vector<double> slopes;
-    int outline = 0, on_edge = 0;
-    int top = 0;
-    for (size_t k : comp) {
-      const double rel = relief(k);
-      r.volume_m3 += rel * cell_area;
-      top += rel >= 0.85 * r.height_m ? 1 : 0;
-      const Eigen::Vector2d p = g.Centre(k) - m;
-      M += p * p.transpose();
-      const int i = static_cast<int>(k % g.w), j = static_cast<int>(k / g.w);
-      auto at = [&](int a, int b) {
-        if (a < 0 || b < 0 || a >= g.w || b >= g.h) return std::numeric_limits<double>::quiet_NaN();
-        const size_t n = g.Index(a, b);
-        return g.inside[n] && !std::isnan(g.z[n]) ? relief(n)
-                                                  : std::numeric_limits<double>::quiet_NaN();
-      };
-      // The flank's slope is the outward, downhill component of the gradient: a flank
-      // falls away from the centre, while the walls of a looters' trench through the top
-      // (or of a pit's far side) face across or inwards and would make a trenched tumulus
-      // as steep as a building.
-      const double gx = (at(i + 1, j) - at(i - 1, j)) / (2 * g.cell);
-      const double gy = (at(i, j + 1) - at(i, j - 1)) / (2 * g.cell);
-      const Eigen::Vector2d out_dir = g.Centre(k) - c;
-      if (std::isfinite(gx) && std::isfinite(gy) && out_dir.norm() >= g.cell)
-        slopes.push_back(std::max(0.0, -Eigen::Vector2d(gx, gy).dot(out_dir.normalized())));
-      bool boundary = false, edge = false;
-      for (const auto& [di, dj] : {std::pair{1, 0}, {-1, 0}, {0, 1}, {0, -1}}) {
-        const int a = i + di, b = j + dj;
-        const bool off = a < 0 || b < 0 || a >= g.w || b >= g.h || !g.inside[g.Index(a, b)];
-        if (off || !in[g.Index(a, b)]) boundary = true;
-        if (off) edge = true;
-      }
-      outline += boundary ? 1 : 0;
-      on_edge += edge ? 1 : 0;
-      r.extent_m = std::max(r.extent_m, g.Centre(k).norm());
-    }
-    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es(M / comp.size());
-    r.roundness = es.eigenvalues()[1] > 0
-                      ? std::sqrt(std::max(0.0, es.eigenvalues()[0]) / es.eigenvalues()[1])
-                      : 0;
-    r.flank_slope_rad = slopes.empty() ? 0 : std::atan(Quantile(slopes, 0.9));
-    r.flat_top = static_cast<double>(top) / comp.size();
-    r.clipped = outline > 0 ? static_cast<double>(on_edge) / outline : 0;
-  }
+  if (!comp.empty()) FootprintFigures(g, comp, in, relief, c, &r);
   r.extent_m = std::max(r.extent_m, c.norm() + R);
   r.offset_m = c.norm();
   *out = r;

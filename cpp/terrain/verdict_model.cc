@@ -229,42 +229,43 @@ std::vector<TerrainExcess> VerdictModel::OutsideTerrain(const Detection& d) cons
   return out;
 }
 
-VerdictModel ParseVerdictModel(const nlohmann::json& doc, const std::string& source) {
-  if (!doc.is_object()) throw InputError(source + ": expected a JSON object");
-  if (!doc.contains("schema") || doc["schema"] != "mound.verdict_model")
-    throw InputError(source + ": schema: expected \"mound.verdict_model\"");
-  if (!doc.contains("version") || !doc["version"].is_number_integer() || doc["version"] != 1)
-    throw InputError(source + ": version: expected 1");
-  VerdictModel m;
+namespace {
+
+// The model's features in any order, but exactly the detector's (`index`).
+void ParseFeatureNames(const nlohmann::json& doc, const std::string& source, VerdictModel* m) {
   if (!doc.contains("features") || !doc["features"].is_array())
     throw InputError(source + ": features: expected a list of names");
   for (const auto& n : doc["features"]) {
     if (!n.is_string()) throw InputError(source + ": features: expected a list of names");
-    m.features.push_back(n.get<std::string>());
+    m->features.push_back(n.get<std::string>());
   }
   // The model's features in any order, but exactly the detector's: `index[k]` is the
   // detector's position of the model's k-th feature.
   const std::vector<std::string>& mine = VerdictFeatureNames();
   std::vector<size_t> index;
-  for (const std::string& name : m.features) {
+  for (const std::string& name : m->features) {
     const auto it = std::find(mine.begin(), mine.end(), name);
-    if (it == mine.end() || std::count(m.features.begin(), m.features.end(), name) > 1) break;
+    if (it == mine.end() || std::count(m->features.begin(), m->features.end(), name) > 1) break;
     index.push_back(static_cast<size_t>(it - mine.begin()));
   }
-  if (index.size() != m.features.size() || index.size() != mine.size()) {
+  if (index.size() != m->features.size() || index.size() != mine.size()) {
     std::string want;
     for (const auto& n : mine) want += (want.empty() ? "" : ",") + n;
     throw InputError(source + ": features: made for other features than this detector's (" + want +
                      ")");
   }
-  m.index = index;
-  const size_t n = m.features.size();
+  m->index = index;
+}
+
+// The basis (linear, hinge, hinge_products with its products) and z_clip.
+void ParseBasis(const nlohmann::json& doc, const std::string& source, VerdictModel* m) {
+  const size_t n = m->features.size();
   std::string basis = "linear";  // absent: linear; present, it must be a known name
   if (doc.contains("basis"))
     basis = doc["basis"].is_string() ? doc["basis"].get<std::string>() : "";
   if (basis != "linear" && basis != "hinge" && basis != "hinge_products")
     throw InputError(source + ": basis: expected \"linear\", \"hinge\" or \"hinge_products\"");
-  m.hinge = basis != "linear";
+  m->hinge = basis != "linear";
   if (basis == "hinge_products") {
     if (!doc.contains("products") || !doc["products"].is_array() || doc["products"].empty())
       throw InputError(source + ": products: expected a list of pairs of feature names");
@@ -273,59 +274,72 @@ VerdictModel ParseVerdictModel(const nlohmann::json& doc, const std::string& sou
       for (int e = 0; e < 2 && pair.is_array() && pair.size() == 2; ++e)
         if (pair[e].is_string()) {
           const auto it =
-              std::find(m.features.begin(), m.features.end(), pair[e].get<std::string>());
-          at[e] = static_cast<size_t>(it - m.features.begin());
+              std::find(m->features.begin(), m->features.end(), pair[e].get<std::string>());
+          at[e] = static_cast<size_t>(it - m->features.begin());
         }
       if (at[0] >= n || at[1] >= n || at[0] == at[1])
         throw InputError(source + ": products: each a pair of two of the model's features");
-      m.products.emplace_back(at[0], at[1]);
+      m->products.emplace_back(at[0], at[1]);
     }
-    m.product_clip = Number(doc, "product_clip", source);
-    if (!(m.product_clip > 0 && m.product_clip <= 1e6))
+    m->product_clip = Number(doc, "product_clip", source);
+    if (!(m->product_clip > 0 && m->product_clip <= 1e6))
       throw InputError(source + ": product_clip: must be > 0 (within 1e6)");
   } else if (doc.contains("products")) {
     throw InputError(source + ": products: only with basis \"hinge_products\"");
   }
   if (doc.contains("z_clip") && !doc["z_clip"].is_null()) {
-    m.z_clip = Number(doc, "z_clip", source);
-    if (!(m.z_clip > 0 && m.z_clip <= 1e6))
+    m->z_clip = Number(doc, "z_clip", source);
+    if (!(m->z_clip > 0 && m->z_clip <= 1e6))
       throw InputError(source + ": z_clip: must be > 0 (within 1e6), or absent");
   }
-  m.mean = Numbers(doc, "mean", n, source);
-  m.std = Numbers(doc, "std", n, source);
-  m.weights = Numbers(doc, "weights", (m.hinge ? 3 * n : n) + m.products.size(), source);
+}
+
+// The standardisation, weights, bias, threshold and p_no_rise, bounded.
+void ParseWeights(const nlohmann::json& doc, const std::string& source, VerdictModel* m) {
+  const size_t n = m->features.size();
+  m->mean = Numbers(doc, "mean", n, source);
+  m->std = Numbers(doc, "std", n, source);
+  m->weights = Numbers(doc, "weights", (m->hinge ? 3 * n : n) + m->products.size(), source);
   // Bounded, so that every score is a finite number (huge weights of both signs would
   // make inf - inf).
-  for (double s : m.std)
+  for (double s : m->std)
     if (!(s >= 1e-9 && s <= 1e9))
       throw InputError(source + ": std: must be > 0 (within 1e-9 .. 1e9)");
-  for (const auto* v : {&m.mean, &m.weights})
+  for (const auto* v : {&m->mean, &m->weights})
     for (double x : *v)
       if (!(std::fabs(x) <= 1e6))
-        throw InputError(source + ": " + (v == &m.mean ? "mean" : "weights") +
+        throw InputError(source + ": " + (v == &m->mean ? "mean" : "weights") +
                          ": must be within +-1e6");
-  m.bias = Number(doc, "bias", source);
-  if (!(std::fabs(m.bias) <= 1e6)) throw InputError(source + ": bias: must be within +-1e6");
-  m.threshold = Number(doc, "threshold", source);
-  m.p_no_rise = Number(doc, "p_no_rise", source);
-  if (!(m.threshold > 0 && m.threshold < 1))
+  m->bias = Number(doc, "bias", source);
+  if (!(std::fabs(m->bias) <= 1e6)) throw InputError(source + ": bias: must be within +-1e6");
+  m->threshold = Number(doc, "threshold", source);
+  m->p_no_rise = Number(doc, "p_no_rise", source);
+  if (!(m->threshold > 0 && m->threshold < 1))
     throw InputError(source + ": threshold: must be in (0, 1)");
-  if (!(m.p_no_rise >= 0 && m.p_no_rise <= 1))
+  if (!(m->p_no_rise >= 0 && m->p_no_rise <= 1))
     throw InputError(source + ": p_no_rise: must be in [0, 1]");
+}
+
+// The beta calibration of the p (`calibration`), when given.
+void ParseCalibration(const nlohmann::json& doc, const std::string& source, VerdictModel* m) {
   if (doc.contains("calibration")) {
     const nlohmann::json& c = doc["calibration"];
     const std::string at = source + ": calibration";
     if (!c.is_object() || !c.contains("method") || c["method"] != "beta")
       throw InputError(at + ": expected {\"method\": \"beta\", \"a\", \"b\", \"c\"}");
-    m.beta = true;
-    m.beta_a = Number(c, "a", at);
-    m.beta_b = Number(c, "b", at);
-    m.beta_c = Number(c, "c", at);
-    if (!(m.beta_a >= 0 && m.beta_b >= 0 && m.beta_a + m.beta_b > 0 && m.beta_a <= 1e6 &&
-          m.beta_b <= 1e6))
+    m->beta = true;
+    m->beta_a = Number(c, "a", at);
+    m->beta_b = Number(c, "b", at);
+    m->beta_c = Number(c, "c", at);
+    if (!(m->beta_a >= 0 && m->beta_b >= 0 && m->beta_a + m->beta_b > 0 && m->beta_a <= 1e6 &&
+          m->beta_b <= 1e6))
       throw InputError(at + ": a, b: must be >= 0 (within 1e6), a + b > 0");
-    if (!(std::fabs(m.beta_c) <= 1e6)) throw InputError(at + ": c: must be within +-1e6");
+    if (!(std::fabs(m->beta_c) <= 1e6)) throw InputError(at + ": c: must be within +-1e6");
   }
+}
+
+// The second look's rule (`second_look`), when given.
+void ParseSecondLook(const nlohmann::json& doc, const std::string& source, VerdictModel* m) {
   if (doc.contains("second_look")) {
     const nlohmann::json& sl = doc["second_look"];
     const std::string at = source + ": second_look";
@@ -340,7 +354,7 @@ VerdictModel ParseVerdictModel(const nlohmann::json& doc, const std::string& sou
     l.first = Number(sl["combine"], "first", at + ".combine");
     l.second = Number(sl["combine"], "second", at + ".combine");
     l.bias = Number(sl["combine"], "bias", at + ".combine");
-    if (!(l.p_low > 0 && l.p_low < m.threshold))
+    if (!(l.p_low > 0 && l.p_low < m->threshold))
       throw InputError(at + ": p_low: must be in (0, threshold)");
     if (!(l.threshold > 0 && l.threshold < 1))
       throw InputError(at + ": threshold: must be in (0, 1)");
@@ -350,16 +364,12 @@ VerdictModel ParseVerdictModel(const nlohmann::json& doc, const std::string& sou
       throw InputError(at + ".combine: second: must be in (0, 1e6]");
     if (!(std::fabs(l.first) <= 1e6) || !(std::fabs(l.bias) <= 1e6))
       throw InputError(at + ".combine: first, bias: must be within +-1e6");
-    m.second_look = l;
+    m->second_look = l;
   }
-  if (doc.contains("undecided")) {
-    const nlohmann::json& u = doc["undecided"];
-    const std::string at = source + ": undecided";
-    UndecidedBand band;
-    std::tie(band.p_low, band.p_high) = OrderedPair(u, "p_low", "p_high", 1, at);
-    m.undecided = band;
-    if (u.contains("by_slope")) m.slope_bands = ParseSlopeBands(u["by_slope"], at + ".by_slope");
-  }
+}
+
+// The cloud the model was trained on (`cloud_settings`), when given.
+void ParseCloudSettings(const nlohmann::json& doc, const std::string& source, VerdictModel* m) {
   if (doc.contains("cloud_settings")) {
     const nlohmann::json& c = doc["cloud_settings"];
     const std::string at = source + ": cloud_settings";
@@ -378,8 +388,12 @@ VerdictModel ParseVerdictModel(const nlohmann::json& doc, const std::string& sou
     }
     if (cs.cloud == "sparse" && !cs.options.empty())
       throw InputError(at + ": a sparse cloud has no densify options");
-    m.cloud_settings = cs;
+    m->cloud_settings = cs;
   }
+}
+
+// The detector's candidates (`detector`), when given.
+void ParseDetector(const nlohmann::json& doc, const std::string& source, VerdictModel* m) {
   if (doc.contains("detector")) {
     const nlohmann::json& t = doc["detector"];
     const std::string at = source + ": detector";
@@ -388,14 +402,12 @@ VerdictModel ParseVerdictModel(const nlohmann::json& doc, const std::string& sou
       throw InputError(at + ": expected {\"candidates\": \"site_ground\" | \"local_relief\"}");
     const auto c = CandidatesFromName(t["candidates"].get<std::string>());
     if (!c) throw InputError(at + ".candidates: site_ground or local_relief");
-    m.candidates = *c;
+    m->candidates = *c;
   }
-  if (doc.contains("reasons")) {
-    ReasonThresholds t;
-    std::tie(t.cut_roughness, t.irregular_roughness) = OrderedPair(
-        doc["reasons"], "cut_roughness", "irregular_roughness", 1000, source + ": reasons");
-    m.reasons = t;
-  }
+}
+
+// The terrain the model was trained on (`terrain_domain`), when given.
+void ParseTerrainDomain(const nlohmann::json& doc, const std::string& source, VerdictModel* m) {
   if (doc.contains("terrain_domain")) {
     const nlohmann::json& t = doc["terrain_domain"];
     const std::string at = source + ": terrain_domain";
@@ -410,11 +422,44 @@ VerdictModel ParseVerdictModel(const nlohmann::json& doc, const std::string& sou
       const std::vector<double> lh = Numbers(t["ranges"], name, 2, at + ".ranges");
       if (!(lh[0] <= lh[1]) || std::fabs(lh[0]) > 1e9 || std::fabs(lh[1]) > 1e9)
         throw InputError(at + ".ranges: " + name + ": expected [low, high], low <= high");
-      m.terrain_ranges.push_back({static_cast<size_t>(it - names.begin()), {lh[0], lh[1]}});
+      m->terrain_ranges.push_back({static_cast<size_t>(it - names.begin()), {lh[0], lh[1]}});
     }
     if (t.contains("neighbours"))
-      m.terrain_neighbours = ParseTerrainNeighbours(t["neighbours"], at + ".neighbours");
+      m->terrain_neighbours = ParseTerrainNeighbours(t["neighbours"], at + ".neighbours");
   }
+}
+
+}  // namespace
+
+VerdictModel ParseVerdictModel(const nlohmann::json& doc, const std::string& source) {
+  if (!doc.is_object()) throw InputError(source + ": expected a JSON object");
+  if (!doc.contains("schema") || doc["schema"] != "mound.verdict_model")
+    throw InputError(source + ": schema: expected \"mound.verdict_model\"");
+  if (!doc.contains("version") || !doc["version"].is_number_integer() || doc["version"] != 1)
+    throw InputError(source + ": version: expected 1");
+  VerdictModel m;
+  ParseFeatureNames(doc, source, &m);
+  ParseBasis(doc, source, &m);
+  ParseWeights(doc, source, &m);
+  ParseCalibration(doc, source, &m);
+  ParseSecondLook(doc, source, &m);
+  if (doc.contains("undecided")) {
+    const nlohmann::json& u = doc["undecided"];
+    const std::string at = source + ": undecided";
+    UndecidedBand band;
+    std::tie(band.p_low, band.p_high) = OrderedPair(u, "p_low", "p_high", 1, at);
+    m.undecided = band;
+    if (u.contains("by_slope")) m.slope_bands = ParseSlopeBands(u["by_slope"], at + ".by_slope");
+  }
+  ParseCloudSettings(doc, source, &m);
+  ParseDetector(doc, source, &m);
+  if (doc.contains("reasons")) {
+    ReasonThresholds t;
+    std::tie(t.cut_roughness, t.irregular_roughness) = OrderedPair(
+        doc["reasons"], "cut_roughness", "irregular_roughness", 1000, source + ": reasons");
+    m.reasons = t;
+  }
+  ParseTerrainDomain(doc, source, &m);
   m.doc = doc;
   return m;
 }

@@ -96,6 +96,92 @@ void ReadNodeRecords(NumberReader& r, int n, F&& read_values) {
 
 }  // namespace
 
+namespace {
+
+// The numbers of an EDGE_WEIGHT_SECTION (from line `*i` on, which it moves past) in file
+// order: as many as `format` holds for `n` nodes.
+std::vector<Cost> ReadEdgeWeights(const std::vector<std::string>& lines, size_t* i,
+                                  const std::string& format, long long n, size_t lineno,
+                                  const std::string& source) {
+  long long count = 0;
+  if (format == "FULL_MATRIX")
+    count = n * n;
+  else if (format == "UPPER_ROW" || format == "LOWER_ROW")
+    count = n * (n - 1) / 2;
+  else if (format == "UPPER_DIAG_ROW" || format == "LOWER_DIAG_ROW")
+    count = n * (n + 1) / 2;
+  else
+    throw InputError(source + ": EDGE_WEIGHT_FORMAT " + format + " not supported");
+  if (n > kMaxExplicitDimension) {
+    throw InputError(source + ":" + std::to_string(lineno) + ": an explicit matrix of " +
+                     std::to_string(n) + " nodes is more than this reader builds (at most " +
+                     std::to_string(kMaxExplicitDimension) + ")");
+  }
+  NumberReader r(lines, *i, source);
+  std::vector<Cost> weights;
+  // Grown as the numbers come (not sized from DIMENSION): a short file fails at its end.
+  for (long long k = 0; k < count; ++k) {
+    const double w = Bounded(r.Next("edge weight"), 0, kMaxWeight, r.Where(), "edge weight");
+    weights.push_back(static_cast<Cost>(std::llround(w)));
+  }
+  *i = r.line();
+  return weights;
+}
+
+// The n x n matrix of the weights as `format` lays them out (FULL_MATRIX must be
+// symmetric).
+std::vector<Cost> SymmetricMatrix(const std::vector<Cost>& weights, const std::string& format,
+                                  int n, const std::string& source) {
+  std::vector<Cost> m(static_cast<size_t>(n) * n, 0);
+  size_t k = 0;
+  auto set = [&](int a, int b) {
+    m[static_cast<size_t>(a) * n + b] = weights[k];
+    m[static_cast<size_t>(b) * n + a] = weights[k];
+    ++k;
+  };
+  if (format == "FULL_MATRIX") {
+    for (int a = 0; a < n; ++a)
+      for (int b = 0; b < n; ++b) m[static_cast<size_t>(a) * n + b] = weights[k++];
+    for (int a = 0; a < n; ++a)
+      for (int b = 0; b < a; ++b)
+        if (m[static_cast<size_t>(a) * n + b] != m[static_cast<size_t>(b) * n + a])
+          throw InputError(source + ": FULL_MATRIX is not symmetric");
+  } else if (format == "UPPER_ROW") {
+    for (int a = 0; a < n; ++a)
+      for (int b = a + 1; b < n; ++b) set(a, b);
+  } else if (format == "LOWER_ROW") {
+    for (int a = 0; a < n; ++a)
+      for (int b = 0; b < a; ++b) set(a, b);
+  } else if (format == "UPPER_DIAG_ROW") {
+    for (int a = 0; a < n; ++a)
+      for (int b = a; b < n; ++b) set(a, b);
+  } else {  // LOWER_DIAG_ROW
+    for (int a = 0; a < n; ++a)
+      for (int b = 0; b <= a; ++b) set(a, b);
+  }
+  return m;
+}
+
+// The metric EDGE_WEIGHT_TYPE names.
+Metric MetricOf(const std::string& ewt, const std::string& source) {
+  Metric metric;
+  if (ewt == "EUC_2D")
+    metric = Metric::kEuc2D;
+  else if (ewt == "CEIL_2D")
+    metric = Metric::kCeil2D;
+  else if (ewt == "ATT")
+    metric = Metric::kAtt;
+  else if (ewt == "GEO")
+    metric = Metric::kGeo;
+  else if (ewt.empty())
+    throw InputError(source + ": EDGE_WEIGHT_TYPE missing");
+  else
+    throw InputError(source + ": EDGE_WEIGHT_TYPE " + ewt + " not supported");
+  return metric;
+}
+
+}  // namespace
+
 TsplibInstance ParseTsplib(const std::string& text, const std::string& source) {
   std::vector<std::string> lines;
   {
@@ -174,29 +260,7 @@ TsplibInstance ParseTsplib(const std::string& text, const std::string& source) {
       have_coords = true;
     } else if (key == "EDGE_WEIGHT_SECTION") {
       need_dim(lineno);
-      const long long n = inst.dimension;
-      long long count = 0;
-      if (format == "FULL_MATRIX")
-        count = n * n;
-      else if (format == "UPPER_ROW" || format == "LOWER_ROW")
-        count = n * (n - 1) / 2;
-      else if (format == "UPPER_DIAG_ROW" || format == "LOWER_DIAG_ROW")
-        count = n * (n + 1) / 2;
-      else
-        throw InputError(source + ": EDGE_WEIGHT_FORMAT " + format + " not supported");
-      if (n > kMaxExplicitDimension) {
-        throw InputError(source + ":" + std::to_string(lineno) + ": an explicit matrix of " +
-                         std::to_string(n) + " nodes is more than this reader builds (at most " +
-                         std::to_string(kMaxExplicitDimension) + ")");
-      }
-      NumberReader r(lines, i, source);
-      weights.clear();
-      // Grown as the numbers come (not sized from DIMENSION): a short file fails at its end.
-      for (long long k = 0; k < count; ++k) {
-        const double w = Bounded(r.Next("edge weight"), 0, kMaxWeight, r.Where(), "edge weight");
-        weights.push_back(static_cast<Cost>(std::llround(w)));
-      }
-      i = r.line();
+      weights = ReadEdgeWeights(lines, &i, format, inst.dimension, lineno, source);
       have_weights = true;
     } else if (key == "NODE_SCORE_SECTION") {
       need_dim(lineno);
@@ -232,48 +296,9 @@ TsplibInstance ParseTsplib(const std::string& text, const std::string& source) {
   if (ewt == "EXPLICIT") {
     if (!have_weights) throw InputError(source + ": EDGE_WEIGHT_SECTION missing");
     const int n = inst.dimension;
-    std::vector<Cost> m(static_cast<size_t>(n) * n, 0);
-    size_t k = 0;
-    auto set = [&](int a, int b) {
-      m[static_cast<size_t>(a) * n + b] = weights[k];
-      m[static_cast<size_t>(b) * n + a] = weights[k];
-      ++k;
-    };
-    if (format == "FULL_MATRIX") {
-      for (int a = 0; a < n; ++a)
-        for (int b = 0; b < n; ++b) m[static_cast<size_t>(a) * n + b] = weights[k++];
-      for (int a = 0; a < n; ++a)
-        for (int b = 0; b < a; ++b)
-          if (m[static_cast<size_t>(a) * n + b] != m[static_cast<size_t>(b) * n + a])
-            throw InputError(source + ": FULL_MATRIX is not symmetric");
-    } else if (format == "UPPER_ROW") {
-      for (int a = 0; a < n; ++a)
-        for (int b = a + 1; b < n; ++b) set(a, b);
-    } else if (format == "LOWER_ROW") {
-      for (int a = 0; a < n; ++a)
-        for (int b = 0; b < a; ++b) set(a, b);
-    } else if (format == "UPPER_DIAG_ROW") {
-      for (int a = 0; a < n; ++a)
-        for (int b = a; b < n; ++b) set(a, b);
-    } else {  // LOWER_DIAG_ROW
-      for (int a = 0; a < n; ++a)
-        for (int b = 0; b <= a; ++b) set(a, b);
-    }
-    inst.problem = std::make_unique<MatrixProblem>(n, std::move(m));
+    inst.problem = std::make_unique<MatrixProblem>(n, SymmetricMatrix(weights, format, n, source));
   } else {
-    Metric metric;
-    if (ewt == "EUC_2D")
-      metric = Metric::kEuc2D;
-    else if (ewt == "CEIL_2D")
-      metric = Metric::kCeil2D;
-    else if (ewt == "ATT")
-      metric = Metric::kAtt;
-    else if (ewt == "GEO")
-      metric = Metric::kGeo;
-    else if (ewt.empty())
-      throw InputError(source + ": EDGE_WEIGHT_TYPE missing");
-    else
-      throw InputError(source + ": EDGE_WEIGHT_TYPE " + ewt + " not supported");
+    const Metric metric = MetricOf(ewt, source);
     if (!have_coords) throw InputError(source + ": NODE_COORD_SECTION missing");
     inst.problem = std::make_unique<CoordProblem>(metric, std::move(x), std::move(y));
   }

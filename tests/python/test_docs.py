@@ -115,6 +115,21 @@ def test_every_spec_checks_itself_with_check() -> None:
     assert named == []
 
 
+def test_no_cpp_function_is_longer_than_150_lines(tmp_path) -> None:
+    """Issue 70: Reconstruct (414 lines), DetectMound (274) and six more were split along
+    their seams; the measure (tools/cpp_shape.py) finds every function and a planted long
+    one."""
+    shape = _tool("cpp_shape", "tools/cpp_shape.py")
+    found = shape.shape()
+    assert len(found) > 400 and any("Reconstruct" in w for _, w in found)
+    assert [w for n, w in found if n > shape.MAX_LINES] == []
+    body = "\n".join(f"  x += {k};" for k in range(160))
+    src = tmp_path / "long.cc"
+    src.write_text(f"namespace a {{\n\nint Long(int x,\n         int y) {{\n{body}\n"
+                   "  return x;\n}\n\nstruct S {\n  int a;\n};\n\nint f();\n")
+    assert shape.functions(src) == [(164, "Long", 3)]
+
+
 def test_the_plan_example_is_shortened_but_keeps_its_ends() -> None:
     short = _hooks()._short
     assert short(["home", *[f"s{i:03d}" for i in range(50)], "home"]).endswith('"s049", "home"]')
