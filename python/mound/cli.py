@@ -60,6 +60,8 @@ def build_parser(group: str | None = None) -> argparse.ArgumentParser:
         added = importlib.import_module(name).add_parser(sub, Parser)
         if name == "mound.sim.cli":  # `mound sim grid ...` lives in mound.grids
             importlib.import_module("mound.grids.cli").add_parser(added, Parser)
+        if name == "mound.recon.cli":  # the verdict's learning lives in mound.training
+            importlib.import_module("mound.training.cli").add_commands(added)
     return p
 
 

@@ -26,11 +26,13 @@ from test_terrain_flight import TO_TM, clearance_along, sites_doc
 
 from mound import native
 from mound.errors import InputError
+from mound.flightplan import terrain
 from mound.formats.sites import Sites
 from mound.geometry.dem import use_proj_grids
+from mound.geometry.flight import scan_for_site
 from mound.geometry.geodesy import Origin, geodetic_to_enu
 from mound.paths import REPO_ROOT
-from mound.uav import dji, litchi, mission_items, terrain
+from mound.uav import dji, litchi, mission_items
 from mound.uav import files as mission_files
 from mound.uav.filetypes import dji_kmz
 from mound.uav.route import Route, RoutePoint, items_route, mission_route
@@ -49,10 +51,10 @@ def three(raw, dem_path, tmp_path_factory) -> dict[str, Any]:
     over the DEM, and built in every format."""
     tmp = tmp_path_factory.mktemp("dji")
     doc = sites_doc(raw, 4500.0)
-    scan = mission_items.scan_for_site(60.0, "both")
+    scan = scan_for_site(60.0, "both")
     doc["scan"] = scan.to_doc()
     origin = Origin.from_doc(doc["origin"])
-    spec = terrain.TerrainSpec()
+    spec = terrain.ClearanceSpec()
     sites = tmp / "sites.json"
     sites.write_text(json.dumps(terrain.attach(Sites.from_doc(doc, "test"), str(dem_path), spec,
                                               "egm96", origin).to_doc()))
@@ -514,7 +516,7 @@ def test_a_valley_below_a_knoll_is_written_in_every_format(raw, dem_path, tmp_pa
         gap = np.min([np.hypot(*(pts - pts[k]).T) for k in chosen], axis=0)
         gap[np.hypot(*(pts - home_xy).T) > 500] = 0
         chosen.append(int(np.argmax(np.minimum(gap, 150))))
-    scan = mission_items.scan_for_site(60.0, "raster", 30.0)
+    scan = scan_for_site(60.0, "raster", 30.0)
     sites = []
     for k, j in enumerate(chosen):
         slon, slat = TO_LL.transform(*pts[j])
@@ -525,7 +527,7 @@ def test_a_valley_below_a_knoll_is_written_in_every_format(raw, dem_path, tmp_pa
            "home": {"id": "home", "x_m": 0.0, "y_m": 0.0}, "end": {"id": "home"},
            "budget_m": 20_000.0, "scan": scan.to_doc(),
            "takeoff_landing_m": scan.takeoff_landing_m(), "sites": sites}
-    spec = terrain.TerrainSpec()
+    spec = terrain.ClearanceSpec()
     sites_file = tmp_path / "sites.json"
     sites_file.write_text(json.dumps(terrain.attach(Sites.from_doc(doc, "test"),
                                                     str(dem_path), spec, "egm96",

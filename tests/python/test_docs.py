@@ -82,6 +82,19 @@ def test_python_packages_form_layers() -> None:
     assert "survey" not in set().union(*units.values())
 
 
+def test_no_python_package_imports_upwards() -> None:
+    """Issue 70: the planner took flight geometry from the missions (plan -> uav) and the
+    3-D stage its training from the simulator (recon -> sim); each package imports only
+    the layers below it (hooks.PYTHON_LAYERS). The check finds both planted back."""
+    hooks = _hooks()
+    uses = hooks.python_layers()
+    assert hooks.upward_imports(uses) == []
+    planted = {**uses, "plan": uses["plan"] | {"uav"}, "recon": uses["recon"] | {"sim"}}
+    assert hooks.upward_imports(planted) == ["plan -> uav", "recon -> sim"]
+    assert hooks.upward_imports({**uses, "newpkg": set()}) == [
+        "newpkg: not placed in PYTHON_LAYERS"]
+
+
 def test_no_import_cycle_between_python_modules() -> None:
     """Module by module, imports inside functions included (issue 57: three cycles were
     hidden by imports inside functions); the checker finds a planted one."""

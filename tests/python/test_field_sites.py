@@ -63,7 +63,7 @@ def test_a_tumulus_s_relief_is_measured_over_the_ground_around_it() -> None:
     clutter nil; on a 10 degree slope the same (the ring's plane follows the slope); ground
     that undulates at the tumulus's own scale raises the clutter until the tumulus no longer
     stands clear of it; a ring off the surface gives no relief."""
-    from mound.recon.verdict_model import stands_clear
+    from mound.training.verdict_model import stands_clear
 
     cone = dict(profile="conical", diameter_m=40.0, height_m=6.0, erosion_m=0.0,
                 mound_x_m=10.0, mound_y_m=-5.0)
@@ -474,7 +474,7 @@ def test_a_dense_grid_from_a_sparse_grids_flights(
     assert "earlier_tools" not in json.loads((dense / "grid.json").read_text())
     # resumed with another candidate set: every verdict measured again with it (issue 68),
     # the grid and its sites say which
-    from mound.recon import verdict_model as vm
+    from mound.training import verdict_model as vm
 
     assert vm.load_grid(dense)[0].candidates == "site_ground"
     assert main(["sim", "grid", "--out", str(dense), "--seed", "5", *common, "--dense",
@@ -496,7 +496,7 @@ def test_a_grid_flies_a_second_look_at_the_sites_its_first_leaves_undecided(
     import json
 
     from mound.cli import main
-    from mound.recon import verdict_model as vm
+    from mound.training import verdict_model as vm
 
     out = tmp_path / "g"
     assert main(["sim", "grid", "--out", str(out), "--sites", "2", "--seed", "7", "--dem",

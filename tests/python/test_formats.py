@@ -15,10 +15,10 @@ from mound.formats.plan import Plan
 from mound.formats.site_row import SiteRow
 from mound.formats.sites import Sites
 from mound.formats.verdict import Verdict
+from mound.geometry.flight import scan_for_site
 from mound.jsonio import json_text
 from mound.paths import REPO_ROOT
 from mound.plan.field import make_field, sites_document
-from mound.uav import mission_items
 
 
 def _same(a: object, b: object, where: str = "") -> None:
@@ -70,7 +70,7 @@ def test_the_standard_field_is_read_back_as_written() -> None:
     test = statlog.load("sat.tst")
     model = coarse.train(statlog.load("sat.trn"), coarse.DEFAULT_BAND)
     sites = sites_document(make_field(test, 0), test, model, None, 14_400.0,
-                           spacing_m=250.0, scan=mission_items.scan_for_site(60.0, "raster"))
+                           spacing_m=250.0, scan=scan_for_site(60.0, "raster"))
     doc = json.loads(json_text(sites.to_doc()))
     assert Sites.from_doc(doc, "field.json") == sites
     assert sum(1 for s in sites.sites if s.truth and s.truth.mound) == \

@@ -31,6 +31,7 @@ from mound.formats.plan import Plan
 from mound.formats.site_row import SiteRow
 from mound.formats.sites import Sites, load_user_sites
 from mound.formats.verdict import Verdict
+from mound.geometry.flight import scan_for_site
 from mound.geometry.geodesy import Origin
 from mound.jsonio import json_text
 from mound.uav import files as mission_files
@@ -48,7 +49,7 @@ FUZZ = settings(max_examples=EXAMPLES, deadline=None, derandomize=not FRESH,
                 suppress_health_check=list(HealthCheck), database=None)
 WORK = Path(tempfile.mkdtemp(prefix="mound_fuzz_readers."))
 ORIGIN = Origin(38.5705, 27.9862, 95.0)
-SCAN = mission_items.scan_for_site(60.0, "raster")
+SCAN = scan_for_site(60.0, "raster")
 
 NASTY_NUMBERS = st.sampled_from([0, -1, 1e155, -1e300, 10**30, 10**400, 2**63, 1e-320,
                                  math.inf, -math.inf, math.nan, 3.5e38, 91, -181])
@@ -291,7 +292,7 @@ def _valid_grid_site(sites: list[Any]) -> None:
 
 
 def _read_grid(row_text: str, verdict_text: str) -> list[Any]:
-    from mound.recon.verdict_data import load_grid
+    from mound.training.verdict_data import load_grid
 
     root = WORK / "grid"
     (root / "0000").mkdir(parents=True, exist_ok=True)
@@ -393,7 +394,7 @@ def test_the_fuzzed_seeds_are_valid() -> None:
     assert len(mission_files.read_mission(_file(QGC_PLAN, "m.plan"))[0]) > 5
     assert len(mission_files.read_mission(_file(WPL, "m.waypoints"))[0]) > 5
     assert len(statlog.parse(STATLOG_ROWS, "sat.trn").cls) == 6
-    from mound.recon.verdict_bound import read_thresholds
+    from mound.training.verdict_bound import read_thresholds
 
     assert read_thresholds(_file(json.dumps(BOUND), "bound.json")) == {"dem": 5.35,
                                                                         "synthetic": 6.36}
@@ -430,7 +431,7 @@ BOUND = {"schema": "mound.verdict_bound", "version": 1, "filter": "plain",
 @FUZZ
 @given(mutated_json(BOUND))
 def test_verdict_bound_thresholds_reader(text: str) -> None:
-    from mound.recon.verdict_bound import read_thresholds
+    from mound.training.verdict_bound import read_thresholds
 
     value_or_input_error(read_thresholds, _file(text, "bound.json"))
     value_or_input_error(read_thresholds, _file(text, "bound.json"), "whitened")
@@ -569,8 +570,8 @@ def _judge_with_model(path: Path) -> None:
     """The model read, then used: a valid model gives every site a p in [0, 1]."""
     import numpy as np
 
-    from mound.recon import verdict_model as vm
     from mound.recon.model_file import read_verdict_model
+    from mound.training import verdict_model as vm
 
     model = read_verdict_model(path)
     rows = [vm.rises_of([{"features": dict(zip(model.features, f, strict=True))}
@@ -756,7 +757,7 @@ def _dji_and_litchi() -> tuple[str, str, str]:
     from mound.uav.filetypes.dji_kmz import kmz
     from mound.uav.route import mission_route
 
-    plan = json.loads(json.dumps({**PLAN, "scan": mission_items.scan_for_site(
+    plan = json.loads(json.dumps({**PLAN, "scan": scan_for_site(
         60.0, "both").to_doc()}))
     m = build_mission(plan, ORIGIN, None)
     data = kmz(m, dji.AIRCRAFT["m3e"])
@@ -863,7 +864,7 @@ def test_litchi_reader(text: str) -> None:
 def _gpx_seed() -> str:
     from mound.uav.filetypes import gpx
 
-    plan = json.loads(json.dumps({**PLAN, "scan": mission_items.scan_for_site(
+    plan = json.loads(json.dumps({**PLAN, "scan": scan_for_site(
         60.0, "both").to_doc()}))
     return gpx.gpx_text(build_mission(plan, ORIGIN, None))
 

@@ -16,6 +16,7 @@ import pytest
 from mound.cli import main as mound_main
 from mound.errors import InputError
 from mound.formats.plan import Plan
+from mound.geometry.flight import scan_for_site
 from mound.geometry.geodesy import Origin, enu_to_geodetic, geodetic_to_enu
 from mound.sim import site as sim
 from mound.uav import files as mission_files
@@ -93,7 +94,7 @@ def test_bad_origin_is_rejected(text: str) -> None:
 
 def test_mission_flies_the_simulators_camera_positions() -> None:
     plan = grid_plan(2)
-    spec = mission_items.MissionSpec(scan=mission_items.scan_for_site(pattern="both"))
+    spec = mission_items.MissionSpec(scan=scan_for_site(pattern="both"))
     m = build_mission(plan, ORIGIN, spec)
     cmds = [it.command for it in m.items]
     assert cmds[0] == mission_items.NAV_TAKEOFF and cmds[-1] == mission_items.NAV_RETURN_TO_LAUNCH
@@ -152,7 +153,7 @@ def test_bad_plans_are_rejected(edit, message: str) -> None:
 
 
 def test_plan_and_wpl_files_parse_back_to_the_same_items(tmp_path: Path) -> None:
-    both = mission_items.MissionSpec(scan=mission_items.scan_for_site(pattern="both"))
+    both = mission_items.MissionSpec(scan=scan_for_site(pattern="both"))
     m = build_mission(grid_plan(3), ORIGIN, both)
     mission_files.write_plan(tmp_path / "m.plan", m)
     mission_files.write_wpl(tmp_path / "m.waypoints", m)

@@ -192,8 +192,8 @@ def sim_card(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
     aircraft's card (mound sim flight): JPEGs with EXIF, transit frames between the sites."""
     from dataclasses import replace
 
+    from mound.geometry.flight import scan_for_site
     from mound.sim.card import CardSpec, write_card
-    from mound.uav.mission_items import scan_for_site
 
     tmp = tmp_path_factory.mktemp("simcard")
     scan = replace(scan_for_site(60.0, "raster"), width_px=160, height_px=120)

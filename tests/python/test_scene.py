@@ -16,6 +16,7 @@ from pyproj import Transformer
 from scenes import EPSG, NORTH, WEST, make_scene, to_lonlat, write_labels
 
 from mound.cli import main as mound_main
+from mound.geometry.flight import scan_for_site
 
 
 @pytest.fixture(scope="module")
@@ -108,9 +109,8 @@ def test_scores_rasters_and_candidates_on_an_unseen_scene(learned: dict[str, Any
 @pytest.mark.slow
 def test_candidates_are_sites_the_survey_reads(learned: dict[str, Any]) -> None:
     from mound.formats.sites import load_user_sites
-    from mound.uav import mission_items
 
-    scan = mission_items.scan_for_site(60.0, "raster")
+    scan = scan_for_site(60.0, "raster")
     doc = load_user_sites(learned["out"] / "candidates.geojson", scan, None, 14_400.0,
                           need_truth=False)
     assert doc.origin is not None and doc.origin.lat_deg == pytest.approx(42.65)

@@ -32,6 +32,7 @@ from mound.formats.plan import Plan
 from mound.formats.site_row import SecondLookRecord, SiteRow
 from mound.formats.sites import Site, Truth, load_user_sites
 from mound.formats.verdict import SecondLookAdvice, Verdict
+from mound.geometry.flight import scan_for_site
 from mound.geometry.geodesy import Origin, enu_to_geodetic
 from mound.paths import REPO_ROOT
 from mound.plan import sites as op_sites
@@ -461,7 +462,7 @@ def test_geojson_sites_are_placed_in_the_home_frame(tmp_path: Path) -> None:
     path = tmp_path / "sites.geojson"
     path.write_text(json.dumps({"type": "FeatureCollection", "budget_m": 9000,
                                 "features": features}))
-    scan = mission_items.scan_for_site(60.0, "raster")
+    scan = scan_for_site(60.0, "raster")
     doc = load_user_sites(path, scan, None, 14400.0, need_truth=True)
     assert doc.budget_m == 9000 and doc.origin is not None
     assert doc.origin.lat_deg == home.lat_deg

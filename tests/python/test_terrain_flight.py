@@ -22,14 +22,16 @@ from scipy.ndimage import maximum_filter
 
 from mound import native
 from mound.errors import InputError
+from mound.flightplan import terrain
 from mound.formats.plan import Plan
 from mound.formats.site_row import SecondLookRecord, SiteRow
 from mound.formats.sites import Sites
 from mound.geometry.dem import Dem
+from mound.geometry.flight import scan_for_site
 from mound.geometry.geodesy import Origin, geodetic_to_enu
 from mound.paths import REPO_ROOT
 from mound.uav import files as mission_files
-from mound.uav import mission, mission_items, terrain
+from mound.uav import mission, mission_items
 
 
 def build_mission(plan: dict, *args: Any) -> Any:
@@ -77,7 +79,7 @@ def ridge_sites(raw: tuple[np.ndarray, object], n: int = 10) -> list[tuple[float
 
 def sites_doc(raw: tuple[np.ndarray, object], budget: float) -> dict:
     origin = home_origin(raw)
-    scan = mission_items.scan_for_site(60.0, "raster")
+    scan = scan_for_site(60.0, "raster")
     sites = []
     for k, (x, y) in enumerate(ridge_sites(raw)):
         lon, lat = TO_LL.transform(x, y)
@@ -154,7 +156,7 @@ def flown(raw, dem_path, tmp_path_factory) -> dict:
     built over the DEM and written as a .plan file."""
     tmp = tmp_path_factory.mktemp("terrain")
     doc = sites_doc(raw, 5000.0)
-    spec = terrain.TerrainSpec()
+    spec = terrain.ClearanceSpec()
     with_terrain = attach(doc, str(dem_path), spec, "egm96",
                                   Origin.from_doc(doc["origin"]))
     p = plan(with_terrain, tmp, "sites_dem")
@@ -335,7 +337,7 @@ def test_todays_mission_without_the_dem_flies_into_the_ridges(flown, raw, tmp_pa
     worst, items = flat_clearance(flown["doc"], raw, tmp_path, "flat60")
     assert 0 < worst < 10, worst
     assert items[-1].command == mission_items.NAV_RETURN_TO_LAUNCH
-    low = {**flown["doc"], "scan": mission_items.scan_for_site(60.0, "raster", 40.0).to_doc()}
+    low = {**flown["doc"], "scan": scan_for_site(60.0, "raster", 40.0).to_doc()}
     worst40, _ = flat_clearance(low, raw, tmp_path, "flat40")
     print(f"[terrain] without the DEM: lowest height over the ground {worst:.1f} m (scan at "
           f"60 m above home), {worst40:.1f} m (at 40 m)")
@@ -355,7 +357,7 @@ def test_a_plan_through_the_ridges_without_the_terrain_is_refused(flown, dem_pat
     with pytest.raises(InputError, match=r"leg \S+ -> \S+ climbs to .* terrain at ENU"):
         build_mission(tight, Origin.from_doc(doc["origin"]), None,
                             mission_items.TerrainInput(str(dem_path), "egm96",
-                                                       terrain.TerrainSpec(clearance_m=120)))
+                                                       terrain.ClearanceSpec(clearance_m=120)))
     plan_file = tmp_path / "tight_plan.json"
     plan_file.write_text(json.dumps(tight))
     out = tmp_path / "m.plan"
@@ -380,9 +382,9 @@ def test_zero_climbs_leave_the_plan_unchanged(flown, tmp_path) -> None:
 
 def test_scan_too_close_to_the_ground_is_refused(flown, dem_path) -> None:
     doc = flown["doc"]
-    low = {**doc, "scan": mission_items.scan_for_site(60.0, "raster", 8.0).to_doc()}
+    low = {**doc, "scan": scan_for_site(60.0, "raster", 8.0).to_doc()}
     with pytest.raises(InputError, match=r"site r\d\d: its scan .* scan clearance"):
-        attach(low, str(dem_path), terrain.TerrainSpec(), "egm96",
+        attach(low, str(dem_path), terrain.ClearanceSpec(), "egm96",
                        Origin.from_doc(doc["origin"]))
 
 
@@ -488,7 +490,7 @@ def test_a_dem_in_geographic_coordinates_reads_alike(raw, dem_path, tmp_path) ->
     ta, _ = a.corridor_max(*ends, 10.0)
     tb, _ = b.corridor_max(*ends, 10.0)
     assert np.abs(ta - tb).max() < 1.5
-    from mound.uav.terrain import site_grounds
+    from mound.flightplan.terrain import site_grounds
 
     ids = [f"p{k}" for k in range(5)]
     assert np.abs(site_grounds(a, xy[:5], 60.0, ids) - site_grounds(b, xy[:5], 60.0, ids)
@@ -553,10 +555,10 @@ def test_orbit_scans_over_the_terrain(raw, dem_path, tmp_path, pattern: str) -> 
     transit legs clear, and the orbit's camera target (DO_SET_ROI_LOCATION) at the site's
     own ground plus the target height, relative to home's ground."""
     doc = sites_doc(raw, 6000.0)
-    scan = mission_items.scan_for_site(60.0, pattern)
+    scan = scan_for_site(60.0, pattern)
     doc["scan"] = scan.to_doc()
     origin = Origin.from_doc(doc["origin"])
-    t = attach(doc, str(dem_path), terrain.TerrainSpec(), "egm96", origin)
+    t = attach(doc, str(dem_path), terrain.ClearanceSpec(), "egm96", origin)
     p = plan(t, tmp_path, pattern)
     m = build_mission(p, origin, None,
                             mission_items.TerrainInput(str(dem_path), "egm96"))

@@ -84,7 +84,7 @@ def test_the_verdict_model_file_round_trips(tumulus: tuple[Path, Path], tmp_path
     """The shipped model, written out and read back by mound_recon, gives the p that the
     Python side computes from the detector's features; a changed weight changes it as
     predicted; models for other features or with bad fields are refused naming the field."""
-    from mound.recon.verdict_model import VerdictModel, probability, rises_of
+    from mound.training.verdict_model import VerdictModel, probability, rises_of
 
     _, recon = tumulus
     r = run_recon(["verdict", str(recon), "--out", str(tmp_path / "d.json")])

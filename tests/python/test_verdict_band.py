@@ -265,7 +265,7 @@ def test_a_dem_in_degrees_is_refused_for_patches(tmp_path: Path) -> None:
 def test_a_running_grid_is_judged_by_the_cloud_its_verdicts_name(tmp_path: Path) -> None:
     """A dense grid still running has no grid.json: its cloud comes from its verdicts
     (it was taken for sparse, and judged with the sparse model); with neither, an error."""
-    from mound.recon import verdict_model as vm
+    from mound.training import verdict_model as vm
 
     with pytest.raises(InputError, match="which cloud"):
         vm.grid_cloud(tmp_path)

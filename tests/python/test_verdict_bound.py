@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 from mound.cli import main as mound_main
-from mound.recon import verdict_bound as vb
 from mound.sim import terrain
+from mound.training import verdict_bound as vb
 
 FLAT = terrain.TerrainSpec(size_m=80.0, resolution_m=0.5, ground_relief_m=0.3, mound=False,
                            seed=3)

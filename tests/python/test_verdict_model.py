@@ -21,12 +21,12 @@ from mound.classify.metrics import (
 )
 from mound.errors import InputError
 from mound.paths import REPO_ROOT
-from mound.recon import verdict_data as vd
-from mound.recon import verdict_fit as vf
-from mound.recon import verdict_model as vm
 from mound.recon.model_file import check_verdict_model
 from mound.sim import site as sim
 from mound.sim import terrain
+from mound.training import verdict_data as vd
+from mound.training import verdict_fit as vf
+from mound.training import verdict_model as vm
 
 NAMES = ["a", "b", "c"]
 

@@ -58,7 +58,7 @@ def test_a_model_carries_the_confusion_its_band_gives_its_training_sites() -> No
     the model); Confusion.from_model reads it and refuses a malformed one, naming it."""
     from test_verdict_model import NAMES, synthetic
 
-    from mound.recon import verdict_model as vm
+    from mound.training import verdict_model as vm
 
     model = vm.train(synthetic(400, 5), NAMES, ["g"])
     c = model["trained"]["confusion"]

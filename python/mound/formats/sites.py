@@ -154,7 +154,7 @@ class Sites:
         return None if doc is None else ScanSpec.from_doc(doc, "sites: scan")
 
     def terrain(self) -> Mapping[str, Any] | None:
-        """The terrain the plan's costs climb over (uav.terrain.attach), or None."""
+        """The terrain the plan's costs climb over (flightplan.terrain.attach), or None."""
         t = self.extra.get("terrain")
         return t if isinstance(t, dict) else None
 

@@ -279,3 +279,20 @@ def path_length(points: np.ndarray | list[np.ndarray]) -> float:
     """Length of the polyline through `points` (3-D)."""
     return float(sum(np.linalg.norm(np.asarray(b) - np.asarray(a))
                      for a, b in itertools.pairwise(points)))
+
+
+def scan_for_site(diameter_m: float = DEFAULT_SITE_DIAMETER_M, pattern: str = "raster",
+                  raster_altitude_m: float | None = None,
+                  transit_altitude_m: float | None = None) -> ScanSpec:
+    """The scan of a site of `diameter_m` as the simulator lays it out for a mound of that
+    diameter (height D / 5, the orbit looking at a third of it)."""
+    SITE_DIAMETER_M.check(diameter_m, "--site-diameter")
+    return ScanSpec(pattern=pattern, scale_m=diameter_m, raster_altitude_m=raster_altitude_m,
+                    target_height_m=diameter_m / 15, transit_altitude_m=transit_altitude_m)
+
+
+def flight_budget_m(endurance_s: float = 25 * 60, cruise_speed_m_s: float = 12.0,
+                    reserve: float = 0.2) -> float:
+    """A distance budget from the aircraft's endurance: a survey multicopter's 25 minutes
+    at the default cruise speed, 20 % kept in reserve (14,400 m)."""
+    return endurance_s * cruise_speed_m_s * (1 - reserve)

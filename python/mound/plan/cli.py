@@ -25,11 +25,10 @@ from mound.classify import statlog
 from mound.classify.coarse import load_model
 from mound.errors import InputError
 from mound.formats.plan import Plan
-from mound.geometry.flight import DEFAULT_SITE_DIAMETER_M, ScanSpec
+from mound.geometry.flight import DEFAULT_SITE_DIAMETER_M, ScanSpec, flight_budget_m, scan_for_site
 from mound.geometry.geodesy import Origin
 from mound.jsonio import write_json
 from mound.plan.field import ORIGIN, STANDARD_SEEDS, make_field, sites_document
-from mound.uav import mission_items
 
 
 def field_costs(args: argparse.Namespace) -> tuple[ScanSpec | None, float | None, float]:
@@ -43,11 +42,11 @@ def field_costs(args: argparse.Namespace) -> tuple[ScanSpec | None, float | None
                 120.0 if args.budget is None else args.budget)
     if args.scan_cost is not None:
         raise UsageError("--scan-cost: the scan cost comes from --scan-pattern; give one")
-    scan = mission_items.scan_for_site(
+    scan = scan_for_site(
         DEFAULT_SITE_DIAMETER_M if args.site_diameter is None else args.site_diameter,
         args.scan_pattern, args.altitude)
     scan.check()
-    budget = mission_items.flight_budget_m() if args.budget is None else args.budget
+    budget = flight_budget_m() if args.budget is None else args.budget
     return scan, None, budget
 
 
@@ -59,7 +58,7 @@ def cmd_field_make(args: argparse.Namespace) -> int:
                            spacing_m=args.spacing, scan=scan,
                            origin=Origin.parse(args.origin) if args.origin else ORIGIN)
     if args.dem:
-        from mound.uav import terrain
+        from mound.flightplan import terrain
 
         if scan is None:
             raise UsageError("--dem needs --scan-pattern (the heights follow the scan)")
@@ -215,7 +214,7 @@ def add_parser(sub: Any, parser_class: Any) -> None:
                            help="grid spacing of the sites, m (1: the paper's field)")
             m.add_argument("--origin", help="LAT,LON[,ALT] of home (default: Bin Tepe, "
                            "38.5705,27.9862)")
-            from mound.uav.terrain import add_arguments as add_terrain_arguments
+            from mound.flightplan.terrain import add_arguments as add_terrain_arguments
 
             add_terrain_arguments(m)
         else:

@@ -16,8 +16,8 @@ if TYPE_CHECKING:
     from mpl_toolkits.mplot3d.axes3d import Axes3D
 
 from mound.jsonio import read_json
+from mound.plotting import save_figure
 from mound.ply import read_ply
-from mound.sim.figures import save_figure
 
 
 def cloud_and_cameras(recon_dir: str | Path, out_png: str | Path, max_points: int = 40000,

@@ -18,15 +18,7 @@ if TYPE_CHECKING:
 from matplotlib.colors import LightSource, Normalize
 
 from mound.jsonio import read_json
-
-
-def save_figure(fig: plt.Figure, out_png: str | Path, dpi: int) -> Path:
-    fig.tight_layout()
-    out_png = Path(out_png)
-    out_png.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out_png, dpi=dpi)
-    plt.close(fig)
-    return out_png
+from mound.plotting import save_figure
 
 
 def contact_sheet(site_dir: str | Path, out_png: str | Path, columns: int = 8,

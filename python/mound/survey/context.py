@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from mound.datasets import sha256_of
+from mound.geometry.flight import scan_for_site
 from mound.survey.ledger import Ledger, StageRecord, digest
 from mound.survey.options import (
     SurveyOptions,
@@ -102,9 +103,8 @@ def digest_files(paths: list[str]) -> list[str]:
 
 
 def scan_spec(args: SurveyOptions) -> Any:
-    from mound.uav import mission_items
 
-    scan = mission_items.scan_for_site(args.site_diameter, args.scan_pattern)
+    scan = scan_for_site(args.site_diameter, args.scan_pattern)
     from dataclasses import replace
     scan = replace(scan, width_px=args.image_size[0], height_px=args.image_size[1])
     scan.check()

@@ -132,7 +132,7 @@ def _flight_arguments(p: argparse.ArgumentParser, D: SurveyOptions) -> None:
     g.add_argument("--flights", type=NUMBERS["flights"].arg(), default=D.flights,
                    help="flights (batteries or aircraft) from home, each within the budget; "
                    "one mission each (mission_1.plan, ... ordered by reward)")
-    from mound.uav.terrain import add_arguments as add_terrain_arguments
+    from mound.flightplan.terrain import add_arguments as add_terrain_arguments
 
     add_terrain_arguments(p)
     g.add_argument("--connect", help="also upload the mission to this MAVLink vehicle and "

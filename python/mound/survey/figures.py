@@ -18,8 +18,8 @@ from scipy.stats import binned_statistic_2d
 from mound.formats.plan import Plan
 from mound.formats.sites import Site, Sites
 from mound.jsonio import read_json
+from mound.plotting import save_figure
 from mound.ply import read_ply
-from mound.sim.figures import save_figure
 from mound.uav.mission_items import Footprint, MissionSite
 
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff")

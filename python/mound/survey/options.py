@@ -27,8 +27,8 @@ from mound.bounds import (
     Bound,
 )
 from mound.errors import InputError
+from mound.flightplan.terrain import ClearanceSpec, spec_from_args
 from mound.geometry.flight import DEFAULT_SITE_DIAMETER_M
-from mound.uav.terrain import TerrainSpec, spec_from_args
 
 ScanPattern = Literal["raster", "orbit", "both"]
 Algo = Literal["alns", "newalg", "newalg-ls", "greedy", "tsiligirides", "glv"]
@@ -78,11 +78,11 @@ class SurveyOptions:
     flights: int = 1
     dem: str | None = None
     dem_vertical: DemVertical | None = None
-    clearance_m: float = TerrainSpec.clearance_m
-    scan_clearance_m: float = TerrainSpec.scan_clearance_m
-    footprint_m: float = TerrainSpec.footprint_m
-    climb_factor: float = TerrainSpec.climb_factor
-    descent_factor: float = TerrainSpec.descent_factor
+    clearance_m: float = ClearanceSpec.clearance_m
+    scan_clearance_m: float = ClearanceSpec.scan_clearance_m
+    footprint_m: float = ClearanceSpec.footprint_m
+    climb_factor: float = ClearanceSpec.climb_factor
+    descent_factor: float = ClearanceSpec.descent_factor
     connect: str | None = None
     firmware: Firmware = "px4"
     aircraft: DjiAircraft = "m3e"       # the DJI aircraft of mission.kmz
@@ -139,8 +139,8 @@ class SurveyOptions:
         return {k: (list(v) if isinstance(v, tuple) else v)
                 for k, v in dataclasses.asdict(self).items()}
 
-    def terrain_spec(self) -> TerrainSpec:
-        """The terrain options as the aircraft's TerrainSpec (validated)."""
+    def terrain_spec(self) -> ClearanceSpec:
+        """The terrain options as the aircraft's ClearanceSpec (validated)."""
         return spec_from_args(self)
 
     def check(self) -> None:

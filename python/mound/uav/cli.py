@@ -9,7 +9,7 @@ from typing import Any
 from mound.bounds import FLIGHTS, HEIGHT_M, SITE_DIAMETER_M, SPEED_M_S, Bound
 from mound.errors import InputError, NoResultError
 from mound.formats.plan import Plan
-from mound.geometry.flight import DEFAULT_SITE_DIAMETER_M
+from mound.geometry.flight import DEFAULT_SITE_DIAMETER_M, scan_for_site
 from mound.geometry.geodesy import Origin
 from mound.jsonio import write_all_atomic
 from mound.uav import upload
@@ -31,14 +31,14 @@ def cmd_build(args: argparse.Namespace) -> int:
     if scan is None or any(v is not None for v in given):
         # No scan in the plan, or options that override it: the flight check below then
         # tells whether the plan's scan costs still cover it.
-        scan = mission_items.scan_for_site(
+        scan = scan_for_site(
             args.site_diameter if args.site_diameter is not None else DEFAULT_SITE_DIAMETER_M,
             args.pattern or "raster", args.altitude, args.transit_altitude)
     spec = mission_items.MissionSpec(scan=scan, cruise_speed_m_s=args.cruise_speed,
                                      scan_speed_m_s=args.scan_speed)
     terrain = None
     if args.dem:
-        from mound.uav import terrain as terrain_mod
+        from mound.flightplan import terrain as terrain_mod
 
         terrain = mission_items.TerrainInput(args.dem, args.dem_vertical,
                                              terrain_mod.spec_from_args(args))
@@ -175,7 +175,7 @@ def add_parser(sub: Any, parser_class: type) -> None:
     b.add_argument("--firmware", choices=("px4", "ardupilot"), default="px4")
     b.add_argument("--flight", type=FLIGHTS.arg(), help="only this flight of a plan with several "
                    "(default: every flight, written as OUT_1.plan, OUT_2.plan, ...)")
-    from mound.uav.terrain import add_arguments as add_terrain_arguments
+    from mound.flightplan.terrain import add_arguments as add_terrain_arguments
 
     add_terrain_arguments(b)
     b.set_defaults(func=cmd_build)

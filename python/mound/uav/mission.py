@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from mound.errors import InputError
+from mound.flightplan.terrain import TerrainNode
 from mound.formats.plan import Plan
 from mound.geometry.flight import path_length
 from mound.geometry.geodesy import Origin
@@ -29,7 +30,6 @@ from mound.uav.mission_items import (
     plan_nodes,
     up,
 )
-from mound.uav.terrain import Node
 from mound.uav.terrain_mission import build_over_terrain
 
 
@@ -56,7 +56,7 @@ def build(plan: Plan, origin: Origin, spec: MissionSpec | None = None,
     return _flat(origin, spec, nodes, closed, budget)
 
 
-def _flat(origin: Origin, spec: MissionSpec, nodes: list[Node], closed: bool,
+def _flat(origin: Origin, spec: MissionSpec, nodes: list[TerrainNode], closed: bool,
           budget: float) -> Mission:
     """Heights above home, every site's ground taken at home's height: one transit
     height, the flight distance checked against the budget."""

@@ -20,7 +20,7 @@ The mission, in order (MAVLink command numbers from common.xml):
 Navigation items use MAV_FRAME_GLOBAL_RELATIVE_ALT_INT (6): x, y are latitude and
 longitude in 1e-7 degrees, z metres above home; commands use MAV_FRAME_MISSION (2).
 Without a DEM the sites' ground is taken to be at home's height, and the summary says
-"terrain not checked". With one (`terrain`, see uav/terrain.py) every height is planned in
+"terrain not checked". With one (`terrain`, see flightplan/terrain.py) every height is planned in
 metres above mean sea level and written relative to home's ground (the DEM's height at the
 take-off point): the autopilot's relative altitude is zeroed there by its barometer at
 take-off, which is steadier than GNSS altitude (metres of vertical error) and free of the
@@ -52,14 +52,13 @@ from typing import Any
 
 import numpy as np
 
-from mound.bounds import SITE_DIAMETER_M
 from mound.errors import InputError
+from mound.flightplan.terrain import TerrainNode
 from mound.formats.plan import Plan
 from mound.geometry.camera import Camera, Pose
-from mound.geometry.flight import DEFAULT_SITE_DIAMETER_M, PATTERNS, ScanSpec
+from mound.geometry.flight import PATTERNS, ScanSpec, scan_for_site
 from mound.geometry.geodesy import Origin, enu_to_geodetic
 from mound.jsonio import require_id, require_number
-from mound.uav.terrain import Node
 
 # MAV_CMD
 NAV_WAYPOINT = 16
@@ -125,30 +124,13 @@ def home_item(origin: Origin) -> MissionItem:
                        round(origin.lon_deg * 1e7), origin.alt_m)
 
 
-def scan_for_site(diameter_m: float = DEFAULT_SITE_DIAMETER_M, pattern: str = "raster",
-                  raster_altitude_m: float | None = None,
-                  transit_altitude_m: float | None = None) -> ScanSpec:
-    """The scan of a site of `diameter_m` as the simulator lays it out for a mound of that
-    diameter (height D / 5, the orbit looking at a third of it)."""
-    SITE_DIAMETER_M.check(diameter_m, "--site-diameter")
-    return ScanSpec(pattern=pattern, scale_m=diameter_m, raster_altitude_m=raster_altitude_m,
-                    target_height_m=diameter_m / 15, transit_altitude_m=transit_altitude_m)
-
-
-def flight_budget_m(endurance_s: float = 25 * 60, cruise_speed_m_s: float = 12.0,
-                    reserve: float = 0.2) -> float:
-    """A distance budget from the aircraft's endurance: a survey multicopter's 25 minutes
-    at the default cruise speed, 20 % kept in reserve (14,400 m)."""
-    return endurance_s * cruise_speed_m_s * (1 - reserve)
-
-
 @dataclass(frozen=True)
 class TerrainInput:
-    """The DEM a mission is flown over and how (uav/terrain.py)."""
+    """The DEM a mission is flown over and how (flightplan/terrain.py)."""
 
     dem_path: str
     vertical: str | None = None       # None: what the DEM's CRS says
-    spec: Any = None                  # terrain.TerrainSpec; None: the defaults
+    spec: Any = None                  # terrain.ClearanceSpec; None: the defaults
 
 
 @dataclass(frozen=True)
@@ -273,7 +255,7 @@ MAX_COST_M = 1e8
 MAX_BUDGET_M = 1e12
 
 
-def plan_nodes(plan: Plan) -> tuple[list[Node], bool, float]:
+def plan_nodes(plan: Plan) -> tuple[list[TerrainNode], bool, float]:
     """Validated (tour nodes with positions, closed?, budget) of a plan of one flight."""
     if len(plan.flights) != 1:
         raise InputError(f"flights: a mission flies one flight, the plan has "
@@ -300,7 +282,7 @@ def plan_nodes(plan: Plan) -> tuple[list[Node], bool, float]:
         kind = w.get("kind", "site")
         if kind not in ("home", "site", "end"):
             raise InputError(f"{where}.kind: expected home, site or end, got {kind!r:.40}")
-        nodes.append(Node(node_id, kind, x, y, require_number(
+        nodes.append(TerrainNode(node_id, kind, x, y, require_number(
             w, "scan_cost_m", where, lo=0, hi=MAX_COST_M, default=0.0)))
     if not plan.budget_m <= MAX_BUDGET_M:
         raise InputError(f"plan.budget_m: must be a number in [0, {MAX_BUDGET_M:g}]")

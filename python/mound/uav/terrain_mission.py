@@ -1,5 +1,5 @@
 """The mission over real terrain, heights planned above mean sea level (uav/mission_items.py
-says how they are written; uav/terrain.py how they are chosen and what a flight costs)."""
+says how they are written; flightplan/terrain.py how they are chosen and what a flight costs)."""
 
 from __future__ import annotations
 
@@ -9,19 +9,26 @@ from typing import Any
 import numpy as np
 
 from mound.errors import InputError
+from mound.flightplan.terrain import (
+    ClearanceSpec,
+    TerrainModel,
+    TerrainNode,
+    climb_descent_m,
+    energy_m,
+    open_dem,
+)
 from mound.formats.plan import Plan
 from mound.geometry.flight import path_length
 from mound.geometry.geodesy import Origin
 from mound.uav import mission_items as mi
-from mound.uav.terrain import Node, TerrainModel, TerrainSpec, climb_descent_m, energy_m, open_dem
 
 PROFILE_SAMPLES = 120  # terrain samples per leg in the profiles (report, GeoJSON)
 
 
 def build_over_terrain(plan: Plan, origin: Origin, spec: mi.MissionSpec,
-                       terrain: mi.TerrainInput, nodes: list[Node], closed: bool,
+                       terrain: mi.TerrainInput, nodes: list[TerrainNode], closed: bool,
                        budget: float) -> mi.Mission:
-    tspec = terrain.spec if terrain.spec is not None else TerrainSpec()
+    tspec = terrain.spec if terrain.spec is not None else ClearanceSpec()
     tspec.check()
     scan = spec.scan
     # The tour's nodes once each (a closed tour's return to home is node 0 again).

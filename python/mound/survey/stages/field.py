@@ -27,6 +27,7 @@ def scene_sites(ctx: Context, scan: Any) -> Sites:
     from mound.args import parse_lat_lon, parse_names
     from mound.datasets import sha256_of as digest_of
     from mound.formats.sites import load_user_sites
+    from mound.geometry.flight import flight_budget_m
     from mound.jsonio import read_json as read_doc
     from mound.scene import score
     from mound.scene.model import SCHEMA as SCENE_SCHEMA
@@ -35,7 +36,6 @@ def scene_sites(ctx: Context, scan: Any) -> Sites:
     from mound.scene.raster import open_scene, transformer_to_scene
     from mound.scene.train import FOUND_RADIUS_M
     from mound.scene.vector import read_aoi, read_labels
-    from mound.uav.mission_items import flight_budget_m
 
     a = ctx.args
     model_path = ctx.tree.root / "scene_model.json"
@@ -115,8 +115,8 @@ def stage_field(ctx: Context) -> str:
     from mound.classify.model import VERSION as MODEL_VERSION
     from mound.classify.model import Model
     from mound.formats.sites import load_user_sites
+    from mound.geometry.flight import flight_budget_m
     from mound.plan.field import make_field, sites_document
-    from mound.uav.mission_items import flight_budget_m
 
     a = ctx.args
     scan = scan_spec(a)
@@ -165,7 +165,7 @@ def stage_field(ctx: Context) -> str:
 
             out = with_rewards(out, reward_of(a.reward, a.confusion), a.reward)
         if a.dem:
-            from mound.uav import terrain
+            from mound.flightplan import terrain
 
             out = terrain.attach(out, a.dem, a.terrain_spec(), a.dem_vertical, out.origin)
         write_json(ctx.tree.sites, out.to_doc())

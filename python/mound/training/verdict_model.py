@@ -42,7 +42,8 @@ from __future__ import annotations
 
 from mound.recon.grid_site import GridSite, Rise, SiteTruth, rises_of, sites_of
 from mound.recon.model_file import VerdictModel
-from mound.recon.verdict_data import (
+from mound.sim.looks import SECOND_LOOK_FACTOR
+from mound.training.verdict_data import (
     CLEAR_OF_GROUND,
     MAX_FA,
     feature_names_of,
@@ -53,9 +54,9 @@ from mound.recon.verdict_data import (
     site_terrain,
     stands_clear,
 )
-from mound.recon.verdict_eval import evaluate, paper_agreement
-from mound.recon.verdict_figures import detection_figure, figure
-from mound.recon.verdict_fit import (
+from mound.training.verdict_eval import evaluate, paper_agreement
+from mound.training.verdict_figures import detection_figure, figure
+from mound.training.verdict_fit import (
     BASES,
     CV_REPEATS,
     MIL_MIXES,
@@ -68,8 +69,7 @@ from mound.recon.verdict_fit import (
     terrain_domain,
     train,
 )
-from mound.recon.verdict_second import SECOND_LOOK_FOLDS, second_look_p
-from mound.sim.looks import SECOND_LOOK_FACTOR
+from mound.training.verdict_second import SECOND_LOOK_FOLDS, second_look_p
 
 __all__ = [
     "BASES", "CLEAR_OF_GROUND", "CV_REPEATS", "GridSite", "MAX_FA", "MIL_MIXES", "MIL_TAU",

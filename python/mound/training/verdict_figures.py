@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from mound.recon.verdict_data import DIAMETER_BINS, HEIGHT_BINS
+from mound.training.verdict_data import DIAMETER_BINS, HEIGHT_BINS
 
 
 def figure(report: dict[str, Any], out: str | Path) -> None:

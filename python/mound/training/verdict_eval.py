@@ -23,7 +23,8 @@ from mound.jsonio import read_json
 from mound.recon.grid_site import GridSite
 from mound.recon.model_file import VerdictModel, outside_terrain
 from mound.recon.verdict_band import three_answers
-from mound.recon.verdict_data import (
+from mound.sim import terrain
+from mound.training.verdict_data import (
     CLEAR_OF_GROUND,
     DIAMETER_BINS,
     GROUND_CLASSES,
@@ -33,9 +34,8 @@ from mound.recon.verdict_data import (
     site_terrain,
     stands_clear,
 )
-from mound.recon.verdict_fit import check_candidates, probability
-from mound.recon.verdict_second import second_look_p
-from mound.sim import terrain
+from mound.training.verdict_fit import check_candidates, probability
+from mound.training.verdict_second import second_look_p
 
 OPERATING_THRESHOLDS = (0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 0.95)
 

@@ -27,7 +27,7 @@ from mound.recon.defaults import CANDIDATES
 from mound.recon.grid_site import GridSite, Rise
 from mound.recon.model_file import Beta, VerdictModel
 from mound.recon.verdict_band import band_doc, band_goal, confusion_doc
-from mound.recon.verdict_data import (
+from mound.training.verdict_data import (
     GROUND_CLASSES,
     MAX_FA,
     found_by_ground,
@@ -37,7 +37,7 @@ from mound.recon.verdict_data import (
     site_folds,
     stands_clear,
 )
-from mound.recon.verdict_second import MIN_SECOND_LOOK_GAIN, second_look_rule
+from mound.training.verdict_second import MIN_SECOND_LOOK_GAIN, second_look_rule
 
 SCHEMA = "mound.verdict_model"
 

@@ -54,9 +54,9 @@ from typing import Any
 import numpy as np
 
 from mound.errors import InputError
-from mound.recon import verdict_data as vd
 from mound.recon.grid_site import SiteTruth
 from mound.sim import terrain
+from mound.training import verdict_data as vd
 
 SCHEMA = "mound.verdict_bound"
 VERSION = 1

@@ -12,8 +12,8 @@ from scipy.special import expit, logit
 
 from mound.classify import logistic
 from mound.recon.model_file import VerdictModel
-from mound.recon.verdict_data import MAX_FA, Rule, found_by_ground, site_folds
 from mound.sim.looks import SECOND_LOOK_FACTOR, SECOND_LOOK_P
+from mound.training.verdict_data import MAX_FA, Rule, found_by_ground, site_folds
 
 # The second look: a site whose first p lies in [p_low, threshold) is flown again with a
 # scan SECOND_LOOK_FACTOR x as wide and decided by that flight (mound.sim.looks's

@@ -50,7 +50,7 @@ FACTOR = Bound(1, 100)               # metres of level flight per metre climbed 
 
 
 @dataclass(frozen=True)
-class TerrainSpec:
+class ClearanceSpec:
     """How the aircraft treats the terrain (metres, and metres of flight per metre)."""
 
     clearance_m: float = 30.0        # transit legs above the highest terrain near them
@@ -70,7 +70,7 @@ class TerrainSpec:
         return asdict(self)
 
     @classmethod
-    def from_doc(cls, doc: Any, where: str = "terrain") -> TerrainSpec:
+    def from_doc(cls, doc: Any, where: str = "terrain") -> ClearanceSpec:
         if not isinstance(doc, dict):
             raise InputError(f"{where}: expected an object")
         kw: dict[str, Any] = {}
@@ -112,14 +112,14 @@ def site_loop(scan: ScanSpec, legs: list[ScanLeg] | None = None) -> np.ndarray:
     return np.vstack([ref, path, ref])
 
 
-def site_energy_m(scan: ScanSpec, spec: TerrainSpec) -> float:
+def site_energy_m(scan: ScanSpec, spec: ClearanceSpec) -> float:
     """The terrain-mode scan cost s_i of every site (the loop's shape does not depend on
     the ground under it)."""
     return energy_m(site_loop(scan), spec.climb_factor, spec.descent_factor)
 
 
 @dataclass
-class Node:
+class TerrainNode:
     """A node of a tour: its position (ENU m) and, from a plan, the scan the plan costed."""
 
     id: str
@@ -132,7 +132,8 @@ class Node:
 class TerrainModel:
     """Heights and leg costs of a set of nodes over a DEM (see the module docstring)."""
 
-    def __init__(self, dem: Dem, spec: TerrainSpec, scan: ScanSpec, nodes: list[Node]) -> None:
+    def __init__(self, dem: Dem, spec: ClearanceSpec, scan: ScanSpec,
+                 nodes: list[TerrainNode]) -> None:
         spec.check()
         self.dem, self.spec, self.scan, self.nodes = dem, spec, scan, nodes
         self.legs = scan.legs()
@@ -261,25 +262,25 @@ def site_grounds(dem: Dem, centres: np.ndarray, scale_m: float, ids: list[str]) 
     return out
 
 
-def sites_nodes(sites: Sites) -> tuple[list[Node], bool]:
+def sites_nodes(sites: Sites) -> tuple[list[TerrainNode], bool]:
     """The sites' nodes in mound_plan's order (home, the end of a path, the sites in file
     order) and whether the tour is closed."""
-    nodes = [Node(sites.home.id, "home", sites.home.x_m, sites.home.y_m)]
+    nodes = [TerrainNode(sites.home.id, "home", sites.home.x_m, sites.home.y_m)]
     if not sites.closed:
-        nodes.append(Node(sites.end.id, "end", sites.end.x_m, sites.end.y_m))
-    nodes += [Node(s.id, "site", s.x_m, s.y_m) for s in sites.sites]
+        nodes.append(TerrainNode(sites.end.id, "end", sites.end.x_m, sites.end.y_m))
+    nodes += [TerrainNode(s.id, "site", s.x_m, s.y_m) for s in sites.sites]
     return nodes, sites.closed
 
 
 def open_dem(path: str, origin: Any, vertical: str | None, xy: np.ndarray,
-             scan: ScanSpec, spec: TerrainSpec) -> Dem:
+             scan: ScanSpec, spec: ClearanceSpec) -> Dem:
     """The DEM window that every query about these nodes needs (the same window for the
     same nodes, so that the sites document and the mission compute equal heights)."""
     margin = 2 * scan.scale_m + spec.footprint_m + 50.0
     return Dem.open(path, origin, vertical, around=xy, margin_m=margin)
 
 
-def attach(sites: Sites, dem_path: str, spec: TerrainSpec, vertical: str | None,
+def attach(sites: Sites, dem_path: str, spec: ClearanceSpec, vertical: str | None,
            origin: Any) -> Sites:
     """Adds the terrain to sites that have a `scan`: every site's scan cost
     becomes its scan loop's energy, the take-off and landing climbs move into the legs,
@@ -310,21 +311,21 @@ def add_arguments(p: Any) -> None:
     g.add_argument("--dem-vertical", choices=("ellipsoid", "egm96", "egm2008"),
                    help="what the DEM's heights are above (default: what its CRS says; "
                    "national orthometric heights: egm96)")
-    g.add_argument("--clearance-m", type=CLEARANCE_M.arg(), default=TerrainSpec.clearance_m,
+    g.add_argument("--clearance-m", type=CLEARANCE_M.arg(), default=ClearanceSpec.clearance_m,
                    help="transit legs above the highest terrain near them, m (default 30)")
     g.add_argument("--scan-clearance-m", type=CLEARANCE_M.arg(),
-                   default=TerrainSpec.scan_clearance_m,
+                   default=ClearanceSpec.scan_clearance_m,
                    help="scans above the terrain, m (default 10)")
-    g.add_argument("--footprint-m", type=CLEARANCE_M.arg(), default=TerrainSpec.footprint_m,
+    g.add_argument("--footprint-m", type=CLEARANCE_M.arg(), default=ClearanceSpec.footprint_m,
                    help="horizontal margin of every leg (GNSS error, airframe), m (default 10)")
-    g.add_argument("--climb-factor", type=FACTOR.arg(), default=TerrainSpec.climb_factor,
+    g.add_argument("--climb-factor", type=FACTOR.arg(), default=ClearanceSpec.climb_factor,
                    help="metres of level flight one metre climbed costs (default 3)")
-    g.add_argument("--descent-factor", type=FACTOR.arg(), default=TerrainSpec.descent_factor,
+    g.add_argument("--descent-factor", type=FACTOR.arg(), default=ClearanceSpec.descent_factor,
                    help="metres of level flight one metre descended costs (default 2)")
 
 
-def spec_from_args(args: Any) -> TerrainSpec:
-    spec = TerrainSpec(clearance_m=args.clearance_m, scan_clearance_m=args.scan_clearance_m,
+def spec_from_args(args: Any) -> ClearanceSpec:
+    spec = ClearanceSpec(clearance_m=args.clearance_m, scan_clearance_m=args.scan_clearance_m,
                        footprint_m=args.footprint_m, climb_factor=args.climb_factor,
                        descent_factor=args.descent_factor)
     spec.check()
