@@ -51,10 +51,23 @@ def test_check_names_the_option(options: dict[str, object], flag: str,
         SurveyOptions(out=str(tmp_path), **options).check()  # type: ignore[arg-type]
 
 
-def test_the_stage_table_runs_the_stages_in_their_order() -> None:
-    """survey/stages' table, then the report, is context.STAGES: the order the ledger's
-    --rerun-from and the stage keys rely on."""
-    from mound.survey.context import STAGES
-    from mound.survey.stages import TABLE
+def test_the_stage_table_alone_says_the_stages_and_their_order(tmp_path) -> None:
+    """Issue 70: survey/stages' TABLE is the one list of the stages: run_stages gives the
+    Context its order, --rerun-from offers its names, and what is redone follows it (no
+    second list, no stage count)."""
+    from mound.survey.context import Context
+    from mound.survey.ledger import Ledger
+    from mound.survey.stages import NAMES, TABLE
+    from mound.survey.tree import RunTree
 
-    assert [name for name, _ in TABLE] + ["report"] == list(STAGES)
+    assert NAMES == tuple(name for name, _ in TABLE) and NAMES[-1] == "report"
+    rerun = next(a for a in build_parser()._actions if a.dest == "rerun_from")
+    assert tuple(rerun.choices) == NAMES
+    ctx = Context(SurveyOptions(out=str(tmp_path)), RunTree(tmp_path), Ledger(tmp_path / "l"))
+    ctx.order = NAMES
+    assert not any(ctx.redoes(n) for n in NAMES)
+    ctx.redo_from = "mission"
+    assert [n for n in NAMES if ctx.redoes(n)] == list(NAMES[NAMES.index("mission"):])
+    assert ctx.before("mission") == NAMES[:NAMES.index("mission")]
+
+

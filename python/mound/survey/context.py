@@ -22,9 +22,6 @@ from mound.survey.options import (
 )
 from mound.survey.tree import RunTree
 
-STAGES = ("classify", "field", "plan", "mission", "photos", "sites3d", "report")
-
-
 SCHEMA = "mound.survey"
 
 
@@ -61,8 +58,21 @@ class Context:
     ledger: Ledger
     stages: list[StageRun] = field(default_factory=list)
     keys: dict[str, str] = field(default_factory=dict)
-    redo_from: int = 7  # index into STAGES (len: none): stages from here on are redone
+    # The stages' names in their order: the stage table's (mound.survey.stages.TABLE),
+    # set when the stages run; from `redo_from` on (a name; None: none) they are redone.
+    order: tuple[str, ...] = ()
+    redo_from: str | None = None
     run_id: str = field(default_factory=lambda: uuid.uuid4().hex)
+    started: float = field(default_factory=time.time)
+
+    def redoes(self, name: str) -> bool:
+        """Whether stage `name` is redone whatever the ledger holds."""
+        return (self.redo_from is not None
+                and self.order.index(name) >= self.order.index(self.redo_from))
+
+    def before(self, name: str) -> tuple[str, ...]:
+        """The stages before `name`, in order."""
+        return self.order[:self.order.index(name)]
 
     @functools.cached_property
     def terrain(self) -> dict[str, object] | None:
@@ -74,12 +84,13 @@ class Context:
         print(text, flush=True)
 
 
-def run_stage(ctx: Context, name: str, material: Mapping[str, object], work: Any) -> str:
+def run_stage(ctx: Context, name: str, material: Mapping[str, object], work: Any,
+              always: bool = False) -> str:
     """Runs `work()` -> (outputs relative to the run directory, a one-line note) unless the
-    ledger holds this stage with the same key and its outputs; records it."""
+    ledger holds this stage with the same key and its outputs (or `always`); records it."""
     key = digest({"stage": name, **material})
     ctx.keys[name] = key
-    redo = STAGES.index(name) >= ctx.redo_from
+    redo = always or ctx.redoes(name)
     if not redo and ctx.ledger.is_done(name, key):
         prev = ctx.ledger.previous(name)
         ctx.stages.append(StageRun(name, 0.0, True, str(prev.get("note", "")),

@@ -37,7 +37,7 @@ from mound import native
 from mound.args import Parser
 from mound.errors import EXIT_NO_RESULT, exit_for, exit_on_interrupt
 from mound.jsonio import read_json
-from mound.survey.context import SCHEMA, STAGES, VERSION, Context
+from mound.survey.context import SCHEMA, VERSION, Context
 from mound.survey.ledger import Ledger
 from mound.survey.options import (
     NUMBERS,
@@ -48,7 +48,7 @@ from mound.survey.options import (
     ScanPattern,
     SurveyOptions,
 )
-from mound.survey.stages import run_stages
+from mound.survey.stages import NAMES, run_stages
 from mound.survey.tree import RunTree
 
 
@@ -213,7 +213,7 @@ def _run_arguments(p: argparse.ArgumentParser, D: SurveyOptions) -> None:
                    "page works offline")
     g = p.add_argument_group("run")
     g.add_argument("--force", action="store_true", help="redo every stage")
-    g.add_argument("--rerun-from", choices=STAGES,
+    g.add_argument("--rerun-from", choices=NAMES,
                    help="redo this stage and those after it")
     g.add_argument("--no-progress", action="store_true", help="no progress bar")
 
@@ -221,17 +221,13 @@ def _run_arguments(p: argparse.ArgumentParser, D: SurveyOptions) -> None:
 def run(argv: list[str]) -> int:
     args = SurveyOptions.from_namespace(build_parser().parse_args(argv))
     args.check()
-    started = time.time()
     tree = RunTree(Path(args.out))
     tree.root.mkdir(parents=True, exist_ok=True)
     ctx = Context(args, tree, Ledger(tree.ledger))
-    if args.force:
-        ctx.redo_from = 0
-    elif args.rerun_from:
-        ctx.redo_from = STAGES.index(args.rerun_from)
+    ctx.redo_from = NAMES[0] if args.force else args.rerun_from
     ctx.say(f"survey -> {tree.root} ({os.cpu_count()} cores)")
-    run_stages(ctx, started)
-    total = time.time() - started
+    run_stages(ctx)
+    total = time.time() - ctx.started
     summary = read_json(tree.summary, SCHEMA, VERSION)
     ctx.say(f"done in {total:.1f} s ({summary['status']}): {tree.summary}, {tree.report_html}")
     return EXIT_NO_RESULT if summary["status"] == "failed" else 0

@@ -1,8 +1,9 @@
-"""The survey's stages, one module each, run in order by `run_stages` (the stage table,
-after ODM's): classify, field, plan, mission, photos, sites3d (or learn: sites3d flight by
-flight) and report. Each stage reads the run's Context (mound.survey.context) and the
-files of the stages before it, writes its own, and is skipped on a rerun when its inputs
-are unchanged (context.run_stage)."""
+"""The survey's stages, one module each, run in order by `run_stages`: the stage table
+(after ODM's) alone says what stages there are and their order (classify, field, plan,
+mission, photos, sites3d (or learn: sites3d flight by flight), report); the ledger's keys,
+--rerun-from and the report follow it. Each stage reads the run's Context
+(mound.survey.context) and the files of the stages before it, writes its own, and is
+skipped on a rerun when its inputs are unchanged (context.run_stage)."""
 
 from __future__ import annotations
 
@@ -23,7 +24,7 @@ def _sites(ctx: Context) -> str:
     return stage_learn(ctx) if ctx.args.learn else stage_sites3d(ctx)
 
 
-# (name in context.STAGES, the stage); the report stage is run last by run_stages
+# (its name: the ledger's, --rerun-from's; the stage), in the order they run
 TABLE: tuple[tuple[str, Callable[[Context], str]], ...] = (
     ("classify", stage_classify),
     ("field", stage_field),
@@ -31,11 +32,13 @@ TABLE: tuple[tuple[str, Callable[[Context], str]], ...] = (
     ("mission", stage_mission),
     ("photos", stage_photos),
     ("sites3d", _sites),
+    ("report", stage_report),
 )
+NAMES = tuple(name for name, _ in TABLE)
 
 
-def run_stages(ctx: Context, started: float) -> None:
-    """Every stage of the table in order, then the report."""
+def run_stages(ctx: Context) -> None:
+    """Every stage of the table in order."""
+    ctx.order = NAMES
     for _, stage in TABLE:
         stage(ctx)
-    stage_report(ctx, started)

@@ -3,14 +3,14 @@
 from __future__ import annotations
 
 from mound.jsonio import write_json
-from mound.survey.context import STAGES, Context, run_stage
+from mound.survey.context import Context, run_stage
 
 
-def stage_report(ctx: Context, started: float) -> str:
+def stage_report(ctx: Context) -> str:
     from mound.survey import report
 
     def work() -> tuple[list[str], str, bool]:
-        summary = report.build_summary(ctx.tree, ctx.args, ctx.stages, started)
+        summary = report.build_summary(ctx.tree, ctx.args, ctx.stages, ctx.started)
         report.write_reports(ctx.tree, summary)  # adds the map page's name
         write_json(ctx.tree.summary, summary)
         m = summary["metrics"]
@@ -23,5 +23,5 @@ def stage_report(ctx: Context, started: float) -> str:
 
     # The report always reflects this run's stage table, so it is rebuilt every time
     # (a few seconds); its key still records what it was built from.
-    ctx.redo_from = min(ctx.redo_from, STAGES.index("report"))
-    return run_stage(ctx, "report", {k: ctx.keys.get(k) for k in STAGES[:-1]}, work)
+    return run_stage(ctx, "report", {k: ctx.keys.get(k) for k in ctx.before("report")}, work,
+                     always=True)

@@ -16,7 +16,6 @@ from mound.formats.sites import Sites
 from mound.jsonio import write_json
 from mound.sim.card import SiteGround
 from mound.survey.context import (
-    STAGES,
     Context,
     folder_digest,
     images_root,
@@ -117,7 +116,7 @@ def run_jobs(ctx: Context, jobs: list[Any], tag: str = "sites3d"
     rows: dict[str, SiteRow] = {}
     todo = []
     for job in jobs:
-        row = None if STAGES.index("sites3d") >= ctx.redo_from else _reusable(job)
+        row = None if ctx.redoes("sites3d") else _reusable(job)
         if row is not None:
             rows[job.site.id] = row
         else:
