@@ -320,113 +320,92 @@ void ParseWeights(const nlohmann::json& doc, const std::string& source, VerdictM
     throw InputError(source + ": p_no_rise: must be in [0, 1]");
 }
 
-// The beta calibration of the p (`calibration`), when given.
-void ParseCalibration(const nlohmann::json& doc, const std::string& source, VerdictModel* m) {
-  if (doc.contains("calibration")) {
-    const nlohmann::json& c = doc["calibration"];
-    const std::string at = source + ": calibration";
-    if (!c.is_object() || !c.contains("method") || c["method"] != "beta")
-      throw InputError(at + ": expected {\"method\": \"beta\", \"a\", \"b\", \"c\"}");
-    m->beta = true;
-    m->beta_a = Number(c, "a", at);
-    m->beta_b = Number(c, "b", at);
-    m->beta_c = Number(c, "c", at);
-    if (!(m->beta_a >= 0 && m->beta_b >= 0 && m->beta_a + m->beta_b > 0 && m->beta_a <= 1e6 &&
-          m->beta_b <= 1e6))
-      throw InputError(at + ": a, b: must be >= 0 (within 1e6), a + b > 0");
-    if (!(std::fabs(m->beta_c) <= 1e6)) throw InputError(at + ": c: must be within +-1e6");
-  }
+// The beta calibration of the p (`calibration`).
+void ParseCalibration(const nlohmann::json& c, const std::string& at, VerdictModel* m) {
+  if (!c.is_object() || !c.contains("method") || c["method"] != "beta")
+    throw InputError(at + ": expected {\"method\": \"beta\", \"a\", \"b\", \"c\"}");
+  m->beta = true;
+  m->beta_a = Number(c, "a", at);
+  m->beta_b = Number(c, "b", at);
+  m->beta_c = Number(c, "c", at);
+  if (!(m->beta_a >= 0 && m->beta_b >= 0 && m->beta_a + m->beta_b > 0 && m->beta_a <= 1e6 &&
+        m->beta_b <= 1e6))
+    throw InputError(at + ": a, b: must be >= 0 (within 1e6), a + b > 0");
+  if (!(std::fabs(m->beta_c) <= 1e6)) throw InputError(at + ": c: must be within +-1e6");
 }
 
-// The second look's rule (`second_look`), when given.
-void ParseSecondLook(const nlohmann::json& doc, const std::string& source, VerdictModel* m) {
-  if (doc.contains("second_look")) {
-    const nlohmann::json& sl = doc["second_look"];
-    const std::string at = source + ": second_look";
-    if (!sl.is_object() || !sl.contains("combine") || !sl["combine"].is_object())
-      throw InputError(at +
-                       ": expected {p_low, threshold, scan_factor, combine: {first, "
-                       "second, bias}}");
-    SecondLook l;
-    l.p_low = Number(sl, "p_low", at);
-    l.threshold = Number(sl, "threshold", at);
-    l.scan_factor = Number(sl, "scan_factor", at);
-    l.first = Number(sl["combine"], "first", at + ".combine");
-    l.second = Number(sl["combine"], "second", at + ".combine");
-    l.bias = Number(sl["combine"], "bias", at + ".combine");
-    if (!(l.p_low > 0 && l.p_low < m->threshold))
-      throw InputError(at + ": p_low: must be in (0, threshold)");
-    if (!(l.threshold > 0 && l.threshold < 1))
-      throw InputError(at + ": threshold: must be in (0, 1)");
-    if (!(l.scan_factor > 1 && l.scan_factor <= 100))
-      throw InputError(at + ": scan_factor: must be in (1, 100]");
-    if (!(l.second > 0 && l.second <= 1e6))
-      throw InputError(at + ".combine: second: must be in (0, 1e6]");
-    if (!(std::fabs(l.first) <= 1e6) || !(std::fabs(l.bias) <= 1e6))
-      throw InputError(at + ".combine: first, bias: must be within +-1e6");
-    m->second_look = l;
-  }
+// The second look's rule (`second_look`).
+void ParseSecondLook(const nlohmann::json& sl, const std::string& at, VerdictModel* m) {
+  if (!sl.is_object() || !sl.contains("combine") || !sl["combine"].is_object())
+    throw InputError(at +
+                     ": expected {p_low, threshold, scan_factor, combine: {first, "
+                     "second, bias}}");
+  SecondLook l;
+  l.p_low = Number(sl, "p_low", at);
+  l.threshold = Number(sl, "threshold", at);
+  l.scan_factor = Number(sl, "scan_factor", at);
+  l.first = Number(sl["combine"], "first", at + ".combine");
+  l.second = Number(sl["combine"], "second", at + ".combine");
+  l.bias = Number(sl["combine"], "bias", at + ".combine");
+  if (!(l.p_low > 0 && l.p_low < m->threshold))
+    throw InputError(at + ": p_low: must be in (0, threshold)");
+  if (!(l.threshold > 0 && l.threshold < 1))
+    throw InputError(at + ": threshold: must be in (0, 1)");
+  if (!(l.scan_factor > 1 && l.scan_factor <= 100))
+    throw InputError(at + ": scan_factor: must be in (1, 100]");
+  if (!(l.second > 0 && l.second <= 1e6))
+    throw InputError(at + ".combine: second: must be in (0, 1e6]");
+  if (!(std::fabs(l.first) <= 1e6) || !(std::fabs(l.bias) <= 1e6))
+    throw InputError(at + ".combine: first, bias: must be within +-1e6");
+  m->second_look = l;
 }
 
-// The cloud the model was trained on (`cloud_settings`), when given.
-void ParseCloudSettings(const nlohmann::json& doc, const std::string& source, VerdictModel* m) {
-  if (doc.contains("cloud_settings")) {
-    const nlohmann::json& c = doc["cloud_settings"];
-    const std::string at = source + ": cloud_settings";
-    if (!c.is_object() || !c.contains("cloud") || !c["cloud"].is_string() ||
-        (c["cloud"] != "dense" && c["cloud"] != "sparse"))
-      throw InputError(at + ": expected {\"cloud\": \"dense\" | \"sparse\", options...}");
-    CloudSettings cs;
-    cs.cloud = c["cloud"].get<std::string>();
-    for (const auto& [name, value] : c.items()) {
-      if (name == "cloud") continue;
-      if (!value.is_number() || !std::isfinite(value.get<double>()) ||
-          std::fabs(value.get<double>()) > 1e9)
-        throw InputError(at + ": " + name.substr(0, 40) + ": expected a finite number");
-      if (cs.options.size() >= 64) throw InputError(at + ": more than 64 settings");
-      cs.options.emplace_back(name, value.get<double>());
-    }
-    if (cs.cloud == "sparse" && !cs.options.empty())
-      throw InputError(at + ": a sparse cloud has no densify options");
-    m->cloud_settings = cs;
+// The cloud the model was trained on (`cloud_settings`).
+void ParseCloudSettings(const nlohmann::json& c, const std::string& at, VerdictModel* m) {
+  if (!c.is_object() || !c.contains("cloud") || !c["cloud"].is_string() ||
+      (c["cloud"] != "dense" && c["cloud"] != "sparse"))
+    throw InputError(at + ": expected {\"cloud\": \"dense\" | \"sparse\", options...}");
+  CloudSettings cs;
+  cs.cloud = c["cloud"].get<std::string>();
+  for (const auto& [name, value] : c.items()) {
+    if (name == "cloud") continue;
+    if (!value.is_number() || !std::isfinite(value.get<double>()) ||
+        std::fabs(value.get<double>()) > 1e9)
+      throw InputError(at + ": " + name.substr(0, 40) + ": expected a finite number");
+    if (cs.options.size() >= 64) throw InputError(at + ": more than 64 settings");
+    cs.options.emplace_back(name, value.get<double>());
   }
+  if (cs.cloud == "sparse" && !cs.options.empty())
+    throw InputError(at + ": a sparse cloud has no densify options");
+  m->cloud_settings = cs;
 }
 
-// The detector's candidates (`detector`), when given.
-void ParseDetector(const nlohmann::json& doc, const std::string& source, VerdictModel* m) {
-  if (doc.contains("detector")) {
-    const nlohmann::json& t = doc["detector"];
-    const std::string at = source + ": detector";
-    if (!t.is_object() || t.size() != 1 || !t.contains("candidates") ||
-        !t["candidates"].is_string())
-      throw InputError(at + ": expected {\"candidates\": \"site_ground\" | \"local_relief\"}");
-    const auto c = CandidatesFromName(t["candidates"].get<std::string>());
-    if (!c) throw InputError(at + ".candidates: site_ground or local_relief");
-    m->candidates = *c;
-  }
+// The detector's candidates (`detector`).
+void ParseDetector(const nlohmann::json& t, const std::string& at, VerdictModel* m) {
+  if (!t.is_object() || t.size() != 1 || !t.contains("candidates") || !t["candidates"].is_string())
+    throw InputError(at + ": expected {\"candidates\": \"site_ground\" | \"local_relief\"}");
+  const auto c = CandidatesFromName(t["candidates"].get<std::string>());
+  if (!c) throw InputError(at + ".candidates: site_ground or local_relief");
+  m->candidates = *c;
 }
 
-// The terrain the model was trained on (`terrain_domain`), when given.
-void ParseTerrainDomain(const nlohmann::json& doc, const std::string& source, VerdictModel* m) {
-  if (doc.contains("terrain_domain")) {
-    const nlohmann::json& t = doc["terrain_domain"];
-    const std::string at = source + ": terrain_domain";
-    if (!t.is_object() || !t.contains("ranges") || !t["ranges"].is_object() || t["ranges"].empty())
-      throw InputError(at + ": expected {\"ranges\": {descriptor: [low, high], ...}}");
-    const std::vector<std::string>& names = TerrainDescriptorNames();
-    for (const auto& [name, range] : t["ranges"].items()) {
-      const auto it = std::find(names.begin(), names.end(), name);
-      if (it == names.end())
-        throw InputError(at + ".ranges: " + name.substr(0, 40) +
-                         ": not a terrain descriptor of this detector");
-      const std::vector<double> lh = Numbers(t["ranges"], name, 2, at + ".ranges");
-      if (!(lh[0] <= lh[1]) || std::fabs(lh[0]) > 1e9 || std::fabs(lh[1]) > 1e9)
-        throw InputError(at + ".ranges: " + name + ": expected [low, high], low <= high");
-      m->terrain_ranges.push_back({static_cast<size_t>(it - names.begin()), {lh[0], lh[1]}});
-    }
-    if (t.contains("neighbours"))
-      m->terrain_neighbours = ParseTerrainNeighbours(t["neighbours"], at + ".neighbours");
+// The terrain the model was trained on (`terrain_domain`).
+void ParseTerrainDomain(const nlohmann::json& t, const std::string& at, VerdictModel* m) {
+  if (!t.is_object() || !t.contains("ranges") || !t["ranges"].is_object() || t["ranges"].empty())
+    throw InputError(at + ": expected {\"ranges\": {descriptor: [low, high], ...}}");
+  const std::vector<std::string>& names = TerrainDescriptorNames();
+  for (const auto& [name, range] : t["ranges"].items()) {
+    const auto it = std::find(names.begin(), names.end(), name);
+    if (it == names.end())
+      throw InputError(at + ".ranges: " + name.substr(0, 40) +
+                       ": not a terrain descriptor of this detector");
+    const std::vector<double> lh = Numbers(t["ranges"], name, 2, at + ".ranges");
+    if (!(lh[0] <= lh[1]) || std::fabs(lh[0]) > 1e9 || std::fabs(lh[1]) > 1e9)
+      throw InputError(at + ".ranges: " + name + ": expected [low, high], low <= high");
+    m->terrain_ranges.push_back({static_cast<size_t>(it - names.begin()), {lh[0], lh[1]}});
   }
+  if (t.contains("neighbours"))
+    m->terrain_neighbours = ParseTerrainNeighbours(t["neighbours"], at + ".neighbours");
 }
 
 }  // namespace
@@ -441,8 +420,10 @@ VerdictModel ParseVerdictModel(const nlohmann::json& doc, const std::string& sou
   ParseFeatureNames(doc, source, &m);
   ParseBasis(doc, source, &m);
   ParseWeights(doc, source, &m);
-  ParseCalibration(doc, source, &m);
-  ParseSecondLook(doc, source, &m);
+  if (doc.contains("calibration"))
+    ParseCalibration(doc["calibration"], source + ": calibration", &m);
+  if (doc.contains("second_look"))
+    ParseSecondLook(doc["second_look"], source + ": second_look", &m);
   if (doc.contains("undecided")) {
     const nlohmann::json& u = doc["undecided"];
     const std::string at = source + ": undecided";
@@ -451,15 +432,17 @@ VerdictModel ParseVerdictModel(const nlohmann::json& doc, const std::string& sou
     m.undecided = band;
     if (u.contains("by_slope")) m.slope_bands = ParseSlopeBands(u["by_slope"], at + ".by_slope");
   }
-  ParseCloudSettings(doc, source, &m);
-  ParseDetector(doc, source, &m);
+  if (doc.contains("cloud_settings"))
+    ParseCloudSettings(doc["cloud_settings"], source + ": cloud_settings", &m);
+  if (doc.contains("detector")) ParseDetector(doc["detector"], source + ": detector", &m);
   if (doc.contains("reasons")) {
     ReasonThresholds t;
     std::tie(t.cut_roughness, t.irregular_roughness) = OrderedPair(
         doc["reasons"], "cut_roughness", "irregular_roughness", 1000, source + ": reasons");
     m.reasons = t;
   }
-  ParseTerrainDomain(doc, source, &m);
+  if (doc.contains("terrain_domain"))
+    ParseTerrainDomain(doc["terrain_domain"], source + ": terrain_domain", &m);
   m.doc = doc;
   return m;
 }

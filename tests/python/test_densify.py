@@ -18,7 +18,7 @@ import rasterio
 from mound.cli import main as mound_main
 from mound.geometry.align import apply, umeyama
 from mound.ply import read_ply, read_ply_fields, write_ply
-from mound.recon.defaults import SIM_RECON_ARGS
+from mound.recon.defaults import SIM_RECONSTRUCT
 from mound.sim.terrain import load_site_heightfield
 
 DIAMETER_M, HEIGHT_M = 30.0, 3.0
@@ -39,7 +39,7 @@ def site(tmp_path_factory: pytest.TempPathFactory, mound_recon: Path) -> Path:
                        "--size", "640", "480", "--threads", "2", "--out", str(out / "site")]) == 0
     r = recon_tool(["reconstruct", str(out / "site" / "images"), "--out", str(out / "recon"),
                     "--camera", str(out / "site" / "camera.json"), "--gps",
-                    str(out / "site" / "poses.json"), "--threads", "2", *SIM_RECON_ARGS])
+                    str(out / "site" / "poses.json"), "--threads", "2", *SIM_RECONSTRUCT.argv()])
     assert r.returncode == 0, r.stderr
     return out
 

@@ -14,7 +14,7 @@ import pytest
 from mound.cli import main as mound_main
 from mound.geometry.align import apply, umeyama
 from mound.ply import read_ply
-from mound.recon.defaults import SIM_RECON_ARGS
+from mound.recon.defaults import SIM_RECONSTRUCT
 from mound.sim.terrain import load_site_heightfield
 
 
@@ -38,7 +38,7 @@ def recon(site: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("recon_out")
     r = run_recon(["reconstruct", str(site / "images"), "--out", str(out), "--camera",
                    str(site / "camera.json"), "--gps", str(site / "poses.json"), "--threads", "2",
-                   *SIM_RECON_ARGS])
+                   *SIM_RECONSTRUCT.argv()])
     assert r.returncode == 0, r.stderr
     return out
 
@@ -120,7 +120,7 @@ def test_without_gps_the_frame_is_arbitrary_and_runs_repeat(site: Path, tmp_path
     for f in sorted((site / "images").iterdir())[:6]:
         shutil.copy(f, sub / f.name)
     r = run_recon(["reconstruct", str(sub), "--out", str(tmp_path / "out"), "--camera",
-                   str(site / "camera.json"), "--threads", "2", *SIM_RECON_ARGS])
+                   str(site / "camera.json"), "--threads", "2", *SIM_RECONSTRUCT.argv()])
     assert r.returncode == 0, r.stderr
     doc = json.loads((tmp_path / "out" / "recon.json").read_text())
     assert doc["frame"] == "arbitrary" and doc["scale"] == "unknown" and "origin" not in doc
@@ -128,7 +128,7 @@ def test_without_gps_the_frame_is_arbitrary_and_runs_repeat(site: Path, tmp_path
     # The same seed gives the same model with two threads: the same points and tracks,
     # coordinates equal to 1e-9 (Ceres' threads may sum in another order).
     again = run_recon(["reconstruct", str(sub), "--out", str(tmp_path / "again"), "--camera",
-                       str(site / "camera.json"), "--threads", "2", *SIM_RECON_ARGS])
+                       str(site / "camera.json"), "--threads", "2", *SIM_RECONSTRUCT.argv()])
     assert again.returncode == 0, again.stderr
     for name in ("images.txt", "points3D.txt"):
         a = (tmp_path / "out" / name).read_text().split()
@@ -155,7 +155,7 @@ def test_retrieval_registers_an_unlocated_set_in_no_order(site: Path, tmp_path: 
         shutil.copy(f, sub / f"img_{k:02d}.png")
     r = run_recon(["reconstruct", str(sub), "--out", str(tmp_path / "out"), "--camera",
                    str(site / "camera.json"), "--matching", "retrieval", "--window", "0",
-                   "--neighbours", "3", "--threads", "2", *SIM_RECON_ARGS])
+                   "--neighbours", "3", "--threads", "2", *SIM_RECONSTRUCT.argv()])
     assert r.returncode == 0, r.stderr
     doc = json.loads((tmp_path / "out" / "recon.json").read_text())
     n = len(files)

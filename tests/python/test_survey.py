@@ -37,6 +37,7 @@ from mound.geometry.geodesy import Origin, enu_to_geodetic
 from mound.paths import REPO_ROOT
 from mound.plan import sites as op_sites
 from mound.ply import read_ply
+from mound.recon.tool_options import DensifyOptions
 from mound.survey import driver
 from mound.survey.context import Context
 from mound.survey.ledger import Ledger
@@ -707,7 +708,7 @@ def test_a_dense_cloud_that_allows_no_verdict_leaves_it_to_the_sparse_one(
     job = SiteJob(site=Site("s1", 0.0, 0.0, 0.0), index=0,
                   run_root=str(tmp_path / "run"), origin=Origin(38.57, 27.99, 95.0),
                   key="k", images_dir=str(photos), threads=2, figures=False,
-                  dense_args=("--max-image-size", "320", "--resolution-m", "50"))
+                  dense=DensifyOptions(320, 50.0))
     row = process_site(job).to_doc()
     assert row["status"] == "ok", row.get("reason")
     assert row["dense"]["points"] < 100
@@ -874,7 +875,7 @@ def test_a_site_the_first_flight_leaves_undecided_is_flown_again_wider(
         shutil.copy(f, card / f.name)
     job2 = SiteJob(site=job.site, index=0, run_root=str(tmp_path / "run3"), origin=job.origin,
                    key="k", images_dir=str(tmp_path), second_images_dir=str(card),
-                   image_size=(320, 240), threads=2, figures=False, dense_args=job.dense_args,
+                   image_size=(320, 240), threads=2, figures=False, dense=job.dense,
                    dense_model=job.dense_model)
     job2.tree.verdict.parent.mkdir(parents=True)
     shutil.copy(job.tree.verdict, job2.tree.verdict)
@@ -980,7 +981,7 @@ def _dense_site_job(tmp_path: Path, model_fields: dict[str, Any]) -> Any:
                    index=0, run_root=str(tmp_path / "run"),
                    origin=Origin(38.57, 27.99, 95.0), key="k",
                    image_size=(320, 240), threads=2, figures=False,
-                   dense_args=("--max-image-size", "320", "--resolution-m", "0.25"),
+                   dense=DensifyOptions(320, 0.25),
                    dense_model=str(model_file))
 
 

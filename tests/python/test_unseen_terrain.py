@@ -20,7 +20,7 @@ import pytest
 
 from mound.cli import main as mound_main
 from mound.paths import REPO_ROOT
-from mound.recon.defaults import SIM_RECON_ARGS
+from mound.recon.defaults import SIM_RECONSTRUCT
 from mound.recon.model_file import read_verdict_model
 
 DEM = "TM1_564_146.tif"
@@ -52,7 +52,7 @@ def sites(tmp_path_factory: pytest.TempPathFactory, mound_recon: Path,
         _run(mound_recon, ["reconstruct", str(site / "sim" / "images"), "--out",
                            str(site / "recon"), "--camera", str(site / "sim" / "camera.json"),
                            "--gps", str(site / "sim" / "poses.json"), "--threads", "2",
-                           *SIM_RECON_ARGS])
+                           *SIM_RECONSTRUCT.argv()])
         _run(mound_recon, ["densify", str(site / "recon"), "--out", str(site / "dense"),
                            "--threads", "2"])
         out[name] = site

@@ -16,7 +16,7 @@ import pytest
 
 from mound.cli import main as mound_main
 from mound.ply import read_ply, read_ply_fields
-from mound.recon.defaults import SIM_RECON_ARGS
+from mound.recon.defaults import SIM_RECONSTRUCT
 
 
 def run_recon(args: list[str]) -> subprocess.CompletedProcess[str]:
@@ -33,7 +33,7 @@ def reconstruct(tmp: pytest.TempPathFactory, mound: str) -> tuple[Path, Path]:
     out = tmp.mktemp(f"recon_{mound}")
     r = run_recon(["reconstruct", str(site / "images"), "--out", str(out), "--camera",
                    str(site / "camera.json"), "--gps", str(site / "poses.json"), "--threads", "2",
-                   *SIM_RECON_ARGS])
+                   *SIM_RECONSTRUCT.argv()])
     assert r.returncode == 0, r.stderr
     return site, out
 

@@ -393,7 +393,7 @@ def _case(tmp: Path, spec: terrain.TerrainSpec, seed: int,
     with `dense` also densified as the survey densifies (densify's defaults) and
     judged on that cloud by the dense model (verdict_dense.json)."""
     from mound import native
-    from mound.recon.defaults import SIM_RECON_ARGS
+    from mound.recon.defaults import SIM_RECONSTRUCT
 
     site = sim.SimSpec(terrain=spec, width_px=320, height_px=240, pattern="raster",
                        scan_diameter_m=60.0, seed=seed, texel_m=0.1)
@@ -402,7 +402,7 @@ def _case(tmp: Path, spec: terrain.TerrainSpec, seed: int,
     native.run_tool("mound_recon", ["reconstruct", str(s / "images"), "--out",
                                     str(tmp / "recon"), "--camera", str(s / "camera.json"),
                                     "--gps", str(s / "poses.json"), "--threads", "2",
-                                    *SIM_RECON_ARGS])
+                                    *SIM_RECONSTRUCT.argv()])
     native.run_tool("mound_recon", ["verdict", str(tmp / "recon"), "--out",
                                     str(tmp / "verdict.json")])
     if dense:

@@ -36,7 +36,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "python"))
 from mound.cli import main as mound_main
 from mound.paths import REPO_ROOT, build_dir
 from mound.ply import read_ply
-from mound.recon.defaults import SIM_RECON_ARGS
+from mound.recon.defaults import SIM_RECONSTRUCT
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_recon import aligned_height_errors
@@ -97,7 +97,7 @@ def main() -> int:
         if not (recon / "recon.json").exists():
             tool(["reconstruct", str(site / "images"), "--out", str(recon), "--camera",
                   str(site / "camera.json"), "--gps", str(site / "poses.json"), "--threads",
-                  str(a.threads), *SIM_RECON_ARGS])
+                  str(a.threads), *SIM_RECONSTRUCT.argv()])
         times = []
         for _ in range(a.reps):
             t0 = time.perf_counter()

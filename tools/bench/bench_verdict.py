@@ -34,7 +34,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "python"))
 from mound.cli import main as mound_main
 from mound.paths import REPO_ROOT, build_dir
 from mound.ply import read_ply_fields
-from mound.recon.defaults import SIM_RECON_ARGS
+from mound.recon.defaults import SIM_RECONSTRUCT
 
 
 def recon_tool(args: list[str]) -> subprocess.CompletedProcess[str]:
@@ -52,7 +52,7 @@ def site_and_recon(out: Path, name: str, mound: str, seed: int, size: list[int],
                            str(site), *extra]) == 0
         p = recon_tool(["reconstruct", str(site / "images"), "--out", str(recon), "--camera",
                         str(site / "camera.json"), "--gps", str(site / "poses.json"),
-                        "--threads", str(threads), *SIM_RECON_ARGS])
+                        "--threads", str(threads), *SIM_RECONSTRUCT.argv()])
         if p.returncode not in (0, 3):
             raise SystemExit(p.stderr)
     return site

@@ -45,7 +45,7 @@ import numpy as np
 from mound import native
 from mound.errors import InputError, NoResultError, ToolNoResultError
 from mound.jsonio import read_json, write_json
-from mound.recon.defaults import CANDIDATES, SIM_RECON_ARGS
+from mound.recon.defaults import CANDIDATES, SIM_RECONSTRUCT
 from mound.sim import site as sim
 from mound.sim.card import site_jpegs
 from mound.sim.dem_places import DemPlaces
@@ -110,7 +110,7 @@ def _site(out: Path, spec: sim.SimSpec, threads: int, remeasure: bool,
                 site_jpegs(simdir, datetime(2026, 6, 1, 9, 0, 0))
             else:
                 camera = ["--camera", str(simdir / "camera.json"), "--gps",
-                          str(simdir / "poses.json"), *SIM_RECON_ARGS]
+                          str(simdir / "poses.json"), *SIM_RECONSTRUCT.argv()]
             times["simulate"] = time.perf_counter() - t
             t = time.perf_counter()
             try:

@@ -11,6 +11,8 @@ by name.
 
 from __future__ import annotations
 
+from mound.recon.tool_options import ReconstructOptions
+
 # The candidate rises `mound_recon verdict --candidates` measures (a model's
 # detector.candidates; without it the first, which the built-in models were trained on).
 CANDIDATES = ("site_ground", "local_relief")
@@ -19,14 +21,9 @@ CANDIDATES = ("site_ground", "local_relief")
 DENSE_SETTINGS = ("max_image_size", "resolution_m")
 
 # Structure from motion of the simulated sites (640 x 480 renders of a known lens): the fast
-# setting, which the training grids and the survey's simulated flights share. Real photos
-# take the tool's defaults.
-def sim_recon_args(max_features: int = 4000) -> tuple[str, ...]:
-    """`mound_recon reconstruct`'s options of the fast setting with `max_features`."""
-    return ("--max-features", str(max_features), "--contrast-threshold", "0.04")
-
-
-SIM_RECON_ARGS = sim_recon_args()
+# setting, which the training grids and the survey's simulated flights share (its
+# max_features replaced by --max-features). Real photos take the tool's defaults.
+SIM_RECONSTRUCT = ReconstructOptions(max_features=4000, contrast_threshold=0.04)
 
 # Cells of a site's GeoTIFFs (mound recon rasters, the survey): the sparse cloud holds ~1
 # point per m², the dense one (0.25 m voxels) ~16.

@@ -29,6 +29,7 @@ from mound.bounds import (
 from mound.errors import InputError
 from mound.flightplan.terrain import ClearanceSpec, spec_from_args
 from mound.geometry.flight import DEFAULT_SITE_DIAMETER_M
+from mound.recon.tool_options import DensifyOptions
 
 ScanPattern = Literal["raster", "orbit", "both"]
 Algo = Literal["alns", "newalg", "newalg-ls", "greedy", "tsiligirides", "glv"]
@@ -232,24 +233,19 @@ class SurveyOptions:
 
         return self.verdict_model or str(REPO_ROOT / "data" / "verdict_model_dense.json")
 
-    def densify_args(self) -> tuple[str, ...]:
+    def densify_options(self) -> DensifyOptions:
         """`mound_recon densify`'s options for the survey's dense clouds: the clouds its
         verdict model was trained on (the model's cloud_settings; --dense-size replaces the
-        depth maps' size, which check() refuses unless the model records none); none
-        without a dense cloud, the tool's defaults for a model that records nothing."""
+        depth maps' size, which check() refuses unless the model records none); the tool's
+        defaults for a model that records nothing (no dense cloud: --dense-size 0)."""
         from mound.recon.defaults import DENSE_SETTINGS
         from mound.recon.model_file import read_verdict_model
 
-        if self.dense_size == 0:
-            return ()
         c = read_verdict_model(self.dense_model_path()).cloud_settings or {}
         settings = {k: c[k] for k in DENSE_SETTINGS if k in c}
         if self.dense_size is not None:
             settings["max_image_size"] = self.dense_size
-        args: list[str] = []
-        for name, value in settings.items():
-            args += ["--" + name.replace("_", "-"), f"{value:g}"]
-        return tuple(args)
+        return DensifyOptions(**settings)
 
     def _check_day(self) -> None:
         """--cards (a day battery by battery) and --reward value."""

@@ -40,6 +40,7 @@ from mound.geometry.flight import DEFAULT_SITE_DIAMETER_M
 from mound.geometry.geodesy import Origin
 from mound.jsonio import read_json, write_json
 from mound.photos.sort import MIN_PHOTOS
+from mound.recon.tool_options import DensifyOptions, ReconstructOptions, VerdictOptions
 from mound.sim.card import SiteGround
 from mound.survey.tree import SiteTree
 
@@ -63,9 +64,9 @@ class SiteJob:
     pattern: str = "raster"
     site_diameter_m: float = DEFAULT_SITE_DIAMETER_M
     sim_seed: int = 1
-    recon_args: tuple[str, ...] = ()
-    dense_args: tuple[str, ...] = ()  # mound_recon densify options; empty: no dense cloud
-    verdict_args: tuple[str, ...] = ()
+    recon: ReconstructOptions = field(default_factory=ReconstructOptions)
+    dense: DensifyOptions | None = None  # None: no dense cloud
+    verdict: VerdictOptions = field(default_factory=VerdictOptions)
     dense_model: str | None = None  # the dense cloud's verdict model file; None: built in
     threads: int = 1
     timeout_s: float = 1800.0
@@ -179,7 +180,7 @@ def _process_site(job: SiteJob) -> SiteRow:
             # The reference-free verdict judges the dense cloud when there is one (mound_recon
             # then scores it with the model learned on dense clouds); the paper's test
             # (--reference) the sparse cloud, as it always has.
-            judged = dense if dense is not None and not job.verdict_args else None
+            judged = dense if dense is not None and job.verdict.reference is None else None
 
             def verdict(*args: str) -> None:
                 native.run_tool("mound_recon", ["verdict", str(t.recon), "--out", str(t.verdict),
@@ -196,7 +197,7 @@ def _process_site(job: SiteJob) -> SiteRow:
                     row.extra["dense_verdict_error"] = _reason(e, t)
                     judged = None
             if judged is None:
-                verdict(*job.verdict_args)
+                verdict(*job.verdict.argv())
             timings["verdict"] = time.perf_counter() - t0
             first = Verdict.read(t.verdict)
             row.verdict = first
@@ -326,21 +327,21 @@ def _reconstruct_args(job: SiteJob, images: Path, t: SiteTree, gps: str,
                       camera: Path | None) -> list[str]:
     """`mound_recon reconstruct` of `images` into t.recon, as the survey runs it."""
     args = ["reconstruct", str(images), "--out", str(t.recon), "--gps", gps,
-            "--threads", str(job.threads), *job.recon_args]
+            "--threads", str(job.threads), *job.recon.argv()]
     return args + (["--camera", str(camera)] if camera is not None else [])
 
 
 def _densify_args(job: SiteJob, t: SiteTree) -> list[str]:
     """`mound_recon densify` of t.recon into t.dense, as the survey runs it."""
     return ["densify", str(t.recon), "--out", str(t.dense), "--threads", str(job.threads),
-            *job.dense_args]
+            *(job.dense.argv() if job.dense is not None else ())]
 
 
 def _densify(job: SiteJob, row: SiteRow) -> Path | None:
-    """The dense cloud (mound_recon densify, when job.dense_args), or None: not asked for,
+    """The dense cloud (mound_recon densify, when job.dense), or None: not asked for,
     or densify failed (row.extra["dense_error"] says why; the verdict and the GeoTIFFs then use
     the sparse cloud)."""
-    if not job.dense_args:
+    if job.dense is None:
         return None
     t = job.tree
     t0 = time.perf_counter()

@@ -73,7 +73,7 @@ def cmd_build(args: argparse.Namespace) -> int:
         paths = {name: mission_files.flight_path(p, flight) for name, p in asked.items()}
         files, record = mission_format.write_flight(m, paths, opts)
         outputs += files
-        crew |= {str(doc["crew"]) for doc in record.values() if "crew" in doc}
+        crew |= {str(e.about["crew"]) for e in record.values() if "crew" in e.about}
         refusals += [f"{'' if flight is None else f'flight {flight}: '}{r}"
                      for r in mission_format.refusals(record)]
         first = next((str(p) for p, _ in reversed(files)), "-")

@@ -33,6 +33,25 @@ from mound.uav.route import Route
 
 Content = str | bytes
 DjiHeights = Literal["relative", "wgs84"]
+# What a format's files are (their heights, aircraft, crew settings): mission.json's words.
+About = dict[str, str | dict[str, str]]
+
+
+@dataclass(frozen=True)
+class FormatEntry:
+    """A format's entry in mission.json's `formats`: what its files are and their names,
+    or (no files) the limit that refused the flight."""
+
+    about: About
+    files: tuple[str, ...] = ()
+    refused: str | None = None
+
+    def to_doc(self) -> dict[str, object]:
+        return {**self.about, "files": list(self.files),
+                **({"refused": self.refused} if self.refused is not None else {})}
+
+
+Record = dict[str, FormatEntry]
 
 
 @dataclass(frozen=True)
@@ -60,17 +79,42 @@ class MissionFormat(Protocol):
     def check(self, opts: WriteOptions) -> None:
         """InputError naming the option when `opts` cannot make this format at all."""
 
-    def describe(self, m: Mission, opts: WriteOptions) -> dict[str, object]:
+    def describe(self, m: Mission, opts: WriteOptions) -> About:
         """What its files are (their heights, aircraft, ...) for mission.json."""
 
     def write(self, m: Mission, path: Path, opts: WriteOptions,
-              record: dict[str, dict[str, object]]) -> list[tuple[Path, Content]]:
+              record: Record) -> list[tuple[Path, Content]]:
         """The files of mission `m` (path: the flight's file; a format may split it),
         not written yet; InputError naming the limit when the format refuses the mission.
         `record`: the other formats' entries (the reference keeps them)."""
 
     def read(self, path: Path) -> tuple[str, list[Route]]:
         """(what the file is, its routes) or InputError naming the file and field."""
+
+
+@dataclass(frozen=True)
+class FileFormat:
+    """What a format declares (MissionFormat's data) and the defaults most formats keep:
+    nothing to check or describe, no reader. A module of mound.uav.filetypes subclasses it
+    with its write (and read) and holds an instance as FORMAT."""
+
+    name: str
+    suffix: str
+    option: str
+    help: str
+    limits: str
+    order: int
+    reference: bool = False
+    readable: bool = True
+
+    def check(self, opts: WriteOptions) -> None:
+        return None
+
+    def describe(self, m: Mission, opts: WriteOptions) -> About:
+        return {}
+
+    def read(self, path: Path) -> tuple[str, list[Route]]:
+        raise InputError(f"{path}: a {self.name} file is not read back")
 
 
 @functools.cache
@@ -117,12 +161,12 @@ def check(names: Iterable[str], opts: WriteOptions) -> None:
 
 
 def write_flight(m: Mission, paths: dict[str, Path], opts: WriteOptions
-                 ) -> tuple[list[tuple[Path, Content]], dict[str, dict[str, object]]]:
+                 ) -> tuple[list[tuple[Path, Content]], Record]:
     """Flight `m` in the formats `paths` names (format name -> the flight's file): the
     files (not written yet) and mission.json's `formats` record, each format's entry its
     description and `files` (names), or `refused` with the limit and `files` []."""
     outputs: list[tuple[Path, Content]] = []
-    record: dict[str, dict[str, object]] = {}
+    record: Record = {}
     ordered = sorted((f for f in registry() if f.name in paths), key=lambda f: f.reference)
     for fmt in ordered:
         about = fmt.describe(m, opts)
@@ -131,17 +175,22 @@ def write_flight(m: Mission, paths: dict[str, Path], opts: WriteOptions
         except InputError as e:
             if fmt.reference:
                 raise
-            record[fmt.name] = {**about, "files": [], "refused": str(e)}
+            record[fmt.name] = FormatEntry(about, refused=str(e))
             continue
         outputs += files
-        record[fmt.name] = {**about, "files": [p.name for p, _ in files]}
+        record[fmt.name] = FormatEntry(about, tuple(p.name for p, _ in files))
     return outputs, record
 
 
-def refusals(record: dict[str, dict[str, object]]) -> list[str]:
+def refusals(record: Record) -> list[str]:
     """`NAME not written: why` of each format the record says was refused."""
-    return [f"{name} not written: {doc['refused']}" for name, doc in record.items()
-            if "refused" in doc]
+    return [f"{name} not written: {e.refused}" for name, e in record.items()
+            if e.refused is not None]
+
+
+def record_doc(record: Record) -> dict[str, object]:
+    """mission.json's `formats` (and the .plan's `mound.formats`)."""
+    return {name: e.to_doc() for name, e in record.items()}
 
 
 def for_path(path: str | Path) -> MissionFormat:

@@ -38,7 +38,8 @@ def write_missions(missions: list[tuple[int | None, Any]], folder: Path, png_fol
         figures.mission_map(m.nav_enu, m.footprints, m.sites, png)
         written += [*(p for p, _ in files), png]
         summaries.append({**m.summary(), "flight": k or 1,
-                          "file": paths[mission_format.reference().name].name, "formats": formats})
+                          "file": paths[mission_format.reference().name].name,
+                          "formats": mission_format.record_doc(formats)})
     summary = dict(summaries[0]) if len(summaries) == 1 else {
         "schema": "mound.mission", "version": 1, "origin": summaries[0]["origin"],
         "items": sum(x["items"] for x in summaries),

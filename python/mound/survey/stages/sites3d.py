@@ -31,7 +31,10 @@ def site_jobs(ctx: Context, plan: Plan | None = None,
     """The 3-D jobs of the sites `plan` visits (default: plan.json); the sites keep their
     index in sites.json (which seeds their simulation) whichever plan visits them. A day
     on cards gives each site's folder of photos (`photos`)."""
-    from mound.recon.defaults import SIM_RECON_ARGS, sim_recon_args
+    from dataclasses import replace
+
+    from mound.recon.defaults import SIM_RECONSTRUCT
+    from mound.recon.tool_options import ReconstructOptions, VerdictOptions
     from mound.survey.site_work import SiteJob
 
     a = ctx.args
@@ -39,8 +42,11 @@ def site_jobs(ctx: Context, plan: Plan | None = None,
     # keypoint density), the simulated sites the fast setting; --max-features N asks for
     # the fast setting with N features for both
     card = bool(a.photos or a.images_root or photos is not None)
-    recon_args = (sim_recon_args(a.max_features) if a.max_features is not None
-                  else () if card else SIM_RECON_ARGS)
+    recon = (replace(SIM_RECONSTRUCT, max_features=a.max_features)
+             if a.max_features is not None else ReconstructOptions() if card
+             else SIM_RECONSTRUCT)
+    dense = a.densify_options() if a.dense_size != 0 else None
+    verdict = VerdictOptions(str(Path(a.reference).resolve()) if a.reference else None)
     sites_doc = Sites.read(ctx.tree.sites)
     if plan is None:
         plan = Plan.read(ctx.tree.plan)
@@ -48,13 +54,11 @@ def site_jobs(ctx: Context, plan: Plan | None = None,
     root = ctx.tree.root.resolve()
     options: dict[str, Any] = {"image_size": tuple(a.image_size), "pattern": a.scan_pattern,
                "site_diameter_m": a.site_diameter, "sim_seed": a.sim_seed,
-               "recon_args": recon_args,
-               "dense_args": a.densify_args() if a.dense_size != 0 else (),
-               "verdict_args": ("--reference", str(Path(a.reference).resolve()))
-               if a.reference else (), "threads": a.site_threads,
-               "timeout_s": a.site_timeout,
+               "threads": a.site_threads, "timeout_s": a.site_timeout,
                "dense_model": str(Path(a.verdict_model).resolve()) if a.verdict_model
                else None}
+    tools = {"recon": recon.to_doc(), "dense": dense and dense.to_doc(),
+             "verdict": verdict.to_doc()}
     jobs = []
     terrain = sites_doc.terrain() or {}
     grounds = {n["id"]: n["ground_amsl_m"] for n in terrain.get("nodes", [])}
@@ -75,7 +79,7 @@ def site_jobs(ctx: Context, plan: Plan | None = None,
         first = {"site": {"id": s.id, "x_m": s.x_m, "y_m": s.y_m,
                           "truth": s.truth.to_doc() if s.truth else None,
                           "simulate": s.extra.get("simulate")},
-                 "index": index, "options": options, "images": images,
+                 "index": index, "options": {**options, **tools}, "images": images,
                  "images_digest": folder_digest(Path(images)) if images else None,
                  "reference": sha256_of(Path(a.reference)) if a.reference else None,
                  **({"verdict_model": sha256_of(Path(a.verdict_model))}
@@ -87,7 +91,8 @@ def site_jobs(ctx: Context, plan: Plan | None = None,
         jobs.append(SiteJob(site=s, index=index, run_root=str(root), run_id=ctx.run_id,
                             origin=sites_doc.origin, key=key, first_key=digest(first),
                             images_dir=images,
-                            second_images_dir=second_images, terrain=ter, **options))
+                            second_images_dir=second_images, terrain=ter, recon=recon,
+                            dense=dense, verdict=verdict, **options))
     return jobs
 
 

@@ -9,7 +9,7 @@ import numpy as np
 
 from mound.errors import InputError
 from mound.uav import dji
-from mound.uav.mission_format import Content, WriteOptions
+from mound.uav.mission_format import About, Content, FileFormat, Record, WriteOptions
 from mound.uav.mission_items import Mission
 from mound.uav.route import Route, mission_route
 
@@ -34,26 +34,21 @@ def kmz(m: Mission, craft: dji.Aircraft, frame: str = "relative") -> bytes:
     return dji.kmz_bytes(route, craft, heights(m, route, frame))
 
 
-class DjiKmz:
-    name = "dji_kmz"
-    suffix = ".kmz"
-    option = "--dji-kmz"
-    help = ("also a DJI WPML mission for DJI Pilot 2 / FlightHub 2 (one wayline per flight; "
-            "see --aircraft, --dji-heights)")
-    limits = (f"at most {dji.MAX_WAYPOINTS:,} waypoints, heights {dji.HEIGHT_RANGE_M[0]:g}.."
-              f"{dji.HEIGHT_RANGE_M[1]:g} m above take-off, the aircraft's speed and climb "
-              "limits; legs split or merged to DJI's spacing")
-    order = 3
-    reference = False
-    readable = True
+HELP = ("also a DJI WPML mission for DJI Pilot 2 / FlightHub 2 (one wayline per flight; "
+        "see --aircraft, --dji-heights)")
+LIMITS = (f"at most {dji.MAX_WAYPOINTS:,} waypoints, heights {dji.HEIGHT_RANGE_M[0]:g}.."
+          f"{dji.HEIGHT_RANGE_M[1]:g} m above take-off, the aircraft's speed and climb limits; "
+          "legs split or merged to DJI's spacing")
 
+
+class DjiKmz(FileFormat):
     def check(self, opts: WriteOptions) -> None:
         dji.aircraft(opts.aircraft)
         if opts.dji_heights == "wgs84" and not opts.dem:
             raise InputError("--dji-heights wgs84: needs --dem (ellipsoidal heights need the "
                              "ground under home)")
 
-    def describe(self, m: Mission, opts: WriteOptions) -> dict[str, object]:
+    def describe(self, m: Mission, opts: WriteOptions) -> About:
         craft = dji.aircraft(opts.aircraft)
         frames = ({"template": "relativeToStartPoint", "waylines": "relativeToStartPoint"}
                   if opts.dji_heights == "relative"
@@ -61,7 +56,7 @@ class DjiKmz:
         return {"aircraft": craft.key, "heights": frames, "lens": craft.survey_lens}
 
     def write(self, m: Mission, path: Path, opts: WriteOptions,
-              record: dict[str, dict[str, object]]) -> list[tuple[Path, Content]]:
+              record: Record) -> list[tuple[Path, Content]]:
         return [(path, kmz(m, dji.aircraft(opts.aircraft), opts.dji_heights))]
 
     def read(self, path: Path) -> tuple[str, list[Route]]:
@@ -73,4 +68,4 @@ class DjiKmz:
         return what, [k.route(i) for i in range(len(k.waylines))]
 
 
-FORMAT = DjiKmz()
+FORMAT = DjiKmz("dji_kmz", ".kmz", "--dji-kmz", HELP, LIMITS, 3)

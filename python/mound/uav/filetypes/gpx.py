@@ -26,7 +26,7 @@ from mound.errors import InputError
 from mound.geometry.geodesy import enu_to_geodetic
 from mound.jsonio import number_text, parse_xml, read_text
 from mound.uav import files
-from mound.uav.mission_format import Content, WriteOptions
+from mound.uav.mission_format import About, Content, FileFormat, Record, WriteOptions
 from mound.uav.mission_items import Mission
 from mound.uav.route import NADIR_DEG, Route, RoutePoint, mission_route
 
@@ -147,24 +147,12 @@ def read_gpx(path: str | Path) -> tuple[str, Route]:
                        end if end in ("home", "land") else "unknown")
 
 
-class Gpx:
-    name = "gpx"
-    suffix = ".gpx"
-    option = "--gpx"
-    help = "also a GPX track and waypoints of the flight for ground crews (a GPS handheld)"
-    limits = "none: any route (ele above mean sea level)"
-    order = 5
-    reference = False
-    readable = True
-
-    def check(self, opts: WriteOptions) -> None:
-        return None
-
-    def describe(self, m: Mission, opts: WriteOptions) -> dict[str, object]:
+class Gpx(FileFormat):
+    def describe(self, m: Mission, opts: WriteOptions) -> About:
         return {"heights": "ele above mean sea level (home's ground + height above home)"}
 
     def write(self, m: Mission, path: Path, opts: WriteOptions,
-              record: dict[str, dict[str, object]]) -> list[tuple[Path, Content]]:
+              record: Record) -> list[tuple[Path, Content]]:
         return [(path, gpx_text(m))]
 
     def read(self, path: Path) -> tuple[str, list[Route]]:
@@ -172,4 +160,5 @@ class Gpx:
         return what, [route]
 
 
-FORMAT = Gpx()
+FORMAT = Gpx("gpx", ".gpx", "--gpx", "also a GPX track and waypoints of the flight for "
+             "ground crews (a GPS handheld)", "none: any route (ele above mean sea level)", 5)

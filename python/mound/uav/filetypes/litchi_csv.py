@@ -6,7 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from mound.uav import litchi
-from mound.uav.mission_format import Content, WriteOptions
+from mound.uav.mission_format import About, Content, FileFormat, Record, WriteOptions
 from mound.uav.mission_items import Mission
 from mound.uav.route import Route, mission_route
 
@@ -16,27 +16,19 @@ def parts(m: Mission) -> list[str]:
     return [litchi.csv_text(r) for r in litchi.prepare(mission_route(m))]
 
 
-class LitchiCsv:
-    name = "litchi_csv"
-    suffix = ".csv"
-    option = "--litchi"
-    help = ("also a Litchi CSV mission (consumer DJI aircraft; a flight over 99 waypoints "
-            "in parts OUT_part1.csv, ...)")
-    limits = (f"{litchi.MAX_WAYPOINTS} waypoints a part, altitudes "
-              f"{litchi.ALTITUDE_RANGE_M[0]:g}..{litchi.ALTITUDE_RANGE_M[1]:g} m above "
-              f"take-off, speeds up to {litchi.MAX_SPEED_M_S:g} m/s")
-    order = 4
-    reference = False
-    readable = True
+HELP = ("also a Litchi CSV mission (consumer DJI aircraft; a flight over 99 waypoints in "
+        "parts OUT_part1.csv, ...)")
+LIMITS = (f"{litchi.MAX_WAYPOINTS} waypoints a part, altitudes {litchi.ALTITUDE_RANGE_M[0]:g}.."
+          f"{litchi.ALTITUDE_RANGE_M[1]:g} m above take-off, speeds up to "
+          f"{litchi.MAX_SPEED_M_S:g} m/s")
 
-    def check(self, opts: WriteOptions) -> None:
-        return None
 
-    def describe(self, m: Mission, opts: WriteOptions) -> dict[str, object]:
+class LitchiCsv(FileFormat):
+    def describe(self, m: Mission, opts: WriteOptions) -> About:
         return {"heights": "above the take-off point", "crew": litchi.CREW_SETTINGS}
 
     def write(self, m: Mission, path: Path, opts: WriteOptions,
-              record: dict[str, dict[str, object]]) -> list[tuple[Path, Content]]:
+              record: Record) -> list[tuple[Path, Content]]:
         texts = parts(m)
         return [(litchi.part_path(path, k + 1, len(texts)), t) for k, t in enumerate(texts)]
 
@@ -46,4 +38,4 @@ class LitchiCsv:
                 [Route(pts[0].lat_deg, pts[0].lon_deg, tuple(pts), "unknown")])
 
 
-FORMAT = LitchiCsv()
+FORMAT = LitchiCsv("litchi_csv", ".csv", "--litchi", HELP, LIMITS, 4)
