@@ -1,4 +1,5 @@
-"""Saving a matplotlib figure as the stages' figures are saved (headless: the Agg backend)."""
+"""matplotlib as the stages draw with it: the headless Agg backend chosen here, once (a
+module that draws takes `plt` from here), and saving a figure."""
 
 from __future__ import annotations
 
@@ -8,6 +9,8 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
+
+__all__ = ["plt", "save_figure"]
 
 
 def save_figure(fig: plt.Figure, out_png: str | Path, dpi: int) -> Path:

@@ -6,17 +6,13 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING, cast
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
 import numpy as np
 
 if TYPE_CHECKING:
     from mpl_toolkits.mplot3d.axes3d import Axes3D
 
 from mound.jsonio import read_json
-from mound.plotting import save_figure
+from mound.plotting import plt, save_figure
 from mound.ply import read_ply
 
 

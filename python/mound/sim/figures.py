@@ -6,11 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING, cast
 
-import matplotlib
-
-matplotlib.use("Agg")
 import matplotlib.image as mpimg
-import matplotlib.pyplot as plt
 import numpy as np
 
 if TYPE_CHECKING:
@@ -18,7 +14,7 @@ if TYPE_CHECKING:
 from matplotlib.colors import LightSource, Normalize
 
 from mound.jsonio import read_json
-from mound.plotting import save_figure
+from mound.plotting import plt, save_figure
 
 
 def contact_sheet(site_dir: str | Path, out_png: str | Path, columns: int = 8,

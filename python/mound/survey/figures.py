@@ -7,10 +7,6 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
 import numpy as np
 from PIL import Image
 from scipy.stats import binned_statistic_2d
@@ -18,7 +14,7 @@ from scipy.stats import binned_statistic_2d
 from mound.formats.plan import Plan
 from mound.formats.sites import Site, Sites
 from mound.jsonio import read_json
-from mound.plotting import save_figure
+from mound.plotting import plt, save_figure
 from mound.ply import read_ply
 from mound.uav.mission_items import Footprint, MissionSite
 
