@@ -2,9 +2,10 @@
 or the survey's second look) chose, as one typed value.
 
 `Plan.read(path)` validates once what the Python side uses — the flights' tours (ids,
-each site at most once per flight), rewards, costs, the budget, the origin — and keeps
-every other member (the solver's figures, waypoints, scan, terrain) as it was written, so
-that `Plan.to_doc()` writes the document back unchanged. A plan written by hand (for
+each site at most once per flight), rewards, costs, the budget, the origin, the waypoints
+(`Waypoint`: each node's position, kind and scan cost) — and keeps every other member (the
+solver's figures, scan, terrain) as it was written, so that `Plan.to_doc()` writes the
+document back with the same members. A plan written by hand (for
 `mound mission build` or `mound photos sort`) may leave out the flights' rewards and costs
 (the mission builder measures a flight itself); `Plan.reward` and `Plan.cost_m` then say
 so with an InputError instead of a number. A plan made in Python
@@ -34,10 +35,56 @@ from mound.jsonio import (
 SCHEMA = "mound.plan"
 VERSION = 1
 MAX_M = 1e9  # the largest budget or cost read (a million kilometres)
+# Magnitudes a plan's waypoints can have (the same bounds as mound_plan's reader): local
+# coordinates within 10^8 m, scan costs within 10^8 m.
+MAX_COORD_M = 1e8
+MAX_COST_M = 1e8
+WAYPOINT_KINDS = ("home", "site", "end")
 
 # The members Plan types; the rest travel in `extra`.
 _TYPED = ("schema", "version", "status", "algo", "tour", "flights", "reward", "cost_m",
-          "budget_m", "budget_left_m", "closed", "origin")
+          "budget_m", "budget_left_m", "closed", "origin", "waypoints")
+
+
+@dataclass(frozen=True)
+class Waypoint:
+    """A node of the plan's `waypoints` (mound_plan writes home, the sites and the end):
+    where (ENU metres about the plan's origin), what it is, its scan cost; the solver's
+    other figures (reward, cum_cost_m, flight) as written."""
+
+    id: str
+    x_m: float
+    y_m: float
+    kind: str = "site"
+    scan_cost_m: float = 0.0
+    extra: Mapping[str, Any] = field(default_factory=dict)
+
+    def to_doc(self) -> dict[str, object]:
+        return {**self.extra, "id": self.id, "kind": self.kind, "x_m": self.x_m,
+                "y_m": self.y_m, "scan_cost_m": self.scan_cost_m}
+
+    @classmethod
+    def from_doc(cls, doc: object, where: str) -> Waypoint:
+        if not isinstance(doc, dict) or "id" not in doc:
+            raise InputError(f"{where}: expected an object with an id")
+        kind = doc.get("kind", "site")
+        if kind not in WAYPOINT_KINDS:
+            raise InputError(f"{where}.kind: expected home, site or end, got {kind!r:.40}")
+        return cls(require_id(doc["id"], f"{where}.id"),
+                   require_number(doc, "x_m", where, lo=-MAX_COORD_M, hi=MAX_COORD_M),
+                   require_number(doc, "y_m", where, lo=-MAX_COORD_M, hi=MAX_COORD_M), kind,
+                   require_number(doc, "scan_cost_m", where, lo=0, hi=MAX_COST_M,
+                                  default=0.0),
+                   {k: v for k, v in doc.items()
+                    if k not in ("id", "x_m", "y_m", "kind", "scan_cost_m")})
+
+
+def _waypoints(value: object, where: str) -> tuple[Waypoint, ...]:
+    if value is None:
+        return ()
+    if not isinstance(value, list):
+        raise InputError(f"{where}: expected a list of {{id, kind, x_m, y_m, scan_cost_m}}")
+    return tuple(Waypoint.from_doc(w, f"{where}[{k}]") for k, w in enumerate(value))
 
 
 @dataclass(frozen=True)
@@ -99,6 +146,8 @@ class Plan:
     origin: Origin | None = None
     status: str = "ok"
     extra: Mapping[str, Any] = field(default_factory=dict)
+    # mound_plan's waypoints: home, the sites and the end, with positions and costs
+    waypoints: tuple[Waypoint, ...] = ()
 
     @property
     def home(self) -> str:
@@ -131,12 +180,6 @@ class Plan:
         doc = self.extra.get("scan")
         return None if doc is None else ScanSpec.from_doc(doc, "plan: scan")
 
-    def waypoints(self) -> list[Mapping[str, Any]]:
-        """mound_plan's `waypoints` (home, sites and end with positions and costs), as
-        written; empty when the plan has none."""
-        w = self.extra.get("waypoints")
-        return [x for x in w if isinstance(x, dict)] if isinstance(w, list) else []
-
     def to_doc(self) -> dict[str, object]:
         n = len(self.flights)
         doc: dict[str, object] = {"schema": SCHEMA, "version": VERSION, "status": self.status,
@@ -152,19 +195,23 @@ class Plan:
             doc["budget_left_m"] = self.budget_m * n - self.cost_m
         if self.origin is not None:
             doc["origin"] = self.origin.to_doc()
+        if self.waypoints:
+            doc["waypoints"] = [w.to_doc() for w in self.waypoints]
         return doc
 
     @classmethod
     def of_flights(cls, algo: str, tours: Sequence[Sequence[str]], rewards: Sequence[float],
                    costs_m: Sequence[float], budget_m: float, closed: bool,
-                   origin: Origin | None = None, **extra: object) -> Plan:
+                   origin: Origin | None = None, waypoints: Sequence[Waypoint] = (),
+                   **extra: object) -> Plan:
         """A plan made in Python (an exact solver's, the second look's): one flight per
-        tour; `extra` members (solver, scan, waypoints, ...) are written as given."""
+        tour; `extra` members (solver, scan, ...) are written as given."""
         flights = tuple(Flight(tuple(t), float(r), float(c), float(budget_m - c))
                         for t, r, c in zip(tours, rewards, costs_m, strict=True))
         if not flights:
             raise ValueError("a plan has at least one flight")
-        return cls(algo, flights, float(budget_m), closed, origin, "ok", dict(extra))
+        return cls(algo, flights, float(budget_m), closed, origin, "ok", dict(extra),
+                   tuple(waypoints))
 
     @classmethod
     def from_doc(cls, doc: Any, path: str | Path) -> Plan:
@@ -203,7 +250,8 @@ class Plan:
                   if doc.get("origin") is not None else None)
         return cls(algo, flights, require_number(doc, "budget_m", f"{path}: plan", lo=0, hi=MAX_M),
                    closed, origin, "ok",
-                   {k: v for k, v in doc.items() if k not in _TYPED})
+                   {k: v for k, v in doc.items() if k not in _TYPED},
+                   _waypoints(doc.get("waypoints"), f"{where}waypoints"))
 
     @classmethod
     def read(cls, path: str | Path) -> Plan:

@@ -57,8 +57,6 @@ from mound.geometry.geodesy import Origin, geodetic_to_enu
 from mound.jsonio import (
     load_json,
     read_json,
-    require_id,
-    require_number,
     write_json,
 )
 
@@ -242,36 +240,22 @@ def _plan_sites(doc: Mapping[str, object], path: str, spec: SortSpec) -> CardSit
     plan = Plan.from_doc(doc, path)
     if plan.origin is None:
         raise InputError(f"{path}: origin: missing (the sites' WGS84 frame)")
-    waypoints = _objects(doc, "waypoints", path)
-    for k, w in enumerate(waypoints):
-        require_id(w.get("id"), f"{path}: waypoints[{k}].id")
+    if not plan.waypoints:
+        raise InputError(f"{path}: waypoints: expected a list")
     wanted = plan.visited()
-    nodes = [(f"{path}: waypoints[{k}]", w) for k, w in enumerate(waypoints)
-             if w.get("id") in wanted]
-    home = next((w for w in waypoints if w.get("kind") == "home"), None)
+    nodes = [w for w in plan.waypoints if w.id in wanted]
+    home = next((w for w in plan.waypoints if w.kind == "home"), None)
     if not nodes:
         raise InputError(f"{path}: no sites")
     scan = _scan_of(doc, path, spec)
-    ids = [require_id(n.get("id"), f"{where}.id") for where, n in nodes]
-    xy = np.array([[require_number(n, k, where, lo=-MAX_ENU_M, hi=MAX_ENU_M)
-                    for k in ("x_m", "y_m")] for where, n in nodes])
-    home_xy = np.zeros(2) if home is None else np.array(
-        [require_number(home, k, f"{path}: home", lo=-MAX_ENU_M, hi=MAX_ENU_M, default=0.0)
-         for k in ("x_m", "y_m")])
-    return CardSites(plan.origin, ids, xy, home_xy, scan.reach_m())
-
-
-def _objects(doc: Mapping[str, object], key: str, path: str) -> list[Mapping[str, object]]:
-    """doc[key]: a list of objects, else InputError naming the field."""
-    items = doc.get(key)
-    if not isinstance(items, list):
-        raise InputError(f"{path}: {key}: expected a list")
-    out: list[Mapping[str, object]] = []
-    for k, item in enumerate(items):
-        if not isinstance(item, dict):
-            raise InputError(f"{path}: {key}[{k}]: expected an object")
-        out.append(item)
-    return out
+    for w in [*nodes, *([home] if home else [])]:
+        for name, v in (("x_m", w.x_m), ("y_m", w.y_m)):
+            if abs(v) > MAX_ENU_M:
+                raise InputError(f"{path}: waypoints: {w.id}.{name}: {v:g} outside "
+                                 f"{-MAX_ENU_M:g}..{MAX_ENU_M:g}")
+    xy = np.array([[w.x_m, w.y_m] for w in nodes])
+    home_xy = np.zeros(2) if home is None else np.array([home.x_m, home.y_m])
+    return CardSites(plan.origin, [w.id for w in nodes], xy, home_xy, scan.reach_m())
 
 
 # A DJI photo's XMP and its EXIF say the same position and height to the precision they

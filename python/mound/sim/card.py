@@ -311,7 +311,7 @@ def write_card(plan_path: str, sites_path: str, out_dir: str, spec: CardSpec | N
         raise InputError(f"{plan_path}: origin: missing (the card's photos are geotagged)")
     index = {s.id: k for k, s in enumerate(sites_doc.sites)}
     by_id = sites_doc.by_id()
-    points = {w["id"]: np.array([float(w["x_m"]), float(w["y_m"])]) for w in plan.waypoints()}
+    points = {w.id: np.array([w.x_m, w.y_m]) for w in plan.waypoints}
     scan = plan.scan() or ScanSpec(pattern=spec.pattern, scale_m=spec.site_diameter_m)
     reach = scan.reach_m()
     # Transit frames through the scan's lens at the card's image size.

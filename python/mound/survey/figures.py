@@ -143,7 +143,7 @@ def field_map(sites_doc: Sites, plan: Plan | None, verdicts: dict[str, str],
     p = np.array([np.nan if s.p_mound is None else s.p_mound for s in sites])
     fig, ax = plt.subplots(figsize=(6.4, 5.6))
     if plan is not None:
-        pos = {w["id"]: (w["x_m"], w["y_m"]) for w in plan.waypoints()}
+        pos = {w.id: (w.x_m, w.y_m) for w in plan.waypoints}
         colours = ["0.35", "tab:orange", "tab:purple", "tab:brown", "tab:pink", "tab:olive"]
         for k, f in enumerate(plan.flights):
             path = np.array([pos[i] for i in f.tour if i in pos])

@@ -124,8 +124,8 @@ def map_data(tree: RunTree, summary: dict[str, Any], sites_doc: Sites, plan: Pla
     home = sites_doc.home
     pos[home.id] = _lat_lon(origin, home.x_m, home.y_m)
     if plan is not None:
-        for w in plan.waypoints():
-            pos.setdefault(w["id"], _lat_lon(origin, w["x_m"], w["y_m"]))
+        for w in plan.waypoints:
+            pos.setdefault(w.id, _lat_lon(origin, w.x_m, w.y_m))
     sites = []
     overlays = []
 

@@ -58,7 +58,6 @@ from mound.formats.plan import Plan
 from mound.geometry.camera import Camera, Pose
 from mound.geometry.flight import PATTERNS, ScanSpec, scan_for_site
 from mound.geometry.geodesy import Origin, enu_to_geodetic
-from mound.jsonio import require_id, require_number
 
 # MAV_CMD
 NAV_WAYPOINT = 16
@@ -250,8 +249,6 @@ class Mission:
 
 # Magnitudes a plan can have (the same bounds as mound_plan's reader): local coordinates
 # within 10^8 m, scan costs within 10^8 m, budgets within 10^12 m.
-MAX_COORD_M = 1e8
-MAX_COST_M = 1e8
 MAX_BUDGET_M = 1e12
 
 
@@ -261,29 +258,16 @@ def plan_nodes(plan: Plan) -> tuple[list[TerrainNode], bool, float]:
         raise InputError(f"flights: a mission flies one flight, the plan has "
                          f"{len(plan.flights)} (mission_items.flight_plans splits them)")
     tour = plan.flights[0].tour
-    wps = plan.extra.get("waypoints")
-    if not isinstance(wps, list):
+    if not plan.waypoints:
         raise InputError("waypoints: missing (positions of the tour's nodes); re-plan with "
                          "mound_plan, which writes them")
-    by_id = {}
-    for k, w in enumerate(wps):
-        if not isinstance(w, dict) or "id" not in w:
-            raise InputError(f"waypoints[{k}]: expected an object with an id")
-        by_id[require_id(w["id"], f"waypoints[{k}].id")] = (k, w)
+    by_id = {w.id: w for w in plan.waypoints}
     nodes = []
     for k, node_id in enumerate(tour):
-        found = by_id.get(node_id)
-        if found is None:
+        w = by_id.get(node_id)
+        if w is None:
             raise InputError(f"tour[{k}]: site {node_id!r} has no coordinates in waypoints")
-        i, w = found
-        where = f"waypoints[{i}]"
-        x = require_number(w, "x_m", where, lo=-MAX_COORD_M, hi=MAX_COORD_M)
-        y = require_number(w, "y_m", where, lo=-MAX_COORD_M, hi=MAX_COORD_M)
-        kind = w.get("kind", "site")
-        if kind not in ("home", "site", "end"):
-            raise InputError(f"{where}.kind: expected home, site or end, got {kind!r:.40}")
-        nodes.append(TerrainNode(node_id, kind, x, y, require_number(
-            w, "scan_cost_m", where, lo=0, hi=MAX_COST_M, default=0.0)))
+        nodes.append(TerrainNode(node_id, w.kind, w.x_m, w.y_m, w.scan_cost_m))
     if not plan.budget_m <= MAX_BUDGET_M:
         raise InputError(f"plan.budget_m: must be a number in [0, {MAX_BUDGET_M:g}]")
     return nodes, plan.closed, plan.budget_m

@@ -21,7 +21,7 @@ import math
 from dataclasses import replace
 
 from mound.errors import InputError
-from mound.formats.plan import Flight, Plan
+from mound.formats.plan import Flight, Plan, Waypoint
 from mound.formats.site_row import SiteRow
 from mound.formats.sites import Sites
 from mound.uav.mission import build
@@ -68,17 +68,15 @@ def second_look_flights(sites: Sites, plan: Plan | None, ids: list[str],
     plan_terrain = plan.extra.get("terrain") if plan else None
 
     def mission(visit: list[str]) -> Mission:
-        wps: list[dict[str, object]] = [{"id": home.id, "x_m": home.x_m, "y_m": home.y_m,
-                                         "kind": "home"}]
-        wps += [{"id": i, "x_m": by_id[i].x_m, "y_m": by_id[i].y_m, "kind": "site",
-                 "scan_cost_m": cost} for i in visit]
+        wps = [Waypoint(home.id, home.x_m, home.y_m, "home")]
+        wps += [Waypoint(i, by_id[i].x_m, by_id[i].y_m, "site", cost) for i in visit]
         if not sites.closed:
-            wps.append({"id": end.id, "x_m": end.x_m, "y_m": end.y_m, "kind": "end"})
+            wps.append(Waypoint(end.id, end.x_m, end.y_m, "end"))
         flight = Plan(
             "second_look", (Flight((home.id, *visit, end.id), None, None, None),),
-            sites.budget_m, sites.closed, origin, extra={
-                "waypoints": wps,
-                **({"terrain": plan_terrain} if plan_terrain is not None else {})})
+            sites.budget_m, sites.closed, origin,
+            extra={"terrain": plan_terrain} if plan_terrain is not None else {},
+            waypoints=tuple(wps))
         return build(flight, origin, spec, terrain)
 
     def attempt(visit: list[str]) -> Mission | str:

@@ -10,7 +10,7 @@ from typing import Any
 
 from mound.datasets import sha256_of
 from mound.errors import InputError
-from mound.formats.plan import Plan
+from mound.formats.plan import Plan, Waypoint
 from mound.formats.site_row import SiteRow
 from mound.formats.sites import Sites
 from mound.jsonio import write_json
@@ -215,9 +215,9 @@ def second_look_missions(ctx: Context, rows: list[SiteRow], plan_path: Path,
         [sum(reward.get(x.id, 0.0) for x in m.sites) for m in flights] or [0.0],
         [m.flight_distance_m for m in flights] or [0.0], sites_doc.budget_m, plan.closed,
         plan.origin, scan=spec.scan.to_doc(),
-        waypoints=[w for w in plan.waypoints() if w.get("kind") in ("home", "end")]
-        + [{"id": x.id, "x_m": x.x_m, "y_m": x.y_m, "kind": "site",
-            "scan_cost_m": spec.scan.site_cost_m()} for m in flights for x in m.sites],
+        waypoints=[w for w in plan.waypoints if w.kind in ("home", "end")]
+        + [Waypoint(x.id, x.x_m, x.y_m, "site", spec.scan.site_cost_m())
+           for m in flights for x in m.sites],
         n_visited=sum(len(m.sites) for m in flights))
     write_json(out / "plan.json", sl_plan.to_doc())
     made.append(str((out / "plan.json").relative_to(t.root)))
