@@ -6,11 +6,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from mound.errors import InputError
 from mound.uav import files
 from mound.uav.mission_format import About, Content, FileFormat, Record, WriteOptions
 from mound.uav.mission_items import Mission
-from mound.uav.route import Route
 
 
 class GeoJson(FileFormat):
@@ -21,9 +19,6 @@ class GeoJson(FileFormat):
     def write(self, m: Mission, path: Path, opts: WriteOptions,
               record: Record) -> list[tuple[Path, Content]]:
         return [(path, files.geojson_text(m))]
-
-    def read(self, path: Path) -> tuple[str, list[Route]]:
-        raise InputError(f"{path}: GeoJSON is a map of the mission, not a mission to fly")
 
 
 FORMAT = GeoJson("geojson", ".geojson", "--geojson", "also the path, sites and image "

@@ -33,6 +33,8 @@ from mound.uav.route import NADIR_DEG, Route, RoutePoint, mission_route
 GPX_NS = "http://www.topografix.com/GPX/1/1"
 NS = "https://github.com/mound-survey/gpx/1"   # this project's extensions
 MAX_POINTS = 100_000
+ET.register_namespace("", GPX_NS)   # the written document's prefixes
+ET.register_namespace("mound", NS)
 
 
 def _sub(parent: ET.Element, tag: str, text: str | None = None, **attrib: str) -> ET.Element:
@@ -52,8 +54,6 @@ def _point(parent: ET.Element, tag: str, lat: float, lon: float, ele: float | No
 
 def gpx_text(m: Mission) -> str:
     """The GPX of mission `m`."""
-    ET.register_namespace("", GPX_NS)
-    ET.register_namespace("mound", NS)
     route = mission_route(m)
     home = files.home_altitude(m)
     root = ET.Element(f"{{{GPX_NS}}}gpx", {"version": "1.1", "creator": "mound-survey"})

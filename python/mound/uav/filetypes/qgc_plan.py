@@ -45,4 +45,5 @@ class QgcPlan(FileFormat):
 
 
 FORMAT = QgcPlan("qgc_plan", ".plan", "--out",
-                  "QGroundControl .plan file (MAVLink: PX4, ArduPilot)", LIMITS, 0, reference=True)
+                 "QGroundControl .plan file (MAVLink: PX4, ArduPilot)", LIMITS, 0,
+                 reference=True)

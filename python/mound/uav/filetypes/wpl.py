@@ -6,9 +6,9 @@ from __future__ import annotations
 from pathlib import Path
 
 from mound.uav import files
+from mound.uav.filetypes.qgc_plan import QgcPlan
 from mound.uav.mission_format import About, Content, FileFormat, Record, WriteOptions
 from mound.uav.mission_items import Mission
-from mound.uav.route import Route, items_route
 
 
 class Wpl(FileFormat):
@@ -19,9 +19,7 @@ class Wpl(FileFormat):
               record: Record) -> list[tuple[Path, Content]]:
         return [(path, files.wpl_text(m))]
 
-    def read(self, path: Path) -> tuple[str, list[Route]]:
-        items, _, kind = files.read_mission(path)
-        return f"{kind}, heights above home", [items_route(items)]
+    read = QgcPlan.read  # the same MAVLink reader (files.read_mission tells them apart)
 
 
 FORMAT = Wpl("wpl", ".waypoints", "--wpl", "also a 'QGC WPL 110' waypoint file (Mission "
