@@ -241,6 +241,28 @@ def finite_number(v: Any, where: str, *, lo: float = -math.inf, hi: float = math
     return f
 
 
+def as_object(doc: object, where: str) -> Mapping[str, Any]:
+    """doc as a JSON object; InputError naming `where` otherwise."""
+    if not isinstance(doc, dict):
+        raise InputError(f"{where}: expected an object, got {short_repr(doc)}")
+    return doc
+
+
+def xy_metres(v: object, where: str) -> tuple[float, float]:
+    """[x, y] (metres; a third member, a height, is left) as two finite numbers."""
+    if not isinstance(v, list) or len(v) < 2:
+        raise InputError(f"{where}: expected [x, y] in metres, got {short_repr(v)}")
+    return finite_number(v[0], f"{where}[0]"), finite_number(v[1], f"{where}[1]")
+
+
+def number_list(v: object, where: str, size: int | None = None) -> tuple[float, ...]:
+    """A list of finite numbers (`size` of them when given)."""
+    if not isinstance(v, list) or (size is not None and len(v) != size):
+        raise InputError(f"{where}: expected a list of {size or 'some'} numbers, "
+                         f"got {short_repr(v)}")
+    return tuple(finite_number(x, f"{where}[{k}]") for k, x in enumerate(v))
+
+
 def require_id(value: Any, where: str) -> str:
     """An identifier: a non-empty string of at most 256 characters, no control characters."""
     if not isinstance(value, str) or not value:

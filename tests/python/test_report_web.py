@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 from pages import CHROMIUM, body_data
 
+from mound.formats.verdict import Rise
 from mound.survey import webmap
 
 pytestmark = [
@@ -41,11 +42,12 @@ def test_site_viewer_draws_and_measures_a_known_distance(tmp_path: Path) -> None
     xyz = np.vstack([xyz, raised])
     rgb = np.full((len(xyz), 3), 120, np.uint8)
     doc = webmap.viewer_doc("test", xyz, rgb, centre, ground, 30.0,
-                            rise={"centre_enu_m": list(centre), "height_m": 2.0,
-                                  "base_diameter_m": 20.0,
-                                  # a rise measured over a curved ground (a hill's top)
-                                  "ground_plane": [50.0, 0.02, 0.0],
-                                  "ground_curvature": [-0.002, 0.0, -0.001]})
+                            rise=Rise.from_doc({
+                                "centre_enu_m": list(centre), "height_m": 2.0,
+                                "base_diameter_m": 20.0,
+                                # a rise measured over a curved ground (a hill's top)
+                                "ground_plane": [50.0, 0.02, 0.0],
+                                "ground_curvature": [-0.002, 0.0, -0.001]}, "rise"))
     assert doc["rise"]["plane"][1:] == [0.02, 0.0]
     assert doc["rise"]["curvature"] == [-0.002, 0.0, -0.001]
     assert doc["points"] == len(xyz)  # below the viewer's maximum: nothing dropped

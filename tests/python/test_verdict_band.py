@@ -271,7 +271,8 @@ def test_a_running_grid_is_judged_by_the_cloud_its_verdicts_name(tmp_path: Path)
         vm.grid_cloud(tmp_path)
     (tmp_path / "0000").mkdir()
     (tmp_path / "0000" / "verdict.json").write_text(json.dumps(
-        {"schema": "mound.verdict", "version": 1, "status": "ok",
+        {"schema": "mound.verdict", "version": 1, "status": "ok", "label": "no_mound",
+         "method": "reference_free_model",
          "cloud": str(tmp_path / "0000" / "dense" / "dense.ply")}))
     assert vm.grid_cloud(tmp_path) == "dense"
     (tmp_path / "grid.json").write_text(json.dumps({"schema": "mound.verdict_grid",

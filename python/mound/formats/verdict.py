@@ -3,8 +3,13 @@
 `Verdict.read(path)` validates what the survey uses — the answer (mound, no_mound or
 undecided), its two-answer label, the confidence, the calibrated p(mound), the judged
 rise's measurements, the second look's advice — with an InputError naming the file and the
-field; the rest of the document (every feature, the model's provenance) stays in the file.
-`row_fields()` is what a site's row (mound.survey_site) carries of it.
+field. `row_fields()` is what a site's row (mound.survey_site) carries of it.
+
+`VerdictFile.read(path)` is the whole file as every other reader takes it (the grids, the
+verdict's training, the map, the figures): the status (a failed verdict has no answer),
+the cloud judged, the look, the coverage, and the `Measurements` (the site's disc and
+ground fit, the candidate set, every judged rise as a `Rise` with its features). The
+model's provenance stays in the file.
 """
 
 from __future__ import annotations
@@ -16,11 +21,18 @@ from typing import Any
 
 from mound.errors import InputError
 from mound.jsonio import (
+    as_object,
     check_doc,
+    finite_number,
     load_json,
+    number_list,
     optional_number,
     optional_object,
+    read_json,
     require_choice,
+    short_repr,
+    write_json,
+    xy_metres,
 )
 
 SCHEMA = "mound.verdict"
@@ -30,6 +42,10 @@ TWO_ANSWERS = ("mound", "no_mound")
 # What the row keeps of the judged rise (its features stay in verdict.json).
 RISE_FIELDS = ("height_m", "base_diameter_m", "roundness", "dome_r2", "volume_m3",
                "centre_enu_m")
+# The candidate rises `mound_recon verdict --candidates` measures (measurements.candidates,
+# a model's detector.candidates; without it the first, which the built-in models learnt).
+CANDIDATES = ("site_ground", "local_relief")
+LOOKS = ("first", "second")
 
 
 @dataclass(frozen=True)
@@ -120,3 +136,154 @@ class Verdict:
     @classmethod
     def read(cls, path: str | Path) -> Verdict:
         return cls.from_doc(load_json(path), path)
+
+
+def _numbers(doc: Mapping[str, object], key: str, where: str,
+             size: int | None = None) -> tuple[float, ...] | None:
+    """doc[key] as a list of finite numbers (`size` of them when given), None when absent."""
+    v = doc.get(key)
+    return None if v is None else number_list(v, f"{where}.{key}", size)
+
+
+@dataclass(frozen=True)
+class Rise:
+    """A rise the verdict judged (measurements.judged_rises[k], or its chosen `rise`): its
+    features (the model's input), the measurements the rules and the viewer read, and the
+    ground it was measured over (`ground_plane`: z at its centre and the two slopes;
+    `ground_curvature`: the quadratic terms, 1/m, over a curved ground)."""
+
+    features: Mapping[str, float]
+    centre_enu_m: tuple[float, float] | None = None
+    base_diameter_m: float | None = None
+    height_m: float | None = None
+    roundness: float | None = None
+    dome_r2: float | None = None
+    ground_plane: tuple[float, ...] | None = None
+    ground_curvature: tuple[float, ...] | None = None
+
+    @classmethod
+    def from_doc(cls, doc: object, where: str) -> Rise:
+        d = as_object(doc, where)
+        feats = as_object(d.get("features", {}), f"{where}.features")
+        return cls({str(k): finite_number(v, f"{where}.features.{k}") for k, v in feats.items()},
+                   xy_metres(d["centre_enu_m"], f"{where}.centre_enu_m") if "centre_enu_m" in d
+                   else None,
+                   optional_number(d, "base_diameter_m", where),
+                   optional_number(d, "height_m", where),
+                   optional_number(d, "roundness", where),
+                   optional_number(d, "dome_r2", where),
+                   _numbers(d, "ground_plane", where, 3),
+                   _numbers(d, "ground_curvature", where, 3))
+
+
+def rises_of(docs: object, where: str) -> tuple[Rise, ...]:
+    """A verdict's judged rises (a list of rise objects)."""
+    if not isinstance(docs, list):
+        raise InputError(f"{where}: expected a list of rises, got {short_repr(docs)}")
+    return tuple(Rise.from_doc(r, f"{where}[{k}]") for k, r in enumerate(docs))
+
+
+@dataclass(frozen=True)
+class Measurements:
+    """A verdict's `measurements`: the scanned site's disc (centre, ENU m; radius, m), its
+    ground fit z = c0 + c1 x + c2 y + c3 x^2 + c4 x y + c5 y^2 (x, y from the centre), the
+    grid cell the rises were found on, the candidate set measured, every judged rise and
+    the chosen one, the ground's descriptors (`terrain`), and the reference test's
+    cloud-to-reference distance."""
+
+    candidates: str = CANDIDATES[0]
+    judged_rises: tuple[Rise, ...] = ()
+    rise: Rise | None = None
+    site_centre_enu_m: tuple[float, float] | None = None
+    site_radius_m: float | None = None
+    ground_coefficients: tuple[float, ...] | None = None
+    cell_m: float | None = None
+    terrain: Mapping[str, float] | None = None
+    distance_m: float | None = None
+
+    @classmethod
+    def from_doc(cls, doc: object, where: str) -> Measurements:
+        m = as_object(doc, where)
+        candidates = m.get("candidates", CANDIDATES[0])
+        if candidates not in CANDIDATES:
+            raise InputError(f"{where}.candidates: one of {', '.join(CANDIDATES)}, "
+                             f"got {short_repr(candidates)}")
+        centre, terrain = m.get("site_centre_enu_m"), m.get("terrain")
+        return cls(
+            str(candidates), rises_of(m.get("judged_rises", []), f"{where}.judged_rises"),
+            Rise.from_doc(m["rise"], f"{where}.rise") if m.get("rise") else None,
+            None if centre is None else xy_metres(centre, f"{where}.site_centre_enu_m"),
+            optional_number(m, "site_radius_m", where, lo=0.0),
+            _numbers(m, "ground_coefficients", where, 6),
+            optional_number(m, "cell_m", where, lo=0.0),
+            None if terrain is None else {
+                str(k): finite_number(x, f"{where}.terrain.{k}")
+                for k, x in as_object(terrain, f"{where}.terrain").items()},
+            optional_number(m, "distance_m", where))
+
+
+@dataclass(frozen=True)
+class VerdictFile:
+    """A whole verdict.json: `status` ok or failed (then `reason` says why and there is no
+    answer), the cloud judged (its path as written), the look (first or second), the
+    coverage's status, the measurements, the grid's timings (`mound sim grid` adds them,
+    seconds by step) and, when ok, the answer (`verdict`)."""
+
+    path: str
+    status: str
+    reason: str = ""
+    cloud: str = ""
+    look: str = LOOKS[0]
+    coverage_status: str | None = None
+    measurements: Measurements | None = None
+    grid_times_s: Mapping[str, float] = field(default_factory=dict)
+    verdict: Verdict | None = None
+
+    @property
+    def ok(self) -> bool:
+        return self.status == "ok"
+
+    @property
+    def cloud_kind(self) -> str:
+        """dense (densify's dense.ply) or sparse (the reconstruction's points)."""
+        return "dense" if self.cloud.endswith("dense.ply") else "sparse"
+
+    @property
+    def label(self) -> str:
+        """The answer (mound, no_mound or undecided), or failed."""
+        return self.verdict.label if self.verdict is not None else "failed"
+
+    @property
+    def p_mound(self) -> float | None:
+        return self.verdict.p_mound if self.verdict is not None else None
+
+    @classmethod
+    def from_doc(cls, doc: object, path: str | Path) -> VerdictFile:
+        d = check_doc(doc, path, SCHEMA, VERSION)
+        where = str(path)
+        status = require_choice(d.get("status"), ("ok", "failed"), f"{where}: status")
+        reason, cloud = d.get("reason", ""), d.get("cloud", "")
+        if not isinstance(reason, str) or not isinstance(cloud, str):
+            raise InputError(f"{where}: reason, cloud: expected strings")
+        look = require_choice(d.get("look", LOOKS[0]), LOOKS, f"{where}: look")
+        coverage = optional_object(d, "coverage", where)
+        cstatus = None if coverage is None else coverage.get("status")
+        m = d.get("measurements")
+        times = as_object(d.get("grid_times_s", {}), f"{where}: grid_times_s")
+        return cls(
+            where, status, reason, cloud, look, cstatus if isinstance(cstatus, str) else None,
+            None if m is None else Measurements.from_doc(m, f"{where}: measurements"),
+            {str(k): finite_number(v, f"{where}: grid_times_s.{k}") for k, v in times.items()},
+            Verdict.from_doc(d, path) if status == "ok" else None)
+
+    @classmethod
+    def read(cls, path: str | Path) -> VerdictFile:
+        return cls.from_doc(load_json(path), path)
+
+
+def record_grid_times(path: str | Path, times: Mapping[str, float]) -> None:
+    """Add a grid's timings (seconds by step: simulate, reconstruct, densify, verdict) to
+    the verdict.json at `path`, as `grid_times_s`; the rest of the file as written."""
+    doc = read_json(path, SCHEMA, VERSION)
+    doc["grid_times_s"] = dict(times)
+    write_json(path, doc)

@@ -44,6 +44,7 @@ import numpy as np
 
 from mound import native
 from mound.errors import InputError, NoResultError, ToolNoResultError
+from mound.formats.verdict import VerdictFile, record_grid_times
 from mound.jsonio import read_json, write_json
 from mound.recon.defaults import CANDIDATES, SIM_RECONSTRUCT
 from mound.sim import site as sim
@@ -64,22 +65,6 @@ VERSION = 1
 DEFAULT_DEM = "TM1_564_146.tif"  # the 1 m airborne-laser DEM (../shared/data/dem)
 
 
-def _p_of(verdict: dict[str, Any]) -> float | None:
-    """A site's verdict's p_mound (None: not judged)."""
-    p = verdict.get("p_mound")
-    return float(p) if isinstance(p, int | float) else None
-
-
-def _candidates_of(verdict: dict[str, Any]) -> str | None:
-    """The candidate set a verdict measured (site_ground before verdicts named it; None: a
-    failed verdict, which measured nothing)."""
-    m = verdict.get("measurements")
-    if not isinstance(m, dict):
-        return None
-    c = m.get("candidates", "site_ground")
-    return c if isinstance(c, str) else None
-
-
 def _site(out: Path, spec: sim.SimSpec, threads: int, remeasure: bool,
           dense: bool = False, card: bool = False,
           candidates: str = "site_ground") -> dict[str, Any]:
@@ -87,16 +72,16 @@ def _site(out: Path, spec: sim.SimSpec, threads: int, remeasure: bool,
     row: dict[str, Any] = {"dir": out.name, "truth": spec.terrain.truth()}
     times: dict[str, float] = {}
     if verdict.exists() and not remeasure:
-        doc = read_json(verdict, "mound.verdict", 1)
-        # a verdict of another candidate set is measured again (the grid holds one set)
-        if _candidates_of(doc) in (None, candidates):
-            row.update(status=doc.get("status"), times=doc.get("grid_times_s", {}),
-                       p_mound=_p_of(doc))
+        done = VerdictFile.read(verdict)
+        # a verdict of another candidate set is measured again (the grid holds one set; a
+        # failed verdict measured nothing)
+        if done.measurements is None or done.measurements.candidates == candidates:
+            row.update(status=done.status, times=dict(done.grid_times_s), p_mound=done.p_mound)
             return row
     if verdict.exists():  # remeasuring: keep the times of the flight and reconstruction
         try:
-            times.update({k: v for k, v in read_json(verdict, "mound.verdict", 1).get(
-                "grid_times_s", {}).items() if k != "verdict"})
+            times.update({k: v for k, v in VerdictFile.read(verdict).grid_times_s.items()
+                          if k != "verdict"})
         except InputError:  # remeasured anyway: only its times are lost
             pass
     try:
@@ -142,12 +127,10 @@ def _site(out: Path, spec: sim.SimSpec, threads: int, remeasure: bool,
         except ToolNoResultError:
             pass  # verdict.json says status failed and why
         times["verdict"] = time.perf_counter() - t
-        doc = read_json(verdict, "mound.verdict", 1)
-        doc["grid_times_s"] = times
-        write_json(verdict, doc)
-        row.update(status=doc.get("status"), times=times, p_mound=_p_of(doc),
-                   **({"reason": str(doc.get("reason", ""))} if doc.get("status") != "ok"
-                      else {}))
+        record_grid_times(verdict, times)
+        judged = VerdictFile.read(verdict)
+        row.update(status=judged.status, times=times, p_mound=judged.p_mound,
+                   **({"reason": judged.reason} if not judged.ok else {}))
     except (InputError, NoResultError) as e:
         row.update(status="failed", reason=str(e))
     return row

@@ -11,11 +11,9 @@ by name.
 
 from __future__ import annotations
 
+# the candidate sets a verdict measures: formats.verdict.CANDIDATES
+from mound.formats.verdict import CANDIDATES as CANDIDATES
 from mound.recon.tool_options import ReconstructOptions
-
-# The candidate rises `mound_recon verdict --candidates` measures (a model's
-# detector.candidates; without it the first, which the built-in models were trained on).
-CANDIDATES = ("site_ground", "local_relief")
 
 # The densify options a model's cloud_settings records (dense.json's `options` names).
 DENSE_SETTINGS = ("max_image_size", "resolution_m")

@@ -14,14 +14,8 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 from mound.errors import InputError
-from mound.jsonio import finite_number, optional_number, require_number, short_repr
-from mound.recon.defaults import CANDIDATES
-
-
-def _object(doc: object, where: str) -> Mapping[str, object]:
-    if not isinstance(doc, dict):
-        raise InputError(f"{where}: expected an object, got {short_repr(doc)}")
-    return doc
+from mound.formats.verdict import CANDIDATES, Measurements, Rise, VerdictFile, rises_of
+from mound.jsonio import as_object, finite_number, require_number, short_repr, xy_metres
 
 
 def _bool(doc: Mapping[str, object], key: str, where: str, default: bool = False) -> bool:
@@ -29,12 +23,6 @@ def _bool(doc: Mapping[str, object], key: str, where: str, default: bool = False
     if not isinstance(v, bool):
         raise InputError(f"{where}.{key}: expected true or false, got {short_repr(v)}")
     return v
-
-
-def _xy(v: object, where: str) -> tuple[float, float]:
-    if not isinstance(v, list) or len(v) < 2:
-        raise InputError(f"{where}: expected [x, y] in metres, got {short_repr(v)}")
-    return finite_number(v[0], f"{where}[0]"), finite_number(v[1], f"{where}[1]")
 
 
 @dataclass(frozen=True)
@@ -53,7 +41,7 @@ class SiteTruth:
 
     @classmethod
     def from_doc(cls, doc: object, where: str) -> SiteTruth:
-        d = _object(doc, where)
+        d = as_object(doc, where)
         kind = d.get("kind", "tumulus" if d.get("mound") else "flat")
         profile = d.get("profile")
         if not isinstance(kind, str) or not (profile is None or isinstance(profile, str)):
@@ -61,7 +49,7 @@ class SiteTruth:
         return cls(_bool(d, "mound", where), kind,
                    require_number(d, "height_m", where, lo=0.0),
                    require_number(d, "diameter_m", where, lo=0.0),
-                   _xy(d["centre_enu_m"], f"{where}.centre_enu_m") if "centre_enu_m" in d
+                   xy_metres(d["centre_enu_m"], f"{where}.centre_enu_m") if "centre_enu_m" in d
                    else (0.0, 0.0), profile,
                    _bool(d, "trench", where) or _bool(d, "pit", where), dict(d))
 
@@ -91,36 +79,6 @@ class SiteTruth:
     def reach_m(self) -> float:
         """How far from the site centre the object reaches (its centre's offset + radius)."""
         return math.hypot(*self.centre_enu_m) + self.diameter_m / 2
-
-
-@dataclass(frozen=True)
-class Rise:
-    """A rise the verdict judged (verdict.json measurements.judged_rises[k], or its chosen
-    `rise`): its features (the model's input) and the measurements the rules read."""
-
-    features: Mapping[str, float]
-    centre_enu_m: tuple[float, float] | None = None
-    base_diameter_m: float | None = None
-    height_m: float | None = None
-    roundness: float | None = None
-    dome_r2: float | None = None
-
-    @classmethod
-    def from_doc(cls, doc: object, where: str) -> Rise:
-        d = _object(doc, where)
-        feats = _object(d.get("features", {}), f"{where}.features")
-        return cls({str(k): finite_number(v, f"{where}.features.{k}") for k, v in feats.items()},
-                   _xy(d["centre_enu_m"], f"{where}.centre_enu_m") if "centre_enu_m" in d
-                   else None,
-                   *(optional_number(d, k, where) for k in
-                     ("base_diameter_m", "height_m", "roundness", "dome_r2")))
-
-
-def rises_of(docs: object, where: str) -> tuple[Rise, ...]:
-    """A verdict's judged rises (a list of rise objects)."""
-    if not isinstance(docs, list):
-        raise InputError(f"{where}: expected a list of rises, got {short_repr(docs)}")
-    return tuple(Rise.from_doc(r, f"{where}[{k}]") for k, r in enumerate(docs))
 
 
 @dataclass(frozen=True)
@@ -160,46 +118,29 @@ class GridSite:
         return self.site_centre_enu_m, self.site_radius_m
 
 
-def grid_site(name: str, row: Mapping[str, object], verdict: Mapping[str, object] | None,
-              second: Mapping[str, object] | None, grid: str, where: str) -> GridSite:
+def grid_site(name: str, row: Mapping[str, object], verdict: VerdictFile | None,
+              second: VerdictFile | None, grid: str, where: str) -> GridSite:
     """A grid row (grid.json's rows[k], its site's folder `name`) with its site's verdict
     (None: not measured) and second look's verdict (None: not flown or no verdict); its
     relief is the caller's to add (it reads the site's true surface)."""
     truth = SiteTruth.from_doc(row.get("truth"), f"{where}.truth")
     spec = row.get("spec")
-    terrain = _object(spec, f"{where}.spec").get("terrain") if spec is not None else None
+    terrain = as_object(spec, f"{where}.spec").get("terrain") if spec is not None else None
+    terrain_doc = as_object(terrain, f"{where}.spec.terrain") if terrain else None
     if verdict is None:
-        return GridSite(name, truth, grid=grid,
-                        terrain=_object(terrain, f"{where}.spec.terrain") if terrain else None)
-    vwhere = f"{grid}/{name}/verdict.json"
-    m = _object(verdict.get("measurements", {}), f"{vwhere}: measurements")
-    cloud = verdict.get("cloud", "")
-    coverage = verdict.get("coverage")
-    status = _object(coverage, f"{vwhere}: coverage").get("status") if coverage else None
-    centre = m.get("site_centre_enu_m")
-    candidates = m.get("candidates", CANDIDATES[0])
-    if candidates not in CANDIDATES:
-        raise InputError(f"{vwhere}: measurements.candidates: one of {', '.join(CANDIDATES)}, "
-                         f"got {short_repr(candidates)}")
+        return GridSite(name, truth, grid=grid, terrain=terrain_doc)
+    m = verdict.measurements or Measurements()
     return GridSite(
-        name, truth, verdict.get("status") == "ok",
-        rises_of(m.get("judged_rises", []), f"{vwhere}: measurements.judged_rises"),
-        Rise.from_doc(m["rise"], f"{vwhere}: measurements.rise") if m.get("rise") else None,
-        None if second is None else rises_of(
-            _object(second.get("measurements", {}), f"{grid}/{name}/second/verdict.json")
-            .get("judged_rises", []), f"{grid}/{name}/second/verdict.json: judged_rises"),
-        None, grid, _object(terrain, f"{where}.spec.terrain") if terrain else None,
-        "dense" if str(cloud).endswith("dense.ply") else "sparse",
-        status if isinstance(status, str) else None,
-        None if centre is None else _xy(centre, f"{vwhere}: measurements.site_centre_enu_m"),
-        optional_number(m, "site_radius_m", f"{vwhere}: measurements", lo=0.0),
-        _relief(m.get("terrain"), f"{vwhere}: measurements.terrain"), str(candidates))
+        name, truth, verdict.ok, m.judged_rises, m.rise,
+        None if second is None else (second.measurements or Measurements()).judged_rises,
+        None, grid, terrain_doc, verdict.cloud_kind, verdict.coverage_status,
+        m.site_centre_enu_m, m.site_radius_m, m.terrain, m.candidates)
 
 
 def _relief(v: object, where: str) -> Mapping[str, float] | None:
     if v is None:
         return None
-    return {str(k): finite_number(x, f"{where}.{k}") for k, x in _object(v, where).items()}
+    return {str(k): finite_number(x, f"{where}.{k}") for k, x in as_object(v, where).items()}
 
 
 def sites_of(docs: Sequence[Mapping[str, object]], where: str = "rows") -> list[GridSite]:
@@ -210,14 +151,14 @@ def sites_of(docs: Sequence[Mapping[str, object]], where: str = "rows") -> list[
     for k, d in enumerate(docs):
         w = f"{where}[{k}]"
         second, rise = d.get("second"), d.get("rise")
-        coverage = _object(d.get("verdict") or {}, f"{w}.verdict").get("coverage")
-        status = _object(coverage, f"{w}.verdict.coverage").get("status") if coverage else None
+        coverage = as_object(d.get("verdict") or {}, f"{w}.verdict").get("coverage")
+        status = as_object(coverage, f"{w}.verdict.coverage").get("status") if coverage else None
         out.append(GridSite(
             str(d.get("dir", k)), SiteTruth.from_doc(d.get("truth"), f"{w}.truth"),
             _bool(d, "measured", w, True), rises_of(d.get("rises", []), f"{w}.rises"),
             Rise.from_doc(rise, f"{w}.rise") if rise else None,
             None if second is None else rises_of(
-                _object(second, f"{w}.second").get("rises", []), f"{w}.second.rises"),
+                as_object(second, f"{w}.second").get("rises", []), f"{w}.second.rises"),
             _relief(d.get("relief"), f"{w}.relief"), str(d.get("grid", "")),
             coverage=status if isinstance(status, str) else None))
     return out

@@ -4,6 +4,7 @@ local relief model of its GeoTIFFs (PNG files)."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -13,7 +14,7 @@ from scipy.stats import binned_statistic_2d
 
 from mound.formats.plan import Plan
 from mound.formats.sites import Site, Sites
-from mound.jsonio import read_json
+from mound.formats.verdict import Measurements, VerdictFile
 from mound.plotting import plt, save_figure
 from mound.ply import read_ply
 from mound.uav.mission_items import Footprint, MissionSite
@@ -48,7 +49,7 @@ def thumbnail_strip(images_dir: Path, out_png: Path, count: int = 8,
     return out_png
 
 
-def _ground(coef: list[float], x: np.ndarray, y: np.ndarray) -> np.ndarray:
+def _ground(coef: Sequence[float], x: np.ndarray, y: np.ndarray) -> np.ndarray:
     """mound_recon verdict's ground: z = c0 + c1 x + c2 y + c3 x^2 + c4 x y + c5 y^2 (x, y
     from the site centre)."""
     c = list(coef) + [0.0] * (6 - len(coef))
@@ -60,19 +61,19 @@ def relief_map(recon_dir: Path, verdict_json: Path, out_png: Path, title: str = 
     """Height above the fitted ground (the verdict's) of the reconstructed points, gridded
     by median, with the measured rise's base circle."""
     xyz, _ = read_ply(Path(recon_dir) / "points.ply")
-    verdict = read_json(verdict_json, "mound.verdict", 1)
-    m = verdict.get("measurements", {})
-    centre = np.array(m.get("site_centre_enu_m", np.median(xyz[:, :2], axis=0)), dtype=float)
-    radius = float(m.get("site_radius_m", np.percentile(
-        np.linalg.norm(xyz[:, :2] - centre, axis=1), 80)))
+    verdict = VerdictFile.read(verdict_json)
+    m = verdict.measurements or Measurements()
+    centre = np.array(m.site_centre_enu_m or np.median(xyz[:, :2], axis=0), dtype=float)
+    radius = (m.site_radius_m if m.site_radius_m is not None
+              else float(np.percentile(np.linalg.norm(xyz[:, :2] - centre, axis=1), 80)))
     d = xyz[:, :2] - centre
     inside = np.linalg.norm(d, axis=1) <= radius
     d, z = d[inside], xyz[inside, 2]
-    if "ground_coefficients" in m:
-        h = z - _ground(m["ground_coefficients"], d[:, 0], d[:, 1])
+    if m.ground_coefficients is not None:
+        h = z - _ground(m.ground_coefficients, d[:, 0], d[:, 1])
     else:
         h = z - np.percentile(z, 15)
-    cell = float(m.get("cell_m", radius / 30)) or radius / 30
+    cell = m.cell_m or radius / 30
     bins = max(8, int(np.ceil(2 * radius / cell)))
     edges = np.linspace(-radius, radius, bins + 1)
     grid, _, _, _ = binned_statistic_2d(d[:, 0], d[:, 1], h, "median", bins=[edges, edges])
@@ -82,17 +83,17 @@ def relief_map(recon_dir: Path, verdict_json: Path, out_png: Path, title: str = 
                    cmap="terrain", vmin=min(-0.5, float(np.nanmin(grid))) if np.isfinite(
                        grid).any() else -0.5, vmax=lim)
     fig.colorbar(im, ax=ax, label="height above ground (m)")
-    rise = m.get("rise")
-    if isinstance(rise, dict) and rise.get("base_diameter_m"):
-        c = np.array(rise.get("centre_enu_m", centre), dtype=float) - centre
-        r = 0.5 * float(rise["base_diameter_m"])
+    rise = m.rise
+    if rise is not None and rise.base_diameter_m:
+        c = np.array(rise.centre_enu_m or centre, dtype=float) - centre
+        r = 0.5 * rise.base_diameter_m
         t = np.linspace(0, 2 * np.pi, 100)
         ax.plot(c[0] + r * np.cos(t), c[1] + r * np.sin(t), "k--", lw=1)
-        ax.text(c[0], c[1], f"{rise.get('height_m', 0):.1f} m", ha="center", va="center",
+        ax.text(c[0], c[1], f"{rise.height_m or 0:.1f} m", ha="center", va="center",
                 fontsize=8)
     ax.set_xlabel("east of site centre (m)")
     ax.set_ylabel("north (m)")
-    ax.set_title(title or verdict.get("label", ""), fontsize=9)
+    ax.set_title(title or (verdict.verdict.label if verdict.verdict else ""), fontsize=9)
     return save_figure(fig, out_png, dpi)
 
 

@@ -35,7 +35,7 @@ from mound.errors import (
 )
 from mound.formats.site_row import SecondLookRecord, SiteRow
 from mound.formats.sites import Site
-from mound.formats.verdict import SecondLookAdvice, Verdict
+from mound.formats.verdict import SecondLookAdvice, Verdict, VerdictFile
 from mound.geometry.flight import DEFAULT_SITE_DIAMETER_M
 from mound.geometry.geodesy import Origin
 from mound.jsonio import read_json, write_json
@@ -256,14 +256,13 @@ def _first_look_of_before(job: SiteJob) -> tuple[SiteRow, Verdict] | None:
         return None
     try:
         before = SiteRow.read(t.result)
-        doc = read_json(t.verdict, "mound.verdict", 1)
-        first = Verdict.from_doc(doc, t.verdict)
+        first = VerdictFile.read(t.verdict)
     except (InputError, OSError):
         return None
-    if (before.first_key != job.first_key or not before.ok
-            or doc.get("look", "first") != "first" or "images" not in before.files):
+    if (before.first_key != job.first_key or not before.ok or first.verdict is None
+            or first.look != "first" or "images" not in before.files):
         return None
-    return before, first
+    return before, first.verdict
 
 
 def _second_look(job: SiteJob, row: SiteRow, advice: SecondLookAdvice, dense: bool) -> None:

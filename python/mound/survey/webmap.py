@@ -24,6 +24,7 @@ import numpy as np
 from mound.errors import InputError
 from mound.formats.plan import Flight, Plan
 from mound.formats.sites import Sites
+from mound.formats.verdict import Measurements, Rise, VerdictFile
 from mound.geometry.geodesy import Origin, enu_to_geodetic
 from mound.jsonio import load_json, read_json, write_atomic
 from mound.paths import REPO_ROOT
@@ -231,7 +232,7 @@ class Frustum(NamedTuple):
 
 
 def viewer_doc(site_id: str, xyz: np.ndarray, rgb: np.ndarray | None, centre: np.ndarray,
-               ground: list[float], radius_m: float, rise: dict[str, Any] | None = None,
+               ground: list[float], radius_m: float, rise: Rise | None = None,
                cameras: list[Frustum] | None = None, note: str = "",
                seed: int = 0) -> dict[str, object]:
     """The 3-D viewer's data for one site: the cloud (at most MAX_VIEW_POINTS, a seeded
@@ -258,17 +259,17 @@ def viewer_doc(site_id: str, xyz: np.ndarray, rgb: np.ndarray | None, centre: np
                  "corners": [[float(v) for v in np.asarray(k) - shift] for k in c.corners]}
                 for c in cameras or []]
     shown: dict[str, object] | None = None
-    if rise:
-        cx, cy = np.asarray(rise["centre_enu_m"], float)[:2] - shift[:2]
-        shown = {"x": float(cx), "y": float(cy), "height_m": float(rise["height_m"]),
-                 "base_diameter_m": float(rise["base_diameter_m"])}
-        plane = rise.get("ground_plane")  # the rise's own ground: z at its centre, slopes
-        if isinstance(plane, list) and len(plane) == 3:
-            shown["plane"] = [float(plane[0]) - z0, float(plane[1]), float(plane[2])]
+    if (rise is not None and rise.centre_enu_m is not None and rise.height_m is not None
+            and rise.base_diameter_m is not None):
+        cx, cy = np.asarray(rise.centre_enu_m, float) - shift[:2]
+        shown = {"x": float(cx), "y": float(cy), "height_m": rise.height_m,
+                 "base_diameter_m": rise.base_diameter_m}
+        plane = rise.ground_plane  # the rise's own ground: z at its centre, slopes
+        if plane is not None:
+            shown["plane"] = [plane[0] - z0, plane[1], plane[2]]
             # a rise measured over a curved ground: its quadratic terms (1/m)
-            curv = rise.get("ground_curvature")
-            if isinstance(curv, list) and len(curv) == 3:
-                shown["curvature"] = [float(v) for v in curv]
+            if rise.ground_curvature is not None:
+                shown["curvature"] = list(rise.ground_curvature)
     return {
         "site": site_id, "points": len(idx), "points_in_cloud": n, "note": note,
         "positions": base64.b64encode(pts.tobytes()).decode("ascii"),
@@ -291,14 +292,12 @@ def site_viewer_doc(tree: RunTree, row: dict[str, Any]) -> dict[str, object] | N
     if cloud is None:
         return None
     xyz, rgb = read_ply(cloud)
-    m: dict[str, Any] = {}
+    m = Measurements()
     if files.get("verdict") and (tree.root / files["verdict"]).is_file():
-        m = read_json(tree.root / files["verdict"], "mound.verdict", 1).get(
-            "measurements") or {}
-    centre = np.array(m.get("site_centre_enu_m") or np.median(xyz[:, :2], axis=0), float)
-    ground = m.get("ground_coefficients") or [float(np.median(xyz[:, 2]))] + [0.0] * 5
-    radius = float(m.get("site_radius_m") or np.percentile(
-        np.hypot(*(xyz[:, :2] - centre).T), 80))
+        m = VerdictFile.read(tree.root / files["verdict"]).measurements or m
+    centre = np.array(m.site_centre_enu_m or np.median(xyz[:, :2], axis=0), float)
+    ground = list(m.ground_coefficients or [float(np.median(xyz[:, 2]))] + [0.0] * 5)
+    radius = float(m.site_radius_m or np.percentile(np.hypot(*(xyz[:, :2] - centre).T), 80))
     cameras = []
     if files.get("recon") and (tree.root / files["recon"] / "recon.json").is_file():
         recon = read_json(tree.root / files["recon"] / "recon.json", "mound.recon", 1)
@@ -316,7 +315,7 @@ def site_viewer_doc(tree: RunTree, row: dict[str, Any]) -> dict[str, object] | N
             cameras.append(Frustum(c, corners))
     note = f"{cloud.name}: {len(xyz):,} points"
     return viewer_doc(row["id"], xyz, rgb, np.array([centre[0], centre[1]]),
-                      ground, radius, m.get("rise"), cameras, note)
+                      ground, radius, m.rise, cameras, note)
 
 
 def write_viewer_data(out_dir: Path, doc: Mapping[str, object]) -> Path:

@@ -13,8 +13,9 @@ from typing import Any
 import numpy as np
 
 from mound.errors import InputError
+from mound.formats.verdict import Rise, VerdictFile
 from mound.jsonio import read_json, short_repr
-from mound.recon.grid_site import GridSite, Rise, SiteTruth, grid_site
+from mound.recon.grid_site import GridSite, SiteTruth, grid_site
 from mound.sim import terrain
 from mound.sim.looks import SECOND_LOOKS
 
@@ -97,7 +98,7 @@ def load_grid(folder: str | Path, second_look: str = "wider") -> list[GridSite]:
         if row.get("status") != "ok" or not vpath.is_file():
             out.append(grid_site(name, row, None, None, str(root), where))
             continue
-        judged = grid_site(name, row, read_json(vpath, "mound.verdict", 1),
+        judged = grid_site(name, row, VerdictFile.read(vpath),
                            _second_look(root / name / SECOND_LOOKS[second_look]), str(root),
                            where)
         out.append(replace(judged, relief=_relief(root / name, judged.truth)))
@@ -147,15 +148,15 @@ def stands_clear(relief: Mapping[str, float] | None) -> bool | None:
     return bool(relief["prominence_m"] >= CLEAR_OF_GROUND * relief["ground_clutter_m"])
 
 
-def _second_look(folder: Path) -> dict[str, object] | None:
+def _second_look(folder: Path) -> VerdictFile | None:
     """A site's second look's verdict (GRID/NNNN/second/verdict.json, `mound sim grid
     --second-look`; second_lower/ for the lower one): None when it was not flown or allowed
     no verdict."""
     path = folder / "verdict.json"
     if not path.is_file():
         return None
-    v = read_json(path, "mound.verdict", 1)
-    return v if v.get("status") == "ok" else None
+    v = VerdictFile.read(path)
+    return v if v.ok else None
 
 
 def rise_labels(site: GridSite) -> list[bool | None]:
@@ -221,11 +222,11 @@ def grid_cloud(folder: str | Path) -> str:
         return str(doc.get("cloud", "sparse"))
     for v in sorted(root.glob("*/verdict.json")):
         try:
-            cloud = str(read_json(v, "mound.verdict", 1).get("cloud", ""))
+            verdict = VerdictFile.read(v)
         except InputError:  # a verdict being written: the next one says
             continue
-        if cloud:
-            return "dense" if cloud.endswith("dense.ply") else "sparse"
+        if verdict.cloud:
+            return verdict.cloud_kind
     raise InputError(f"{root}: no grid.json and no finished verdict: which cloud it judges "
                      "is unknown")
 

@@ -19,7 +19,7 @@ from mound.classify.metrics import (
     roc_auc,
 )
 from mound.errors import InputError
-from mound.jsonio import read_json
+from mound.formats.verdict import VerdictFile
 from mound.recon.grid_site import GridSite
 from mound.recon.model_file import VerdictModel, outside_terrain
 from mound.recon.verdict_band import three_answers
@@ -254,8 +254,7 @@ def paper_agreement(folder: str | Path, model: VerdictModel, work: str | Path,
                                             "--reference", str(ref), "--out", str(res)], 600)
         except ToolNoResultError:
             pass
-        doc = read_json(res, "mound.verdict", 1)
-        paper = doc.get("label") if doc.get("status") == "ok" else "failed"
+        paper = VerdictFile.read(res).label
         sites.append({"dir": row.dir, "truth": row.truth.mound,
                       "kind": row.truth.kind, "paper": paper,
                       "learned": "mound" if q >= model.threshold else "no_mound"})

@@ -23,8 +23,9 @@ from mound.classify.metrics import (
     roc_auc,
 )
 from mound.errors import InputError
+from mound.formats.verdict import Rise
 from mound.recon.defaults import CANDIDATES
-from mound.recon.grid_site import GridSite, Rise
+from mound.recon.grid_site import GridSite
 from mound.recon.model_file import Beta, VerdictModel
 from mound.recon.verdict_band import band_doc, band_goal, confusion_doc
 from mound.training.verdict_data import (

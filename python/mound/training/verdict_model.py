@@ -40,7 +40,8 @@ verdict_fit (basis, fit, calibration, threshold, `train`, `probability`), verdic
 
 from __future__ import annotations
 
-from mound.recon.grid_site import GridSite, Rise, SiteTruth, rises_of, sites_of
+from mound.formats.verdict import Rise, rises_of
+from mound.recon.grid_site import GridSite, SiteTruth, sites_of
 from mound.recon.model_file import VerdictModel
 from mound.sim.looks import SECOND_LOOK_FACTOR
 from mound.training.verdict_data import (
