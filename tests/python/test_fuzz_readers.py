@@ -18,19 +18,32 @@ import math
 import os
 import shutil
 import tempfile
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from mound.classify import statlog
 from mound.errors import InputError
+from mound.formats.mission import (
+    ClearanceSpec,
+    FlightTerrain,
+    FormatEntry,
+    MissionSummary,
+    Refusal,
+    SecondLookMissions,
+    TerrainLeg,
+    UploadRecord,
+)
 from mound.formats.plan import Plan
+from mound.formats.recon import Recon
 from mound.formats.site_row import SiteRow
 from mound.formats.sites import Sites, load_user_sites
-from mound.formats.verdict import Verdict
+from mound.formats.verdict import Verdict, VerdictFile
 from mound.geometry.flight import scan_for_site
 from mound.geometry.geodesy import Origin
 from mound.jsonio import json_text
@@ -265,13 +278,19 @@ GRID_ROW = {"dir": "0000", "status": "ok",
                       "diameter_m": 20.0, "centre_enu_m": [1.0, -2.0], "pit": False,
                       "trench": True},
             "spec": {"terrain": {"seed": 4, "mound": True}}}
-GRID_VERDICT = {"schema": "mound.verdict", "version": 1, "status": "ok",
+GRID_VERDICT = {"schema": "mound.verdict", "version": 1, "status": "ok", "label": "mound",
+                "method": "reference_free_model", "p_mound": 0.8, "look": "first",
                 "cloud": "dense/dense.ply", "coverage": {"status": "clipped"},
+                "grid_times_s": {"simulate": 1.5, "verdict": 0.25},
                 "measurements": {
                     "site_centre_enu_m": [0.5, 0.5], "site_radius_m": 30.0,
-                    "candidates": "local_relief",
+                    "candidates": "local_relief", "cell_m": 0.5,
+                    "ground_coefficients": [100.0, 0.01, -0.02, 0.0, 0.001, 0.0],
+                    "terrain": {"site_slope_rad": 0.05},
                     "rise": {"height_m": 2.5, "base_diameter_m": 18.0, "roundness": 0.8,
-                             "dome_r2": 0.9, "centre_enu_m": [1.0, -1.5]},
+                             "dome_r2": 0.9, "centre_enu_m": [1.0, -1.5],
+                             "ground_plane": [100.0, 0.01, 0.0],
+                             "ground_curvature": [-0.002, 0.0, -0.001]},
                     "judged_rises": [{"centre_enu_m": [1.0, -1.5], "base_diameter_m": 18.0,
                                       "features": {"a": 1.5, "b": -2}}]}}
 
@@ -313,6 +332,99 @@ def test_grid_site_reader(row: str, verdict: str) -> None:
     truth, rises and disc are the numbers the files hold."""
     value_or_input_error(_read_grid, row, verdict,
                          check=lambda s: _valid_grid_site(s) if s[0].measured else None)
+
+
+def _valid_verdict_file(v: VerdictFile) -> None:
+    """What the grids, the training, the map and the figures rely on in a verdict file."""
+    assert v.status in ("ok", "failed") and (v.verdict is not None) == v.ok
+    if v.verdict is not None:
+        _valid_verdict(v.verdict)
+    assert v.look in ("first", "second") and v.cloud_kind in ("dense", "sparse")
+    assert all(math.isfinite(t) for t in v.grid_times_s.values())
+    m = v.measurements
+    if m is not None:
+        assert m.candidates in ("site_ground", "local_relief")
+        assert m.ground_coefficients is None or len(m.ground_coefficients) == 6
+        assert m.site_radius_m is None or m.site_radius_m >= 0
+        for r in m.judged_rises + (m.rise,) * (m.rise is not None):
+            assert r.ground_plane is None or len(r.ground_plane) == 3
+            assert all(math.isfinite(x) for x in r.features.values())
+
+
+@FUZZ
+@given(mutated_json(GRID_VERDICT))
+def test_verdict_file_reader(text: str) -> None:
+    value_or_input_error(VerdictFile.read, _file(text, "verdict.json"),
+                         check=_valid_verdict_file)
+
+
+RECON = {"schema": "mound.recon", "version": 1, "status": "ok", "frame": "enu",
+         "scale": "metric", "images_dir": "images",
+         "origin": {"lat": 38.57, "lon": 27.98, "alt_m": 120.0, "alt_datum": "egm96"},
+         "inputs": {"gps_source": "exif"},
+         "camera": {"width": 640, "height": 480, "K": [[500, 0, 320], [0, 500, 240], [0, 0, 1]],
+                    "dist_k1k2p1p2k3": [0.01, 0, 0, 0, 0]},
+         "images": [{"file": "a.jpg", "registered": True,
+                     "cam_from_world": {"R": [[1, 0, 0], [0, -1, 0], [0, 0, -1]],
+                                        "t": [0.0, 0.0, 50.0]},
+                     "centre": [0.0, 0.0, 50.0]},
+                    {"file": "b.jpg", "registered": False}],
+         "points": 1200, "reprojection_rmse_px": 0.6}
+
+
+def _valid_recon(r: Recon) -> None:
+    assert r.status in ("ok", "failed")
+    json_text(r.summary())
+    for _, pose, c in r.poses():
+        assert pose.R.shape == (3, 3) and pose.t.shape == (3,) and c.shape == (3,)
+        assert np.isfinite(pose.R).all() and np.isfinite(c).all()
+    if r.camera is not None:
+        assert r.camera.width_px > 0 and np.isfinite(r.camera.K).all()
+
+
+@FUZZ
+@given(mutated_json(RECON))
+def test_recon_reader(text: str) -> None:
+    value_or_input_error(Recon.read, _file(text, "recon.json"), check=_valid_recon)
+
+
+def _mission_summary() -> dict[str, Any]:
+    """A mission.json of one flight over a (made-up) DEM with one refused format, the
+    upload's record and the second looks'."""
+    m = build_mission(json.loads(json.dumps({**PLAN, "scan": None})), ORIGIN,
+                      mission_items.MissionSpec(scan=SCAN))
+    legs = (TerrainLeg("home", "s1", 180.0, 140.0, (10.0, 20.0), 40.0, 90.0),)
+    terrain = FlightTerrain("dem.tif", "EPSG:32635", 95.0, ClearanceSpec(), 1500.0, 85.0,
+                            85.0, 1450.0, legs)
+    flight = replace(m.summary(), terrain=terrain, flight=1, file="mission.plan",
+                     formats={"qgc_plan": FormatEntry({"firmware": "px4"}, ("mission.plan",)),
+                              "dji_kmz": FormatEntry({"aircraft": "m3e"},
+                                                     refused="too many waypoints")})
+    upload = UploadRecord("udpout:127.0.0.1:14550", "mission.plan", 40, 1, 0.5, 0, 0, True,
+                          ("ok",))
+    second = SecondLookMissions(("s1", "s2"), 2.0, 120.0, ("s1",),
+                                (Refusal("s2", "over the budget"),))
+    return MissionSummary((flight,), flight.budget_m, None, upload, second).to_doc()
+
+
+MISSION_SUMMARY = _mission_summary()
+
+
+def _valid_mission_summary(s: MissionSummary) -> None:
+    """The typed value writes back the same document (read again, equal)."""
+    assert MissionSummary.from_doc(json.loads(json_text(s.to_doc())), "again") == s
+    for f in s.flights:
+        assert f.items >= 0 and f.flight_distance_m >= 0
+        if f.terrain is not None:
+            assert f.terrain.lowest_clearance_m is None or math.isfinite(
+                f.terrain.lowest_clearance_m)
+
+
+@FUZZ
+@given(mutated_json(MISSION_SUMMARY))
+def test_mission_summary_reader(text: str) -> None:
+    value_or_input_error(MissionSummary.read, _file(text, "mission.json"),
+                         check=_valid_mission_summary)
 
 
 def _mission_texts() -> tuple[str, str]:
@@ -390,6 +502,16 @@ def test_the_fuzzed_seeds_are_valid() -> None:
     _valid_plan(Plan.read(_file(json.dumps(PLAN), "plan.json")))
     _valid_plan(Plan.read(_file(json.dumps(MADE_PLAN), "plan.json")))
     _valid_verdict(Verdict.read(_file(json.dumps(VERDICT), "verdict.json")))
+    grid = _read_grid(json.dumps(GRID_ROW), json.dumps(GRID_VERDICT))
+    _valid_grid_site(grid)
+    assert grid[0].rise is not None and grid[0].rise.ground_plane == (100.0, 0.01, 0.0)
+    _valid_verdict_file(VerdictFile.read(_file(json.dumps(GRID_VERDICT), "verdict.json")))
+    recon = Recon.read(_file(json.dumps(RECON), "recon.json"))
+    _valid_recon(recon)
+    assert len(recon.poses()) == 1 and recon.alt_datum == "egm96"
+    summary = MissionSummary.read(_file(json.dumps(MISSION_SUMMARY), "mission.json"))
+    _valid_mission_summary(summary)
+    assert summary.flights[0].terrain is not None and summary.second_look is not None
     _valid_row(SiteRow.read(_file(json.dumps(SITE_ROW), "site_result.json")))
     assert len(mission_files.read_mission(_file(QGC_PLAN, "m.plan"))[0]) > 5
     assert len(mission_files.read_mission(_file(WPL, "m.waypoints"))[0]) > 5

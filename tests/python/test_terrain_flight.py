@@ -240,16 +240,16 @@ def test_every_leg_clears_the_terrain_by_the_clearance(flown, raw) -> None:
         else:  # between sites, or from or to home
             n_transit += 1
             worst_transit = min(worst_transit, gap)
-    assert n_transit == len(m.terrain["legs"]) == len(m.sites) + 1
+    assert n_transit == len(m.terrain.legs) == len(m.sites) + 1
     # float32 altitudes on the link: a few centimetres
     print(f"[terrain] {len(m.sites)} ridge sites: lowest transit clearance {worst_transit:.2f} m "
           f"(asked {spec.clearance_m:g}), lowest scan clearance {worst_scan:.2f} m "
-          f"(asked {spec.scan_clearance_m:g}), energy {m.terrain['energy_m']:.0f} m, plan cost "
+          f"(asked {spec.scan_clearance_m:g}), energy {m.terrain.energy_m:.0f} m, plan cost "
           f"{flown['plan']['cost_m']:.0f} m, budget {flown['plan']['budget_m']:.0f} m, climbed "
-          f"{m.terrain['climbed_m']:.0f} m")
+          f"{m.terrain.climbed_m:.0f} m")
     assert worst_transit >= spec.clearance_m - 0.05
     assert worst_scan >= spec.scan_clearance_m - 0.05
-    assert min(leg["clearance_m"] for leg in m.terrain["legs"]) >= spec.clearance_m - 1e-9
+    assert min(leg.clearance_m for leg in m.terrain.legs) >= spec.clearance_m - 1e-9
 
 
 def test_scan_heights_above_each_sites_ground(flown, raw) -> None:
@@ -297,7 +297,7 @@ def test_climbs_are_counted_and_the_flight_fits_the_plan(flown, raw) -> None:
     down = float(np.clip(-d[:, 2], 0, None).sum())
     energy = horizontal + spec.climb_factor * up + spec.descent_factor * down
     assert up > 50  # the ridges are climbed
-    assert energy == pytest.approx(m.terrain["energy_m"], rel=1e-3)
+    assert energy == pytest.approx(m.terrain.energy_m, rel=1e-3)
     assert energy <= p["cost_m"] + 0.5 <= p["budget_m"] + 0.5
     # The plan's cost, recomputed from the sites document: planar + scans + the climbs.
     doc = flown["terrain_doc"]
@@ -318,7 +318,7 @@ def flat_clearance(doc: dict, raw, tmp_path: Path, name: str) -> tuple[float, li
     above home, home in the valley), and its items."""
     p = plan(doc, tmp_path, name)
     m = build_mission(p, Origin.from_doc(doc["origin"]))
-    assert m.summary()["terrain"]["checked"] is False
+    assert m.summary().terrain_doc()["checked"] is False
     out = tmp_path / f"{name}.plan"
     mission_files.write_plan(out, m)
     items, home, _ = mission_files.read_mission(out)
@@ -418,7 +418,7 @@ def test_the_simulator_flies_the_missions_heights_over_the_same_terrain(flown, r
     ys = np.array([-22.0, 17.0, 50.0])
     assert np.allclose(hf.height_at(xs, ys), raw_height(raw, x + xs, y + ys) - g, atol=0.05)
     want = [float(leg.points_enu[0, 2]) for leg in m.spec.scan.legs()]
-    assert s.scan_height_above_ground_m == want  # the mission flies these above g
+    assert list(s.scan_height_above_ground_m or ()) == want  # the mission flies these above g
     for p in np.vstack([leg.points_enu for leg in m.spec.scan.legs()]):
         assert p[2] - float(hf.height_at(np.array([p[0]]), np.array([p[1]]))[0]) >= 10
 
@@ -507,8 +507,8 @@ def test_plan_wpl_and_geojson_carry_the_same_altitudes(flown, tmp_path) -> None:
     items_wpl, home_wpl, _ = mission_files.read_mission(tmp_path / "m.waypoints")
     nav = [it for it in items_plan if it.command in mission_items.NAV_COMMANDS]
     assert [it.z for it in items_plan] == [it.z for it in items_wpl]
-    assert home_plan.alt_m == pytest.approx(m.terrain["home_amsl_m"], abs=1e-3)
-    assert home_wpl.alt_m == pytest.approx(m.terrain["home_amsl_m"], abs=1e-3)
+    assert home_plan.alt_m == pytest.approx(m.terrain.home_amsl_m, abs=1e-3)
+    assert home_wpl.alt_m == pytest.approx(m.terrain.home_amsl_m, abs=1e-3)
     doc = mission_files.geojson_document(m)
     path = next(f for f in doc["features"] if f["properties"]["kind"] == "flight_path")
     z = np.array([c[2] for c in path["geometry"]["coordinates"]])
@@ -517,7 +517,7 @@ def test_plan_wpl_and_geojson_carry_the_same_altitudes(flown, tmp_path) -> None:
     assert np.abs(z[1:] - np.array([it.z for it in nav])).max() < 0.15
     assert path["properties"]["altitude"] == "metres above home's ground"
     profiles = [f for f in doc["features"] if f["properties"]["kind"] == "leg_profile"]
-    assert len(profiles) == len(m.terrain["legs"])
+    assert len(profiles) == len(m.terrain.legs)
     for f in profiles:
         pr = f["properties"]
         assert len(pr["distance_m"]) == len(pr["terrain_amsl_m"])
@@ -562,11 +562,11 @@ def test_orbit_scans_over_the_terrain(raw, dem_path, tmp_path, pattern: str) -> 
     p = plan(t, tmp_path, pattern)
     m = build_mission(p, origin, None,
                             mission_items.TerrainInput(str(dem_path), "egm96"))
-    assert m.terrain["energy_m"] <= p["cost_m"] + 1e-6 <= p["budget_m"] + 1e-6
-    assert m.terrain["lowest_clearance_m"] >= 30 - 1e-9
+    assert m.terrain.energy_m <= p["cost_m"] + 1e-6 <= p["budget_m"] + 1e-6
+    assert m.terrain.lowest_clearance_m >= 30 - 1e-9
     rois = [it for it in m.items if it.command == mission_items.DO_SET_ROI_LOCATION]
     assert len(rois) == len(m.sites)
-    home = m.terrain["home_amsl_m"]
+    home = m.terrain.home_amsl_m
     for it, s in zip(rois, m.sites, strict=True):
         assert it.z == pytest.approx(s.ground_amsl_m + scan.target_height_m - home, abs=0.01)
 
@@ -607,7 +607,7 @@ def test_second_looks_are_flown_wider_within_the_budget_and_clear_of_the_terrain
                                                      factor, dem)
         assert wide.scan.scale_m == 2 * Plan.from_doc(p, "p").scan().scale_m  # type: ignore[union-attr]
         flown_ids = [s.id for m in flights for s in m.sites]
-        assert sorted(flown_ids + [r["id"] for r in refused]) == sorted(chosen)
+        assert sorted(flown_ids + [r.id for r in refused]) == sorted(chosen)
         assert flown_ids == [s for s in tour if s in flown_ids]  # the tour's order
         for k, m in enumerate(flights):
             assert m.spec.scan.scale_m == wide.scan.scale_m
@@ -618,17 +618,17 @@ def test_second_looks_are_flown_wider_within_the_budget_and_clear_of_the_terrain
             assert clearance >= spec.scan_clearance_m - 0.05
         print(f"[second look] budget {budget:.0f} m: {len(flights)} flights "
               f"{[[s.id for s in m.sites] for m in flights]}, energy "
-              f"{[round(m.terrain['energy_m']) for m in flights]} m, refused "
-              f"{[r['id'] for r in refused]}")
+              f"{[round(m.terrain.energy_m) for m in flights]} m, refused "
+              f"{[r.id for r in refused]}")
         if budget == 5000.0:  # all four in one flight
             assert not refused and len(flights) == 1
         else:  # a tighter budget: a flight per site, the farthest alone over it
-            assert len(flights) > 1 and all("budget" in r["reason"] for r in refused)
+            assert len(flights) > 1 and all("budget" in r.reason for r in refused)
     doc = {**flown["terrain_doc"], "budget_m": 600.0}
     flights, refused, _ = second_look_flights(typed(doc), Plan.from_doc(p, "p"), ids, factor,
                                               dem)
-    assert not flights and [r["id"] for r in refused] == [s for s in tour if s in chosen]
-    assert all("budget" in r["reason"] and "never flown lower" in r["reason"] for r in refused)
+    assert not flights and [r.id for r in refused] == [s for s in tour if s in chosen]
+    assert all("budget" in r.reason and "never flown lower" in r.reason for r in refused)
     with pytest.raises(InputError, match="site 'nowhere' is not in the sites document"):
         second_look_flights(typed(doc), Plan.from_doc(p, "p"), [*ids, "nowhere"], factor,
                             dem)

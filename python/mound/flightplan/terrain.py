@@ -32,58 +32,18 @@ corners from the last scan waypoint straight to the next site's first).
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, replace
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
 
-from mound.bounds import Bound
 from mound.errors import InputError
+from mound.formats.mission import CLEARANCE_M, FACTOR, ClearanceSpec
 from mound.formats.sites import Sites
 from mound.geometry.dem import Dem
 from mound.geometry.flight import ScanLeg, ScanSpec
-from mound.jsonio import require_number
 
 TERRAIN_SCHEMA_VERSION = 1
-CLEARANCE_M = Bound(0, 10_000, "m")  # clearances and the footprint
-FACTOR = Bound(1, 100)               # metres of level flight per metre climbed or descended
-
-
-@dataclass(frozen=True)
-class ClearanceSpec:
-    """How the aircraft treats the terrain (metres, and metres of flight per metre)."""
-
-    clearance_m: float = 30.0        # transit legs above the highest terrain near them
-    scan_clearance_m: float = 10.0   # scan waypoints and lines above the terrain
-    footprint_m: float = 10.0        # horizontal margin: GNSS error and the airframe
-    climb_factor: float = 3.0
-    descent_factor: float = 2.0
-    vertical: str = "egm96"          # what the DEM's heights are above (before conversion)
-
-    def check(self) -> None:
-        for name in ("clearance_m", "scan_clearance_m", "footprint_m"):
-            CLEARANCE_M.check(getattr(self, name), f"--{name.replace('_', '-')}")
-        for name in ("climb_factor", "descent_factor"):
-            FACTOR.check(getattr(self, name), f"--{name.replace('_', '-')}")
-
-    def to_doc(self) -> dict[str, object]:
-        return asdict(self)
-
-    @classmethod
-    def from_doc(cls, doc: Any, where: str = "terrain") -> ClearanceSpec:
-        if not isinstance(doc, dict):
-            raise InputError(f"{where}: expected an object")
-        kw: dict[str, Any] = {}
-        for name in ("clearance_m", "scan_clearance_m", "footprint_m", "climb_factor",
-                     "descent_factor"):
-            kw[name] = require_number(doc, name, where, lo=0, hi=10_000,
-                                      default=getattr(cls, name))
-        vertical = doc.get("vertical", cls.vertical)
-        if not isinstance(vertical, str):
-            raise InputError(f"{where}.vertical: expected a string")
-        spec = cls(**kw, vertical=vertical)
-        spec.check()
-        return spec
 
 
 def energy_m(points: np.ndarray, climb: float, descent: float) -> float:

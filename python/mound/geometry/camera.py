@@ -8,7 +8,9 @@ Pixels: u = fx x/z + cx, v = fy y/z + cy, (0, 0) the centre of the top-left pixe
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -47,13 +49,19 @@ class Camera:
                 "K": self.K.tolist(), "dist_k1k2p1p2k3": list(self.dist)}
 
     @classmethod
-    def from_doc(cls, doc: dict) -> Camera:
+    def from_doc(cls, doc: Mapping[str, Any]) -> Camera:
         """The inverse of to_doc (mound.camera, recon.json's camera); KeyError, TypeError,
-        ValueError or IndexError on a malformed one."""
+        ValueError or IndexError on a malformed one (a size or focal length not positive,
+        a value not finite)."""
         K = np.asarray(doc["K"], dtype=float)
-        return cls(int(doc["width"]), int(doc["height"]), float(K[0, 0]), float(K[1, 1]),
-                   float(K[0, 2]), float(K[1, 2]),
-                   tuple(float(v) for v in doc.get("dist_k1k2p1p2k3", [0.0] * 5)))
+        cam = cls(int(doc["width"]), int(doc["height"]), float(K[0, 0]), float(K[1, 1]),
+                  float(K[0, 2]), float(K[1, 2]),
+                  tuple(float(v) for v in doc.get("dist_k1k2p1p2k3", [0.0] * 5)))
+        values = (cam.fx, cam.fy, cam.cx, cam.cy, *cam.dist)
+        if not (cam.width_px > 0 and cam.height_px > 0 and cam.fx > 0 and cam.fy > 0
+                and np.isfinite(values).all()):
+            raise ValueError("width, height, fx, fy must be positive and every value finite")
+        return cam
 
 
 @dataclass(frozen=True)

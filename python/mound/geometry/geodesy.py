@@ -38,7 +38,7 @@ class Origin:
             raise InputError("origin: altitude must be finite")
 
     @classmethod
-    def from_doc(cls, doc: dict, where: str = "origin") -> Origin:
+    def from_doc(cls, doc: object, where: str = "origin") -> Origin:
         if not isinstance(doc, dict):
             raise InputError(f"{where}: expected an object with lat, lon (and alt_m)")
         return cls(require_number(doc, "lat", where, lo=-90, hi=90),

@@ -11,7 +11,8 @@ import numpy as np
 if TYPE_CHECKING:
     from mpl_toolkits.mplot3d.axes3d import Axes3D
 
-from mound.jsonio import read_json
+from mound.errors import InputError
+from mound.formats.recon import Recon
 from mound.plotting import plt, save_figure
 from mound.ply import read_ply
 
@@ -19,7 +20,9 @@ from mound.ply import read_ply
 def cloud_and_cameras(recon_dir: str | Path, out_png: str | Path, max_points: int = 40000,
                       dpi: int = 90, seed: int = 0) -> Path:
     recon_dir = Path(recon_dir)
-    doc = read_json(recon_dir / "recon.json", "mound.recon", 1)
+    recon = Recon.read(recon_dir / "recon.json")
+    if recon.camera is None:
+        raise InputError(f"{recon.path}: camera: missing (a failed reconstruction?)")
     xyz, rgb = read_ply(recon_dir / "points.ply")
     rng = np.random.default_rng(seed)
     if len(xyz) > max_points:
@@ -33,17 +36,14 @@ def cloud_and_cameras(recon_dir: str | Path, out_png: str | Path, max_points: in
     colours = rgb[inside] / 255.0 if rgb is not None else "grey"
     px, py, pz = xyz[inside].T
     ax.scatter(px, py, pz, c=colours, s=0.6, depthshade=False)
-    cam = doc["camera"]
-    w, h, k = cam["width"], cam["height"], np.array(cam["K"])
+    cam = recon.camera
+    w, h, k = cam.width_px, cam.height_px, cam.K
     centres = []
     size = 0.04 * float(np.linalg.norm(hi - lo))
     corners_px = np.array([[0, 0, 1], [w, 0, 1], [w, h, 1], [0, h, 1]], dtype=float)
     rays = (np.linalg.inv(k) @ corners_px.T).T
-    for im in doc["images"]:
-        if not im["registered"]:
-            continue
-        r = np.array(im["cam_from_world"]["R"])
-        c = np.array(im["centre"])
+    for _, pose, c in recon.poses():
+        r = pose.R
         centres.append(c)
         corners = c + size * (r.T @ rays.T).T
         for p in corners:
@@ -54,11 +54,13 @@ def cloud_and_cameras(recon_dir: str | Path, out_png: str | Path, max_points: in
     ax.set_xlim(mid[0] - span, mid[0] + span)
     ax.set_ylim(mid[1] - span, mid[1] + span)
     ax.set_zlim(mid[2] - span, mid[2] + span)
-    unit = "m" if doc.get("scale") == "metric" else "model units"
+    unit = "m" if recon.scale == "metric" else "model units"
     ax.set_xlabel(f"x ({unit})")
     ax.set_ylabel(f"y ({unit})")
     ax.set_zlabel(f"z ({unit})")
     ax.view_init(elev=28, azim=-60)
-    ax.set_title(f"{doc['registered']}/{len(doc['images'])} images, {doc['points']} points, "
-                 f"RMSE {doc['reprojection_rmse_px']:.2f} px, frame {doc.get('frame')}")
+    rmse = recon.reprojection_rmse_px
+    ax.set_title(f"{len(recon.poses())}/{len(recon.images)} images, {recon.points} points, "
+                 f"RMSE {rmse if rmse is not None else float('nan'):.2f} px, "
+                 f"frame {recon.frame}")
     return save_figure(fig, out_png, dpi)

@@ -44,6 +44,7 @@ from scipy.interpolate import LinearNDInterpolator
 from scipy.spatial import cKDTree
 
 from mound.errors import InputError, NoResultError
+from mound.formats.recon import Recon
 from mound.geometry.camera import Camera, Pose, project
 from mound.geometry.geodesy import Origin, enu_to_geodetic, geodetic_to_enu
 from mound.jsonio import staged_file
@@ -307,20 +308,11 @@ def write_rgba_geotiff(path: Path, rgba: np.ndarray, grid: Grid) -> None:
                           ColorInterp.alpha]
 
 
-def model_views(doc: dict[str, Any], where: str, images_dir: Path
-                ) -> tuple[Camera, list[tuple[Pose, Path]]]:
-    """The camera and the registered images' poses and paths of a recon.json document."""
-    try:
-        camera = Camera.from_doc(doc["camera"])
-        views = []
-        for im in doc["images"]:
-            if im.get("registered"):
-                T = im["cam_from_world"]
-                views.append((Pose(np.asarray(T["R"], dtype=float),
-                                   np.asarray(T["t"], dtype=float)), images_dir / im["file"]))
-    except (KeyError, TypeError, ValueError, IndexError) as err:
-        raise InputError(f"{where}: camera or images: {err!r}") from err
-    return camera, views
+def model_views(recon: Recon, images_dir: Path) -> tuple[Camera, list[tuple[Pose, Path]]]:
+    """The camera and the registered images' poses and paths of a reconstruction."""
+    if recon.camera is None:
+        raise InputError(f"{recon.path}: camera: missing")
+    return recon.camera, [(pose, images_dir / name) for name, pose, _ in recon.poses()]
 
 
 @dataclass
@@ -426,26 +418,27 @@ def from_recon(recon_dir: Path, out_dir: Path, resolution_m: float = 0.25,
     orthophoto.tif from the images (recon.json's images_dir unless `images_dir`).
     NoResultError (after rasters.json says `status: failed` and why) where the cloud
     leaves too little ground for a DTM."""
-    from mound.jsonio import read_json, write_json
+    from mound.jsonio import write_json
     from mound.ply import read_ply
 
     recon_dir = Path(recon_dir)
-    doc = read_json(recon_dir / "recon.json", "mound.recon", 1)
-    where = str(recon_dir / "recon.json")
-    if doc.get("status") != "ok":
-        raise InputError(f"{where}: status is {doc.get('status')!r} "
-                         f"({doc.get('reason', 'no reason given')}): no model to rasterise")
-    if doc.get("frame") != "enu" or doc.get("scale") != "metric":
-        raise InputError(f"{where}: frame {doc.get('frame')!r}, scale {doc.get('scale')!r}: "
+    recon = Recon.read(recon_dir / "recon.json")
+    where = recon.path
+    if not recon.ok:
+        raise InputError(f"{where}: status is {recon.status!r} "
+                         f"({recon.reason or 'no reason given'}): no model to rasterise")
+    if recon.frame != "enu" or recon.scale != "metric":
+        raise InputError(f"{where}: frame {recon.frame!r}, scale {recon.scale!r}: "
                          "rasters need a metric ENU model (reconstruct with --gps)")
-    origin = Origin.from_doc(doc.get("origin") or {}, f"{where}: origin")
+    if recon.origin is None:
+        raise InputError(f"{where}: origin: missing (a georeferenced model states it)")
+    origin = recon.origin
     # what the model's heights are above (recon.json before 2026-11-29 does not say: its
     # origin came from a poses file, ellipsoidal, or from EXIF, EGM96 — stated, not guessed)
-    alt_datum = (doc.get("origin") or {}).get("alt_datum")
+    alt_datum = recon.alt_datum
     datum_note = None
     if alt_datum is None:
-        alt_datum = "egm96" if (doc.get("inputs") or {}).get("gps_source") == "exif" \
-            else "ellipsoid"
+        alt_datum = "egm96" if recon.gps_source == "exif" else "ellipsoid"
         datum_note = (f"recon.json states no origin.alt_datum (made before 2026-11-29): "
                       f"{alt_datum} taken from its gps_source")
     if alt_datum not in ALT_DATUMS:
@@ -457,11 +450,11 @@ def from_recon(recon_dir: Path, out_dir: Path, resolution_m: float = 0.25,
         raise InputError(f"{cloud_path}: the cloud is empty")
     views, ortho_note = None, "not asked for"
     if ortho:
-        named = images_dir or doc.get("images_dir")
+        named = images_dir or recon.images_dir
         if images_dir and not Path(images_dir).is_dir():
             raise InputError(f"--images: {images_dir} is not a directory")
         if named and Path(str(named)).is_dir():
-            camera, found = model_views(doc, where, Path(str(named)))
+            camera, found = model_views(recon, Path(str(named)))
             views = (camera, found) if found else None
             ortho_note = "no registered image"
         else:

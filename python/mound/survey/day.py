@@ -23,6 +23,7 @@ from typing import Any
 
 from mound.args import Parser, UsageError
 from mound.bounds import FLIGHTS
+from mound.formats.mission import MissionSummary
 from mound.jsonio import load_json, write_json
 
 SCHEMA = "mound.day"
@@ -98,8 +99,8 @@ def day_doc(out: Path, batteries: int, cards: list[str]) -> dict[str, Any]:
     summary = load_json(out / "summary.json")
     answer = {r["id"]: r.get("answer", r.get("verdict")) for r in summary.get("sites", [])}
     sl_path = out / "second_look" / "mission.json"
-    sl = load_json(sl_path).get("second_look", {}) if sl_path.is_file() else {}
-    advised = set(sl.get("sites", []))
+    sl = MissionSummary.read(sl_path).second_look if sl_path.is_file() else None
+    advised = set(sl.sites if sl else ())
     rows = []
     for f in learn.get("flights", []):
         k = f["flight"]
@@ -119,7 +120,7 @@ def day_doc(out: Path, batteries: int, cards: list[str]) -> dict[str, Any]:
     return {"schema": SCHEMA, "version": VERSION, "status": summary.get("status"),
             "batteries": batteries, "flown": rows, "next": nxt,
             "second_looks": {"folder": "second_look", "sites": sorted(advised),
-                             "scan_factor": sl.get("scan_factor"),
-                             "refused": sl.get("refused", [])} if sl else None,
+                             "scan_factor": sl.scan_factor,
+                             "refused": [r.to_doc() for r in sl.refused]} if sl else None,
             "stopped": learn.get("stopped", ""),
             "learn_weight": learn.get("learn_weight")}

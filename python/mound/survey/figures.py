@@ -12,12 +12,14 @@ import numpy as np
 from PIL import Image
 from scipy.stats import binned_statistic_2d
 
+from mound.errors import InputError
+from mound.formats.mission import FlightTerrain, MissionSite
 from mound.formats.plan import Plan
 from mound.formats.sites import Site, Sites
 from mound.formats.verdict import Measurements, VerdictFile
 from mound.plotting import plt, save_figure
 from mound.ply import read_ply
-from mound.uav.mission_items import Footprint, MissionSite
+from mound.uav.mission_items import Footprint
 
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff")
 
@@ -198,30 +200,33 @@ def mission_map(nav_enu: np.ndarray | list[np.ndarray], footprints: list[Footpri
     return save_figure(fig, out_png, dpi)
 
 
-def leg_profiles(terrain: dict[str, Any], out_png: Path, dpi: int = 80) -> Path:
+def leg_profiles(terrain: FlightTerrain, out_png: Path, dpi: int = 80) -> Path:
     """Each transit leg of a mission flown over a DEM, end to end: the terrain under the
     leg (AMSL), the height flown, and the clearance asked for, so that a crew sees where a
     ridge forced a climb."""
-    legs = terrain["legs"]
+    clearance = terrain.clearance.clearance_m
     fig, ax = plt.subplots(figsize=(8.0, 3.4))
     x0 = 0.0
-    for k, leg in enumerate(legs):
-        prof = leg["profile"]
-        d = np.asarray(prof["distance_m"], dtype=float) + x0
-        g = np.asarray(prof["terrain_amsl_m"], dtype=float)
+    for k, leg in enumerate(terrain.legs):
+        prof = leg.profile
+        if prof is None:
+            raise InputError(f"leg {leg.from_id} -> {leg.to_id}: no terrain profile (a "
+                             "mission read back from mission.json has none)")
+        d = np.asarray(prof.distance_m, dtype=float) + x0
+        g = np.asarray(prof.terrain_amsl_m, dtype=float)
         ax.fill_between(d, g.min() - 5, g, color="0.75", lw=0)
         ax.plot(d, g, color="0.35", lw=0.8, label="terrain" if k == 0 else None)
-        ax.plot(d, np.full_like(d, prof["flight_amsl_m"]), color="tab:blue", lw=1.2,
+        ax.plot(d, np.full_like(d, prof.flight_amsl_m), color="tab:blue", lw=1.2,
                 label="flight" if k == 0 else None)
-        ax.plot(d, g + terrain["clearance_m"], ":", color="tab:red", lw=0.8,
-                label=f"terrain + {terrain['clearance_m']:g} m" if k == 0 else None)
-        ax.annotate(f"{leg['from']}→{leg['to']}", (d[0], prof["flight_amsl_m"]),
+        ax.plot(d, g + clearance, ":", color="tab:red", lw=0.8,
+                label=f"terrain + {clearance:g} m" if k == 0 else None)
+        ax.annotate(f"{leg.from_id}→{leg.to_id}", (d[0], prof.flight_amsl_m),
                     fontsize=6, xytext=(2, 3), textcoords="offset points")
         x0 = float(d[-1]) + 20.0
     ax.set_xlabel("distance along the transit legs (m, legs end to end)")
     ax.set_ylabel("height AMSL (m)")
     ax.set_title(f"Transit legs over the DEM: lowest clearance "
-                 f"{terrain['lowest_clearance_m']:.1f} m, energy {terrain['energy_m']:.0f} m",
+                 f"{terrain.lowest_clearance_m or 0:.1f} m, energy {terrain.energy_m:.0f} m",
                  fontsize=10)
     ax.legend(fontsize=7, loc="upper right")
     return save_figure(fig, out_png, dpi)

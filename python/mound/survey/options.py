@@ -27,7 +27,8 @@ from mound.bounds import (
     Bound,
 )
 from mound.errors import InputError
-from mound.flightplan.terrain import ClearanceSpec, spec_from_args
+from mound.flightplan.terrain import spec_from_args
+from mound.formats.mission import ClearanceSpec
 from mound.geometry.flight import DEFAULT_SITE_DIAMETER_M
 from mound.recon.tool_options import DensifyOptions
 

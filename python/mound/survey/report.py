@@ -21,6 +21,7 @@ from typing import Any
 
 from mound.classify.metrics import detection_error_rates, says_mound
 from mound.errors import InputError
+from mound.formats.mission import FlightSummary, MissionSummary
 from mound.formats.plan import Plan
 from mound.formats.site_row import SiteRow
 from mound.formats.sites import Sites
@@ -32,10 +33,6 @@ from mound.survey.tree import RunTree, SiteTree, waiting_for_card
 
 SCHEMA = "mound.survey"
 VERSION = 1
-
-
-def _load(path: Path, schema: str) -> dict[str, Any] | None:
-    return read_json(path, schema, 1) if path.is_file() else None
 
 
 def _plan(path: Path) -> Plan | None:
@@ -125,7 +122,7 @@ def build_summary(tree: RunTree, args: SurveyOptions, stages: list[StageRun],
     learned = args.learn
     sites_doc = Sites.read(tree.final_sites(learned))
     plan = _plan(tree.final_plan(learned))
-    mission = _load(tree.mission_summary, "mound.mission")
+    mission = _missions(tree.mission_summary)
     rows = site_rows(tree, sites_doc, plan)
     truth = [r.get("truth") for r in rows]
     final = [r["final_label"] == "mound" for r in rows]
@@ -194,25 +191,33 @@ def build_summary(tree: RunTree, args: SurveyOptions, stages: list[StageRun],
                                                     "budget_m", "n_visited", "n_sites",
                                                     "flights")}
     if mission:
-        doc["mission"] = {k: mission.get(k) for k in ("items", "flight_distance_m",
-                                                       "budget_m", "upload")}
-        doc["mission"]["flights"] = [
-            {k: f.get(k) for k in ("flight", "file", "items", "flight_distance_m", "sites")}
-            | ({"energy_m": f["terrain"]["energy_m"],
-                "lowest_clearance_m": f["terrain"]["lowest_clearance_m"]}
-               if f.get("terrain", {}).get("checked") else {})
-            for f in mission.get("flights", [])]
-    second = _load(tree.second_look / "mission.json", "mound.mission")
-    if second:
+        doc["mission"] = {"items": mission.items,
+                          "flight_distance_m": mission.flight_distance_m,
+                          "budget_m": mission.budget_m,
+                          "upload": mission.upload.to_doc() if mission.upload else None,
+                          "flights": [_flight_row(f) for f in mission.flights]}
+    second = _missions(tree.second_look / "mission.json")
+    if second and second.second_look:
         doc["second_look_missions"] = {
-            **{k: second["second_look"].get(k)
-               for k in ("sites", "scan_factor", "site_diameter_m", "flown", "refused")},
-            "flight_distance_m": second.get("flight_distance_m"),
-            "flights": [{k: f.get(k) for k in ("flight", "file", "items", "flight_distance_m")}
-                        | {"sites": [x["id"] for x in f.get("sites", [])]}
-                        for f in second.get("flights", [])],
+            **second.second_look.to_doc(), "flight_distance_m": second.flight_distance_m,
+            "flights": [{"flight": f.flight, "file": f.file, "items": f.items,
+                         "flight_distance_m": f.flight_distance_m,
+                         "sites": [x.id for x in f.sites]} for f in second.flights],
             "folder": "second_look"}
     return doc
+
+
+def _missions(path: Path) -> MissionSummary | None:
+    return MissionSummary.read(path) if path.is_file() else None
+
+
+def _flight_row(f: FlightSummary) -> dict[str, object]:
+    """A flight of the summary's `mission`: its number, file, items, distance and sites,
+    over a DEM its energy and lowest transit clearance."""
+    return {"flight": f.flight, "file": f.file, "items": f.items,
+            "flight_distance_m": f.flight_distance_m, "sites": [x.to_doc() for x in f.sites],
+            **({"energy_m": f.terrain.energy_m,
+                "lowest_clearance_m": f.terrain.lowest_clearance_m} if f.terrain else {})}
 
 
 def _second_look_text(s: dict[str, Any]) -> str:

@@ -33,6 +33,7 @@ from mound.errors import (
     ToolNoResultError,
     ToolTimeout,
 )
+from mound.formats.recon import Recon
 from mound.formats.site_row import SecondLookRecord, SiteRow
 from mound.formats.sites import Site
 from mound.formats.verdict import SecondLookAdvice, Verdict, VerdictFile
@@ -124,13 +125,7 @@ def _photos(job: SiteJob) -> tuple[Path, Path | None, str]:
 
 
 def _recon_summary(recon_dir: Path) -> dict[str, object]:
-    doc = read_json(recon_dir / "recon.json", "mound.recon", 1)
-    images = doc.get("images", [])
-    return {"status": doc.get("status"), "frame": doc.get("frame"),
-            "registered": sum(1 for i in images if i.get("registered")),
-            "images": len(images), "points": doc.get("points"),
-            "reprojection_rmse_px": doc.get("reprojection_rmse_px"),
-            "reason": doc.get("reason")}
+    return Recon.read(recon_dir / "recon.json").summary()
 
 
 def process_site(job: SiteJob) -> SiteRow:
@@ -387,9 +382,9 @@ def _reason(e: Exception, t: SiteTree) -> str:
     recon_json = t.recon / "recon.json"
     if isinstance(e, ToolError) and recon_json.is_file():
         try:
-            doc = read_json(recon_json, "mound.recon", 1)
-            if doc.get("status") == "failed" and doc.get("reason"):
-                return f"mound_recon: {doc['reason']}"
+            recon = Recon.read(recon_json)
+            if not recon.ok and recon.reason:
+                return f"mound_recon: {recon.reason}"
         except InputError:
             pass
     if isinstance(e, ToolError):

@@ -23,10 +23,11 @@ import numpy as np
 
 from mound.errors import InputError
 from mound.formats.plan import Flight, Plan
+from mound.formats.recon import Recon
 from mound.formats.sites import Sites
 from mound.formats.verdict import Measurements, Rise, VerdictFile
 from mound.geometry.geodesy import Origin, enu_to_geodetic
-from mound.jsonio import load_json, read_json, write_atomic
+from mound.jsonio import load_json, write_atomic
 from mound.paths import REPO_ROOT
 from mound.survey.tree import RunTree
 
@@ -300,14 +301,11 @@ def site_viewer_doc(tree: RunTree, row: dict[str, Any]) -> dict[str, object] | N
     radius = float(m.site_radius_m or np.percentile(np.hypot(*(xyz[:, :2] - centre).T), 80))
     cameras = []
     if files.get("recon") and (tree.root / files["recon"] / "recon.json").is_file():
-        recon = read_json(tree.root / files["recon"] / "recon.json", "mound.recon", 1)
-        K = np.array(recon["camera"]["K"], float)
-        w, h = recon["camera"]["width"], recon["camera"]["height"]
-        for im in recon.get("images", []):
-            if not im.get("registered"):
-                continue
-            R = np.array(im["cam_from_world"]["R"], float)
-            c = np.array(im["centre"], float)
+        recon = Recon.read(tree.root / files["recon"] / "recon.json")
+        cam = recon.camera
+        K, w, h = (cam.K, cam.width_px, cam.height_px) if cam else (np.eye(3), 0, 0)
+        for _, pose, c in recon.poses() if cam else ():
+            R = pose.R
             corners = []
             for u, v in ((0, 0), (w, 0), (w, h), (0, h)):
                 ray = np.array([(u - K[0, 2]) / K[0, 0], (v - K[1, 2]) / K[1, 1], 1.0])

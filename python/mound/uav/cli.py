@@ -106,10 +106,10 @@ def _report(m: Any, out: str, flight: int | None) -> None:
         print("  terrain not checked (no --dem): heights above home")
     else:
         t = m.terrain
-        print(f"  over {t['dem']}: home ground {t['home_amsl_m']:.1f} m AMSL, energy "
-              f"{t['energy_m']:.1f} m (climbed {t['climbed_m']:.0f} m, descended "
-              f"{t['descended_m']:.0f} m), lowest transit clearance "
-              f"{t['lowest_clearance_m']:.1f} m")
+        print(f"  over {t.dem}: home ground {t.home_amsl_m:.1f} m AMSL, energy "
+              f"{t.energy_m:.1f} m (climbed {t.climbed_m:.0f} m, descended "
+              f"{t.descended_m:.0f} m), lowest transit clearance "
+              f"{t.lowest_clearance_m or 0:.1f} m")
     for s in m.sites:
         print(f"  {s.id}: scan {s.scan_length_m:.0f} m, {s.images} images "
               f"(plan's scan_cost_m {s.scan_cost_m:g})")
@@ -136,11 +136,11 @@ def cmd_upload(args: argparse.Namespace) -> int:
                               accept_unsigned=args.accept_unsigned,
                               heartbeat_timeout_s=args.heartbeat_timeout, baud=args.baud,
                               timeout_s=args.timeout, retries=args.retries)
-    check = "read back and identical" if r["verified"] else "not read back (no --verify)"
-    print(f"uploaded {r['items']} items to system {r['target_system']} in "
-          f"{r['elapsed_s']:.2f} s ({r['retransmissions']} retransmissions, {r['restarts']} "
+    check = "read back and identical" if r.verified else "not read back (no --verify)"
+    print(f"uploaded {r.items} items to system {r.target_system} in "
+          f"{r.elapsed_s:.2f} s ({r.retransmissions} retransmissions, {r.restarts} "
           f"restarts); {check}")
-    for note in r["notes"]:
+    for note in r.notes:
         print(f"  {note}")
     return 0
 

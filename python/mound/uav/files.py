@@ -58,7 +58,7 @@ def flight_path(path: str | Path, flight: int | None) -> Path:
 def home_altitude(mission: Mission) -> float:
     """Home's AMSL altitude: the DEM's ground there when the mission was built over one,
     else the origin's stated altitude."""
-    return float(mission.terrain["home_amsl_m"]) if mission.terrain else mission.origin.alt_m
+    return mission.terrain.home_amsl_m if mission.terrain else mission.origin.alt_m
 
 
 def plan_document(mission: Mission, firmware: str = "px4") -> dict[str, object]:
@@ -80,7 +80,7 @@ def plan_document(mission: Mission, firmware: str = "px4") -> dict[str, object]:
                     "items": items},
         "geoFence": {"circles": [], "polygons": [], "version": 2},
         "rallyPoints": {"points": [], "version": 2},
-        "mound": mission.summary(),
+        "mound": mission.summary().to_doc(),
     }
 
 
@@ -254,12 +254,14 @@ def geojson_document(mission: Mission) -> dict[str, object]:
                                           "home_amsl_m": home_altitude(mission)},
         "geometry": {"type": "LineString", "coordinates": _lonlat(o, np.array(mission.nav_enu))},
     }]
-    for leg in (mission.terrain or {}).get("legs", []):
+    for leg in mission.terrain.legs if mission.terrain else ():
         # The leg's profile (distance vs terrain vs flight height, AMSL) on its straight line.
-        ends = np.array([[*leg["profile_start_enu_m"], 0.0], [*leg["profile_end_enu_m"], 0.0]])
-        features.append({"type": "Feature", "properties": {"kind": "leg_profile", **{
-            k: v for k, v in leg.items() if not k.startswith("profile_")},
-            **leg["profile"]},
+        if leg.profile is None:
+            continue
+        ends = np.array([[*leg.profile.start_enu_m, 0.0], [*leg.profile.end_enu_m, 0.0]])
+        features.append({"type": "Feature", "properties": {
+            "kind": "leg_profile", **leg.to_doc(), "profile": leg.profile.to_doc(),
+            **leg.profile.to_doc()},
             "geometry": {"type": "LineString",
                          "coordinates": [c[:2] for c in _lonlat(o, ends)]}})
     for s in mission.sites:

@@ -28,29 +28,12 @@ from typing import Literal, Protocol
 import numpy as np
 
 from mound.errors import InputError
+from mound.formats.mission import About, FormatEntry
 from mound.uav.mission_items import Mission
 from mound.uav.route import Route
 
 Content = str | bytes
 DjiHeights = Literal["relative", "wgs84"]
-# What a format's files are (their heights, aircraft, crew settings): mission.json's words.
-About = dict[str, str | dict[str, str]]
-
-
-@dataclass(frozen=True)
-class FormatEntry:
-    """A format's entry in mission.json's `formats`: what its files are and their names,
-    or (no files) the limit that refused the flight."""
-
-    about: About
-    files: tuple[str, ...] = ()
-    refused: str | None = None
-
-    def to_doc(self) -> dict[str, object]:
-        return {**self.about, "files": list(self.files),
-                **({"refused": self.refused} if self.refused is not None else {})}
-
-
 Record = dict[str, FormatEntry]
 
 

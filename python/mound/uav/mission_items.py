@@ -54,6 +54,13 @@ import numpy as np
 
 from mound.errors import InputError
 from mound.flightplan.terrain import TerrainNode
+from mound.formats.mission import (
+    ClearanceSpec,
+    FlightSummary,
+    FlightTerrain,
+    MissionSite,
+    ScanRecord,
+)
 from mound.formats.plan import Plan
 from mound.geometry.camera import Camera, Pose
 from mound.geometry.flight import PATTERNS, ScanSpec, scan_for_site
@@ -129,7 +136,7 @@ class TerrainInput:
 
     dem_path: str
     vertical: str | None = None       # None: what the DEM's CRS says
-    spec: Any = None                  # terrain.ClearanceSpec; None: the defaults
+    spec: ClearanceSpec | None = None  # None: the defaults
 
 
 @dataclass(frozen=True)
@@ -187,29 +194,6 @@ class Footprint:
         return np.array(self.corners_enu_m + self.corners_enu_m[:1])
 
 
-@dataclass(frozen=True)
-class MissionSite:
-    """A site the mission scans: where (ENU m), the scan flown and the plan's cost of it;
-    over a DEM its ground (AMSL) and the legs' heights above it."""
-
-    id: str
-    x_m: float
-    y_m: float
-    scan_length_m: float
-    images: int
-    scan_cost_m: float
-    ground_amsl_m: float | None = None
-    scan_height_above_ground_m: list[float] | None = None
-
-    def to_doc(self) -> dict[str, object]:
-        over = ({} if self.ground_amsl_m is None else
-                {"ground_amsl_m": self.ground_amsl_m,
-                 "scan_height_above_ground_m": self.scan_height_above_ground_m})
-        return {"id": self.id, "x_m": self.x_m, "y_m": self.y_m, **over,
-                "scan_length_m": self.scan_length_m, "images": self.images,
-                "scan_cost_m": self.scan_cost_m}
-
-
 @dataclass
 class Mission:
     items: list[MissionItem]
@@ -221,30 +205,20 @@ class Mission:
     nav_enu: list[np.ndarray]  # the 3-D flight path, ENU, z above home, for exports
     footprints: list[Footprint]
     spec: MissionSpec
-    # With a DEM: home_amsl_m, energy_m, the legs' heights and terrain profiles.
-    terrain: dict[str, Any] | None = None
+    # With a DEM: home's ground, the energy, the legs' heights and terrain profiles.
+    terrain: FlightTerrain | None = None
     # Each site's scan as the indexes of its first and last item (ItemWriter.scans): what
     # an in-flight re-plan keeps of a mission the aircraft is flying.
     scans: dict[str, tuple[int, int]] = field(default_factory=dict)
 
-    def summary(self) -> dict[str, object]:
-        terrain: dict[str, Any] = (
-            {"checked": False, "note": "terrain not checked: heights above home, the sites' "
-             "ground taken to be at home's height"} if self.terrain is None
-            else {"checked": True, **{k: v for k, v in self.terrain.items() if k != "legs"},
-                  "legs": [{k: v for k, v in leg.items() if not k.startswith("profile")}
-                           for leg in self.terrain["legs"]]})
-        return {"schema": "mound.mission", "version": 1, "origin": self.origin.to_doc(),
-                "items": len(self.items), "flight_distance_m": self.flight_distance_m,
-                "budget_m": self.budget_m, "closed": self.closed,
-                "sites": [x.to_doc() for x in self.sites],
-                "altitude_frame": "MAV_FRAME_GLOBAL_RELATIVE_ALT: metres above home"
-                + ("'s ground (the DEM's height there)" if self.terrain else ""),
-                "terrain": terrain,
-                "scan": {"pattern": self.spec.scan.pattern,
-                         "site_diameter_m": self.spec.scan.scale_m,
-                         "cruise_speed_m_s": self.spec.cruise_speed_m_s,
-                         "scan_speed_m_s": self.spec.scan_speed_m_s}}
+    def summary(self) -> FlightSummary:
+        """The flight's summary (its number, file and formats are the writer's to add)."""
+        return FlightSummary(
+            self.origin, len(self.items), self.flight_distance_m, self.budget_m, self.closed,
+            tuple(self.sites), "MAV_FRAME_GLOBAL_RELATIVE_ALT: metres above home"
+            + ("'s ground (the DEM's height there)" if self.terrain else ""), self.terrain,
+            ScanRecord(self.spec.scan.pattern, self.spec.scan.scale_m,
+                       self.spec.cruise_speed_m_s, self.spec.scan_speed_m_s))
 
 
 # Magnitudes a plan can have (the same bounds as mound_plan's reader): local coordinates

@@ -21,6 +21,7 @@ import math
 from dataclasses import replace
 
 from mound.errors import InputError
+from mound.formats.mission import Refusal
 from mound.formats.plan import Flight, Plan, Waypoint
 from mound.formats.site_row import SiteRow
 from mound.formats.sites import Sites
@@ -46,9 +47,9 @@ def advised_sites(rows: list[SiteRow]) -> tuple[list[str], float | None]:
 
 def second_look_flights(sites: Sites, plan: Plan | None, ids: list[str],
                         scan_factor: float, terrain: TerrainInput | None = None
-                        ) -> tuple[list[Mission], list[dict[str, str]], MissionSpec]:
+                        ) -> tuple[list[Mission], list[Refusal], MissionSpec]:
     """The missions that fly the second looks of `ids` (see the module text), the sites
-    refused ({id, reason}) and the wider scan's MissionSpec."""
+    refused (and why) and the wider scan's MissionSpec."""
     origin = plan.origin if plan is not None and plan.origin is not None else sites.origin
     if origin is None:
         raise InputError("plan: origin: missing (the missions are flown in WGS84)")
@@ -86,7 +87,7 @@ def second_look_flights(sites: Sites, plan: Plan | None, ids: list[str],
             return str(e)
 
     flights: list[Mission] = []
-    refused: list[dict[str, str]] = []
+    refused: list[Refusal] = []
     current: list[str] = []
     best: Mission | None = None
     for i in ids:
@@ -101,7 +102,7 @@ def second_look_flights(sites: Sites, plan: Plan | None, ids: list[str],
             if isinstance(got, Mission):
                 best, current = got, [i]
                 continue
-        refused.append({"id": i, "reason": got})
+        refused.append(Refusal(i, got))
     if best is not None:
         flights.append(best)
     return flights, refused, spec

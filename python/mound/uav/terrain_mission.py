@@ -10,13 +10,13 @@ import numpy as np
 
 from mound.errors import InputError
 from mound.flightplan.terrain import (
-    ClearanceSpec,
     TerrainModel,
     TerrainNode,
     climb_descent_m,
     energy_m,
     open_dem,
 )
+from mound.formats.mission import ClearanceSpec, FlightTerrain, LegProfile, TerrainLeg
 from mound.formats.plan import Plan
 from mound.geometry.flight import path_length
 from mound.geometry.geodesy import Origin
@@ -47,7 +47,8 @@ def build_over_terrain(plan: Plan, origin: Origin, spec: mi.MissionSpec,
     w = mi.ItemWriter(origin, home_amsl, np.array([xy[0, 0], xy[0, 1], home_amsl]))
     sites_out: list[mi.MissionSite] = []
     footprints: list[mi.Footprint] = []
-    leg_docs: list[dict[str, Any]] = []
+    legs: list[TerrainLeg] = []
+    legs_from_item: list[int] = []  # where each leg's climb starts in the path
     for k, (a, b) in enumerate(zip(legs_from, legs_to, strict=True)):
         h = float(heights[k])
         ea = model.exit_xy[a]
@@ -59,13 +60,11 @@ def build_over_terrain(plan: Plan, origin: Origin, spec: mi.MissionSpec,
         else:
             w.nav(mi.NAV_WAYPOINT, np.array([ea[0], ea[1], h]))  # climb in place
         w.nav(mi.NAV_WAYPOINT, np.array([eb[0], eb[1], h]))      # level over the terrain
-        leg_docs.append({
-            "from": model_nodes[a].id, "to": model_nodes[b].id, "transit_amsl_m": h,
-            "terrain_max_amsl_m": float(tops[k]),
-            "terrain_max_enu_m": [round(float(where[k, 0]), 2), round(float(where[k, 1]), 2)],
-            "clearance_m": h - float(tops[k]),
-            "cost_m": model.leg_cost(int(a), int(b), h),
-            "path_from": start})
+        legs.append(TerrainLeg(
+            model_nodes[a].id, model_nodes[b].id, h, float(tops[k]),
+            (round(float(where[k, 0]), 2), round(float(where[k, 1]), 2)), h - float(tops[k]),
+            model.leg_cost(int(a), int(b), h)))
+        legs_from_item.append(start)
         if not model.is_site[b]:
             w.nav(mi.NAV_LAND, np.array([eb[0], eb[1], float(model.ground[b])]),
                   (0.0, 0.0, 0.0, mi.NAN))
@@ -78,40 +77,31 @@ def build_over_terrain(plan: Plan, origin: Origin, spec: mi.MissionSpec,
         node = stops[b]
         sites_out.append(mi.MissionSite(
             node.id, node.x_m, node.y_m, path_length(np.array(w.path[scan_start:])), images,
-            node.scan_cost_m, g, [float(leg.points_enu[0, 2]) for leg in model.legs]))
+            node.scan_cost_m, g, tuple(float(leg.points_enu[0, 2]) for leg in model.legs)))
 
     pts = np.array(w.path)
     energy = energy_m(pts, tspec.climb_factor, tspec.descent_factor)
     climbed, descended = climb_descent_m(pts)
     if energy > budget * (1 + spec.budget_slack) + 1e-6:
-        costs = [d["cost_m"] for d in leg_docs]
-        worst = leg_docs[int(np.argmax(costs))]
+        worst = max(legs, key=lambda leg: leg.cost_m)
         raise InputError(
-            f"mission: leg {worst['from']} -> {worst['to']} climbs to "
-            f"{worst['transit_amsl_m']:.1f} m AMSL to clear the terrain at ENU "
-            f"({worst['terrain_max_enu_m'][0]:.1f}, {worst['terrain_max_enu_m'][1]:.1f}) m "
-            f"({worst['terrain_max_amsl_m']:.1f} m + "
+            f"mission: leg {worst.from_id} -> {worst.to_id} climbs to "
+            f"{worst.transit_amsl_m:.1f} m AMSL to clear the terrain at ENU "
+            f"({worst.terrain_max_enu_m[0]:.1f}, {worst.terrain_max_enu_m[1]:.1f}) m "
+            f"({worst.terrain_max_amsl_m:.1f} m + "
             f"{tspec.clearance_m:g} m clearance); the flight then costs {energy:.1f} m of "
             f"energy, over the plan's budget_m {budget:g} m (refused, never flown lower; "
             "plan with the DEM: mound field make --dem)")
-    for d in leg_docs:
-        k = int(d.pop("path_from"))
-        d["profile"] = _profile(model, k, pts, dem)
-        d["profile_start_enu_m"] = [float(v) for v in pts[k + 1, :2]]
-        d["profile_end_enu_m"] = [float(v) for v in pts[k + 2, :2]]
+    legs = [replace(leg, profile=_profile(k, pts, dem))
+            for leg, k in zip(legs, legs_from_item, strict=True)]
     nav_rel = [p - np.array([0.0, 0.0, home_amsl]) for p in w.path]
-    terrain_doc = {
-        "dem": dem.path, "dem_crs": dem.crs_name, "vertical": dem.vertical,
-        "home_amsl_m": home_amsl, **tspec.to_doc(),
-        "energy_m": energy, "climbed_m": climbed, "descended_m": descended,
-        "plan_cost_m": plan.flights[0].cost_m, "legs": leg_docs,
-        "lowest_clearance_m": min(d["clearance_m"] for d in leg_docs) if leg_docs else None,
-    }
+    terrain_doc = FlightTerrain(dem.path, dem.crs_name, home_amsl, tspec, energy, climbed,
+                                descended, plan.flights[0].cost_m, tuple(legs))
     return mi.Mission(w.items, origin, path_length(pts), budget, closed, sites_out, nav_rel,
                       footprints, spec, terrain_doc, w.scans)
 
 
-def _profile(model: TerrainModel, start: int, pts: np.ndarray, dem: Any) -> dict[str, object]:
+def _profile(start: int, pts: np.ndarray, dem: Any) -> LegProfile:
     """Distance along a leg's horizontal part vs terrain height vs flight height (AMSL):
     from the climb point (pts[start + 1]) to the point over the next site (pts[start + 2])."""
     a, b = pts[start + 1], pts[start + 2]
@@ -120,6 +110,5 @@ def _profile(model: TerrainModel, start: int, pts: np.ndarray, dem: Any) -> dict
     xy = a[None, :2] + (b[:2] - a[:2])[None] * t[:, None]
     ground = dem.height(xy, "a leg's profile")
     dist = np.hypot(*(b[:2] - a[:2])) * t
-    return {"distance_m": np.round(dist, 2).tolist(),
-            "terrain_amsl_m": np.round(ground, 2).tolist(),
-            "flight_amsl_m": float(a[2])}
+    return LegProfile(tuple(np.round(dist, 2).tolist()), tuple(np.round(ground, 2).tolist()),
+                      float(a[2]), (float(a[0]), float(a[1])), (float(b[0]), float(b[1])))

@@ -4,16 +4,16 @@ upload` and the survey's --connect)."""
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
 
 from mound.errors import InputError
+from mound.formats.mission import UploadRecord
 
 
 def upload_mission(mission: str | Path, connect: str, *, verify: bool = True,
                    firmware: str | None = None, signing_key: str | None = None,
                    signing_passphrase: str | None = None, accept_unsigned: bool = False,
                    heartbeat_timeout_s: float = 5.0, baud: int = 57600,
-                   timeout_s: float = 1.0, retries: int = 5) -> dict[str, Any]:
+                   timeout_s: float = 1.0, retries: int = 5) -> UploadRecord:
     """Uploads a .plan or WPL mission over MAVLink (and reads it back with `verify`);
     InputError when the link or the transfer fails. Returns what happened."""
     from mound.uav import files as mission_files
@@ -35,6 +35,6 @@ def upload_mission(mission: str | Path, connect: str, *, verify: bool = True,
         raise InputError(str(e)) from e
     finally:
         lk.close()
-    return {"items": len(items), "target_system": lk.target_system,
-            "elapsed_s": stats.elapsed_s, "retransmissions": stats.retransmissions,
-            "restarts": stats.restarts, "verified": stats.verified, "notes": list(stats.notes)}
+    return UploadRecord(connect, Path(mission).name, len(items), lk.target_system,
+                        stats.elapsed_s, stats.retransmissions, stats.restarts, stats.verified,
+                        tuple(stats.notes))

@@ -143,7 +143,7 @@ def _write_battery(ctx: Context, plan: Plan, sites: Sites, bdir: Path) -> list[s
     write_json(bdir / "sites.json", sites.to_doc())
     written, summary = write_missions([(None, m)], bdir, bdir, ctx.args.firmware,
                                       ctx.args.aircraft)
-    write_json(bdir / "mission.json", summary)
+    write_json(bdir / "mission.json", summary.to_doc())
     root = ctx.tree.root
     return [str(p.relative_to(root))
             for p in [bdir / "plan.json", bdir / "sites.json", *written,

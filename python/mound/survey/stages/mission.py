@@ -3,17 +3,19 @@ and read back with --connect."""
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
-from typing import Any
 
 from mound.errors import InputError
+from mound.formats.mission import FlightSummary, MissionSummary
 from mound.formats.plan import Plan
 from mound.jsonio import write_all_atomic, write_json
 from mound.survey.context import Context, mission_terrain, run_stage
+from mound.uav.mission_items import Mission
 
 
-def write_missions(missions: list[tuple[int | None, Any]], folder: Path, png_folder: Path,
-                   firmware: str, aircraft: str = "m3e") -> tuple[list[Path], dict[str, Any]]:
+def write_missions(missions: list[tuple[int | None, Mission]], folder: Path, png_folder: Path,
+                   firmware: str, aircraft: str = "m3e") -> tuple[list[Path], MissionSummary]:
     """Each flight's mission (k None: the only one) in every registered format
     (uav/mission_format.py: mission.plan, .waypoints, .geojson, .kmz for `aircraft`, .csv
     in parts past 99 waypoints, ...; mission_K.* of several), and its map
@@ -26,7 +28,7 @@ def write_missions(missions: list[tuple[int | None, Any]], folder: Path, png_fol
     from mound.uav import mission_format
 
     written: list[Path] = []
-    summaries = []
+    summaries: list[FlightSummary] = []
     for k, m in missions:
         opts = mission_format.WriteOptions(firmware, aircraft, "relative", m.terrain is not None)
         paths = {f.name: mission_files.flight_path(folder / f"mission{f.suffix}", k)
@@ -37,16 +39,10 @@ def write_missions(missions: list[tuple[int | None, Any]], folder: Path, png_fol
         png = mission_files.flight_path(png_folder / "mission.png", k)
         figures.mission_map(m.nav_enu, m.footprints, m.sites, png)
         written += [*(p for p, _ in files), png]
-        summaries.append({**m.summary(), "flight": k or 1,
-                          "file": paths[mission_format.reference().name].name,
-                          "formats": mission_format.record_doc(formats)})
-    summary = dict(summaries[0]) if len(summaries) == 1 else {
-        "schema": "mound.mission", "version": 1, "origin": summaries[0]["origin"],
-        "items": sum(x["items"] for x in summaries),
-        "flight_distance_m": sum(x["flight_distance_m"] for x in summaries),
-        "budget_m": summaries[0]["budget_m"], "terrain": summaries[0]["terrain"]}
-    summary["flights"] = summaries
-    return written, summary
+        summaries.append(replace(m.summary(), flight=k or 1,
+                                 file=paths[mission_format.reference().name].name,
+                                 formats=formats))
+    return written, MissionSummary(tuple(summaries), summaries[0].budget_m)
 
 
 def stage_mission(ctx: Context) -> str:
@@ -88,25 +84,25 @@ def stage_mission(ctx: Context) -> str:
             if m.terrain is not None:
                 figures.leg_profiles(m.terrain, t.report_dir / f"legs{tag}.png")
                 made.append(f"report/legs{tag}.png")
-                note += (f", over the DEM: energy {m.terrain['energy_m']:.0f} m, lowest "
-                         f"transit clearance {m.terrain['lowest_clearance_m']:.1f} m")
+                note += (f", over the DEM: energy {m.terrain.energy_m:.0f} m, lowest "
+                         f"transit clearance {m.terrain.lowest_clearance_m or 0:.1f} m")
             notes.append(note)
-        for f in summary["flights"]:
-            for fmt in f["formats"].values():
-                if "refused" in fmt:
-                    notes.append(f"flight {f['flight']}: {fmt['refused']} (not written)")
+        for f in summary.flights:
+            for fmt in (f.formats or {}).values():
+                if fmt.refused is not None:
+                    notes.append(f"flight {f.flight}: {fmt.refused} (not written)")
         note = "; ".join(notes)
         if missions[0][1].terrain is None:
             note += "; terrain not checked (no --dem)"
         if a.connect:
             first = t.flight_file("mission.plan", missions[0][0])
             r = upload_mission(first, a.connect, verify=True, firmware=a.firmware)
-            summary["upload"] = {"connect": a.connect, "file": first.name, **r}
-            note += (f"; {first.name} uploaded to system {r['target_system']} and read back "
-                     f"({r['elapsed_s']:.2f} s)")
+            summary = replace(summary, upload=r)
+            note += (f"; {first.name} uploaded to system {r.target_system} and read back "
+                     f"({r.elapsed_s:.2f} s)")
         else:
             note += "; not uploaded (no --connect)"
-        write_json(t.mission_summary, summary)
+        write_json(t.mission_summary, summary.to_doc())
         return ([*made, "mission.json"], note, True)
 
     return run_stage(ctx, "mission", {"plan": ctx.keys["plan"], "connect": a.connect,

@@ -5,11 +5,13 @@ from __future__ import annotations
 
 import shutil
 from collections.abc import Mapping
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 from mound.datasets import sha256_of
 from mound.errors import InputError
+from mound.formats.mission import MissionSummary, SecondLookMissions
 from mound.formats.plan import Plan, Waypoint
 from mound.formats.site_row import SiteRow
 from mound.formats.sites import Sites
@@ -194,17 +196,13 @@ def second_look_missions(ctx: Context, rows: list[SiteRow], plan_path: Path,
     several = len(flights) > 1
     written, summary = write_missions(
         [(k if several else None, m) for k, m in enumerate(flights, start=1)], out, out,
-        ctx.args.firmware, ctx.args.aircraft) if flights else ([], {
-            "schema": "mound.mission", "version": 1,
-            "origin": plan.origin.to_doc() if plan.origin else None,
-            "items": 0, "flight_distance_m": 0.0, "budget_m": sites_doc.budget_m,
-            "flights": []})
+        ctx.args.firmware, ctx.args.aircraft) if flights else (
+            [], MissionSummary((), sites_doc.budget_m, plan.origin))
     made = [str(p.relative_to(t.root)) for p in written]
-    summary["second_look"] = {"sites": ids, "scan_factor": factor,
-                              "site_diameter_m": spec.scan.scale_m,
-                              "flown": [x.id for m in flights for x in m.sites],
-                              "refused": refused}
-    write_json(out / "mission.json", summary)
+    summary = replace(summary, second_look=SecondLookMissions(
+        tuple(ids), factor, spec.scan.scale_m, tuple(x.id for m in flights for x in m.sites),
+        tuple(refused)))
+    write_json(out / "mission.json", summary.to_doc())
     made.append(str((out / "mission.json").relative_to(t.root)))
     # the flights as a plan (mound.plan v1): what `mound sim flight` writes a card of and
     # --second-photos sorts the second card by
@@ -223,8 +221,8 @@ def second_look_missions(ctx: Context, rows: list[SiteRow], plan_path: Path,
     made.append(str((out / "plan.json").relative_to(t.root)))
     note = (f"; second looks advised for {len(ids)} sites: {len(flights)} mission"
             f"{'s' if several else ''} with a {spec.scan.scale_m:.0f} m scan, "
-            f"{summary['flight_distance_m']:.0f} m in all (second_look/)"
-            + (f", {len(refused)} refused ({refused[0]['id']}: {refused[0]['reason']})"
+            f"{summary.flight_distance_m:.0f} m in all (second_look/)"
+            + (f", {len(refused)} refused ({refused[0].id}: {refused[0].reason})"
                if refused else ""))
     ctx.say(f"[second look]{note[1:]}")
     return made, note

@@ -21,7 +21,7 @@ def heights(m: Mission, route: Route, frame: str) -> dji.Heights:
         if frame == "wgs84":
             raise InputError("--dji-heights wgs84: needs --dem (the ground under home)")
         return dji.Heights("relative")
-    home = float(m.terrain["home_amsl_m"])
+    home = m.terrain.home_amsl_m
     lat = np.array([route.home_lat_deg] + [p.lat_deg for p in route.points])
     lon = np.array([route.home_lon_deg] + [p.lon_deg for p in route.points])
     n = dji.geoid_separation(lat, lon)
