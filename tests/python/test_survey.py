@@ -936,6 +936,10 @@ def test_an_undecided_site_is_flown_again_and_what_stays_undecided_goes_to_the_f
     p) leaves it undecided: the row keeps both answers, the reasons, and the summary lists
     it for the field team beside the counts of decided and undecided sites. The paper's
     two answers (row["verdict"]) stay what the threshold says."""
+    from mound.formats.site_row import SiteRow
+    from mound.formats.sites import Site, Truth
+    from mound.formats.survey import SurveySite
+    from mound.formats.verdict import Verdict
     from mound.survey import report
     from mound.survey.site_work import process_site
 
@@ -956,9 +960,11 @@ def test_an_undecided_site_is_flown_again_and_what_stays_undecided_goes_to_the_f
     second = json.loads((tmp_path / "run" / look["verdict_file"]).read_text())
     assert row["verdict"] == second["two_answer"]["label"]
     assert row["verdict"] == ("mound" if second["p_mound"] >= 0.5 else "no_mound")
-    rows = [{**row, "id": "s1", "x_m": 0.0, "y_m": 0.0, "truth": True},
-            {"id": "s2", "x_m": 9.0, "y_m": 9.0, "truth": False, "verdict": "no_mound",
-             "answer": "no_mound"}]
+    judged = SiteRow.from_doc(row, "row")
+    rows = [SurveySite(Site("s1", 0.0, 0.0, 1.0, p_mound=0.5, truth=Truth(True)), True, judged),
+            SurveySite(Site("s2", 9.0, 9.0, 1.0, p_mound=0.2, truth=Truth(False)), True,
+                       SiteRow("s2", "k", status="ok",
+                               verdict=Verdict("no_mound", "no_mound", "m")))]
     team = report.field_team(rows)
     assert [t["id"] for t in team] == ["s1"] and team[0]["second_look_flown"]
     assert team[0]["why"] and team[0]["reasons"] == [

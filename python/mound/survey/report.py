@@ -20,11 +20,11 @@ from pathlib import Path
 from typing import Any
 
 from mound.classify.metrics import detection_error_rates, says_mound
-from mound.errors import InputError
 from mound.formats.mission import FlightSummary, MissionSummary
 from mound.formats.plan import Plan
 from mound.formats.site_row import SiteRow
 from mound.formats.sites import Sites
+from mound.formats.survey import SurveySite
 from mound.jsonio import read_json, write_atomic
 from mound.survey import figures
 from mound.survey.context import StageRun
@@ -39,81 +39,52 @@ def _plan(path: Path) -> Plan | None:
     return Plan.read(path) if path.is_file() else None
 
 
-def site_rows(tree: RunTree, sites_doc: Sites, plan: Plan | None) -> list[dict[str, Any]]:
+def site_rows(tree: RunTree, sites_doc: Sites, plan: Plan | None) -> list[SurveySite]:
+    """Every candidate site, with its 3-D work's row where the tour visited it."""
     tour = plan.visited() if plan else set()
     rows = []
     for s in sites_doc.sites:
-        if s.p_mound is None:
-            raise InputError(f"sites: {s.id}: no p_mound (the survey's sites carry the "
-                             "classifier's)")
-        row: dict[str, Any] = {"id": s.id, "x_m": s.x_m, "y_m": s.y_m, "p_mound": s.p_mound,
-                               "reward": s.reward, "visited": s.id in tour}
-        if s.truth is not None:
-            row["truth"] = s.truth.mound
-        classifier = "mound" if says_mound(s.p_mound) else "no_mound"
-        row["classifier_label"] = classifier
-        if row["visited"]:
+        row = None
+        if s.id in tour:
             path = SiteTree(tree.site_dir(s.id)).result
-            site = SiteRow.read(path) if path.is_file() else SiteRow(
-                s.id, "", reason="not processed")
-            result = site.to_doc()
-            if site.ok and site.verdict is not None:
-                row["verdict"] = site.verdict.two_answer
-                row["final_label"] = site.verdict.two_answer
-                row["label_source"] = "3-D verdict"
-                for k in ("answer", "undecided", "confidence", "verdict_p_mound",
-                          "verdict_cloud", "coverage", "method", "reason", "rise",
-                          "distance_m", "second_look", "first_look", "rasters_error",
-                          "dense_error"):
-                    if k in result:
-                        row[k] = result[k]
-            else:
-                row["verdict"] = "failed"
-                row["failure"] = site.reason or "?"
-                row["final_label"] = classifier
-                row["label_source"] = "classifier (3-D stage failed)"
-            for k in ("recon", "timings_s", "files", "source", "simulated", "worker"):
-                if k in result:
-                    row[k] = result[k]
-        else:
-            row["final_label"] = classifier
-            row["label_source"] = "classifier"
-        rows.append(row)
+            row = SiteRow.read(path) if path.is_file() else None
+        rows.append(SurveySite(s, s.id in tour, row))
     return rows
 
 
-def three_answer_metrics(judged: list[dict[str, Any]]) -> dict[str, Any]:
+def three_answer_metrics(judged: list[SurveySite]) -> dict[str, object]:
     """The judged sites by the verdict's own answer, and the selective error rates: of the
     decided sites with a known truth, the true mounds called no_mound and the other sites
     called mound (the undecided ones left to a second look or a person)."""
-    answer = [r.get("answer", r["verdict"]) for r in judged]
-    decided = [r for r, a in zip(judged, answer, strict=True) if a != "undecided" and "truth" in r]
-    mounds = [r for r in decided if r["truth"]]
-    others = [r for r in decided if not r["truth"]]
+    answer = [r.answer or r.verdict for r in judged]
+    decided = [r for r, a in zip(judged, answer, strict=True)
+               if a != "undecided" and r.truth is not None]
+    mounds = [r for r in decided if r.truth]
+    others = [r for r in decided if not r.truth]
     return {"decided": sum(1 for a in answer if a != "undecided"),
             "undecided": sum(1 for a in answer if a == "undecided"),
             "selective": {
-                "eps_md": (sum(1 for r in mounds if r.get("answer", r["verdict"]) == "no_mound")
+                "eps_md": (sum(1 for r in mounds if (r.answer or r.verdict) == "no_mound")
                            / len(mounds) if mounds else None),
-                "eps_fa": (sum(1 for r in others if r.get("answer", r["verdict"]) == "mound")
+                "eps_fa": (sum(1 for r in others if (r.answer or r.verdict) == "mound")
                            / len(others) if others else None),
                 "decided_with_truth": len(decided)}}
 
 
-def field_team(judged: list[dict[str, Any]]) -> list[dict[str, Any]]:
+def field_team(judged: list[SurveySite]) -> list[dict[str, object]]:
     """The sites still undecided after every look the survey flew: for the field team, each
     with its p(mound) and why (the verdict's undecided reasons)."""
-    out = []
+    out: list[dict[str, object]] = []
     for r in judged:
-        if r.get("answer") != "undecided":
+        if r.answer != "undecided" or r.row is None or r.row.verdict is None:
             continue
-        why = (r.get("undecided") or {}).get("reasons", [])
-        look = r.get("second_look")
-        out.append({"id": r["id"], "x_m": r["x_m"], "y_m": r["y_m"],
-                    "p_mound": r.get("verdict_p_mound"),
+        why = r.undecided_reasons()
+        look = r.row.second_look
+        out.append({"id": r.id, "x_m": r.site.x_m, "y_m": r.site.y_m,
+                    "p_mound": r.row.verdict.p_mound,
                     "reasons": [x.get("code") for x in why],
                     "why": "; ".join(str(x.get("text", "")) for x in why),
-                    "second_look_flown": bool(isinstance(look, dict) and look.get("flown"))})
+                    "second_look_flown": bool(look is not None and look.flown)})
     return out
 
 
@@ -124,17 +95,17 @@ def build_summary(tree: RunTree, args: SurveyOptions, stages: list[StageRun],
     plan = _plan(tree.final_plan(learned))
     mission = _missions(tree.mission_summary)
     rows = site_rows(tree, sites_doc, plan)
-    truth = [r.get("truth") for r in rows]
-    final = [r["final_label"] == "mound" for r in rows]
-    classifier = [r["classifier_label"] == "mound" for r in rows]
-    perfect = [bool(r["truth"]) if r["visited"] and "truth" in r else c
+    truth = [r.truth for r in rows]
+    final = [r.final_label == "mound" for r in rows]
+    classifier = [r.classifier_label == "mound" for r in rows]
+    perfect = [bool(r.truth) if r.visited and r.truth is not None else c
                for r, c in zip(rows, classifier, strict=True)]
     md, fa = detection_error_rates(final, truth)
     cmd, cfa = detection_error_rates(classifier, truth)
     pmd, pfa = detection_error_rates(perfect, truth)
-    visited = [r for r in rows if r["visited"]]
-    judged = [r for r in visited if r["verdict"] != "failed"]
-    correct = [r for r in judged if "truth" in r and (r["verdict"] == "mound") == r["truth"]]
+    visited = [r for r in rows if r.visited]
+    judged = [r for r in visited if r.judged]
+    correct = [r for r in judged if r.truth is not None and (r.verdict == "mound") == r.truth]
     status, reason = "ok", ""
     if not visited:
         status, reason = "failed", "no site fits the budget: nothing was flown"
@@ -153,8 +124,8 @@ def build_summary(tree: RunTree, args: SurveyOptions, stages: list[StageRun],
         "field": {"source": args.sites or f"standard field seed {args.field_seed}",
                   "sites": len(rows), "true_mounds": sum(1 for t in truth if t),
                   "truth_known": sum(1 for t in truth if t is not None),
-                  "total_reward": sum(r["reward"] for r in rows)},
-        "sites": rows,
+                  "total_reward": sum(r.site.reward for r in rows)},
+        "sites": [r.to_doc() for r in rows],
         "metrics": {
             "eps_md": md, "eps_fa": fa,
             "reward": plan.reward if plan else 0.0,
@@ -163,7 +134,7 @@ def build_summary(tree: RunTree, args: SurveyOptions, stages: list[StageRun],
             "visited": len(visited), "judged": len(judged),
             "failed": len(visited) - len(judged),
             "verdicts_correct": len(correct),
-            "verdicts_with_truth": sum(1 for r in judged if "truth" in r),
+            "verdicts_with_truth": sum(1 for r in judged if r.truth is not None),
             "classifier_only": {"eps_md": cmd, "eps_fa": cfa},
             "perfect_verification": {"eps_md": pmd, "eps_fa": pfa},
             "three_answers": three_answer_metrics(judged),
