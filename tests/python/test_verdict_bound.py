@@ -101,7 +101,8 @@ def _grid(root: Path, specs: list[terrain.TerrainSpec]) -> Path:
                  "diameter_m": spec.diameter_m, "centre_enu_m": [spec.mound_x_m, spec.mound_y_m],
                  "pit": False, "trench": False, "slope_deg": 0.0, "dem": False}
         (site / "verdict.json").write_text(json.dumps({
-            "schema": "mound.verdict", "version": 1, "status": "ok", "measurements": {
+            "schema": "mound.verdict", "version": 1, "status": "ok", "label": "no_mound",
+            "method": "reference_free_model", "measurements": {
                 "site_centre_enu_m": list(DISC[0]), "site_radius_m": DISC[1],
                 "judged_rises": []}}))
         terrain_doc = {**asdict(spec), "confusers": []}
