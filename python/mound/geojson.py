@@ -11,7 +11,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from mound.errors import InputError
-from mound.jsonio import short_repr
+from mound.jsonio import JsonObject, JsonValue, short_repr
 
 
 def lonlat(c: Any, where: str) -> tuple[float, float]:
@@ -28,7 +28,8 @@ def lonlat(c: Any, where: str) -> tuple[float, float]:
     return float(lon), float(lat)
 
 
-def point_feature(f: Any, where: str, why: str = "") -> tuple[float, float, Mapping[str, object]]:
+def point_feature(f: Any, where: str,
+                  why: str = "") -> tuple[float, float, Mapping[str, JsonValue]]:
     """(lon, lat, properties) of a Point Feature; `why` follows "expected a Point" in the
     message when the geometry is another."""
     if not isinstance(f, dict) or f.get("type") != "Feature":
@@ -43,8 +44,8 @@ def point_feature(f: Any, where: str, why: str = "") -> tuple[float, float, Mapp
     return lon, lat, props
 
 
-def point_feature_doc(lat_lon: tuple[float, float], properties: Mapping[str, object],
-                      fid: str | None = None) -> dict[str, object]:
+def point_feature_doc(lat_lon: tuple[float, float], properties: Mapping[str, JsonValue],
+                      fid: str | None = None) -> JsonObject:
     """A Point Feature at (lat, lon), WGS84 ([lon, lat] as RFC 7946 orders it), with the
     feature id `fid` where given: what point_feature reads back."""
     return {"type": "Feature", **({"id": fid} if fid is not None else {}),

@@ -11,9 +11,15 @@ import tempfile
 from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeAlias
 
 from mound.errors import InputError
+
+# A JSON value and a JSON object, as the documents' writers (to_doc) return them: mypy then
+# refuses a value json.dumps cannot write (an array, a Path, a dataclass) where it is made.
+JsonValue: TypeAlias = (None | bool | int | float | str | Sequence["JsonValue"]
+             | Mapping[str, "JsonValue"])
+JsonObject: TypeAlias = dict[str, JsonValue]
 
 
 def _stage(path: Path, text: str | bytes) -> Path:

@@ -10,6 +10,7 @@ import numpy as np
 from mound.classify.features import Standardizer, band_columns
 from mound.classify.logistic import predict_proba
 from mound.errors import InputError
+from mound.jsonio import JsonObject
 
 SCHEMA = "mound.classifier"
 VERSION = 1
@@ -33,7 +34,7 @@ class Model:
         """Mound (target-class) probability of each row of raw 36-column pixel data."""
         return predict_proba(self.w, self.scaler.design(x36[:, self.columns]))
 
-    def to_doc(self) -> dict[str, object]:
+    def to_doc(self) -> JsonObject:
         return {
             "schema": SCHEMA, "version": VERSION,
             "features": {"kind": "all" if self.band is None else "band", "band": self.band,

@@ -24,6 +24,7 @@ from mound.bounds import Bound
 from mound.errors import InputError
 from mound.geometry.geodesy import Origin
 from mound.jsonio import (
+    JsonObject,
     as_object,
     check_doc,
     load_json,
@@ -78,7 +79,7 @@ class ClearanceSpec:
         for name in ("climb_factor", "descent_factor"):
             FACTOR.check(getattr(self, name), f"--{name.replace('_', '-')}")
 
-    def to_doc(self) -> dict[str, object]:
+    def to_doc(self) -> JsonObject:
         return asdict(self)
 
     @classmethod
@@ -106,10 +107,12 @@ class MissionSite:
     ground_amsl_m: float | None = None
     scan_height_above_ground_m: tuple[float, ...] | None = None
 
-    def to_doc(self) -> dict[str, object]:
-        over = {**({} if self.ground_amsl_m is None else {"ground_amsl_m": self.ground_amsl_m}),
-                **({} if self.scan_height_above_ground_m is None else
-                   {"scan_height_above_ground_m": list(self.scan_height_above_ground_m)})}
+    def to_doc(self) -> JsonObject:
+        over: JsonObject = {}
+        if self.ground_amsl_m is not None:
+            over["ground_amsl_m"] = self.ground_amsl_m
+        if self.scan_height_above_ground_m is not None:
+            over["scan_height_above_ground_m"] = list(self.scan_height_above_ground_m)
         return {"id": self.id, "x_m": self.x_m, "y_m": self.y_m, **over,
                 "scan_length_m": self.scan_length_m, "images": self.images,
                 "scan_cost_m": self.scan_cost_m}
@@ -138,7 +141,7 @@ class LegProfile:
     start_enu_m: tuple[float, float]   # where the leg's level part starts and ends (ENU)
     end_enu_m: tuple[float, float]
 
-    def to_doc(self) -> dict[str, object]:
+    def to_doc(self) -> JsonObject:
         return {"distance_m": list(self.distance_m),
                 "terrain_amsl_m": list(self.terrain_amsl_m),
                 "flight_amsl_m": self.flight_amsl_m}
@@ -159,7 +162,7 @@ class TerrainLeg:
     cost_m: float
     profile: LegProfile | None = None
 
-    def to_doc(self) -> dict[str, object]:
+    def to_doc(self) -> JsonObject:
         return {"from": self.from_id, "to": self.to_id, "transit_amsl_m": self.transit_amsl_m,
                 "terrain_max_amsl_m": self.terrain_max_amsl_m,
                 "terrain_max_enu_m": list(self.terrain_max_enu_m),
@@ -197,7 +200,7 @@ class FlightTerrain:
     def lowest_clearance_m(self) -> float | None:
         return min((leg.clearance_m for leg in self.legs), default=None)
 
-    def to_doc(self) -> dict[str, object]:
+    def to_doc(self) -> JsonObject:
         return {"checked": True, "dem": self.dem, "dem_crs": self.dem_crs,
                 "vertical": self.clearance.vertical, "home_amsl_m": self.home_amsl_m,
                 **self.clearance.to_doc(), "energy_m": self.energy_m,
@@ -234,7 +237,7 @@ class FormatEntry:
     files: tuple[str, ...] = ()
     refused: str | None = None
 
-    def to_doc(self) -> dict[str, object]:
+    def to_doc(self) -> JsonObject:
         return {**self.about, "files": list(self.files),
                 **({"refused": self.refused} if self.refused is not None else {})}
 
@@ -269,7 +272,7 @@ class ScanRecord:
     cruise_speed_m_s: float
     scan_speed_m_s: float
 
-    def to_doc(self) -> dict[str, object]:
+    def to_doc(self) -> JsonObject:
         return asdict(self)
 
     @classmethod
@@ -299,11 +302,11 @@ class FlightSummary:
     file: str | None = None
     formats: Mapping[str, FormatEntry] | None = None
 
-    def terrain_doc(self) -> dict[str, object]:
+    def terrain_doc(self) -> JsonObject:
         return ({"checked": False, "note": NOT_CHECKED} if self.terrain is None
                 else self.terrain.to_doc())
 
-    def to_doc(self) -> dict[str, object]:
+    def to_doc(self) -> JsonObject:
         return {"schema": SCHEMA, "version": VERSION, "origin": self.origin.to_doc(),
                 "items": self.items, "flight_distance_m": self.flight_distance_m,
                 "budget_m": self.budget_m, "closed": self.closed,
@@ -353,7 +356,7 @@ class UploadRecord:
     verified: bool | None  # None: not read back (no --verify)
     notes: tuple[str, ...] = ()
 
-    def to_doc(self) -> dict[str, object]:
+    def to_doc(self) -> JsonObject:
         return {**asdict(self), "notes": list(self.notes)}
 
     @classmethod
@@ -376,7 +379,7 @@ class Refusal:
     id: str
     reason: str
 
-    def to_doc(self) -> dict[str, object]:
+    def to_doc(self) -> JsonObject:
         return {"id": self.id, "reason": self.reason}
 
 
@@ -392,7 +395,7 @@ class SecondLookMissions:
     flown: tuple[str, ...]
     refused: tuple[Refusal, ...] = ()
 
-    def to_doc(self) -> dict[str, object]:
+    def to_doc(self) -> JsonObject:
         return {"sites": list(self.sites), "scan_factor": self.scan_factor,
                 "site_diameter_m": self.site_diameter_m, "flown": list(self.flown),
                 "refused": [r.to_doc() for r in self.refused]}
@@ -434,11 +437,11 @@ class MissionSummary:
     def flight_distance_m(self) -> float:
         return sum(f.flight_distance_m for f in self.flights)
 
-    def to_doc(self) -> dict[str, object]:
+    def to_doc(self) -> JsonObject:
         """The only flight's own members (with `flights` holding it), or of several (or
         none) their totals."""
         origin = self.flights[0].origin if self.flights else self.origin
-        doc: dict[str, object] = (
+        doc: JsonObject = (
             self.flights[0].to_doc() if len(self.flights) == 1 else
             {"schema": SCHEMA, "version": VERSION,
              "origin": None if origin is None else origin.to_doc(),

@@ -24,6 +24,7 @@ from mound.errors import InputError
 from mound.geometry.flight import ScanSpec
 from mound.geometry.geodesy import Origin
 from mound.jsonio import (
+    JsonObject,
     check_doc,
     load_json,
     optional_number,
@@ -59,7 +60,7 @@ class Waypoint:
     scan_cost_m: float = 0.0
     extra: Mapping[str, Any] = field(default_factory=dict)
 
-    def to_doc(self) -> dict[str, object]:
+    def to_doc(self) -> JsonObject:
         return {**self.extra, "id": self.id, "kind": self.kind, "x_m": self.x_m,
                 "y_m": self.y_m, "scan_cost_m": self.scan_cost_m}
 
@@ -101,8 +102,8 @@ class Flight:
         """The sites visited, in order (the tour less its two ends)."""
         return self.tour[1:-1]
 
-    def to_doc(self, number: int) -> dict[str, object]:
-        doc: dict[str, object] = {"flight": number, "tour": list(self.tour)}
+    def to_doc(self, number: int) -> JsonObject:
+        doc: JsonObject = {"flight": number, "tour": list(self.tour)}
         for k in ("reward", "cost_m", "budget_left_m"):
             if getattr(self, k) is not None:
                 doc[k] = getattr(self, k)
@@ -180,9 +181,9 @@ class Plan:
         doc = self.extra.get("scan")
         return None if doc is None else ScanSpec.from_doc(doc, "plan: scan")
 
-    def to_doc(self) -> dict[str, object]:
+    def to_doc(self) -> JsonObject:
         n = len(self.flights)
-        doc: dict[str, object] = {"schema": SCHEMA, "version": VERSION, "status": self.status,
+        doc: JsonObject = {"schema": SCHEMA, "version": VERSION, "status": self.status,
                                   "algo": self.algo, **self.extra,
                                   "closed": self.closed, "tour": list(self.flights[0].tour),
                                   "flights": [f.to_doc(k + 1) for k, f in

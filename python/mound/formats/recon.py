@@ -19,7 +19,15 @@ import numpy as np
 from mound.errors import InputError
 from mound.geometry.camera import Camera, Pose
 from mound.geometry.geodesy import Origin
-from mound.jsonio import as_object, check_doc, finite_number, load_json, optional_number, short_repr
+from mound.jsonio import (
+    JsonObject,
+    as_object,
+    check_doc,
+    finite_number,
+    load_json,
+    optional_number,
+    short_repr,
+)
 
 SCHEMA = "mound.recon"
 VERSION = 1
@@ -104,7 +112,7 @@ class Recon:
                 for im in self.images
                 if im.cam_from_world is not None and im.centre is not None]
 
-    def summary(self) -> dict[str, object]:
+    def summary(self) -> JsonObject:
         """What a site's row keeps of it (mound.survey_site's `recon`)."""
         return {"status": self.status, "frame": self.frame,
                 "registered": len(self.registered()), "images": len(self.images),

@@ -19,6 +19,8 @@ from typing import Any
 from mound.errors import InputError
 from mound.formats.verdict import ANSWERS, TWO_ANSWERS, Verdict
 from mound.jsonio import (
+    JsonObject,
+    JsonValue,
     check_doc,
     finite_number,
     load_json,
@@ -58,9 +60,9 @@ class SecondLookRecord:
     reason: str | None = None
     p_mound: float | None = None
     verdict_file: str | None = None
-    extra: Mapping[str, object] = field(default_factory=dict)
+    extra: Mapping[str, JsonValue] = field(default_factory=dict)
 
-    def to_doc(self) -> dict[str, object]:
+    def to_doc(self) -> JsonObject:
         said = {"advised": self.advised, "scan_factor": self.scan_factor,
                 "flown": self.flown, "scan_m": self.scan_m, "source": self.source,
                 "reason": self.reason, "p_mound": self.p_mound,
@@ -110,7 +112,7 @@ class SiteRow:
     verdict_cloud: str | None = None   # the cloud judged: dense or sparse
     files: dict[str, str] = field(default_factory=dict)  # relative to the run directory
     second_look: SecondLookRecord | None = None
-    extra: dict[str, object] = field(default_factory=dict)
+    extra: JsonObject = field(default_factory=dict)
 
     @property
     def ok(self) -> bool:
@@ -121,7 +123,7 @@ class SiteRow:
         """The verdict's own answer (mound, no_mound or undecided), None when not judged."""
         return self.verdict.label if self.verdict and self.ok else None
 
-    def to_doc(self) -> dict[str, object]:
+    def to_doc(self) -> JsonObject:
         doc: dict[str, Any] = {"schema": SCHEMA, "version": VERSION, "id": self.id,
                                "key": self.key, "first_key": self.first_key,
                                "status": self.status, "source": self.source,

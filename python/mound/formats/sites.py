@@ -28,7 +28,14 @@ from mound.errors import InputError
 from mound.geojson import point_feature
 from mound.geometry.flight import ScanSpec
 from mound.geometry.geodesy import Origin, geodetic_to_enu
-from mound.jsonio import check_doc, load_json, optional_number, require_id, require_number
+from mound.jsonio import (
+    JsonObject,
+    check_doc,
+    load_json,
+    optional_number,
+    require_id,
+    require_number,
+)
 
 SCHEMA = "mound.sites"
 VERSION = 1
@@ -43,7 +50,7 @@ class Node:
     x_m: float
     y_m: float
 
-    def to_doc(self) -> dict[str, object]:
+    def to_doc(self) -> JsonObject:
         return {"id": self.id, "x_m": self.x_m, "y_m": self.y_m}
 
     @classmethod
@@ -64,8 +71,8 @@ class Truth:
     statlog_row: int | None = None
     extra: Mapping[str, Any] = field(default_factory=dict)
 
-    def to_doc(self) -> dict[str, object]:
-        doc: dict[str, object] = {"mound": self.mound}
+    def to_doc(self) -> JsonObject:
+        doc: JsonObject = {"mound": self.mound}
         if self.height_m is not None:
             doc["height_m"] = self.height_m
         if self.statlog_row is not None:
@@ -101,8 +108,8 @@ class Site:
     def xy(self) -> tuple[float, float]:
         return (self.x_m, self.y_m)
 
-    def to_doc(self) -> dict[str, object]:
-        doc: dict[str, object] = {"id": self.id, "x_m": self.x_m, "y_m": self.y_m,
+    def to_doc(self) -> JsonObject:
+        doc: JsonObject = {"id": self.id, "x_m": self.x_m, "y_m": self.y_m,
                                   "reward": self.reward, "scan_cost_m": self.scan_cost_m}
         if self.p_mound is not None:
             doc["p_mound"] = self.p_mound
@@ -161,7 +168,7 @@ class Sites:
     def with_sites(self, sites: Sequence[Site], **extra: object) -> Sites:
         return replace(self, sites=tuple(sites), extra={**self.extra, **extra})
 
-    def to_doc(self) -> dict[str, object]:
+    def to_doc(self) -> JsonObject:
         doc: dict[str, Any] = {"schema": SCHEMA, "version": VERSION}
         if self.origin is not None:
             doc["origin"] = self.origin.to_doc()

@@ -16,6 +16,7 @@ from mound.classify.metrics import says_mound
 from mound.errors import InputError
 from mound.formats.site_row import SiteRow
 from mound.formats.sites import Site
+from mound.jsonio import JsonObject
 
 # What a site's entry copies of its row (SiteRow.to_doc()) when the site was judged, and
 # in any case (the 3-D work's figures and files).
@@ -98,9 +99,9 @@ class SurveySite:
         reasons = (self.row.verdict.undecided or {}).get("reasons", [])
         return [r for r in reasons if isinstance(r, dict)] if isinstance(reasons, list) else []
 
-    def to_doc(self) -> dict[str, object]:
+    def to_doc(self) -> JsonObject:
         s = self.site
-        doc: dict[str, object] = {"id": s.id, "x_m": s.x_m, "y_m": s.y_m,
+        doc: JsonObject = {"id": s.id, "x_m": s.x_m, "y_m": s.y_m,
                                   "p_mound": self.p_mound, "reward": s.reward,
                                   "visited": self.visited}
         if self.truth is not None:

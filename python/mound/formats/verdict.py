@@ -21,6 +21,7 @@ from typing import Any
 
 from mound.errors import InputError
 from mound.jsonio import (
+    JsonObject,
     as_object,
     check_doc,
     finite_number,
@@ -56,7 +57,7 @@ class SecondLookAdvice:
     scan_factor: float | None = None
     extra: Mapping[str, Any] = field(default_factory=dict)
 
-    def to_doc(self) -> dict[str, object]:
+    def to_doc(self) -> JsonObject:
         return {"advised": self.advised, "scan_factor": self.scan_factor, **self.extra}
 
     @classmethod
@@ -90,7 +91,7 @@ class Verdict:
     distance_m: float | None = None    # the reference test's cloud-to-reference distance
     second_look: SecondLookAdvice | None = None
 
-    def row_fields(self) -> dict[str, Any]:
+    def row_fields(self) -> JsonObject:
         """The row's verdict fields: `answer` the verdict's own (mound, no_mound or
         undecided), `verdict` its two answers (the paper's protocol: epsilon_MD and
         epsilon_FA, learning), `undecided` why and what next where it is undecided."""

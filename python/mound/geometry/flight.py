@@ -24,6 +24,7 @@ import numpy as np
 from mound.bounds import HEIGHT_M, IMAGE_PX, SITE_DIAMETER_M, Bound
 from mound.errors import InputError
 from mound.geometry.camera import Camera, Pose
+from mound.jsonio import JsonObject
 
 
 @dataclass(frozen=True)
@@ -238,7 +239,7 @@ class ScanSpec(FlightLayout):
         per tour."""
         return 2 * self.transit_m()
 
-    def to_doc(self) -> dict[str, object]:
+    def to_doc(self) -> JsonObject:
         doc = asdict(self)
         doc["dist"] = list(self.dist)
         return doc

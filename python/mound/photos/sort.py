@@ -55,6 +55,7 @@ from mound.formats.sites import user_sites
 from mound.geometry.flight import DEFAULT_SITE_DIAMETER_M, ScanSpec
 from mound.geometry.geodesy import Origin, geodetic_to_enu
 from mound.jsonio import (
+    JsonObject,
     load_json,
     read_json,
     write_json,
@@ -286,12 +287,12 @@ class PhotoRow:
     enu_m: list[float] | None = None
     over_site: str | None = None
 
-    def to_doc(self) -> dict[str, object]:
-        doc: dict[str, object] = {
+    def to_doc(self) -> JsonObject:
+        doc: JsonObject = {
             "file": self.file, "site": self.site, "reason": self.reason, "lat": self.lat,
             "lon": self.lon, "alt_m": self.alt_m, "time": self.time,
             "sharpness": self.sharpness}
-        optional: dict[str, object] = {
+        optional: JsonObject = {
             "duplicate_of": self.duplicate_of, "camera": self.camera, "dji_xmp": self.dji_xmp,
             "xmp_conflicts": self.xmp_conflicts or None, "enu_m": self.enu_m,
             "over_site": self.over_site}

@@ -29,7 +29,7 @@ from mound.classify import coarse, statlog
 from mound.classify.metrics import detection_error_rates, says_mound
 from mound.classify.model import Model
 from mound.classify.reward import binary_entropy_bits
-from mound.jsonio import write_atomic
+from mound.jsonio import JsonObject, write_atomic
 from mound.plan import branch_cut, sites
 from mound.plan.field import STANDARD_SEEDS, Field, make_field, sites_document
 
@@ -116,7 +116,7 @@ class Setting:
 
 
 def make_documents(scan_cost: float, paper: bool, budget: float
-                   ) -> tuple[list[dict[str, object]], Setting]:
+                   ) -> tuple[list[JsonObject], Setting]:
     test = statlog.load("sat.tst")
     train = statlog.load("sat.trn")
     fields = [make_field(test, s) for s in STANDARD_SEEDS]

@@ -15,7 +15,15 @@ from dataclasses import dataclass, field
 
 from mound.errors import InputError
 from mound.formats.verdict import CANDIDATES, Measurements, Rise, VerdictFile, rises_of
-from mound.jsonio import as_object, finite_number, require_number, short_repr, xy_metres
+from mound.jsonio import (
+    JsonObject,
+    JsonValue,
+    as_object,
+    finite_number,
+    require_number,
+    short_repr,
+    xy_metres,
+)
 
 
 def _bool(doc: Mapping[str, object], key: str, where: str, default: bool = False) -> bool:
@@ -37,7 +45,7 @@ class SiteTruth:
     centre_enu_m: tuple[float, float] = (0.0, 0.0)
     profile: str | None = None
     cut: bool = False  # a looters' trench or pit
-    doc: Mapping[str, object] = field(default_factory=dict, compare=False)
+    doc: Mapping[str, JsonValue] = field(default_factory=dict, compare=False)
 
     @classmethod
     def from_doc(cls, doc: object, where: str) -> SiteTruth:
@@ -53,7 +61,7 @@ class SiteTruth:
                    else (0.0, 0.0), profile,
                    _bool(d, "trench", where) or _bool(d, "pit", where), dict(d))
 
-    def to_doc(self) -> dict[str, object]:
+    def to_doc(self) -> JsonObject:
         """The truth as written (built from the fields for one made in code)."""
         if self.doc:
             return dict(self.doc)

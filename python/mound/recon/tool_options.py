@@ -8,6 +8,8 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass
 
+from mound.jsonio import JsonObject
+
 
 @dataclass(frozen=True)
 class ToolOptions:
@@ -27,7 +29,7 @@ class ToolOptions:
                 out += ["--" + name.replace("_", "-"), text]
         return tuple(out)
 
-    def to_doc(self) -> dict[str, object]:
+    def to_doc(self) -> JsonObject:
         return asdict(self)
 
 

@@ -40,6 +40,7 @@ from typing import Any
 import numpy as np
 
 from mound.errors import InputError
+from mound.jsonio import JsonObject
 
 DEFAULT_RADII_M = (3.0, 6.0, 12.0, 24.0)
 DEFAULT_BACKGROUND_M = 48.0
@@ -142,7 +143,7 @@ class FeatureSpec:
             out += [f"{b}_share" for b in labels]
         return out
 
-    def to_doc(self) -> dict[str, object]:
+    def to_doc(self) -> JsonObject:
         if self.kind == "paper":
             return {"kind": "paper", "resample_m": self.resample_m, "pixels": "3x3"}
         return {"kind": "multiscale", "radii_m": list(self.radii_m),

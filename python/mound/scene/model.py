@@ -19,6 +19,7 @@ from scipy.special import expit
 
 from mound.classify.features import Standardizer, hinge_basis
 from mound.errors import InputError
+from mound.jsonio import JsonObject
 from mound.scene.features import FeatureSpec
 from mound.scene.raster import SceneInfo
 
@@ -48,7 +49,7 @@ class Band:
         """How features name the band: its name, else band<index>."""
         return self.name or f"band{self.index}"
 
-    def to_doc(self) -> dict[str, object]:
+    def to_doc(self) -> JsonObject:
         return {"index": self.index, "name": self.name}
 
 
@@ -151,7 +152,7 @@ class SceneModel:
                              f"at {self.res_m:g} m (resample the scene to within 2/3-1.5x)")
         return out
 
-    def to_doc(self) -> dict[str, object]:
+    def to_doc(self) -> JsonObject:
         return {"schema": SCHEMA, "version": VERSION,
                 "bands": [b.to_doc() for b in self.bands],
                 "features": {**self.spec.to_doc(), "names": self.spec.names()},

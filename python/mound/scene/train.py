@@ -33,6 +33,7 @@ from scipy.special import expit
 from mound.classify import logistic
 from mound.classify.features import Standardizer
 from mound.errors import InputError
+from mound.jsonio import JsonObject, JsonValue
 from mound.scene import score as scoring
 from mound.scene.features import FeatureSpec
 from mound.scene.model import Band, SceneModel, expand
@@ -239,13 +240,13 @@ class KnownMound:
     id: str
     rank: int | None
     offset_m: float | None
-    visibility: object = None
-    land_use: object = None
+    visibility: JsonValue = None
+    land_use: JsonValue = None
 
     def found_within(self, k: int) -> bool:
         return self.rank is not None and self.rank <= k
 
-    def to_doc(self) -> dict[str, object]:
+    def to_doc(self) -> JsonObject:
         return {"id": self.id, "rank": self.rank, "offset_m": self.offset_m,
                 "visibility": self.visibility, "land_use": self.land_use}
 
@@ -347,7 +348,7 @@ class CVResult:
     seconds: float
     maps: dict[str, np.ndarray] = field(default_factory=dict)  # held-out logits kept
 
-    def summary(self) -> dict[str, object]:
+    def summary(self) -> JsonObject:
         aucs = [s.auc for s in self.scenes if s.auc is not None]
         aps = [s.ap for s in self.scenes if s.ap is not None]
         mounds = [m for s in self.scenes for m in s.mounds]

@@ -35,7 +35,7 @@ from mound.formats.sites import Site, Sites
 from mound.geometry.camera import Camera
 from mound.geometry.flight import DEFAULT_SITE_DIAMETER_M
 from mound.geometry.geodesy import Origin, enu_to_geodetic
-from mound.jsonio import read_json, write_json
+from mound.jsonio import JsonObject, read_json, write_json
 
 SENSOR_WIDTH_MM = 6.17   # the simulated camera's sensor: 1/2.3", as on small UAVs
 MOUND_HEIGHTS_M = (4.0, 12.0)  # simulated tumuli: heights drawn uniformly from this range
@@ -207,7 +207,7 @@ class SiteGround:
     vertical: str
     ground_amsl_m: float
 
-    def to_doc(self) -> dict[str, object]:
+    def to_doc(self) -> JsonObject:
         return {"dem": self.dem, "vertical": self.vertical, "ground_amsl_m": self.ground_amsl_m}
 
 

@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from mound.errors import InputError
-from mound.jsonio import load_json
+from mound.jsonio import JsonObject, load_json
 
 KAZANLAK = "kazanlak"  # the Kazanlak inventory, ../shared/data/kazanlak/mounds.geojson
 MAX_SIZE_M = 1000.0    # a tumulus's base, m (the largest known, Alyattes's, is 355 m)
@@ -49,7 +49,7 @@ class Population:
         known = [r.trench for r in self.rows if r.trench is not None]
         return sum(known) / len(known) if known else 0.0
 
-    def summary(self) -> dict[str, object]:
+    def summary(self) -> JsonObject:
         return {"file": self.path, "rows": len(self.rows), "levelled": self.levelled,
                 "trench_share": self.trench_share}
 

@@ -16,6 +16,7 @@ from typing import Any
 
 from mound.datasets import sha256_of
 from mound.geometry.flight import scan_for_site
+from mound.jsonio import JsonObject
 from mound.survey.ledger import Ledger, StageRecord, digest
 from mound.survey.options import (
     SurveyOptions,
@@ -41,7 +42,7 @@ class StageRun:
     complete: bool | None = None  # run: whether every unit of its work finished
     wall_s_when_run: float | None = None  # skipped: the ledger's time of it
 
-    def to_doc(self) -> dict[str, object]:
+    def to_doc(self) -> JsonObject:
         if self.skipped:
             when = ({} if self.wall_s_when_run is None  # not needed: never ran
                     else {"wall_s_when_run": self.wall_s_when_run})

@@ -39,7 +39,7 @@ from mound.formats.sites import Site
 from mound.formats.verdict import SecondLookAdvice, Verdict, VerdictFile
 from mound.geometry.flight import DEFAULT_SITE_DIAMETER_M
 from mound.geometry.geodesy import Origin
-from mound.jsonio import read_json, write_json
+from mound.jsonio import JsonObject, read_json, write_json
 from mound.photos.sort import MIN_PHOTOS
 from mound.recon.tool_options import DensifyOptions, ReconstructOptions, VerdictOptions
 from mound.sim.card import SiteGround
@@ -124,7 +124,7 @@ def _photos(job: SiteJob) -> tuple[Path, Path | None, str]:
     return folder, camera if camera.is_file() else None, str(poses) if poses.is_file() else "exif"
 
 
-def _recon_summary(recon_dir: Path) -> dict[str, object]:
+def _recon_summary(recon_dir: Path) -> JsonObject:
     return Recon.read(recon_dir / "recon.json").summary()
 
 

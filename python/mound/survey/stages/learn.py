@@ -38,7 +38,7 @@ from mound.errors import InputError, ToolInputError, ToolNoResultError
 from mound.formats.plan import Flight, Plan
 from mound.formats.site_row import SiteRow
 from mound.formats.sites import Sites
-from mound.jsonio import read_json, write_json
+from mound.jsonio import JsonObject, read_json, write_json
 from mound.survey.context import Context, card_digest, mission_terrain, run_stage
 from mound.survey.reward import Reward, reward_of
 from mound.survey.stages.sites3d import run_jobs, second_look_missions, site_jobs
@@ -187,7 +187,7 @@ class Example:
     verdict: str
     confidence: float
 
-    def to_doc(self) -> dict[str, object]:
+    def to_doc(self) -> JsonObject:
         return {"id": self.id, "verdict": self.verdict, "confidence": self.confidence}
 
 
@@ -199,7 +199,7 @@ class Change:
     p_before: float
     p_after: float
 
-    def to_doc(self) -> dict[str, object]:
+    def to_doc(self) -> JsonObject:
         return {"id": self.id, "p_before": self.p_before, "p_after": self.p_after}
 
 
@@ -218,7 +218,7 @@ class FlightLearned:
     labels_flipped: int
     changes: list[Change]
 
-    def to_doc(self) -> dict[str, object]:
+    def to_doc(self) -> JsonObject:
         top = self.changes[0] if self.changes else None
         return {"flight": self.flight, "sites": self.sites,
                 "planned_reward": self.planned_reward,
