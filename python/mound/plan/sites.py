@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 
 from mound.errors import InputError
-from mound.jsonio import read_json
+from mound.jsonio import JsonObject, read_json
 
 
 @dataclass
@@ -86,7 +86,7 @@ def load(path: str | Path, budget: float | None = None) -> OpProblem:
     return from_document(read_json(path, "mound.sites", 1), budget)
 
 
-def from_classic_op_file(path: str | Path) -> dict[str, Any]:
+def from_classic_op_file(path: str | Path) -> JsonObject:
     """A classic orienteering benchmark file (Tsiligirides/Chao layout: "Tmax P", then
     "x y score" rows, the first the start and the second the end) as a mound.sites
     document for a start -> end path."""

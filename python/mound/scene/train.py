@@ -352,7 +352,7 @@ class CVResult:
         aucs = [s.auc for s in self.scenes if s.auc is not None]
         aps = [s.ap for s in self.scenes if s.ap is not None]
         mounds = [m for s in self.scenes for m in s.mounds]
-        out: dict[str, Any] = {
+        out: JsonObject = {
             "folds": "leave-scenes-out", "l2": self.l2, "l2_grid": self.l2_table,
             "scenes": len(self.scenes), "mounds": len(mounds),
             "auc_mean": float(np.mean(aucs)) if aucs else None,
@@ -433,7 +433,7 @@ def cross_validate(prep: Prepared, spec: FeatureSpec, basis: str, samples: Sampl
 
 
 def chance(prep: Prepared, spec: FeatureSpec, basis: str, min_sep_m: float, seed: int
-           ) -> dict[str, Any]:
+           ) -> JsonObject:
     """The same figures for a ranking by independent noise, on the positions that `spec`
     scores (a chance ranking of the same candidates' ground)."""
     rng = np.random.default_rng(seed)

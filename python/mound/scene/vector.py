@@ -22,7 +22,7 @@ import numpy as np
 
 from mound.errors import InputError
 from mound.geojson import lonlat, point_feature
-from mound.jsonio import JsonValue, load_json, short_repr
+from mound.jsonio import JsonObject, JsonValue, load_json, short_repr
 
 WGS84_NAMES = ("urn:ogc:def:crs:OGC:1.3:CRS84", "urn:ogc:def:crs:OGC::CRS84", "CRS84",
                "EPSG:4326", "urn:ogc:def:crs:EPSG::4326", "urn:ogc:def:crs:EPSG:6.6:4326",
@@ -38,7 +38,7 @@ class Label:
     props: Mapping[str, JsonValue] = field(default_factory=dict)  # the feature's properties
 
 
-def _load(path: str | Path) -> dict[str, Any]:
+def _load(path: str | Path) -> JsonObject:
     path = Path(path)
     doc = load_json(path)
     if not isinstance(doc, dict):
