@@ -11,9 +11,11 @@ import math
 import numbers
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, TypeVar
 
 from mound.errors import InputError
+
+N = TypeVar("N", bound=float)  # the value a bound checks (an int or a float), as given
 
 
 @dataclass(frozen=True)
@@ -44,7 +46,7 @@ class Bound:
             return False
         return (value > self.lo if self.above else value >= self.lo) and value <= self.hi
 
-    def check(self, value: Any, name: str) -> Any:
+    def check(self, value: N, name: str) -> N:
         """`value` if within the bound, else InputError naming `name` (flag or field)."""
         if not self.ok(value):
             raise InputError(f"{name}: expected {self.describe()}, got {value!r}")

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 from datetime import datetime, timedelta
 from fractions import Fraction
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -36,6 +36,10 @@ from mound.geometry.camera import Camera
 from mound.geometry.flight import DEFAULT_SITE_DIAMETER_M
 from mound.geometry.geodesy import Origin, enu_to_geodetic
 from mound.jsonio import JsonObject, read_json, write_json
+
+if TYPE_CHECKING:
+    from PIL import Image
+    from PIL.TiffImagePlugin import IFDRational
 
 SENSOR_WIDTH_MM = 6.17   # the simulated camera's sensor: 1/2.3", as on small UAVs
 MOUND_HEIGHTS_M = (4.0, 12.0)  # simulated tumuli: heights drawn uniformly from this range
@@ -85,14 +89,14 @@ def dji_xmp(f: ExifFacts) -> bytes:
             '/></rdf:RDF></x:xmpmeta><?xpacket end="w"?>').encode()
 
 
-def _rational(x: float, denominator: int = 1_000_000) -> Any:
+def _rational(x: float, denominator: int = 1_000_000) -> IFDRational:
     from PIL.TiffImagePlugin import IFDRational
 
     f = Fraction(round(abs(x) * denominator), denominator)
     return IFDRational(f.numerator, f.denominator)
 
 
-def _dms(deg: float) -> tuple[Any, Any, Any]:
+def _dms(deg: float) -> tuple[IFDRational, IFDRational, IFDRational]:
     deg = abs(deg)
     d = math.floor(deg)
     m = math.floor((deg - d) * 60)
@@ -100,7 +104,7 @@ def _dms(deg: float) -> tuple[Any, Any, Any]:
     return _rational(d, 1), _rational(m, 1), _rational(s, 10_000_000)
 
 
-def exif_of(f: ExifFacts) -> Any:
+def exif_of(f: ExifFacts) -> Image.Exif:
     """A Pillow Exif block with the facts (EXIF 2.3 tags, GPS IFD)."""
     from PIL import Image
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+from datetime import datetime
 from pathlib import Path
 from typing import Any
 
@@ -93,8 +94,7 @@ def cmd_sim_site(args: argparse.Namespace) -> int:
     return 0
 
 
-def _start_time(text: str) -> Any:
-    from datetime import datetime
+def _start_time(text: str) -> datetime:
 
     try:
         return datetime.fromisoformat(text)

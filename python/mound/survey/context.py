@@ -12,16 +12,19 @@ import uuid
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from mound.datasets import sha256_of
-from mound.geometry.flight import scan_for_site
+from mound.geometry.flight import ScanSpec, scan_for_site
 from mound.jsonio import JsonObject
 from mound.survey.ledger import Ledger, StageRecord, digest
 from mound.survey.options import (
     SurveyOptions,
 )
 from mound.survey.tree import RunTree
+
+if TYPE_CHECKING:
+    from mound.uav.mission_items import TerrainInput
 
 SCHEMA = "mound.survey"
 
@@ -114,7 +117,7 @@ def digest_files(paths: list[str]) -> list[str]:
     return [sha256_of(Path(p)) for p in paths]
 
 
-def scan_spec(args: SurveyOptions) -> Any:
+def scan_spec(args: SurveyOptions) -> ScanSpec:
 
     scan = scan_for_site(args.site_diameter, args.scan_pattern)
     from dataclasses import replace
@@ -132,7 +135,7 @@ def terrain_material(a: SurveyOptions) -> dict[str, object] | None:
             "footprint": a.footprint_m, "climb": a.climb_factor, "descent": a.descent_factor}
 
 
-def mission_terrain(a: SurveyOptions) -> Any:
+def mission_terrain(a: SurveyOptions) -> TerrainInput | None:
     """The DEM a mission is flown over (mission_items.TerrainInput), None without --dem."""
     if not a.dem:
         return None
