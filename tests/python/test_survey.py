@@ -16,6 +16,7 @@ import subprocess
 import sys
 import time
 from collections.abc import Iterator
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -34,6 +35,7 @@ from mound.formats.sites import Site, Truth, load_user_sites
 from mound.formats.verdict import SecondLookAdvice, Verdict
 from mound.geometry.flight import scan_for_site
 from mound.geometry.geodesy import Origin, enu_to_geodetic
+from mound.jsonio import write_json
 from mound.paths import REPO_ROOT
 from mound.plan import sites as op_sites
 from mound.ply import read_ply
@@ -762,11 +764,16 @@ def test_the_second_looks_advised_become_a_mission_in_the_report(
     assert "Second looks advised for" in text and png in text
     assert "Second looks advised for" in report.render_md(summary)
     if CHROMIUM is not None:  # the map draws them: one dashed path per flight, no error
-        rows = {r["id"]: r for r in summary["sites"]}
-        rows[visited[0]]["second_look"] = {"advised": True, "flown": True, "source": "photos",
-                                           "scan_m": 120.0, "p_mound": 0.9}
-        rows[visited[1]]["second_look"] = {"advised": True, "flown": False,
-                                           "reason": "a second card of the site is needed"}
+        # the map's cards come from the sites' rows (site_result.json): a second look flown
+        # from photos at one, and one still waiting for its card at the other
+        from mound.survey.tree import SiteTree
+
+        looks = [SecondLookRecord(True, 2.0, True, 120.0, "photos", p_mound=0.9),
+                 SecondLookRecord(True, 2.0, False,
+                                  reason="a second card of the site is needed")]
+        for sid, look in zip(visited[:2], looks, strict=True):
+            path = SiteTree(ctx.tree.site_dir(sid)).result
+            write_json(path, replace(SiteRow.read(path), second_look=look).to_doc())
         report.write_reports(ctx.tree, summary)
         js = (run / "map" / "survey.js").read_text()
         assert "flown (photos, a 120 m scan): p(mound) 0.900 after both flights" in js

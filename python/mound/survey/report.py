@@ -421,7 +421,8 @@ def write_reports(tree: RunTree, summary: dict[str, Any]) -> None:
             r["files"] = {k: v for k, v in files.items() if (tree.root / v).exists()}
     from mound.survey import webmap
 
-    page = webmap.write_map(tree, summary, sites_doc, plan,
+    page = webmap.write_map(tree, site_rows(tree, sites_doc, plan),
+                            summary.get("metrics", {}), sites_doc, plan,
                             basemap=summary.get("options", {}).get("basemap"))
     summary["map"] = page.name if page else None
     write_atomic(tree.report_html, render_html(tree, summary))

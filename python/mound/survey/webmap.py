@@ -25,9 +25,10 @@ from mound.errors import InputError
 from mound.formats.plan import Flight, Plan
 from mound.formats.recon import Recon
 from mound.formats.sites import Sites
+from mound.formats.survey import SurveySite
 from mound.formats.verdict import Measurements, Rise, VerdictFile
 from mound.geometry.geodesy import Origin, enu_to_geodetic
-from mound.jsonio import load_json, write_atomic
+from mound.jsonio import JsonObject, JsonValue, load_json, write_atomic
 from mound.paths import REPO_ROOT
 from mound.survey.tree import RunTree
 
@@ -115,13 +116,55 @@ def overlay_png(tif: Path, out_png: Path, kind: str) -> list[list[float]] | None
     return [[float(south), float(west)], [float(north), float(east)]]
 
 
-def map_data(tree: RunTree, summary: dict[str, Any], sites_doc: Sites, plan: Plan | None,
-             out_dir: Path) -> dict[str, Any]:
-    """What the page draws (WGS84 degrees), the overlay PNGs written into out_dir."""
+def site_files(tree: RunTree, r: SurveySite) -> dict[str, str]:
+    """A visited site's files that exist (relative to the run directory)."""
+    files = r.row.files if r.row is not None else {}
+    return {k: v for k, v in files.items() if (tree.root / v).exists()}
+
+
+def site_card(r: SurveySite, files: dict[str, str]) -> JsonObject:
+    """What the map's side panel says of a site: the classifier's p and reward, the
+    verdict's answer, p and reason to send the field team, the judged rise, the second
+    look, the files."""
+    v = r.row.verdict if r.judged and r.row is not None else None
+    card: JsonObject = {"p_mound": r.p_mound, "reward": r.site.reward, "visited": r.visited}
+    if r.verdict is not None:
+        card["verdict"] = v.label if v is not None else r.verdict  # its own answer
+    card.update(final_label=r.final_label, label_source=r.label_source)
+    if v is not None:
+        card["confidence"] = v.confidence
+        if v.p_mound is not None:
+            card["verdict_p_mound"] = v.p_mound
+    if r.truth is not None:
+        card["truth"] = r.truth
+    if r.visited and not r.judged:
+        card["failure"] = (r.row.reason if r.row is not None else "not processed") or "?"
+    if v is not None and v.label == "undecided":
+        card["field_team"] = "; ".join(str(x.get("text", "")) for x in r.undecided_reasons())
+    rise = v.rise if v is not None and v.rise is not None else {}
+    card["measurements"] = {k: rise[k] for k in ("height_m", "base_diameter_m", "roundness")
+                            if k in rise}
+    look = r.row.second_look if v is not None and r.row is not None else None
+    if look is not None:
+        scan, p = look.scan_m, look.p_mound
+        card["second_look"] = (
+            f"flown ({look.source if look.source is not None else 'simulated'}"
+            + (f", a {scan:.0f} m scan" if scan is not None else "") + ")"
+            + (f": p(mound) {p:.3f} after both flights" if p is not None else "")
+            if look.flown else
+            f"advised, not flown: {look.reason if look.reason is not None else ''}")
+    card["files"] = dict(files)
+    return card
+
+
+def map_data(tree: RunTree, rows: list[SurveySite], metrics: JsonValue, sites_doc: Sites,
+             plan: Plan | None, out_dir: Path) -> dict[str, Any]:
+    """What the page draws (WGS84 degrees; `metrics` the summary's), the overlay PNGs
+    written into out_dir."""
     origin = sites_doc.origin
     if origin is None:
         raise InputError("sites: origin: missing (the map is in WGS84)")
-    rows = {r["id"]: r for r in summary["sites"]}
+    by_id = {r.id: r for r in rows}
     pos = {s.id: _lat_lon(origin, s.x_m, s.y_m) for s in sites_doc.sites}
     home = sites_doc.home
     pos[home.id] = _lat_lon(origin, home.x_m, home.y_m)
@@ -139,31 +182,10 @@ def map_data(tree: RunTree, summary: dict[str, Any], sites_doc: Sites, plan: Pla
                              "png": f"map/overlays/{png_name}", "bounds": bounds})
 
     for site in sites_doc.sites:
-        r = rows.get(site.id, {})
         lat, lon = pos[site.id]
-        card = {k: r[k] for k in ("p_mound", "reward", "visited", "verdict", "final_label",
-                                  "label_source", "confidence", "verdict_p_mound", "truth",
-                                  "failure") if k in r}
-        if "answer" in r:  # the verdict's own answer: mound, no_mound or undecided
-            card["verdict"] = r["answer"]
-        if r.get("answer") == "undecided":
-            card["field_team"] = "; ".join(x.get("text", "") for x in
-                                           (r.get("undecided") or {}).get("reasons", []))
-        rise = r.get("rise") or {}
-        card["measurements"] = {k: rise[k] for k in ("height_m", "base_diameter_m",
-                                                       "roundness") if k in rise}
-        look = r.get("second_look")
-        if isinstance(look, dict):
-            scan, p = look.get("scan_m"), look.get("p_mound")
-            card["second_look"] = (
-                f"flown ({look.get('source', 'simulated')}"
-                + (f", a {scan:.0f} m scan" if isinstance(scan, int | float) else "") + ")"
-                + (f": p(mound) {p:.3f} after both flights" if isinstance(p, int | float)
-                   else "")
-                if look.get("flown") else f"advised, not flown: {look.get('reason', '')}")
-        files = r.get("files") or {}
-        card["files"] = {k: v for k, v in files.items() if isinstance(v, str)}
-        sites.append({"id": site.id, "lat": lat, "lon": lon, "card": card})
+        here = by_id[site.id]
+        files = site_files(tree, here)
+        sites.append({"id": site.id, "lat": lat, "lon": lon, "card": site_card(here, files)})
         if files.get("rasters"):
             for name, kind in (("orthophoto", "rgb"), ("lrm", "relief")):
                 overlay(tree.root / files["rasters"] / f"{name}.tif", name, kind, site.id,
@@ -211,7 +233,7 @@ def map_data(tree: RunTree, summary: dict[str, Any], sites_doc: Sites, plan: Pla
             "sites": sites, "flights": flights, "overlays": overlays,
             "footprints": footprints,
             "budget_m": plan.budget_m if plan else None,
-            "metrics": summary.get("metrics", {})}
+            "metrics": metrics}
 
 
 def _next_battery(tree: RunTree) -> tuple[int, Plan] | None:
@@ -279,12 +301,13 @@ def viewer_doc(site_id: str, xyz: np.ndarray, rgb: np.ndarray | None, centre: np
         "cameras": frustums, "rise": shown}
 
 
-def site_viewer_doc(tree: RunTree, row: dict[str, Any]) -> dict[str, object] | None:
-    """viewer_doc for a visited site of the survey: its dense cloud (else the sparse one),
-    verdict.json's site centre, ground fit and rise, recon.json's cameras."""
+def site_viewer_doc(tree: RunTree, site_id: str, files: dict[str, str]
+                    ) -> dict[str, object] | None:
+    """viewer_doc for a visited site of the survey (its files: site_files): its dense cloud
+    (else the sparse one), verdict.json's site centre, ground fit and rise, recon.json's
+    cameras."""
     from mound.ply import read_ply
 
-    files = row.get("files") or {}
     cloud = None
     if files.get("dense") and (tree.root / files["dense"] / "dense.ply").is_file():
         cloud = tree.root / files["dense"] / "dense.ply"
@@ -312,7 +335,7 @@ def site_viewer_doc(tree: RunTree, row: dict[str, Any]) -> dict[str, object] | N
                 corners.append(c + R.T @ (ray * FRUSTUM_DEPTH_M))
             cameras.append(Frustum(c, corners))
     note = f"{cloud.name}: {len(xyz):,} points"
-    return viewer_doc(row["id"], xyz, rgb, np.array([centre[0], centre[1]]),
+    return viewer_doc(site_id, xyz, rgb, np.array([centre[0], centre[1]]),
                       ground, radius, m.rise, cameras, note)
 
 
@@ -341,22 +364,22 @@ def copy_web_files(root: Path) -> Path:
     return out_dir
 
 
-def write_map(tree: RunTree, summary: dict[str, Any], sites_doc: Sites, plan: Plan | None,
-              basemap: str | None = None) -> Path | None:
+def write_map(tree: RunTree, rows: list[SurveySite], metrics: JsonValue, sites_doc: Sites,
+              plan: Plan | None, basemap: str | None = None) -> Path | None:
     """DIR/map.html, DIR/site3d.html and DIR/map/ (Leaflet, three.js, survey.js, the
     sites' clouds, overlays); None (and nothing written) when the libraries are not
     installed (tools/setup.sh installs them)."""
     if not web_libraries_available():
         return None
     out_dir = copy_web_files(tree.root)
-    data = map_data(tree, summary, sites_doc, plan, out_dir)
+    data = map_data(tree, rows, metrics, sites_doc, plan, out_dir)
     data["basemap"] = basemap
     cards = {s["id"]: s["card"] for s in data["sites"]}
-    for r in summary["sites"]:
-        doc = site_viewer_doc(tree, r) if r.get("visited") else None
+    for r in rows:
+        doc = site_viewer_doc(tree, r.id, site_files(tree, r)) if r.visited else None
         if doc is not None:
             write_viewer_data(out_dir, doc)
-            cards[r["id"]]["viewer"] = f"site3d.html#{r['id']}"
+            cards[r.id]["viewer"] = f"site3d.html#{r.id}"
     write_atomic(out_dir / "survey.js",
                  "window.MOUND_SURVEY = " + json.dumps(data, separators=(",", ":")) + ";\n")
     page = tree.root / "map.html"
