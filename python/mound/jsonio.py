@@ -203,6 +203,28 @@ def optional_number(obj: Mapping[str, Any], key: str, where: str, *,
     return None if v is None else finite_number(v, f"{where}.{key}", lo=lo, hi=hi)
 
 
+def require_string(obj: Mapping[str, Any], key: str, where: str,
+                   default: str | None = None) -> str:
+    """obj[key] as a string; `default` when the key is absent and a default is given.
+    InputError naming `where.key` otherwise."""
+    v = obj.get(key, default)
+    if not isinstance(v, str):
+        raise InputError(f"{where}.{key}: expected a string, got {short_repr(v)}")
+    return v
+
+
+def optional_string(obj: Mapping[str, Any], key: str, where: str) -> str | None:
+    """obj[key] as a string, or None when the key is absent or null."""
+    return None if obj.get(key) is None else require_string(obj, key, where)
+
+
+def optional_number_list(obj: Mapping[str, Any], key: str, where: str,
+                         size: int | None = None) -> tuple[float, ...] | None:
+    """obj[key] as number_list reads it, or None when the key is absent or null."""
+    v = obj.get(key)
+    return None if v is None else number_list(v, f"{where}.{key}", size)
+
+
 def optional_object(obj: Mapping[str, Any], key: str, where: str) -> Mapping[str, Any] | None:
     """obj[key]: an object, or None when the key is absent or null; InputError naming
     `where.key` otherwise."""

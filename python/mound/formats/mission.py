@@ -15,7 +15,7 @@ and the second looks; read by the report and the day's record (`MissionSummary.r
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
@@ -30,8 +30,11 @@ from mound.jsonio import (
     load_json,
     number_list,
     optional_number,
+    optional_number_list,
+    optional_string,
     require_id,
     require_number,
+    require_string,
     short_repr,
 )
 
@@ -47,13 +50,6 @@ def _list(doc: Mapping[str, Any], key: str, where: str) -> list[Any]:
     v = doc.get(key, [])
     if not isinstance(v, list):
         raise InputError(f"{where}.{key}: expected a list, got {short_repr(v)}")
-    return v
-
-
-def _string(doc: Mapping[str, Any], key: str, where: str, default: str | None = None) -> str:
-    v = doc.get(key, default)
-    if not isinstance(v, str):
-        raise InputError(f"{where}.{key}: expected a string, got {short_repr(v)}")
     return v
 
 
@@ -88,7 +84,7 @@ class ClearanceSpec:
         kw = {name: require_number(d, name, where, lo=0, hi=10_000, default=getattr(cls, name))
               for name in ("clearance_m", "scan_clearance_m", "footprint_m", "climb_factor",
                            "descent_factor")}
-        spec = cls(**kw, vertical=_string(d, "vertical", where, cls.vertical))
+        spec = cls(**kw, vertical=require_string(d, "vertical", where, cls.vertical))
         spec.check()
         return spec
 
@@ -120,14 +116,12 @@ class MissionSite:
     @classmethod
     def from_doc(cls, doc: object, where: str) -> MissionSite:
         d = as_object(doc, where)
-        heights = d.get("scan_height_above_ground_m")
         return cls(require_id(d.get("id"), f"{where}.id"), require_number(d, "x_m", where),
                    require_number(d, "y_m", where),
                    require_number(d, "scan_length_m", where, lo=0),
                    _count(d, "images", where), require_number(d, "scan_cost_m", where, lo=0),
                    optional_number(d, "ground_amsl_m", where),
-                   None if heights is None
-                   else number_list(heights, f"{where}.scan_height_above_ground_m"))
+                   optional_number_list(d, "scan_height_above_ground_m", where))
 
 
 @dataclass(frozen=True)
@@ -214,7 +208,7 @@ class FlightTerrain:
         d = as_object(doc, where)
         if d.get("checked") is False:
             return None
-        return cls(_string(d, "dem", where), _string(d, "dem_crs", where),
+        return cls(require_string(d, "dem", where), require_string(d, "dem_crs", where),
                    require_number(d, "home_amsl_m", where), ClearanceSpec.from_doc(d, where),
                    require_number(d, "energy_m", where, lo=0),
                    require_number(d, "climbed_m", where, lo=0),
@@ -244,11 +238,11 @@ class FormatEntry:
     @classmethod
     def from_doc(cls, doc: object, where: str) -> FormatEntry:
         d = as_object(doc, where)
-        files = [_string({"f": f}, "f", f"{where}.files[{k}]")
-                 for k, f in enumerate(_list(d, "files", where))]
-        refused = d.get("refused")
-        if refused is not None and not isinstance(refused, str):
-            raise InputError(f"{where}.refused: expected a string")
+        files = _list(d, "files", where)
+        for i, f in enumerate(files):
+            if not isinstance(f, str):
+                raise InputError(f"{where}.files[{i}]: expected a string, got {short_repr(f)}")
+        refused = optional_string(d, "refused", where)
         about: About = {}
         for k, v in d.items():
             if k in ("files", "refused"):
@@ -278,7 +272,7 @@ class ScanRecord:
     @classmethod
     def from_doc(cls, doc: object, where: str) -> ScanRecord:
         d = as_object(doc, where)
-        return cls(_string(d, "pattern", where), require_number(d, "site_diameter_m", where),
+        return cls(require_string(d, "pattern", where), require_number(d, "site_diameter_m", where),
                    require_number(d, "cruise_speed_m_s", where),
                    require_number(d, "scan_speed_m_s", where))
 
@@ -325,18 +319,18 @@ class FlightSummary:
         if not isinstance(closed, bool):
             raise InputError(f"{where}.closed: expected true or false")
         formats = d.get("formats")
-        flight, file = d.get("flight"), d.get("file")
+        flight = optional_number(d, "flight", where, lo=1, hi=1e6)
         return cls(
             Origin.from_doc(d.get("origin"), f"{where}.origin"),
             _count(d, "items", where), require_number(d, "flight_distance_m", where, lo=0),
             require_number(d, "budget_m", where, lo=0), closed,
             tuple(MissionSite.from_doc(x, f"{where}.sites[{k}]")
                   for k, x in enumerate(_list(d, "sites", where))),
-            _string(d, "altitude_frame", where),
+            require_string(d, "altitude_frame", where),
             FlightTerrain.from_doc(d.get("terrain"), f"{where}.terrain"),
             ScanRecord.from_doc(d.get("scan"), f"{where}.scan"),
-            None if flight is None else int(require_number(d, "flight", where, lo=1, hi=1e6)),
-            None if file is None else _string(d, "file", where),
+            None if flight is None else int(flight),
+            optional_string(d, "file", where),
             None if formats is None else
             {str(k): FormatEntry.from_doc(v, f"{where}.formats.{k}")
              for k, v in as_object(formats, f"{where}.formats").items()})
@@ -365,7 +359,7 @@ class UploadRecord:
         verified = d.get("verified")
         if verified is not None and not isinstance(verified, bool):
             raise InputError(f"{where}.verified: expected true, false or null")
-        return cls(_string(d, "connect", where), _string(d, "file", where),
+        return cls(require_string(d, "connect", where), require_string(d, "file", where),
                    _count(d, "items", where), _count(d, "target_system", where),
                    require_number(d, "elapsed_s", where, lo=0),
                    _count(d, "retransmissions", where), _count(d, "restarts", where),
@@ -407,7 +401,7 @@ class SecondLookMissions:
         for k, r in enumerate(_list(d, "refused", where)):
             w = f"{where}.refused[{k}]"
             refused.append(Refusal(require_id(as_object(r, w).get("id"), f"{w}.id"),
-                                   _string(r, "reason", w)))
+                                   require_string(r, "reason", w)))
         return cls(tuple(require_id(x, f"{where}.sites[{k}]")
                          for k, x in enumerate(_list(d, "sites", where))),
                    require_number(d, "scan_factor", where, lo=1, hi=100),
@@ -477,7 +471,3 @@ class MissionSummary:
     def read(cls, path: str | Path) -> MissionSummary:
         return cls.from_doc(load_json(path), path)
 
-
-def sites_flown(flights: Sequence[FlightSummary]) -> list[str]:
-    """The ids of the sites the flights scan, in flight order."""
-    return [x.id for f in flights for x in f.sites]

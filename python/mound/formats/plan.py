@@ -184,11 +184,11 @@ class Plan:
     def to_doc(self) -> JsonObject:
         n = len(self.flights)
         doc: JsonObject = {"schema": SCHEMA, "version": VERSION, "status": self.status,
-                                  "algo": self.algo, **self.extra,
-                                  "closed": self.closed, "tour": list(self.flights[0].tour),
-                                  "flights": [f.to_doc(k + 1) for k, f in
-                                              enumerate(self.flights)],
-                                  "budget_m": self.budget_m}
+                           "algo": self.algo, **self.extra,
+                           "closed": self.closed, "tour": list(self.flights[0].tour),
+                           "flights": [f.to_doc(k + 1) for k, f in
+                                       enumerate(self.flights)],
+                           "budget_m": self.budget_m}
         if all(f.reward is not None for f in self.flights):
             doc["reward"] = self.reward
         if all(f.cost_m is not None for f in self.flights):

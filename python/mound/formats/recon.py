@@ -9,10 +9,8 @@ and the field. The rest (timings, the GPS fit, the bundle adjustments) stays in 
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
@@ -23,21 +21,14 @@ from mound.jsonio import (
     JsonObject,
     as_object,
     check_doc,
-    finite_number,
     load_json,
     optional_number,
+    optional_string,
     short_repr,
 )
 
 SCHEMA = "mound.recon"
 VERSION = 1
-
-
-def _optional_string(doc: Mapping[str, Any], key: str, where: str) -> str | None:
-    v = doc.get(key)
-    if v is not None and not isinstance(v, str):
-        raise InputError(f"{where}.{key}: expected a string, got {short_repr(v)}")
-    return v
 
 
 def _matrix(v: object, shape: tuple[int, ...], where: str) -> np.ndarray:
@@ -103,9 +94,6 @@ class Recon:
     def ok(self) -> bool:
         return self.status == "ok"
 
-    def registered(self) -> list[ReconImage]:
-        return [im for im in self.images if im.registered]
-
     def poses(self) -> list[tuple[str, Pose, np.ndarray]]:
         """Each registered image's file, cam_from_world and centre (the model's frame)."""
         return [(im.file, im.cam_from_world, np.array(im.centre, dtype=float))
@@ -115,7 +103,7 @@ class Recon:
     def summary(self) -> JsonObject:
         """What a site's row keeps of it (mound.survey_site's `recon`)."""
         return {"status": self.status, "frame": self.frame,
-                "registered": len(self.registered()), "images": len(self.images),
+                "registered": len(self.poses()), "images": len(self.images),
                 "points": self.points, "reprojection_rmse_px": self.reprojection_rmse_px,
                 "reason": self.reason or None}
 
@@ -126,10 +114,10 @@ class Recon:
         status = d.get("status")
         if status not in ("ok", "failed"):
             raise InputError(f"{where}: status: expected ok or failed, got {short_repr(status)}")
-        reason = _optional_string(d, "reason", where) or ""
+        reason = optional_string(d, "reason", where) or ""
         origin_doc = d.get("origin")
         origin = None if origin_doc is None else Origin.from_doc(origin_doc, f"{where}: origin")
-        alt_datum = None if origin_doc is None else _optional_string(
+        alt_datum = None if origin_doc is None else optional_string(
             origin_doc, "alt_datum", f"{where}: origin")
         inputs = as_object(d.get("inputs") or {}, f"{where}: inputs")
         camera = None
@@ -142,16 +130,14 @@ class Recon:
         if not isinstance(images, list):
             raise InputError(f"{where}: images: expected a list")
         points = optional_number(d, "points", where, lo=0)
-        return cls(where, str(status), reason, _optional_string(d, "frame", where),
-                   _optional_string(d, "scale", where), origin, alt_datum,
-                   _optional_string(inputs, "gps_source", f"{where}: inputs"),
-                   _optional_string(d, "images_dir", where), camera,
+        return cls(where, str(status), reason, optional_string(d, "frame", where),
+                   optional_string(d, "scale", where), origin, alt_datum,
+                   optional_string(inputs, "gps_source", f"{where}: inputs"),
+                   optional_string(d, "images_dir", where), camera,
                    tuple(ReconImage.from_doc(im, f"{where}: images[{k}]")
                          for k, im in enumerate(images)),
                    None if points is None else int(points),
-                   None if d.get("reprojection_rmse_px") is None
-                   else finite_number(d["reprojection_rmse_px"],
-                                      f"{where}: reprojection_rmse_px", lo=0))
+                   optional_number(d, "reprojection_rmse_px", where, lo=0))
 
     @classmethod
     def read(cls, path: str | Path) -> Recon:

@@ -110,7 +110,7 @@ class Site:
 
     def to_doc(self) -> JsonObject:
         doc: JsonObject = {"id": self.id, "x_m": self.x_m, "y_m": self.y_m,
-                                  "reward": self.reward, "scan_cost_m": self.scan_cost_m}
+                           "reward": self.reward, "scan_cost_m": self.scan_cost_m}
         if self.p_mound is not None:
             doc["p_mound"] = self.p_mound
         if self.truth is not None:

@@ -16,6 +16,7 @@ from mound.classify.metrics import says_mound
 from mound.errors import InputError
 from mound.formats.site_row import SiteRow
 from mound.formats.sites import Site
+from mound.formats.verdict import Verdict
 from mound.jsonio import JsonObject
 
 # What a site's entry copies of its row (SiteRow.to_doc()) when the site was judged, and
@@ -57,29 +58,28 @@ class SurveySite:
         return "mound" if says_mound(self.p_mound) else "no_mound"
 
     @property
+    def judged_verdict(self) -> Verdict | None:
+        """Its 3-D verdict, where it was visited and the verdict stands (None otherwise)."""
+        row = self.row
+        return row.verdict if self.visited and row is not None and row.ok else None
+
+    @property
     def judged(self) -> bool:
         """Visited, and its 3-D verdict stands."""
-        return (self.visited and self.row is not None and self.row.ok
-                and self.row.verdict is not None)
+        return self.judged_verdict is not None
 
     @property
     def verdict(self) -> str | None:
         """The 3-D verdict's two answers, `failed` (visited, no verdict), None (not
         visited)."""
-        if not self.visited:
-            return None
-        if self.judged:
-            assert self.row is not None and self.row.verdict is not None
-            return self.row.verdict.two_answer
-        return "failed"
+        v = self.judged_verdict
+        return v.two_answer if v is not None else "failed" if self.visited else None
 
     @property
     def answer(self) -> str | None:
         """The verdict's own answer (mound, no_mound or undecided); None without one."""
-        if not self.judged:
-            return None
-        assert self.row is not None and self.row.verdict is not None
-        return self.row.verdict.label
+        v = self.judged_verdict
+        return v.label if v is not None else None
 
     @property
     def final_label(self) -> str:
@@ -93,17 +93,15 @@ class SurveySite:
 
     def undecided_reasons(self) -> list[Mapping[str, object]]:
         """The verdict's reasons for leaving the site undecided (code, text)."""
-        if not self.judged:
-            return []
-        assert self.row is not None and self.row.verdict is not None
-        reasons = (self.row.verdict.undecided or {}).get("reasons", [])
+        v = self.judged_verdict
+        reasons = (v.undecided or {}).get("reasons", []) if v is not None else []
         return [r for r in reasons if isinstance(r, dict)] if isinstance(reasons, list) else []
 
     def to_doc(self) -> JsonObject:
         s = self.site
         doc: JsonObject = {"id": s.id, "x_m": s.x_m, "y_m": s.y_m,
-                                  "p_mound": self.p_mound, "reward": s.reward,
-                                  "visited": self.visited}
+                           "p_mound": self.p_mound, "reward": s.reward,
+                           "visited": self.visited}
         if self.truth is not None:
             doc["truth"] = self.truth
         doc["classifier_label"] = self.classifier_label

@@ -26,8 +26,8 @@ from mound.jsonio import (
     check_doc,
     finite_number,
     load_json,
-    number_list,
     optional_number,
+    optional_number_list,
     optional_object,
     read_json,
     require_choice,
@@ -139,13 +139,6 @@ class Verdict:
         return cls.from_doc(load_json(path), path)
 
 
-def _numbers(doc: Mapping[str, object], key: str, where: str,
-             size: int | None = None) -> tuple[float, ...] | None:
-    """doc[key] as a list of finite numbers (`size` of them when given), None when absent."""
-    v = doc.get(key)
-    return None if v is None else number_list(v, f"{where}.{key}", size)
-
-
 @dataclass(frozen=True)
 class Rise:
     """A rise the verdict judged (measurements.judged_rises[k], or its chosen `rise`): its
@@ -173,8 +166,8 @@ class Rise:
                    optional_number(d, "height_m", where),
                    optional_number(d, "roundness", where),
                    optional_number(d, "dome_r2", where),
-                   _numbers(d, "ground_plane", where, 3),
-                   _numbers(d, "ground_curvature", where, 3))
+                   optional_number_list(d, "ground_plane", where, 3),
+                   optional_number_list(d, "ground_curvature", where, 3))
 
 
 def rises_of(docs: object, where: str) -> tuple[Rise, ...]:
@@ -215,7 +208,7 @@ class Measurements:
             Rise.from_doc(m["rise"], f"{where}.rise") if m.get("rise") else None,
             None if centre is None else xy_metres(centre, f"{where}.site_centre_enu_m"),
             optional_number(m, "site_radius_m", where, lo=0.0),
-            _numbers(m, "ground_coefficients", where, 6),
+            optional_number_list(m, "ground_coefficients", where, 6),
             optional_number(m, "cell_m", where, lo=0.0),
             None if terrain is None else {
                 str(k): finite_number(x, f"{where}.terrain.{k}")

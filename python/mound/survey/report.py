@@ -76,12 +76,13 @@ def field_team(judged: list[SurveySite]) -> list[dict[str, object]]:
     with its p(mound) and why (the verdict's undecided reasons)."""
     out: list[dict[str, object]] = []
     for r in judged:
-        if r.answer != "undecided" or r.row is None or r.row.verdict is None:
+        v = r.judged_verdict
+        if v is None or v.label != "undecided" or r.row is None:
             continue
         why = r.undecided_reasons()
         look = r.row.second_look
         out.append({"id": r.id, "x_m": r.site.x_m, "y_m": r.site.y_m,
-                    "p_mound": r.row.verdict.p_mound,
+                    "p_mound": v.p_mound,
                     "reasons": [x.get("code") for x in why],
                     "why": "; ".join(str(x.get("text", "")) for x in why),
                     "second_look_flown": bool(look is not None and look.flown)})

@@ -126,7 +126,7 @@ def site_card(r: SurveySite, files: dict[str, str]) -> JsonObject:
     """What the map's side panel says of a site: the classifier's p and reward, the
     verdict's answer, p and reason to send the field team, the judged rise, the second
     look, the files."""
-    v = r.row.verdict if r.judged and r.row is not None else None
+    v = r.judged_verdict
     card: JsonObject = {"p_mound": r.p_mound, "reward": r.site.reward, "visited": r.visited}
     if r.verdict is not None:
         card["verdict"] = v.label if v is not None else r.verdict  # its own answer
