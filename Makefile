@@ -32,17 +32,23 @@ test: build test-cpp test-python lint docs
 test-cpp: build
 	cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
 
+# pytest on JOBS workers (pytest-xdist), a test file to a worker: a file's module fixtures
+# (a survey, a trained model) are made once, and the two cores stay busy while one worker
+# waits on a tool, a link or a Dask cluster. PYTEST_JOBS=0 runs in this one process.
+PYTEST_JOBS ?= $(JOBS)
+PYTEST_PAR  := -n $(PYTEST_JOBS) --dist loadfile
+
 # The run traces which tests start a compiled tool (tools/native_tests.py): test-asan
 # runs those again under the sanitizers, and only those when the trace is current.
 test-python: build
 	rm -f $(BUILD)/tool-trace.txt
-	MOUND_TOOL_TRACE=$(abspath $(BUILD))/tool-trace.txt $(PY) -m pytest -q
+	MOUND_TOOL_TRACE=$(abspath $(BUILD))/tool-trace.txt $(PY) -m pytest -q $(PYTEST_PAR)
 	$(PY) tools/native_tests.py write $(BUILD)/tool-trace.txt $(BUILD)/native-tests.txt
 
 # The edit-test loop (< 1 min after the build): every ctest binary (~15 s) and the pytest
 # tests not marked slow (~40 s). `make test` still runs everything.
 test-fast: test-cpp
-	$(PY) -m pytest -q -m "not slow"
+	$(PY) -m pytest -q $(PYTEST_PAR) -m "not slow"
 
 # C++ sources of the project (the fuzz corpus and build trees excluded).
 CXX_SOURCES = $(shell find cpp tools -name '*.cc' -o -name '*.h')
@@ -90,7 +96,7 @@ test-asan: build-asan
 	cd $(ASAN_BUILD) && ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
 	  ctest --output-on-failure -j $(JOBS)
 	MOUND_BUILD_DIR=$(abspath $(ASAN_BUILD)) ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 \
-	  UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 $(PY) -m pytest -q \
+	  UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 $(PY) -m pytest -q $(PYTEST_PAR) \
 	  $$($(PY) tools/native_tests.py args $(BUILD)/native-tests.txt)
 
 # The main job: the whole survey in one command (python/mission.py re-executes itself

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -31,11 +32,13 @@ def shared_data() -> Path:
     return path
 
 
-@pytest.fixture(autouse=True)
-def data_cache(shared_data: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
-    """Every test reads the public data sets from ../shared/data (byte-identical copies)."""
-    monkeypatch.setenv("MOUND_DATA", str(shared_data))
-    return shared_data
+@pytest.fixture(scope="session", autouse=True)
+def data_cache(shared_data: Path) -> Iterator[Path]:
+    """Every test, and every module fixture, reads the public data sets from ../shared/data
+    (byte-identical copies), whatever order the tests run in."""
+    with pytest.MonkeyPatch.context() as env:
+        env.setenv("MOUND_DATA", str(shared_data))
+        yield shared_data
 
 
 @pytest.fixture(scope="session")

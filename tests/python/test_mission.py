@@ -276,7 +276,8 @@ def test_upload_over_a_serial_line() -> None:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("n, loss", [(20, 0.1), (200, 0.06), (1000, 0.05)])
+# 1,000 items through a 5 %-lossy link take 90 s: tools/bench/bench_mission.py flies them.
+@pytest.mark.parametrize("n, loss", [(20, 0.1), (200, 0.06)])
 def test_upload_through_a_lossy_link(vehicle: MavsdkVehicle, n: int, loss: float) -> None:
     items = items_of(n)
     before = len(vehicle.missions)
