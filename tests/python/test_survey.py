@@ -774,7 +774,7 @@ def test_the_second_looks_advised_become_a_mission_in_the_report(
         for sid, look in zip(visited[:2], looks, strict=True):
             path = SiteTree(ctx.tree.site_dir(sid)).result
             write_json(path, replace(SiteRow.read(path), second_look=look).to_doc())
-        report.write_reports(ctx.tree, summary)
+        report.write_reports(ctx.tree, report.build_summary(ctx.tree, args, [], time.time()))
         js = (run / "map" / "survey.js").read_text()
         assert "flown (photos, a 120 m scan): p(mound) 0.900 after both flights" in js
         assert "advised, not flown: a second card of the site is needed" in js

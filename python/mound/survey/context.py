@@ -15,8 +15,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from mound.datasets import sha256_of
+from mound.formats.survey import StageRun
 from mound.geometry.flight import ScanSpec, scan_for_site
-from mound.jsonio import JsonObject
 from mound.survey.ledger import Ledger, StageRecord, digest
 from mound.survey.options import (
     SurveyOptions,
@@ -25,35 +25,6 @@ from mound.survey.tree import RunTree
 
 if TYPE_CHECKING:
     from mound.uav.mission_items import TerrainInput
-
-SCHEMA = "mound.survey"
-
-
-VERSION = 1
-
-
-@dataclass(frozen=True)
-class StageRun:
-    """A stage as this invocation met it (summary.json's stages[k]): run, with its wall time
-    and whether it completed, or skipped (unchanged, or not needed), with the time it took
-    when it ran."""
-
-    name: str
-    wall_s: float
-    skipped: bool
-    note: str = ""
-    complete: bool | None = None  # run: whether every unit of its work finished
-    wall_s_when_run: float | None = None  # skipped: the ledger's time of it
-
-    def to_doc(self) -> JsonObject:
-        if self.skipped:
-            when = ({} if self.wall_s_when_run is None  # not needed: never ran
-                    else {"wall_s_when_run": self.wall_s_when_run})
-            return {"name": self.name, "wall_s": self.wall_s, "skipped": True, **when,
-                    "note": self.note}
-        return {"name": self.name, "wall_s": self.wall_s, "skipped": False, "note": self.note,
-                "complete": self.complete}
-
 
 @dataclass
 class Context:

@@ -36,8 +36,9 @@ from typing import get_args
 from mound import native
 from mound.args import Parser
 from mound.errors import EXIT_NO_RESULT, exit_for, exit_on_interrupt
+from mound.formats.survey import SCHEMA, VERSION
 from mound.jsonio import read_json
-from mound.survey.context import SCHEMA, VERSION, Context
+from mound.survey.context import Context
 from mound.survey.ledger import Ledger
 from mound.survey.options import (
     NUMBERS,

@@ -30,6 +30,7 @@ from mound.errors import InputError
 from mound.flightplan.terrain import spec_from_args
 from mound.formats.mission import ClearanceSpec
 from mound.geometry.flight import DEFAULT_SITE_DIAMETER_M
+from mound.jsonio import JsonObject
 from mound.recon.tool_options import DensifyOptions
 
 ScanPattern = Literal["raster", "orbit", "both"]
@@ -136,7 +137,7 @@ class SurveyOptions:
         """The scene GeoTIFFs (none without --scene)."""
         return list(self.scene or ())
 
-    def as_dict(self) -> dict[str, object]:
+    def as_dict(self) -> JsonObject:
         """JSON-ready (tuples as lists), for summary.json's `options`."""
         return {k: (list(v) if isinstance(v, tuple) else v)
                 for k, v in dataclasses.asdict(self).items()}

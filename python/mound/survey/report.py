@@ -16,23 +16,29 @@ from __future__ import annotations
 import html
 import json
 import time
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 from mound.classify.metrics import detection_error_rates, says_mound
-from mound.formats.mission import FlightSummary, MissionSummary
+from mound.formats.mission import MissionSummary
 from mound.formats.plan import Plan
 from mound.formats.site_row import SiteRow
 from mound.formats.sites import Sites
-from mound.formats.survey import SurveySite
+from mound.formats.survey import (
+    ErrorRates,
+    FieldCounts,
+    FieldTeamSite,
+    StageRun,
+    SurveyMetrics,
+    SurveySite,
+    SurveySummary,
+    ThreeAnswers,
+)
 from mound.jsonio import read_json, write_atomic
 from mound.survey import figures
-from mound.survey.context import StageRun
 from mound.survey.options import SurveyOptions
 from mound.survey.tree import RunTree, SiteTree, waiting_for_card
-
-SCHEMA = "mound.survey"
-VERSION = 1
 
 
 def _plan(path: Path) -> Plan | None:
@@ -40,7 +46,8 @@ def _plan(path: Path) -> Plan | None:
 
 
 def site_rows(tree: RunTree, sites_doc: Sites, plan: Plan | None) -> list[SurveySite]:
-    """Every candidate site, with its 3-D work's row where the tour visited it."""
+    """Every candidate site, with its 3-D work's row where the tour visited it (its files
+    those that exist, relative to the run directory as report.html is)."""
     tour = plan.visited() if plan else set()
     rows = []
     for s in sites_doc.sites:
@@ -48,11 +55,14 @@ def site_rows(tree: RunTree, sites_doc: Sites, plan: Plan | None) -> list[Survey
         if s.id in tour:
             path = SiteTree(tree.site_dir(s.id)).result
             row = SiteRow.read(path) if path.is_file() else None
+        if row is not None and row.files:
+            row = replace(row, files={k: v for k, v in row.files.items()
+                                      if (tree.root / v).exists()})
         rows.append(SurveySite(s, s.id in tour, row))
     return rows
 
 
-def three_answer_metrics(judged: list[SurveySite]) -> dict[str, object]:
+def three_answer_metrics(judged: list[SurveySite]) -> ThreeAnswers:
     """The judged sites by the verdict's own answer, and the selective error rates: of the
     decided sites with a known truth, the true mounds called no_mound and the other sites
     called mound (the undecided ones left to a second look or a person)."""
@@ -61,49 +71,48 @@ def three_answer_metrics(judged: list[SurveySite]) -> dict[str, object]:
                if a != "undecided" and r.truth is not None]
     mounds = [r for r in decided if r.truth]
     others = [r for r in decided if not r.truth]
-    return {"decided": sum(1 for a in answer if a != "undecided"),
-            "undecided": sum(1 for a in answer if a == "undecided"),
-            "selective": {
-                "eps_md": (sum(1 for r in mounds if (r.answer or r.verdict) == "no_mound")
-                           / len(mounds) if mounds else None),
-                "eps_fa": (sum(1 for r in others if (r.answer or r.verdict) == "mound")
-                           / len(others) if others else None),
-                "decided_with_truth": len(decided)}}
+    return ThreeAnswers(
+        sum(1 for a in answer if a != "undecided"), sum(1 for a in answer if a == "undecided"),
+        ErrorRates(sum(1 for r in mounds if (r.answer or r.verdict) == "no_mound") / len(mounds)
+                   if mounds else None,
+                   sum(1 for r in others if (r.answer or r.verdict) == "mound") / len(others)
+                   if others else None),
+        len(decided))
 
 
-def field_team(judged: list[SurveySite]) -> list[dict[str, object]]:
+def field_team(judged: list[SurveySite]) -> list[FieldTeamSite]:
     """The sites still undecided after every look the survey flew: for the field team, each
     with its p(mound) and why (the verdict's undecided reasons)."""
-    out: list[dict[str, object]] = []
+    out = []
     for r in judged:
         v = r.judged_verdict
         if v is None or v.label != "undecided" or r.row is None:
             continue
         why = r.undecided_reasons()
         look = r.row.second_look
-        out.append({"id": r.id, "x_m": r.site.x_m, "y_m": r.site.y_m,
-                    "p_mound": v.p_mound,
-                    "reasons": [x.get("code") for x in why],
-                    "why": "; ".join(str(x.get("text", "")) for x in why),
-                    "second_look_flown": bool(look is not None and look.flown)})
+        codes = (x.get("code") for x in why)
+        out.append(FieldTeamSite(r.id, r.site.x_m, r.site.y_m, v.p_mound,
+                                 tuple(c if isinstance(c, str) else None for c in codes),
+                                 "; ".join(str(x.get("text", "")) for x in why),
+                                 bool(look is not None and look.flown)))
     return out
 
 
+def _rates(labels: list[bool], truth: list[bool | None]) -> ErrorRates:
+    return ErrorRates(*detection_error_rates(labels, truth))
+
+
 def build_summary(tree: RunTree, args: SurveyOptions, stages: list[StageRun],
-                  started: float) -> dict[str, Any]:
+                  started: float) -> SurveySummary:
     learned = args.learn
     sites_doc = Sites.read(tree.final_sites(learned))
     plan = _plan(tree.final_plan(learned))
-    mission = _missions(tree.mission_summary)
     rows = site_rows(tree, sites_doc, plan)
     truth = [r.truth for r in rows]
     final = [r.final_label == "mound" for r in rows]
     classifier = [r.classifier_label == "mound" for r in rows]
     perfect = [bool(r.truth) if r.visited and r.truth is not None else c
                for r, c in zip(rows, classifier, strict=True)]
-    md, fa = detection_error_rates(final, truth)
-    cmd, cfa = detection_error_rates(classifier, truth)
-    pmd, pfa = detection_error_rates(perfect, truth)
     visited = [r for r in rows if r.visited]
     judged = [r for r in visited if r.judged]
     correct = [r for r in judged if r.truth is not None and (r.verdict == "mound") == r.truth]
@@ -117,95 +126,53 @@ def build_summary(tree: RunTree, args: SurveyOptions, stages: list[StageRun],
     waiting = waiting_for_card(tree) if args.cards is not None else None
     if waiting is not None and status != "partial":
         status, reason = "waiting", waiting
-    doc: dict[str, Any] = {
-        "schema": SCHEMA, "version": VERSION, "status": status,
-        "created_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
-        "origin": sites_doc.origin.to_doc() if sites_doc.origin else None,
-        "options": args.as_dict(),
-        "field": {"source": args.sites or f"standard field seed {args.field_seed}",
-                  "sites": len(rows), "true_mounds": sum(1 for t in truth if t),
-                  "truth_known": sum(1 for t in truth if t is not None),
-                  "total_reward": sum(r.site.reward for r in rows)},
-        "sites": [r.to_doc() for r in rows],
-        "metrics": {
-            "eps_md": md, "eps_fa": fa,
-            "reward": plan.reward if plan else 0.0,
-            "cost_m": plan.cost_m if plan else 0.0,
-            "budget_m": sites_doc.budget_m,
-            "visited": len(visited), "judged": len(judged),
-            "failed": len(visited) - len(judged),
-            "verdicts_correct": len(correct),
-            "verdicts_with_truth": sum(1 for r in judged if r.truth is not None),
-            "classifier_only": {"eps_md": cmd, "eps_fa": cfa},
-            "perfect_verification": {"eps_md": pmd, "eps_fa": pfa},
-            "three_answers": three_answer_metrics(judged),
-        },
-        "for_field_team": field_team(judged),
-        "stages": [st.to_doc() for st in stages],
-        "wall_s": time.time() - started,
-    }
-    if reason:
-        doc["reason"] = reason
+    learn, before = None, None
     if learned and (tree.learn / "learn.json").is_file():
-        doc["learn"] = read_json(tree.learn / "learn.json", "mound.learn", 1)
+        learn = read_json(tree.learn / "learn.json", "mound.learn", 1)
         first = Sites.read(tree.sites)
-        before = [s.p_mound is not None and says_mound(s.p_mound) for s in first.sites]
-        bmd, bfa = detection_error_rates(before, truth)
-        doc["metrics"]["classifier_before_flights"] = {"eps_md": bmd, "eps_fa": bfa}
+        before = _rates([s.p_mound is not None and says_mound(s.p_mound)
+                         for s in first.sites], truth)
+    photos = None
     if (tree.photos / "photos.json").is_file():
         card = read_json(tree.photos / "photos.json", "mound.photos", 1)
-        doc["photos"] = {"card": card["card"], "counts": card["counts"],
-                         "sites": card["sites"], "file": "photos/photos.json",
-                         "skipped_folders": card.get("skipped_folders", [])}
-    if plan:
-        written = plan.to_doc()
-        doc["plan"] = {k: written.get(k) for k in ("algo", "tour", "reward", "cost_m",
-                                                    "budget_m", "n_visited", "n_sites",
-                                                    "flights")}
-    if mission:
-        doc["mission"] = {"items": mission.items,
-                          "flight_distance_m": mission.flight_distance_m,
-                          "budget_m": mission.budget_m,
-                          "upload": mission.upload.to_doc() if mission.upload else None,
-                          "flights": [_flight_row(f) for f in mission.flights]}
-    second = _missions(tree.second_look / "mission.json")
-    if second and second.second_look:
-        doc["second_look_missions"] = {
-            **second.second_look.to_doc(), "flight_distance_m": second.flight_distance_m,
-            "flights": [{"flight": f.flight, "file": f.file, "items": f.items,
-                         "flight_distance_m": f.flight_distance_m,
-                         "sites": [x.id for x in f.sites]} for f in second.flights],
-            "folder": "second_look"}
-    return doc
+        photos = {"card": card["card"], "counts": card["counts"], "sites": card["sites"],
+                  "file": "photos/photos.json",
+                  "skipped_folders": card.get("skipped_folders", [])}
+    metrics = SurveyMetrics(
+        _rates(final, truth), plan.reward if plan else 0.0, plan.cost_m if plan else 0.0,
+        sites_doc.budget_m, len(visited), len(judged), len(correct),
+        sum(1 for r in judged if r.truth is not None), _rates(classifier, truth),
+        _rates(perfect, truth), three_answer_metrics(judged), before)
+    return SurveySummary(
+        status, reason, time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()), sites_doc.origin,
+        args.as_dict(),
+        FieldCounts(args.sites or f"standard field seed {args.field_seed}", len(rows),
+                    sum(1 for t in truth if t), sum(1 for t in truth if t is not None),
+                    sum(r.site.reward for r in rows)),
+        tuple(rows), metrics, tuple(field_team(judged)), tuple(stages), time.time() - started,
+        learn, photos, plan, _missions(tree.mission_summary),
+        _missions(tree.second_look / "mission.json"))
 
 
 def _missions(path: Path) -> MissionSummary | None:
     return MissionSummary.read(path) if path.is_file() else None
 
 
-def _flight_row(f: FlightSummary) -> dict[str, object]:
-    """A flight of the summary's `mission`: its number, file, items, distance and sites,
-    over a DEM its energy and lowest transit clearance."""
-    return {"flight": f.flight, "file": f.file, "items": f.items,
-            "flight_distance_m": f.flight_distance_m, "sites": [x.to_doc() for x in f.sites],
-            **({"energy_m": f.terrain.energy_m,
-                "lowest_clearance_m": f.terrain.lowest_clearance_m} if f.terrain else {})}
-
-
-def _second_look_text(s: dict[str, Any]) -> str:
+def _second_look_text(s: SurveySummary) -> str:
     """The second looks' missions in a sentence (plain text; empty without any)."""
-    sl = s.get("second_look_missions")
-    if not sl:
+    second = s.second_look
+    sl = second.second_look if second is not None else None
+    if second is None or sl is None:
         return ""
-    flights = sl["flights"]
-    text = (f"Second looks advised for {len(sl['sites'])} sites ({', '.join(sl['sites'])}): "
+    flights = second.flights
+    text = (f"Second looks advised for {len(sl.sites)} sites ({', '.join(sl.sites)}): "
             f"{len(flights)} mission{'s' if len(flights) != 1 else ''} with a "
-            f"{_fmt(sl['site_diameter_m'], 0)} m scan ({_fmt(sl['scan_factor'], 1)} x as wide), "
-            f"{_fmt(sl['flight_distance_m'], 0)} m in all, in {sl['folder']}/ ("
-            + "; ".join(f"{f['file']}: {', '.join(f['sites'])}, "
-                        f"{_fmt(f['flight_distance_m'], 0)} m" for f in flights) + ").")
-    for r in sl.get("refused") or []:
-        text += f" {r['id']} refused: {r['reason']}."
+            f"{_fmt(sl.site_diameter_m, 0)} m scan ({_fmt(sl.scan_factor, 1)} x as wide), "
+            f"{_fmt(second.flight_distance_m, 0)} m in all, in second_look/ ("
+            + "; ".join(f"{f.file}: {', '.join(x.id for x in f.sites)}, "
+                        f"{_fmt(f.flight_distance_m, 0)} m" for f in flights) + ").")
+    for r in sl.refused:
+        text += f" {r.id} refused: {r.reason}."
     return text
 
 
@@ -316,17 +283,16 @@ def _site_card(r: dict[str, Any]) -> str:
     return "".join(parts)
 
 
-def _metrics_table(m: dict[str, Any]) -> str:
-    rows = [("classifier alone (p ≥ 0.5)", m["classifier_only"]),
-            ("this survey (3-D verdicts where visited)", {"eps_md": m["eps_md"],
-                                                         "eps_fa": m["eps_fa"]}),
-            ("perfect verification of the visited sites", m["perfect_verification"])]
-    three = m.get("three_answers") or {}
-    if three.get("undecided"):
-        rows.insert(2, (f"this survey, its {three['decided']} decided verdicts only "
-                        f"({three['undecided']} undecided)", three["selective"]))
-    body = "".join(f'<tr><td class="l">{html.escape(name)}</td><td>{_fmt(v["eps_md"])}</td>'
-                   f'<td>{_fmt(v["eps_fa"])}</td></tr>' for name, v in rows)
+def _metrics_table(m: SurveyMetrics) -> str:
+    rows = [("classifier alone (p ≥ 0.5)", m.classifier_only),
+            ("this survey (3-D verdicts where visited)", m.survey),
+            ("perfect verification of the visited sites", m.perfect_verification)]
+    three = m.three_answers
+    if three.undecided:
+        rows.insert(2, (f"this survey, its {three.decided} decided verdicts only "
+                        f"({three.undecided} undecided)", three.selective))
+    body = "".join(f'<tr><td class="l">{html.escape(name)}</td><td>{_fmt(v.eps_md)}</td>'
+                   f'<td>{_fmt(v.eps_fa)}</td></tr>' for name, v in rows)
     return ('<table><tr><th class="l">labels</th><th>ε<sub>MD</sub> (missed)</th>'
             f'<th>ε<sub>FA</sub> (false alarms)</th></tr>{body}</table>')
 
@@ -350,7 +316,7 @@ def _card_table(card: dict[str, Any]) -> str:
             + (f'<p class="muted">folders not read:</p><ul>{skipped}</ul>' if skipped else ""))
 
 
-def _learn_table(learn: dict[str, Any], m: dict[str, Any]) -> str:
+def _learn_table(learn: dict[str, Any], m: SurveyMetrics) -> str:
     """Each flight teaching the next: what it flew, what was learned, how p changed."""
     e = html.escape
     body = ""
@@ -365,14 +331,14 @@ def _learn_table(learn: dict[str, Any], m: dict[str, Any]) -> str:
                  f'<td>{f["planned_reward"]:.2f}</td><td class="l">{e(ex)}</td>'
                  f'<td>{f["held_out_auc"]:.4f}</td><td>{f["labels_flipped"]}</td>'
                  f'<td>{f["max_abs_dp"]:.4f}</td><td class="l">{e(moved)}</td></tr>')
-    before = m.get("classifier_before_flights") or {}
+    before = m.classifier_before_flights or ErrorRates(None, None)
     return (f'<p>After each flight its verdicts (weighted by confidence times '
             f'{learn["learn_weight"]:g}) retrained the classifier and the next flight was '
             f're-planned. Held-out AUC ({e(learn["evaluation"])}, '
             f'{learn["held_out_rows"]} rows): {learn["held_out_auc_before"]:.4f} before, '
             f'{learn["held_out_auc_after"]:.4f} after. The classifier alone before any '
-            f'flight: ε<sub>MD</sub> {_fmt(before.get("eps_md"))}, ε<sub>FA</sub> '
-            f'{_fmt(before.get("eps_fa"))}.</p><table><tr><th>flight</th>'
+            f'flight: ε<sub>MD</sub> {_fmt(before.eps_md)}, ε<sub>FA</sub> '
+            f'{_fmt(before.eps_fa)}.</p><table><tr><th>flight</th>'
             '<th class="l">sites flown</th><th class="l">sites of the first plan</th>'
             '<th>planned reward (bits)</th><th class="l">learned '
             '(verdict, confidence)</th><th>held-out AUC</th><th>labels flipped</th>'
@@ -380,93 +346,99 @@ def _learn_table(learn: dict[str, Any], m: dict[str, Any]) -> str:
             f'{body}</table>')
 
 
-def _stage_table(stages: list[dict[str, Any]]) -> str:
+def _stage_table(stages: tuple[StageRun, ...]) -> str:
     body = ""
     for s in stages:
-        wall = (f"skipped (ran in {_fmt(s.get('wall_s_when_run'), 1)} s)" if s.get("skipped")
-                else f"{s['wall_s']:.1f} s")
-        body += (f'<tr><td class="l">{html.escape(s["name"])}</td><td>{wall}</td>'
-                 f'<td class="l">{html.escape(str(s.get("note", "")))}</td></tr>')
+        wall = (f"skipped (ran in {_fmt(s.wall_s_when_run, 1)} s)" if s.skipped
+                else f"{s.wall_s:.1f} s")
+        body += (f'<tr><td class="l">{html.escape(s.name)}</td><td>{wall}</td>'
+                 f'<td class="l">{html.escape(s.note)}</td></tr>')
     return ('<table><tr><th class="l">stage</th><th>wall time</th><th class="l">result</th>'
             f'</tr>{body}</table>')
 
 
-def _sites_table(rows: list[dict[str, Any]]) -> str:
+def _sites_table(rows: tuple[SurveySite, ...]) -> str:
     body = ""
-    for r in sorted(rows, key=lambda r: (not r["visited"], -r["reward"])):
-        link = (f'<a href="#site-{html.escape(r["id"])}">{html.escape(r["id"])}</a>'
-                if r["visited"] else html.escape(r["id"]))
-        truth = "" if "truth" not in r else _label("mound" if r["truth"] else "no_mound")
-        body += (f'<tr><td class="l">{link}</td><td>{r["x_m"]:.0f}</td><td>{r["y_m"]:.0f}</td>'
-                 f'<td>{r["p_mound"]:.3f}</td><td>{r["reward"]:.3f}</td>'
-                 f'<td>{"yes" if r["visited"] else ""}</td>'
-                 f'<td class="l">{_label(r["verdict"]) if "verdict" in r else ""}</td>'
-                 f'<td>{_fmt(r["verdict_p_mound"]) if "verdict_p_mound" in r else ""}</td>'
-                 f'<td class="l">{_label(r["final_label"])}</td><td class="l">{truth}</td></tr>')
+    for r in sorted(rows, key=lambda r: (not r.visited, -r.site.reward)):
+        link = (f'<a href="#site-{html.escape(r.id)}">{html.escape(r.id)}</a>'
+                if r.visited else html.escape(r.id))
+        truth = "" if r.truth is None else _label("mound" if r.truth else "no_mound")
+        v = r.judged_verdict
+        p = v.p_mound if v is not None else None
+        body += (f'<tr><td class="l">{link}</td><td>{r.site.x_m:.0f}</td>'
+                 f'<td>{r.site.y_m:.0f}</td><td>{r.p_mound:.3f}</td>'
+                 f'<td>{r.site.reward:.3f}</td><td>{"yes" if r.visited else ""}</td>'
+                 f'<td class="l">{_label(r.verdict) if r.verdict is not None else ""}</td>'
+                 f'<td>{_fmt(p) if p is not None else ""}</td>'
+                 f'<td class="l">{_label(r.final_label)}</td><td class="l">{truth}</td></tr>')
     return ('<table><tr><th class="l">site</th><th>x (m)</th><th>y (m)</th><th>p(mound)</th>'
             '<th>reward (bits)</th><th>visited</th><th class="l">3-D verdict</th>'
             '<th>verdict p(mound)</th>'
             f'<th class="l">final label</th><th class="l">truth</th></tr>{body}</table>')
 
 
-def write_reports(tree: RunTree, summary: dict[str, Any]) -> None:
+def write_reports(tree: RunTree, summary: SurveySummary) -> SurveySummary:
+    """report.html, report.md, the field figure and the map; the summary with the map
+    page's name (None: the map's libraries are not installed)."""
     tree.report_dir.mkdir(parents=True, exist_ok=True)
-    learned = bool(summary["options"].get("learn"))
+    learned = bool(summary.options.get("learn"))
     sites_doc = Sites.read(tree.final_sites(learned))
-    plan = _plan(tree.final_plan(learned))
-    figures.field_map(sites_doc, plan, {r["id"]: r["verdict"] for r in summary["sites"]
-                                        if "verdict" in r}, tree.report_dir / "field.png")
-    for r in summary["sites"]:
-        files = r.get("files")
-        if files:  # site files are relative to the run directory, as is report.html
-            r["files"] = {k: v for k, v in files.items() if (tree.root / v).exists()}
+    figures.field_map(sites_doc, summary.plan,
+                      {r.id: r.verdict for r in summary.sites if r.verdict is not None},
+                      tree.report_dir / "field.png")
     from mound.survey import webmap
 
-    page = webmap.write_map(tree, site_rows(tree, sites_doc, plan),
-                            summary.get("metrics", {}), sites_doc, plan,
-                            basemap=summary.get("options", {}).get("basemap"))
-    summary["map"] = page.name if page else None
+    basemap = summary.options.get("basemap")
+    page = webmap.write_map(tree, list(summary.sites), summary.metrics.to_doc(), sites_doc,
+                            summary.plan, basemap=basemap if isinstance(basemap, str) else None)
+    summary = replace(summary, map=page.name if page else None)
     write_atomic(tree.report_html, render_html(tree, summary))
     write_atomic(tree.report_md, render_md(summary))
+    return summary
 
 
-def _wall_line(s: dict[str, Any]) -> str:
+def _wall_line(s: SurveySummary) -> str:
     """This invocation's wall time, and the stages' own times when some were skipped."""
-    line = f"wall time {s['wall_s']:.0f} s"
-    if any(st.get("skipped") for st in s.get("stages", [])):
-        total = sum((st.get("wall_s_when_run") or 0.0) if st.get("skipped") else st["wall_s"]
-                    for st in s["stages"])
+    line = f"wall time {s.wall_s:.0f} s"
+    if any(st.skipped for st in s.stages):
+        total = sum((st.wall_s_when_run or 0.0) if st.skipped else st.wall_s
+                    for st in s.stages)
         line += f" (resumed; the stages took {total:.0f} s when they ran)"
     return line
 
 
-def render_html(tree: RunTree, s: dict[str, Any]) -> str:
+def _mission_text(mission: MissionSummary | None) -> str:
+    """The mission in a sentence: its items, each flight where there are several (over a
+    DEM its energy and lowest clearance), and whether it was uploaded."""
+    flights = mission.flights if mission is not None else ()
+    upload = mission.upload if mission is not None else None
+    return (f"Mission: {mission.items if mission is not None else 0} MAVLink items"
+            + (f" in {len(flights)} flights ("
+               + "; ".join(f"flight {f.flight}: {len(f.sites)} sites, "
+                           f"{f.flight_distance_m:.0f} m"
+                           + (f", energy {f.terrain.energy_m:.0f} m, lowest clearance "
+                              f"{f.terrain.lowest_clearance_m:.1f} m" if f.terrain else "")
+                           for f in flights) + ")"
+               if len(flights) > 1 else "") + ", "
+            + (f"uploaded to system {upload.target_system} and read back."
+               if upload else "not uploaded (no --connect)."))
+
+
+def render_html(tree: RunTree, s: SurveySummary) -> str:
     e = html.escape
-    m = s["metrics"]
-    visited = [r for r in s["sites"] if r["visited"]]
-    plan = s.get("plan") or {}
-    mission = s.get("mission") or {}
-    upload = (mission.get("upload") or {})
-    head = (f"<p>{e(s['field']['source'])}: {s['field']['sites']} candidate sites, "
-            f"{s['field']['true_mounds']} true mounds; status <b>{e(s['status'])}</b>"
-            + (f" ({e(s['reason'])})" if s.get("reason") else "") + "</p>"
-            f"<p>Tour ({e(str(plan.get('algo', '')))}): {m['visited']} sites, reward "
-            f"{m['reward']:.2f} bits, {m['cost_m']:.0f} m of a {m['budget_m']:.0f} m budget. "
-            f"3-D verdicts: {m['judged']} of {m['visited']} sites ({m['failed']} failed), "
-            f"{m['verdicts_correct']} of {m['verdicts_with_truth']} right where the truth is "
-            f"known. Mission: {mission.get('items', 0)} MAVLink items"
-            + (f" in {len(mission['flights'])} flights ("
-               + "; ".join(f"flight {f['flight']}: {len(f.get('sites') or [])} sites, "
-                           f"{f['flight_distance_m']:.0f} m"
-                           + (f", energy {f['energy_m']:.0f} m, lowest clearance "
-                              f"{f['lowest_clearance_m']:.1f} m" if "energy_m" in f else "")
-                           for f in mission["flights"]) + ")"
-               if len(mission.get("flights") or []) > 1 else "") + ", "
-            + (f"uploaded to system {upload.get('target_system')} and read back."
-               if upload else "not uploaded (no --connect).") + "</p>")
-    maps = (f'<p><a href="{e(s["map"])}">The survey on a map</a> (pan, zoom, the sites\' '
+    m = s.metrics
+    algo = s.plan.algo if s.plan is not None else ""
+    head = (f"<p>{e(s.field.source)}: {s.field.sites} candidate sites, "
+            f"{s.field.true_mounds} true mounds; status <b>{e(s.status)}</b>"
+            + (f" ({e(s.reason)})" if s.reason else "") + "</p>"
+            f"<p>Tour ({e(str(algo or ''))}): {m.visited} sites, reward "
+            f"{_fmt(m.reward, 2)} bits, {_fmt(m.cost_m, 0)} m of a {m.budget_m:.0f} m budget. "
+            f"3-D verdicts: {m.judged} of {m.visited} sites ({m.failed} failed), "
+            f"{m.verdicts_correct} of {m.verdicts_with_truth} right where the truth is "
+            f"known. {_mission_text(s.mission)}</p>")
+    maps = (f'<p><a href="{e(s.map)}">The survey on a map</a> (pan, zoom, the sites\' '
             "orthophotos and relief models where they lie; click a site for its card)</p>"
-            if s.get("map") else "")
+            if s.map else "")
     maps += _img("report/field.png", "field map")
     for png in (sorted(tree.report_dir.glob("mission*.png"))
                 + sorted(tree.report_dir.glob("legs*.png"))):
@@ -479,30 +451,30 @@ def render_html(tree: RunTree, s: dict[str, Any]) -> str:
         flight = png.stem.partition("_")[2]
         maps += _img(f"second_look/{png.name}",
                      "second-look mission" + (f", flight {flight}" if flight else ""))
-    if s.get("second_look_missions"):
+    if _second_look_text(s):
         head += f"<p>{e(_second_look_text(s))}</p>"
-    cards = "".join(_site_card(r) for r in visited)
+    cards = "".join(_site_card(r.to_doc()) for r in s.visited)
     extra = ""
-    team = s.get("for_field_team") or []
+    team = s.field_team
     if team:
         extra += ("<h2>For the field team</h2>\n<p>Still undecided after every look flown: "
                   "a person should see these.</p><table><tr><th class=\"l\">site</th>"
                   "<th>x, y m</th><th>p(mound)</th><th class=\"l\">why</th></tr>"
-                  + "".join(f'<tr><td class="l"><a href="#site-{e(t["id"])}">{e(t["id"])}</a>'
-                            f'</td><td>{t["x_m"]:.0f}, {t["y_m"]:.0f}</td>'
-                            f'<td>{_fmt(t["p_mound"])}</td><td class="l">{e(t["why"])}</td>'
+                  + "".join(f'<tr><td class="l"><a href="#site-{e(t.id)}">{e(t.id)}</a>'
+                            f'</td><td>{t.x_m:.0f}, {t.y_m:.0f}</td>'
+                            f'<td>{_fmt(t.p_mound)}</td><td class="l">{e(t.why)}</td>'
                             "</tr>" for t in team) + "</table>\n")
-    if s.get("photos"):
-        extra += f"<h2>Photo card</h2>\n{_card_table(s['photos'])}\n"
-    if s.get("learn"):
-        extra += f"<h2>Learning between flights</h2>\n{_learn_table(s['learn'], m)}\n"
+    if s.photos:
+        extra += f"<h2>Photo card</h2>\n{_card_table(s.photos)}\n"
+    if s.learn:
+        extra += f"<h2>Learning between flights</h2>\n{_learn_table(s.learn, m)}\n"
     return f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>mound-survey report</title>
 <style>{STYLE}</style></head>
 <body>
 <h1>Survey report</h1>
-<p class="muted">mound-survey · {e(s['created_utc'])} · run {e(str(tree.root))} ·
-{_wall_line(s)} · origin {e(json.dumps(s.get('origin')))}</p>
+<p class="muted">mound-survey · {e(s.created_utc)} · run {e(str(tree.root))} ·
+{_wall_line(s)} · origin {e(json.dumps(s.origin.to_doc() if s.origin else None))}</p>
 {head}
 <h2>Error rates</h2>
 {_metrics_table(m)}
@@ -511,9 +483,9 @@ def render_html(tree: RunTree, s: dict[str, Any]) -> str:
 {extra}<h2>Visited sites</h2>
 {cards or '<p>none</p>'}
 <h2>All sites</h2>
-{_sites_table(s['sites'])}
+{_sites_table(s.sites)}
 <h2>Stages</h2>
-{_stage_table(s['stages'])}
+{_stage_table(s.stages)}
 <p class="muted">Final label: the 3-D verdict where the site was visited and judged, the
 classifier's (p ≥ 0.5) elsewhere. ε<sub>MD</sub>: true mounds labelled no mound;
 ε<sub>FA</sub>: other sites labelled mound (the paper's definitions).</p>
@@ -522,47 +494,46 @@ classifier's (p ≥ 0.5) elsewhere. ε<sub>MD</sub>: true mounds labelled no mou
 """
 
 
-def render_md(s: dict[str, Any]) -> str:
-    m = s["metrics"]
+def render_md(s: SurveySummary) -> str:
+    m = s.metrics
+    second = _second_look_text(s)
     lines = ["# Survey report", "",
-             f"{s['field']['source']}: {s['field']['sites']} sites, "
-             f"{s['field']['true_mounds']} true mounds; status **{s['status']}**"
-             + (f" ({s['reason']})" if s.get("reason") else ""), "",
-             f"Tour: {m['visited']} sites, reward {m['reward']:.2f} bits, "
-             f"{m['cost_m']:.0f} m of {m['budget_m']:.0f} m. 3-D verdicts: {m['judged']} of "
-             f"{m['visited']} ({m['failed']} failed), {m['verdicts_correct']} of "
-             f"{m['verdicts_with_truth']} right."
-             + (f" {_second_look_text(s)}" if s.get("second_look_missions") else ""), "",
+             f"{s.field.source}: {s.field.sites} sites, "
+             f"{s.field.true_mounds} true mounds; status **{s.status}**"
+             + (f" ({s.reason})" if s.reason else ""), "",
+             f"Tour: {m.visited} sites, reward {_fmt(m.reward, 2)} bits, "
+             f"{_fmt(m.cost_m, 0)} m of {m.budget_m:.0f} m. 3-D verdicts: {m.judged} of "
+             f"{m.visited} ({m.failed} failed), {m.verdicts_correct} of "
+             f"{m.verdicts_with_truth} right." + (f" {second}" if second else ""), "",
              "| labels | eps_MD | eps_FA |", "|---|---|---|",
-             f"| classifier alone | {_fmt(m['classifier_only']['eps_md'])} | "
-             f"{_fmt(m['classifier_only']['eps_fa'])} |",
-             f"| this survey | {_fmt(m['eps_md'])} | {_fmt(m['eps_fa'])} |",
-             f"| perfect verification | {_fmt(m['perfect_verification']['eps_md'])} | "
-             f"{_fmt(m['perfect_verification']['eps_fa'])} |", "",
+             *(f"| {name} | {_fmt(v.eps_md)} | {_fmt(v.eps_fa)} |"
+               for name, v in (("classifier alone", m.classifier_only), ("this survey", m.survey),
+                               ("perfect verification", m.perfect_verification))), "",
              "![field](report/field.png)", "", "## Visited sites", "",
              "| site | p(mound) | verdict | truth | height m | diameter m | note |",
              "|---|---|---|---|---|---|---|"]
-    for r in s["sites"]:
-        if not r["visited"]:
-            continue
-        rise = r.get("rise") or {}
-        note = r.get("failure", "") if r["verdict"] == "failed" else ""
-        lines.append(f"| {r['id']} | {r['p_mound']:.3f} | {r.get('answer', r['verdict'])} | "
-                     f"{_fmt(r.get('truth'))} | {_fmt(rise.get('height_m'), 1)} | "
+    for r in s.visited:
+        v = r.judged_verdict
+        rise = (v.rise if v is not None else None) or {}
+        note = ((r.row.reason if r.row is not None else "not processed") or "?"
+                if r.verdict == "failed" else "")
+        lines.append(f"| {r.id} | {r.p_mound:.3f} | {r.answer or r.verdict} | "
+                     f"{_fmt(r.truth)} | {_fmt(rise.get('height_m'), 1)} | "
                      f"{_fmt(rise.get('base_diameter_m'), 1)} | {note} |")
-    if s.get("for_field_team"):
+    if s.field_team:
         lines += ["", "## For the field team", "", "| site | x, y m | p(mound) | why |",
                   "|---|---|---|---|"]
-        lines += [f"| {t['id']} | {t['x_m']:.0f}, {t['y_m']:.0f} | {_fmt(t['p_mound'])} | "
-                  f"{t['why']} |" for t in s["for_field_team"]]
-    if s.get("photos"):
+        lines += [f"| {t.id} | {t.x_m:.0f}, {t.y_m:.0f} | {_fmt(t.p_mound)} | "
+                  f"{t.why} |" for t in s.field_team]
+    if s.photos:
+        card: dict[str, Any] = s.photos
         lines += ["", "## Photo card", "", "| files | count |", "|---|---|"]
-        lines += [f"| {k} | {n} |" for k, n in sorted(s["photos"]["counts"].items())]
+        lines += [f"| {k} | {n} |" for k, n in sorted(card["counts"].items())]
         lines += ["", "| site | photos | blurred | status |", "|---|---|---|---|"]
         lines += [f"| {k} | {v['photos']} | {v['blurred']} | {v['status']} |"
-                  for k, v in s["photos"]["sites"].items()]
-    if s.get("learn"):
-        lr = s["learn"]
+                  for k, v in card["sites"].items()]
+    if s.learn:
+        lr: dict[str, Any] = s.learn
         lines += ["", "## Learning between flights", "",
                   f"Held-out AUC ({lr['evaluation']}): {lr['held_out_auc_before']:.4f} -> "
                   f"{lr['held_out_auc_after']:.4f}", "",
@@ -571,7 +542,7 @@ def render_md(s: dict[str, Any]) -> str:
         lines += [f"| {f['flight']} | {' '.join(f['sites'])} | {len(f['examples'])} | "
                   f"{f['held_out_auc']:.4f} | {f['labels_flipped']} |" for f in lr["flights"]]
     lines += ["", "## Stages", "", "| stage | wall s | result |", "|---|---|---|"]
-    for st in s["stages"]:
-        wall = "skipped" if st.get("skipped") else f"{st['wall_s']:.1f}"
-        lines.append(f"| {st['name']} | {wall} | {st.get('note', '')} |")
+    for st in s.stages:
+        wall = "skipped" if st.skipped else f"{st.wall_s:.1f}"
+        lines.append(f"| {st.name} | {wall} | {st.note} |")
     return "\n".join(lines) + "\n"

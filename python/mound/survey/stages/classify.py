@@ -3,8 +3,9 @@
 
 from __future__ import annotations
 
+from mound.formats.survey import StageRun
 from mound.jsonio import write_json
-from mound.survey.context import Context, StageRun, digest_files, run_stage
+from mound.survey.context import Context, digest_files, run_stage
 
 
 def stage_classify(ctx: Context) -> str:

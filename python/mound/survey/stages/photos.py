@@ -6,7 +6,8 @@ from __future__ import annotations
 from pathlib import Path
 
 from mound.errors import InputError
-from mound.survey.context import Context, StageRun, card_digest, digest_files, run_stage
+from mound.formats.survey import StageRun
+from mound.survey.context import Context, card_digest, digest_files, run_stage
 
 
 def stage_photos(ctx: Context) -> str:
