@@ -217,68 +217,64 @@ def _img(src: str, alt: str) -> str:
     return f'<img src="{html.escape(src)}" alt="{html.escape(alt)}">'
 
 
-def _site_card(r: dict[str, Any]) -> str:
+def _site_card(r: SurveySite) -> str:
     e = html.escape
-    truth = "" if "truth" not in r else (" · truth: " + _label("mound" if r["truth"]
-                                                              else "no_mound"))
-    parts = [f'<div class="card" id="site-{e(r["id"])}"><div class="big"><b>{e(r["id"])}</b> '
-             f'at ({r["x_m"]:.0f}, {r["y_m"]:.0f}) m · p(mound) {r["p_mound"]:.3f} · '
-             f'3-D verdict: {_label(r.get("answer", r["verdict"]))}{truth}</div>']
-    if r["verdict"] == "failed":
-        parts.append(f'<p class="failed">failed: {e(str(r.get("failure", "")))}</p>'
+    row = r.row or SiteRow(r.id, "", reason="not processed")
+    truth = "" if r.truth is None else (" · truth: " + _label("mound" if r.truth
+                                                             else "no_mound"))
+    parts = [f'<div class="card" id="site-{e(r.id)}"><div class="big"><b>{e(r.id)}</b> '
+             f'at ({r.site.x_m:.0f}, {r.site.y_m:.0f}) m · p(mound) {r.p_mound:.3f} · '
+             f'3-D verdict: {_label(r.answer or r.verdict or "")}{truth}</div>']
+    v = r.judged_verdict
+    if v is None:
+        parts.append(f'<p class="failed">failed: {e(row.reason or "?")}</p>'
                      f'<p class="muted">final label from the classifier: '
-                     f'{_label(r["final_label"])}</p>')
+                     f'{_label(r.final_label)}</p>')
     else:
-        prob = (f'p(mound) {_fmt(r["verdict_p_mound"])}, calibrated'
-                if "verdict_p_mound" in r else f'confidence {_fmt(r.get("confidence"))}')
-        if r.get("verdict_cloud"):
-            prob += f', judged on the {e(str(r["verdict_cloud"]))} cloud'
-
-        parts.append(f'<p>{e(str(r.get("reason", "")))} ({prob}, method '
-                     f'{e(str(r.get("method", "")))})</p>')
-        look = r.get("second_look")
-        if isinstance(look, dict) and look.get("flown"):
-            first = r.get("first_look") or {}
-            parts.append(f'<p>second look (a scan of {_fmt(look.get("scan_m"), 0)} m; the first '
-                         f'flight left it undecided at p(mound) '
-                         f'{_fmt(first.get("verdict_p_mound"))}): '
-                         f'{_label(str(r["verdict"]))}</p>')
-        elif isinstance(look, dict):
+        prob = (f'p(mound) {_fmt(v.p_mound)}, calibrated' if v.p_mound is not None
+                else f'confidence {_fmt(v.confidence)}')
+        if row.verdict_cloud:
+            prob += f', judged on the {e(row.verdict_cloud)} cloud'
+        parts.append(f'<p>{e(v.reason)} ({prob}, method {e(v.method)})</p>')
+        look = row.second_look
+        if look is not None and look.flown:
+            first = row.first_look.p_mound if row.first_look is not None else None
+            parts.append(f'<p>second look (a scan of {_fmt(look.scan_m, 0)} m; the first '
+                         f'flight left it undecided at p(mound) {_fmt(first)}): '
+                         f'{_label(str(r.verdict))}</p>')
+        elif look is not None:
             parts.append(f'<p class="failed">second look advised, not flown: '
-                         f'{e(str(look.get("reason", "")))}</p>')
-        if r.get("answer") == "undecided":
-            why = "; ".join(str(x.get("text", "")) for x in
-                            (r.get("undecided") or {}).get("reasons", []))
+                         f'{e(look.reason or "")}</p>')
+        if v.label == "undecided":
+            why = "; ".join(str(x.get("text", "")) for x in r.undecided_reasons())
             parts.append(f'<p class="failed">undecided, for the field team: {e(why)}</p>')
-        cov = r.get("coverage")
-        if isinstance(cov, dict) and cov.get("status") == "clipped":
+        cov = v.coverage
+        if cov is not None and cov.get("status") == "clipped":
             parts.append(f'<p class="failed">coverage: {e(str(cov.get("message", "")))}</p>')
         for key, what in (("dense_error", "dense cloud"), ("rasters_error", "GeoTIFFs")):
-            if r.get(key):
-                parts.append(f'<p class="failed">{what}: {e(str(r[key]))}</p>')
-    files = r.get("files", {})
+            if row.extra.get(key):
+                parts.append(f'<p class="failed">{what}: {e(str(row.extra[key]))}</p>')
+    files = row.files
     if "thumbnails" in files:
-        parts.append(_img(files["thumbnails"], f"images of {r['id']}"))
-    pics = [_img(files[k], f"{k} of {r['id']}") for k in ("cloud", "relief", "terrain")
+        parts.append(_img(files["thumbnails"], f"images of {r.id}"))
+    pics = [_img(files[k], f"{k} of {r.id}") for k in ("cloud", "relief", "terrain")
             if k in files]
     if pics:
         parts.append('<div class="row">' + "".join(pics) + "</div>")
-    rec = r.get("recon")
-    t = r.get("timings_s", {})
+    rec, sim = row.extra.get("recon"), row.extra.get("simulated")
     bits = []
-    if rec:
+    if isinstance(rec, dict) and rec:
         bits.append(f"{rec.get('registered')}/{rec.get('images')} images registered, "
                     f"{rec.get('points')} points, RMSE {_fmt(rec.get('reprojection_rmse_px'))}"
                     f" px, frame {rec.get('frame')}")
-    if r.get("simulated"):
-        s = r["simulated"]
-        bits.append("simulated " + (f"tumulus {s['height_m']:.1f} m high, {s['diameter_m']:.0f}"
-                                    " m across" if s["mound"] else "flat ground")
-                    + f" (seed {s['seed']})")
-    if t:
-        bits.append("time " + ", ".join(f"{k} {v:.1f} s" for k, v in t.items()))
-    if r.get("worker"):
-        bits.append(f"worker {r['worker']}")
+    if isinstance(sim, dict) and sim:
+        bits.append("simulated " + (f"tumulus {sim['height_m']:.1f} m high, "
+                                    f"{sim['diameter_m']:.0f} m across" if sim["mound"]
+                                    else "flat ground") + f" (seed {sim['seed']})")
+    if row.timings_s:
+        bits.append("time " + ", ".join(f"{k} {t:.1f} s" for k, t in row.timings_s.items()))
+    if row.worker:
+        bits.append(f"worker {row.worker}")
     parts.append('<p class="muted">' + e(" · ".join(bits)) + "</p></div>")
     return "".join(parts)
 
@@ -453,7 +449,7 @@ def render_html(tree: RunTree, s: SurveySummary) -> str:
                      "second-look mission" + (f", flight {flight}" if flight else ""))
     if _second_look_text(s):
         head += f"<p>{e(_second_look_text(s))}</p>"
-    cards = "".join(_site_card(r.to_doc()) for r in s.visited)
+    cards = "".join(_site_card(r) for r in s.visited)
     extra = ""
     team = s.field_team
     if team:
