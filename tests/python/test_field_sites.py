@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from mound.errors import InputError
+from mound.formats.grid import GridLook
 from mound.grids import run as grid_run
 from mound.sim import draws, looks, terrain
 from mound.sim.dem_places import DemPlaces
@@ -314,9 +315,9 @@ def test_a_grid_in_which_no_site_was_measured_is_no_result(
 
     from mound.cli import main
 
-    def failing(out: Path, spec: Any, *args: Any) -> dict[str, Any]:
-        return {"dir": out.name, "truth": spec.terrain.truth(), "status": "failed",
-                "reason": "mound_render failed (exit 2: bad input): --seed: too large"}
+    def failing(out: Path, spec: Any, *args: Any) -> GridLook:
+        return GridLook("failed",
+                        reason="mound_render failed (exit 2: bad input): --seed: too large")
 
     monkeypatch.setattr(grid_run, "_site", failing)
     out = tmp_path / "g"

@@ -15,6 +15,7 @@ from mound.bounds import (
     Bound,
 )
 from mound.errors import EXIT_NO_RESULT, InputError
+from mound.formats.grid import GridRow
 from mound.recon.defaults import CANDIDATES
 
 
@@ -25,10 +26,9 @@ def cmd_sim_grid(args: argparse.Namespace) -> int:
     if args.workers < 1 or args.threads < 1:
         raise InputError("--workers, --threads: must be >= 1")
 
-    def progress(k: int, row: dict[str, Any]) -> None:
-        t = row.get("times") or {}
-        print(f"{row['dir']}: {row['truth']['kind']:<9} {row.get('status')} "
-              f"({sum(t.values()):.1f} s)", flush=True)
+    def progress(k: int, row: GridRow) -> None:
+        print(f"{row.dir}: {row.truth['kind']!s:<9} {row.look.status} "
+              f"({sum(row.look.times_s.values()):.1f} s)", flush=True)
 
     dem: list[str] | None = None
     if args.dem == ["none"]:

@@ -35,7 +35,8 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import asdict
+from collections.abc import Callable
+from dataclasses import asdict, replace
 from datetime import datetime
 from pathlib import Path
 from typing import Any
@@ -44,8 +45,9 @@ import numpy as np
 
 from mound import native
 from mound.errors import InputError, NoResultError, ToolNoResultError
+from mound.formats.grid import SCHEMA, VERSION, GridLook, GridRow
 from mound.formats.verdict import VerdictFile, record_grid_times
-from mound.jsonio import read_json, write_json
+from mound.jsonio import JsonObject, read_json, write_json
 from mound.recon.defaults import CANDIDATES, SIM_RECONSTRUCT
 from mound.sim import site as sim
 from mound.sim.card import site_jpegs
@@ -60,24 +62,22 @@ from mound.sim.looks import (
 )
 from mound.sim.population import read_population
 
-SCHEMA = "mound.verdict_grid"
-VERSION = 1
 DEFAULT_DEM = "TM1_564_146.tif"  # the 1 m airborne-laser DEM (../shared/data/dem)
 
 
 def _site(out: Path, spec: sim.SimSpec, threads: int, remeasure: bool,
           dense: bool = False, card: bool = False,
-          candidates: str = "site_ground") -> dict[str, Any]:
+          candidates: str = "site_ground") -> GridLook:
+    """A look at a site: flown, reconstructed and judged in `out` unless its verdict (of
+    this candidate set) is there already."""
     simdir, recon, verdict = out / "sim", out / "recon", out / "verdict.json"
-    row: dict[str, Any] = {"dir": out.name, "truth": spec.terrain.truth()}
     times: dict[str, float] = {}
     if verdict.exists() and not remeasure:
         done = VerdictFile.read(verdict)
         # a verdict of another candidate set is measured again (the grid holds one set; a
         # failed verdict measured nothing)
         if done.measurements is None or done.measurements.candidates == candidates:
-            row.update(status=done.status, times=dict(done.grid_times_s), p_mound=done.p_mound)
-            return row
+            return GridLook(done.status, dict(done.grid_times_s), done.p_mound)
     if verdict.exists():  # remeasuring: keep the times of the flight and reconstruction
         try:
             times.update({k: v for k, v in VerdictFile.read(verdict).grid_times_s.items()
@@ -129,16 +129,16 @@ def _site(out: Path, spec: sim.SimSpec, threads: int, remeasure: bool,
         times["verdict"] = time.perf_counter() - t
         record_grid_times(verdict, times)
         judged = VerdictFile.read(verdict)
-        row.update(status=judged.status, times=times, p_mound=judged.p_mound,
-                   **({"reason": judged.reason} if not judged.ok else {}))
+        return GridLook(judged.status, times, judged.p_mound,
+                        None if judged.ok else judged.reason)
     except (InputError, NoResultError) as e:
-        row.update(status="failed", reason=str(e))
-    return row
+        return GridLook("failed", times, None, str(e))
 
 
 def make_grid(out: str | Path, sites: int, seed: int, size: tuple[int, int] = (640, 480),
               dem: str | list[str] | None = None, threads: int = 1, workers: int = 1,
-              remeasure: bool = False, progress: Any = None, pattern: str = "raster",
+              remeasure: bool = False,
+              progress: Callable[[int, GridRow], None] | None = None, pattern: str = "raster",
               dense: bool = False, card: bool = False,
               flights_from: str | Path | None = None,
               second_look: bool = False, dem_part: str = "all",
@@ -183,19 +183,19 @@ def make_grid(out: str | Path, sites: int, seed: int, size: tuple[int, int] = (6
     specs = [draw(rng, 100_000 * seed + k, dems, size, pattern=pattern, population=pop,
                   ground=ground) for k in range(sites)]
     start = time.perf_counter()
-    rows: list[dict[str, Any]] = [{}] * sites
+    rows = [GridRow(f"{k:04d}", specs[k].terrain.truth(), spec=_spec_doc(specs[k]))
+            for k in range(sites)]
 
     def one(k: int) -> None:
-        rows[k] = _site(root / f"{k:04d}", specs[k], threads, remeasure, dense, card,
-                        candidates)
-        p = rows[k].get("p_mound")  # the first look's (grid.json's rows carry it)
+        first = _site(root / f"{k:04d}", specs[k], threads, remeasure, dense, card, candidates)
+        p = first.p_mound  # the first look's (grid.json's rows carry it)
+        second = {}
         if second_look and p is not None and SECOND_LOOK_P[0] <= p < SECOND_LOOK_P[1]:
             folder = SECOND_LOOKS[second_look_kind]
-            second = _site(root / f"{k:04d}" / folder,
-                           second_look_spec(specs[k], second_look_kind), threads, remeasure,
-                           dense, card, candidates)
-            rows[k][folder] = {"status": second.get("status"), "times": second.get("times"),
-                                 **({"reason": second["reason"]} if "reason" in second else {})}
+            second[folder] = _site(root / f"{k:04d}" / folder,
+                                   second_look_spec(specs[k], second_look_kind), threads,
+                                   remeasure, dense, card, candidates)
+        rows[k] = replace(rows[k], look=first, second=second)
         if progress:
             progress(k, rows[k])
 
@@ -214,7 +214,7 @@ def make_grid(out: str | Path, sites: int, seed: int, size: tuple[int, int] = (6
             for k in range(sites):
                 one(k)
     tools = {name: {"sha256": d} for name, d in digests.items()}
-    measured = sum(1 for r in rows if r.get("status") == "ok")
+    measured = sum(1 for r in rows if r.look.status == "ok")
     # a grid none of whose sites was measured is no result (the CLI's exit 3), whatever why
     status = "ok" if measured == sites else "partial" if measured else "failed"
     doc = {"schema": SCHEMA, "version": VERSION, "seed": seed, "sites": sites,
@@ -232,7 +232,7 @@ def make_grid(out: str | Path, sites: int, seed: int, size: tuple[int, int] = (6
            "camera": "exif" if card else "calibrated",
            **draws, **({"flights_from": str(flights_from)} if flights_from else {}),
            "wall_s": time.perf_counter() - start,
-           "rows": [{**r, "spec": _spec_doc(s)} for r, s in zip(rows, specs, strict=True)]}
+           "rows": [r.to_doc() for r in rows]}
     write_json(root / "grid.json", doc)
     return doc
 
@@ -278,8 +278,8 @@ def _check_flights_from(src: Path, out: Path, sites: int, seed: int, size: tuple
                          f"fewer than {sites}")
 
 
-def _spec_doc(spec: sim.SimSpec) -> dict[str, Any]:
-    d = asdict(spec)
+def _spec_doc(spec: sim.SimSpec) -> JsonObject:
+    d: JsonObject = asdict(spec)
     return {"terrain": d["terrain"], "sun_deg": [math.degrees(spec.lighting.sun_azimuth_rad),
                                                   math.degrees(spec.lighting.sun_elevation_rad)],
             "hfov_deg": math.degrees(spec.hfov_rad), "seed": spec.seed}

@@ -39,7 +39,7 @@ from pathlib import Path
 import numpy as np
 
 from mound.errors import InputError
-from mound.jsonio import read_json
+from mound.jsonio import JsonObject, read_json
 
 PROFILES = ("conical", "spherical_cap", "drum", "ploughed")
 CONFUSERS = ("hillock", "ridge", "ditch", "terrace", "trees", "building", "haystack")
@@ -156,7 +156,7 @@ class TerrainSpec:
         """The tumulus's base along its long axis (its diameter when round)."""
         return self.length_m if self.length_m > 0 else self.diameter_m
 
-    def truth(self) -> dict[str, object]:
+    def truth(self) -> JsonObject:
         """What stands on the site (truth.json): a tumulus with its size and centre, or the
         most prominent confuser, or bare ground. A tumulus's `diameter_m` is its base's
         mean extent, (length + width) / 2, as an inventory's "across" (an elongated
@@ -179,11 +179,10 @@ class TerrainSpec:
         return {"mound": False, "kind": "flat", "height_m": 0.0, "diameter_m": 0.0,
                 "centre_enu_m": [0.0, 0.0], **self._ground_truth()}
 
-    def _ground_truth(self) -> dict[str, object]:
+    def _ground_truth(self) -> JsonObject:
         """The ground under the site: its slope, a DEM's patch or not, and its ridges and
         terraces when it has them."""
-        out: dict[str, object] = {"slope_deg": self.slope_deg,
-                                  "dem": self.dem_path is not None}
+        out: JsonObject = {"slope_deg": self.slope_deg, "dem": self.dem_path is not None}
         if self.ridge_relief_m > 0:
             out.update(ridge_relief_m=self.ridge_relief_m,
                        ridge_wavelength_m=self.ridge_wavelength_m)

@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 
 from mound.errors import InputError
+from mound.formats import grid as grid_doc
 from mound.formats.verdict import Rise, VerdictFile
 from mound.jsonio import read_json, short_repr
 from mound.recon.grid_site import GridSite, SiteTruth, grid_site
@@ -71,7 +72,7 @@ def load_grid(folder: str | Path, second_look: str = "wider") -> list[GridSite]:
     root = Path(folder)
     gpath = root / "grid.json"
     if gpath.is_file():
-        rows = read_json(gpath, "mound.verdict_grid", 1).get("rows")
+        rows = read_json(gpath, grid_doc.SCHEMA, grid_doc.VERSION).get("rows")
         if not isinstance(rows, list):
             raise InputError(f"{gpath}: rows: expected a list")
     elif root.is_dir():  # a grid still running or interrupted: its finished sites
@@ -218,7 +219,7 @@ def grid_cloud(folder: str | Path) -> str:
     InputError when neither says (until 2026-11-28 such a grid was taken for sparse)."""
     root = Path(folder)
     if (root / "grid.json").is_file():
-        doc = read_json(root / "grid.json", "mound.verdict_grid", 1)
+        doc = read_json(root / "grid.json", grid_doc.SCHEMA, grid_doc.VERSION)
         return str(doc.get("cloud", "sparse"))
     for v in sorted(root.glob("*/verdict.json")):
         try:
@@ -234,7 +235,7 @@ def grid_cloud(folder: str | Path) -> str:
 def grid_label(folder: str | Path) -> str:
     """How a grid was flown and which cloud was judged, from its grid.json."""
     try:
-        doc = read_json(Path(folder) / "grid.json", "mound.verdict_grid", 1)
+        doc = read_json(Path(folder) / "grid.json", grid_doc.SCHEMA, grid_doc.VERSION)
     except InputError:  # a grid still running: its folder's name
         return Path(folder).name
     flight = doc.get("flight") or {}
