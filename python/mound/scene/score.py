@@ -29,6 +29,7 @@ from scipy import ndimage
 from mound.classify.reward import binary_entropy_bits
 from mound.errors import InputError
 from mound.geojson import point_feature_doc
+from mound.jsonio import JsonObject
 from mound.scene import kernel
 from mound.scene.features import FeatureSpec
 from mound.scene.model import SceneModel
@@ -403,13 +404,13 @@ def _candidate_features(kept: list[tuple[float, int, int]], grid: OutGrid, scene
     return out
 
 
-def _timings(wall: float, block_s: list[float], px: int) -> dict[str, object]:
+def _timings(wall: float, block_s: list[float], px: int) -> JsonObject:
     return {"wall_s": wall, "blocks": len(block_s),
             "block_s_median": float(np.median(block_s)) if block_s else 0.0,
             "mpx_per_s": px / wall / 1e6 if wall > 0 else None}
 
 
-def _raster_profile(scene: SceneInfo, grid: OutGrid) -> dict[str, object]:
+def _raster_profile(scene: SceneInfo, grid: OutGrid) -> JsonObject:
     """The GeoTIFF profile of p_mound.tif and reward.tif on the output grid."""
     return {"driver": "GTiff", "width": grid.cols, "height": grid.rows, "count": 1,
             "dtype": "float32", "crs": scene.crs(), "transform": grid.transform(),

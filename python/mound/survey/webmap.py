@@ -199,7 +199,7 @@ def map_data(tree: RunTree, rows: list[SurveySite], metrics: JsonValue, sites_do
             if f.get("properties", {}).get("kind") == "image_footprint":
                 ring = f["geometry"]["coordinates"][0]
                 footprints.append([[float(c[1]), float(c[0])] for c in ring])
-    def paths(flights: tuple[Flight, ...]) -> list[dict[str, object]]:
+    def paths(flights: tuple[Flight, ...]) -> list[JsonObject]:
         """Each flight as a path of WGS84 points."""
         return [{"flight": k + 1, "cost_m": f.cost_m,
                  "path": [list(pos[i]) for i in f.tour if i in pos]}
@@ -257,7 +257,7 @@ class Frustum(NamedTuple):
 def viewer_doc(site_id: str, xyz: np.ndarray, rgb: np.ndarray | None, centre: np.ndarray,
                ground: list[float], radius_m: float, rise: Rise | None = None,
                cameras: list[Frustum] | None = None, note: str = "",
-               seed: int = 0) -> dict[str, object]:
+               seed: int = 0) -> JsonObject:
     """The 3-D viewer's data for one site: the cloud (at most MAX_VIEW_POINTS, a seeded
     random subset) in metres from `centre` (x, y: ENU east, north of the site centre; z:
     above the ground fit's height at the centre), its colours, the ground fit
@@ -278,10 +278,10 @@ def viewer_doc(site_id: str, xyz: np.ndarray, rgb: np.ndarray | None, centre: np
     else:
         col = np.asarray(rgb, np.uint8)[idx]
     g = [0.0] + [float(c) for c in ground[1:6]] if ground else [0.0] * 6
-    frustums = [{"centre": [float(v) for v in np.asarray(c.centre) - shift],
+    frustums: list[JsonValue] = [{"centre": [float(v) for v in np.asarray(c.centre) - shift],
                  "corners": [[float(v) for v in np.asarray(k) - shift] for k in c.corners]}
                 for c in cameras or []]
-    shown: dict[str, object] | None = None
+    shown: JsonObject | None = None
     if (rise is not None and rise.centre_enu_m is not None and rise.height_m is not None
             and rise.base_diameter_m is not None):
         cx, cy = np.asarray(rise.centre_enu_m, float) - shift[:2]
@@ -302,7 +302,7 @@ def viewer_doc(site_id: str, xyz: np.ndarray, rgb: np.ndarray | None, centre: np
 
 
 def site_viewer_doc(tree: RunTree, site_id: str, files: dict[str, str]
-                    ) -> dict[str, object] | None:
+                    ) -> JsonObject | None:
     """viewer_doc for a visited site of the survey (its files: site_files): its dense cloud
     (else the sparse one), verdict.json's site centre, ground fit and rise, recon.json's
     cameras."""

@@ -24,7 +24,16 @@ import numpy as np
 
 from mound.errors import InputError
 from mound.geometry.geodesy import Origin, enu_to_geodetic
-from mound.jsonio import finite_number, json_text, parse_json, read_text, short_repr, write_atomic
+from mound.jsonio import (
+    JsonObject,
+    JsonValue,
+    finite_number,
+    json_text,
+    parse_json,
+    read_text,
+    short_repr,
+    write_atomic,
+)
 from mound.uav.mission_items import (
     FRAME_GLOBAL_RELATIVE_ALT,
     FRAME_GLOBAL_RELATIVE_ALT_INT,
@@ -61,8 +70,8 @@ def home_altitude(mission: Mission) -> float:
     return mission.terrain.home_amsl_m if mission.terrain else mission.origin.alt_m
 
 
-def plan_document(mission: Mission, firmware: str = "px4") -> dict[str, object]:
-    items = []
+def plan_document(mission: Mission, firmware: str = "px4") -> JsonObject:
+    items: list[JsonValue] = []
     for k, it in enumerate(mission.items):
         items.append({
             "type": "SimpleItem", "command": it.command, "frame": _file_frame(it.frame),
@@ -243,9 +252,9 @@ def _lonlat(origin: Origin, enu: np.ndarray) -> list[list[float]]:
     return [[round(lon, 8), round(lat, 8), round(h - origin.alt_m, 3)] for lat, lon, h in llh]
 
 
-def geojson_document(mission: Mission) -> dict[str, object]:
+def geojson_document(mission: Mission) -> JsonObject:
     o = mission.origin
-    features: list[dict[str, object]] = [{
+    features: list[JsonObject] = [{
         "type": "Feature", "properties": {"kind": "flight_path",
                                           "length_m": mission.flight_distance_m,
                                           "budget_m": mission.budget_m,

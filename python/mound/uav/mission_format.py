@@ -29,6 +29,7 @@ import numpy as np
 
 from mound.errors import InputError
 from mound.formats.mission import About, FormatEntry
+from mound.jsonio import JsonObject
 from mound.uav.mission_items import Mission
 from mound.uav.route import Route
 
@@ -171,7 +172,7 @@ def refusals(record: Record) -> list[str]:
             if e.refused is not None]
 
 
-def record_doc(record: Record) -> dict[str, object]:
+def record_doc(record: Record) -> JsonObject:
     """mission.json's `formats` (and the .plan's `mound.formats`)."""
     return {name: e.to_doc() for name, e in record.items()}
 

@@ -36,7 +36,9 @@ class QgcPlan(FileFormat):
     def write(self, m: Mission, path: Path, opts: WriteOptions,
               record: Record) -> list[tuple[Path, Content]]:
         doc = files.plan_document(m, opts.firmware)
-        doc["mound"]["formats"] = record_doc(record)  # type: ignore[index]
+        mound = doc["mound"]
+        assert isinstance(mound, dict)  # plan_document writes it
+        mound["formats"] = record_doc(record)
         return [(path, json_text(doc))]
 
     def read(self, path: Path) -> tuple[str, list[Route]]:
