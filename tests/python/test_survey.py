@@ -972,11 +972,11 @@ def test_an_undecided_site_is_flown_again_and_what_stays_undecided_goes_to_the_f
             SurveySite(Site("s2", 9.0, 9.0, 1.0, p_mound=0.2, truth=Truth(False)), True,
                        SiteRow("s2", "k", status="ok",
                                verdict=Verdict("no_mound", "no_mound", "m")))]
-    team = report.field_team(rows)
+    team = [t.to_doc() for t in report.field_team(rows)]
     assert [t["id"] for t in team] == ["s1"] and team[0]["second_look_flown"]
     assert team[0]["why"] and team[0]["reasons"] == [
         r["code"] for r in row["undecided"]["reasons"]]
-    m = report.three_answer_metrics(rows)
+    m = report.three_answer_metrics(rows).to_doc()
     assert m["decided"] == 1 and m["undecided"] == 1
     assert m["selective"] == {"eps_md": None, "eps_fa": 0.0, "decided_with_truth": 1}
 
