@@ -45,10 +45,8 @@ class GridRow:
     spec: JsonObject | None = None
 
     def to_doc(self) -> JsonObject:
-        first = self.look
-        doc: JsonObject = {"dir": self.dir, "truth": self.truth, "status": first.status,
-                           "times": dict(first.times_s), "p_mound": first.p_mound,
-                           **({"reason": first.reason} if first.reason is not None else {})}
+        doc: JsonObject = {"dir": self.dir, "truth": self.truth, **self.look.to_doc(),
+                           "p_mound": self.look.p_mound}
         doc.update({folder: look.to_doc() for folder, look in self.second.items()})
         if self.spec is not None:
             doc["spec"] = self.spec

@@ -447,8 +447,9 @@ def render_html(tree: RunTree, s: SurveySummary) -> str:
         flight = png.stem.partition("_")[2]
         maps += _img(f"second_look/{png.name}",
                      "second-look mission" + (f", flight {flight}" if flight else ""))
-    if _second_look_text(s):
-        head += f"<p>{e(_second_look_text(s))}</p>"
+    second = _second_look_text(s)
+    if second:
+        head += f"<p>{e(second)}</p>"
     cards = "".join(_site_card(r) for r in s.visited)
     extra = ""
     team = s.field_team
