@@ -35,7 +35,7 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Sequence
-from typing import Any
+from typing import Literal, NotRequired, TypedDict
 
 import numpy as np
 
@@ -60,6 +60,183 @@ NO, UNDECIDED, MOUND = 0, 1, 2
 NAMES = ("no_mound", "undecided", "mound")
 # the order of a confusion's rates (confusion_doc, mound.recon.visit_value)
 ANSWERS = (NAMES[MOUND], NAMES[UNDECIDED], NAMES[NO])
+
+
+class Rate(TypedDict):
+    """k of n with its exact 95 % interval (None over no site)."""
+    count: int
+    of: int
+    rate: float | None
+    rate_95ci: list[float] | None
+
+
+class GoalRate(Rate):
+    goal: float
+    of_what: str
+
+
+class MissRate(GoalRate):
+    sites: list[str]
+
+
+class UndecidedRate(Rate):
+    goal: float
+    tumuli: int
+    tumulus_share: float | None
+    tumulus_share_95ci: list[float] | None
+    mean_p: float | None
+
+
+class BandErrors(TypedDict):
+    """Confident misses, confident false alarms and undecided sites (a split's mean)."""
+    confident_misses: float
+    confident_false_alarms: float
+    undecided: float
+
+
+class NestedFigures(TypedDict):
+    """A band's figures out of fold (nested_band)."""
+    folds: int
+    confident_misses: float
+    goal_tumuli: int
+    confident_false_alarms: float
+    negatives: int
+    undecided: float
+    sites: int
+
+
+class SlopeBand(TypedDict):
+    site_slope_rad: list[float]
+    p_low: float
+    p_high: float
+    sites: int
+    out_of_fold: NestedFigures
+
+
+class SlopeSplitFigures(BandErrors):
+    sites: int
+    one_band: BandErrors
+
+
+class SlopeBands(TypedDict):
+    """Two bands split at a site slope (slope_bands)."""
+    bands: list[SlopeBand]
+    out_of_fold: SlopeSplitFigures
+    method: str
+
+
+class BandAtSlope(TypedDict):
+    """One of the model file's `undecided.by_slope`."""
+    site_slope_rad: list[float]
+    p_low: float
+    p_high: float
+
+
+class BandGoals(TypedDict):
+    max_miss: float
+    max_false_alarm: float
+    max_undecided: float
+    chosen_for_share: float
+    goal_tumuli: str
+
+
+class BandTrained(TypedDict):
+    goals: BandGoals
+    out_of_fold: NestedFigures
+    selected_in_sample: BandErrors
+    method: str
+    by_slope: NotRequired[SlopeBands]
+
+
+class BandDoc(TypedDict):
+    """The model file's `undecided` (band_doc)."""
+    p_low: float
+    p_high: float
+    by_slope: NotRequired[list[BandAtSlope]]
+    trained: BandTrained
+
+
+class ConfusionDoc(TypedDict):
+    """The three answers' rates per height class of tumulus and for a site without one."""
+    tumulus: dict[str, list[float]]
+    tumuli: dict[str, int]
+    none: list[float] | None
+    sites_without: int
+    answers: list[str]
+    method: str
+
+
+class RecallRow(TypedDict):
+    tumuli: int
+    confirmed: Rate
+    undecided: Rate
+    no_mound: Rate
+    two_answer_mound: Rate
+
+
+class RecallPart(TypedDict):
+    all: RecallRow
+    by_height: dict[str, RecallRow]
+
+
+RecallShare = Literal["confirmed", "undecided", "no_mound", "two_answer_mound"]
+
+
+class FrontierBest(TypedDict):
+    band: list[float]
+    confident_misses: float
+    confident_false_alarms: float
+    times_the_goals: float
+
+
+class Frontier(TypedDict):
+    """What any band could do on the judged sites (frontier)."""
+    band_at_goals: list[float]
+    undecided_at_goals: float
+    at_most_undecided: float
+    best_within_undecided: FrontierBest | None
+    goals_reachable: bool
+    note: str
+
+
+class TerrainRates(TypedDict):
+    sites: int
+    confident_misses: Rate
+    confident_false_alarms: Rate
+    undecided: Rate
+    confirmed_2m: Rate
+
+
+class OutsideDomain(TypedDict):
+    outside: int
+    tumuli_outside: int
+    sites_outside: list[str]
+    would_be: dict[str, int]
+
+
+class TerrainPart(TypedDict, total=False):
+    terrain: OutsideDomain
+    frontier_inside_domain: Frontier
+
+
+class Decided(TypedDict):
+    sites: int
+    wrong: int
+
+
+class ThreeAnswers(TerrainPart):
+    """The three answers' figures on held-out sites (three_answers)."""
+    band: list[float]
+    band_by_slope: bool
+    sites: int
+    confident_misses: MissRate
+    confident_false_alarms: GoalRate
+    undecided: UndecidedRate
+    decided: Decided
+    field_recall: dict[str, RecallPart]
+    by_terrain: dict[str, TerrainRates]
+    frontier: Frontier
+
 
 
 def band_goal(truth: SiteTruth) -> bool:
@@ -94,13 +271,20 @@ def answers(p: np.ndarray, band: tuple[float, float] | tuple[np.ndarray, np.ndar
     return np.where(p >= hi, MOUND, np.where(p < lo, NO, UNDECIDED))
 
 
-def _rate(k: int, n: int) -> dict[str, Any]:
+def _rate(k: int, n: int) -> Rate:
     return {"count": k, "of": n, "rate": k / n if n else None,
             "rate_95ci": list(clopper_pearson(k, n)) if n else None}
 
 
+def _errors(nested: list[NestedFigures]) -> BandErrors:
+    """The confident misses, false alarms and undecided sites summed over `nested`."""
+    return {"confident_misses": float(sum(n["confident_misses"] for n in nested)),
+            "confident_false_alarms": float(sum(n["confident_false_alarms"] for n in nested)),
+            "undecided": float(sum(n["undecided"] for n in nested))}
+
+
 def nested_band(p: np.ndarray, y: np.ndarray, goal: np.ndarray,
-                threshold: float) -> dict[str, Any]:
+                threshold: float) -> NestedFigures:
     """The band's figures out of fold: the sites in BAND_FOLDS folds, each labelled by the
     band chosen on the others (p: splits x sites, the counts a split's mean)."""
     p = np.atleast_2d(p)
@@ -120,7 +304,7 @@ def nested_band(p: np.ndarray, y: np.ndarray, goal: np.ndarray,
 
 
 def slope_bands(p: np.ndarray, y: np.ndarray, goal: np.ndarray, threshold: float,
-                slope: np.ndarray) -> dict[str, Any] | None:
+                slope: np.ndarray) -> SlopeBands | None:
     """Two bands split at a site slope (see the module text): the model file's
     `undecided.by_slope` and their nested figures, or None when no split leaves fewer sites
     undecided out of fold than one band (or a site's slope is unknown)."""
@@ -128,7 +312,7 @@ def slope_bands(p: np.ndarray, y: np.ndarray, goal: np.ndarray, threshold: float
     if not np.isfinite(slope).all():
         return None
     one = nested_band(p, y, goal, threshold)
-    best: tuple[float, float, np.ndarray, list[dict[str, Any]]] | None = None
+    best: tuple[float, float, np.ndarray, list[NestedFigures]] | None = None
     for deg in SLOPE_SPLITS_DEG:
         s = math.radians(deg)
         low = slope < s
@@ -138,24 +322,24 @@ def slope_bands(p: np.ndarray, y: np.ndarray, goal: np.ndarray, threshold: float
         nested = [nested_band(p[:, m], y[m], goal[m], threshold) for m in (low, ~low)]
         und = sum(n["undecided"] for n in nested)
         # no more confident errors than one band, to within one site (their resolution)
-        if any(sum(n[k] for n in nested) > one[k] + 1 for k in ("confident_misses",
-                                                                  "confident_false_alarms")):
+        if (sum(n["confident_misses"] for n in nested) > one["confident_misses"] + 1
+                or sum(n["confident_false_alarms"] for n in nested)
+                > one["confident_false_alarms"] + 1):
             continue
         if best is None or und < best[0]:
             best = (und, s, low, nested)
     if best is None or best[0] >= one["undecided"]:
         return None
     und, s, low, nested = best
-    bands = []
+    bands: list[SlopeBand] = []
     for m, (a, b), n in zip((low, ~low), ((-math.pi / 2, s), (s, math.pi / 2)), nested,
                             strict=True):
         lo, hi = choose_band(p[:, m], y[m], goal[m], threshold)
         bands.append({"site_slope_rad": [a, b], "p_low": lo, "p_high": hi,
                       "sites": int(m.sum()), "out_of_fold": n})
-    keys = ("confident_misses", "confident_false_alarms", "undecided")
     return {"bands": bands,
-            "out_of_fold": {**{k: float(sum(n[k] for n in nested)) for k in keys},
-                            "sites": int(p.shape[1]), "one_band": {k: one[k] for k in keys}},
+            "out_of_fold": {**_errors(nested), "sites": int(p.shape[1]),
+                            "one_band": _errors([one])},
             "method": f"the split among {SLOPE_SPLITS_DEG[0]:g}-{SLOPE_SPLITS_DEG[-1]:g} "
                       f"degrees (every {SLOPE_STEP_DEG:g}) whose two bands leave the fewest "
                       "sites undecided out of fold with no more confident misses or false "
@@ -166,7 +350,7 @@ def slope_bands(p: np.ndarray, y: np.ndarray, goal: np.ndarray, threshold: float
 
 
 def band_doc(p: np.ndarray, y: np.ndarray, goal: np.ndarray,
-             threshold: float, slope: np.ndarray | None = None) -> dict[str, Any]:
+             threshold: float, slope: np.ndarray | None = None) -> BandDoc:
     """The model file's `undecided`: the band chosen on every site, with its nested and
     in-sample figures; with the sites' measured slope, two bands by slope when they
     leave fewer sites undecided (`by_slope`, slope_bands)."""
@@ -174,10 +358,7 @@ def band_doc(p: np.ndarray, y: np.ndarray, goal: np.ndarray,
     lab = answers(np.atleast_2d(p), (lo, hi))
     reps = len(lab)
     split = slope_bands(p, y, goal, threshold, slope) if slope is not None else None
-    by_slope = {"by_slope": [{k: b[k] for k in ("site_slope_rad", "p_low", "p_high")}
-                             for b in split["bands"]]} if split else {}
-    return {"p_low": lo, "p_high": hi, **by_slope,
-            "trained": {
+    trained: BandTrained = {
                 "goals": {"max_miss": MAX_MISS, "max_false_alarm": MAX_FA,
                           "max_undecided": MAX_UNDECIDED, "chosen_for_share": BAND_SHARE,
                           "goal_tumuli": f">= {GOAL_HEIGHT_M:g} m high, >= "
@@ -189,12 +370,18 @@ def band_doc(p: np.ndarray, y: np.ndarray, goal: np.ndarray,
                     "undecided": float((lab == UNDECIDED).sum() / reps)},
                 "method": "p_low, p_high from the out-of-fold p of the training sites (every "
                           "CV split; sites without a rise at p_no_rise); out_of_fold: each "
-                          f"of {BAND_FOLDS} folds labelled by the band chosen on the others",
-                **({"by_slope": split} if split else {})}}
+                          f"of {BAND_FOLDS} folds labelled by the band chosen on the others"}
+    if not split:
+        return {"p_low": lo, "p_high": hi, "trained": trained}
+    trained["by_slope"] = split
+    by_slope: list[BandAtSlope] = [
+        {"site_slope_rad": b["site_slope_rad"], "p_low": b["p_low"], "p_high": b["p_high"]}
+        for b in split["bands"]]
+    return {"p_low": lo, "p_high": hi, "by_slope": by_slope, "trained": trained}
 
 
-def confusion_doc(p: np.ndarray, truths: Sequence[SiteTruth], band: dict[str, Any],
-                  slope: np.ndarray) -> dict[str, Any]:
+def confusion_doc(p: np.ndarray, truths: Sequence[SiteTruth], band: BandDoc,
+                  slope: np.ndarray) -> ConfusionDoc:
     """The three answers' rates the model's band (`band`: band_doc's, by the site's
     `slope` when it has bands by slope) gives the training sites' out-of-fold p (splits x
     sites): per height class of tumulus (mound, undecided, no_mound) and for a site without
@@ -236,11 +423,11 @@ HEIGHT_CLASS_NAMES = tuple(height_class(lo) for lo in HEIGHT_CLASSES[:-1])
 
 
 def field_recall(truths: Sequence[SiteTruth], lab3: np.ndarray,
-                 lab2: np.ndarray) -> dict[str, Any]:
+                 lab2: np.ndarray) -> dict[str, RecallPart]:
     """Of the tumuli, the share confirmed "mound" by the three answers (and left undecided,
     and called no_mound) beside the two answers' "mound", per height class, all, and with
     and without a looters' trench or pit."""
-    def row(idx: list[int]) -> dict[str, Any]:
+    def row(idx: list[int]) -> RecallRow:
         n = len(idx)
         return {"tumuli": n,
                 "confirmed": _rate(int(sum(lab3[k] == MOUND for k in idx)), n),
@@ -249,7 +436,7 @@ def field_recall(truths: Sequence[SiteTruth], lab3: np.ndarray,
                 "two_answer_mound": _rate(int(sum(bool(lab2[k]) for k in idx)), n)}
 
     tum = [k for k, t in enumerate(truths) if t.mound]
-    out: dict[str, Any] = {}
+    out: dict[str, RecallPart] = {}
     for cut, name in ((None, "all"), (True, "with_trench"), (False, "without_trench")):
         sel = [k for k in tum if cut is None or truths[k].cut is cut]
         classes = {}
@@ -260,7 +447,7 @@ def field_recall(truths: Sequence[SiteTruth], lab3: np.ndarray,
     return out
 
 
-def frontier(p: np.ndarray, y: np.ndarray, goal: np.ndarray) -> dict[str, Any]:
+def frontier(p: np.ndarray, y: np.ndarray, goal: np.ndarray) -> Frontier:
     """What any band could do on these very sites (chosen on them: a bound no band chosen
     elsewhere beats, not a figure for new ground): the least undecided share at which the
     confident errors meet the goals (MAX_MISS, MAX_FA), and the least confident errors
@@ -273,7 +460,7 @@ def frontier(p: np.ndarray, y: np.ndarray, goal: np.ndarray) -> dict[str, Any]:
     cuts = np.unique(np.concatenate([ps, [np.nextafter(ps[-1], np.inf)]]))
     pos, neg = np.sort(p[goal]), np.sort(p[~y])
     allowed = int(math.floor(MAX_UNDECIDED * len(p) + 1e-9))
-    best: dict[str, Any] | None = None
+    best: FrontierBest | None = None
     for t_low in cuts:  # a band [t_low, t_high): the widest t_high within the allowance
         below = int(np.searchsorted(ps, t_low, side="left"))
         k = min(below + allowed, len(ps))  # sites with p < t_high are at most k
@@ -296,7 +483,7 @@ def frontier(p: np.ndarray, y: np.ndarray, goal: np.ndarray) -> dict[str, Any]:
 
 def three_answers(p: np.ndarray, sites: Sequence[GridSite], band: tuple[float, float],
                   threshold: float, outside: np.ndarray | None = None,
-                  site_bands: tuple[np.ndarray, np.ndarray] | None = None) -> dict[str, Any]:
+                  site_bands: tuple[np.ndarray, np.ndarray] | None = None) -> ThreeAnswers:
     """The three answers' figures on held-out sites (see the module text): p of every
     measured site, the sites (their truth), the model's band and two-answer threshold;
     `outside` (a model with a terrain domain) the sites whose ground lies outside it,
@@ -307,7 +494,7 @@ def three_answers(p: np.ndarray, sites: Sequence[GridSite], band: tuple[float, f
     y = np.array([t.mound for t in truths])
     goal = np.array([band_goal(t) for t in truths])
     lab = answers(p, site_bands if site_bands is not None else band)
-    terrain: dict[str, Any] = {}
+    terrain: TerrainPart = {}
     if outside is not None:
         inside = ~outside
         terrain = {"terrain": {
@@ -349,7 +536,7 @@ def three_answers(p: np.ndarray, sites: Sequence[GridSite], band: tuple[float, f
     }
 
 
-def by_terrain(truths: Sequence[SiteTruth], lab: np.ndarray) -> dict[str, Any]:
+def by_terrain(truths: Sequence[SiteTruth], lab: np.ndarray) -> dict[str, TerrainRates]:
     """The three answers per kind of ground (SiteTruth.terrain_kind): the confident
     misses and false alarms, the undecided, and the tumuli >= 2 m high confirmed mound,
     each with its exact 95 % interval."""
@@ -357,7 +544,7 @@ def by_terrain(truths: Sequence[SiteTruth], lab: np.ndarray) -> dict[str, Any]:
     mound = np.array([t.mound for t in truths], dtype=bool)
     goal_all = np.array([band_goal(t) for t in truths], dtype=bool)
     high_all = mound & np.array([t.height_m >= 2.0 for t in truths], dtype=bool)
-    out: dict[str, Any] = {}
+    out: dict[str, TerrainRates] = {}
     for kind in sorted(set(kind_of.tolist())):
         idx = kind_of == kind
         goal, high, neg = goal_all & idx, high_all & idx, idx & ~mound
@@ -370,7 +557,7 @@ def by_terrain(truths: Sequence[SiteTruth], lab: np.ndarray) -> dict[str, Any]:
     return out
 
 
-def recall_figure(three: dict[str, Any], out: str, title: str = "") -> None:
+def recall_figure(three: ThreeAnswers, out: str, title: str = "") -> None:
     """The field recall (three_answers' field_recall) as bars per height class: the tumuli
     confirmed mound, left undecided and called no_mound, beside the two answers' mound
     share (a dot), with and without a looters' trench or pit."""
@@ -386,8 +573,10 @@ def recall_figure(three: dict[str, Any], out: str, title: str = "") -> None:
     for ax, (key, name) in zip(axes, panels, strict=True):
         classes = {**fr[key]["by_height"], "all": fr[key]["all"]}
         x = np.arange(len(classes))
+        shares: tuple[RecallShare, ...] = ("confirmed", "undecided", "no_mound",
+                                           "two_answer_mound")
         share = {k: np.array([(c[k]["rate"] or 0.0) for c in classes.values()])
-                 for k in ("confirmed", "undecided", "no_mound", "two_answer_mound")}
+                 for k in shares}
         ax.bar(x, share["confirmed"], color="#ff7f00", label="mound")
         ax.bar(x, share["undecided"], bottom=share["confirmed"], color="#1f78b4",
                label="undecided")

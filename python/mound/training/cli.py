@@ -5,12 +5,29 @@ from __future__ import annotations
 
 import argparse
 import math
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, Literal
 
 from mound.bounds import SEED, Bound
 from mound.errors import InputError
 from mound.jsonio import write_json
+
+if TYPE_CHECKING:
+    from mound.recon.verdict_band import Rate, ThreeAnswers
+    from mound.training.verdict_eval import (
+        GoalMounds,
+        GoalNoMound,
+        GroundRate,
+        PaperAgreement,
+        PaperCount,
+        VerdictReport,
+    )
+
+# the held-out figures a trained model keeps of its report
+HeldoutFigure = Literal["sites", "measured", "accuracy", "false_alarm_rate", "missed_rate",
+                        "auc", "brier", "ece", "calibration", "goal_mounds_2m_15m",
+                        "goal_no_mound", "old_rule_accuracy"]
 
 
 def cmd_recon_terrain_domain(args: argparse.Namespace) -> int:
@@ -49,7 +66,7 @@ def cmd_recon_train_verdict(args: argparse.Namespace) -> int:
           f"l2 {t['l2']:g}, out-of-fold AUC {t['out_of_fold']['auc']:.3f}, ECE "
           f"{t['out_of_fold']['ece']:.3f}; threshold {model['threshold']:.2f}")
 
-    def by_ground(gb: dict[str, Any]) -> str:
+    def by_ground(gb: Mapping[str, Mapping[str, float]]) -> str:
         return (f"clear of their ground {gb['clear']['found']:.1f} of {gb['clear']['sites']}, "
                 f"masked by it {gb['masked']['found']:.1f} of {gb['masked']['sites']}")
 
@@ -87,10 +104,11 @@ def cmd_recon_train_verdict(args: argparse.Namespace) -> int:
     if args.heldout:
         held = [r for g in args.heldout for r in vm.load_grid(g, args.second_look_kind)]
         report = vm.evaluate(vm.VerdictModel.of(model), held)
-        model["heldout"] = {k: report[k] for k in (
+        kept: tuple[HeldoutFigure, ...] = (
             "sites", "measured", "accuracy", "false_alarm_rate", "missed_rate", "auc",
             "brier", "ece", "calibration", "goal_mounds_2m_15m", "goal_no_mound",
-            "old_rule_accuracy")}
+            "old_rule_accuracy")
+        model["heldout"] = {k: report[k] for k in kept}
         if "three_answers" in report:
             model["heldout"]["three_answers"] = {
                 k: v for k, v in report["three_answers"].items() if k != "field_recall"}
@@ -108,8 +126,8 @@ def cmd_recon_train_verdict(args: argparse.Namespace) -> int:
     return 0
 
 
-def _print_three_answers(t: dict[str, Any]) -> None:
-    def rate(d: dict[str, Any]) -> str:
+def _print_three_answers(t: ThreeAnswers) -> None:
+    def rate(d: Rate) -> str:
         lo, hi = d["rate_95ci"] or (math.nan, math.nan)
         return (f"{d['count']}/{d['of']} ({100 * (d['rate'] or 0):.1f} %, 95 % interval "
                 f"{100 * lo:.1f}-{100 * hi:.1f} %)")
@@ -123,14 +141,16 @@ def _print_three_answers(t: dict[str, Any]) -> None:
              if u["of"] and u["count"] else ""))
     fr = t["frontier"]
     b = fr["best_within_undecided"]
+    least = ("no band" if b is None else
+             f"{100 * b['confident_misses']:.1f} % confident misses and "
+             f"{100 * b['confident_false_alarms']:.1f} % confident false alarms "
+             f"({b['times_the_goals']:.1f} x the goals)")
     print(f"  the frontier (any band, chosen on these sites: a bound): the goals' confident "
           f"errors need {100 * fr['undecided_at_goals']:.1f} % undecided; with <= "
-          f"{100 * fr['at_most_undecided']:.0f} % undecided the least is "
-          f"{100 * b['confident_misses']:.1f} % confident misses and "
-          f"{100 * b['confident_false_alarms']:.1f} % confident false alarms "
-          f"({b['times_the_goals']:.1f} x the goals)")
+          f"{100 * fr['at_most_undecided']:.0f} % undecided the least is {least}")
     if "terrain" in t:
-        te, would = t["terrain"], t["terrain"]["would_be"]
+        te = t["terrain"]
+        would = te["would_be"]
         print(f"  terrain: {te['outside']} sites ({te['tumuli_outside']} with a tumulus) on "
               f"ground outside the model's domain, undecided (by p alone {would['mound']} "
               f"mound, {would['no_mound']} no_mound, {would['undecided']} undecided)")
@@ -145,7 +165,7 @@ def _print_three_answers(t: dict[str, Any]) -> None:
         f"{f['all']['tumuli']} ({f['all']['two_answer_mound']['count']})")
 
 
-def _print_verdict_report(r: dict[str, Any]) -> None:
+def _print_verdict_report(r: VerdictReport) -> None:
     g, n = r["goal_mounds_2m_15m"], r["goal_no_mound"]
     cal = r["calibration"]
     print(f"held-out: {r['measured']} of {r['sites']} sites measured; accuracy "
@@ -153,7 +173,7 @@ def _print_verdict_report(r: dict[str, Any]) -> None:
           f"Brier {r['brier']:.3f}, ECE {r['ece']:.3f} (a calibrated forecast on these sites: "
           f"<= {cal['ece_if_calibrated_95']:.3f} in 95 % of draws; p = {cal['p_value']:.2f})")
 
-    def ci(d: dict[str, Any]) -> str:
+    def ci(d: GoalMounds | GoalNoMound | GroundRate) -> str:
         lo, hi = d["rate_95ci"] or (math.nan, math.nan)
         return f"95 % interval {100 * lo:.1f}-{100 * hi:.1f} %"
 
@@ -251,10 +271,16 @@ def cmd_recon_eval_verdict(args: argparse.Namespace) -> int:
         with tempfile.TemporaryDirectory() as tmp:
             agree = [vm.paper_agreement(g, model, Path(tmp) / str(k), args.paper_sites)
                      for k, g in enumerate(args.grids)]
-        tot = {k: sum(a[k] for a in agree) for k in (
-            "sites", "judged", "agree", "paper_right", "learned_right", "paper_false_alarms",
-            "paper_missed", "paper_failed")}
-        report["paper_agreement"] = {**tot, "rows": [r for a in agree for r in a["rows"]]}
+        def total(k: PaperCount) -> int:
+            return sum(a[k] for a in agree)
+
+        tot: PaperAgreement = {
+            "sites": total("sites"), "judged": total("judged"), "agree": total("agree"),
+            "paper_right": total("paper_right"), "learned_right": total("learned_right"),
+            "paper_false_alarms": total("paper_false_alarms"),
+            "paper_missed": total("paper_missed"), "paper_failed": total("paper_failed"),
+            "rows": [r for a in agree for r in a["rows"]]}
+        report["paper_agreement"] = tot
         print(f"  the paper's test (--reference) on {tot['judged']} sites: agrees with the "
               f"learned verdict on {tot['agree']}; right on {tot['paper_right']} (learned: "
               f"{tot['learned_right']}); {tot['paper_false_alarms']} false alarms, "

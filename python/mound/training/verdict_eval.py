@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Any
+from typing import Literal, NotRequired, TypedDict
 
 import numpy as np
 
@@ -20,9 +20,10 @@ from mound.classify.metrics import (
 )
 from mound.errors import InputError
 from mound.formats.verdict import VerdictFile
+from mound.jsonio import JsonObject
 from mound.recon.grid_site import GridSite
 from mound.recon.model_file import VerdictModel, outside_terrain
-from mound.recon.verdict_band import three_answers
+from mound.recon.verdict_band import ThreeAnswers, three_answers
 from mound.sim import terrain
 from mound.training.verdict_data import (
     CLEAR_OF_GROUND,
@@ -38,6 +39,183 @@ from mound.training.verdict_fit import check_candidates, probability
 from mound.training.verdict_second import second_look_p
 
 OPERATING_THRESHOLDS = (0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 0.95)
+
+
+class GroundRate(TypedDict):
+    """The goal's tumuli standing clear of their ground or masked by it (masked ones listed
+    with their relief)."""
+    sites: int
+    right: int
+    rate: float | None
+    rate_95ci: list[float] | None
+    tumuli: NotRequired[list[dict[str, str | float | bool]]]
+
+
+class ByGround(TypedDict):
+    clear_of_ground: float
+    clear: GroundRate
+    masked: GroundRate
+    relief_unknown: int
+
+
+class GoalMounds(TypedDict):
+    sites: int
+    right: int
+    rate: float | None
+    rate_95ci: list[float] | None
+    by_ground: ByGround
+    old_rule_rate: NotRequired[float | None]
+
+
+class GoalNoMound(TypedDict):
+    sites: int
+    false_alarms: int
+    rate: float | None
+    rate_95ci: list[float] | None
+
+
+class GoalRates(TypedDict):
+    goal_mounds_2m_15m: GoalMounds
+    goal_no_mound: GoalNoMound
+
+
+class WiderThanScan(TypedDict):
+    sites: int
+    right: int
+    coverage_warned: int
+    beyond_the_cloud: int
+    beyond_the_cloud_warned: int
+
+
+class GroupCounts(TypedDict):
+    sites: int
+    right: int
+    old_rule_right: int
+
+
+class OperatingPoint(TypedDict):
+    threshold: float
+    mounds_2m_15m_found: int
+    false_alarms: int
+    mounds_found: int
+
+
+class DetectionBin(TypedDict):
+    height_m: list[float]
+    diameter_m: list[float]
+    mounds: int
+    detected: int
+
+
+class DetectionCorner(TypedDict):
+    height_m_at_least: float
+    diameter_m_at_least: float
+    mounds: int
+    detected: int
+
+
+class DetectionLimit(TypedDict):
+    table: list[DetectionBin]
+    limit: list[DetectionCorner] | None
+
+
+class SiteError(TypedDict):
+    dir: str
+    truth: JsonObject
+    p_mound: float
+
+
+class TwoLookError(SiteError):
+    second_look: bool
+
+
+class SecondLookRow(TypedDict):
+    dir: str
+    mound: bool
+    p_first: float
+    p_second: float
+    label: bool
+
+
+class TwoLooks(GoalRates):
+    """The verdict with the second look (two_looks)."""
+    p_low: float
+    threshold: float
+    band: int
+    flown: int
+    not_flown: list[str]
+    accuracy: float
+    ece: float
+    calibration: dict[str, float]
+    second_looks: list[SecondLookRow]
+    errors: list[TwoLookError]
+
+
+class PaperRow(TypedDict):
+    dir: str
+    truth: bool
+    kind: str
+    paper: str
+    learned: str
+
+
+PaperCount = Literal["sites", "judged", "agree", "paper_right", "learned_right",
+                     "paper_false_alarms", "paper_missed", "paper_failed"]
+
+
+class PaperAgreement(TypedDict):
+    """The paper's test beside the learned verdict (paper_agreement)."""
+    sites: int
+    paper_failed: int
+    agree: int
+    paper_right: int
+    learned_right: int
+    judged: int
+    paper_false_alarms: int
+    paper_missed: int
+    rows: list[PaperRow]
+
+
+class GridReport(TypedDict):
+    """One grid's figures in eval-verdict's per_grid."""
+    grid: str
+    label: str
+    model: str | None
+    detection_limit: DetectionLimit
+    goal_no_mound: GoalNoMound
+    goal_mounds_2m_15m: GoalMounds
+    auc: float
+    ece: float
+
+
+class VerdictReport(GoalRates):
+    """The held-out report of a verdict model (evaluate); eval-verdict adds the paper's
+    test and the grids one by one."""
+    sites: int
+    measured: int
+    failed: list[str]
+    threshold: float
+    accuracy: float
+    old_rule_accuracy: float
+    false_alarm_rate: float | None
+    missed_rate: float | None
+    old_rule_false_alarm_rate: float | None
+    old_rule_missed_rate: float | None
+    wider_than_scan: WiderThanScan
+    auc: float
+    brier: float
+    ece: float
+    calibration: dict[str, float]
+    reliability: list[dict[str, float | None]]
+    per_group: dict[str, GroupCounts]
+    operating_points: list[OperatingPoint]
+    detection_limit: DetectionLimit
+    errors: list[SiteError]
+    two_looks: NotRequired[TwoLooks]
+    three_answers: NotRequired[ThreeAnswers]
+    paper_agreement: NotRequired[PaperAgreement]
+    per_grid: NotRequired[list[GridReport]]
+
 
 
 def _old_rule(r: GridSite) -> bool:
@@ -64,23 +242,29 @@ def _interval(k: int, n: int) -> list[float] | None:
 
 
 def _goal_rates(lab: np.ndarray, big: list[int], neg: list[int],
-                rows: list[GridSite]) -> dict[str, Any]:
+                rows: list[GridSite]) -> GoalRates:
     """The issue's goals under labels `lab`: the goal's tumuli (`big`) found and the sites
     without a mound (`neg`) called one, each with its exact 95 % interval; and the goal's
     tumuli apart for those that stand clear of their ground and those it masks
     (`stands_clear`), the masked ones listed with their relief."""
     right, fa = int(sum(lab[k] for k in big)), int(sum(lab[k] for k in neg))
-    by_ground: dict[str, Any] = {"clear_of_ground": CLEAR_OF_GROUND}
-    for name, want in GROUND_CLASSES:
+
+    def ground(want: bool) -> GroundRate:
         idx = [k for k in big if stands_clear(rows[k].relief) is want]
         found = int(sum(lab[k] for k in idx))
-        by_ground[name] = {"sites": len(idx), "right": found,
+        out: GroundRate = {"sites": len(idx), "right": found,
                            "rate": _rate([bool(lab[k]) for k in idx]),
                            "rate_95ci": _interval(found, len(idx))}
         if not want:
-            by_ground[name]["tumuli"] = [{"dir": rows[k].dir, **(rows[k].relief or {}),
-                                          "found": bool(lab[k])} for k in idx]
-    by_ground["relief_unknown"] = sum(1 for k in big if stands_clear(rows[k].relief) is None)
+            out["tumuli"] = [{"dir": rows[k].dir, **(rows[k].relief or {}),
+                              "found": bool(lab[k])} for k in idx]
+        return out
+
+    classes = dict(GROUND_CLASSES)
+    by_ground: ByGround = {
+        "clear_of_ground": CLEAR_OF_GROUND, "clear": ground(classes["clear"]),
+        "masked": ground(classes["masked"]),
+        "relief_unknown": sum(1 for k in big if stands_clear(rows[k].relief) is None)}
     return {"goal_mounds_2m_15m": {"sites": len(big), "right": right,
                                    "rate": _rate([bool(lab[k]) for k in big]),
                                    "rate_95ci": _interval(right, len(big)),
@@ -118,7 +302,7 @@ def _site_bands(model: VerdictModel, measured: list[GridSite]
     return bands[:, 0], bands[:, 1]
 
 
-def evaluate(model: VerdictModel, rows: list[GridSite]) -> dict[str, Any]:
+def evaluate(model: VerdictModel, rows: list[GridSite]) -> VerdictReport:
     measured = [r for r in rows if r.measured]
     check_candidates(model, measured)
     p = probability(model, [r.rises for r in measured])
@@ -131,7 +315,7 @@ def evaluate(model: VerdictModel, rows: list[GridSite]) -> dict[str, Any]:
         t = r.truth
         key = f"tumulus/{t.profile}" if t.mound else f"no mound/{t.kind}"
         groups.setdefault(key, []).append(k)
-    per = {}
+    per: dict[str, GroupCounts] = {}
     for key, idx in sorted(groups.items()):
         per[key] = {"sites": len(idx), "right": int(sum(lab[i] == y[i] for i in idx)),
                     "old_rule_right": int(sum(old[i] == y[i] for i in idx))}
@@ -142,7 +326,7 @@ def evaluate(model: VerdictModel, rows: list[GridSite]) -> dict[str, Any]:
     beyond = [k for k in wider if measured[k].truth.reach_m > _radius(measured[k])]
     goal = _goal_rates(lab, big, neg, measured)
     goal["goal_mounds_2m_15m"]["old_rule_rate"] = _rate([bool(old[k]) for k in big])
-    return {
+    report: VerdictReport = {
         "sites": len(rows), "measured": len(measured),
         "failed": [r.dir for r in rows if not r.measured],
         "threshold": thr,
@@ -174,17 +358,18 @@ def evaluate(model: VerdictModel, rows: list[GridSite]) -> dict[str, Any]:
         "detection_limit": detection_limit(measured, lab),
         "errors": [{"dir": measured[k].dir, "truth": measured[k].truth.to_doc(),
                     "p_mound": float(p[k])} for k in range(len(y)) if lab[k] != y[k]],
-        **({"two_looks": two_looks(model, measured, p, big, neg)}
-           if model.second_look else {}),
-        **({"three_answers": three_answers(
-            p, measured, model.undecided, thr, _outside(model, measured),
-            _site_bands(model, measured))}
-           if model.undecided else {}),
     }
+    if model.second_look:
+        report["two_looks"] = two_looks(model, measured, p, big, neg)
+    if model.undecided:
+        report["three_answers"] = three_answers(
+            p, measured, model.undecided, thr, _outside(model, measured),
+            _site_bands(model, measured))
+    return report
 
 
 def two_looks(model: VerdictModel, measured: list[GridSite], p: np.ndarray,
-              big: list[int], neg: list[int]) -> dict[str, Any]:
+              big: list[int], neg: list[int]) -> TwoLooks:
     """The verdict with the second look: each site whose first p lies in [p_low, threshold)
     decided by its second flight (NNNN/second/), at the second look's calibration and
     threshold; a site in the band without one keeps its first verdict (`not_flown`)."""
@@ -217,7 +402,7 @@ def two_looks(model: VerdictModel, measured: list[GridSite], p: np.ndarray,
 
 
 def paper_agreement(folder: str | Path, model: VerdictModel, work: str | Path,
-                    limit: int | None = None) -> dict[str, Any]:
+                    limit: int | None = None) -> PaperAgreement:
     """The paper's test (`mound_recon verdict --reference`) beside the learned verdict on the
     sites of a grid. The reference is what a tumulus there should look like: the site's own
     ground (same seed, slope or DEM patch; no confuser) with its own tumulus, or, on a site
@@ -237,7 +422,7 @@ def paper_agreement(folder: str | Path, model: VerdictModel, work: str | Path,
     rows = load_grid(root)
     check_candidates(model, [r for r in rows if r.measured])
     p = probability(model, [r.rises for r in rows])
-    sites: list[dict[str, Any]] = []
+    sites: list[PaperRow] = []
     for row, q in zip(rows, p, strict=True):
         if not row.measured or (limit is not None and len(sites) >= limit):
             continue
@@ -271,10 +456,10 @@ def paper_agreement(folder: str | Path, model: VerdictModel, work: str | Path,
         "rows": sites}
 
 
-def detection_limit(rows: list[GridSite], lab: np.ndarray) -> dict[str, Any]:
+def detection_limit(rows: list[GridSite], lab: np.ndarray) -> DetectionLimit:
     """Detection rate of the mounds per height x diameter bin, and the detection limit: the
     smallest (height, diameter) from which on the mounds are detected at >= 95 %."""
-    table = []
+    table: list[DetectionBin] = []
     for i in range(len(HEIGHT_BINS) - 1):
         for j in range(len(DIAMETER_BINS) - 1):
             idx = [k for k, r in enumerate(rows) if r.truth.mound
@@ -285,7 +470,7 @@ def detection_limit(rows: list[GridSite], lab: np.ndarray) -> dict[str, Any]:
                           "mounds": len(idx), "detected": int(sum(lab[k] for k in idx))})
     # corners (h, d): the mounds at least h high and d across; those detected at >= 95 %
     # (at least 5 mounds), and of them the ones no other such corner lies below and left of
-    corners = []
+    corners: list[DetectionCorner] = []
     for h in HEIGHT_BINS[:-1]:
         for d in DIAMETER_BINS[:-1]:
             idx = [k for k, r in enumerate(rows) if r.truth.mound

@@ -4,14 +4,17 @@ the detection rate over height x diameter per grid (`detection_figure`)."""
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from mound.training.verdict_data import DIAMETER_BINS, HEIGHT_BINS
 
+if TYPE_CHECKING:
+    from mound.training.verdict_eval import VerdictReport
 
-def figure(report: dict[str, Any], out: str | Path) -> None:
+
+def figure(report: VerdictReport, out: str | Path) -> None:
     """Reliability diagram and the detection rate over height x diameter."""
     import matplotlib
 
@@ -52,7 +55,7 @@ def figure(report: dict[str, Any], out: str | Path) -> None:
     plt.close(fig)
 
 
-def detection_figure(panels: list[tuple[str, dict[str, Any]]], out: str | Path) -> None:
+def detection_figure(panels: list[tuple[str, VerdictReport]], out: str | Path) -> None:
     """The detection rate over height x diameter, one panel per grid (its label, its
     report), with each grid's false alarms and detection limit in the title."""
     import matplotlib

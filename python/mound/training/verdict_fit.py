@@ -11,7 +11,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, TypedDict
 
 import numpy as np
 from scipy.special import expit
@@ -38,7 +38,13 @@ from mound.training.verdict_data import (
     site_folds,
     stands_clear,
 )
-from mound.training.verdict_second import MIN_SECOND_LOOK_GAIN, second_look_rule
+from mound.training.verdict_second import (
+    MIN_SECOND_LOOK_GAIN,
+    SecondLookFigures,
+    SecondLookInSample,
+    SecondLookRule,
+    second_look_rule,
+)
 
 SCHEMA = "mound.verdict_model"
 
@@ -265,7 +271,58 @@ def _out_of_fold(d: _Rises, split: int, key: Key, seed: int) -> tuple[np.ndarray
     return oof, oof2
 
 
-def _kept(second: dict[str, Any] | None) -> tuple[dict[str, Any] | None, dict[str, Any] | None]:
+class SecondLookNotKept(TypedDict):
+    """A second look's rule that gained too little out of fold, and why (_kept)."""
+    p_low: float
+    threshold: float
+    out_of_fold: SecondLookFigures
+    selected_in_sample: SecondLookInSample
+    why: str
+
+
+class ReasonsTrained(TypedDict):
+    cut_youden_j: float
+    irregular_youden_j: float
+    goal_tumuli_cut: int
+    goal_tumuli_uncut: int
+    sites_without_tumulus: int
+    method: str
+
+
+class Reasons(TypedDict):
+    """The model file's `reasons` (reason_thresholds)."""
+    cut_roughness: float
+    irregular_roughness: float
+    trained: ReasonsTrained
+
+
+class Neighbours(TypedDict):
+    """The model file's terrain_domain.neighbours (terrain_neighbours)."""
+    k: int
+    centre: list[float]
+    scale: list[float]
+    points: list[list[float]]
+    max_distance: float
+    quantile: float
+    method: str
+
+
+class NeighboursPart(TypedDict, total=False):
+    neighbours: Neighbours
+
+
+class TerrainDomain(NeighboursPart):
+    """The model file's `terrain_domain` (terrain_domain)."""
+    ranges: dict[str, list[float]]
+    sites: int
+    grids: list[str]
+    margin: float
+    outside_left_out: float | None
+    method: str
+
+
+def _kept(second: SecondLookRule | None
+          ) -> tuple[SecondLookRule | None, SecondLookNotKept | None]:
     """The second look's rule if it gains enough out of fold (MIN_SECOND_LOOK_GAIN), else
     None and why it was not kept."""
     if second is None:
@@ -311,7 +368,7 @@ def check_candidates(model: VerdictModel, measured: Sequence[GridSite]) -> None:
                              f"grid: mound sim grid --candidates {model.candidates})")
 
 
-def cloud_settings(measured: list[GridSite]) -> dict[str, Any] | None:
+def cloud_settings(measured: list[GridSite]) -> dict[str, str | float] | None:
     """How the training sites' clouds were made (the model's `cloud_settings`): a sparse
     cloud, or the densify options of DENSE_SETTINGS from each site's dense/dense.json, which
     must agree; None where a site's cannot be read (old grids: the model then records
@@ -337,9 +394,10 @@ def cloud_settings(measured: list[GridSite]) -> dict[str, Any] | None:
                          + "; ".join(f"{v} at {w}" for v, w in list(seen.items())[:3])
                          + "): a model learns one kind of cloud")
     (values,) = seen
-    if not all(isinstance(v, int | float) for v in values):
+    numbers = [v for v in values if isinstance(v, int | float)]
+    if len(numbers) != len(values):
         return None
-    return {"cloud": "dense", **dict(zip(DENSE_SETTINGS, values, strict=True))}
+    return {"cloud": "dense", **dict(zip(DENSE_SETTINGS, numbers, strict=True))}
 
 
 # The terrain domain's margin, in units of each descriptor's range over the training sites,
@@ -374,7 +432,7 @@ def _youden(x: np.ndarray, pos: np.ndarray) -> tuple[float, float]:
     return best
 
 
-def reason_thresholds(sites: list[GridSite]) -> dict[str, Any] | None:
+def reason_thresholds(sites: list[GridSite]) -> Reasons | None:
     """The model's `reasons` from the training sites' judged rises (their roughness, the
     dome fit's residual over the height) and truth: cut_roughness separates the tumuli
     >= 2 m high and 15 m across (goal_tumulus: a cut shows on them) with a looters' trench
@@ -404,7 +462,7 @@ def reason_thresholds(sites: list[GridSite]) -> dict[str, Any] | None:
                                   "the sites without a tumulus and with one"}}
 
 
-def terrain_neighbours(x: np.ndarray) -> dict[str, Any]:
+def terrain_neighbours(x: np.ndarray) -> Neighbours:
     """terrain_domain.neighbours from the training sites' descriptors `x` (sites x
     TERRAIN_DESCRIPTORS): each standardised by the median and interquartile range, and
     max_distance the NEIGHBOURS_QUANTILE of each site's mean distance to its NEIGHBOURS_K
@@ -425,7 +483,7 @@ def terrain_neighbours(x: np.ndarray) -> dict[str, Any]:
                       "its k nearest others"}
 
 
-def terrain_domain(measured: list[GridSite], sources: list[str]) -> dict[str, Any] | None:
+def terrain_domain(measured: list[GridSite], sources: list[str]) -> TerrainDomain | None:
     """The ground the sites stand on (the model's `terrain_domain`): each terrain
     descriptor from the lowest to the highest of the sites' (their verdicts'
     measurements.terrain), widened by DOMAIN_MARGIN of that range on either side, with the
@@ -449,9 +507,11 @@ def terrain_domain(measured: list[GridSite], sources: list[str]) -> dict[str, An
     for k in range(len(x) if len(x) > 1 else 0):
         a, b = bounds(np.delete(x, k, axis=0))
         left_out += bool(((x[k] < a) | (x[k] > b)).any())
+    neighbours: NeighboursPart = ({"neighbours": terrain_neighbours(x)}
+                                  if len(x) > 2 * NEIGHBOURS_K else {})
     return {"ranges": {n: [float(lo[i]), float(hi[i])]
                        for i, n in enumerate(TERRAIN_DESCRIPTORS)},
-            **({"neighbours": terrain_neighbours(x)} if len(x) > 2 * NEIGHBOURS_K else {}),
+            **neighbours,
             "sites": len(measured), "grids": sources, "margin": DOMAIN_MARGIN,
             "outside_left_out": left_out / len(x) if len(x) > 1 else None,
             "method": "each descriptor's lowest to highest over the sites, widened by "

@@ -5,7 +5,7 @@ out-of-fold logits and judged nested (SECOND_LOOK_FOLDS); `second_look_p` the co
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import TypedDict
 
 import numpy as np
 from scipy.special import expit, logit
@@ -109,9 +109,60 @@ def _second_look_labels(u1: np.ndarray, u2: np.ndarray, thr: float,
     return np.where(flown, p2 >= t2, p1 >= thr), flown
 
 
+class GoalByGround(TypedDict, total=False):
+    goal_found_by_ground: dict[str, object]
+
+
+class SecondLookFigures(GoalByGround):
+    """The second look's figures out of fold (nested), the first look's beside them."""
+    flights: float
+    goal_found: float
+    goal_found_first_look: float
+    goal_sites: int
+    found: float
+    found_first_look: float
+    goal_found_first_look_same_fa: float
+    found_first_look_same_fa: float
+    false_alarms: float
+    false_alarms_first_look: float
+    negatives: int
+    folds: int
+    folds_without_a_rule: int
+
+
+class SecondLookInSample(TypedDict):
+    flights: float
+    goal_found: float
+    found: float
+    false_alarms: float
+
+
+class SecondLookTrained(TypedDict):
+    fitted_sites: int
+    fitted_mounds: int
+    out_of_fold: SecondLookFigures
+    selected_in_sample: SecondLookInSample
+    method: str
+
+
+class Combine(TypedDict):
+    first: float
+    second: float
+    bias: float
+
+
+class SecondLookRule(TypedDict):
+    """The model file's `second_look` (second_look_rule)."""
+    p_low: float
+    threshold: float
+    scan_factor: float
+    combine: Combine
+    trained: SecondLookTrained
+
+
 def second_look_rule(u1: np.ndarray, u2: np.ndarray, thr: float,
                       y: np.ndarray, goal: np.ndarray,
-                      ground: dict[str, np.ndarray] | None = None) -> dict[str, Any] | None:
+                      ground: dict[str, np.ndarray] | None = None) -> SecondLookRule | None:
     """The second look (see the module text) from the out-of-fold logits of the model's
     calibrated p of the sites' first and second looks (CV_REPEATS x sites; -inf: no rise,
     or no second look): a logistic
@@ -152,28 +203,30 @@ def second_look_rule(u1: np.ndarray, u2: np.ndarray, thr: float,
     p_low, t2, (c1, c2, c0) = rule
     band = np.isfinite(u2) & (p1 >= SECOND_LOOK_P_MIN) & (p1 < thr)
     same_goal, same = _first_look_at(p1, y, goal, float(final[:, neg].sum() / reps))
+    by_ground: GoalByGround = ({"goal_found_by_ground": found_by_ground(final, ground)}
+                               if ground else {})
+    out_of_fold: SecondLookFigures = {
+        "flights": float(flown.sum() / reps),
+        "goal_found": float(final[:, goal].sum() / reps),
+        "goal_found_first_look": float((p1 >= thr)[:, goal].sum() / reps),
+        "goal_sites": int(goal.sum()),
+        **by_ground,
+        "found": float(final[:, y].sum() / reps),
+        "found_first_look": float((p1 >= thr)[:, y].sum() / reps),
+        "goal_found_first_look_same_fa": same_goal,
+        "found_first_look_same_fa": same,
+        "false_alarms": float(final[:, neg].sum() / reps),
+        "false_alarms_first_look": float((p1 >= thr)[:, neg].sum() / reps),
+        "negatives": int(neg.sum()),
+        "folds": SECOND_LOOK_FOLDS,
+        "folds_without_a_rule": unchosen}
     return {"p_low": p_low, "threshold": t2, "scan_factor": SECOND_LOOK_FACTOR,
             "combine": {"first": c1, "second": c2, "bias": c0},
             "trained": {"fitted_sites": int(band.sum() / reps),
                         "fitted_mounds": int(band[:, y].sum() / reps),
                         # nested (the first look at the file's threshold beside it, and
                         # its ROC read at the two looks' false alarms)
-                        "out_of_fold": {
-                            "flights": float(flown.sum() / reps),
-                            "goal_found": float(final[:, goal].sum() / reps),
-                            "goal_found_first_look": float((p1 >= thr)[:, goal].sum() / reps),
-                            "goal_sites": int(goal.sum()),
-                            **({"goal_found_by_ground": found_by_ground(final, ground)}
-                               if ground else {}),
-                            "found": float(final[:, y].sum() / reps),
-                            "found_first_look": float((p1 >= thr)[:, y].sum() / reps),
-                            "goal_found_first_look_same_fa": same_goal,
-                            "found_first_look_same_fa": same,
-                            "false_alarms": float(final[:, neg].sum() / reps),
-                            "false_alarms_first_look": float((p1 >= thr)[:, neg].sum() / reps),
-                            "negatives": int(neg.sum()),
-                            "folds": SECOND_LOOK_FOLDS,
-                            "folds_without_a_rule": unchosen},
+                        "out_of_fold": out_of_fold,
                         "selected_in_sample": {
                             "flights": float(flown_in.sum() / reps),
                             "goal_found": float(final_in[:, goal].sum() / reps),
