@@ -11,9 +11,12 @@ import tempfile
 from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any, TypeAlias
+from typing import TYPE_CHECKING, Any, NoReturn, TypeAlias
 
 from mound.errors import InputError
+
+if TYPE_CHECKING:
+    from xml.etree.ElementTree import Element
 
 # A JSON value and a JSON object, as the documents' writers (to_doc) return them: mypy then
 # refuses a value json.dumps cannot write (an array, a Path, a dataclass) where it is made.
@@ -166,7 +169,7 @@ def _parse_float(s: str) -> float:
     return v
 
 
-def _parse_constant(s: str) -> Any:
+def _parse_constant(s: str) -> NoReturn:
     raise _Refused(f"{s} is not valid JSON; values must be finite numbers")
 
 
@@ -210,6 +213,24 @@ def require_string(obj: Mapping[str, Any], key: str, where: str,
     v = obj.get(key, default)
     if not isinstance(v, str):
         raise InputError(f"{where}.{key}: expected a string, got {short_repr(v)}")
+    return v
+
+
+def require_count(obj: Mapping[str, Any], key: str, where: str, *, hi: float = 1e9) -> int:
+    """obj[key] as a whole number in [0, hi] (a count); InputError naming `where.key`
+    otherwise."""
+    v = require_number(obj, key, where, lo=0, hi=hi)
+    if v != int(v):
+        raise InputError(f"{where}.{key}: expected a whole number, got {v:g}")
+    return int(v)
+
+
+def list_member(obj: Mapping[str, Any], key: str, where: str) -> list[Any]:
+    """obj[key]: a list ([] when the key is absent); InputError naming `where.key`
+    otherwise."""
+    v = obj.get(key, [])
+    if not isinstance(v, list):
+        raise InputError(f"{where}.{key}: expected a list, got {short_repr(v)}")
     return v
 
 
@@ -334,7 +355,7 @@ def check_doc(doc: Any, path: str | Path, schema: str, max_version: int) -> dict
     return doc
 
 
-def parse_xml(data: bytes, where: str) -> Any:
+def parse_xml(data: bytes, where: str) -> Element:
     """The XML tree of `data`; no DTD, entities or external references (defusedxml), else
     InputError naming `where`."""
     import defusedxml.ElementTree as ET

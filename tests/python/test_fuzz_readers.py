@@ -1,10 +1,11 @@
 """Property-based fuzzing (Hypothesis) of the Python readers of outside files: the user's
 sites (mound.sites and GeoJSON), plans (mission build), QGroundControl .plan and WPL
-missions, the Statlog data, the thresholds of a verdict-bound report. From a valid file,
-Hypothesis replaces or deletes a value anywhere in it (with huge or non-finite numbers,
-wrong types, deep nesting, control characters) or splices random bytes into its text;
-every reader must answer with a value or an InputError (the commands' exit 2), never
-another exception (exit 1).
+missions, the Statlog data, the thresholds of a verdict-bound report; and the run's own
+files read back (learn.json, a photo card's photos.json, mission.json, site rows, the
+survey's ledger). From a valid file, Hypothesis replaces or deletes a value anywhere in it
+(with huge or non-finite numbers, wrong types, deep nesting, control characters) or
+splices random bytes into its text; every reader must answer with a value or an
+InputError (the commands' exit 2), never another exception (exit 1).
 
 (The camera and GPS files of the 3-D stage are read by mound_recon, fuzzed with libFuzzer:
 cpp/recon/inputs_fuzz.cc.) CI runs MOUND_FUZZ_EXAMPLES (default 150) examples per reader
@@ -29,6 +30,7 @@ from hypothesis import strategies as st
 
 from mound.classify import statlog
 from mound.errors import InputError
+from mound.formats.learn import Change, Example, FlightLearned, LearnRecord
 from mound.formats.mission import (
     ClearanceSpec,
     FlightTerrain,
@@ -39,6 +41,7 @@ from mound.formats.mission import (
     TerrainLeg,
     UploadRecord,
 )
+from mound.formats.photos import CardSite, CardSummary
 from mound.formats.plan import Plan
 from mound.formats.recon import Recon
 from mound.formats.site_row import SiteRow
@@ -47,6 +50,7 @@ from mound.formats.verdict import Verdict, VerdictFile
 from mound.geometry.flight import scan_for_site
 from mound.geometry.geodesy import Origin
 from mound.jsonio import json_text
+from mound.survey.ledger import Ledger, StageRecord
 from mound.uav import files as mission_files
 from mound.uav import mission, mission_items
 
@@ -427,6 +431,69 @@ def test_mission_summary_reader(text: str) -> None:
                          check=_valid_mission_summary)
 
 
+LEARN = LearnRecord(
+    2.0, 0.91, 0.93, 1900, "sat.tst without the field's rows",
+    (FlightLearned(1, ["s1", "s2"], 3.5, ["s1", "s2", "s3"], 1480.0, "flown",
+                   [Example("s1", "mound", 0.97), Example("s2", "no_mound", 0.88)], 0.92, 3,
+                   [Change("s3", 0.40, 0.61), Change("s4", 0.52, 0.47)]),),
+    "battery 2: its missions are in battery_2/", 2).to_doc()
+PHOTO_CARD = {"schema": "mound.photos", "version": 1, "card": "/cards/DJI_001",
+              "counts": {"site": 40, "transit": 12, "blurred": 2},
+              "sites": {"s1": CardSite(40, 2, 812.5, "ok", {
+                  "source": "exif (focal_35mm)", "make": "DJI", "model": "FC3582",
+                  "focal_px": 2940.1, "mixed": False}).to_doc()},
+              "skipped_folders": ["MISC: Permission denied"]}
+
+
+def _valid_learn(r: LearnRecord) -> None:
+    """The typed value writes back the same document (read again, equal)."""
+    again = LearnRecord.from_doc(json.loads(json_text(r.to_doc())), "again")
+    assert again.to_doc() == r.to_doc()
+    assert all(0 <= f.held_out_auc <= 1 and f.max_abs_dp <= 1 for f in r.flights)
+
+
+def _valid_card(c: CardSummary) -> None:
+    doc = {"schema": "mound.photos", "version": 1, **c.to_doc()}
+    assert CardSummary.from_card(json.loads(json_text(doc)), "again", c.file) == c
+    assert all(v.photos >= 0 and v.status in ("ok", "too_few_photos") for v in c.sites.values())
+
+
+@FUZZ
+@given(mutated_json(LEARN))
+def test_learn_record_reader(text: str) -> None:
+    value_or_input_error(LearnRecord.read, _file(text, "learn.json"), check=_valid_learn)
+
+
+@FUZZ
+@given(mutated_json(PHOTO_CARD))
+def test_photo_card_summary_reader(text: str) -> None:
+    value_or_input_error(lambda p: CardSummary.read(p, "photos/photos.json"),
+                         _file(text, "photos.json"), check=_valid_card)
+
+
+LEDGER = {"schema": "mound.survey_ledger", "version": 1, "stages": {
+    "classify": StageRecord("classify", "a" * 64, 1.5, ("model.json", "classifier.json"),
+                            "band 1", "2026-11-30T18:00:00Z").to_doc(),
+    "plan": StageRecord("plan", "b" * 64, 0.2, ("plan.json",)).to_doc()}}
+
+
+@FUZZ
+@given(mutated_json(LEDGER))
+def test_survey_ledger_reader(text: str) -> None:
+    """A damaged ledger costs a rerun of its damaged stages, never an error past the
+    file's own (not JSON: InputError)."""
+    path = _file(text, "stages.json")
+    try:
+        ledger = Ledger(path)
+    except InputError as e:
+        assert str(e) and "\n" not in str(e)
+        return
+    for name, rec in ledger.done.items():
+        assert rec.name == name and isinstance(rec.key, str) and math.isfinite(rec.wall_s)
+        assert all(isinstance(o, str) for o in rec.outputs)
+        ledger.is_done(name, rec.key)
+
+
 def _mission_texts() -> tuple[str, str]:
     m = build_mission(json.loads(json.dumps({**PLAN, "scan": None})), ORIGIN,
                             mission_items.MissionSpec(scan=SCAN))
@@ -513,6 +580,9 @@ def test_the_fuzzed_seeds_are_valid() -> None:
     _valid_mission_summary(summary)
     assert summary.flights[0].terrain is not None and summary.second_look is not None
     _valid_row(SiteRow.read(_file(json.dumps(SITE_ROW), "site_result.json")))
+    _valid_learn(LearnRecord.read(_file(json.dumps(LEARN), "learn.json")))
+    assert set(Ledger(_file(json.dumps(LEDGER), "stages.json")).done) == {"classify", "plan"}
+    _valid_card(CardSummary.read(_file(json.dumps(PHOTO_CARD), "photos.json"), "photos.json"))
     assert len(mission_files.read_mission(_file(QGC_PLAN, "m.plan"))[0]) > 5
     assert len(mission_files.read_mission(_file(WPL, "m.waypoints"))[0]) > 5
     assert len(statlog.parse(STATLOG_ROWS, "sat.trn").cls) == 6

@@ -82,7 +82,8 @@ def test_the_sites_of_a_scene_s_geojson_sort_a_card_as_their_mound_sites_documen
 def test_caliterra_lands_in_the_site_at_its_centre(caliterra: Path, tmp_path: Path) -> None:
     sites = sites_at(caliterra, tmp_path)
     out = tmp_path / "sorted"
-    doc = sort_card(str(caliterra.parent), str(sites), str(out), SortSpec(site_diameter_m=100))
+    doc = sort_card(str(caliterra.parent), str(sites), str(out),
+                    SortSpec(site_diameter_m=100)).doc
     by = {r["file"]: r for r in doc["photos"]}
     jpgs = [f for f in by if f.endswith(".jpg")]
     assert len(jpgs) == 40
@@ -148,7 +149,7 @@ def test_a_card_with_the_faults_of_a_real_one(caliterra: Path, tmp_path: Path) -
     (card / "MISC").mkdir()
     (card / "MISC" / "readme.txt").write_text("not a photo")
     out = tmp_path / "sorted"
-    doc = sort_card(str(card), str(sites), str(out), SortSpec(site_diameter_m=100))
+    doc = sort_card(str(card), str(sites), str(out), SortSpec(site_diameter_m=100)).doc
     by = {Path(r["file"]).name: r for r in doc["photos"]}
     assert by["ZZ_COPY_OF_FIRST.JPG"]["reason"] == "duplicate"
     assert by["ZZ_COPY_OF_FIRST.JPG"]["duplicate_of"].endswith(photos[0].name)
@@ -209,7 +210,7 @@ def sim_card(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
     native.run_tool("mound_plan", [str(tmp / "sites.json"), "--out", str(tmp / "plan.json")])
     truth = write_card(str(tmp / "plan.json"), str(tmp / "sites.json"), str(tmp / "card"),
                        CardSpec(image_size=(160, 120)))
-    return {"dir": tmp, "truth": truth}
+    return {"dir": tmp, "truth": truth.to_doc()}
 
 
 @pytest.mark.slow
@@ -278,7 +279,7 @@ def test_a_simulated_card_sorts_exactly_right(sim_card: dict[str, Any], tmp_path
                    pre + "DEEP.JPG": ("a", None), pre + "CUT.JPG": (None, "unreadable"),
                    pre + "ZZCOPY.JPG": (None, "duplicate"), pre + "BLUR.JPG": (None, "blurred")})
     out = tmp_path / "sorted"
-    doc = sort_card(str(card), str(sim_card["dir"] / "plan.json"), str(out))
+    doc = sort_card(str(card), str(sim_card["dir"] / "plan.json"), str(out)).doc
     got = {r["file"]: (r["site"], r["reason"]) for r in doc["photos"]}
     assert got == expect
     rows = {r["file"]: r for r in doc["photos"]}
@@ -293,7 +294,8 @@ def test_a_simulated_card_sorts_exactly_right(sim_card: dict[str, Any], tmp_path
     cam.write_text(json.dumps({"schema": "mound.camera", "version": 1, "width": 160,
                                "height": 120, "K": [[114, 0, 79.5], [0, 114, 59.5], [0, 0, 1]],
                                "dist": [0, 0, 0, 0, 0]}))
-    doc = sort_card(str(card), str(sim_card["dir"] / "plan.json"), str(out), camera=str(cam))
+    doc = sort_card(str(card), str(sim_card["dir"] / "plan.json"), str(out),
+                    camera=str(cam)).doc
     assert doc["sites"]["b"]["camera"]["source"] == "file"
     assert json.loads((out / "b" / "camera.json").read_text())["K"][0][0] == 114
 
@@ -358,7 +360,7 @@ def test_dji_photos_xmp_is_read_and_a_contradiction_reported(caliterra: Path,
         im.save(card / f"DJI_{k:04d}.JPG", exif=im.info["exif"], xmp=xmp, quality=90)
     sites = sites_at(caliterra, tmp_path)
     doc = sort_card(str(tmp_path / "card"), str(sites), str(tmp_path / "out"),
-                    SortSpec(site_diameter_m=100))
+                    SortSpec(site_diameter_m=100)).doc
     by = {r["file"].split("/")[-1]: r for r in doc["photos"]}
     x = by["DJI_0000.JPG"]["dji_xmp"]
     assert x["rel_alt_m"] == pytest.approx(gps[0]["exif"].get("alt_m", 100.0) - 60.0, abs=1e-3)
@@ -433,7 +435,7 @@ def test_a_card_without_a_plan_gets_sites_from_its_photos(sim_card: dict[str, An
     from mound.geometry.geodesy import Origin, geodetic_to_enu
 
     out = tmp_path / "sorted"
-    doc = sort_card(str(sim_card["dir"] / "card"), None, str(out))
+    doc = sort_card(str(sim_card["dir"] / "card"), None, str(out)).doc
     proposed = json.loads((out / "sites.json").read_text())
     assert proposed["schema"] == "mound.sites" and doc["proposed"]["link_m"] > 0
     plan_origin = Origin(38.5705, 27.9862, 95.0)
@@ -454,11 +456,11 @@ def test_a_card_without_a_plan_gets_sites_from_its_photos(sim_card: dict[str, An
     assert all(20 < r < 60 for r in reach), reach
     assert {r["reason"] for r in doc["photos"] if truth[r["file"]] is None} == {"transit"}
     # Caliterra
-    cal = sort_card(str(caliterra), None, str(tmp_path / "cal"))
+    cal = sort_card(str(caliterra), None, str(tmp_path / "cal")).doc
     n = len(cal["photos"])
     assert sum(1 for r in cal["photos"] if r["site"]) >= 0.95 * n
     again = sort_card(str(caliterra), str(tmp_path / "cal" / "sites.json"),
-                      str(tmp_path / "cal2"))
+                      str(tmp_path / "cal2")).doc
     assert [r["site"] for r in again["photos"]] == [r["site"] for r in cal["photos"]]
 
 
@@ -507,7 +509,7 @@ def test_a_simulated_dji_card_goes_from_photos_to_verdict(tmp_path: Path) -> Non
     assert mound_main(["sim", "site", "--size", "640", "480", "--pattern", "raster",
                        "--jpeg", "--exif-style", "dji", "--gps-latency", "0.6",
                        "--out", str(site)]) == 0
-    doc = sort_card(str(site / "images"), None, str(tmp_path / "sorted"))
+    doc = sort_card(str(site / "images"), None, str(tmp_path / "sorted")).doc
     assert list(doc["sites"]) == ["c01"] and doc["sites"]["c01"]["photos"] == 18
     assert doc["sites"]["c01"]["camera"]["source"] == "exif (sensor_table)"
     assert doc["dji_xmp"]["photos"] == 18

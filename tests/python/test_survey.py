@@ -796,8 +796,8 @@ def test_the_second_looks_advised_become_a_mission_in_the_report(
     sorted_card = sort_card(str(card), str(run / "second_look" / "plan.json"),
                             str(run / "photos_second"), SortSpec())
     assert {f["file"]: (f["site"], f["reason"]) for f in truth["files"]} == {
-        f["file"]: (f["site"], f["reason"]) for f in sorted_card["photos"]}
-    assert all(v["status"] == "ok" for v in sorted_card["sites"].values())
+        f["file"]: (f["site"], f["reason"]) for f in sorted_card.doc["photos"]}
+    assert all(v.status == "ok" for v in sorted_card.sites.values())
     jobs = sites3d.site_jobs(Context(driver.SurveyOptions.from_namespace(
         driver.build_parser().parse_args(["--out", str(run), *SMALL, "--photos", str(card),
                                           "--second-photos", str(card)])),

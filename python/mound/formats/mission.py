@@ -18,7 +18,6 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Any
 
 from mound.bounds import Bound
 from mound.errors import InputError
@@ -27,11 +26,13 @@ from mound.jsonio import (
     JsonObject,
     as_object,
     check_doc,
+    list_member,
     load_json,
     number_list,
     optional_number,
     optional_number_list,
     optional_string,
+    require_count,
     require_id,
     require_number,
     require_string,
@@ -44,17 +45,6 @@ CLEARANCE_M = Bound(0, 10_000, "m")  # clearances and the footprint
 FACTOR = Bound(1, 100)               # metres of level flight per metre climbed or descended
 NOT_CHECKED = ("terrain not checked: heights above home, the sites' ground taken to be at "
                "home's height")
-
-
-def _list(doc: Mapping[str, Any], key: str, where: str) -> list[Any]:
-    v = doc.get(key, [])
-    if not isinstance(v, list):
-        raise InputError(f"{where}.{key}: expected a list, got {short_repr(v)}")
-    return v
-
-
-def _count(doc: Mapping[str, Any], key: str, where: str) -> int:
-    return int(require_number(doc, key, where, lo=0, hi=1e9))
 
 
 @dataclass(frozen=True)
@@ -119,7 +109,7 @@ class MissionSite:
         return cls(require_id(d.get("id"), f"{where}.id"), require_number(d, "x_m", where),
                    require_number(d, "y_m", where),
                    require_number(d, "scan_length_m", where, lo=0),
-                   _count(d, "images", where), require_number(d, "scan_cost_m", where, lo=0),
+                   require_count(d, "images", where), require_number(d, "scan_cost_m", where, lo=0),
                    optional_number(d, "ground_amsl_m", where),
                    optional_number_list(d, "scan_height_above_ground_m", where))
 
@@ -215,7 +205,7 @@ class FlightTerrain:
                    require_number(d, "descended_m", where, lo=0),
                    optional_number(d, "plan_cost_m", where),
                    tuple(TerrainLeg.from_doc(x, f"{where}.legs[{k}]")
-                         for k, x in enumerate(_list(d, "legs", where))))
+                         for k, x in enumerate(list_member(d, "legs", where))))
 
 
 # What a format's files are (their heights, aircraft, crew settings): mission.json's words.
@@ -238,7 +228,7 @@ class FormatEntry:
     @classmethod
     def from_doc(cls, doc: object, where: str) -> FormatEntry:
         d = as_object(doc, where)
-        files = _list(d, "files", where)
+        files = list_member(d, "files", where)
         for i, f in enumerate(files):
             if not isinstance(f, str):
                 raise InputError(f"{where}.files[{i}]: expected a string, got {short_repr(f)}")
@@ -322,10 +312,10 @@ class FlightSummary:
         flight = optional_number(d, "flight", where, lo=1, hi=1e6)
         return cls(
             Origin.from_doc(d.get("origin"), f"{where}.origin"),
-            _count(d, "items", where), require_number(d, "flight_distance_m", where, lo=0),
+            require_count(d, "items", where), require_number(d, "flight_distance_m", where, lo=0),
             require_number(d, "budget_m", where, lo=0), closed,
             tuple(MissionSite.from_doc(x, f"{where}.sites[{k}]")
-                  for k, x in enumerate(_list(d, "sites", where))),
+                  for k, x in enumerate(list_member(d, "sites", where))),
             require_string(d, "altitude_frame", where),
             FlightTerrain.from_doc(d.get("terrain"), f"{where}.terrain"),
             ScanRecord.from_doc(d.get("scan"), f"{where}.scan"),
@@ -360,10 +350,10 @@ class UploadRecord:
         if verified is not None and not isinstance(verified, bool):
             raise InputError(f"{where}.verified: expected true, false or null")
         return cls(require_string(d, "connect", where), require_string(d, "file", where),
-                   _count(d, "items", where), _count(d, "target_system", where),
+                   require_count(d, "items", where), require_count(d, "target_system", where),
                    require_number(d, "elapsed_s", where, lo=0),
-                   _count(d, "retransmissions", where), _count(d, "restarts", where),
-                   verified, tuple(str(x) for x in _list(d, "notes", where)))
+                   require_count(d, "retransmissions", where), require_count(d, "restarts", where),
+                   verified, tuple(str(x) for x in list_member(d, "notes", where)))
 
 
 @dataclass(frozen=True)
@@ -398,16 +388,16 @@ class SecondLookMissions:
     def from_doc(cls, doc: object, where: str) -> SecondLookMissions:
         d = as_object(doc, where)
         refused = []
-        for k, r in enumerate(_list(d, "refused", where)):
+        for k, r in enumerate(list_member(d, "refused", where)):
             w = f"{where}.refused[{k}]"
             refused.append(Refusal(require_id(as_object(r, w).get("id"), f"{w}.id"),
                                    require_string(r, "reason", w)))
         return cls(tuple(require_id(x, f"{where}.sites[{k}]")
-                         for k, x in enumerate(_list(d, "sites", where))),
+                         for k, x in enumerate(list_member(d, "sites", where))),
                    require_number(d, "scan_factor", where, lo=1, hi=100),
                    require_number(d, "site_diameter_m", where, lo=0),
                    tuple(require_id(x, f"{where}.flown[{k}]")
-                         for k, x in enumerate(_list(d, "flown", where))),
+                         for k, x in enumerate(list_member(d, "flown", where))),
                    tuple(refused))
 
 
@@ -456,7 +446,7 @@ class MissionSummary:
         d = check_doc(doc, path, SCHEMA, VERSION)
         where = str(path)
         flights = tuple(FlightSummary.from_doc(f, f"{where}: flights[{k}]")
-                        for k, f in enumerate(_list(d, "flights", where)))
+                        for k, f in enumerate(list_member(d, "flights", where)))
         origin = d.get("origin")
         upload, second = d.get("upload"), d.get("second_look")
         return cls(flights, flights[0].budget_m if len(flights) == 1

@@ -17,7 +17,9 @@ from dataclasses import dataclass
 
 from mound.classify.metrics import says_mound
 from mound.errors import InputError
+from mound.formats.learn import LearnRecord
 from mound.formats.mission import FlightSummary, MissionSummary
+from mound.formats.photos import CardSummary
 from mound.formats.plan import Plan
 from mound.formats.site_row import SiteRow
 from mound.formats.sites import Site
@@ -282,8 +284,8 @@ class SurveySummary:
     field_team: tuple[FieldTeamSite, ...]
     stages: tuple[StageRun, ...]
     wall_s: float
-    learn: JsonObject | None = None    # learn/learn.json (mound.learn v1) as written
-    photos: JsonObject | None = None   # the photo card's counts and sites
+    learn: LearnRecord | None = None   # learn/learn.json (mound.learn v1)
+    photos: CardSummary | None = None  # the photo card's counts and sites
     plan: Plan | None = None
     mission: MissionSummary | None = None
     second_look: MissionSummary | None = None  # second_look/mission.json, with looks
@@ -305,9 +307,9 @@ class SurveySummary:
         if self.reason:
             doc["reason"] = self.reason
         if self.learn is not None:
-            doc["learn"] = self.learn
+            doc["learn"] = self.learn.to_doc()
         if self.photos is not None:
-            doc["photos"] = self.photos
+            doc["photos"] = self.photos.to_doc()
         if self.plan is not None:
             written = self.plan.to_doc()
             doc["plan"] = {k: written.get(k) for k in PLAN_KEYS}

@@ -15,17 +15,17 @@ def cmd_sort(args: argparse.Namespace) -> int:
     spec = SortSpec(site_diameter_m=args.site_diameter, margin_m=args.margin_m,
                     max_gap_h=args.max_gap_h, blur_ratio=args.blur_ratio, copy=args.copy)
     doc = sort_card(args.card, args.plan or args.sites, args.out, spec, args.camera)
-    counts = ", ".join(f"{n} {k}" for k, n in sorted(doc["counts"].items()))
-    print(f"{len(doc['photos'])} files: {counts} -> {args.out}/photos.json")
-    if "proposed" in doc:
-        p = doc["proposed"]
-        print(f"  no sites file: {len(p['sites'])} sites proposed from the photos (spacing "
-              f"{p['spacing_m']:.1f} m, linked within {p['link_m']:.1f} m; home at "
-              f"{p['home']}) -> {args.out}/sites.json")
-    for sid, info in doc["sites"].items():
-        if info["photos"] or info["blurred"]:
-            print(f"  {sid}: {info['photos']} photos ({info['blurred']} blurred), "
-                  f"{info['status']}, camera {info['camera']['source']}")
+    counts = ", ".join(f"{n} {k}" for k, n in sorted(doc.counts.items()))
+    print(f"{doc.files} files: {counts} -> {args.out}/photos.json")
+    if doc.proposed:
+        p = doc.proposed
+        print(f"  no sites file: {len(p.sites)} sites proposed from the photos (spacing "
+              f"{p.spacing_m:.1f} m, linked within {p.link_m:.1f} m; home at "
+              f"{p.home}) -> {args.out}/sites.json")
+    for sid, info in doc.sites.items():
+        if info.photos or info.blurred:
+            print(f"  {sid}: {info.photos} photos ({info.blurred} blurred), "
+                  f"{info.status}, camera {info.camera.get('source')}")
     return 0
 
 

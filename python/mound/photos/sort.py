@@ -43,13 +43,13 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
 from mound import native
 from mound.bounds import SITE_DIAMETER_M, Bound
 from mound.errors import InputError
+from mound.formats.photos import SCHEMA, VERSION, CardSite
 from mound.formats.plan import Plan
 from mound.formats.sites import user_sites
 from mound.geometry.flight import DEFAULT_SITE_DIAMETER_M, ScanSpec
@@ -61,8 +61,6 @@ from mound.jsonio import (
     write_json,
 )
 
-SCHEMA = "mound.photos"
-VERSION = 1
 MIN_PHOTOS = 8   # fewer than this: the site is reported, not reconstructed
 MAX_ENU_M = 1e6  # a site's east or north from the origin (the survey is local)
 
@@ -92,6 +90,24 @@ class SortSpec:
             bound.check(getattr(self, name), flag)
 
 
+@dataclass(frozen=True)
+class Proposal:
+    """How sites were proposed from the photos (no sites file): photos.json's and the
+    proposed sites.json's `proposed`; `sites` each site's x_m, y_m, reach_m, diameter_m."""
+
+    method: str
+    spacing_m: float
+    link_m: float
+    home: str
+    home_ground: str
+    sites: dict[str, dict[str, float]]
+
+    def to_doc(self) -> JsonObject:
+        return {"method": self.method, "spacing_m": self.spacing_m, "link_m": self.link_m,
+                "home": self.home, "home_ground": self.home_ground,
+                "sites": {k: dict(v) for k, v in self.sites.items()}}
+
+
 @dataclass
 class CardSites:
     origin: Origin
@@ -101,7 +117,7 @@ class CardSites:
     reach_m: float          # the scan's farthest camera position from a site centre
     # per site, where each has its own (sites proposed from the photos); else reach_m
     site_reach_m: np.ndarray | None = None
-    proposed: dict[str, Any] | None = None  # how the sites were proposed (no sites file)
+    proposed: Proposal | None = None  # how the sites were proposed (no sites file)
 
     def reach_of(self) -> np.ndarray:
         return (self.site_reach_m if self.site_reach_m is not None
@@ -164,19 +180,18 @@ def propose_sites(rows: list[PhotoRow]) -> CardSites:
                          f"card to propose a site from ({len(gps)} GPS photos, spacing "
                          f"{spacing:.1f} m)")
     ids = [f"{PROPOSED_PREFIX}{k + 1:02d}" for k in range(len(centres))]
-    how = {"method": "photos chained within link_m (single linkage); a site: a group of "
-                     f"at least {MIN_PHOTOS}, its centre their mean, its reach the farthest",
-           "spacing_m": spacing, "link_m": link, "home": first.file,
-           "home_ground": "DJI XMP AbsoluteAltitude - RelativeAltitude" if ground is not None
-           else "unknown (origin alt_m 0)",
-           "sites": {i: {"x_m": float(c[0]), "y_m": float(c[1]), "reach_m": r,
-                         "diameter_m": 2 * r}
-                     for i, c, r in zip(ids, centres, reach, strict=True)}}
+    how = Proposal(
+        "photos chained within link_m (single linkage); a site: a group of at least "
+        f"{MIN_PHOTOS}, its centre their mean, its reach the farthest", spacing, link,
+        first.file, "DJI XMP AbsoluteAltitude - RelativeAltitude" if ground is not None
+        else "unknown (origin alt_m 0)",
+        {i: {"x_m": float(c[0]), "y_m": float(c[1]), "reach_m": r, "diameter_m": 2 * r}
+         for i, c, r in zip(ids, centres, reach, strict=True)})
     return CardSites(origin, ids, np.array(centres).reshape(-1, 2), np.zeros(2),
                      float(max(reach)), np.array(reach), how)
 
 
-def proposed_sites_doc(sites: CardSites) -> dict[str, Any]:
+def proposed_sites_doc(sites: CardSites) -> JsonObject:
     """The proposed sites as a mound.sites document (what `--sites` reads: the survey and
     `mound photos sort --sites` can take it as it is; the site's scan scale its size)."""
     assert sites.proposed is not None and sites.site_reach_m is not None
@@ -190,7 +205,7 @@ def proposed_sites_doc(sites: CardSites) -> dict[str, Any]:
                        "reach_m": float(min(max(r, 1.0), 1e4)), "proposed_from": "photos"}
                       for i, xy, r in zip(sites.ids, sites.xy, sites.site_reach_m,
                                           strict=True)],
-            "proposed": sites.proposed}
+            "proposed": sites.proposed.to_doc()}
 
 
 def sites_of(path: str, spec: SortSpec) -> CardSites:
@@ -356,7 +371,7 @@ def _time(text: str | None) -> datetime | None:
         return None
 
 
-def site_camera(photos: list[PhotoRow], camera_file: str | None) -> dict[str, object]:
+def site_camera(photos: list[PhotoRow], camera_file: str | None) -> JsonObject:
     """The camera a site's reconstruction starts from: the user's camera.json (copied into
     the site's folder), else the EXIF of the site's photos (the most common make, model and
     focal length; mound_recon reads the same EXIF and refines it in bundle adjustment)."""
@@ -474,13 +489,13 @@ def _place(rows: list[PhotoRow], sites: CardSites, spec: SortSpec) -> None:
 
 
 def _per_site(rows: list[PhotoRow], sites: CardSites, spec: SortSpec,
-              camera: str | None) -> dict[str, dict[str, object]]:
+              camera: str | None) -> dict[str, CardSite]:
     """A site's photo that does not decode is unreadable; blurred ones are flagged against
     the site's median sharpness; each site's count, status and camera."""
     for r in rows:
         if r.site is not None and r.sharpness is None:
             r.site, r.reason = None, "unreadable"
-    per_site: dict[str, dict[str, object]] = {}
+    per_site: dict[str, CardSite] = {}
     for sid in sites.ids:
         mine = [(r, r.sharpness) for r in rows if r.site == sid and r.sharpness is not None]
         med = float(np.median([q for _, q in mine])) if mine else 0.0
@@ -488,17 +503,28 @@ def _per_site(rows: list[PhotoRow], sites: CardSites, spec: SortSpec,
             if q < spec.blur_ratio * med:
                 r.site, r.reason, r.over_site = None, "blurred", sid
         usable = [r for r, _ in mine if r.reason is None]
-        per_site[sid] = {"photos": len(usable), "blurred": len(mine) - len(usable),
-                         "median_sharpness": med,
-                         "status": "ok" if len(usable) >= MIN_PHOTOS else "too_few_photos",
-                         "camera": site_camera(usable, camera)}
+        per_site[sid] = CardSite(len(usable), len(mine) - len(usable), med,
+                                 "ok" if len(usable) >= MIN_PHOTOS else "too_few_photos",
+                                 site_camera(usable, camera))
     return per_site
 
 
+@dataclass(frozen=True)
+class SortedCard:
+    """A sorted card: photos.json's document as written (`doc`), the card's files, their
+    counts by what became of them, the sites and, without a sites file, the proposal."""
+
+    doc: JsonObject
+    files: int
+    counts: dict[str, int]
+    sites: dict[str, CardSite]
+    proposed: Proposal | None = None
+
+
 def sort_card(card: str, sites_path: str | None, out_dir: str, spec: SortSpec | None = None,
-              camera: str | None = None) -> dict[str, Any]:
+              camera: str | None = None) -> SortedCard:
     """Sorts CARD into OUT_DIR (photos.json and one folder per site, with a copy of
-    `camera` (a mound.camera file) when given); returns photos.json. Without a sites file
+    `camera` (a mound.camera file) when given). Without a sites file
     (`sites_path` None) the sites are proposed from the photos (propose_sites) and written
     as OUT_DIR/sites.json. InputError when nothing usable is left (naming why)."""
     spec = spec or SortSpec()
@@ -521,12 +547,17 @@ def sort_card(card: str, sites_path: str | None, out_dir: str, spec: SortSpec | 
     for r in rows:
         key = r.reason or "site"
         reasons[key] = reasons.get(key, 0) + 1
-    doc: dict[str, object] = {
+    skipped = listing.get("skipped", [])
+    if not isinstance(skipped, list) or not all(isinstance(x, str) for x in skipped):
+        raise native.ToolError("mound_recon", native.EXIT_INTERNAL,
+                               "its output's skipped is not a list of strings")
+    doc: JsonObject = {
         "schema": SCHEMA, "version": VERSION, "card": str(root.resolve()),
         "sites_file": str(sites_path), "spec": {**spec.__dict__, "reach_m": sites.reach_m},
-        **({"proposed": sites.proposed} if sites.proposed else {}),
-        "photos": [r.to_doc() for r in rows], "sites": per_site, "counts": reasons,
-        "skipped_folders": listing.get("skipped", [])}
+        **({"proposed": sites.proposed.to_doc()} if sites.proposed else {}),
+        "photos": [r.to_doc() for r in rows],
+        "sites": {k: v.to_doc() for k, v in per_site.items()}, "counts": reasons,
+        "skipped_folders": skipped}
     dji = [r.dji_xmp for r in rows if r.dji_xmp is not None]
     if dji:
         doc["dji_xmp"] = {
@@ -534,15 +565,15 @@ def sort_card(card: str, sites_path: str | None, out_dir: str, spec: SortSpec | 
             "rtk_fixed": sum(1 for x in dji if x.get("rtk_flag") == 50),
             "abs_alt_datum": "EGM96 (ellipsoidal where rtk_flag is 50)",
             "altitude_drift": altitude_drift(rows)}
-    if not any(v["photos"] for v in per_site.values()):
+    if not any(v.photos for v in per_site.values()):
         why = ", ".join(f"{n} {k}" for k, n in sorted(reasons.items())) or "an empty card"
         raise InputError(f"{card}: no usable photo over any site ({why})")
     _write(rows, per_site, root, Path(out_dir), spec, camera)
     write_json(Path(out_dir) / "photos.json", doc)
-    return doc
+    return SortedCard(doc, len(rows), reasons, per_site, sites.proposed)
 
 
-def _write(rows: list[PhotoRow], per_site: dict[str, dict[str, object]], root: Path,
+def _write(rows: list[PhotoRow], per_site: dict[str, CardSite], root: Path,
            out: Path, spec: SortSpec, camera: str | None) -> None:
     """Each site's folder of its usable photos (links, or copies), and its camera.json."""
     out.mkdir(parents=True, exist_ok=True)
@@ -550,7 +581,7 @@ def _write(rows: list[PhotoRow], per_site: dict[str, dict[str, object]], root: P
         folder = out / sid
         if folder.exists():
             shutil.rmtree(folder)
-        if not info["photos"]:
+        if not info.photos:
             continue
         folder.mkdir()
         for r in rows:

@@ -68,17 +68,16 @@ def run_stage(ctx: Context, name: str, material: Mapping[str, object], work: Any
     redo = always or ctx.redoes(name)
     if not redo and ctx.ledger.is_done(name, key):
         prev = ctx.ledger.previous(name)
-        ctx.stages.append(StageRun(name, 0.0, True, str(prev.get("note", "")),
-                                   wall_s_when_run=float(prev.get("wall_s") or 0.0)))
-        ctx.say(f"[{name}] skipped, unchanged: {prev.get('note', '')} "
-                f"(ran in {prev.get('wall_s', 0):.1f} s)")
+        note, wall_s = (prev.note, prev.wall_s) if prev else ("", 0.0)
+        ctx.stages.append(StageRun(name, 0.0, True, note, wall_s_when_run=wall_s))
+        ctx.say(f"[{name}] skipped, unchanged: {note} (ran in {wall_s:.1f} s)")
         return key
     ctx.ledger.forget(name)
     start = time.perf_counter()
     outputs, note, complete = work()
     wall = time.perf_counter() - start
     if complete:
-        ctx.ledger.record(StageRecord(name, key, wall, outputs, note=note))
+        ctx.ledger.record(StageRecord(name, key, wall, tuple(outputs), note=note))
     ctx.stages.append(StageRun(name, wall, False, note, complete))
     ctx.say(f"[{name}] {note} ({wall:.1f} s)")
     return key

@@ -23,6 +23,7 @@ from typing import Any
 
 from mound.args import Parser, UsageError
 from mound.bounds import FLIGHTS
+from mound.formats.learn import LearnRecord
 from mound.formats.mission import MissionSummary
 from mound.jsonio import load_json, write_json
 
@@ -95,23 +96,23 @@ def day_doc(out: Path, batteries: int, cards: list[str]) -> dict[str, Any]:
     """day.json from the run's files: learn/learn.json, learn/flight_K/plan_all.json (the
     batteries left, re-planned), battery_K/plan.json, second_look/mission.json (the second
     looks the verdicts advised) and summary.json (each site's answer)."""
-    learn = load_json(out / "learn" / "learn.json")
+    learn = LearnRecord.read(out / "learn" / "learn.json")
     summary = load_json(out / "summary.json")
     answer = {r["id"]: r.get("answer", r.get("verdict")) for r in summary.get("sites", [])}
     sl_path = out / "second_look" / "mission.json"
     sl = MissionSummary.read(sl_path).second_look if sl_path.is_file() else None
     advised = set(sl.sites if sl else ())
     rows = []
-    for f in learn.get("flights", []):
-        k = f["flight"]
+    for f in learn.flights:
+        k = f.flight
         left = _flights(out / "learn" / f"flight_{k + 1}" / "plan_all.json")
         rows.append({"battery": k, "card": cards[k - 1] if k <= len(cards) else None,
                      "folder": f"battery_{k}",
-                     "plan": {"sites": f["sites"], "cost_m": f["cost_m"]},
-                     "judged": [{"id": sid, "answer": answer.get(sid)} for sid in f["sites"]],
-                     "second_looks_added": [sid for sid in f["sites"] if sid in advised],
+                     "plan": {"sites": f.sites, "cost_m": f.cost_m},
+                     "judged": [{"id": sid, "answer": answer.get(sid)} for sid in f.sites],
+                     "second_looks_added": [sid for sid in f.sites if sid in advised],
                      "plan_left": left})
-    waiting = learn.get("waiting_for_battery")
+    waiting = learn.waiting_for_battery
     nxt = None
     if waiting is not None:
         nxt = {"battery": waiting, "folder": f"battery_{waiting}",
@@ -122,5 +123,5 @@ def day_doc(out: Path, batteries: int, cards: list[str]) -> dict[str, Any]:
             "second_looks": {"folder": "second_look", "sites": sorted(advised),
                              "scan_factor": sl.scan_factor,
                              "refused": [r.to_doc() for r in sl.refused]} if sl else None,
-            "stopped": learn.get("stopped", ""),
-            "learn_weight": learn.get("learn_weight")}
+            "stopped": learn.stopped,
+            "learn_weight": learn.learn_weight}

@@ -12,11 +12,11 @@ from __future__ import annotations
 import hashlib
 import json
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
-from mound.jsonio import load_json, write_json
+from mound.jsonio import JsonObject, load_json, write_json
 
 SCHEMA = "mound.survey_ledger"
 VERSION = 1
@@ -28,14 +28,36 @@ def digest(value: Any) -> str:
     return hashlib.sha256(text.encode()).hexdigest()
 
 
-@dataclass
+@dataclass(frozen=True)
 class StageRecord:
+    """A stage the ledger holds: its key, its outputs (relative to the run directory), its
+    wall time and note, and when it finished (UTC; set when recorded)."""
+
     name: str
     key: str
     wall_s: float
-    outputs: list[str]
-    skipped: bool = False
+    outputs: tuple[str, ...]
     note: str = ""
+    finished_utc: str = ""
+
+    def to_doc(self) -> JsonObject:
+        return {"key": self.key, "wall_s": self.wall_s, "outputs": list(self.outputs),
+                "note": self.note, "finished_utc": self.finished_utc}
+
+    @classmethod
+    def of(cls, name: str, doc: object) -> StageRecord | None:
+        """The stage `name` of a ledger's `stages`, or None when its entry is damaged (a
+        rerun of the stage is all it costs)."""
+        if not isinstance(doc, dict):
+            return None
+        key, wall, outputs = doc.get("key"), doc.get("wall_s", 0.0), doc.get("outputs", [])
+        note, finished = doc.get("note", ""), doc.get("finished_utc", "")
+        if (not isinstance(key, str) or isinstance(wall, bool)
+                or not isinstance(wall, int | float) or not isinstance(outputs, list)
+                or not all(isinstance(o, str) for o in outputs)
+                or not isinstance(note, str) or not isinstance(finished, str)):
+            return None
+        return cls(name, key, float(wall), tuple(outputs), note, finished)
 
 
 class Ledger:
@@ -43,32 +65,36 @@ class Ledger:
 
     def __init__(self, path: Path) -> None:
         self.path = path
-        self.done: dict[str, dict[str, Any]] = {}
+        self.done: dict[str, StageRecord] = {}
         if path.is_file():
             doc = load_json(path)
             # A ledger of another version or a damaged one only costs a rerun.
             if isinstance(doc, dict) and doc.get("schema") == SCHEMA and \
                     doc.get("version") == VERSION and isinstance(doc.get("stages"), dict):
-                self.done = doc["stages"]
+                for name, entry in doc["stages"].items():
+                    rec = StageRecord.of(name, entry)
+                    if rec is not None:
+                        self.done[name] = rec
 
     def is_done(self, name: str, key: str) -> bool:
         rec = self.done.get(name)
-        if not isinstance(rec, dict) or rec.get("key") != key:
+        if rec is None or rec.key != key:
             return False
         root = self.path.parent
-        return all((root / out).exists() for out in rec.get("outputs", []))
+        return all((root / out).exists() for out in rec.outputs)
 
-    def previous(self, name: str) -> dict[str, Any]:
-        rec = self.done.get(name)
-        return rec if isinstance(rec, dict) else {}
+    def previous(self, name: str) -> StageRecord | None:
+        return self.done.get(name)
 
     def record(self, rec: StageRecord) -> None:
-        self.done[rec.name] = {"key": rec.key, "wall_s": rec.wall_s, "outputs": rec.outputs,
-                               "note": rec.note,
-                               "finished_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ",
-                                                             time.gmtime())}
-        write_json(self.path, {"schema": SCHEMA, "version": VERSION, "stages": self.done})
+        self.done[rec.name] = replace(
+            rec, finished_utc=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()))
+        self._write()
 
     def forget(self, name: str) -> None:
         if self.done.pop(name, None) is not None:
-            write_json(self.path, {"schema": SCHEMA, "version": VERSION, "stages": self.done})
+            self._write()
+
+    def _write(self) -> None:
+        write_json(self.path, {"schema": SCHEMA, "version": VERSION,
+                               "stages": {k: r.to_doc() for k, r in self.done.items()}})

@@ -21,7 +21,9 @@ from pathlib import Path
 from typing import Any
 
 from mound.classify.metrics import detection_error_rates, says_mound
+from mound.formats.learn import LearnRecord
 from mound.formats.mission import MissionSummary
+from mound.formats.photos import CardSummary
 from mound.formats.plan import Plan
 from mound.formats.site_row import SiteRow
 from mound.formats.sites import Sites
@@ -35,7 +37,7 @@ from mound.formats.survey import (
     SurveySummary,
     ThreeAnswers,
 )
-from mound.jsonio import read_json, write_atomic
+from mound.jsonio import write_atomic
 from mound.survey import figures
 from mound.survey.options import SurveyOptions
 from mound.survey.tree import RunTree, SiteTree, waiting_for_card
@@ -128,16 +130,13 @@ def build_summary(tree: RunTree, args: SurveyOptions, stages: list[StageRun],
         status, reason = "waiting", waiting
     learn, before = None, None
     if learned and (tree.learn / "learn.json").is_file():
-        learn = read_json(tree.learn / "learn.json", "mound.learn", 1)
+        learn = LearnRecord.read(tree.learn / "learn.json")
         first = Sites.read(tree.sites)
         before = _rates([s.p_mound is not None and says_mound(s.p_mound)
                          for s in first.sites], truth)
     photos = None
     if (tree.photos / "photos.json").is_file():
-        card = read_json(tree.photos / "photos.json", "mound.photos", 1)
-        photos = {"card": card["card"], "counts": card["counts"], "sites": card["sites"],
-                  "file": "photos/photos.json",
-                  "skipped_folders": card.get("skipped_folders", [])}
+        photos = CardSummary.read(tree.photos / "photos.json", "photos/photos.json")
     metrics = SurveyMetrics(
         _rates(final, truth), plan.reward if plan else 0.0, plan.cost_m if plan else 0.0,
         sites_doc.budget_m, len(visited), len(judged), len(correct),
@@ -293,18 +292,18 @@ def _metrics_table(m: SurveyMetrics) -> str:
             f'<th>ε<sub>FA</sub> (false alarms)</th></tr>{body}</table>')
 
 
-def _card_table(card: dict[str, Any]) -> str:
+def _card_table(card: CardSummary) -> str:
     """The sorted photo card: what became of its files, and each site's photos."""
     e = html.escape
     counts = "".join(f'<tr><td class="l">{e(k)}</td><td>{n}</td></tr>'
-                     for k, n in sorted(card["counts"].items()))
+                     for k, n in sorted(card.counts.items()))
     sites = "".join(
-        f'<tr><td class="l">{e(sid)}</td><td>{v["photos"]}</td><td>{v["blurred"]}</td>'
-        f'<td>{v["median_sharpness"]:.0f}</td><td class="l">{e(v["status"])}</td>'
-        f'<td class="l">{e(str((v.get("camera") or {}).get("source", "")))}</td></tr>'
-        for sid, v in card["sites"].items())
-    skipped = ("".join(f"<li>{e(str(x))}</li>" for x in card.get("skipped_folders", [])))
-    return (f'<p>Card {e(card["card"])} ({e(card["file"])}): every file, its site or why '
+        f'<tr><td class="l">{e(sid)}</td><td>{v.photos}</td><td>{v.blurred}</td>'
+        f'<td>{v.median_sharpness:.0f}</td><td class="l">{e(v.status)}</td>'
+        f'<td class="l">{e(str(v.camera.get("source", "")))}</td></tr>'
+        for sid, v in card.sites.items())
+    skipped = "".join(f"<li>{e(x)}</li>" for x in card.skipped_folders)
+    return (f'<p>Card {e(card.card)} ({e(card.file)}): every file, its site or why '
             'it has none.</p><div class="row"><table><tr><th class="l">files</th><th>count'
             f'</th></tr>{counts}</table><table><tr><th class="l">site</th><th>photos</th>'
             '<th>blurred</th><th>median sharpness</th><th class="l">status</th>'
@@ -312,27 +311,26 @@ def _card_table(card: dict[str, Any]) -> str:
             + (f'<p class="muted">folders not read:</p><ul>{skipped}</ul>' if skipped else ""))
 
 
-def _learn_table(learn: dict[str, Any], m: SurveyMetrics) -> str:
+def _learn_table(learn: LearnRecord, m: SurveyMetrics) -> str:
     """Each flight teaching the next: what it flew, what was learned, how p changed."""
     e = html.escape
     body = ""
-    for f in learn["flights"]:
-        ex = ", ".join(f'{x["id"]} {x["verdict"].replace("_", " ")} ({x["confidence"]:.2f})'
-                       for x in f["examples"])
-        moved = ", ".join(f'{c["id"]} {c["p_before"]:.3f}→{c["p_after"]:.3f}'
-                          for c in f["largest_changes"][:3])
-        first = " ".join(f.get("first_plan_sites", []))
-        body += (f'<tr><td>{f["flight"]}</td><td class="l">{e(" ".join(f["sites"]))}</td>'
+    for f in learn.flights:
+        ex = ", ".join(f'{x.id} {x.verdict.replace("_", " ")} ({x.confidence:.2f})'
+                       for x in f.examples)
+        moved = ", ".join(f'{c.id} {c.p_before:.3f}→{c.p_after:.3f}' for c in f.changes[:3])
+        first = " ".join(f.first_plan_sites)
+        body += (f'<tr><td>{f.flight}</td><td class="l">{e(" ".join(f.sites))}</td>'
                  f'<td class="l">{e(first)}</td>'
-                 f'<td>{f["planned_reward"]:.2f}</td><td class="l">{e(ex)}</td>'
-                 f'<td>{f["held_out_auc"]:.4f}</td><td>{f["labels_flipped"]}</td>'
-                 f'<td>{f["max_abs_dp"]:.4f}</td><td class="l">{e(moved)}</td></tr>')
+                 f'<td>{f.planned_reward:.2f}</td><td class="l">{e(ex)}</td>'
+                 f'<td>{f.held_out_auc:.4f}</td><td>{f.labels_flipped}</td>'
+                 f'<td>{f.max_abs_dp:.4f}</td><td class="l">{e(moved)}</td></tr>')
     before = m.classifier_before_flights or ErrorRates(None, None)
     return (f'<p>After each flight its verdicts (weighted by confidence times '
-            f'{learn["learn_weight"]:g}) retrained the classifier and the next flight was '
-            f're-planned. Held-out AUC ({e(learn["evaluation"])}, '
-            f'{learn["held_out_rows"]} rows): {learn["held_out_auc_before"]:.4f} before, '
-            f'{learn["held_out_auc_after"]:.4f} after. The classifier alone before any '
+            f'{learn.learn_weight:g}) retrained the classifier and the next flight was '
+            f're-planned. Held-out AUC ({e(learn.evaluation)}, '
+            f'{learn.held_out_rows} rows): {learn.held_out_auc_before:.4f} before, '
+            f'{learn.held_out_auc_after:.4f} after. The classifier alone before any '
             f'flight: ε<sub>MD</sub> {_fmt(before.eps_md)}, ε<sub>FA</sub> '
             f'{_fmt(before.eps_fa)}.</p><table><tr><th>flight</th>'
             '<th class="l">sites flown</th><th class="l">sites of the first plan</th>'
@@ -523,21 +521,21 @@ def render_md(s: SurveySummary) -> str:
         lines += [f"| {t.id} | {t.x_m:.0f}, {t.y_m:.0f} | {_fmt(t.p_mound)} | "
                   f"{t.why} |" for t in s.field_team]
     if s.photos:
-        card: dict[str, Any] = s.photos
+        card = s.photos
         lines += ["", "## Photo card", "", "| files | count |", "|---|---|"]
-        lines += [f"| {k} | {n} |" for k, n in sorted(card["counts"].items())]
+        lines += [f"| {k} | {n} |" for k, n in sorted(card.counts.items())]
         lines += ["", "| site | photos | blurred | status |", "|---|---|---|---|"]
-        lines += [f"| {k} | {v['photos']} | {v['blurred']} | {v['status']} |"
-                  for k, v in card["sites"].items()]
+        lines += [f"| {k} | {v.photos} | {v.blurred} | {v.status} |"
+                  for k, v in card.sites.items()]
     if s.learn:
-        lr: dict[str, Any] = s.learn
+        lr = s.learn
         lines += ["", "## Learning between flights", "",
-                  f"Held-out AUC ({lr['evaluation']}): {lr['held_out_auc_before']:.4f} -> "
-                  f"{lr['held_out_auc_after']:.4f}", "",
+                  f"Held-out AUC ({lr.evaluation}): {lr.held_out_auc_before:.4f} -> "
+                  f"{lr.held_out_auc_after:.4f}", "",
                   "| flight | sites | learned | held-out AUC | labels flipped |",
                   "|---|---|---|---|---|"]
-        lines += [f"| {f['flight']} | {' '.join(f['sites'])} | {len(f['examples'])} | "
-                  f"{f['held_out_auc']:.4f} | {f['labels_flipped']} |" for f in lr["flights"]]
+        lines += [f"| {f.flight} | {' '.join(f.sites)} | {len(f.examples)} | "
+                  f"{f.held_out_auc:.4f} | {f.labels_flipped} |" for f in lr.flights]
     lines += ["", "## Stages", "", "| stage | wall s | result |", "|---|---|---|"]
     for st in s.stages:
         wall = "skipped" if st.skipped else f"{st.wall_s:.1f}"

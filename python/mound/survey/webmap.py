@@ -22,6 +22,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from mound.errors import InputError
+from mound.formats.learn import LearnRecord
 from mound.formats.plan import Flight, Plan
 from mound.formats.recon import Recon
 from mound.formats.sites import Sites
@@ -239,9 +240,9 @@ def map_data(tree: RunTree, rows: list[SurveySite], metrics: JsonValue, sites_do
 def _next_battery(tree: RunTree) -> tuple[int, Plan] | None:
     """A day on cards (`mound day`): the battery to fly next and its plan."""
     learn_doc = tree.learn / "learn.json"
-    waiting = load_json(learn_doc).get("waiting_for_battery") if learn_doc.is_file() else None
+    waiting = LearnRecord.read(learn_doc).waiting_for_battery if learn_doc.is_file() else None
     plan = tree.root / f"battery_{waiting}" / "plan.json"
-    if isinstance(waiting, int) and plan.is_file():
+    if waiting is not None and plan.is_file():
         return waiting, Plan.read(plan)
     return None
 

@@ -22,7 +22,7 @@ field's 100 rows (flown or not).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -35,18 +35,17 @@ from mound.classify.model import VERSION as MODEL_VERSION
 from mound.classify.model import Model
 from mound.classify.reward import binary_entropy_bits
 from mound.errors import InputError, ToolInputError, ToolNoResultError
+from mound.formats.learn import Change, Example, FlightLearned, LearnRecord
 from mound.formats.plan import Flight, Plan
 from mound.formats.site_row import SiteRow
 from mound.formats.sites import Sites
-from mound.jsonio import JsonObject, read_json, write_json
+from mound.jsonio import read_json, write_json
 from mound.survey.context import Context, card_digest, mission_terrain, run_stage
 from mound.survey.reward import Reward, reward_of
 from mound.survey.stages.sites3d import run_jobs, second_look_missions, site_jobs
 from mound.uav import files as mission_files
 from mound.uav import mission
 
-SCHEMA = "mound.learn"
-VERSION = 1
 # mound_plan's words (exit 2, naming budget_m) when no site is within a round trip of home
 NO_ROUND_TRIP = "too small to leave home"
 
@@ -172,61 +171,10 @@ def _battery_photos(ctx: Context, card: str, bdir: Path, flight: Plan) -> dict[s
     a = ctx.args
     doc = sort_card(card, str(bdir / "plan.json"), str(bdir / "photos"),
                     SortSpec(site_diameter_m=a.site_diameter), a.camera)
-    ok = sum(1 for v in doc["sites"].values() if v["status"] == "ok")
-    ctx.say(f"[learn] {card}: {len(doc['photos'])} files, {ok} of {len(doc['sites'])} "
+    ok = sum(1 for v in doc.sites.values() if v.status == "ok")
+    ctx.say(f"[learn] {card}: {doc.files} files, {ok} of {len(doc.sites)} "
             "sites with enough photos")
     return {sid: bdir / "photos" / sid for sid in flight.visited()}
-
-
-@dataclass(frozen=True)
-class Example:
-    """A judged site the classifier learns: its two-answer verdict, weighted by the
-    verdict's confidence."""
-
-    id: str
-    verdict: str
-    confidence: float
-
-    def to_doc(self) -> JsonObject:
-        return {"id": self.id, "verdict": self.verdict, "confidence": self.confidence}
-
-
-@dataclass(frozen=True)
-class Change:
-    """How a site's p_mound moved when the classifier learned a flight."""
-
-    id: str
-    p_before: float
-    p_after: float
-
-    def to_doc(self) -> JsonObject:
-        return {"id": self.id, "p_before": self.p_before, "p_after": self.p_after}
-
-
-@dataclass
-class FlightLearned:
-    """What a flight taught (learn.json's flights[k])."""
-
-    flight: int
-    sites: list[str]
-    planned_reward: float
-    first_plan_sites: list[str]
-    cost_m: float
-    note: str
-    examples: list[Example]
-    held_out_auc: float
-    labels_flipped: int
-    changes: list[Change]
-
-    def to_doc(self) -> JsonObject:
-        top = self.changes[0] if self.changes else None
-        return {"flight": self.flight, "sites": self.sites,
-                "planned_reward": self.planned_reward,
-                "first_plan_sites": self.first_plan_sites, "cost_m": self.cost_m,
-                "note": self.note, "examples": [e.to_doc() for e in self.examples],
-                "held_out_auc": self.held_out_auc, "labels_flipped": self.labels_flipped,
-                "max_abs_dp": abs(top.p_after - top.p_before) if top else 0.0,
-                "largest_changes": [c.to_doc() for c in self.changes[:5]]}
 
 
 def _examples(rows: dict[str, SiteRow], ids: list[str]) -> list[Example]:
@@ -344,13 +292,10 @@ def stage_learn(ctx: Context) -> str:
             ctx.say(f"[learn] flight {k}: {note}; held-out AUC {auc:.4f} "
                     f"(before any flight {auc0:.4f}), {flips} classifier labels flipped")
         _write_flown(ctx, flights_flown, len(flown), current)
-        write_json(t.learn / "learn.json", {
-            "schema": SCHEMA, "version": VERSION, "learn_weight": a.learn_weight,
-            "held_out_auc_before": auc0, "held_out_auc_after": history[-1].held_out_auc
-            if history else auc0, "held_out_rows": int(len(test.cls) - len(field_rows)),
-            "evaluation": "sat.tst without the field's rows",
-            "flights": [h.to_doc() for h in history],
-            "stopped": stopped, "waiting_for_battery": waiting})
+        write_json(t.learn / "learn.json", LearnRecord(
+            a.learn_weight, auc0, history[-1].held_out_auc if history else auc0,
+            int(len(test.cls) - len(field_rows)), "sat.tst without the field's rows",
+            tuple(history), stopped, waiting).to_doc())
         outputs += ["learn/learn.json", "learn/plan_flown.json", "learn/sites_final.json"]
         made, said = second_look_missions(ctx, list(latest.values()), t.final_plan(True),
                                           t.final_sites(True))

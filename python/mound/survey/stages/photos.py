@@ -29,11 +29,11 @@ def stage_photos(ctx: Context) -> str:
         assert a.photos
         doc = sort_card(a.photos, str(ctx.tree.plan), str(ctx.tree.photos),
                         SortSpec(site_diameter_m=a.site_diameter), a.camera)
-        counts = ", ".join(f"{n} {k}" for k, n in sorted(doc["counts"].items()))
-        ok = sum(1 for v in doc["sites"].values() if v["status"] == "ok")
-        few = [k for k, v in doc["sites"].items() if v["status"] != "ok"]
-        note = (f"{len(doc['photos'])} files on the card: {counts}; {ok} of "
-                f"{len(doc['sites'])} visited sites with enough photos"
+        counts = ", ".join(f"{n} {k}" for k, n in sorted(doc.counts.items()))
+        ok = sum(1 for v in doc.sites.values() if v.status == "ok")
+        few = [k for k, v in doc.sites.items() if v.status != "ok"]
+        note = (f"{doc.files} files on the card: {counts}; {ok} of "
+                f"{len(doc.sites)} visited sites with enough photos"
                 + (f" (too few: {', '.join(few)})" if few else ""))
         made = ["photos/photos.json"]
         if a.second_photos:
@@ -43,9 +43,9 @@ def stage_photos(ctx: Context) -> str:
                                  "is missing: the run before advised none, or has not run)")
             second = sort_card(a.second_photos, str(plan2), str(ctx.tree.second_photos),
                                SortSpec(site_diameter_m=a.site_diameter), a.camera)
-            ok2 = [k for k, v in second["sites"].items() if v["status"] == "ok"]
-            note += (f"; second card: {len(second['photos'])} files, {len(ok2)} of "
-                     f"{len(second['sites'])} second looks with enough photos")
+            ok2 = [k for k, v in second.sites.items() if v.status == "ok"]
+            note += (f"; second card: {second.files} files, {len(ok2)} of "
+                     f"{len(second.sites)} second looks with enough photos")
             made.append(str((ctx.tree.second_photos / "photos.json").relative_to(
                 ctx.tree.root)))
         return made, note, True
