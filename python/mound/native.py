@@ -19,6 +19,7 @@ import atexit
 import collections
 import contextlib
 import json
+import math
 import os
 import shutil
 import signal
@@ -27,7 +28,7 @@ import sys
 import tempfile
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any
@@ -253,14 +254,33 @@ def run_tool(name: str, args: list[str], timeout_s: float | None = None, *,
 
 
 def run_json(name: str, args: list[str], timeout_s: float | None = None, *,
-             log: str | Path | None = None, echo: bool = False) -> dict[str, Any]:
-    """Runs a tool that prints one JSON document on stdout and returns it parsed."""
+             log: str | Path | None = None, echo: bool = False) -> Mapping[str, object]:
+    """Runs a tool that prints one JSON object on stdout and returns it parsed (its members
+    are the caller's to read: a typed reader, or `tool_number`)."""
     run = run_tool(name, args, timeout_s, log=log, echo=echo)
     try:
-        result: dict[str, Any] = json.loads(run.stdout)
+        result = json.loads(run.stdout)
     except json.JSONDecodeError as e:
         raise ToolError(name, EXIT_INTERNAL, f"stdout is not JSON ({e})") from e
+    if not isinstance(result, dict):
+        raise ToolError(name, EXIT_INTERNAL, "stdout is not a JSON object")
     return result
+
+
+def tool_number(doc: Mapping[str, object], key: str, name: str) -> float:
+    """A number a tool's output or reply must hold (ToolError, a bug, when it does not)."""
+    v = doc.get(key)
+    if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
+        raise ToolError(name, EXIT_INTERNAL, f"its output's {key} is {v!r:.40}, not a number")
+    return v
+
+
+def tool_objects(doc: Mapping[str, object], key: str, name: str) -> list[Mapping[str, object]]:
+    """A list of objects a tool's output or reply must hold (ToolError, a bug, otherwise)."""
+    v = doc.get(key)
+    if not isinstance(v, list) or not all(isinstance(x, dict) for x in v):
+        raise ToolError(name, EXIT_INTERNAL, f"its output's {key} is not a list of objects")
+    return v
 
 
 class ToolServer:
@@ -294,8 +314,8 @@ class ToolServer:
     def alive(self) -> bool:
         return self.proc.poll() is None
 
-    def request(self, head: dict[str, object], *payload: bytes | memoryview
-                ) -> tuple[dict[str, Any], bytearray]:
+    def request(self, head: Mapping[str, object], *payload: bytes | memoryview
+                ) -> tuple[Mapping[str, object], bytearray]:
         """Sends one request (its JSON line, then the payload's pieces in order); the
         reply's JSON and the bytes after it (its `bytes` says how many). A reply
         {"status": "error"} raises ToolInputError; a tool that stopped raises what its exit
@@ -313,10 +333,13 @@ class ToolServer:
         if not line:
             raise self._ended()
         try:
-            reply: dict[str, Any] = json.loads(line)
+            reply = json.loads(line)
         except json.JSONDecodeError as e:
             self.close()
             raise ToolError(self.name, EXIT_INTERNAL, f"a reply is not JSON ({e})") from e
+        if not isinstance(reply, dict):
+            self.close()
+            raise ToolError(self.name, EXIT_INTERNAL, "a reply is not a JSON object")
         if reply.get("status") == "error":
             raise tool_error(self.name, EXIT_BAD_INPUT, str(reply.get("message")))
         size = reply.get("bytes", 0)

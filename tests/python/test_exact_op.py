@@ -82,7 +82,8 @@ def test_cli_writes_a_plan_with_proof_and_rejects_bad_input(tmp_path: Path, caps
     del doc["sites"][2]["x_m"]
     src.write_text(json.dumps(doc))
     assert mound_main(["plan", "exact", str(src), "--out", str(tmp_path / "no.json")]) == 2
-    assert "x_m: missing" in capsys.readouterr().err
+    # the file and the member named (formats.sites reads it)
+    assert "s.json: sites[2].x_m: expected a number" in capsys.readouterr().err
     assert not (tmp_path / "no.json").exists()
 
 

@@ -12,22 +12,23 @@ import pytest
 from mound.classify import coarse, logistic, statlog
 from mound.classify.features import Standardizer, band_columns
 from mound.cli import main as mound_main
+from mound.formats.sites import Site, Truth
 from mound.plan.field import STANDARD_SEEDS, make_field
 from mound.plan.table1 import ALGOS, PAPER, error_rates, mean_total_reward, paper_classifier
 
 
-def site(sid: str, mound: bool, p: float) -> dict:
-    return {"id": sid, "p_mound": p, "truth": {"mound": mound}}
+def site(sid: str, mound: bool, p: float) -> Site:
+    return Site(sid, 0.0, 0.0, 1.0, p_mound=p, truth=Truth(mound))
 
 
 def test_visited_sites_are_correct_and_unvisited_keep_the_classifier_label() -> None:
-    doc = {"sites": [
+    doc = [
         site("a", True, 0.2),   # mound the classifier misses
         site("b", True, 0.9),   # mound the classifier finds
         site("c", False, 0.7),  # false alarm of the classifier
         site("d", False, 0.1),
         site("e", False, 0.6),  # another false alarm
-    ]}
+    ]
     # Nothing visited: the classifier alone. MD = 1/2, FA = 2/3.
     assert error_rates(doc, set()) == pytest.approx((0.5, 2 / 3))
     # Visiting a and c fixes both of those; e remains a false alarm.

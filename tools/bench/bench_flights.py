@@ -156,7 +156,7 @@ def main() -> int:
                 for k in args.flights:
                     for seed, doc in zip(table1.STANDARD_SEEDS, docs, strict=True):
                         name = f"field{seed}_B{budget:g}_k{k}"
-                        fdoc = {**doc, "budget_m": budget}
+                        fdoc = {**doc.to_doc(), "budget_m": budget}
                         # With --exact: the B = 40 m fields with 2 and 3 flights proven.
                         if args.exact > 0 and budget == 40.0 and k in (2, 3):
                             r = proven(name, fdoc, k, args.time, args.exact, args.seed, tmp)

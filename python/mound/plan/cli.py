@@ -101,11 +101,12 @@ def cmd_plan_exact(args: argparse.Namespace) -> int:
         from mound.plan import branch_cut
 
         # The first solution: the heuristic's route (ALNS, 1 s).
-        heur = native.run_json("mound_plan", [args.sites, str(prob.budget), "--algo", "alns",
-                                              "--time-limit", "1"])
+        heur = Plan.from_doc(native.run_json(
+            "mound_plan", [args.sites, str(prob.budget), "--algo", "alns", "--time-limit", "1"]),
+            "mound_plan's plan")
         index = {sid: i for i, sid in enumerate(prob.ids)}
         r = branch_cut.solve(prob, time_limit_s=args.time_limit,
-                             start_route=[index[sid] for sid in heur["tour"]])
+                             start_route=[index[sid] for sid in heur.flights[0].tour])
     else:
         from mound.plan import exact as exact_op
 
@@ -142,11 +143,12 @@ def plan_exact_flights(args: argparse.Namespace, prob: Any) -> int:
         raise UsageError("--flights: the exact method for several flights is --solver scip")
     if not 1 <= args.flights <= 64:
         raise UsageError("--flights: 1 .. 64")
-    heur = native.run_json("mound_plan", [args.sites, str(prob.budget), "--flights",
-                                          str(args.flights), "--time-limit", "1"])
+    heur = Plan.from_doc(native.run_json("mound_plan", [
+        args.sites, str(prob.budget), "--flights", str(args.flights), "--time-limit", "1"]),
+        "mound_plan's plan")
     index = {sid: i for i, sid in enumerate(prob.ids)}
     r = branch_cut.solve_flights(prob, args.flights, args.time_limit,
-                                 [[index[sid] for sid in f["tour"]] for f in heur["flights"]])
+                                 [[index[sid] for sid in f.tour] for f in heur.flights])
     first = 1 if prob.closed else 2
     plan = Plan.of_flights(
         "exact-bc", [[prob.ids[v] for v in route] for route in r.routes],
@@ -155,7 +157,7 @@ def plan_exact_flights(args: argparse.Namespace, prob: Any) -> int:
         n_sites=len(prob.ids) - first,
         n_visited=sum(len(set(route[1:-1])) for route in r.routes),
         solver={"name": "scip", "proof": r.status, "upper_bound": r.bound, "gap": r.gap,
-                "cuts": r.cuts, "rounds": r.rounds, "alns_reward": heur["reward"]})
+                "cuts": r.cuts, "rounds": r.rounds, "alns_reward": heur.reward})
     return emit_exact_plan(args, plan, f"{r.status}: {args.flights} flights, reward "
                            f"{r.reward:.4f}, upper bound {r.bound:.4f}, {r.cuts} cuts, "
                            f"{r.seconds:.1f} s")
@@ -181,12 +183,12 @@ def cmd_table1(args: argparse.Namespace) -> int:
                                 progress=lambda line: print(f"table1: {line}", file=sys.stderr,
                                                             flush=True))
         all_rows += rows
-        exact += [{"scan_cost_m": c, **e} for e in meta["exact"]]
-        setting = meta["setting"]
+        exact += [{"scan_cost_m": c, **e} for e in meta.exact]
+        setting = meta.setting
         how = (f"paper setting: gradient descent stopped at t = {setting.gd_iterations:.4f} "
                "iterations" if args.paper else "converged classifier")
         print(f"node (scan) cost {c:g} m; {how}; total reward per field "
-              f"{meta['total_reward_per_field']:.2f} "
+              f"{setting.total_reward_per_field:.2f} "
               f"(paper {table1.PAPER.total_reward_per_field})")
         print(table1.format_table(rows))
         if c == args.scan_cost[0]:

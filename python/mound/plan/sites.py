@@ -5,12 +5,12 @@ from __future__ import annotations
 import itertools
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
 from mound.errors import InputError
-from mound.jsonio import JsonObject, read_json
+from mound.formats.sites import Sites
+from mound.jsonio import JsonObject
 
 
 @dataclass
@@ -39,51 +39,48 @@ class OpProblem:
         return float(sum(c[a, b] for a, b in itertools.pairwise(route)))
 
 
-def from_document(doc: dict[str, Any], budget: float | None = None) -> OpProblem:
-    """The arrays of a mound.sites document (the C++ reader is the full validator; this
-    one reports missing or non-numeric fields as InputError)."""
-    try:
-        return _from_document(doc, budget)
-    except KeyError as e:
-        raise InputError(f"{e.args[0]}: missing required field") from None
-    except (TypeError, ValueError) as e:
-        raise InputError(f"malformed sites document ({e})") from None
+def from_document(doc: object, budget: float | None = None) -> OpProblem:
+    """The arrays of a mound.sites document (read by formats.sites.Sites: InputError naming
+    the member on any defect)."""
+    return from_sites(Sites.from_doc(doc, "sites"), budget)
 
 
-def _from_document(doc: dict[str, Any], budget: float | None) -> OpProblem:
-    home = doc["home"]
-    end = doc.get("end") or {"id": home["id"]}
-    closed = end["id"] == home["id"]
+def from_sites(doc: Sites, budget: float | None = None) -> OpProblem:
+    """The arrays of a sites document: home, the end when the tour is a path, the sites;
+    with the terrain's climb costs when the document has them."""
+    closed = doc.closed
     # The take-off climb and landing descent, flown once per tour, as the home and end
     # nodes' cost: a closed tour pays home's twice by halves, a path home's and end's halves.
-    overhead = float(doc.get("takeoff_landing_m", 0.0))
-    nodes = [(home["id"], home["x_m"], home["y_m"], 0.0, overhead)]
+    overhead = doc.takeoff_landing_m
+    nodes = [(doc.home.id, doc.home.x_m, doc.home.y_m, 0.0, overhead)]
     if not closed:
-        nodes.append((end["id"], end["x_m"], end["y_m"], 0.0, overhead))
-    nodes += [(s["id"], s["x_m"], s["y_m"], s["reward"], s.get("scan_cost_m", 0.0))
-              for s in doc["sites"]]
+        nodes.append((doc.end.id, doc.end.x_m, doc.end.y_m, 0.0, overhead))
+    nodes += [(s.id, s.x_m, s.y_m, s.reward, s.scan_cost_m) for s in doc.sites]
     extra = None
     offset = 0.0
-    terrain = doc.get("terrain")
-    if isinstance(terrain, dict):
-        extra = np.asarray(terrain["extra_m"], dtype=float)
-        if extra.shape != (len(nodes), len(nodes)):
+    terrain = doc.terrain()
+    if terrain is not None:
+        try:
+            extra = np.asarray(terrain["extra_m"], dtype=float)
+            offset = 0.0 if closed else float(terrain.get("path_offset_m", 0.0))
+        except (KeyError, TypeError, ValueError) as e:
+            raise InputError(f"sites: terrain: malformed ({e!s:.60})") from None
+        if extra.shape != (len(nodes), len(nodes)) or not np.isfinite(extra).all():
             raise InputError(f"terrain.extra_m: expected {len(nodes)} x {len(nodes)} numbers")
         extra = np.maximum(extra, extra.T)
-        offset = 0.0 if closed else float(terrain.get("path_offset_m", 0.0))
     return OpProblem(
         ids=[n[0] for n in nodes],
         xy=np.array([[n[1], n[2]] for n in nodes], dtype=float),
         reward=np.array([n[3] for n in nodes], dtype=float),
         scan=np.array([n[4] for n in nodes], dtype=float),
-        budget=float(doc["budget_m"] if budget is None else budget) - offset,
+        budget=float(doc.budget_m if budget is None else budget) - offset,
         closed=closed,
         extra=extra,
     )
 
 
 def load(path: str | Path, budget: float | None = None) -> OpProblem:
-    return from_document(read_json(path, "mound.sites", 1), budget)
+    return from_sites(Sites.read(path), budget)
 
 
 def from_classic_op_file(path: str | Path) -> JsonObject:

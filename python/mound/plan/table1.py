@@ -17,10 +17,10 @@ import csv
 import io
 import json
 import tempfile
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 
@@ -29,7 +29,9 @@ from mound.classify import coarse, statlog
 from mound.classify.metrics import detection_error_rates, says_mound
 from mound.classify.model import Model
 from mound.classify.reward import binary_entropy_bits
-from mound.jsonio import JsonObject, write_atomic
+from mound.formats.plan import Plan
+from mound.formats.sites import Site, Sites
+from mound.jsonio import JsonObject, finite_number, write_atomic
 from mound.plan import branch_cut, sites
 from mound.plan.field import STANDARD_SEEDS, Field, make_field, sites_document
 
@@ -96,13 +98,13 @@ def paper_classifier(train: statlog.Split, test: statlog.Split, fields: list[Fie
     return model, hi, value
 
 
-def error_rates(doc: dict[str, Any], visited: set[str]) -> tuple[float, float]:
+def error_rates(sites: Sequence[Site], visited: set[str]) -> tuple[float, float]:
     """Paper's error rates (eps_MD, eps_FA): missed detections among the true mounds and
     false alarms among the others; a visited site gets its true label, the others
-    p_mound >= 0.5."""
-    truth = [bool(s["truth"]["mound"]) for s in doc["sites"]]
-    label = [t if s["id"] in visited else says_mound(s["p_mound"])
-             for s, t in zip(doc["sites"], truth, strict=True)]
+    p_mound >= 0.5. Every site has its truth and p_mound (a standard field's)."""
+    truth = [s.truth is not None and s.truth.mound for s in sites]
+    label = [t if s.id in visited else says_mound(s.p_mound or 0.0)
+             for s, t in zip(sites, truth, strict=True)]
     md, fa = detection_error_rates(label, list(truth))
     return md or 0.0, fa or 0.0
 
@@ -115,8 +117,23 @@ class Setting:
     total_reward_per_field: float
 
 
+class Table1Run(NamedTuple):
+    """What `run` keeps beside the rows: the classifier's setting, the first field and
+    each algorithm's tour of it by "algo@budget", and the exact solves (table1.json's
+    `exact`)."""
+    setting: Setting
+    field0: Sites
+    tours_field0: dict[str, list[str]]
+    exact: list[JsonObject]
+
+
+def _elapsed_s(plan: Plan) -> float:
+    """mound_plan's solve time (its plan's elapsed_s)."""
+    return finite_number(plan.extra.get("elapsed_s"), "plan: elapsed_s", lo=0.0)
+
+
 def make_documents(scan_cost: float, paper: bool, budget: float
-                   ) -> tuple[list[JsonObject], Setting]:
+                   ) -> tuple[list[Sites], Setting]:
     test = statlog.load("sat.tst")
     train = statlog.load("sat.trn")
     fields = [make_field(test, s) for s in STANDARD_SEEDS]
@@ -130,7 +147,7 @@ def make_documents(scan_cost: float, paper: bool, budget: float
         sites = sites_document(f, test, model, scan_cost, budget)
         said = sites.extra["provenance"]
         docs.append(sites.with_sites(sites.sites, provenance={
-            **said, "classifier": {**said["classifier"], "gd_iterations": t}}).to_doc())
+            **said, "classifier": {**said["classifier"], "gd_iterations": t}}))
         totals.append(float(said["total_reward"]))
     return docs, Setting(paper, t, float(np.mean(totals)))
 
@@ -139,10 +156,10 @@ def run(scan_cost: float = 1.0, budgets: tuple[float, ...] = BUDGETS,
         algos: tuple[str, ...] = ALGOS, exact_time_limit_s: float = 0.0,
         workdir: Path | None = None, paper: bool = False,
         progress: Callable[[str], None] | None = None
-        ) -> tuple[list[Row], dict[str, Any]]:
+        ) -> tuple[list[Row], Table1Run]:
     """Every algorithm on the ten fields at every budget; with exact_time_limit_s > 0 also
     the SCIP branch-and-cut optimum of every field (warm-started from the best plan of the
-    algorithms), per field in meta["exact"]. `progress` gets a line per budget and per
+    algorithms), per field in the run's `exact`. `progress` gets a line per budget and per
     exact solve."""
     say = progress or (lambda _line: None)
     docs, setting = make_documents(scan_cost, paper, budgets[0])
@@ -151,34 +168,37 @@ def run(scan_cost: float = 1.0, budgets: tuple[float, ...] = BUDGETS,
     paths = []
     for seed, doc in zip(STANDARD_SEEDS, docs, strict=True):
         path = tmp / f"field_{seed}_c{scan_cost:g}{'_paper' if paper else ''}.json"
-        write_atomic(path, json.dumps(doc))
+        write_atomic(path, json.dumps(doc.to_doc()))
         paths.append(path)
     rows: list[Row] = []
-    tours: dict[str, object] = {}
-    exact_runs: list[dict[str, Any]] = []
+    tours: dict[str, list[str]] = {}
+    exact_runs: list[JsonObject] = []
     for budget in budgets:
         say(f"B = {budget:g} m: {', '.join(algos)} on {len(paths)} fields")
-        plans_by_algo: dict[str, list[dict[str, Any]]] = {}
+        plans_by_algo: dict[str, list[Plan]] = {}
         for algo in algos:
-            plans = [native.run_json("mound_plan", [str(p), f"{budget:g}", "--algo", algo])
-                     for p in paths]
+            plans = [Plan.from_doc(native.run_json(
+                "mound_plan", [str(p), f"{budget:g}", "--algo", algo]), f"{p} ({algo})")
+                for p in paths]
             plans_by_algo[algo] = plans
-            rates = [error_rates(d, set(pl["tour"])) for d, pl in zip(docs, plans, strict=True)]
+            rates = [error_rates(d.sites, pl.visited())
+                     for d, pl in zip(docs, plans, strict=True)]
             rows.append(Row(scan_cost, budget, algo,
-                            float(np.mean([pl["reward"] for pl in plans])),
+                            float(np.mean([pl.reward for pl in plans])),
                             float(np.mean([r[0] for r in rates])),
                             float(np.mean([r[1] for r in rates])),
-                            float(np.mean([pl["elapsed_s"] for pl in plans])),
-                            float(np.mean([pl["budget_left_m"] for pl in plans])), len(plans)))
-            tours[f"{algo}@{budget:g}"] = plans[0]["tour"]
+                            float(np.mean([_elapsed_s(pl) for pl in plans])),
+                            float(np.mean([pl.budget_m * len(pl.flights) - pl.cost_m
+                                           for pl in plans])), len(plans)))
+            tours[f"{algo}@{budget:g}"] = list(plans[0].flights[0].tour)
         if exact_time_limit_s > 0:
             results = []
             for k, path in enumerate(paths):
                 prob = sites.load(path, budget)
                 index = {sid: i for i, sid in enumerate(prob.ids)}
-                best = max((plans_by_algo[a][k] for a in algos), key=lambda pl: pl["reward"],
+                best = max((plans_by_algo[a][k] for a in algos), key=lambda pl: pl.reward,
                            default=None)
-                warm = [index[t] for t in best["tour"]] if best else None
+                warm = [index[t] for t in best.flights[0].tour] if best else None
                 r = branch_cut.solve(prob, exact_time_limit_s, start_route=warm)
                 results.append((r, prob))
                 say(f"B = {budget:g} m, field {STANDARD_SEEDS[k]}: {r.status}, reward "
@@ -187,9 +207,9 @@ def run(scan_cost: float = 1.0, budgets: tuple[float, ...] = BUDGETS,
                     "seed": STANDARD_SEEDS[k], "budget_m": budget, "status": r.status,
                     "reward": r.reward, "bound": r.bound, "seconds": r.seconds,
                     "nodes": r.rounds, "cuts": r.cuts,
-                    "best_heuristic": {a: plans_by_algo[a][k]["reward"] for a in algos},
+                    "best_heuristic": {a: plans_by_algo[a][k].reward for a in algos},
                     "tour": [prob.ids[v] for v in r.route]})
-            rates = [error_rates(d, {pr.ids[v] for v in r.route})
+            rates = [error_rates(d.sites, {pr.ids[v] for v in r.route})
                      for d, (r, pr) in zip(docs, results, strict=True)]
             rows.append(Row(scan_cost, budget, "exact",
                             float(np.mean([r.reward for r, _ in results])),
@@ -200,9 +220,7 @@ def run(scan_cost: float = 1.0, budgets: tuple[float, ...] = BUDGETS,
                             proven=sum(r.status == "optimal" for r, _ in results),
                             bound=float(np.mean([r.bound for r, _ in results])),
                             seconds_max=max(r.seconds for r, _ in results)))
-    meta = {"setting": setting, "total_reward_per_field": setting.total_reward_per_field,
-            "field0": docs[0], "tours_field0": tours, "exact": exact_runs}
-    return rows, meta
+    return rows, Table1Run(setting, docs[0], tours, exact_runs)
 
 
 def format_table(rows: list[Row]) -> str:
@@ -227,7 +245,7 @@ def write_csv(rows: list[Row], path: Path) -> None:
     write_atomic(path, buf.getvalue())
 
 
-def plot(rows: list[Row], meta: dict[str, Any], out_dir: Path, budget: float = 120.0) -> None:
+def plot(rows: list[Row], meta: Table1Run, out_dir: Path, budget: float = 120.0) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -249,20 +267,20 @@ def plot(rows: list[Row], meta: dict[str, Any], out_dir: Path, budget: float = 1
     budgets = sorted({r.budget for r in rows})
     if budget not in budgets:
         budget = budgets[len(budgets) // 2]
-    doc = meta["field0"]
-    pos = {s["id"]: (s["x_m"], s["y_m"]) for s in doc["sites"]}
-    pos[doc["home"]["id"]] = (doc["home"]["x_m"], doc["home"]["y_m"])
+    field = meta.field0
+    pos = {s.id: (s.x_m, s.y_m) for s in field.sites}
+    pos[field.home.id] = (field.home.x_m, field.home.y_m)
     algos = [a for a in dict.fromkeys(r.algo for r in rows) if f"{a}@{budget:g}" in
-             meta["tours_field0"]]
+             meta.tours_field0]
     fig, axes = plt.subplots(1, len(algos), figsize=(3.2 * len(algos), 3.4))
-    reward = np.array([s["reward"] for s in doc["sites"]])
+    reward = np.array([s.reward for s in field.sites])
     for ax, algo in zip(np.atleast_1d(axes), algos, strict=True):
-        ax.scatter([s["x_m"] for s in doc["sites"]], [s["y_m"] for s in doc["sites"]],
+        ax.scatter([s.x_m for s in field.sites], [s.y_m for s in field.sites],
                    s=10 + 60 * reward, c=reward, cmap="viridis", vmin=0, vmax=1)
-        mounds = [s for s in doc["sites"] if s["truth"]["mound"]]
-        ax.scatter([s["x_m"] for s in mounds], [s["y_m"] for s in mounds], marker="x",
+        mounds = [s for s in field.sites if s.truth is not None and s.truth.mound]
+        ax.scatter([s.x_m for s in mounds], [s.y_m for s in mounds], marker="x",
                    c="red", s=40)
-        tour = meta["tours_field0"][f"{algo}@{budget:g}"]
+        tour = meta.tours_field0[f"{algo}@{budget:g}"]
         ax.plot([pos[t][0] for t in tour], [pos[t][1] for t in tour], c="k", lw=0.8)
         ax.set_title(f"{algo}", fontsize=9)
         ax.set_aspect("equal")

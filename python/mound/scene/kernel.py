@@ -17,12 +17,13 @@ k stride, ...), features.py's grid.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
 from mound import native
+from mound.jsonio import JsonObject
 from mound.scene.features import MIN_VALID, FeatureSpec
 from mound.scene.model import SceneModel
 
@@ -30,14 +31,15 @@ ENGINES = ("native", "numpy")
 
 
 def _job(spec: FeatureSpec, res_m: float, halo: int, stride: int, n: int, m: int,
-         model: SceneModel | None) -> dict[str, Any]:
+         model: SceneModel | None) -> JsonObject:
     labels = spec.band_labels
     radii, background = spec.window_px(res_m)
-    feats = {"kind": "multiscale", "radii_px": radii, "background_px": background,
-             "red_band": labels.index("red") if spec.has_ndvi else None,
-             "nir_band": labels.index("nir") if spec.has_ndvi else None,
-             "min_valid": MIN_VALID}
+    feats: JsonObject = {
+        "kind": "multiscale", "radii_px": radii, "background_px": background,
+        "red_band": labels.index("red") if spec.has_ndvi else None,
+        "nir_band": labels.index("nir") if spec.has_ndvi else None, "min_valid": MIN_VALID}
     nf = len(spec.names())
+    mod: JsonObject
     if model is None:  # features only: a neutral model the reader accepts
         mod = {"basis": "none", "clip": False, "mean": [0.0] * nf, "std": [1.0] * nf,
                "weights": [0.0] * (nf + 1)}
@@ -50,9 +52,9 @@ def _job(spec: FeatureSpec, res_m: float, halo: int, stride: int, n: int, m: int
             "features": feats, "model": mod}
 
 
-def _request(block: np.ndarray, job: dict[str, Any], want: str,
-             extra: dict[str, object] | None = None, mask: np.ndarray | None = None
-             ) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+def _request(block: np.ndarray, job: JsonObject, want: str,
+             extra: JsonObject | None = None, mask: np.ndarray | None = None
+             ) -> tuple[Mapping[str, object], dict[str, np.ndarray]]:
     """One request to a `mound_scene --serve` of this thread: the reply and its parts.
     `mask` (the job's cells, True: scored) travels after the pixels."""
     if block.dtype == np.float32:
@@ -61,24 +63,29 @@ def _request(block: np.ndarray, job: dict[str, Any], want: str,
         b32 = block.astype(np.float32)
         exact = np.array_equal(b32.astype(np.float64), block, equal_nan=True)
         data = b32 if exact else np.ascontiguousarray(block, np.float64)
-    layout: dict[str, object] = {"dtype": data.dtype.str, "shape": list(data.shape)}
+    layout: JsonObject = {"dtype": data.dtype.str, "shape": list(data.shape)}
     payload = [data.data.cast("B")]
     if mask is not None:
         layout["cell_mask"] = int(mask.size)
         payload.append(np.ascontiguousarray(mask, np.uint8).data.cast("B"))
-    head = {**job, "want": want, **(extra or {}), "block": layout}
+    head: JsonObject = {**job, "want": want, **(extra or {}), "block": layout}
     with native.checkout("mound_scene", ["--serve"]) as server:
         reply, raw = server.request(head, *payload)
-    parts, at = {}, 0
-    for part in reply["parts"]:
-        dtype = np.dtype(part["dtype"])
-        count = int(np.prod(part["shape"], dtype=np.int64))
-        parts[part["name"]] = np.frombuffer(raw, dtype, count, at).reshape(part["shape"])
+    parts: dict[str, np.ndarray] = {}
+    at = 0
+    for part in native.tool_objects(reply, "parts", "mound_scene"):
+        dtype = np.dtype(str(part.get("dtype")))
+        shape = part.get("shape")
+        if not isinstance(shape, list) or not all(isinstance(n, int) for n in shape):
+            raise native.ToolError("mound_scene", native.EXIT_INTERNAL,
+                                   f"a reply's part shape is {shape!r:.40}")
+        count = int(np.prod(shape, dtype=np.int64))
+        parts[str(part.get("name"))] = np.frombuffer(raw, dtype, count, at).reshape(shape)
         at += count * dtype.itemsize
     return reply, parts
 
 
-def _run(block: np.ndarray, job: dict[str, Any], want: str) -> np.ndarray:
+def _run(block: np.ndarray, job: JsonObject, want: str) -> np.ndarray:
     return _request(block, job, want)[1][want]
 
 
@@ -105,13 +112,14 @@ def scores(block: np.ndarray, model: SceneModel, res_m: float, halo: int, stride
     """The block's logits, calibrated and reduced in the kernel (block_scores.h); cells
     where `mask` (n, m) is False have none (outside an area of interest)."""
     job = _job(model.spec, res_m, halo, stride, n, m, model)
-    extra: dict[str, object] = {"scores": {
+    extra: JsonObject = {"scores": {
         "a": model.calibration["a"], "b": model.calibration["b"], "margin": margin,
         "nodata": nodata, "logits": with_logits}}
     reply, parts = _request(block, job, "scores", extra, mask)
     return Scores(parts["p"], parts["reward"], parts["peak_row"], parts["peak_col"],
-                  parts["peak_p"], parts["peak_logit"], int(reply["scored"]),
-                  float(reply["p_sum"]), parts.get("logits"))
+                  parts["peak_p"], parts["peak_logit"],
+                  int(native.tool_number(reply, "scored", "mound_scene")),
+                  native.tool_number(reply, "p_sum", "mound_scene"), parts.get("logits"))
 
 
 def logits(block: np.ndarray, model: SceneModel, res_m: float, halo: int, stride: int,

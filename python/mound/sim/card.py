@@ -21,11 +21,11 @@ import itertools
 import math
 import shutil
 import tempfile
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from datetime import datetime, timedelta
 from fractions import Fraction
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -40,6 +40,8 @@ from mound.jsonio import JsonObject, read_json, write_json
 if TYPE_CHECKING:
     from PIL import Image
     from PIL.TiffImagePlugin import IFDRational
+
+    from mound.sim.site import SimSpec
 
 SENSOR_WIDTH_MM = 6.17   # the simulated camera's sensor: 1/2.3", as on small UAVs
 MOUND_HEIGHTS_M = (4.0, 12.0)  # simulated tumuli: heights drawn uniformly from this range
@@ -218,7 +220,7 @@ class SiteGround:
 def survey_site_spec(site: Site, index: int, origin: Origin,
                      sim_seed: int, image_size: tuple[int, int], pattern: str,
                      site_diameter_m: float, terrain_input: SiteGround | None = None
-                     ) -> tuple[Any, dict[str, Any]]:
+                     ) -> tuple[SimSpec, JsonObject]:
     """How the survey simulates a visited site's flight: the SimSpec (from the site's
     hidden truth, seeded by `sim_seed` and the site's index) and what was simulated."""
     from mound.sim import site as sim
@@ -235,20 +237,21 @@ def survey_site_spec(site: Site, index: int, origin: Origin,
         height = site.truth.height_m  # the inventory's height
     seed = 1000 * sim_seed + index + 1
     lat, lon, alt = enu_to_geodetic(origin, np.array([[site.x_m, site.y_m, 0.0]]))[0]
-    ground: dict[str, Any] = {}  # TerrainSpec's fields of a DEM patch
+    ground = terrain.preset("bin_tepe", mound=bool(truth), seed=seed,
+                            diameter_m=site_diameter_m, height_m=height,
+                            size_m=max(160.0, 8 * site_diameter_m / 3))
     if terrain_input:
         # Over the survey's DEM: the site's own terrain, z = 0 at the mission's ground of
         # the site, so the simulated flight has the mission's heights above it.
         from mound.geometry.dem import lonlat_to_crs
 
         x, y = lonlat_to_crs(terrain_input.dem, float(lon), float(lat))
-        ground = {"dem_path": terrain_input.dem, "dem_x_m": x, "dem_y_m": y,
-                  "dem_ground_m": float(terrain_input.ground_amsl_m),
-                  "dem_vertical": terrain_input.vertical}
+        ground = replace(ground, dem_path=terrain_input.dem, dem_x_m=x, dem_y_m=y,
+                         dem_ground_m=float(terrain_input.ground_amsl_m),
+                         dem_vertical=terrain_input.vertical)
+        ground.check()
     spec = sim.SimSpec(
-        terrain=terrain.preset("bin_tepe", mound=bool(truth), seed=seed,
-                               diameter_m=site_diameter_m, height_m=height,
-                               size_m=max(160.0, 8 * site_diameter_m / 3), **ground),
+        terrain=ground,
         width_px=image_size[0], height_px=image_size[1], pattern=pattern,
         seed=seed, origin={"lat": float(lat), "lon": float(lon), "alt_m": float(alt)})
     return spec, {"mound": bool(truth), "height_m": height if truth else 0.0,
@@ -297,8 +300,39 @@ def _ground_frame(rng: np.random.Generator, size: tuple[int, int]) -> np.ndarray
     return np.clip(rgb, 0, 255).astype(np.uint8)
 
 
+@dataclass(frozen=True)
+class CardFile:
+    """A photo of the card: its flight, its site (None: a transit frame, `reason` says)
+    and when it was taken (local time, ISO 8601)."""
+
+    file: str
+    flight: int
+    site: str | None
+    reason: str | None
+    time: str
+
+    def to_doc(self) -> JsonObject:
+        return {"file": self.file, "flight": self.flight, "site": self.site,
+                "reason": self.reason, "time": self.time}
+
+
+@dataclass(frozen=True)
+class CardTruth:
+    """What a simulated card holds (mound.card_truth v1): the plan it flew, the card's
+    folder, how it was made and each file."""
+
+    plan: str
+    card: str
+    spec: JsonObject
+    files: tuple[CardFile, ...]
+
+    def to_doc(self) -> JsonObject:
+        return {"schema": CARD_TRUTH, "version": 1, "plan": self.plan, "card": self.card,
+                "spec": self.spec, "files": [f.to_doc() for f in self.files]}
+
+
 def write_card(plan_path: str, sites_path: str, out_dir: str, spec: CardSpec | None = None
-               ) -> dict[str, Any]:
+               ) -> CardTruth:
     """Writes the card of the plan's flights into OUT_DIR/DCIM/100MEDIA; returns the
     card's truth (mound.card_truth v1: per file its flight, site or `transit`, time)."""
     from mound.geometry.flight import ScanSpec
@@ -325,7 +359,7 @@ def write_card(plan_path: str, sites_path: str, out_dir: str, spec: CardSpec | N
     folder = Path(out_dir) / "DCIM" / "100MEDIA"
     folder.mkdir(parents=True, exist_ok=True)
     rng = np.random.default_rng([spec.sim_seed, 99])
-    files: list[dict[str, Any]] = []
+    files: list[CardFile] = []
     when = spec.start
 
     def name() -> Path:
@@ -353,8 +387,8 @@ def write_card(plan_path: str, sites_path: str, out_dir: str, spec: CardSpec | N
                               ExifFacts(float(lat), float(lon), float(alt), t,
                                         transit_fx, spec.image_size[0]),
                               spec.quality)
-                    files.append({"file": str(path.relative_to(out_dir)), "flight": number,
-                                  "site": None, "reason": "transit", "time": t.isoformat()})
+                    files.append(CardFile(str(path.relative_to(out_dir)), number, None,
+                                          "transit", t.isoformat()))
             when += timedelta(seconds=leg / spec.speed_mps)
             if b_id not in by_id:
                 continue  # home
@@ -369,11 +403,10 @@ def write_card(plan_path: str, sites_path: str, out_dir: str, spec: CardSpec | N
                 for file, t in shots:
                     path = name()
                     shutil.move(str(Path(tmp) / file), path)
-                    files.append({"file": str(path.relative_to(out_dir)), "flight": number,
-                                  "site": b_id, "reason": None, "time": t.isoformat()})
+                    files.append(CardFile(str(path.relative_to(out_dir)), number, b_id, None,
+                                          t.isoformat()))
             when = shots[-1][1] + timedelta(seconds=spec.shot_every_s) if shots else when
         when += timedelta(seconds=spec.between_flights_s)
-    return {"schema": CARD_TRUTH, "version": 1, "plan": str(plan_path), "card": str(out_dir),
-            "spec": {**{k: v for k, v in spec.__dict__.items() if k != "start"},
-                     "start": spec.start.isoformat(), "reach_m": reach},
-            "files": files}
+    return CardTruth(str(plan_path), str(out_dir),
+                     {**{k: v for k, v in spec.__dict__.items() if k != "start"},
+                      "start": spec.start.isoformat(), "reach_m": reach}, tuple(files))

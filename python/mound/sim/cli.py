@@ -113,10 +113,10 @@ def cmd_sim_flight(args: argparse.Namespace) -> int:
                     scan_factor=args.scan_factor)
     truth = write_card(args.plan, sites, args.out, spec)
     if args.truth:
-        write_json(args.truth, truth)
-    n_transit = sum(1 for f in truth["files"] if f["reason"] == "transit")
-    n_sites = len({f["site"] for f in truth["files"] if f["site"]})
-    print(f"{len(truth['files'])} photos ({n_sites} sites, {n_transit} transit) -> "
+        write_json(args.truth, truth.to_doc())
+    n_transit = sum(1 for f in truth.files if f.reason == "transit")
+    n_sites = len({f.site for f in truth.files if f.site})
+    print(f"{len(truth.files)} photos ({n_sites} sites, {n_transit} transit) -> "
           f"{args.out}/DCIM/100MEDIA")
     return 0
 

@@ -45,7 +45,7 @@ from __future__ import annotations
 
 import logging
 import math
-from typing import Any
+from dataclasses import replace
 
 import numpy as np
 
@@ -121,9 +121,9 @@ def _confuser(rng: np.random.Generator, kind: str, seed: int) -> terrain.Confuse
                             seed=seed)
 
 
-def _measured_tumulus(rng: np.random.Generator, pop: Population,
-                      scan_m: float) -> dict[str, Any]:
-    """A tumulus of the population's measured rows (see the module text)."""
+def _measured_tumulus(rng: np.random.Generator, spec: terrain.TerrainSpec, pop: Population,
+                      scan_m: float) -> terrain.TerrainSpec:
+    """`spec` with a tumulus of the population's measured rows (see the module text)."""
     row = pop.rows[int(rng.integers(len(pop.rows)))]
     profile = str(rng.choice(POPULATION_PROFILES))
     w, length, h = row.width_m, row.length_m, row.height_m
@@ -132,51 +132,51 @@ def _measured_tumulus(rng: np.random.Generator, pop: Population,
     h = min(h, max_height(profile, w))
     x, y = _in_disc(rng, scan_m / 4)
     az = float(rng.uniform(0, 180))
-    over: dict[str, Any] = {
-        "profile": profile, "diameter_m": w, "height_m": h, "mound_x_m": x, "mound_y_m": y,
-        "erosion_m": float(rng.uniform(0.05, 0.2)) * w,
-        **({"length_m": length, "mound_azimuth_deg": az} if length > w * (1 + 1e-9) else {})}
+    spec = replace(spec, profile=profile, diameter_m=w, height_m=h, mound_x_m=x, mound_y_m=y,
+                   erosion_m=float(rng.uniform(0.05, 0.2)) * w)
+    if length > w * (1 + 1e-9):
+        spec = replace(spec, length_m=length, mound_azimuth_deg=az)
     trench = row.trench if row.trench is not None else bool(rng.random() < pop.trench_share)
     if trench:  # as the field records it: a trench across the top, or a pit in it
         if rng.random() < 0.5 and w > 4:
             pr = float(rng.uniform(0.1, 0.25)) * w
-            over.update(pit_radius_m=pr, pit_depth_m=float(rng.uniform(0.2, 0.6)) * h,
-                        pit_offset_m=float(rng.uniform(0, w / 2 - pr)))
+            spec = replace(spec, pit_radius_m=pr, pit_depth_m=float(rng.uniform(0.2, 0.6)) * h,
+                           pit_offset_m=float(rng.uniform(0, w / 2 - pr)))
         else:
-            over.update(trench_width_m=float(rng.uniform(0.15, 0.35)) * w,
-                        trench_depth_m=float(rng.uniform(0.2, 0.6)) * h,
-                        trench_azimuth_deg=float(rng.uniform(0, 180)))
-    return over
+            spec = replace(spec, trench_width_m=float(rng.uniform(0.15, 0.35)) * w,
+                           trench_depth_m=float(rng.uniform(0.2, 0.6)) * h,
+                           trench_azimuth_deg=float(rng.uniform(0, 180)))
+    return spec
 
 
-def _place_on_dem(rng: np.random.Generator, dems: list[DemPlaces],
-                  size_m: float) -> dict[str, Any] | None:
-    """A terrain patch of one of `dems` (drawn among those where a site `size_m` across
-    fits), or None where it fits on none."""
-    fits = [d for d in dems if d.fits(size_m)]
+def _place_on_dem(rng: np.random.Generator, spec: terrain.TerrainSpec,
+                  dems: list[DemPlaces]) -> terrain.TerrainSpec | None:
+    """`spec` on a terrain patch of one of `dems` (drawn among those where the site fits),
+    or None where it fits on none."""
+    fits = [d for d in dems if d.fits(spec.size_m)]
     if not fits:
         return None
     d = fits[int(rng.integers(len(fits)))]
-    x, y = d.draw(rng, size_m)
-    return {"dem_path": d.path, "dem_x_m": x, "dem_y_m": y}
+    x, y = d.draw(rng, spec.size_m)
+    return replace(spec, dem_path=d.path, dem_x_m=x, dem_y_m=y)
 
 
 GROUNDS = ("mixed", "steep", "ridged")
 STEEP_DEG = (15.0, 35.0)  # ground="steep": the slopes no training grid held
 
 
-def _ridged(rng: np.random.Generator) -> dict[str, Any]:
-    """ground="ridged": ridge and valley (a fifth of the wavelength at most: flanks of at
-    most atan(pi / 5), 32 degrees), a regional slope, terraces on half the sites."""
+def _ridged(rng: np.random.Generator, spec: terrain.TerrainSpec) -> terrain.TerrainSpec:
+    """`spec` on ground="ridged": ridge and valley (a fifth of the wavelength at most: flanks
+    of at most atan(pi / 5), 32 degrees), a regional slope, terraces on half the sites."""
     lam = float(rng.uniform(60, 160))
-    out: dict[str, Any] = {
-        "ridge_wavelength_m": lam, "ridge_relief_m": float(rng.uniform(3, lam / 5)),
-        "ridge_azimuth_deg": float(rng.uniform(0, 180)),
-        "slope_deg": float(rng.uniform(0, 10)), "slope_azimuth_deg": float(rng.uniform(0, 360))}
+    spec = replace(spec, ridge_wavelength_m=lam, ridge_relief_m=float(rng.uniform(3, lam / 5)),
+                   ridge_azimuth_deg=float(rng.uniform(0, 180)),
+                   slope_deg=float(rng.uniform(0, 10)),
+                   slope_azimuth_deg=float(rng.uniform(0, 360)))
     if rng.random() < 0.5:
-        out.update(terrace_step_m=float(rng.uniform(1, 3)),
-                   terrace_riser=float(rng.uniform(0.2, 0.4)))
-    return out
+        spec = replace(spec, terrace_step_m=float(rng.uniform(1, 3)),
+                       terrace_riser=float(rng.uniform(0.2, 0.4)))
+    return spec
 
 
 def draw(rng: np.random.Generator, seed: int, dems: list[DemPlaces] | None,
@@ -185,60 +185,59 @@ def draw(rng: np.random.Generator, seed: int, dems: list[DemPlaces] | None,
          ground: str = "mixed") -> sim.SimSpec:
     """One site of the grid (see the module text); `dems` opened once for the grid (each
     open reads the whole DEM)."""
-    over: dict[str, Any] = {"seed": seed, "resolution_m": 0.5}
     mound = bool(rng.random() < 0.5)
-    over["mound"] = mound
+    spec = replace(terrain.PRESETS["bin_tepe"], seed=seed, resolution_m=0.5, mound=mound)
     extent = 0.0
     if mound and population is not None:
-        over.update(_measured_tumulus(rng, population, scan_m))
-        extent = (over.get("length_m", over["diameter_m"])
-                  + 2 * max(abs(over["mound_x_m"]), abs(over["mound_y_m"])))
+        spec = _measured_tumulus(rng, spec, population, scan_m)
+        extent = (max(spec.length_m, spec.diameter_m)
+                  + 2 * max(abs(spec.mound_x_m), abs(spec.mound_y_m)))
     elif mound:
         profile = str(rng.choice(terrain.PROFILES))
         d = _log_uniform(rng, 10, 150)
         drum_share = float(rng.uniform(0.2, 0.5)) if profile == "drum" else 0.0
         h = min(_log_uniform(rng, 0.5, 25), max_height(profile, d, drum_share))
         x, y = _in_disc(rng, scan_m / 4)
-        over.update(profile=profile, diameter_m=d, height_m=h,
-                    mound_x_m=x, mound_y_m=y, erosion_m=float(rng.uniform(0.5, 5)))
+        erosion = float(rng.uniform(0.5, 5))
         if profile == "ploughed":  # spread by the plough: at least a tenth of D
-            over["erosion_m"] = max(over["erosion_m"], d / 10)
+            erosion = max(erosion, d / 10)
+        spec = replace(spec, profile=profile, diameter_m=d, height_m=h,
+                       mound_x_m=x, mound_y_m=y, erosion_m=erosion)
         if profile == "drum":
-            over["drum_height_m"] = drum_share * h
+            spec = replace(spec, drum_height_m=drum_share * h)
         k = rng.random()
         if k < 0.2 and d > 12:
             pr = float(rng.uniform(0.1, 0.25)) * d
-            over.update(pit_radius_m=pr, pit_depth_m=float(rng.uniform(0.2, 0.6)) * h,
-                        pit_offset_m=float(rng.uniform(0, d / 2 - pr)))
+            spec = replace(spec, pit_radius_m=pr, pit_depth_m=float(rng.uniform(0.2, 0.6)) * h,
+                           pit_offset_m=float(rng.uniform(0, d / 2 - pr)))
         elif k < 0.35:
-            over.update(trench_width_m=float(rng.uniform(2, 6)),
-                        trench_depth_m=float(rng.uniform(0.2, 0.6)) * h,
-                        trench_azimuth_deg=float(rng.uniform(0, 180)))
+            spec = replace(spec, trench_width_m=float(rng.uniform(2, 6)),
+                           trench_depth_m=float(rng.uniform(0.2, 0.6)) * h,
+                           trench_azimuth_deg=float(rng.uniform(0, 180)))
         extent = d + 2 * max(abs(x), abs(y))
     elif rng.random() < 0.75:
         kind = str(rng.choice(terrain.CONFUSERS))
-        over["confusers"] = (_confuser(rng, kind, seed),)
+        spec = replace(spec, confusers=(_confuser(rng, kind, seed),))
     g = rng.random()
     size_m = max(160.0, extent + 40.0)
-    size_m = math.ceil(size_m / 4) * 4
-    over["size_m"] = size_m
+    spec = replace(spec, size_m=math.ceil(size_m / 4) * 4)
     if ground not in GROUNDS:
         raise InputError(f"--ground: one of {', '.join(GROUNDS)}, got {ground!r}")
     steep = ground == "steep"
     if ground == "ridged":
-        over.update(_ridged(rng))
+        spec = _ridged(rng, spec)
     elif steep or g < 0.30:
-        over.update(slope_deg=float(rng.uniform(*(STEEP_DEG if steep else (2, 15)))),
-                    slope_azimuth_deg=float(rng.uniform(0, 360)))
+        spec = replace(spec, slope_deg=float(rng.uniform(*(STEEP_DEG if steep else (2, 15)))),
+                       slope_azimuth_deg=float(rng.uniform(0, 360)))
     # steep: half over a DEM's patch; mixed: a quarter, the sites not on a slope
     if ground != "ridged" and (g < 0.5 if steep else 0.30 <= g < 0.55) and dems:
-        place = _place_on_dem(rng, dems, size_m)
-        if place is None:  # wider than any DEM holds: undulating ground (truth: dem false)
+        placed = _place_on_dem(rng, spec, dems)
+        if placed is None:  # wider than any DEM holds: undulating ground (truth: dem false)
             LOG.warning("site %d: %g m across fits on no DEM's part; its ground undulates",
-                        seed, size_m)
+                        seed, spec.size_m)
         else:
-            over.update(place)
-    spec = terrain.preset("bin_tepe", **over)
+            spec = placed
+    spec.check()
     return sim.SimSpec(
         terrain=spec,
         lighting=Lighting(math.radians(float(rng.uniform(0, 360))),

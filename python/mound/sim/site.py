@@ -190,19 +190,20 @@ def _simulate(spec: SimSpec, out: Path, threads: int | None) -> dict[str, Any]:
     if threads:
         args += ["--threads", str(threads)]
     result = native.run_json("mound_render", args)
-    timings["render_s"] = float(result["elapsed_s"])
+    timings["render_s"] = native.tool_number(result, "elapsed_s", "mound_render")
+    rendered = native.tool_objects(result, "images", "mound_render")
 
     rng = np.random.default_rng([spec.seed, 4711])
     sigma = np.array([spec.gps_sigma_h_m, spec.gps_sigma_h_m, spec.gps_sigma_v_m])
     images = []
-    for k, (f_name, (pattern, s), r) in enumerate(zip(files, labelled, result["images"],
+    for k, (f_name, (pattern, s), r) in enumerate(zip(files, labelled, rendered,
                                                       strict=True)):
         c = s.pose.centre
         images.append({
             "id": k, "file": f_name, "pattern": pattern, "line": s.line,
             "cam_from_world": {"R": s.pose.R.tolist(), "t": s.pose.t.tolist()},
             "centre_enu_m": c.tolist(), "gps_enu_m": (c + rng.normal(0, 1, 3) * sigma).tolist(),
-            "covered_fraction": r["covered_fraction"],
+            "covered_fraction": native.tool_number(r, "covered_fraction", "mound_render"),
         })
     write_json(out / "poses.json", {
         "schema": "mound.poses", "version": 1, "frame": "enu", "origin": spec.origin,
