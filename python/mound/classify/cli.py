@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import argparse
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from mound import datasets
 from mound.bounds import (
@@ -12,6 +12,9 @@ from mound.bounds import (
 )
 from mound.classify.defaults import DEFAULT_BAND, DEFAULT_L2
 from mound.jsonio import write_json
+
+if TYPE_CHECKING:
+    from mound.classify.coarse import Evaluation
 
 
 def cmd_fetch(args: argparse.Namespace) -> int:
@@ -47,7 +50,7 @@ def cmd_train(args: argparse.Namespace) -> int:
     return 0
 
 
-def print_eval(s: dict[str, Any]) -> None:
+def print_eval(s: Evaluation) -> None:
     print(f"sat.tst ({s['rows']} rows): accuracy {s['accuracy']:.4f} "
           f"(majority baseline {s['majority_accuracy']:.4f}), AUC {s['auc']:.4f}, "
           f"log-loss {s['log_loss']:.4f}, ECE {s['ece']:.4f}")

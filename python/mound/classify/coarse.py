@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TypedDict
 
 import numpy as np
 
@@ -41,12 +41,32 @@ def train(data: Split, band: int | None, solver: str = "gd", l2: float = DEFAULT
     return Model(band=band, scaler=scaler, w=fit.w, l2=l2, solver=solver, info=info)
 
 
-def evaluate(model: Model, data: Split) -> dict[str, Any]:
+class Evaluation(TypedDict):
+    """A classifier judged on a split (mound.classifier_eval's members)."""
+    accuracy: float
+    majority_accuracy: float
+    auc: float
+    log_loss: float
+    ece: float
+    reliability: list[dict[str, float]]
+    rows: int
+
+
+class BandChoice(TypedDict):
+    """A band's held-out figures (select_band); band None: all 36 features."""
+    band: int | None
+    name: str
+    auc: float
+    accuracy: float
+    log_loss: float
+
+
+def evaluate(model: Model, data: Split) -> Evaluation:
     p = model.predict(data.x)
-    out: dict[str, Any] = metrics.summary(p, data.y)
-    out["reliability"] = metrics.reliability(p, data.y)
-    out["rows"] = len(data.y)
-    return out
+    s = metrics.summary(p, data.y)
+    return {"accuracy": s["accuracy"], "majority_accuracy": s["majority_accuracy"],
+            "auc": s["auc"], "log_loss": s["log_loss"], "ece": s["ece"],
+            "reliability": metrics.reliability(p, data.y), "rows": len(data.y)}
 
 
 def holdout_split(data: Split, fraction: float, seed: int) -> tuple[Split, Split]:
@@ -61,10 +81,10 @@ def holdout_split(data: Split, fraction: float, seed: int) -> tuple[Split, Split
 
 
 def select_band(train_data: Split, fraction: float = 0.25, seed: int = 0,
-                l2: float = DEFAULT_L2) -> list[dict[str, Any]]:
+                l2: float = DEFAULT_L2) -> list[BandChoice]:
     """Held-out evaluation of each band (and all 36 features) on sat.trn only."""
     fit_part, held = holdout_split(train_data, fraction, seed)
-    rows = []
+    rows: list[BandChoice] = []
     for band in (0, 1, 2, 3, None):
         m = train(fit_part, band, solver="lbfgs", l2=l2)
         s = evaluate(m, held)

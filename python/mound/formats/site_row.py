@@ -124,7 +124,7 @@ class SiteRow:
         return self.verdict.label if self.verdict and self.ok else None
 
     def to_doc(self) -> JsonObject:
-        doc: dict[str, Any] = {"schema": SCHEMA, "version": VERSION, "id": self.id,
+        doc: JsonObject = {"schema": SCHEMA, "version": VERSION, "id": self.id,
                                "key": self.key, "first_key": self.first_key,
                                "status": self.status, "source": self.source,
                                "worker": self.worker, "timings_s": dict(self.timings_s),

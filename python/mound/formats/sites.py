@@ -169,7 +169,7 @@ class Sites:
         return replace(self, sites=tuple(sites), extra={**self.extra, **extra})
 
     def to_doc(self) -> JsonObject:
-        doc: dict[str, Any] = {"schema": SCHEMA, "version": VERSION}
+        doc: JsonObject = {"schema": SCHEMA, "version": VERSION}
         if self.origin is not None:
             doc["origin"] = self.origin.to_doc()
         doc.update(home=self.home.to_doc(),

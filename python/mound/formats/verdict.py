@@ -95,7 +95,7 @@ class Verdict:
         """The row's verdict fields: `answer` the verdict's own (mound, no_mound or
         undecided), `verdict` its two answers (the paper's protocol: epsilon_MD and
         epsilon_FA, learning), `undecided` why and what next where it is undecided."""
-        out: dict[str, Any] = {"verdict": self.two_answer, "answer": self.label,
+        out: JsonObject = {"verdict": self.two_answer, "answer": self.label,
                                "confidence": self.confidence, "method": self.method,
                                "reason": self.reason}
         if self.undecided is not None:

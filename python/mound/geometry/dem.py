@@ -26,12 +26,15 @@ import math
 import warnings
 from collections.abc import Iterator
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from mound.errors import InputError, library_warnings
 from mound.geometry.geodesy import Origin, enu_to_geodetic
+
+if TYPE_CHECKING:
+    from pyproj import CRS
 
 VERTICALS = ("ellipsoid", "egm96", "egm2008")
 # PROJ CRSs of each vertical reference (3-D geographic for the ellipsoid).
@@ -136,7 +139,7 @@ def georef(ds: Any, path: str) -> Georef:
     return Georef(crs, tf, to_dem, to_lonlat)
 
 
-def _horizontal(crs: Any) -> Any:
+def _horizontal(crs: CRS) -> CRS:
     """The horizontal part of a (maybe compound) pyproj CRS."""
     return crs.to_2d() if crs.is_compound or len(crs.axis_info) == 3 else crs
 

@@ -36,7 +36,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from scipy import ndimage
@@ -48,6 +48,9 @@ from mound.formats.recon import Recon
 from mound.geometry.camera import Camera, Pose, project
 from mound.geometry.geodesy import Origin, enu_to_geodetic, geodetic_to_enu
 from mound.jsonio import staged_file
+
+if TYPE_CHECKING:
+    from affine import Affine
 
 NODATA = -9999.0
 
@@ -123,7 +126,7 @@ class Grid:
         row = np.floor((self.north - n) / self.res).astype(np.int64)
         return row, col
 
-    def transform(self) -> Any:
+    def transform(self) -> Affine:
         from rasterio.transform import from_origin
 
         return from_origin(self.west, self.north, self.res, self.res)

@@ -19,11 +19,15 @@ import threading
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from mound.errors import InputError, library_warnings
+
+if TYPE_CHECKING:
+    from pyproj import Transformer
+    from rasterio.crs import CRS
 
 LOG = logging.getLogger(__name__)
 BAND_ALIASES = {"nir": ("nir", "near-infrared", "near_infrared", "nir1", "b8", "near infrared"),
@@ -97,7 +101,7 @@ class SceneInfo:
             out.append(k)
         return out
 
-    def crs(self) -> Any:
+    def crs(self) -> CRS:
         from rasterio.crs import CRS
 
         return CRS.from_wkt(self.crs_wkt)
@@ -289,14 +293,14 @@ def _grow_cache(ds: Any, rows: int, n_bands: int) -> None:
         _cache_bytes = int(want)
 
 
-def transformer_to_scene(scene: SceneInfo) -> Any:
+def transformer_to_scene(scene: SceneInfo) -> Transformer:
     """pyproj Transformer WGS84 (lon, lat) -> the scene's CRS (x, y)."""
     from pyproj import CRS, Transformer
 
     return Transformer.from_crs("EPSG:4326", CRS.from_wkt(scene.crs_wkt), always_xy=True)
 
 
-def transformer_from_scene(scene: SceneInfo) -> Any:
+def transformer_from_scene(scene: SceneInfo) -> Transformer:
     from pyproj import CRS, Transformer
 
     return Transformer.from_crs(CRS.from_wkt(scene.crs_wkt), "EPSG:4326", always_xy=True)

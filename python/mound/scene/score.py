@@ -21,7 +21,7 @@ import time
 from collections.abc import Callable, Iterator
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from scipy import ndimage
@@ -34,6 +34,9 @@ from mound.scene import kernel
 from mound.scene.features import FeatureSpec
 from mound.scene.model import SceneModel
 from mound.scene.raster import SceneInfo, read_window
+
+if TYPE_CHECKING:
+    from affine import Affine
 
 NODATA = -9999.0
 
@@ -60,7 +63,7 @@ class OutGrid:
         """CRS coordinates of the centres of output cells."""
         return (self.west + (col + 0.5) * self.res_m, self.north - (row + 0.5) * self.res_m)
 
-    def transform(self) -> Any:
+    def transform(self) -> Affine:
         from rasterio.transform import from_origin
 
         return from_origin(self.west, self.north, self.res_m, self.res_m)
@@ -410,8 +413,9 @@ def _timings(wall: float, block_s: list[float], px: int) -> JsonObject:
             "mpx_per_s": px / wall / 1e6 if wall > 0 else None}
 
 
-def _raster_profile(scene: SceneInfo, grid: OutGrid) -> JsonObject:
-    """The GeoTIFF profile of p_mound.tif and reward.tif on the output grid."""
+def _raster_profile(scene: SceneInfo, grid: OutGrid) -> dict[str, object]:
+    """The GeoTIFF profile (rasterio's, with its CRS and Affine) of p_mound.tif and
+    reward.tif on the output grid."""
     return {"driver": "GTiff", "width": grid.cols, "height": grid.rows, "count": 1,
             "dtype": "float32", "crs": scene.crs(), "transform": grid.transform(),
             "nodata": NODATA, "tiled": True, "blockxsize": 256, "blockysize": 256,

@@ -5,9 +5,12 @@ from __future__ import annotations
 
 import sys
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 from mound.errors import InputError
+
+if TYPE_CHECKING:
+    from mound.scene.model import SceneModel
 
 
 def say(text: str) -> None:
@@ -19,7 +22,7 @@ def train_model(scenes: list[str], labels_path: str, out: str | None, *,
                 features: str = "multiscale", resample_m: float = 8.0, basis: str = "hinge",
                 negative_distance_m: float = 40.0, negatives_per_scene: int = 1500,
                 folds: int = 5, l2: float | None = None, solver: str = "gd", seed: int = 0,
-                min_sep_m: float = 30.0, threads: int = 1) -> Any:
+                min_sep_m: float = 30.0, threads: int = 1) -> SceneModel:
     """Learns a scene model (and writes it when `out` is given); the survey calls it too."""
     from mound.datasets import sha256_of
     from mound.jsonio import write_json

@@ -7,7 +7,7 @@ import shutil
 from collections.abc import Mapping
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import Any, TypedDict
 
 from mound.datasets import sha256_of
 from mound.errors import InputError
@@ -27,6 +27,17 @@ from mound.survey.context import (
 from mound.survey.ledger import digest
 from mound.survey.stages.mission import write_missions
 
+
+class JobOptions(TypedDict):
+    """The survey's options every site's job takes (SiteJob's members of the same names);
+    part of each site's key."""
+    image_size: tuple[int, int]
+    pattern: str
+    site_diameter_m: float
+    sim_seed: int
+    threads: int
+    timeout_s: float
+    dense_model: str | None
 
 def site_jobs(ctx: Context, plan: Plan | None = None,
               photos: Mapping[str, Path] | None = None) -> list[Any]:
@@ -54,11 +65,11 @@ def site_jobs(ctx: Context, plan: Plan | None = None,
         plan = Plan.read(ctx.tree.plan)
     tour = plan.visited()
     root = ctx.tree.root.resolve()
-    options: dict[str, Any] = {"image_size": tuple(a.image_size), "pattern": a.scan_pattern,
-               "site_diameter_m": a.site_diameter, "sim_seed": a.sim_seed,
-               "threads": a.site_threads, "timeout_s": a.site_timeout,
-               "dense_model": str(Path(a.verdict_model).resolve()) if a.verdict_model
-               else None}
+    options: JobOptions = {
+        "image_size": (a.image_size[0], a.image_size[1]), "pattern": a.scan_pattern,
+        "site_diameter_m": a.site_diameter, "sim_seed": a.sim_seed,
+        "threads": a.site_threads, "timeout_s": a.site_timeout,
+        "dense_model": str(Path(a.verdict_model).resolve()) if a.verdict_model else None}
     tools = {"recon": recon.to_doc(), "dense": dense and dense.to_doc(),
              "verdict": verdict.to_doc()}
     jobs = []

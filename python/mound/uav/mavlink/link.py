@@ -13,11 +13,14 @@ from __future__ import annotations
 import hashlib
 import time
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from pymavlink import mavutil
 
 from mound.errors import InputError
+
+if TYPE_CHECKING:
+    from pymavlink.dialects.v20.ardupilotmega import MAVLink_message
 
 GCS_SYSTEM_ID = 255
 GCS_COMPONENT_ID = 190  # MAV_COMP_ID_MISSIONPLANNER
@@ -59,7 +62,7 @@ class Link:
             self.conn.mav.heartbeat_send(MAV_TYPE_GCS, MAV_AUTOPILOT_INVALID, 0, 0, 0)
             self.last_heartbeat_s = now
 
-    def recv(self, types: list[str], timeout_s: float) -> Any:
+    def recv(self, types: list[str], timeout_s: float) -> MAVLink_message | None:
         """The next message of `types` from the target (or None at the time-out)."""
         deadline = time.monotonic() + timeout_s
         while True:
@@ -82,7 +85,7 @@ class Link:
 
 
 def open_conn(connect: str, key: bytes | None = None, accept_unsigned: bool = False,
-              baud: int = 57600, source_system: int = GCS_SYSTEM_ID) -> Any:
+              baud: int = 57600, source_system: int = GCS_SYSTEM_ID) -> mavutil.mavfile:
     """A pymavlink connection (MAVLink 2, signed if `key`)."""
     if not connect:
         raise InputError("--connect: empty connection string")
