@@ -32,7 +32,7 @@ from mound.geometry.dem import use_proj_grids
 from mound.geometry.flight import scan_for_site
 from mound.geometry.geodesy import Origin, geodetic_to_enu
 from mound.paths import REPO_ROOT
-from mound.uav import dji, litchi, mission_items
+from mound.uav import dji, dji_read, litchi, mission_items
 from mound.uav import files as mission_files
 from mound.uav.filetypes import dji_kmz
 from mound.uav.route import Route, RoutePoint, items_route, mission_route
@@ -103,7 +103,7 @@ def test_the_kmz_is_dji_wpml(three) -> None:
                            "globalRTHHeight", "waypointSpeed", "actionTriggerType"):
                     assert f"<wpml:{el}>" in text, (name, el)
             assert "<wpml:takeOffRefPoint>" in z.read(dji.TEMPLATE).decode()
-        k = dji.read_kmz(path)
+        k = dji_read.read_kmz(path)
         craft = dji.AIRCRAFT["m3e"]
         assert (k.drone_enum, k.drone_sub_enum, k.payload_enum) == (
             craft.drone_enum, craft.drone_sub_enum, craft.payload_enum)
@@ -128,7 +128,7 @@ def test_the_kmz_heights_clear_the_dem(three, raw, dem_path) -> None:
     highest = maximum_filter(raw[0], size=2 * int(np.ceil(spec.footprint_m)) + 1,
                              mode="nearest")
     for f in three["flights"]:
-        k = dji.read_kmz(three["tmp"] / f"m_{f}.kmz")
+        k = dji_read.read_kmz(three["tmp"] / f"m_{f}.kmz")
         lat0, lon0, ell0 = k.takeoff_ref
         home_amsl = ell0 - _egm96_minus_ellipsoid(np.array([lon0]), np.array([lat0]))[0]
         pts = []
@@ -155,7 +155,7 @@ def test_every_format_reads_back_as_the_plan_flies(three) -> None:
         assert any(p.heading_deg is not None for p in plan.points)  # the orbits
         assert any(p.photo_every_m > 0 for p in plan.points)
         want = dji.prepare(plan, craft)
-        got = dji.read_kmz(tmp / f"m_{f}.kmz").route()
+        got = dji_read.read_kmz(tmp / f"m_{f}.kmz").route()
         got = Route(plan.home_lat_deg, plan.home_lon_deg, got.points, got.end)
         assert got.differs_from(want) is None, got.differs_from(want)
         # the path itself is the .plan's: prepare() only merged waypoints closer than 0.5 m
@@ -190,8 +190,8 @@ def test_wgs84_heights_are_egm96_plus_the_geoid_by_proj(three, dem_path) -> None
               "--dji-heights", "wgs84", "--dem", str(dem_path), "--dem-vertical", "egm96",
               "--flight", str(three["flights"][0]))
     assert r.returncode == 0, r.stderr
-    w = dji.read_kmz(tmp / "w.kmz")
-    rel = dji.read_kmz(tmp / f"m_{three['flights'][0]}.kmz")
+    w = dji_read.read_kmz(tmp / "w.kmz")
+    rel = dji_read.read_kmz(tmp / f"m_{three['flights'][0]}.kmz")
     assert w.waylines[0].height_mode == "WGS84"
     lat0, lon0, ell0 = rel.takeoff_ref
     home_amsl = ell0 - _egm96_minus_ellipsoid(np.array([lon0]), np.array([lat0]))[0]
@@ -210,7 +210,7 @@ def test_djis_own_kmz_files_are_read(capsys) -> None:
     for name, enum, frames, waylines in (("waypoint_m3e.kmz", 77, {"relativeToStartPoint"}, 1),
                                          ("mapping3d_m30.kmz", 67, {"WGS84"}, 5)):
         path = REPO_ROOT.parent / "shared" / "data" / "dji" / name
-        k = dji.read_kmz(path)
+        k = dji_read.read_kmz(path)
         assert k.drone_enum == enum and {w.height_mode for w in k.waylines} == frames
         assert len(k.waylines) == waylines and all(len(w.points) >= 2 for w in k.waylines)
         assert main(["mission", "show", str(path)]) == 0
@@ -295,7 +295,7 @@ def test_bad_kmz_files_are_refused_naming_the_file(tmp_path, capsys, name: str, 
     else:
         with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as z:
             if data == "zeros":
-                z.writestr(dji.WAYLINES, b"\0" * (dji.MAX_MEMBER_BYTES + 10))
+                z.writestr(dji.WAYLINES, b"\0" * (dji_read.MAX_MEMBER_BYTES + 10))
             elif data is not None:
                 z.writestr(dji.WAYLINES, data)
             else:
@@ -381,7 +381,7 @@ def test_every_kmz_keeps_djis_rules(built, tmp_path, frame: str) -> None:
             assert lenses == (["wide"] * photos if craft.multi_lens else []), key
         path = tmp_path / f"{key}_{frame}.kmz"
         path.write_bytes(data)
-        k = dji.read_kmz(path)
+        k = dji_read.read_kmz(path)
         assert k.image_format == ("wide" if craft.multi_lens else None)
         assert k.lenses == (("wide",) * len(k.lenses) if craft.multi_lens else ())
         wl_h = np.array([p.height_m for p in k.waylines[0].points])
@@ -411,10 +411,10 @@ def test_a_wgs84_template_is_refused_as_dji_refuses_it(tmp_path) -> None:
         for n, data in files.items():
             z.writestr(n, data)
     with pytest.raises(InputError, match="heightMode: 'WGS84' is not a template height mode"):
-        dji.read_kmz(bad)
+        dji_read.read_kmz(bad)
     for name, mode in (("waypoint_m3e.kmz", "relativeToStartPoint"),
                        ("mapping3d_m30.kmz", "EGM96")):
-        assert dji.read_kmz(src.with_name(name)).template_height_mode == mode
+        assert dji_read.read_kmz(src.with_name(name)).template_height_mode == mode
 
 
 def test_photos_start_at_the_scan_and_climbs_keep_the_aircrafts_limits(built) -> None:
@@ -545,7 +545,7 @@ def test_a_valley_below_a_knoll_is_written_in_every_format(raw, dem_path, tmp_pa
     assert -40 < lowest < -10, lowest
     ours = litchi.read_litchi(tmp_path / "v.csv")
     assert min(p.height_m for p in ours) == pytest.approx(lowest, abs=0.01)
-    k = dji.read_kmz(tmp_path / "v.kmz")
+    k = dji_read.read_kmz(tmp_path / "v.kmz")
     assert min(p.height_m for p in k.waylines[0].points) == pytest.approx(lowest, abs=0.01)
     formats = json.loads((tmp_path / "v.plan").read_text())["mound"]["formats"]
     assert formats["dji_kmz"]["files"] == ["v.kmz"] and formats["litchi_csv"]["files"] == ["v.csv"]

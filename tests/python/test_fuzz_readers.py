@@ -980,9 +980,9 @@ def _kmz(template: str, waylines: str, deflate: bool = False) -> bytes:
 def _read_kmz_routes(path: Path) -> None:
     import numpy as np
 
-    from mound.uav import dji
+    from mound.uav import dji_read
 
-    k = dji.read_kmz(path)
+    k = dji_read.read_kmz(path)
     for w in range(len(k.waylines)):
         r = k.route(w)
         assert len(r.points) >= 1 and np.all(np.isfinite(r.enu()))

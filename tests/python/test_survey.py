@@ -661,7 +661,7 @@ def test_two_flights_over_the_dem(tmp_path: Path) -> None:
     flights = [f for f in plan["flights"] if len(f["tour"]) > 2]
     assert len(flights) == 2
     visited = set()
-    from mound.uav import dji, litchi
+    from mound.uav import dji, dji_read, litchi
     from mound.uav.route import items_route
 
     for f in flights:
@@ -671,7 +671,7 @@ def test_two_flights_over_the_dem(tmp_path: Path) -> None:
         visited |= set(f["tour"][1:-1])
         # the same flight for DJI Pilot 2 and for Litchi, read back as the .plan flies
         route = items_route(items)
-        kmz = dji.read_kmz(out / f"mission_{f['flight']}.kmz").route()
+        kmz = dji_read.read_kmz(out / f"mission_{f['flight']}.kmz").route()
         want = dji.prepare(route, dji.AIRCRAFT["m3e"])
         assert want.differs_from(type(want)(want.home_lat_deg, want.home_lon_deg, kmz.points,
                                             kmz.end)) is None

@@ -24,6 +24,7 @@ from mound.paths import REPO_ROOT
 from mound.recon.model_file import check_verdict_model
 from mound.sim import site as sim
 from mound.sim import terrain
+from mound.training import verdict_blocks as blocks
 from mound.training import verdict_data as vd
 from mound.training import verdict_fit as vf
 from mound.training import verdict_model as vm
@@ -507,13 +508,13 @@ def test_the_terrain_domain_is_the_training_sites_ground_widened_by_its_margin()
     grounds = [{n: float(rng.uniform(0, 1)) for n in TERRAIN_DESCRIPTORS} for _ in base]
     grounds[7]["site_slope_rad"] = 5.0  # one site far steeper than the others
     sites = [replace(s, measured=True, ground=g) for s, g in zip(base, grounds, strict=True)]
-    d = vf.terrain_domain(sites, ["g"])
-    assert d is not None and d["sites"] == 40 and d["margin"] == vf.DOMAIN_MARGIN
+    d = blocks.terrain_domain(sites, ["g"])
+    assert d is not None and d["sites"] == 40 and d["margin"] == blocks.DOMAIN_MARGIN
     for n in TERRAIN_DESCRIPTORS:
         v = [g[n] for g in grounds]
         w = max(v) - min(v)
-        assert d["ranges"][n] == pytest.approx([min(v) - vf.DOMAIN_MARGIN * w,
-                                                max(v) + vf.DOMAIN_MARGIN * w])
+        assert d["ranges"][n] == pytest.approx([min(v) - blocks.DOMAIN_MARGIN * w,
+                                                max(v) + blocks.DOMAIN_MARGIN * w])
     # left out, the steep site lies outside the others' domain (and maybe a few at the edges)
     assert 1 / 40 <= d["outside_left_out"] < 0.3
     doc = json.loads((REPO_ROOT / "data" / "verdict_model_dense.json").read_text())
@@ -525,8 +526,8 @@ def test_the_terrain_domain_is_the_training_sites_ground_widened_by_its_margin()
     partial = {k: v for k, v in grounds[0].items() if k != "site_relief_m"}
     with pytest.raises(InputError, match="measurements.terrain: site_relief_m: missing"):
         outside_terrain(model, partial)
-    assert vf.terrain_domain([replace(sites[0], ground=None), *sites[1:]], ["g"]) is None
-    assert vf.terrain_domain([], ["g"]) is None
+    assert blocks.terrain_domain([replace(sites[0], ground=None), *sites[1:]], ["g"]) is None
+    assert blocks.terrain_domain([], ["g"]) is None
 
 
 def test_ground_unlike_every_training_sites_is_outside_though_each_descriptor_is_in_range(
@@ -543,10 +544,10 @@ def test_ground_unlike_every_training_sites_is_outside_though_each_descriptor_is
     base = vm.sites_of([{"dir": f"{k:04d}", "truth": {"mound": False, "height_m": 0.0,
                                                        "diameter_m": 0.0}} for k in range(200)])
     sites = [replace(s, measured=True, ground=g) for s, g in zip(base, grounds, strict=True)]
-    d = vf.terrain_domain(sites, ["g"])
+    d = blocks.terrain_domain(sites, ["g"])
     assert d is not None
     nb = d["neighbours"]
-    assert nb["k"] == vf.NEIGHBOURS_K and len(nb["points"]) == 200
+    assert nb["k"] == blocks.NEIGHBOURS_K and len(nb["points"]) == 200
     doc = json.loads((REPO_ROOT / "data" / "verdict_model_dense.json").read_text())
     model = check_verdict_model({**doc, "terrain_domain": d}, "m.json")
     on_line = {n: 0.5 for n in TERRAIN_DESCRIPTORS}
@@ -574,12 +575,12 @@ def test_the_reasons_thresholds_are_learned_from_the_training_sites_truth() -> N
         rough.append(float(rng.normal((0.03, 0.1, 0.4)[kind], 0.01)))
     sites = [replace(s, measured=True, rise=vm.Rise({"roughness": r}))
              for s, r in zip(vm.sites_of(docs), rough, strict=True)]
-    got = vf.reason_thresholds(sites)
+    got = blocks.reason_thresholds(sites)
     assert got is not None
     assert 0.04 < got["cut_roughness"] <= 0.1
     assert 0.1 < got["irregular_roughness"] <= 0.4
     assert got["trained"]["cut_youden_j"] > 0.9 and got["trained"]["goal_tumuli_cut"] == 100
-    assert vf.reason_thresholds(sites[:40]) is None  # 13 or 14 of each kind
+    assert blocks.reason_thresholds(sites[:40]) is None  # 13 or 14 of each kind
     doc = json.loads((REPO_ROOT / "data" / "verdict_model_dense.json").read_text())
     assert check_verdict_model({**doc, "reasons": got}, "m.json") is not None
 

@@ -31,7 +31,7 @@ HeldoutFigure = Literal["sites", "measured", "accuracy", "false_alarm_rate", "mi
 
 
 def cmd_recon_terrain_domain(args: argparse.Namespace) -> int:
-    """The model with the grids' terrain domain (verdict_fit.terrain_domain) beside its
+    """The model with the grids' terrain domain (verdict_blocks.terrain_domain) beside its
     other fields, checked by the model reader before it is written."""
     from mound.jsonio import load_json
     from mound.recon.model_file import check_verdict_model

@@ -35,7 +35,8 @@ same sites; and the detection limit, the detection rate over height x diameter.
 
 This module is the verdict model's interface; the work is in verdict_data (grids, labels),
 verdict_fit (basis, fit, calibration, threshold, `train`, `probability`), verdict_second
-(the second look's rule), verdict_eval (`evaluate`) and verdict_figures.
+(the second look's rule), verdict_blocks (the model file's other blocks: the reasons'
+thresholds, the terrain domain), verdict_eval (`evaluate`) and verdict_figures.
 """
 
 from __future__ import annotations
@@ -44,6 +45,7 @@ from mound.formats.verdict import Rise, rises_of
 from mound.recon.grid_site import GridSite, SiteTruth, sites_of
 from mound.recon.model_file import VerdictModel
 from mound.sim.looks import SECOND_LOOK_FACTOR
+from mound.training.verdict_blocks import terrain_domain
 from mound.training.verdict_data import (
     CLEAR_OF_GROUND,
     MAX_FA,
@@ -67,7 +69,6 @@ from mound.training.verdict_fit import (
     VERSION,
     probability,
     product_pairs,
-    terrain_domain,
     train,
 )
 from mound.training.verdict_second import SECOND_LOOK_FOLDS, second_look_p

@@ -5,7 +5,6 @@ out-of-fold logits and judged nested (SECOND_LOOK_FOLDS); `second_look_p` the co
 from __future__ import annotations
 
 import math
-from typing import TypedDict
 
 import numpy as np
 from scipy.special import expit, logit
@@ -13,6 +12,11 @@ from scipy.special import expit, logit
 from mound.classify import logistic
 from mound.recon.model_file import VerdictModel
 from mound.sim.looks import SECOND_LOOK_FACTOR, SECOND_LOOK_P
+from mound.training.verdict_blocks import (
+    GoalByGround,
+    SecondLookFigures,
+    SecondLookRule,
+)
 from mound.training.verdict_data import MAX_FA, Rule, found_by_ground, site_folds
 
 # The second look: a site whose first p lies in [p_low, threshold) is flown again with a
@@ -107,57 +111,6 @@ def _second_look_labels(u1: np.ndarray, u2: np.ndarray, thr: float,
     flown = has2 & (p1 >= p_low) & (p1 < thr)
     p2 = np.where(has2, expit(c1 * u1 + c2 * np.where(has2, u2, 0.0) + c0), 0.0)
     return np.where(flown, p2 >= t2, p1 >= thr), flown
-
-
-class GoalByGround(TypedDict, total=False):
-    goal_found_by_ground: dict[str, object]
-
-
-class SecondLookFigures(GoalByGround):
-    """The second look's figures out of fold (nested), the first look's beside them."""
-    flights: float
-    goal_found: float
-    goal_found_first_look: float
-    goal_sites: int
-    found: float
-    found_first_look: float
-    goal_found_first_look_same_fa: float
-    found_first_look_same_fa: float
-    false_alarms: float
-    false_alarms_first_look: float
-    negatives: int
-    folds: int
-    folds_without_a_rule: int
-
-
-class SecondLookInSample(TypedDict):
-    flights: float
-    goal_found: float
-    found: float
-    false_alarms: float
-
-
-class SecondLookTrained(TypedDict):
-    fitted_sites: int
-    fitted_mounds: int
-    out_of_fold: SecondLookFigures
-    selected_in_sample: SecondLookInSample
-    method: str
-
-
-class Combine(TypedDict):
-    first: float
-    second: float
-    bias: float
-
-
-class SecondLookRule(TypedDict):
-    """The model file's `second_look` (second_look_rule)."""
-    p_low: float
-    threshold: float
-    scan_factor: float
-    combine: Combine
-    trained: SecondLookTrained
 
 
 def second_look_rule(u1: np.ndarray, u2: np.ndarray, thr: float,

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from mound.errors import InputError
-from mound.uav import dji
+from mound.uav import dji, dji_read
 from mound.uav.mission_format import About, Content, FileFormat, Record, WriteOptions
 from mound.uav.mission_items import Mission
 from mound.uav.route import Route, mission_route
@@ -60,7 +60,7 @@ class DjiKmz(FileFormat):
         return [(path, kmz(m, dji.aircraft(opts.aircraft), opts.dji_heights))]
 
     def read(self, path: Path) -> tuple[str, list[Route]]:
-        k = dji.read_kmz(path)
+        k = dji_read.read_kmz(path)
         frames = ", ".join(sorted({w.height_mode for w in k.waylines}))
         what = (f"DJI WPML, aircraft enum {k.drone_enum}/{k.drone_sub_enum}, payload "
                 f"{k.payload_enum}, heights {frames}, finish {k.finish_action}, RTH height "
