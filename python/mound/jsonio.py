@@ -234,6 +234,22 @@ def list_member(obj: Mapping[str, Any], key: str, where: str) -> list[Any]:
     return v
 
 
+def id_list(obj: Mapping[str, Any], key: str, where: str) -> list[str]:
+    """obj[key]: a list of ids (require_id each; [] when the key is absent)."""
+    return [require_id(x, f"{where}.{key}[{k}]")
+            for k, x in enumerate(list_member(obj, key, where))]
+
+
+def string_list(obj: Mapping[str, Any], key: str, where: str) -> list[str]:
+    """obj[key]: a list of strings ([] when the key is absent); InputError naming the
+    member otherwise."""
+    v = list_member(obj, key, where)
+    for k, x in enumerate(v):
+        if not isinstance(x, str):
+            raise InputError(f"{where}.{key}[{k}]: expected a string, got {short_repr(x)}")
+    return v
+
+
 def optional_string(obj: Mapping[str, Any], key: str, where: str) -> str | None:
     """obj[key] as a string, or None when the key is absent or null."""
     return None if obj.get(key) is None else require_string(obj, key, where)

@@ -18,6 +18,7 @@ from mound.jsonio import (
     JsonObject,
     as_object,
     check_doc,
+    id_list,
     list_member,
     load_json,
     require_count,
@@ -29,11 +30,6 @@ from mound.jsonio import (
 SCHEMA = "mound.learn"
 VERSION = 1
 LARGEST_CHANGES = 5  # the changes of p a flight's record keeps
-
-
-def _ids(doc: Mapping[str, Any], key: str, where: str) -> list[str]:
-    return [require_id(x, f"{where}.{key}[{k}]")
-            for k, x in enumerate(list_member(doc, key, where))]
 
 
 def _p(doc: Mapping[str, Any], key: str, where: str) -> float:
@@ -113,9 +109,9 @@ class FlightLearned:
     def from_doc(cls, doc: object, where: str) -> FlightLearned:
         d = as_object(doc, where)
         return cls(
-            require_count(d, "flight", where), _ids(d, "sites", where),
+            require_count(d, "flight", where), id_list(d, "sites", where),
             require_number(d, "planned_reward", where, lo=0.0, hi=1e12),
-            _ids(d, "first_plan_sites", where),
+            id_list(d, "first_plan_sites", where),
             require_number(d, "cost_m", where, lo=0.0, hi=1e12),
             require_string(d, "note", where, default=""),
             [Example.from_doc(x, f"{where}.examples[{k}]")

@@ -26,6 +26,7 @@ from mound.jsonio import (
     JsonObject,
     as_object,
     check_doc,
+    id_list,
     list_member,
     load_json,
     number_list,
@@ -36,7 +37,7 @@ from mound.jsonio import (
     require_id,
     require_number,
     require_string,
-    short_repr,
+    string_list,
 )
 
 SCHEMA = "mound.mission"
@@ -228,10 +229,7 @@ class FormatEntry:
     @classmethod
     def from_doc(cls, doc: object, where: str) -> FormatEntry:
         d = as_object(doc, where)
-        files = list_member(d, "files", where)
-        for i, f in enumerate(files):
-            if not isinstance(f, str):
-                raise InputError(f"{where}.files[{i}]: expected a string, got {short_repr(f)}")
+        files = string_list(d, "files", where)
         refused = optional_string(d, "refused", where)
         about: About = {}
         for k, v in d.items():
@@ -392,12 +390,10 @@ class SecondLookMissions:
             w = f"{where}.refused[{k}]"
             refused.append(Refusal(require_id(as_object(r, w).get("id"), f"{w}.id"),
                                    require_string(r, "reason", w)))
-        return cls(tuple(require_id(x, f"{where}.sites[{k}]")
-                         for k, x in enumerate(list_member(d, "sites", where))),
+        return cls(tuple(id_list(d, "sites", where)),
                    require_number(d, "scan_factor", where, lo=1, hi=100),
                    require_number(d, "site_diameter_m", where, lo=0),
-                   tuple(require_id(x, f"{where}.flown[{k}]")
-                         for k, x in enumerate(list_member(d, "flown", where))),
+                   tuple(id_list(d, "flown", where)),
                    tuple(refused))
 
 

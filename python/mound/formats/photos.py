@@ -24,6 +24,7 @@ from mound.jsonio import (
     require_number,
     require_string,
     short_repr,
+    string_list,
 )
 
 SCHEMA = "mound.photos"
@@ -85,15 +86,11 @@ class CardSummary:
         where = str(path)
         counts = as_object(d.get("counts"), f"{where}.counts")
         sites = as_object(d.get("sites"), f"{where}.sites")
-        skipped = d.get("skipped_folders", [])
-        if not isinstance(skipped, list) or not all(isinstance(x, str) for x in skipped):
-            raise InputError(f"{where}.skipped_folders: expected a list of strings, "
-                             f"got {short_repr(skipped)}")
         return cls(require_string(d, "card", where),
                    {k: require_count(counts, k, f"{where}.counts") for k in counts},
                    {require_id(k, f"{where}.sites"): CardSite.from_doc(v, f"{where}.sites.{k}")
                     for k, v in sites.items()},
-                   file, tuple(skipped))
+                   file, tuple(string_list(d, "skipped_folders", where)))
 
     @classmethod
     def read(cls, path: str | Path, file: str) -> CardSummary:

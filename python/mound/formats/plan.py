@@ -168,6 +168,12 @@ class Plan:
         """The flights' total cost; InputError for a plan that does not say."""
         return sum(_said(f.cost_m, f"flights[{k}].cost_m") for k, f in enumerate(self.flights))
 
+    @property
+    def budget_left_m(self) -> float:
+        """The budget of all flights less their cost; InputError for a plan that does not
+        say its costs."""
+        return self.budget_m * len(self.flights) - self.cost_m
+
     def visit_order(self) -> list[str]:
         """Every site any flight visits, once, in the order flown."""
         return list(dict.fromkeys(s for f in self.flights for s in f.sites))
@@ -182,7 +188,6 @@ class Plan:
         return None if doc is None else ScanSpec.from_doc(doc, "plan: scan")
 
     def to_doc(self) -> JsonObject:
-        n = len(self.flights)
         doc: JsonObject = {"schema": SCHEMA, "version": VERSION, "status": self.status,
                            "algo": self.algo, **self.extra,
                            "closed": self.closed, "tour": list(self.flights[0].tour),
@@ -193,7 +198,7 @@ class Plan:
             doc["reward"] = self.reward
         if all(f.cost_m is not None for f in self.flights):
             doc["cost_m"] = self.cost_m
-            doc["budget_left_m"] = self.budget_m * n - self.cost_m
+            doc["budget_left_m"] = self.budget_left_m
         if self.origin is not None:
             doc["origin"] = self.origin.to_doc()
         if self.waypoints:

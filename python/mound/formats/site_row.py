@@ -125,10 +125,10 @@ class SiteRow:
 
     def to_doc(self) -> JsonObject:
         doc: JsonObject = {"schema": SCHEMA, "version": VERSION, "id": self.id,
-                               "key": self.key, "first_key": self.first_key,
-                               "status": self.status, "source": self.source,
-                               "worker": self.worker, "timings_s": dict(self.timings_s),
-                               **self.extra}
+                           "key": self.key, "first_key": self.first_key,
+                           "status": self.status, "source": self.source,
+                           "worker": self.worker, "timings_s": dict(self.timings_s),
+                           **self.extra}
         if self.verdict is not None:
             doc.update(self.verdict.row_fields())
         if self.first_look is not None:

@@ -96,8 +96,8 @@ class Verdict:
         undecided), `verdict` its two answers (the paper's protocol: epsilon_MD and
         epsilon_FA, learning), `undecided` why and what next where it is undecided."""
         out: JsonObject = {"verdict": self.two_answer, "answer": self.label,
-                               "confidence": self.confidence, "method": self.method,
-                               "reason": self.reason}
+                           "confidence": self.confidence, "method": self.method,
+                           "reason": self.reason}
         if self.undecided is not None:
             out["undecided"] = dict(self.undecided)
         if self.p_mound is not None:

@@ -188,8 +188,7 @@ def run(scan_cost: float = 1.0, budgets: tuple[float, ...] = BUDGETS,
                             float(np.mean([r[0] for r in rates])),
                             float(np.mean([r[1] for r in rates])),
                             float(np.mean([_elapsed_s(pl) for pl in plans])),
-                            float(np.mean([pl.budget_m * len(pl.flights) - pl.cost_m
-                                           for pl in plans])), len(plans)))
+                            float(np.mean([pl.budget_left_m for pl in plans])), len(plans)))
             tours[f"{algo}@{budget:g}"] = list(plans[0].flights[0].tour)
         if exact_time_limit_s > 0:
             results = []

@@ -35,7 +35,7 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Sequence
-from typing import Literal, NotRequired, TypedDict
+from typing import Literal, NotRequired, TypedDict, get_args
 
 import numpy as np
 
@@ -180,6 +180,7 @@ class RecallPart(TypedDict):
 
 
 RecallShare = Literal["confirmed", "undecided", "no_mound", "two_answer_mound"]
+RECALL_SHARES: tuple[RecallShare, ...] = get_args(RecallShare)
 
 
 class FrontierBest(TypedDict):
@@ -573,10 +574,8 @@ def recall_figure(three: ThreeAnswers, out: str, title: str = "") -> None:
     for ax, (key, name) in zip(axes, panels, strict=True):
         classes = {**fr[key]["by_height"], "all": fr[key]["all"]}
         x = np.arange(len(classes))
-        shares: tuple[RecallShare, ...] = ("confirmed", "undecided", "no_mound",
-                                           "two_answer_mound")
         share = {k: np.array([(c[k]["rate"] or 0.0) for c in classes.values()])
-                 for k in shares}
+                 for k in RECALL_SHARES}
         ax.bar(x, share["confirmed"], color="#ff7f00", label="mound")
         ax.bar(x, share["undecided"], bottom=share["confirmed"], color="#1f78b4",
                label="undecided")

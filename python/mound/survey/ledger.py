@@ -16,7 +16,16 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
-from mound.jsonio import JsonObject, load_json, write_json
+from mound.errors import InputError
+from mound.jsonio import (
+    JsonObject,
+    as_object,
+    load_json,
+    require_number,
+    require_string,
+    string_list,
+    write_json,
+)
 
 SCHEMA = "mound.survey_ledger"
 VERSION = 1
@@ -48,16 +57,15 @@ class StageRecord:
     def of(cls, name: str, doc: object) -> StageRecord | None:
         """The stage `name` of a ledger's `stages`, or None when its entry is damaged (a
         rerun of the stage is all it costs)."""
-        if not isinstance(doc, dict):
+        try:
+            d = as_object(doc, name)
+            return cls(name, require_string(d, "key", name),
+                       require_number(d, "wall_s", name) if "wall_s" in d else 0.0,
+                       tuple(string_list(d, "outputs", name)),
+                       require_string(d, "note", name, default=""),
+                       require_string(d, "finished_utc", name, default=""))
+        except InputError:
             return None
-        key, wall, outputs = doc.get("key"), doc.get("wall_s", 0.0), doc.get("outputs", [])
-        note, finished = doc.get("note", ""), doc.get("finished_utc", "")
-        if (not isinstance(key, str) or isinstance(wall, bool)
-                or not isinstance(wall, int | float) or not isinstance(outputs, list)
-                or not all(isinstance(o, str) for o in outputs)
-                or not isinstance(note, str) or not isinstance(finished, str)):
-            return None
-        return cls(name, key, float(wall), tuple(outputs), note, finished)
 
 
 class Ledger:

@@ -7,7 +7,7 @@ import argparse
 import math
 from collections.abc import Mapping
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Literal
+from typing import TYPE_CHECKING, Any, Literal, get_args
 
 from mound.bounds import SEED, Bound
 from mound.errors import InputError
@@ -28,6 +28,7 @@ if TYPE_CHECKING:
 HeldoutFigure = Literal["sites", "measured", "accuracy", "false_alarm_rate", "missed_rate",
                         "auc", "brier", "ece", "calibration", "goal_mounds_2m_15m",
                         "goal_no_mound", "old_rule_accuracy"]
+HELDOUT_FIGURES: tuple[HeldoutFigure, ...] = get_args(HeldoutFigure)
 
 
 def cmd_recon_terrain_domain(args: argparse.Namespace) -> int:
@@ -104,11 +105,7 @@ def cmd_recon_train_verdict(args: argparse.Namespace) -> int:
     if args.heldout:
         held = [r for g in args.heldout for r in vm.load_grid(g, args.second_look_kind)]
         report = vm.evaluate(vm.VerdictModel.of(model), held)
-        kept: tuple[HeldoutFigure, ...] = (
-            "sites", "measured", "accuracy", "false_alarm_rate", "missed_rate", "auc",
-            "brier", "ece", "calibration", "goal_mounds_2m_15m", "goal_no_mound",
-            "old_rule_accuracy")
-        model["heldout"] = {k: report[k] for k in kept}
+        model["heldout"] = {k: report[k] for k in HELDOUT_FIGURES}
         if "three_answers" in report:
             model["heldout"]["three_answers"] = {
                 k: v for k, v in report["three_answers"].items() if k != "field_recall"}

@@ -121,7 +121,7 @@ def _members(path: str | Path) -> dict[str, bytes]:
     return out
 
 
-def _opt_text(el: Element, name: str, where: str) -> str | None:
+def _opt_text(el: Element, name: str) -> str | None:
     """The text of `el`'s wpml:`name`, stripped (None where it is absent or empty)."""
     child = el.find(f"{{{WPML_NS}}}{name}")
     if child is None or child.text is None or not child.text.strip():
@@ -130,14 +130,14 @@ def _opt_text(el: Element, name: str, where: str) -> str | None:
 
 
 def _text(el: Element, name: str, where: str) -> str:
-    text = _opt_text(el, name, where)
+    text = _opt_text(el, name)
     if text is None:
         raise InputError(f"{where}: wpml:{name} missing")
     return text
 
 
 def _opt_num(el: Element, name: str, where: str, lo: float, hi: float) -> float | None:
-    text = _opt_text(el, name, where)
+    text = _opt_text(el, name)
     return None if text is None else number_text(text, f"{where}: wpml:{name}", lo, hi)
 
 
@@ -213,7 +213,7 @@ def _wayline(folder: Element, where: str) -> Wayline:
                 funcs.append(func)
                 param = action.find(f"{ns}actionActuatorFuncParam")
                 if func == "gimbalRotate" and param is not None and _opt_text(
-                        param, "gimbalPitchRotateEnable", aw) == "1":
+                        param, "gimbalPitchRotateEnable") == "1":
                     pitch_at[k] = _num(param, "gimbalPitchRotateAngle", aw, -120, 90)
             if kind == "multipleDistance" and "takePhoto" in funcs:
                 d = _num(trig, "actionTriggerParam", gw, 0.01, 10_000)
@@ -283,16 +283,16 @@ def read_kmz(path: str | Path) -> KmzMission:
                                                        65_535),
         finish_action=str(finish),
         rth_height_m=_opt_num(mc, "globalRTHHeight", where, 0, 10_000),
-        takeoff_ref=takeoff, waylines=waylines, lenses=_lenses(root, where),
+        takeoff_ref=takeoff, waylines=waylines, lenses=_lenses(root),
         template_height_mode=template.height_mode, template_heights=template.heights,
         image_format=template.image_format)
 
 
-def _lenses(root: Element, where: str) -> tuple[str, ...]:
+def _lenses(root: Element) -> tuple[str, ...]:
     """Every takePhoto's payloadLensIndex (empty where a photo names none)."""
     out = []
     for param in root.iter(f"{{{WPML_NS}}}actionActuatorFuncParam"):
-        lens = _opt_text(param, "payloadLensIndex", where)
+        lens = _opt_text(param, "payloadLensIndex")
         if lens is not None:
             out.append(lens[:40])
     return tuple(out)
@@ -307,7 +307,7 @@ def _template(root: Element, where: str) -> Template:
     if folder is None:
         return Template()
     sys_param = folder.find(f"{{{WPML_NS}}}waylineCoordinateSysParam")
-    mode = None if sys_param is None else _opt_text(sys_param, "heightMode", where)
+    mode = None if sys_param is None else _opt_text(sys_param, "heightMode")
     if mode is not None and mode not in TEMPLATE_HEIGHT_MODES:
         raise InputError(f"{where}: wpml:heightMode: {mode!r:.40} is not a template height "
                          f"mode (DJI allows {', '.join(TEMPLATE_HEIGHT_MODES)}; WGS84 is a "
@@ -320,6 +320,6 @@ def _template(root: Element, where: str) -> Template:
         if h is not None:
             heights.append(h)
     param = folder.find(f"{{{WPML_NS}}}payloadParam")
-    fmt = None if param is None else _opt_text(param, "imageFormat", where)
+    fmt = None if param is None else _opt_text(param, "imageFormat")
     return Template(mode, tuple(heights), None if fmt is None else fmt[:40])
 
