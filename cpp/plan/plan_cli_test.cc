@@ -199,7 +199,7 @@ TEST(PlanCliTest, BadInputExitsTwoWithOneLineNamingTheFieldAndWritesNothing) {
 TEST(PlanCliTest, TakeoffLandingIsPaidOnceAndTheScanIsCarriedAlong) {
   auto j = GoodSites();
   j["takeoff_landing_m"] = 4.0;
-  j["scan"] = {{"pattern", "raster"}, {"scale_m", 60}};
+  j["scan"] = {{"pattern", "raster"}, {"site_diameter_m", 60}};
   j["sites"] = nlohmann::json::array(
       {{{"id", "a"}, {"x_m", 3}, {"y_m", 4}, {"reward", 1.0}, {"scan_cost_m", 1}}});
   const std::string in = WriteTemp("climb.json", j.dump());

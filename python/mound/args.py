@@ -5,7 +5,7 @@ argparse parser whose errors are one line and exit 2, and the parsers of option 
 from __future__ import annotations
 
 import argparse
-from typing import NoReturn
+from typing import Any, NoReturn
 
 from mound.errors import InputError
 
@@ -17,6 +17,13 @@ class UsageError(InputError):
 class Parser(argparse.ArgumentParser):
     def error(self, message: str) -> NoReturn:  # argparse exits 2 already; keep one line
         raise UsageError(f"{self.prog}: {message}")
+
+
+def command_group(sub: Any, name: str, help: str, parser_class: type) -> Any:
+    """`mound NAME VERB ...`: the group NAME added to `mound`'s subcommands `sub`; its verbs
+    are added to what it returns (argparse's subcommands, whose type is private)."""
+    return sub.add_parser(name, help=help).add_subparsers(dest="cmd", required=True,
+                                                           parser_class=parser_class)
 
 
 def parse_names(text: str | None) -> list[str] | None:

@@ -35,7 +35,8 @@ ORIGIN = Origin(38.5705, 27.9862, 95.0)
 
 def random_sites(rng: np.random.Generator, closed: bool) -> tuple[dict, float]:
     scan = scan_for_site(
-        diameter_m=float(rng.uniform(15, 90)), pattern=str(rng.choice(["raster", "orbit", "both"])),
+        site_diameter_m=float(rng.uniform(15, 90)),
+        pattern=str(rng.choice(["raster", "orbit", "both"])),
         raster_altitude_m=None if rng.random() < 0.5 else float(rng.uniform(30, 120)),
         transit_altitude_m=None if rng.random() < 0.5 else float(rng.uniform(60, 150)))
     n = int(rng.integers(4, 25))
@@ -88,7 +89,7 @@ def test_the_climbs_are_what_the_takeoff_landing_cost_pays_for(tmp_path: Path,
     With the climbs in the planner's costs a budget of exactly the plan's cost flies; left
     out, the same budget minus the climbs still admits the tour on paper, and the mission
     refuses it."""
-    scan = scan_for_site(diameter_m=40.0, pattern="orbit")
+    scan = scan_for_site(site_diameter_m=40.0, pattern="orbit")
     doc = {"schema": "mound.sites", "version": 1, "origin": ORIGIN.to_doc(),
            "home": {"id": "home", "x_m": 0.0, "y_m": 0.0},
            "scan": scan.to_doc(), "takeoff_landing_m": scan.takeoff_landing_m(),

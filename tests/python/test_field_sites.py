@@ -13,6 +13,7 @@ import pytest
 
 from mound.errors import InputError
 from mound.formats.grid import GridLook
+from mound.geometry.flight import DEFAULT_SITE_DIAMETER_M
 from mound.grids import run as grid_run
 from mound.sim import draws, looks, terrain
 from mound.sim.dem_places import DemPlaces
@@ -199,7 +200,8 @@ def test_grid_draws_are_seeded_and_span_the_field(shared_data: Path) -> None:
     assert min(m.height_m for m in mounds) < 1 and max(m.height_m for m in mounds) > 15
     assert any(m.diameter_m > 60 for m in mounds)  # wider than the 60 m scan
     assert max(np.hypot(m.mound_x_m, m.mound_y_m) for m in mounds) > 10
-    assert all(np.hypot(m.mound_x_m, m.mound_y_m) <= draws.SCAN_M / 4 + 1e-9 for m in mounds)
+    quarter = DEFAULT_SITE_DIAMETER_M / 4
+    assert all(np.hypot(m.mound_x_m, m.mound_y_m) <= quarter + 1e-9 for m in mounds)
     # no tumulus steeper than earth stands (many draws sit on the limit)
     share = [m.drum_height_m / m.height_m if m.profile == "drum" else 0.0 for m in mounds]
     assert all(m.height_m <= draws.max_height(m.profile, m.diameter_m, q) * (1 + 1e-9)
@@ -209,7 +211,7 @@ def test_grid_draws_are_seeded_and_span_the_field(shared_data: Path) -> None:
     kinds = {s.terrain.confusers[0].kind for s in a if s.terrain.confusers}
     assert kinds == set(terrain.CONFUSERS)
     assert any(s.terrain.dem_path for s in a) and any(s.terrain.slope_deg > 0 for s in a)
-    assert all(s.scan_diameter_m == draws.SCAN_M and s.pattern == "raster" for s in a)
+    assert all(s.scan_diameter_m == DEFAULT_SITE_DIAMETER_M and s.pattern == "raster" for s in a)
     # the full flight draws the same sites, flown with the raster and the orbit
     rng = np.random.default_rng([1, 2026])
     full = [draws.draw(rng, k, dem, (320, 240), pattern="both") for k in range(3)]
@@ -520,7 +522,7 @@ def test_a_grid_flies_a_second_look_at_the_sites_its_first_leaves_undecided(
         first = json.loads((site / "sim" / "site.json").read_text())
         second = json.loads((site / "second" / "sim" / "site.json").read_text())
         assert second["sim"]["scan_diameter_m"] == 2 * first["sim"]["scan_diameter_m"]
-        assert second["terrain"]["size_m"] >= looks.SITE_PER_SCAN * 2 * draws.SCAN_M
+        assert second["terrain"]["size_m"] >= looks.SITE_PER_SCAN * 2 * DEFAULT_SITE_DIAMETER_M
         for key in ("seed", "mound", "ground_relief_m"):
             assert second["terrain"][key] == first["terrain"][key]
         assert second["lighting"] == first["lighting"]

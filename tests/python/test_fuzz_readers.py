@@ -46,6 +46,7 @@ from mound.formats.plan import Plan
 from mound.formats.recon import Recon
 from mound.formats.site_row import SiteRow
 from mound.formats.sites import Sites, load_user_sites
+from mound.formats.survey import SITE_ANSWERS, STATUSES, SurveyAnswers
 from mound.formats.verdict import Verdict, VerdictFile
 from mound.geometry.flight import scan_for_site
 from mound.geometry.geodesy import Origin
@@ -277,7 +278,8 @@ def test_typed_site_row_reader(text: str) -> None:
     value_or_input_error(SiteRow.read, _file(text, "site_result.json"), check=_valid_row)
 
 
-GRID_ROW = {"dir": "0000", "status": "ok",
+GRID_ROW = {"dir": "0000", "status": "ok", "times": {"simulate": 1.5, "verdict": 0.25},
+            "p_mound": 0.8, "second": {"status": "failed", "times": {}, "reason": "few images"},
             "truth": {"mound": True, "kind": "tumulus", "profile": "conical", "height_m": 3.0,
                       "diameter_m": 20.0, "centre_enu_m": [1.0, -2.0], "pit": False,
                       "trench": True},
@@ -471,6 +473,24 @@ def test_photo_card_summary_reader(text: str) -> None:
                          _file(text, "photos.json"), check=_valid_card)
 
 
+# summary.json as `mound day` reads it back (the other members are left to the report)
+SUMMARY = {"schema": "mound.survey", "version": 1, "status": "partial", "options": {},
+           "sites": [{"id": "s01", "visited": True, "verdict": "mound", "answer": "undecided"},
+                     {"id": "s02", "visited": True, "verdict": "failed"},
+                     {"id": "s03", "visited": False, "final_label": "no_mound"}]}
+
+
+def _valid_answers(a: SurveyAnswers) -> None:
+    assert a.status in STATUSES
+    assert all(v is None or v in SITE_ANSWERS for v in a.answers.values())
+
+
+@FUZZ
+@given(mutated_json(SUMMARY))
+def test_survey_answers_reader(text: str) -> None:
+    value_or_input_error(SurveyAnswers.read, _file(text, "summary.json"), check=_valid_answers)
+
+
 LEDGER = {"schema": "mound.survey_ledger", "version": 1, "stages": {
     "classify": StageRecord("classify", "a" * 64, 1.5, ("model.json", "classifier.json"),
                             "band 1", "2026-11-30T18:00:00Z").to_doc(),
@@ -581,6 +601,8 @@ def test_the_fuzzed_seeds_are_valid() -> None:
     assert summary.flights[0].terrain is not None and summary.second_look is not None
     _valid_row(SiteRow.read(_file(json.dumps(SITE_ROW), "site_result.json")))
     _valid_learn(LearnRecord.read(_file(json.dumps(LEARN), "learn.json")))
+    answers = SurveyAnswers.read(_file(json.dumps(SUMMARY), "summary.json"))
+    assert dict(answers.answers) == {"s01": "undecided", "s02": "failed", "s03": None}
     assert set(Ledger(_file(json.dumps(LEDGER), "stages.json")).done) == {"classify", "plan"}
     _valid_card(CardSummary.read(_file(json.dumps(PHOTO_CARD), "photos.json"), "photos.json"))
     assert len(mission_files.read_mission(_file(QGC_PLAN, "m.plan"))[0]) > 5

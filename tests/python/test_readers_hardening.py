@@ -210,9 +210,37 @@ def test_a_site_diameter_no_survey_reaches_is_refused_before_any_work(
     code, err = mission_build(tmp_path, capsys, "--dem", str(dem), "--site-diameter", "1e5")
     one_line_exit_2(code, err, "--site-diameter", "(0, 2000] m")
     # the same in a plan's own scan
-    plan = {**PLAN, "scan": {"pattern": "raster", "scale_m": 1e5}}
+    plan = {**PLAN, "scan": {"pattern": "raster", "site_diameter_m": 1e5}}
     code, err = mission_build(tmp_path, capsys, "--dem", str(dem), plan=plan)
-    one_line_exit_2(code, err, "scan.scale_m")
+    one_line_exit_2(code, err, "scan.site_diameter_m")
+
+
+def test_a_files_old_name_of_the_site_diameter_is_read_never_ignored() -> None:
+    """Files until 2026-11-30 name the scan's diameter `scale_m` (a scan) and `scan_m` (a
+    row's second look); an unknown key is ignored, so without the alias an old plan's 40 m
+    scan would silently become the default 60 m."""
+    from mound.formats.site_row import SecondLookRecord
+    from mound.geometry.flight import LEGACY_DIAMETER as LEGACY
+    from mound.geometry.flight import ScanSpec
+
+    assert ScanSpec.from_doc({"pattern": "raster", "scale_m": 40.0}).site_diameter_m == 40.0
+    same = {"pattern": "raster", "scale_m": 40.0, "site_diameter_m": 40.0}
+    assert ScanSpec.from_doc(same).site_diameter_m == 40.0
+    with pytest.raises(InputError, match="plan: scan: site_diameter_m and its old name"):
+        ScanSpec.from_doc({**same, "scale_m": 50.0}, "plan: scan")
+    assert "scale_m" not in ScanSpec.from_doc(same).to_doc()
+    old = SecondLookRecord.from_doc({"flown": True, "scan_m": 120.0}, "row.second_look")
+    assert old.site_diameter_m == 120.0 and not old.extra
+    assert old.to_doc() == {"flown": True, "site_diameter_m": 120.0}
+    # a run begun before the rename keeps its stages: the field stage digests the old name
+    from mound.survey.stages.field import scan_as_before
+
+    scan = ScanSpec(site_diameter_m=40.0).to_doc()
+    material: dict[str, Any] = {"scan": scan, "sites": {"scan": scan, "sites": []}}
+    scan_as_before(material)
+    for held in (material["scan"], material["sites"]["scan"]):
+        assert held["scale_m"] == 40.0 and "site_diameter_m" not in held
+        assert list(held) == [LEGACY if k == "site_diameter_m" else k for k in scan]
 
 
 # ----------------------------------------------------------------------------- scenes

@@ -746,7 +746,7 @@ def test_the_second_looks_advised_become_a_mission_in_the_report(
     doc = json.loads((run / "second_look" / "mission.json").read_text())
     sl = doc["second_look"]
     assert sl["sites"] and sorted(sl["flown"] + [r["id"] for r in sl["refused"]]) == visited
-    assert sl["site_diameter_m"] == 2 * plan["scan"]["scale_m"]
+    assert sl["site_diameter_m"] == 2 * plan["scan"]["site_diameter_m"]
     # the small budget (3,000 m) takes one flight per wide scan; each within it
     assert doc["flights"] and all(f["flight_distance_m"] <= doc["budget_m"]
                                   for f in doc["flights"])
@@ -850,7 +850,7 @@ def test_a_site_the_first_flight_leaves_undecided_is_flown_again_wider(
     row = typed.to_doc()
     look = row["second_look"]
     assert look["flown"], look.get("reason")
-    assert look["scan_m"] == 2 * job.site_diameter_m
+    assert look["site_diameter_m"] == 2 * job.site_diameter_m
     assert row["first_look"] == {"verdict": "no_mound", "answer": "no_mound",
                                  "verdict_p_mound": 0.6, "reason": "first"}
     v = json.loads((tmp_path / "run" / look["verdict_file"]).read_text())

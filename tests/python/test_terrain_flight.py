@@ -605,12 +605,12 @@ def test_second_looks_are_flown_wider_within_the_budget_and_clear_of_the_terrain
         doc = {**flown["terrain_doc"], "budget_m": budget}
         flights, refused, wide = second_look_flights(typed(doc), Plan.from_doc(p, "p"), ids,
                                                      factor, dem)
-        assert wide.scan.scale_m == 2 * Plan.from_doc(p, "p").scan().scale_m  # type: ignore[union-attr]
+        assert wide.scan.site_diameter_m == 2 * Plan.from_doc(p, "p").scan().site_diameter_m  # type: ignore[union-attr]
         flown_ids = [s.id for m in flights for s in m.sites]
         assert sorted(flown_ids + [r.id for r in refused]) == sorted(chosen)
         assert flown_ids == [s for s in tour if s in flown_ids]  # the tour's order
         for k, m in enumerate(flights):
-            assert m.spec.scan.scale_m == wide.scan.scale_m
+            assert m.spec.scan.site_diameter_m == wide.scan.site_diameter_m
             out = tmp_path / f"second_{budget:.0f}_{k}.plan"
             mission_files.write_plan(out, m)
             energy, clearance = energy_and_clearance(raw, out, spec, highest)

@@ -287,8 +287,8 @@ def test_the_lower_second_look_flies_the_same_scan_from_half_the_height() -> Non
 
     spec = draws.draw(np.random.default_rng(0), 0, None, (320, 240))
     low = looks.lower(spec)
-    assert low.terrain == spec.terrain and low.scale_m == spec.scale_m
-    assert low.raster_altitude_m == pytest.approx(spec.scale_m / 2)
+    assert low.terrain == spec.terrain and low.site_diameter_m == spec.site_diameter_m
+    assert low.raster_altitude_m == pytest.approx(spec.site_diameter_m / 2)
     assert len(sim.shots(low)) > 2.5 * len(sim.shots(spec))  # 78 against 28
     assert looks.second_look_spec(spec, "wider") == looks.wider(spec)
     with pytest.raises(InputError, match="--second-look-kind"):

@@ -6,6 +6,7 @@ import argparse
 from typing import TYPE_CHECKING, Any
 
 from mound import datasets
+from mound.args import command_group
 from mound.bounds import (
     SEED,
     Bound,
@@ -75,14 +76,12 @@ def cmd_eval(args: argparse.Namespace) -> int:
 
 def add_parser(sub: Any, parser_class: Any) -> None:
     """The `data` and `classify` command groups."""
-    data = sub.add_parser("data", help="public data sets").add_subparsers(
-        dest="cmd", required=True, parser_class=parser_class)
+    data = command_group(sub, "data", "public data sets", parser_class)
     f = data.add_parser("fetch", help="download Statlog into the cache ($MOUND_DATA)")
     f.add_argument("--url", help="archive URL (default: UCI)")
     f.set_defaults(func=cmd_fetch)
 
-    cls = sub.add_parser("classify", help="coarse-search classifier").add_subparsers(
-        dest="cmd", required=True, parser_class=parser_class)
+    cls = command_group(sub, "classify", "coarse-search classifier", parser_class)
     b = cls.add_parser("bands", help="held-out comparison of the bands on sat.trn")
     b.add_argument("--seed", type=SEED.arg(), default=0)
     b.set_defaults(func=cmd_bands)

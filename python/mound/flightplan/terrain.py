@@ -103,7 +103,7 @@ class TerrainModel:
         is_site = np.array([n.kind == "site" for n in nodes])
         self.is_site = is_site
         self.ground = np.zeros(len(nodes))
-        d = scan.scale_m
+        d = scan.site_diameter_m
         if is_site.any():
             self.ground[is_site] = site_grounds(dem, xy[is_site], d,
                                                 [n.id for n in nodes if n.kind == "site"])
@@ -205,12 +205,13 @@ class TerrainModel:
         }
 
 
-def site_grounds(dem: Dem, centres: np.ndarray, scale_m: float, ids: list[str]) -> np.ndarray:
+def site_grounds(dem: Dem, centres: np.ndarray, site_diameter_m: float,
+                 ids: list[str]) -> np.ndarray:
     """The median DEM height of the ring D/2..D around each centre (the ground around a
     candidate of diameter D, the candidate itself left out)."""
     centres = np.asarray(centres, dtype=float).reshape(-1, 2)
     step = max(1.0, min(dem.pixel_m) )
-    r = np.arange(scale_m / 2, scale_m + 1e-9, step)
+    r = np.arange(site_diameter_m / 2, site_diameter_m + 1e-9, step)
     out = np.empty(len(centres))
     for k, c in enumerate(centres):
         pts = []
@@ -236,7 +237,7 @@ def open_dem(path: str, origin: Any, vertical: str | None, xy: np.ndarray,
              scan: ScanSpec, spec: ClearanceSpec) -> Dem:
     """The DEM window that every query about these nodes needs (the same window for the
     same nodes, so that the sites document and the mission compute equal heights)."""
-    margin = 2 * scan.scale_m + spec.footprint_m + 50.0
+    margin = 2 * scan.site_diameter_m + spec.footprint_m + 50.0
     return Dem.open(path, origin, vertical, around=xy, margin_m=margin)
 
 

@@ -3,7 +3,9 @@
 the steps' times in seconds, the first look's p_mound, why it failed), the second looks
 flown at it by folder, and the draw it was simulated from (`spec`).
 
-The rows are read back with the site's verdict by mound.training.verdict_data.load_grid.
+`GridRow.from_doc` reads a row back (mound.training.verdict_data.load_grid, with the site's
+verdict): the folder a plain name, the look's status one of STATUSES, its times and p_mound
+numbers; the truth and the draw stay objects for their own readers (recon.grid_site).
 """
 
 from __future__ import annotations
@@ -11,10 +13,34 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
-from mound.jsonio import JsonObject
+from mound.errors import InputError
+from mound.jsonio import (
+    JsonObject,
+    as_object,
+    finite_number,
+    optional_number,
+    optional_string,
+    require_choice,
+    short_repr,
+)
 
 SCHEMA = "mound.verdict_grid"
 VERSION = 1
+STATUSES = ("ok", "failed", "running")
+# A row's members that are not a second look's folder.
+_ROW_KEYS = ("dir", "truth", "spec", "status", "times", "reason", "p_mound")
+
+
+def folder_name(name: str) -> bool:
+    """A plain folder name: 1-255 bytes of UTF-8, no '/', no control character, not . or
+    .. (a grid row's dir, joined to the grid's folder)."""
+    if name in (".", "..") or "/" in name:
+        return False
+    try:
+        size = len(name.encode("utf-8"))
+    except UnicodeEncodeError:  # a lone surrogate
+        return False
+    return 0 < size <= 255 and not any(ord(c) < 32 for c in name)
 
 
 @dataclass(frozen=True)
@@ -31,6 +57,17 @@ class GridLook:
     def to_doc(self) -> JsonObject:
         return {"status": self.status, "times": dict(self.times_s),
                 **({"reason": self.reason} if self.reason is not None else {})}
+
+    @classmethod
+    def from_doc(cls, doc: object, where: str) -> GridLook:
+        """A look as a row holds it (`times` absent: none kept; `p_mound` the row's)."""
+        d = as_object(doc, where)
+        times = as_object(d.get("times", {}), f"{where}.times")
+        return cls(require_choice(d.get("status"), STATUSES, f"{where}.status"),
+                   {str(k): finite_number(v, f"{where}.times.{k}", lo=0.0)
+                    for k, v in times.items()},
+                   optional_number(d, "p_mound", where, lo=0.0, hi=1.0),
+                   optional_string(d, "reason", where))
 
 
 @dataclass(frozen=True)
@@ -51,3 +88,17 @@ class GridRow:
         if self.spec is not None:
             doc["spec"] = self.spec
         return doc
+
+    @classmethod
+    def from_doc(cls, doc: object, where: str) -> GridRow:
+        d = as_object(doc, where)
+        name = d.get("dir")
+        if not isinstance(name, str) or not folder_name(name):
+            raise InputError(f"{where}.dir: expected the site's folder name in the grid, "
+                             f"got {short_repr(name)}")
+        spec = d.get("spec")
+        return cls(name, dict(as_object(d.get("truth"), f"{where}.truth")),
+                   GridLook.from_doc(d, where),
+                   {k: GridLook.from_doc(v, f"{where}.{k}") for k, v in d.items()
+                    if k not in _ROW_KEYS},
+                   None if spec is None else dict(as_object(spec, f"{where}.spec")))

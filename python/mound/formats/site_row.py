@@ -49,13 +49,13 @@ _TYPED = ("schema", "version", "id", "key", "first_key", "status", "source", "wo
 @dataclass
 class SecondLookRecord:
     """What became of a second look a row's first verdict advised: its scan factor,
-    whether it was flown (the wider scan's size, the photos' source, the second verdict's
-    p and file) or why not. A field is None where the row does not say it."""
+    whether it was flown (the wider scan's site diameter, the photos' source, the second
+    verdict's p and file) or why not. A field is None where the row does not say it."""
 
     advised: bool | None = True
     scan_factor: float | None = None
     flown: bool | None = False
-    scan_m: float | None = None
+    site_diameter_m: float | None = None   # m, of the wider scan
     source: str | None = None
     reason: str | None = None
     p_mound: float | None = None
@@ -64,7 +64,7 @@ class SecondLookRecord:
 
     def to_doc(self) -> JsonObject:
         said = {"advised": self.advised, "scan_factor": self.scan_factor,
-                "flown": self.flown, "scan_m": self.scan_m, "source": self.source,
+                "flown": self.flown, "site_diameter_m": self.site_diameter_m, "source": self.source,
                 "reason": self.reason, "p_mound": self.p_mound,
                 "verdict_file": self.verdict_file}
         return {**{k: v for k, v in said.items() if v is not None}, **self.extra}
@@ -81,16 +81,21 @@ class SecondLookRecord:
         for k, v in texts.items():
             if v is not None and not isinstance(v, str):
                 raise InputError(f"{where}.{k}: expected a string, got {short_repr(v)}")
+        wide = optional_number(doc, "site_diameter_m", where, lo=0.0)
+        if wide is None:  # rows written until 2026-11-30
+            wide = optional_number(doc, LEGACY_LOOK_DIAMETER, where, lo=0.0)
         return cls(flags["advised"], optional_number(doc, "scan_factor", where),
-                   flags["flown"], optional_number(doc, "scan_m", where, lo=0.0),
+                   flags["flown"], wide,
                    texts["source"], texts["reason"],
                    optional_number(doc, "p_mound", where, lo=0.0, hi=1.0),
                    texts["verdict_file"],
                    {k: v for k, v in doc.items() if k not in _LOOK_KEYS})
 
 
-_LOOK_KEYS = ("advised", "scan_factor", "flown", "scan_m", "source", "reason", "p_mound",
-              "verdict_file")
+# The wider scan's site diameter under its name until 2026-11-30 (read, never written).
+LEGACY_LOOK_DIAMETER = "scan_m"
+_LOOK_KEYS = ("advised", "scan_factor", "flown", "site_diameter_m", LEGACY_LOOK_DIAMETER,
+              "source", "reason", "p_mound", "verdict_file")
 
 
 @dataclass

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
+from pathlib import Path
 
 from mound.classify.metrics import says_mound
 from mound.errors import InputError
@@ -23,12 +24,24 @@ from mound.formats.photos import CardSummary
 from mound.formats.plan import Plan
 from mound.formats.site_row import SiteRow
 from mound.formats.sites import Site
-from mound.formats.verdict import Verdict
+from mound.formats.verdict import ANSWERS, Verdict
 from mound.geometry.geodesy import Origin
-from mound.jsonio import JsonObject
+from mound.jsonio import (
+    JsonObject,
+    as_object,
+    check_doc,
+    list_member,
+    load_json,
+    require_choice,
+    require_id,
+)
 
 SCHEMA = "mound.survey"
 VERSION = 1
+STATUSES = ("ok", "partial", "waiting", "failed")
+# What a site's entry says was concluded: the verdict's own answer, else `failed` (visited,
+# no verdict); a site not visited says nothing.
+SITE_ANSWERS = (*ANSWERS, "failed")
 # What the summary's `plan` copies of the plan the survey flew.
 PLAN_KEYS = ("algo", "tour", "reward", "cost_m", "budget_m", "n_visited", "n_sites", "flights")
 
@@ -330,3 +343,31 @@ class SurveySummary:
         if self.map is not None:
             doc["map"] = self.map
         return doc
+
+
+@dataclass(frozen=True)
+class SurveyAnswers:
+    """What a later step reads back of summary.json (`mound day`): the run's status and
+    each site's answer (`answer`, else its `verdict`: mound, no_mound, undecided or
+    failed; None for a site not visited)."""
+
+    status: str
+    answers: Mapping[str, str | None]
+
+    @classmethod
+    def from_doc(cls, doc: object, path: str | Path) -> SurveyAnswers:
+        d = check_doc(doc, path, SCHEMA, VERSION)
+        where = str(path)
+        answers: dict[str, str | None] = {}
+        for k, x in enumerate(list_member(d, "sites", where)):
+            at = f"{where}: sites[{k}]"
+            site = as_object(x, at)
+            sid = require_id(site.get("id"), f"{at}.id")
+            said = site.get("answer", site.get("verdict"))
+            answers[sid] = None if said is None else require_choice(
+                said, SITE_ANSWERS, f"{at}.answer")
+        return cls(require_choice(d.get("status"), STATUSES, f"{where}: status"), answers)
+
+    @classmethod
+    def read(cls, path: str | Path) -> SurveyAnswers:
+        return cls.from_doc(load_json(path), path)

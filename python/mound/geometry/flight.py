@@ -120,13 +120,16 @@ class FlightLayout:
 
 # The numbers of a scan and their bounds (the scan of a plan or sites file is the user's).
 SCAN_NUMBERS = {
-    "scale_m": SITE_DIAMETER_M, "width_px": IMAGE_PX, "height_px": IMAGE_PX,
+    "site_diameter_m": SITE_DIAMETER_M, "width_px": IMAGE_PX, "height_px": IMAGE_PX,
     "hfov_rad": Bound(0, 3.1, "rad", above=True), "raster_altitude_m": HEIGHT_M,
     "raster_area_m": SITE_DIAMETER_M, "front_overlap": Bound(0, 0.95),
     "side_overlap": Bound(0, 0.95), "orbit_radius_m": SITE_DIAMETER_M,
     "orbit_altitude_m": HEIGHT_M, "orbit_images": Bound(3, 1_000, integer=True),
     "target_height_m": Bound(-1_000, 1_000, "m"), "transit_altitude_m": HEIGHT_M}
 
+
+# The scan's site diameter under its name until 2026-11-30 (read, never written)
+LEGACY_DIAMETER = "scale_m"
 
 # The site diameter a scan is scaled to unless told otherwise (the survey's, the grid's,
 # the mission's and the photo card's default), m
@@ -135,11 +138,11 @@ DEFAULT_SITE_DIAMETER_M = 60.0
 
 @dataclass(frozen=True)
 class ScanSpec(FlightLayout):
-    """How one site is scanned: the layout scaled to `scale_m` (the site diameter D), the
+    """How one site is scanned: the layout scaled to `site_diameter_m` (the site diameter D), the
     orbit looking at `target_height_m` above the site centre; `transit_altitude_m` is the
     height the aircraft flies between sites (None: the highest scan waypoint)."""
 
-    scale_m: float = DEFAULT_SITE_DIAMETER_M
+    site_diameter_m: float = DEFAULT_SITE_DIAMETER_M
     target_height_m: float = 0.0
     transit_altitude_m: float | None = None
 
@@ -162,7 +165,7 @@ class ScanSpec(FlightLayout):
         """The camera poses of the scan, labelled by pattern, relative to the site centre."""
         self.check()
         cam = self.camera()
-        d = self.scale_m
+        d = self.site_diameter_m
         out: list[tuple[str, Shot]] = []
         if self.pattern in ("raster", "both"):
             area = self.raster_area_m if self.raster_area_m is not None else d
@@ -250,6 +253,11 @@ class ScanSpec(FlightLayout):
             raise InputError(f"{where}: expected an object")
         known = {f for f in cls.__dataclass_fields__}
         kwargs: dict[str, Any] = {}
+        if LEGACY_DIAMETER in doc:  # files written until 2026-11-30: never ignored
+            if "site_diameter_m" in doc and doc["site_diameter_m"] != doc[LEGACY_DIAMETER]:
+                raise InputError(f"{where}: site_diameter_m and its old name "
+                                 f"{LEGACY_DIAMETER} differ")
+            doc = {"site_diameter_m": doc[LEGACY_DIAMETER], **doc}
         for key, value in doc.items():
             if key not in known:
                 continue  # unknown keys are ignored (../shared/INTERFACES.md)
@@ -282,14 +290,15 @@ def path_length(points: np.ndarray | list[np.ndarray]) -> float:
                      for a, b in itertools.pairwise(points)))
 
 
-def scan_for_site(diameter_m: float = DEFAULT_SITE_DIAMETER_M, pattern: str = "raster",
+def scan_for_site(site_diameter_m: float = DEFAULT_SITE_DIAMETER_M, pattern: str = "raster",
                   raster_altitude_m: float | None = None,
                   transit_altitude_m: float | None = None) -> ScanSpec:
-    """The scan of a site of `diameter_m` as the simulator lays it out for a mound of that
-    diameter (height D / 5, the orbit looking at a third of it)."""
-    SITE_DIAMETER_M.check(diameter_m, "--site-diameter")
-    return ScanSpec(pattern=pattern, scale_m=diameter_m, raster_altitude_m=raster_altitude_m,
-                    target_height_m=diameter_m / 15, transit_altitude_m=transit_altitude_m)
+    """The scan of a site of `site_diameter_m` as the simulator lays it out for a mound of
+    that diameter (height D / 5, the orbit looking at a third of it)."""
+    SITE_DIAMETER_M.check(site_diameter_m, "--site-diameter")
+    return ScanSpec(pattern=pattern, site_diameter_m=site_diameter_m,
+                    raster_altitude_m=raster_altitude_m, target_height_m=site_diameter_m / 15,
+                    transit_altitude_m=transit_altitude_m)
 
 
 def flight_budget_m(endurance_s: float = 25 * 60, cruise_speed_m_s: float = 12.0,

@@ -47,12 +47,13 @@ from mound import native
 from mound.errors import InputError, NoResultError, ToolNoResultError
 from mound.formats.grid import SCHEMA, VERSION, GridLook, GridRow
 from mound.formats.verdict import VerdictFile, record_grid_times
+from mound.geometry.flight import DEFAULT_SITE_DIAMETER_M
 from mound.jsonio import JsonObject, read_json, write_json
 from mound.recon.defaults import CANDIDATES, SIM_RECONSTRUCT
 from mound.sim import site as sim
 from mound.sim.card import site_jpegs
 from mound.sim.dem_places import DemPlaces
-from mound.sim.draws import SCAN_M, draw
+from mound.sim.draws import draw
 from mound.sim.looks import (
     LOWER_FACTOR,
     SECOND_LOOK_FACTOR,
@@ -221,7 +222,7 @@ def make_grid(out: str | Path, sites: int, seed: int, size: tuple[int, int] = (6
            "status": status, "measured": measured, "tools": tools,
            **({"earlier_tools": earlier} if earlier and earlier != tools and not remeasure
               else {}),
-           "flight": {"pattern": pattern, "scan_m": SCAN_M, "image_size": list(size)},
+           "flight": _flight_doc(pattern, size),
            **({"second_look": {"scan_factor": SECOND_LOOK_FACTOR,
                                "lower_factor": LOWER_FACTOR,
                                "kinds": sorted({second_look_kind, *before_kinds}),
@@ -235,6 +236,12 @@ def make_grid(out: str | Path, sites: int, seed: int, size: tuple[int, int] = (6
            "rows": [r.to_doc() for r in rows]}
     write_json(root / "grid.json", doc)
     return doc
+
+
+def _flight_doc(pattern: str, size: tuple[int, int]) -> JsonObject:
+    """grid.json's `flight`: the survey's scan every site is flown with (sim.draws)."""
+    return {"pattern": pattern, "site_diameter_m": DEFAULT_SITE_DIAMETER_M,
+            "image_size": list(size)}
 
 
 def _before(root: Path) -> tuple[Any, list[str]]:

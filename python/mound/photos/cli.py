@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from mound.args import command_group
 from mound.geometry.flight import DEFAULT_SITE_DIAMETER_M
 from mound.photos.sort import SORT_NUMBERS
 
@@ -12,7 +13,7 @@ from mound.photos.sort import SORT_NUMBERS
 def cmd_sort(args: argparse.Namespace) -> int:
     from mound.photos.sort import SortSpec, sort_card
 
-    spec = SortSpec(site_diameter_m=args.site_diameter, margin_m=args.margin_m,
+    spec = SortSpec(site_diameter_m=args.site_diameter_m, margin_m=args.margin_m,
                     max_gap_h=args.max_gap_h, blur_ratio=args.blur_ratio, copy=args.copy)
     doc = sort_card(args.card, args.plan or args.sites, args.out, spec, args.camera)
     counts = ", ".join(f"{n} {k}" for k, n in sorted(doc.counts.items()))
@@ -30,8 +31,7 @@ def cmd_sort(args: argparse.Namespace) -> int:
 
 
 def add_parser(sub: Any, parser_class: type) -> None:
-    grp = sub.add_parser("photos", help="photos from the aircraft's card").add_subparsers(
-        dest="cmd", required=True, parser_class=parser_class)
+    grp = command_group(sub, "photos", "photos from the aircraft's card", parser_class)
     s = grp.add_parser("sort", help="sort a photo card into the scanned sites (links)")
     s.add_argument("card", help="the card's folder (DCIM tree or a copy); never changed")
     src = s.add_mutually_exclusive_group()
@@ -41,7 +41,8 @@ def add_parser(sub: Any, parser_class: type) -> None:
                      "Neither: the sites are proposed from the photos (a crew that flew "
                      "by hand) and written as OUT/sites.json")
     s.add_argument("--out", required=True, help="folder: photos.json and <site id>/")
-    s.add_argument("--site-diameter", type=SORT_NUMBERS["site_diameter_m"][1].arg(),
+    s.add_argument("--site-diameter", dest="site_diameter_m", metavar="D",
+                   type=SORT_NUMBERS["site_diameter_m"][1].arg(),
                    default=DEFAULT_SITE_DIAMETER_M,
                    help="the scan's scale where the plan has no scan, m (default 60)")
     s.add_argument("--margin-m", type=SORT_NUMBERS["margin_m"][1].arg(), default=10.0,

@@ -248,7 +248,7 @@ def _scan_of(doc: Mapping[str, object], path: str, spec: SortSpec) -> ScanSpec:
     """The document's scan, else a raster scan of `spec.site_diameter_m`."""
     scan = doc.get("scan")
     return (ScanSpec.from_doc(scan, f"{path}: scan") if isinstance(scan, dict)
-            else ScanSpec(pattern="raster", scale_m=spec.site_diameter_m))
+            else ScanSpec(pattern="raster", site_diameter_m=spec.site_diameter_m))
 
 
 def _plan_sites(doc: Mapping[str, object], path: str, spec: SortSpec) -> CardSites:

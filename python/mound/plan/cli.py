@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from mound.args import UsageError
+from mound.args import UsageError, command_group
 from mound.bounds import (
     BUDGET_M,
     FLIGHTS,
@@ -36,14 +36,14 @@ def field_costs(args: argparse.Namespace) -> tuple[ScanSpec | None, float | None
     scan cost comes from the pattern and the budget defaults to the aircraft's range;
     otherwise the paper's node cost (1 m) and budget (120 m)."""
     if args.scan_pattern is None:
-        if args.site_diameter is not None or args.altitude is not None:
+        if args.site_diameter_m is not None or args.altitude is not None:
             raise UsageError("--site-diameter and --altitude need --scan-pattern")
         return (None, 1.0 if args.scan_cost is None else args.scan_cost,
                 120.0 if args.budget is None else args.budget)
     if args.scan_cost is not None:
         raise UsageError("--scan-cost: the scan cost comes from --scan-pattern; give one")
     scan = scan_for_site(
-        DEFAULT_SITE_DIAMETER_M if args.site_diameter is None else args.site_diameter,
+        DEFAULT_SITE_DIAMETER_M if args.site_diameter_m is None else args.site_diameter_m,
         args.scan_pattern, args.altitude)
     scan.check()
     budget = flight_budget_m() if args.budget is None else args.budget
@@ -205,8 +205,7 @@ def cmd_table1(args: argparse.Namespace) -> int:
 
 def add_parser(sub: Any, parser_class: Any) -> None:
     """The `field`, `plan` and `bench` command groups."""
-    fld = sub.add_parser("field", help="fields of candidate sites").add_subparsers(
-        dest="cmd", required=True, parser_class=parser_class)
+    fld = command_group(sub, "field", "fields of candidate sites", parser_class)
     for name, func in (("make", cmd_field_make), ("standard", cmd_field_standard)):
         m = fld.add_parser(name, help="one field" if name == "make" else "seeds 0-9")
         if name == "make":
@@ -227,7 +226,8 @@ def add_parser(sub: Any, parser_class: Any) -> None:
         m.add_argument("--scan-pattern", choices=("raster", "orbit", "both"),
                        help="derive each site's scan cost from this scan (the flight the "
                        "mission flies) and record it, with the take-off/landing climb")
-        m.add_argument("--site-diameter", type=SITE_DIAMETER_M.arg(),
+        m.add_argument("--site-diameter", dest="site_diameter_m", metavar="D",
+                       type=SITE_DIAMETER_M.arg(),
                        help="with --scan-pattern: the scan's scale, m (default 60)")
         m.add_argument("--altitude", type=HEIGHT_M.arg(),
                        help="with --scan-pattern: the raster's height, m (default: the "
@@ -236,8 +236,7 @@ def add_parser(sub: Any, parser_class: Any) -> None:
                        help="budget_m written, m (default 120, the paper's; with "
                        "--scan-pattern the aircraft's range, 14,400 m)")
         m.set_defaults(func=func)
-    plan = sub.add_parser("plan", help="tour planning (Python side)").add_subparsers(
-        dest="cmd", required=True, parser_class=parser_class)
+    plan = command_group(sub, "plan", "tour planning (Python side)", parser_class)
     ex = plan.add_parser("exact", help="proven optimum: branch-and-cut (SCIP) or HiGHS")
     ex.add_argument("sites")
     ex.add_argument("budget", nargs="?", type=BUDGET_M.arg(), help="overrides budget_m")
@@ -249,8 +248,7 @@ def add_parser(sub: Any, parser_class: Any) -> None:
     ex.add_argument("--flights", type=FLIGHTS.arg(), default=1,
                     help="K flights (the team orienteering problem; scip only)")
     ex.set_defaults(func=cmd_plan_exact)
-    bench = sub.add_parser("bench", help="benchmarks and reproductions").add_subparsers(
-        dest="cmd", required=True, parser_class=parser_class)
+    bench = command_group(sub, "bench", "benchmarks and reproductions", parser_class)
     t1 = bench.add_parser("table1", help="the paper's Table I on the ten standard fields")
     t1.add_argument("--scan-cost", type=Bound(0, 100_000, "m").arg(), nargs="+", default=[1.0],
                     help="node cost(s) per site in m; the first is plotted")

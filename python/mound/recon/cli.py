@@ -7,6 +7,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
+from mound.args import command_group
 from mound.bounds import (
     Bound,
 )
@@ -38,8 +39,7 @@ def cmd_recon_rasters(args: argparse.Namespace) -> int:
 
 def add_parser(sub: Any, parser_class: Any) -> Any:
     """The `recon` command group (returned: mound.training.cli adds to it)."""
-    rc = sub.add_parser("recon", help="the 3-D stage (Python side)").add_subparsers(
-        dest="cmd", required=True, parser_class=parser_class)
+    rc = command_group(sub, "recon", "the 3-D stage (Python side)", parser_class)
     rf = rc.add_parser("figure", help="picture of a mound_recon output: cloud + cameras")
     rf.add_argument("recon_dir")
     rf.add_argument("--out", required=True, help="PNG file")

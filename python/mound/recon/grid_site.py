@@ -14,6 +14,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 from mound.errors import InputError
+from mound.formats.grid import GridRow
 from mound.formats.verdict import CANDIDATES, Measurements, Rise, VerdictFile, rises_of
 from mound.jsonio import (
     JsonObject,
@@ -126,14 +127,15 @@ class GridSite:
         return self.site_centre_enu_m, self.site_radius_m
 
 
-def grid_site(name: str, row: Mapping[str, object], verdict: VerdictFile | None,
-              second: VerdictFile | None, grid: str, where: str) -> GridSite:
-    """A grid row (grid.json's rows[k], its site's folder `name`) with its site's verdict
-    (None: not measured) and second look's verdict (None: not flown or no verdict); its
-    relief is the caller's to add (it reads the site's true surface)."""
-    truth = SiteTruth.from_doc(row.get("truth"), f"{where}.truth")
-    spec = row.get("spec")
-    terrain = as_object(spec, f"{where}.spec").get("terrain") if spec is not None else None
+def grid_site(row: GridRow, verdict: VerdictFile | None, second: VerdictFile | None,
+              grid: str, where: str) -> GridSite:
+    """A grid row (grid.json's rows[k]) with its site's verdict (None: not measured) and
+    second look's verdict (None: not flown or no verdict); its relief is the caller's to
+    add (it reads the site's true surface)."""
+    name = row.dir
+    truth = SiteTruth.from_doc(row.truth, f"{where}.truth")
+    spec = row.spec
+    terrain = spec.get("terrain") if spec is not None else None
     terrain_doc = as_object(terrain, f"{where}.spec.terrain") if terrain else None
     if verdict is None:
         return GridSite(name, truth, grid=grid, terrain=terrain_doc)

@@ -18,7 +18,7 @@ import os
 from pathlib import Path
 from typing import Any
 
-from mound.args import parse_lat_lon, parse_names
+from mound.args import command_group, parse_lat_lon, parse_names
 from mound.bounds import CANDIDATES, SEED, THREADS, Bound
 from mound.errors import InputError
 from mound.scene import workflow
@@ -93,8 +93,7 @@ RESAMPLE_M = Bound(0, 1_000, "m", above=True)
 
 
 def add_parser(sub: Any, parser_class: Any) -> None:
-    sc = sub.add_parser("scene", help="coarse search on satellite scenes (GeoTIFF)"
-                        ).add_subparsers(dest="cmd", required=True, parser_class=parser_class)
+    sc = command_group(sub, "scene", "coarse search on satellite scenes (GeoTIFF)", parser_class)
     threads = min(2, os.cpu_count() or 1)
 
     def common(p: argparse.ArgumentParser) -> None:

@@ -350,7 +350,7 @@ def write_card(plan_path: str, sites_path: str, out_dir: str, spec: CardSpec | N
     index = {s.id: k for k, s in enumerate(sites_doc.sites)}
     by_id = sites_doc.by_id()
     points = {w.id: np.array([w.x_m, w.y_m]) for w in plan.waypoints}
-    scan = plan.scan() or ScanSpec(pattern=spec.pattern, scale_m=spec.site_diameter_m)
+    scan = plan.scan() or ScanSpec(pattern=spec.pattern, site_diameter_m=spec.site_diameter_m)
     reach = scan.reach_m()
     # Transit frames through the scan's lens at the card's image size.
     transit_fx = Camera.from_fov(spec.image_size[0], spec.image_size[1], scan.hfov_rad).fx

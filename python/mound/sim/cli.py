@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from mound.args import command_group
 from mound.bounds import (
     HEIGHT_M,
     IMAGE_PX,
@@ -109,7 +110,7 @@ def cmd_sim_flight(args: argparse.Namespace) -> int:
     spec = CardSpec(start=_start_time(args.start_time), speed_mps=args.speed,
                     transit_every_s=args.transit_every_s, sim_seed=args.sim_seed,
                     image_size=tuple(args.image_size), pattern=args.scan_pattern,
-                    site_diameter_m=args.site_diameter, threads=args.threads,
+                    site_diameter_m=args.site_diameter_m, threads=args.threads,
                     scan_factor=args.scan_factor)
     truth = write_card(args.plan, sites, args.out, spec)
     if args.truth:
@@ -140,8 +141,7 @@ def cmd_sim_figures(args: argparse.Namespace) -> int:
 
 def add_parser(sub: Any, parser_class: Any) -> Any:
     """The `sim` command group; returns its subparsers (mound.grids.cli adds `grid`)."""
-    simp = sub.add_parser("sim", help="site simulator (images with ground truth)"
-                          ).add_subparsers(dest="cmd", required=True, parser_class=parser_class)
+    simp = command_group(sub, "sim", "site simulator (images with ground truth)", parser_class)
     st = simp.add_parser("site", help="render a site's flight with its ground truth")
     st.add_argument("--preset", choices=("bin_tepe", "lab"), default="bin_tepe")
     st.add_argument("--mound", choices=("tumulus", "none"), default="tumulus",
@@ -222,7 +222,8 @@ def add_parser(sub: Any, parser_class: Any) -> Any:
     sfl.add_argument("--image-size", type=IMAGE_PX.arg(), nargs=2, default=(640, 480),
                      metavar=("W", "H"))
     sfl.add_argument("--scan-pattern", choices=("raster", "orbit", "both"), default="raster")
-    sfl.add_argument("--site-diameter", type=SITE_DIAMETER_M.arg(),
+    sfl.add_argument("--site-diameter", dest="site_diameter_m", metavar="D",
+                     type=SITE_DIAMETER_M.arg(),
                      default=DEFAULT_SITE_DIAMETER_M,
                      help="as the survey's --site-diameter, m")
     sfl.add_argument("--threads", type=THREADS.arg(), help="render threads (default: all cores)")

@@ -30,8 +30,8 @@ The draws (half of the sites carry a tumulus):
   uniform over where it fits within the DEM's `dem_part` (dem_places.py: train, the first
   60 % across its longer axis; heldout, the rest; training and held-out grids then share
   no terrain, save that a second look's wider site may reach across);
-- flight: the survey's (a raster scan of `scan_m`, 60 m, at 60 m; `pattern="both"`: the
-  full 40-image flight, the raster and an orbit of oblique images), sun azimuth 0-360
+- flight: the survey's (a raster scan of `site_diameter_m`, 60 m, at 60 m; `pattern="both"`:
+  the full 40-image flight, the raster and an orbit of oblique images), sun azimuth 0-360
   degrees at 25-70 degrees elevation, lens of 60-84 degrees horizontal field of view;
 - cloud: the sparse cloud of `mound_recon reconstruct`, or with `dense=True` the dense
   cloud of `mound_recon densify` (dense/dense.ply), which the verdict then judges;
@@ -57,7 +57,6 @@ from mound.sim.appearance import Lighting
 from mound.sim.dem_places import DemPlaces
 from mound.sim.population import Population
 
-SCAN_M = DEFAULT_SITE_DIAMETER_M  # the survey's scan (a raster of 60 m at 60 m)
 # a measured population's tumuli (population.py): earthen profiles, no Lydian drum
 POPULATION_PROFILES = ("spherical_cap", "conical", "ploughed")
 LOG = logging.getLogger(__name__)
@@ -122,7 +121,7 @@ def _confuser(rng: np.random.Generator, kind: str, seed: int) -> terrain.Confuse
 
 
 def _measured_tumulus(rng: np.random.Generator, spec: terrain.TerrainSpec, pop: Population,
-                      scan_m: float) -> terrain.TerrainSpec:
+                      site_diameter_m: float) -> terrain.TerrainSpec:
     """`spec` with a tumulus of the population's measured rows (see the module text)."""
     row = pop.rows[int(rng.integers(len(pop.rows)))]
     profile = str(rng.choice(POPULATION_PROFILES))
@@ -130,7 +129,7 @@ def _measured_tumulus(rng: np.random.Generator, spec: terrain.TerrainSpec, pop: 
     if h > max_height(profile, w):  # steeper than a cap stands: a cone's flanks
         profile = "conical"
     h = min(h, max_height(profile, w))
-    x, y = _in_disc(rng, scan_m / 4)
+    x, y = _in_disc(rng, site_diameter_m / 4)
     az = float(rng.uniform(0, 180))
     spec = replace(spec, profile=profile, diameter_m=w, height_m=h, mound_x_m=x, mound_y_m=y,
                    erosion_m=float(rng.uniform(0.05, 0.2)) * w)
@@ -180,7 +179,8 @@ def _ridged(rng: np.random.Generator, spec: terrain.TerrainSpec) -> terrain.Terr
 
 
 def draw(rng: np.random.Generator, seed: int, dems: list[DemPlaces] | None,
-         size: tuple[int, int], scan_m: float = SCAN_M, texel_m: float = 0.1,
+         size: tuple[int, int], site_diameter_m: float = DEFAULT_SITE_DIAMETER_M,
+         texel_m: float = 0.1,
          pattern: str = "raster", population: Population | None = None,
          ground: str = "mixed") -> sim.SimSpec:
     """One site of the grid (see the module text); `dems` opened once for the grid (each
@@ -189,7 +189,7 @@ def draw(rng: np.random.Generator, seed: int, dems: list[DemPlaces] | None,
     spec = replace(terrain.PRESETS["bin_tepe"], seed=seed, resolution_m=0.5, mound=mound)
     extent = 0.0
     if mound and population is not None:
-        spec = _measured_tumulus(rng, spec, population, scan_m)
+        spec = _measured_tumulus(rng, spec, population, site_diameter_m)
         extent = (max(spec.length_m, spec.diameter_m)
                   + 2 * max(abs(spec.mound_x_m), abs(spec.mound_y_m)))
     elif mound:
@@ -197,7 +197,7 @@ def draw(rng: np.random.Generator, seed: int, dems: list[DemPlaces] | None,
         d = _log_uniform(rng, 10, 150)
         drum_share = float(rng.uniform(0.2, 0.5)) if profile == "drum" else 0.0
         h = min(_log_uniform(rng, 0.5, 25), max_height(profile, d, drum_share))
-        x, y = _in_disc(rng, scan_m / 4)
+        x, y = _in_disc(rng, site_diameter_m / 4)
         erosion = float(rng.uniform(0.5, 5))
         if profile == "ploughed":  # spread by the plough: at least a tenth of D
             erosion = max(erosion, d / 10)
@@ -244,4 +244,4 @@ def draw(rng: np.random.Generator, seed: int, dems: list[DemPlaces] | None,
                           math.radians(float(rng.uniform(25, 70)))),
         width_px=size[0], height_px=size[1],
         hfov_rad=math.radians(float(rng.uniform(60, 84))), pattern=pattern,
-        scan_diameter_m=scan_m, seed=seed, texel_m=texel_m)
+        scan_diameter_m=site_diameter_m, seed=seed, texel_m=texel_m)

@@ -27,7 +27,7 @@ def lower(spec: sim.SimSpec, factor: float = LOWER_FACTOR) -> sim.SimSpec:
     """The same site (terrain, light, lens, seed) and scan area flown with its raster
     `factor` x as high (LOWER_FACTOR: half): the ground sampled 1 / factor x as finely,
     with more images for the same overlaps (78 against 28 for the 60 m scan at half)."""
-    return replace(spec, raster_altitude_m=spec.scale_m * factor)
+    return replace(spec, raster_altitude_m=spec.site_diameter_m * factor)
 
 
 # The second looks a grid flies, and the folder of each (NNNN/<folder>/)
@@ -44,7 +44,7 @@ def wider(spec: sim.SimSpec, factor: float = SECOND_LOOK_FACTOR) -> sim.SimSpec:
     site drawn SITE_PER_SCAN x that scan across (at least the first look's). On a DEM patch
     the part of the wider site that lies off the laser DEM is its continuation across the
     edge (terrain.dem_patch's point reflection): the field's second look would fly there."""
-    scan = spec.scale_m * factor
+    scan = spec.site_diameter_m * factor
     size = max(spec.terrain.size_m, math.ceil(scan * SITE_PER_SCAN / 4) * 4)
     return replace(spec, scan_diameter_m=scan, terrain=replace(
         spec.terrain, size_m=size, dem_extend=spec.terrain.dem_path is not None))

@@ -67,7 +67,7 @@ class SimSpec(FlightLayout):
     scan_diameter_m: float | None = None
 
     @property
-    def scale_m(self) -> float:
+    def site_diameter_m(self) -> float:
         return self.scan_diameter_m if self.scan_diameter_m is not None else self.terrain.diameter_m
 
     def scan(self) -> ScanSpec:
@@ -75,7 +75,7 @@ class SimSpec(FlightLayout):
         to the mound diameter, the orbit looking at a third of the mound's height (also
         for the flat control, which gets the same flight)."""
         return ScanSpec(
-            **self.layout(), scale_m=self.scale_m,
+            **self.layout(), site_diameter_m=self.site_diameter_m,
             target_height_m=self.terrain.height_m / 3 if self.scan_diameter_m is None else 0.0)
 
     def camera(self) -> Camera:

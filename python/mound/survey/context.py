@@ -89,7 +89,7 @@ def digest_files(paths: list[str]) -> list[str]:
 
 def scan_spec(args: SurveyOptions) -> ScanSpec:
 
-    scan = scan_for_site(args.site_diameter, args.scan_pattern)
+    scan = scan_for_site(args.site_diameter_m, args.scan_pattern)
     from dataclasses import replace
     scan = replace(scan, width_px=args.image_size[0], height_px=args.image_size[1])
     scan.check()

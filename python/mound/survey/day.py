@@ -23,12 +23,13 @@ from typing import Any
 
 from mound.args import Parser, UsageError
 from mound.bounds import FLIGHTS
+from mound.formats.day import SCHEMA, VERSION, Battery, DayDoc, NextBattery
 from mound.formats.learn import LearnRecord
 from mound.formats.mission import MissionSummary
-from mound.jsonio import load_json, write_json
+from mound.formats.plan import Plan
+from mound.formats.survey import SurveyAnswers
+from mound.jsonio import write_json
 
-SCHEMA = "mound.day"
-VERSION = 1
 SET_BY_DAY = ("--learn", "--flights", "--cards", "--photos", "--second-photos",
               "--images-root")
 
@@ -89,36 +90,36 @@ def _flights(path: Path) -> list[list[str]]:
     """The sites of each flight of a plan file (none when it is missing)."""
     if not path.is_file():
         return []
-    return [[i for i in f.get("tour", [])[1:-1]] for f in load_json(path).get("flights", [])]
+    return [list(f.sites) for f in Plan.read(path).flights]
 
 
-def day_doc(out: Path, batteries: int, cards: list[str]) -> dict[str, Any]:
+def day_doc(out: Path, batteries: int, cards: list[str]) -> DayDoc:
     """day.json from the run's files: learn/learn.json, learn/flight_K/plan_all.json (the
     batteries left, re-planned), battery_K/plan.json, second_look/mission.json (the second
     looks the verdicts advised) and summary.json (each site's answer)."""
     learn = LearnRecord.read(out / "learn" / "learn.json")
-    summary = load_json(out / "summary.json")
-    answer = {r["id"]: r.get("answer", r.get("verdict")) for r in summary.get("sites", [])}
+    summary = SurveyAnswers.read(out / "summary.json")
+    answer = summary.answers
     sl_path = out / "second_look" / "mission.json"
     sl = MissionSummary.read(sl_path).second_look if sl_path.is_file() else None
     advised = set(sl.sites if sl else ())
-    rows = []
+    rows: list[Battery] = []
     for f in learn.flights:
         k = f.flight
         left = _flights(out / "learn" / f"flight_{k + 1}" / "plan_all.json")
         rows.append({"battery": k, "card": cards[k - 1] if k <= len(cards) else None,
                      "folder": f"battery_{k}",
-                     "plan": {"sites": f.sites, "cost_m": f.cost_m},
+                     "plan": {"sites": list(f.sites), "cost_m": f.cost_m},
                      "judged": [{"id": sid, "answer": answer.get(sid)} for sid in f.sites],
                      "second_looks_added": [sid for sid in f.sites if sid in advised],
                      "plan_left": left})
     waiting = learn.waiting_for_battery
-    nxt = None
+    nxt: NextBattery | None = None
     if waiting is not None:
         nxt = {"battery": waiting, "folder": f"battery_{waiting}",
                "sites": [s for fl in _flights(out / f"battery_{waiting}" / "plan.json")
                          for s in fl]}
-    return {"schema": SCHEMA, "version": VERSION, "status": summary.get("status"),
+    return {"schema": SCHEMA, "version": VERSION, "status": summary.status,
             "batteries": batteries, "flown": rows, "next": nxt,
             "second_looks": {"folder": "second_look", "sites": sorted(advised),
                              "scan_factor": sl.scan_factor,

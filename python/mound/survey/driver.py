@@ -115,7 +115,8 @@ def _flight_arguments(p: argparse.ArgumentParser, D: SurveyOptions) -> None:
     g.add_argument("--scan-pattern", choices=get_args(ScanPattern), default=D.scan_pattern,
                    help="how each site is scanned (the mission flies it, the simulator "
                    "renders it, the planner pays for it)")
-    g.add_argument("--site-diameter", type=NUMBERS["site_diameter"].arg(), default=D.site_diameter,
+    g.add_argument("--site-diameter", type=NUMBERS["site_diameter_m"].arg(),
+                   default=D.site_diameter_m, dest="site_diameter_m", metavar="D",
                    help="size of the scan (and of a simulated tumulus), m")
     g.add_argument("--algo", default=D.algo, choices=get_args(Algo),
                    help="mound_plan's algorithm (default alns: ALNS-OP, 1 s at most; newalg: "

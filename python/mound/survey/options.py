@@ -49,10 +49,12 @@ DENSE_PX = Bound(0, 8_192, "px", integer=True)   # 0: no dense cloud, else at le
 # Every number of the options and its bound: the parser's flags and check() use these.
 NUMBERS: dict[str, Bound] = {
     "field_seed": SEED, "spacing": SPACING_M, "budget": BUDGET_M, "candidates": CANDIDATES,
-    "min_separation_m": SEPARATION_M, "site_diameter": SITE_DIAMETER_M, "plan_seed": SEED,
+    "min_separation_m": SEPARATION_M, "site_diameter_m": SITE_DIAMETER_M, "plan_seed": SEED,
     "flights": FLIGHTS, "learn_weight": LEARN_WEIGHT, "image_size": IMAGE_PX,
     "sim_seed": SIM_SEED, "max_features": MAX_FEATURES, "dense_size": DENSE_PX,
     "site_timeout": TIME_S, "workers": WORKERS, "site_threads": THREADS}
+# The options whose flag is not their name in kebab case.
+FLAGS = {"site_diameter_m": "--site-diameter"}
 
 
 @dataclass(frozen=True)
@@ -73,7 +75,7 @@ class SurveyOptions:
     min_separation_m: float = 30.0
     # flight
     scan_pattern: ScanPattern = "raster"
-    site_diameter: float = DEFAULT_SITE_DIAMETER_M         # m
+    site_diameter_m: float = DEFAULT_SITE_DIAMETER_M       # --site-diameter
     algo: Algo = "alns"
     reward: RewardKind = "entropy"      # what a visit is worth to the planner
     confusion: str | None = None        # --reward value: the verdict's three-answer confusion
@@ -155,7 +157,7 @@ class SurveyOptions:
                 if v is None:
                     continue
                 try:
-                    bound.check(v, "--" + name.replace("_", "-"))
+                    bound.check(v, FLAGS.get(name, "--" + name.replace("_", "-")))
                 except InputError as e:
                     raise UsageError(str(e)) from None
         if min(self.image_size) < 64:

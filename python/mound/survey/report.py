@@ -238,7 +238,7 @@ def _site_card(r: SurveySite) -> str:
         look = row.second_look
         if look is not None and look.flown:
             first = row.first_look.p_mound if row.first_look is not None else None
-            parts.append(f'<p>second look (a scan of {_fmt(look.scan_m, 0)} m; the first '
+            parts.append(f'<p>second look (a scan of {_fmt(look.site_diameter_m, 0)} m; the first '
                          f'flight left it undecided at p(mound) {_fmt(first)}): '
                          f'{_label(str(r.verdict))}</p>')
         elif look is not None:

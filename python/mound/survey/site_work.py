@@ -280,7 +280,7 @@ def _second_look(job: SiteJob, row: SiteRow, advice: SecondLookAdvice, dense: bo
     t = job.tree.second
     t.root.mkdir(parents=True, exist_ok=True)
     try:
-        look.scan_m = job.site_diameter_m * advice.scan_factor
+        look.site_diameter_m = job.site_diameter_m * advice.scan_factor
         if job.images_dir:  # the second card, sorted into the site's folder
             images, camera, gps = _photos(replace(job, images_dir=job.second_images_dir))
             look.source = "photos"
@@ -292,7 +292,7 @@ def _second_look(job: SiteJob, row: SiteRow, advice: SecondLookAdvice, dense: bo
             spec, _ = survey_site_spec(job.site, job.index, job.origin, job.sim_seed,
                                        job.image_size, job.pattern, job.site_diameter_m,
                                        job.terrain)
-            spec = wider(spec, advice.scan_factor)  # its scale_m: look.scan_m
+            spec = wider(spec, advice.scan_factor)  # its site_diameter_m: look.site_diameter_m
             look.source = "simulated"
             sim.simulate(spec, t.sim, threads=job.threads)
             images, camera, gps = t.sim / "images", t.sim / "camera.json", str(

@@ -147,7 +147,7 @@ def site_card(r: SurveySite, files: dict[str, str]) -> JsonObject:
                             if k in rise}
     look = r.row.second_look if v is not None and r.row is not None else None
     if look is not None:
-        scan, p = look.scan_m, look.p_mound
+        scan, p = look.site_diameter_m, look.p_mound
         card["second_look"] = (
             f"flown ({look.source if look.source is not None else 'simulated'}"
             + (f", a {scan:.0f} m scan" if scan is not None else "") + ")"

@@ -15,7 +15,7 @@ import numpy as np
 from mound.errors import InputError
 from mound.formats import grid as grid_doc
 from mound.formats.verdict import Rise, VerdictFile
-from mound.jsonio import read_json, short_repr
+from mound.jsonio import read_json
 from mound.recon.grid_site import GridSite, SiteTruth, grid_site
 from mound.sim import terrain
 from mound.sim.looks import SECOND_LOOKS
@@ -72,9 +72,11 @@ def load_grid(folder: str | Path, second_look: str = "wider") -> list[GridSite]:
     root = Path(folder)
     gpath = root / "grid.json"
     if gpath.is_file():
-        rows = read_json(gpath, grid_doc.SCHEMA, grid_doc.VERSION).get("rows")
-        if not isinstance(rows, list):
+        listed = read_json(gpath, grid_doc.SCHEMA, grid_doc.VERSION).get("rows")
+        if not isinstance(listed, list):
             raise InputError(f"{gpath}: rows: expected a list")
+        rows = [grid_doc.GridRow.from_doc(r, f"{gpath}: rows[{k}]")
+                for k, r in enumerate(listed)]
     elif root.is_dir():  # a grid still running or interrupted: its finished sites
         rows = []
         for t in sorted(root.glob("*/sim/truth.json")):
@@ -82,40 +84,22 @@ def load_grid(folder: str | Path, second_look: str = "wider") -> list[GridSite]:
             truth = {k: v for k, v in read_json(t, "mound.sim_truth", 1).items()
                      if k not in ("schema", "version", "frame", "origin")}
             done = (site / "verdict.json").is_file()
-            rows.append({"dir": site.name, "truth": truth,
-                         "status": "ok" if done else "running"})
+            rows.append(grid_doc.GridRow(site.name, truth,
+                                         grid_doc.GridLook("ok" if done else "running")))
     else:
         raise InputError(f"{root}: no grid (make one with `mound sim grid`)")
     out = []
     for k, row in enumerate(rows):
         where = f"{gpath}: rows[{k}]"
-        if not isinstance(row, dict):
-            raise InputError(f"{where}: expected a site's row")
-        name = row.get("dir")
-        if not isinstance(name, str) or not _folder_name(name):
-            raise InputError(f"{where}.dir: expected the site's folder name in the grid, "
-                             f"got {short_repr(name)}")
-        vpath = root / name / "verdict.json"
-        if row.get("status") != "ok" or not vpath.is_file():
-            out.append(grid_site(name, row, None, None, str(root), where))
+        vpath = root / row.dir / "verdict.json"
+        if row.look.status != "ok" or not vpath.is_file():
+            out.append(grid_site(row, None, None, str(root), where))
             continue
-        judged = grid_site(name, row, VerdictFile.read(vpath),
-                           _second_look(root / name / SECOND_LOOKS[second_look]), str(root),
-                           where)
-        out.append(replace(judged, relief=_relief(root / name, judged.truth)))
+        judged = grid_site(row, VerdictFile.read(vpath),
+                           _second_look(root / row.dir / SECOND_LOOKS[second_look]),
+                           str(root), where)
+        out.append(replace(judged, relief=_relief(root / row.dir, judged.truth)))
     return out
-
-
-def _folder_name(name: str) -> bool:
-    """A plain folder name: 1-255 bytes of UTF-8, no '/', no control character, not . or
-    .. (a grid row's dir, joined to the grid's folder)."""
-    if name in (".", "..") or "/" in name:
-        return False
-    try:
-        size = len(name.encode("utf-8"))
-    except UnicodeEncodeError:  # a lone surrogate
-        return False
-    return 0 < size <= 255 and not any(ord(c) < 32 for c in name)
 
 
 def _relief(site: Path, truth: SiteTruth) -> dict[str, float] | None:

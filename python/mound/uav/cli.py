@@ -6,6 +6,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
+from mound.args import command_group
 from mound.bounds import FLIGHTS, HEIGHT_M, SITE_DIAMETER_M, SPEED_M_S, Bound
 from mound.errors import InputError, NoResultError
 from mound.formats.plan import Plan
@@ -27,12 +28,12 @@ def cmd_build(args: argparse.Namespace) -> int:
     else:
         raise InputError(f"origin: {args.plan} has no origin; give --origin LAT,LON[,ALT]")
     scan = plan.scan()
-    given = (args.pattern, args.site_diameter, args.altitude, args.transit_altitude)
+    given = (args.pattern, args.site_diameter_m, args.altitude, args.transit_altitude)
     if scan is None or any(v is not None for v in given):
         # No scan in the plan, or options that override it: the flight check below then
         # tells whether the plan's scan costs still cover it.
         scan = scan_for_site(
-            args.site_diameter if args.site_diameter is not None else DEFAULT_SITE_DIAMETER_M,
+            args.site_diameter_m if args.site_diameter_m is not None else DEFAULT_SITE_DIAMETER_M,
             args.pattern or "raster", args.altitude, args.transit_altitude)
     spec = mission_items.MissionSpec(scan=scan, cruise_speed_m_s=args.cruise_speed,
                                      scan_speed_m_s=args.scan_speed)
@@ -146,8 +147,8 @@ def cmd_upload(args: argparse.Namespace) -> int:
 
 
 def add_parser(sub: Any, parser_class: type) -> None:
-    grp = sub.add_parser("mission", help="UAV mission: build files, upload over MAVLink"
-                         ).add_subparsers(dest="cmd", required=True, parser_class=parser_class)
+    grp = command_group(sub, "mission", "UAV mission: build files, upload over MAVLink",
+                        parser_class)
     b = grp.add_parser("build", help="plan.json -> QGroundControl .plan (+ WPL, GeoJSON)")
     b.add_argument("plan")
     b.add_argument("--origin", help="LAT,LON[,ALT] of the plan's ENU origin (default: "
@@ -166,7 +167,8 @@ def add_parser(sub: Any, parser_class: type) -> None:
     b.add_argument("--pattern", choices=("raster", "orbit", "both"),
                    help="scan pattern (default: the plan's scan, else raster); any of these "
                    "four options replaces the plan's scan")
-    b.add_argument("--site-diameter", type=SITE_DIAMETER_M.arg(),
+    b.add_argument("--site-diameter", dest="site_diameter_m", metavar="D",
+                   type=SITE_DIAMETER_M.arg(),
                    help="scan layout scale, m (the simulator's mound diameter; default 60)")
     b.add_argument("--altitude", type=HEIGHT_M.arg(), help="raster height above home, m")
     b.add_argument("--transit-altitude", type=HEIGHT_M.arg(), help="m (default: the scan height)")

@@ -217,7 +217,7 @@ class Mission:
             self.origin, len(self.items), self.flight_distance_m, self.budget_m, self.closed,
             tuple(self.sites), "MAV_FRAME_GLOBAL_RELATIVE_ALT: metres above home"
             + ("'s ground (the DEM's height there)" if self.terrain else ""), self.terrain,
-            ScanRecord(self.spec.scan.pattern, self.spec.scan.scale_m,
+            ScanRecord(self.spec.scan.pattern, self.spec.scan.site_diameter_m,
                        self.spec.cruise_speed_m_s, self.spec.scan_speed_m_s))
 
 

@@ -55,7 +55,8 @@ def second_look_flights(sites: Sites, plan: Plan | None, ids: list[str],
         raise InputError("plan: origin: missing (the missions are flown in WGS84)")
     scan = plan.scan() if plan else None
     base = MissionSpec(scan=scan) if scan is not None else MissionSpec()
-    spec = replace(base, scan=replace(base.scan, scale_m=base.scan.scale_m * scan_factor))
+    wide = base.scan.site_diameter_m * scan_factor
+    spec = replace(base, scan=replace(base.scan, site_diameter_m=wide))
     spec.check()
     cost = spec.scan.site_cost_m()
     by_id = sites.by_id()

@@ -12,6 +12,7 @@ import numpy as np
 from mound.errors import InputError
 from mound.formats.sites import Sites
 from mound.geojson import point_feature_doc
+from mound.geometry.flight import LEGACY_DIAMETER
 from mound.geometry.geodesy import Origin
 from mound.jsonio import load_json, read_json, write_json
 from mound.survey.context import Context, digest_files, run_stage, scan_spec
@@ -109,6 +110,17 @@ def scene_sites(ctx: Context, scan: Any) -> Sites:
                                               "scenes": a.scenes})
 
 
+def scan_as_before(material: dict[str, object]) -> None:
+    """The scan's site diameter under its name until 2026-11-30 (`scale_m`) in the stage's
+    material, so that a run (a field day) begun before keeps its stages across the rename."""
+    sites = material.get("sites")
+    for holder in (material, sites if isinstance(sites, dict) else {}):
+        scan = holder.get("scan")
+        if isinstance(scan, dict) and "site_diameter_m" in scan:
+            holder["scan"] = {(LEGACY_DIAMETER if k == "site_diameter_m" else k): v
+                              for k, v in scan.items()}
+
+
 def stage_field(ctx: Context) -> str:
     from mound.classify import statlog
     from mound.classify.model import SCHEMA as MODEL_SCHEMA
@@ -137,6 +149,7 @@ def stage_field(ctx: Context) -> str:
                     "spacing": a.spacing, "scan": scan.to_doc(), "budget": a.budget,
                     "home": a.home}
     material["terrain"] = ctx.terrain
+    scan_as_before(material)
     if a.reward != "entropy":  # (entropy: the material of runs before --reward)
         from mound.survey.reward import confusion_digest
 

@@ -170,7 +170,7 @@ def _battery_photos(ctx: Context, card: str, bdir: Path, flight: Plan) -> dict[s
 
     a = ctx.args
     doc = sort_card(card, str(bdir / "plan.json"), str(bdir / "photos"),
-                    SortSpec(site_diameter_m=a.site_diameter), a.camera)
+                    SortSpec(site_diameter_m=a.site_diameter_m), a.camera)
     ok = sum(1 for v in doc.sites.values() if v.status == "ok")
     ctx.say(f"[learn] {card}: {doc.files} files, {ok} of {len(doc.sites)} "
             "sites with enough photos")

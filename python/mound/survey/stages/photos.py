@@ -28,7 +28,7 @@ def stage_photos(ctx: Context) -> str:
     def work() -> tuple[list[str], str, bool]:
         assert a.photos
         doc = sort_card(a.photos, str(ctx.tree.plan), str(ctx.tree.photos),
-                        SortSpec(site_diameter_m=a.site_diameter), a.camera)
+                        SortSpec(site_diameter_m=a.site_diameter_m), a.camera)
         counts = ", ".join(f"{n} {k}" for k, n in sorted(doc.counts.items()))
         ok = sum(1 for v in doc.sites.values() if v.status == "ok")
         few = [k for k, v in doc.sites.items() if v.status != "ok"]
@@ -42,7 +42,7 @@ def stage_photos(ctx: Context) -> str:
                 raise InputError(f"--second-photos: no second looks to sort it by ({plan2} "
                                  "is missing: the run before advised none, or has not run)")
             second = sort_card(a.second_photos, str(plan2), str(ctx.tree.second_photos),
-                               SortSpec(site_diameter_m=a.site_diameter), a.camera)
+                               SortSpec(site_diameter_m=a.site_diameter_m), a.camera)
             ok2 = [k for k, v in second.sites.items() if v.status == "ok"]
             note += (f"; second card: {second.files} files, {len(ok2)} of "
                      f"{len(second.sites)} second looks with enough photos")
@@ -52,7 +52,7 @@ def stage_photos(ctx: Context) -> str:
 
     material = {"plan": ctx.keys["plan"], "card": card_digest(Path(a.photos)),
                 "camera": digest_files([a.camera]) if a.camera else None,
-                "diameter": a.site_diameter,
+                "diameter": a.site_diameter_m,
                 "second_card": card_digest(Path(a.second_photos)) if a.second_photos
                 else None}
     return run_stage(ctx, "photos", material, work)

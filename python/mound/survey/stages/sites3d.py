@@ -67,7 +67,7 @@ def site_jobs(ctx: Context, plan: Plan | None = None,
     root = ctx.tree.root.resolve()
     options: JobOptions = {
         "image_size": (a.image_size[0], a.image_size[1]), "pattern": a.scan_pattern,
-        "site_diameter_m": a.site_diameter, "sim_seed": a.sim_seed,
+        "site_diameter_m": a.site_diameter_m, "sim_seed": a.sim_seed,
         "threads": a.site_threads, "timeout_s": a.site_timeout,
         "dense_model": str(Path(a.verdict_model).resolve()) if a.verdict_model else None}
     tools = {"recon": recon.to_doc(), "dense": dense and dense.to_doc(),
@@ -211,7 +211,8 @@ def second_look_missions(ctx: Context, rows: list[SiteRow], plan_path: Path,
             [], MissionSummary((), sites_doc.budget_m, plan.origin))
     made = [str(p.relative_to(t.root)) for p in written]
     summary = replace(summary, second_look=SecondLookMissions(
-        tuple(ids), factor, spec.scan.scale_m, tuple(x.id for m in flights for x in m.sites),
+        tuple(ids), factor, spec.scan.site_diameter_m,
+        tuple(x.id for m in flights for x in m.sites),
         tuple(refused)))
     write_json(out / "mission.json", summary.to_doc())
     made.append(str((out / "mission.json").relative_to(t.root)))
@@ -231,7 +232,7 @@ def second_look_missions(ctx: Context, rows: list[SiteRow], plan_path: Path,
     write_json(out / "plan.json", sl_plan.to_doc())
     made.append(str((out / "plan.json").relative_to(t.root)))
     note = (f"; second looks advised for {len(ids)} sites: {len(flights)} mission"
-            f"{'s' if several else ''} with a {spec.scan.scale_m:.0f} m scan, "
+            f"{'s' if several else ''} with a {spec.scan.site_diameter_m:.0f} m scan, "
             f"{summary.flight_distance_m:.0f} m in all (second_look/)"
             + (f", {len(refused)} refused ({refused[0].id}: {refused[0].reason})"
                if refused else ""))
