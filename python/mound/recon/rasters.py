@@ -36,7 +36,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy import ndimage
@@ -44,6 +44,7 @@ from scipy.interpolate import LinearNDInterpolator
 from scipy.spatial import cKDTree
 
 from mound.errors import InputError, NoResultError
+from mound.formats.rasters import SCHEMA, VERSION, RasterFiles, RastersDoc
 from mound.formats.recon import Recon
 from mound.geometry.camera import Camera, Pose, project
 from mound.geometry.geodesy import Origin, enu_to_geodetic, geodetic_to_enu
@@ -380,7 +381,7 @@ def ground_failure(r: Rasters) -> str | None:
             "LRM written")
 
 
-def write_all(r: Rasters, out_dir: Path) -> dict[str, Any]:
+def write_all(r: Rasters, out_dir: Path) -> RasterFiles:
     """dsm.tif, dtm.tif, lrm.tif, hillshade.tif in out_dir (without the DTM and LRM where
     ground_failure says why); returns their description."""
     out_dir = Path(out_dir)
@@ -398,7 +399,7 @@ def write_all(r: Rasters, out_dir: Path) -> dict[str, Any]:
         write_geotiff(out_dir / f"{name}.tif", a, r.grid, desc)
     g = r.grid
     observed = int(np.count_nonzero(~np.isnan(r.dsm)))
-    doc: dict[str, Any] = {
+    doc: RasterFiles = {
         "status": "failed" if failure else "ok",
         "crs": f"EPSG:{g.epsg}", "vertical_datum": g.alt_datum, "file_crs": g.crs,
         "resolution_m": g.res, "width": g.width,
@@ -415,7 +416,7 @@ def write_all(r: Rasters, out_dir: Path) -> dict[str, Any]:
 def from_recon(recon_dir: Path, out_dir: Path, resolution_m: float = 0.25,
                cloud: Path | None = None, ground_window_m: float = 80.0,
                relief_sigma_m: float = 30.0, ortho: bool = True,
-               images_dir: Path | None = None) -> dict[str, Any]:
+               images_dir: Path | None = None) -> RastersDoc:
     """The rasters of a mound_recon output (recon.json + points.ply, or `cloud` in the same
     frame), written to out_dir with rasters.json (mound.rasters v1); with `ortho` also
     orthophoto.tif from the images (recon.json's images_dir unless `images_dir`).
@@ -470,10 +471,11 @@ def from_recon(recon_dir: Path, out_dir: Path, resolution_m: float = 0.25,
         summary["files"]["orthophoto"] = "orthophoto.tif"
     else:
         summary["orthophoto_skipped"] = ortho_note
-    out = {"schema": "mound.rasters", "version": 1, "origin": origin.to_doc(),
-           "cloud": str(cloud_path), "points": int(len(xyz)), **summary,
-           **({"vertical_datum_note": datum_note} if datum_note else {})}
+    out: RastersDoc = {"schema": SCHEMA, "version": VERSION, "origin": origin.to_doc(),
+                       "cloud": str(cloud_path), "points": int(len(xyz)), **summary}
+    if datum_note:
+        out["vertical_datum_note"] = datum_note
     write_json(Path(out_dir) / "rasters.json", out)
     if out["status"] == "failed":
-        raise NoResultError(f"{out_dir}/rasters.json: {out['reason']}")
+        raise NoResultError(f"{out_dir}/rasters.json: {out.get('reason', '?')}")
     return out

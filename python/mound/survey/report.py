@@ -383,8 +383,8 @@ def write_reports(tree: RunTree, summary: SurveySummary) -> SurveySummary:
     from mound.survey import webmap
 
     basemap = summary.options.get("basemap")
-    page = webmap.write_map(tree, list(summary.sites), summary.metrics.to_doc(), sites_doc,
-                            summary.plan, basemap=basemap if isinstance(basemap, str) else None)
+    page = webmap.write_map(tree, summary, sites_doc,
+                            basemap=basemap if isinstance(basemap, str) else None)
     summary = replace(summary, map=page.name if page else None)
     write_atomic(tree.report_html, render_html(tree, summary))
     write_atomic(tree.report_md, render_md(summary))

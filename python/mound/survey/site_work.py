@@ -365,8 +365,9 @@ def _rasters(job: SiteJob, row: SiteRow, dense: Path | None) -> None:
     t0 = time.perf_counter()
     try:
         doc = rasters.from_recon(t.recon, t.rasters, resolution_m=cell, cloud=cloud)
-        row.extra["rasters"] = {**{k: doc[k] for k in ("crs", "resolution_m", "width",
-                                                         "height", "coverage")},
+        row.extra["rasters"] = {"crs": doc["crs"], "resolution_m": doc["resolution_m"],
+                                "width": doc["width"], "height": doc["height"],
+                                "coverage": doc["coverage"],
                                 "cloud": "dense" if cloud else "sparse"}
         row.files["rasters"] = _rel(t.rasters, Path(job.run_root))
     except NoResultError as e:  # the DSM is written, the DTM and LRM are not: say why

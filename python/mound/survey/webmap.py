@@ -26,7 +26,7 @@ from mound.formats.learn import LearnRecord
 from mound.formats.plan import Flight, Plan
 from mound.formats.recon import Recon
 from mound.formats.sites import Sites
-from mound.formats.survey import SurveySite
+from mound.formats.survey import SurveySite, SurveySummary
 from mound.formats.verdict import Measurements, Rise, VerdictFile
 from mound.geometry.geodesy import Origin, enu_to_geodetic
 from mound.jsonio import JsonObject, JsonValue, load_json, write_atomic
@@ -158,10 +158,11 @@ def site_card(r: SurveySite, files: dict[str, str]) -> JsonObject:
     return card
 
 
-def map_data(tree: RunTree, rows: list[SurveySite], metrics: JsonValue, sites_doc: Sites,
-             plan: Plan | None, out_dir: Path) -> dict[str, Any]:
-    """What the page draws (WGS84 degrees; `metrics` the summary's), the overlay PNGs
-    written into out_dir."""
+def map_data(tree: RunTree, summary: SurveySummary, sites_doc: Sites,
+             out_dir: Path) -> dict[str, Any]:
+    """What the page draws of the survey (WGS84 degrees), the overlay PNGs written into
+    out_dir."""
+    rows, plan = summary.sites, summary.plan
     origin = sites_doc.origin
     if origin is None:
         raise InputError("sites: origin: missing (the map is in WGS84)")
@@ -225,7 +226,7 @@ def map_data(tree: RunTree, rows: list[SurveySite], metrics: JsonValue, sites_do
                                       "format": path.suffix[1:],
                                       "waypoints": len(r.points),
                                       "path": [[p.lat_deg, p.lon_deg] for p in r.points]})
-    nb = _next_battery(tree)
+    nb = _next_battery(tree, summary.learn)
     next_battery = {"battery": nb[0], **paths(nb[1].flights)[0]} if nb else None
     return {"schema": "mound.map", "version": 1, "second_looks": second_looks,
             "next_battery": next_battery,
@@ -234,13 +235,12 @@ def map_data(tree: RunTree, rows: list[SurveySite], metrics: JsonValue, sites_do
             "sites": sites, "flights": flights, "overlays": overlays,
             "footprints": footprints,
             "budget_m": plan.budget_m if plan else None,
-            "metrics": metrics}
+            "metrics": summary.metrics.to_doc()}
 
 
-def _next_battery(tree: RunTree) -> tuple[int, Plan] | None:
+def _next_battery(tree: RunTree, learn: LearnRecord | None) -> tuple[int, Plan] | None:
     """A day on cards (`mound day`): the battery to fly next and its plan."""
-    learn_doc = tree.learn / "learn.json"
-    waiting = LearnRecord.read(learn_doc).waiting_for_battery if learn_doc.is_file() else None
+    waiting = learn.waiting_for_battery if learn is not None else None
     plan = tree.root / f"battery_{waiting}" / "plan.json"
     if waiting is not None and plan.is_file():
         return waiting, Plan.read(plan)
@@ -365,18 +365,18 @@ def copy_web_files(root: Path) -> Path:
     return out_dir
 
 
-def write_map(tree: RunTree, rows: list[SurveySite], metrics: JsonValue, sites_doc: Sites,
-              plan: Plan | None, basemap: str | None = None) -> Path | None:
+def write_map(tree: RunTree, summary: SurveySummary, sites_doc: Sites,
+              basemap: str | None = None) -> Path | None:
     """DIR/map.html, DIR/site3d.html and DIR/map/ (Leaflet, three.js, survey.js, the
     sites' clouds, overlays); None (and nothing written) when the libraries are not
     installed (tools/setup.sh installs them)."""
     if not web_libraries_available():
         return None
     out_dir = copy_web_files(tree.root)
-    data = map_data(tree, rows, metrics, sites_doc, plan, out_dir)
+    data = map_data(tree, summary, sites_doc, out_dir)
     data["basemap"] = basemap
     cards = {s["id"]: s["card"] for s in data["sites"]}
-    for r in rows:
+    for r in summary.sites:
         doc = site_viewer_doc(tree, r.id, site_files(tree, r)) if r.visited else None
         if doc is not None:
             write_viewer_data(out_dir, doc)
