@@ -19,9 +19,14 @@ class Parser(argparse.ArgumentParser):
         raise UsageError(f"{self.prog}: {message}")
 
 
-def command_group(sub: Any, name: str, help: str, parser_class: type) -> Any:
+# argparse's subcommands (its type is private to argparse)
+Commands = argparse._SubParsersAction
+
+
+def command_group(sub: Any, name: str, help: str,
+                  parser_class: type) -> Commands[argparse.ArgumentParser]:
     """`mound NAME VERB ...`: the group NAME added to `mound`'s subcommands `sub`; its verbs
-    are added to what it returns (argparse's subcommands, whose type is private)."""
+    are added to what it returns."""
     return sub.add_parser(name, help=help).add_subparsers(dest="cmd", required=True,
                                                            parser_class=parser_class)
 

@@ -7,7 +7,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from mound.args import command_group
+from mound.args import Commands, command_group
 from mound.bounds import (
     Bound,
 )
@@ -37,7 +37,7 @@ def cmd_recon_rasters(args: argparse.Namespace) -> int:
     return 0
 
 
-def add_parser(sub: Any, parser_class: Any) -> Any:
+def add_parser(sub: Any, parser_class: Any) -> Commands[argparse.ArgumentParser]:
     """The `recon` command group (returned: mound.training.cli adds to it)."""
     rc = command_group(sub, "recon", "the 3-D stage (Python side)", parser_class)
     rf = rc.add_parser("figure", help="picture of a mound_recon output: cloud + cameras")

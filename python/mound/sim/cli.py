@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from mound.args import command_group
+from mound.args import Commands, command_group
 from mound.bounds import (
     HEIGHT_M,
     IMAGE_PX,
@@ -139,7 +139,7 @@ def cmd_sim_figures(args: argparse.Namespace) -> int:
     return 0
 
 
-def add_parser(sub: Any, parser_class: Any) -> Any:
+def add_parser(sub: Any, parser_class: Any) -> Commands[argparse.ArgumentParser]:
     """The `sim` command group; returns its subparsers (mound.grids.cli adds `grid`)."""
     simp = command_group(sub, "sim", "site simulator (images with ground truth)", parser_class)
     st = simp.add_parser("site", help="render a site's flight with its ground truth")
