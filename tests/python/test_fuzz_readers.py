@@ -30,6 +30,7 @@ from hypothesis import strategies as st
 
 from mound.classify import statlog
 from mound.errors import InputError
+from mound.formats.grid import GridRow
 from mound.formats.learn import Change, Example, FlightLearned, LearnRecord
 from mound.formats.mission import (
     ClearanceSpec,
@@ -601,6 +602,9 @@ def test_the_fuzzed_seeds_are_valid() -> None:
     assert summary.flights[0].terrain is not None and summary.second_look is not None
     _valid_row(SiteRow.read(_file(json.dumps(SITE_ROW), "site_result.json")))
     _valid_learn(LearnRecord.read(_file(json.dumps(LEARN), "learn.json")))
+    row = GridRow.from_doc({**GRID_ROW, "note": "an unknown member"}, "rows[0]")
+    assert set(row.second) == {"second"} and row.second["second"].status == "failed"
+    assert GridRow.from_doc(json.loads(json.dumps(row.to_doc())), "again") == row
     answers = SurveyAnswers.read(_file(json.dumps(SUMMARY), "summary.json"))
     assert dict(answers.answers) == {"s01": "undecided", "s02": "failed", "s03": None}
     assert set(Ledger(_file(json.dumps(LEDGER), "stages.json")).done) == {"classify", "plan"}

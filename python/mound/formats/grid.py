@@ -27,7 +27,8 @@ from mound.jsonio import (
 SCHEMA = "mound.verdict_grid"
 VERSION = 1
 STATUSES = ("ok", "failed", "running")
-# A row's members that are not a second look's folder.
+# A row's members that are not a second look's folder (an object under another name is
+# one; other members are ignored, as unknown members are).
 _ROW_KEYS = ("dir", "truth", "spec", "status", "times", "reason", "p_mound")
 
 
@@ -100,5 +101,5 @@ class GridRow:
         return cls(name, dict(as_object(d.get("truth"), f"{where}.truth")),
                    GridLook.from_doc(d, where),
                    {k: GridLook.from_doc(v, f"{where}.{k}") for k, v in d.items()
-                    if k not in _ROW_KEYS},
+                    if k not in _ROW_KEYS and isinstance(v, dict)},
                    None if spec is None else dict(as_object(spec, f"{where}.spec")))
