@@ -12,14 +12,14 @@ import numpy as np
 from mound.errors import InputError
 from mound.formats.sites import Sites
 from mound.geojson import point_feature_doc
-from mound.geometry.flight import LEGACY_DIAMETER
+from mound.geometry.flight import LEGACY_DIAMETER, ScanSpec
 from mound.geometry.geodesy import Origin
 from mound.jsonio import load_json, read_json, write_json
 from mound.survey.context import Context, digest_files, run_stage, scan_spec
 from mound.survey.reward import describe
 
 
-def scene_sites(ctx: Context, scan: Any) -> Sites:
+def scene_sites(ctx: Context, scan: ScanSpec) -> Sites:
     """Scores each scene, merges their candidates (best first), gives each the truth of the
     labels within 15 m (a known mound, with its height_m; an explicit not_mound), and reads
     them as the run's sites; the others are simulated as flat ground, truth unknown."""
