@@ -85,7 +85,9 @@ def fetch(ds: DataSet, url: str | None = None, timeout_s: float = 60.0) -> Path:
             with urllib.request.urlopen(url, timeout=timeout_s) as resp:
                 payload = resp.read()
         except OSError as e:
-            raise InputError(f"{url}: download failed ({e})") from e
+            raise InputError(
+                f"{url}: download failed ({e}); without the network, set MOUND_DATA to a "
+                f"folder holding {ds.name}/ ({', '.join(ds.files)})") from e
         try:
             archive = zipfile.ZipFile(io.BytesIO(payload))
         except zipfile.BadZipFile as e:

@@ -155,7 +155,8 @@ def test_fetch_downloads_checks_and_reuses(server: Server, tmp_path: Path,
 @pytest.mark.parametrize(("path", "message"), [
     ("/bad.zip", "wrong sha256"),
     ("/notzip.zip", "not a zip archive"),
-    ("/missing.zip", "download failed"),
+    ("/missing.zip", r"download failed .*; without the network, set MOUND_DATA to a folder "
+                     r"holding statlog/ \(sat\.trn, sat\.tst\)"),
 ])
 def test_fetch_rejects_bad_downloads_and_leaves_nothing(
     server: Server, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, path: str, message: str
