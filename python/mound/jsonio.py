@@ -313,6 +313,22 @@ def as_object(doc: object, where: str) -> Mapping[str, Any]:
     return doc
 
 
+def number_map(v: object, where: str, *, lo: float = -math.inf) -> dict[str, float]:
+    """A JSON object of finite numbers (>= lo) by name; InputError naming `where.name`."""
+    return {str(k): finite_number(x, f"{where}.{k}", lo=lo) for k, x in as_object(v, where).items()}
+
+
+def renamed(doc: Mapping[str, Any], new: str, old: str, where: str) -> Mapping[str, Any]:
+    """doc with a member's old name read as its new one (files written before a rename);
+    InputError when both are given and differ. Never silently ignored: an unknown member
+    is, so a file's old name would otherwise leave the new one at its default."""
+    if old not in doc:
+        return doc
+    if new in doc and doc[new] != doc[old]:
+        raise InputError(f"{where}: {new} and its old name {old} differ")
+    return {new: doc[old], **{k: v for k, v in doc.items() if k != old}}
+
+
 def xy_metres(v: object, where: str) -> tuple[float, float]:
     """[x, y] (metres; a third member, a height, is left) as two finite numbers."""
     if not isinstance(v, list) or len(v) < 2:

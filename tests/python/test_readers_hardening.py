@@ -232,6 +232,9 @@ def test_a_files_old_name_of_the_site_diameter_is_read_never_ignored() -> None:
     old = SecondLookRecord.from_doc({"flown": True, "scan_m": 120.0}, "row.second_look")
     assert old.site_diameter_m == 120.0 and not old.extra
     assert old.to_doc() == {"flown": True, "site_diameter_m": 120.0}
+    with pytest.raises(InputError, match="row.second_look: site_diameter_m and its old name "
+                       "scan_m differ"):
+        SecondLookRecord.from_doc({"scan_m": 120.0, "site_diameter_m": 60.0}, "row.second_look")
     # a run begun before the rename keeps its stages: the field stage digests the old name
     from mound.survey.stages.field import scan_as_before
 

@@ -17,7 +17,7 @@ from mound.errors import InputError
 from mound.jsonio import (
     JsonObject,
     as_object,
-    finite_number,
+    number_map,
     optional_number,
     optional_string,
     require_choice,
@@ -63,10 +63,8 @@ class GridLook:
     def from_doc(cls, doc: object, where: str) -> GridLook:
         """A look as a row holds it (`times` absent: none kept; `p_mound` the row's)."""
         d = as_object(doc, where)
-        times = as_object(d.get("times", {}), f"{where}.times")
         return cls(require_choice(d.get("status"), STATUSES, f"{where}.status"),
-                   {str(k): finite_number(v, f"{where}.times.{k}", lo=0.0)
-                    for k, v in times.items()},
+                   number_map(d.get("times", {}), f"{where}.times", lo=0.0),
                    optional_number(d, "p_mound", where, lo=0.0, hi=1.0),
                    optional_string(d, "reason", where))
 

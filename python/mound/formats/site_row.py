@@ -26,6 +26,7 @@ from mound.jsonio import (
     load_json,
     optional_number,
     optional_object,
+    renamed,
     require_choice,
     require_id,
     short_repr,
@@ -81,11 +82,9 @@ class SecondLookRecord:
         for k, v in texts.items():
             if v is not None and not isinstance(v, str):
                 raise InputError(f"{where}.{k}: expected a string, got {short_repr(v)}")
-        wide = optional_number(doc, "site_diameter_m", where, lo=0.0)
-        if wide is None:  # rows written until 2026-11-30
-            wide = optional_number(doc, LEGACY_LOOK_DIAMETER, where, lo=0.0)
+        doc = renamed(doc, "site_diameter_m", LEGACY_LOOK_DIAMETER, where)  # until 2026-11-30
         return cls(flags["advised"], optional_number(doc, "scan_factor", where),
-                   flags["flown"], wide,
+                   flags["flown"], optional_number(doc, "site_diameter_m", where, lo=0.0),
                    texts["source"], texts["reason"],
                    optional_number(doc, "p_mound", where, lo=0.0, hi=1.0),
                    texts["verdict_file"],

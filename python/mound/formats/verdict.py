@@ -26,6 +26,7 @@ from mound.jsonio import (
     check_doc,
     finite_number,
     load_json,
+    number_map,
     optional_number,
     optional_number_list,
     optional_object,
@@ -158,8 +159,7 @@ class Rise:
     @classmethod
     def from_doc(cls, doc: object, where: str) -> Rise:
         d = as_object(doc, where)
-        feats = as_object(d.get("features", {}), f"{where}.features")
-        return cls({str(k): finite_number(v, f"{where}.features.{k}") for k, v in feats.items()},
+        return cls(number_map(d.get("features", {}), f"{where}.features"),
                    xy_metres(d["centre_enu_m"], f"{where}.centre_enu_m") if "centre_enu_m" in d
                    else None,
                    optional_number(d, "base_diameter_m", where),
@@ -263,11 +263,10 @@ class VerdictFile:
         coverage = optional_object(d, "coverage", where)
         cstatus = None if coverage is None else coverage.get("status")
         m = d.get("measurements")
-        times = as_object(d.get("grid_times_s", {}), f"{where}: grid_times_s")
         return cls(
             where, status, reason, cloud, look, cstatus if isinstance(cstatus, str) else None,
             None if m is None else Measurements.from_doc(m, f"{where}: measurements"),
-            {str(k): finite_number(v, f"{where}: grid_times_s.{k}") for k, v in times.items()},
+            number_map(d.get("grid_times_s", {}), f"{where}: grid_times_s"),
             Verdict.from_doc(d, path) if status == "ok" else None)
 
     @classmethod

@@ -24,7 +24,7 @@ import numpy as np
 from mound.bounds import HEIGHT_M, IMAGE_PX, SITE_DIAMETER_M, Bound
 from mound.errors import InputError
 from mound.geometry.camera import Camera, Pose
-from mound.jsonio import JsonObject
+from mound.jsonio import JsonObject, renamed
 
 
 @dataclass(frozen=True)
@@ -253,11 +253,7 @@ class ScanSpec(FlightLayout):
             raise InputError(f"{where}: expected an object")
         known = {f for f in cls.__dataclass_fields__}
         kwargs: dict[str, Any] = {}
-        if LEGACY_DIAMETER in doc:  # files written until 2026-11-30: never ignored
-            if "site_diameter_m" in doc and doc["site_diameter_m"] != doc[LEGACY_DIAMETER]:
-                raise InputError(f"{where}: site_diameter_m and its old name "
-                                 f"{LEGACY_DIAMETER} differ")
-            doc = {"site_diameter_m": doc[LEGACY_DIAMETER], **doc}
+        doc = renamed(doc, "site_diameter_m", LEGACY_DIAMETER, where)  # until 2026-11-30
         for key, value in doc.items():
             if key not in known:
                 continue  # unknown keys are ignored (../shared/INTERFACES.md)

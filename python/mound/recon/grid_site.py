@@ -20,7 +20,7 @@ from mound.jsonio import (
     JsonObject,
     JsonValue,
     as_object,
-    finite_number,
+    number_map,
     require_number,
     short_repr,
     xy_metres,
@@ -150,7 +150,7 @@ def grid_site(row: GridRow, verdict: VerdictFile | None, second: VerdictFile | N
 def _relief(v: object, where: str) -> Mapping[str, float] | None:
     if v is None:
         return None
-    return {str(k): finite_number(x, f"{where}.{k}") for k, x in as_object(v, where).items()}
+    return number_map(v, where)
 
 
 def sites_of(docs: Sequence[Mapping[str, object]], where: str = "rows") -> list[GridSite]:
